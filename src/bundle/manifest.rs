@@ -1,0 +1,69 @@
+//! `manifest.json`: what a statistics bundle holds and how it was made (SPEC 9).
+
+use crate::stats::Transform;
+use serde::{Deserialize, Serialize};
+
+pub const FORMAT: &str = "tstats";
+pub const VERSION: u32 = 1;
+
+/// Speed of light in vacuum, m/s (for the seconds in the metadata).
+pub const C_M_PER_S: f64 = 299_792_458.0;
+
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct SceneRef {
+    pub path: String,
+    pub sha256: String,
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct ArrayInfo {
+    pub name: String,
+    pub file: String,
+    /// NumPy dtype string, e.g. "<f8".
+    pub dtype: String,
+    pub shape: Vec<usize>,
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct Program {
+    pub name: String,
+    pub version: String,
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct Manifest {
+    pub format: String,
+    pub version: u32,
+    pub width: usize,
+    pub height: usize,
+    pub bins: usize,
+    pub channels: Vec<String>,
+    pub spp: u64,
+    /// t0 and h in OPL (scene units).
+    pub start_opl: f64,
+    pub bin_width_opl: f64,
+    /// Metres per scene unit.
+    pub unit_m: f64,
+    /// t0 and h in seconds: opl * unit_m / c.
+    pub start_seconds: f64,
+    pub bin_width_seconds: f64,
+    pub transform: Transform,
+    pub seed: u64,
+    pub scene: SceneRef,
+    pub max_depth: i32,
+    pub render_seconds: f64,
+    pub dropped_nonfinite: u64,
+    pub program: Program,
+    pub arrays: Vec<ArrayInfo>,
+}
+
+impl Manifest {
+    pub fn array(&self, name: &str) -> Option<&ArrayInfo> {
+        self.arrays.iter().find(|a| a.name == name)
+    }
+
+    /// Bin centres in picoseconds.
+    pub fn opl_to_seconds(&self, opl: f64) -> f64 {
+        opl * self.unit_m / C_M_PER_S
+    }
+}

@@ -1,0 +1,73 @@
+//! `tstat export NAME.tstats --out noisy.npy [--steady steady.exr|.npy]`.
+
+use crate::bundle::write::write_atomically;
+use crate::bundle::{Bundle, BundleError};
+use anyhow::bail;
+use clap::Args;
+use ndarray::Array3;
+use std::path::{Path, PathBuf};
+
+#[derive(Args, Debug)]
+pub struct ExportArgs {
+    /// A statistics bundle directory.
+    pub bundle: PathBuf,
+    /// Noisy mean volume S / n, f32 (H, W, T, C) .npy.
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Steady-state image, .exr or .npy (f32 (H, W, C)).
+    #[arg(long)]
+    pub steady: Option<PathBuf>,
+    /// Replace existing outputs.
+    #[arg(long)]
+    pub force: bool,
+}
+
+fn extension(p: &Path) -> String {
+    p.extension().map(|e| e.to_string_lossy().to_lowercase()).unwrap_or_default()
+}
+
+/// Writes an (H, W, 3) image as an RGB OpenEXR (f32, lossless).
+pub fn write_exr_rgb(path: &Path, img: &Array3<f32>) -> Result<(), BundleError> {
+    let (h, w) = (img.shape()[0], img.shape()[1]);
+    exr::prelude::write_rgb_file(path, w, h, |x, y| (img[[y, x, 0]], img[[y, x, 1]], img[[y, x, 2]]))
+        .map_err(|e| BundleError::Io(path.to_path_buf(), e.to_string()))
+}
+
+pub fn run(a: ExportArgs) -> anyhow::Result<()> {
+    if a.out.is_none() && a.steady.is_none() {
+        bail!("nothing to export: give --out VOLUME.npy and/or --steady IMAGE.exr|.npy");
+    }
+    for p in a.out.iter().chain(a.steady.iter()) {
+        crate::bundle::write::check_output(p, a.force)?;
+    }
+    if let Some(out) = &a.out {
+        if extension(out) != "npy" {
+            bail!("--out {}: the volume is written as .npy", out.display());
+        }
+    }
+    if let Some(s) = &a.steady {
+        if !matches!(extension(s).as_str(), "npy" | "exr") {
+            bail!("--steady {}: use a .exr or .npy file name", s.display());
+        }
+    }
+    let bundle = Bundle::open(&a.bundle)?;
+    if let Some(out) = &a.out {
+        let mean = bundle.noisy_mean()?;
+        write_atomically(out, a.force, |tmp| {
+            ndarray_npy::write_npy(tmp, &mean).map_err(|e| BundleError::Io(out.clone(), e.to_string()))
+        })?;
+        println!("wrote {} (f32 {:?})", out.display(), mean.shape());
+    }
+    if let Some(s) = &a.steady {
+        let img = bundle.steady()?.mapv(|v| v as f32);
+        write_atomically(s, a.force, |tmp| {
+            if extension(s) == "exr" {
+                write_exr_rgb(tmp, &img)
+            } else {
+                ndarray_npy::write_npy(tmp, &img).map_err(|e| BundleError::Io(s.clone(), e.to_string()))
+            }
+        })?;
+        println!("wrote {} (f32 {:?})", s.display(), img.shape());
+    }
+    Ok(())
+}

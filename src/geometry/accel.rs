@@ -1,0 +1,169 @@
+//! The acceleration structure: one `obvhs` compressed-wide BVH over every primitive
+//! (triangles and analytic spheres), with closest-hit and occlusion queries.
+
+use super::shape::{Shape, ShapeGeom, SurfacePoint};
+use super::sphere::SphereGeom;
+use super::triangle::TriangleGeom;
+use glam::{Vec3, Vec3A};
+use obvhs::aabb::Aabb;
+use obvhs::cwbvh::CwBvh;
+use obvhs::ray::{Ray, RayHit};
+use obvhs::{Boundable, BvhBuildParams};
+
+#[derive(Clone, Copy, Debug)]
+enum PrimGeom {
+    Triangle(TriangleGeom),
+    Sphere(SphereGeom),
+}
+
+/// A primitive in BVH leaf order.
+#[derive(Clone, Copy, Debug)]
+struct Prim {
+    geom: PrimGeom,
+    shape: u32,
+    face: u32,
+}
+
+impl Boundable for Prim {
+    fn aabb(&self) -> Aabb {
+        match self.geom {
+            PrimGeom::Triangle(t) => {
+                let (a, b, c) = (t.v0, t.v0 + t.e1, t.v0 + t.e2);
+                Aabb::new(
+                    Vec3A::from(a.min(b).min(c)),
+                    Vec3A::from(a.max(b).max(c)),
+                )
+            }
+            PrimGeom::Sphere(s) => Aabb::new(
+                Vec3A::from(s.center - Vec3::splat(s.radius)),
+                Vec3A::from(s.center + Vec3::splat(s.radius)),
+            ),
+        }
+    }
+}
+
+/// A closest hit.
+#[derive(Clone, Copy, Debug)]
+pub struct Hit {
+    pub t: f32,
+    pub shape: u32,
+    pub surface: SurfacePoint,
+}
+
+pub struct Accel {
+    bvh: Option<CwBvh>,
+    prims: Vec<Prim>,
+}
+
+impl Accel {
+    pub fn build(shapes: &[Shape]) -> Self {
+        let mut prims = Vec::new();
+        for (si, shape) in shapes.iter().enumerate() {
+            match &shape.geom {
+                ShapeGeom::Mesh { triangles, .. } => {
+                    for f in 0..triangles.len() as u32 {
+                        let t = shape.triangle(f);
+                        // Degenerate triangles can never be hit; keep them out of the tree.
+                        if t.area() > 0.0 {
+                            prims.push(Prim {
+                                geom: PrimGeom::Triangle(t),
+                                shape: si as u32,
+                                face: f,
+                            });
+                        }
+                    }
+                }
+                ShapeGeom::Sphere(s) => prims.push(Prim {
+                    geom: PrimGeom::Sphere(*s),
+                    shape: si as u32,
+                    face: 0,
+                }),
+            }
+        }
+        if prims.is_empty() {
+            return Accel { bvh: None, prims };
+        }
+        let bvh = obvhs::cwbvh::builder::build_cwbvh(
+            &prims,
+            BvhBuildParams::medium_build(),
+            &mut std::time::Duration::default(),
+        );
+        // Reorder the primitives into leaf order so the closures index them directly.
+        let ordered = bvh.primitive_indices.iter().map(|&i| prims[i as usize]).collect();
+        Accel {
+            bvh: Some(bvh),
+            prims: ordered,
+        }
+    }
+
+    #[inline]
+    fn prim_t(&self, id: usize, o: Vec3, d: Vec3, tmin: f32) -> f32 {
+        let p = &self.prims[id];
+        let t = match &p.geom {
+            PrimGeom::Triangle(t) => t.intersect(o, d, tmin).map(|h| h.0),
+            PrimGeom::Sphere(s) => s.intersect(o, d, tmin),
+        };
+        t.unwrap_or(f32::INFINITY)
+    }
+
+    /// The closest surface along the ray (unit direction `d`) with t in (0, tmax).
+    #[inline]
+    pub fn intersect(&self, shapes: &[Shape], o: Vec3, d: Vec3, tmax: f32) -> Option<Hit> {
+        let bvh = self.bvh.as_ref()?;
+        let ray = Ray::new(Vec3A::from(o), Vec3A::from(d), 0.0, tmax);
+        let mut hit = RayHit::none();
+        let found = bvh.ray_traverse(ray, &mut hit, |r, id| {
+            self.prim_t(id, Vec3::from(r.origin), Vec3::from(r.direction), 0.0)
+        });
+        if !found {
+            return None;
+        }
+        let p = &self.prims[hit.primitive_id as usize];
+        let shape = &shapes[p.shape as usize];
+        let surface = match &p.geom {
+            PrimGeom::Triangle(t) => {
+                let (_, b1, b2) = t.intersect(o, d, 0.0).unwrap_or((hit.t, 0.0, 0.0));
+                shape.surface(p.face, b1, b2, Vec3::ZERO)
+            }
+            PrimGeom::Sphere(_) => shape.surface(0, 0.0, 0.0, o + d * hit.t),
+        };
+        Some(Hit {
+            t: hit.t,
+            shape: p.shape,
+            surface,
+        })
+    }
+
+    /// True when something blocks the segment from `o` along unit `d` before `tmax`.
+    #[inline]
+    pub fn occluded(&self, o: Vec3, d: Vec3, tmax: f32) -> bool {
+        let Some(bvh) = self.bvh.as_ref() else {
+            return false;
+        };
+        let ray = Ray::new(Vec3A::from(o), Vec3A::from(d), 0.0, tmax);
+        !bvh.ray_traverse_miss(ray, |r, id| {
+            self.prim_t(id, Vec3::from(r.origin), Vec3::from(r.direction), 0.0)
+        })
+    }
+
+    pub fn primitive_count(&self) -> usize {
+        self.prims.len()
+    }
+}
+
+/// A ray origin moved off the surface to the side `d` leaves from, by an offset that
+/// scales with the magnitude of the coordinates (f32 rounding grows with them).
+#[inline]
+pub fn offset_origin(p: Vec3, ng: Vec3, d: Vec3) -> Vec3 {
+    let eps = ray_epsilon(p);
+    if ng.dot(d) >= 0.0 {
+        p + ng * eps
+    } else {
+        p - ng * eps
+    }
+}
+
+#[inline]
+pub fn ray_epsilon(p: Vec3) -> f32 {
+    1e-4 * (1.0 + p.abs().max_element())
+}

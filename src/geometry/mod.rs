@@ -1,0 +1,6 @@
+//! Geometry: shapes in world space, ray-primitive intersection, and the BVH.
+
+pub mod accel;
+pub mod shape;
+pub mod sphere;
+pub mod triangle;

@@ -1,0 +1,159 @@
+//! Shapes in world space, as the renderer sees them: triangle meshes (rectangle, cube,
+//! ply, obj) and analytic spheres, with their surface data and area sampling.
+
+use super::sphere::SphereGeom;
+use super::triangle::TriangleGeom;
+use crate::math::sampling::{uniform_sphere, uniform_triangle};
+use glam::Vec3;
+
+#[derive(Clone, Debug)]
+pub enum ShapeGeom {
+    Mesh {
+        positions: Vec<Vec3>,
+        /// Per-vertex shading normals (unit length), when the mesh has them.
+        normals: Option<Vec<Vec3>>,
+        triangles: Vec<[u32; 3]>,
+    },
+    Sphere(SphereGeom),
+}
+
+/// One shape of the scene.
+#[derive(Clone, Debug)]
+pub struct Shape {
+    /// The id from the scene file, or `shape#N`.
+    pub name: String,
+    pub geom: ShapeGeom,
+    /// Normals point inward (Mitsuba's `flip_normals`).
+    pub flip_normals: bool,
+    /// Index into the scene's BSDFs.
+    pub bsdf: u32,
+    /// Index into the scene's emitters, when the shape is an area light.
+    pub emitter: Option<u32>,
+}
+
+/// Where a ray met a surface.
+#[derive(Clone, Copy, Debug)]
+pub struct SurfacePoint {
+    pub p: Vec3,
+    /// Geometric normal (unit, oriented by winding / outward, flipped by flip_normals).
+    pub ng: Vec3,
+    /// Shading normal (unit), on the same side as `ng`.
+    pub ns: Vec3,
+}
+
+impl Shape {
+    pub fn triangle(&self, face: u32) -> TriangleGeom {
+        match &self.geom {
+            ShapeGeom::Mesh {
+                positions,
+                triangles,
+                ..
+            } => {
+                let [a, b, c] = triangles[face as usize];
+                TriangleGeom::new(
+                    positions[a as usize],
+                    positions[b as usize],
+                    positions[c as usize],
+                )
+            }
+            ShapeGeom::Sphere(_) => unreachable!("spheres have no faces"),
+        }
+    }
+
+    /// The surface point at barycentrics (b1, b2) of triangle `face`, or at `p` on a sphere.
+    pub fn surface(&self, face: u32, b1: f32, b2: f32, p_hint: Vec3) -> SurfacePoint {
+        let sign = if self.flip_normals { -1.0 } else { 1.0 };
+        match &self.geom {
+            ShapeGeom::Mesh {
+                normals, triangles, ..
+            } => {
+                let tri = self.triangle(face);
+                let ng = tri.cross().normalize_or_zero() * sign;
+                let ns = match normals {
+                    Some(n) => {
+                        let [a, b, c] = triangles[face as usize];
+                        let v = n[a as usize] * (1.0 - b1 - b2)
+                            + n[b as usize] * b1
+                            + n[c as usize] * b2;
+                        v.try_normalize().map_or(ng, |v| v * sign)
+                    }
+                    None => ng,
+                };
+                SurfacePoint {
+                    p: tri.point(b1, b2),
+                    ng,
+                    ns,
+                }
+            }
+            ShapeGeom::Sphere(s) => {
+                let n = (p_hint - s.center).normalize_or_zero();
+                // Project onto the surface to remove the hit's rounding error.
+                let p = s.center + n * s.radius;
+                SurfacePoint {
+                    p,
+                    ng: n * sign,
+                    ns: n * sign,
+                }
+            }
+        }
+    }
+
+    pub fn area(&self) -> f64 {
+        match &self.geom {
+            ShapeGeom::Mesh { triangles, .. } => (0..triangles.len() as u32)
+                .map(|f| self.triangle(f).area() as f64)
+                .sum(),
+            ShapeGeom::Sphere(s) => s.area() as f64,
+        }
+    }
+}
+
+/// Uniform-by-area sampling of a shape's surface (for area lights).
+#[derive(Clone, Debug)]
+pub struct AreaSampler {
+    /// Cumulative triangle areas normalised to end at 1 (empty for spheres).
+    cdf: Vec<f32>,
+    pub total_area: f32,
+}
+
+impl AreaSampler {
+    pub fn new(shape: &Shape) -> Self {
+        match &shape.geom {
+            ShapeGeom::Mesh { triangles, .. } => {
+                let mut acc = 0.0f64;
+                let mut cdf: Vec<f32> = (0..triangles.len() as u32)
+                    .map(|f| {
+                        acc += shape.triangle(f).area() as f64;
+                        acc as f32
+                    })
+                    .collect();
+                for c in cdf.iter_mut() {
+                    *c /= acc as f32;
+                }
+                AreaSampler {
+                    cdf,
+                    total_area: acc as f32,
+                }
+            }
+            ShapeGeom::Sphere(s) => AreaSampler {
+                cdf: Vec::new(),
+                total_area: s.area(),
+            },
+        }
+    }
+
+    /// A point uniformly distributed by area; pdf (per unit area) = 1 / total_area.
+    pub fn sample(&self, shape: &Shape, u1: f32, u2: [f32; 2]) -> SurfacePoint {
+        match &shape.geom {
+            ShapeGeom::Mesh { .. } => {
+                let face = self.cdf.partition_point(|&c| c <= u1).min(self.cdf.len() - 1);
+                let [b1, b2] = uniform_triangle(u2);
+                shape.surface(face as u32, b1, b2, Vec3::ZERO)
+            }
+            ShapeGeom::Sphere(s) => {
+                let p = s.center + uniform_sphere(u2) * s.radius;
+                shape.surface(0, 0.0, 0.0, p)
+            }
+        }
+    }
+}

@@ -1,0 +1,15 @@
+//! tstat: statistical transient rendering.
+//!
+//! The pipeline, one module per stage: [`scene`] (Mitsuba XML -> [`scene::Scene`]) ->
+//! [`render`] (transient path tracing into [`stats`] accumulators) -> [`bundle`] (the
+//! statistics on disk). See ARCHITECTURE.md.
+
+pub mod bundle;
+pub mod cli;
+pub mod geometry;
+pub mod lights;
+pub mod materials;
+pub mod math;
+pub mod render;
+pub mod scene;
+pub mod stats;

@@ -1,0 +1,53 @@
+//! `diffuse`: an ideal Lambertian reflector.
+//!
+//! | parameter   | type           | default | meaning                  |
+//! |-------------|----------------|---------|--------------------------|
+//! | reflectance | rgb/spectrum/float | 0.5 | albedo in [0, 1] per channel |
+
+use super::BsdfSample;
+use crate::math::sampling::{cosine_hemisphere, cosine_hemisphere_pdf};
+use crate::math::Rgb;
+use glam::Vec3;
+use std::f32::consts::FRAC_1_PI;
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Diffuse {
+    pub reflectance: Rgb,
+}
+
+impl Diffuse {
+    #[inline]
+    pub fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
+        if wo.z <= 0.0 || wi.z <= 0.0 {
+            return Rgb::ZERO;
+        }
+        self.reflectance * (FRAC_1_PI * wi.z)
+    }
+
+    #[inline]
+    pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        if wo.z <= 0.0 || wi.z <= 0.0 {
+            return 0.0;
+        }
+        cosine_hemisphere_pdf(wi.z)
+    }
+
+    #[inline]
+    pub fn sample(&self, wo: Vec3, u: [f32; 2]) -> Option<BsdfSample> {
+        if wo.z <= 0.0 {
+            return None;
+        }
+        let wi = cosine_hemisphere(u);
+        let pdf = cosine_hemisphere_pdf(wi.z);
+        if pdf <= 0.0 {
+            return None;
+        }
+        Some(BsdfSample {
+            wi,
+            weight: self.reflectance,
+            pdf,
+            delta: false,
+            eta: 1.0,
+        })
+    }
+}

@@ -1,0 +1,160 @@
+//! Reading `<bsdf>` elements (and `<ref>`s to them) into [`Bsdf`] values.
+
+use super::{Bsdf, Conductor, Dielectric, Diffuse};
+use crate::math::Rgb;
+use crate::scene::error::SceneError;
+use crate::scene::props::{Ctx, Props};
+use roxmltree::Node;
+use std::collections::HashMap;
+
+/// Mitsuba 3's named indices of refraction (`ior.h`).
+pub const NAMED_IORS: &[(&str, f64)] = &[
+    ("vacuum", 1.0),
+    ("helium", 1.000036),
+    ("hydrogen", 1.000132),
+    ("air", 1.000277),
+    ("carbon dioxide", 1.00045),
+    ("water", 1.3330),
+    ("acetone", 1.36),
+    ("ethanol", 1.361),
+    ("carbon tetrachloride", 1.461),
+    ("glycerol", 1.4729),
+    ("benzene", 1.501),
+    ("silicone oil", 1.52045),
+    ("bromine", 1.661),
+    ("water ice", 1.31),
+    ("fused quartz", 1.458),
+    ("pyrex", 1.470),
+    ("acrylic glass", 1.49),
+    ("polypropylene", 1.49),
+    ("bk7", 1.5046),
+    ("sodium chloride", 1.544),
+    ("amber", 1.55),
+    ("pet", 1.5750),
+    ("diamond", 2.419),
+];
+
+fn ior(props: &mut Props, name: &str, default: f64) -> Result<f64, SceneError> {
+    if let Some(s) = props.string(name)? {
+        return NAMED_IORS
+            .iter()
+            .find(|(n, _)| *n == s.to_lowercase())
+            .map(|(_, v)| *v)
+            .ok_or_else(|| {
+                let names: Vec<_> = NAMED_IORS.iter().map(|(n, _)| *n).collect();
+                props.err_at(name, format!("unknown IOR name '{s}' (known: {})", names.join(", ")))
+            });
+    }
+    let v = props.float_or(name, default)?;
+    if v <= 0.0 {
+        return Err(props.err_at(name, format!("{name} must be positive, got {v}")));
+    }
+    Ok(v)
+}
+
+fn check_reflectance(props: &Props, name: &str, c: Rgb) -> Result<Rgb, SceneError> {
+    if c.min_element() < 0.0 {
+        return Err(props.err_at(name, format!("{name} must be non-negative, got {c}")));
+    }
+    Ok(c)
+}
+
+/// A `<bsdf>` element or a `<ref id>` to a named one.
+pub fn resolve_bsdf(
+    ctx: &Ctx,
+    node: Node,
+    named: &HashMap<String, Bsdf>,
+) -> Result<Bsdf, SceneError> {
+    match node.tag_name().name() {
+        "ref" => {
+            let id = ctx.required_attr(node, "id")?;
+            named
+                .get(&id)
+                .cloned()
+                .ok_or_else(|| ctx.err(node, format!("no BSDF with id '{id}' defined before this point")))
+        }
+        "bsdf" => parse_bsdf(ctx, node, named),
+        other => Err(ctx.err(node, format!("expected <bsdf> or <ref>, found <{other}>"))),
+    }
+}
+
+pub fn parse_bsdf(ctx: &Ctx, node: Node, named: &HashMap<String, Bsdf>) -> Result<Bsdf, SceneError> {
+    let kind = ctx.required_attr(node, "type")?;
+    let mut props = Props::parse(ctx, node)?;
+    let bsdf = match kind.as_str() {
+        "diffuse" => {
+            let r = props.rgb("reflectance")?.unwrap_or(Rgb::splat(0.5));
+            Bsdf::Diffuse(Diffuse {
+                reflectance: check_reflectance(&props, "reflectance", r)?,
+            })
+        }
+        "dielectric" => {
+            let int_ior = ior(&mut props, "int_ior", 1.5046)?;
+            let ext_ior = ior(&mut props, "ext_ior", 1.000277)?;
+            let sr = props.rgb("specular_reflectance")?.unwrap_or(Rgb::ONE);
+            let st = props.rgb("specular_transmittance")?.unwrap_or(Rgb::ONE);
+            Bsdf::Dielectric(Dielectric {
+                eta: (int_ior / ext_ior) as f32,
+                specular_reflectance: check_reflectance(&props, "specular_reflectance", sr)?,
+                specular_transmittance: check_reflectance(&props, "specular_transmittance", st)?,
+            })
+        }
+        "conductor" => {
+            let material = props.string("material")?;
+            if let Some(m) = &material {
+                if m != "none" {
+                    return Err(props.err_at(
+                        "material",
+                        format!("conductor material '{m}' is not built in; give <rgb name=\"eta\"> and <rgb name=\"k\"> instead (or material 'none' for a mirror)"),
+                    ));
+                }
+            }
+            let eta = props.rgb("eta")?;
+            let k = props.rgb("k")?;
+            let (eta, k) = match (eta, k) {
+                (None, None) => (Rgb::ZERO, Rgb::ONE),
+                (Some(e), Some(k)) if material.is_none() => (e, k),
+                (Some(_), Some(_)) => return Err(props.err("give either 'material' or 'eta' and 'k', not both")),
+                _ => return Err(props.err("'eta' and 'k' must be given together")),
+            };
+            if eta.min_element() < 0.0 || k.min_element() < 0.0 {
+                return Err(props.err("conductor eta and k must be non-negative"));
+            }
+            let sr = props.rgb("specular_reflectance")?.unwrap_or(Rgb::ONE);
+            Bsdf::Conductor(Conductor {
+                eta,
+                k,
+                specular_reflectance: check_reflectance(&props, "specular_reflectance", sr)?,
+            })
+        }
+        "twosided" => {
+            let children: Vec<Bsdf> = props
+                .objects
+                .iter()
+                .map(|&c| resolve_bsdf(ctx, c, named))
+                .collect::<Result<_, _>>()?;
+            let (front, back) = match children.as_slice() {
+                [one] => (one.clone(), one.clone()),
+                [f, b] => (f.clone(), b.clone()),
+                _ => return Err(props.err("twosided needs one or two nested BSDFs")),
+            };
+            for b in [&front, &back] {
+                if matches!(b, Bsdf::Dielectric(_) | Bsdf::TwoSided(..)) {
+                    return Err(props.err("twosided cannot wrap a dielectric or another twosided"));
+                }
+            }
+            props.objects.clear();
+            Bsdf::TwoSided(Box::new(front), Box::new(back))
+        }
+        other => {
+            return Err(props.err(format!(
+                "unknown BSDF type '{other}' (supported: diffuse, dielectric, conductor, twosided)"
+            )))
+        }
+    };
+    if let Some(&obj) = props.objects.first() {
+        return Err(ctx.err(obj, format!("unexpected nested element in <bsdf type=\"{kind}\"> (textures are not supported)")));
+    }
+    props.finish()?;
+    Ok(bsdf)
+}

@@ -1,0 +1,56 @@
+//! Per-path bin flushing (SPEC 4): a path collects its contributions per time bin and
+//! flushes each bin once when it ends, so every path is exactly one sample of every
+//! voxel it touched.
+
+/// The (bin, rgb) totals of the path being traced.
+#[derive(Default)]
+pub struct PathDeposits {
+    entries: Vec<(u32, [f64; 3])>,
+}
+
+impl PathDeposits {
+    /// Adds a contribution to the entry of its bin, or appends a new entry.
+    #[inline]
+    pub fn add(&mut self, bin: u32, c: [f64; 3]) {
+        // Consecutive vertices usually land in the same or a close bin: search backwards.
+        if let Some(e) = self.entries.iter_mut().rev().find(|e| e.0 == bin) {
+            for (acc, v) in e.1.iter_mut().zip(c) {
+                *acc += v;
+            }
+        } else {
+            self.entries.push((bin, c));
+        }
+    }
+
+    /// The path's entries, one per distinct bin; empties the list.
+    #[inline]
+    pub fn drain(&mut self) -> std::vec::Drain<'_, (u32, [f64; 3])> {
+        self.entries.drain(..)
+    }
+
+    pub fn len(&self) -> usize {
+        self.entries.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.entries.is_empty()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn same_bin_merges_and_revisits_merge_too() {
+        let mut d = PathDeposits::default();
+        d.add(5, [1.0, 0.0, 0.0]);
+        d.add(5, [0.5, 1.0, 0.0]);
+        d.add(7, [0.0, 0.0, 2.0]);
+        d.add(5, [0.25, 0.0, 0.0]);
+        assert_eq!(d.len(), 2);
+        let v: Vec<_> = d.drain().collect();
+        assert_eq!(v, vec![(5, [1.75, 1.0, 0.0]), (7, [0.0, 0.0, 2.0])]);
+        assert!(d.is_empty());
+    }
+}

@@ -1,0 +1,184 @@
+//! `transient_path`: unidirectional path tracing with next-event estimation and MIS
+//! (power heuristic), Russian roulette and Mitsuba's `max_depth`, keeping each path's
+//! optical path length (OPL) so every contribution lands in its time bin (SPEC 4).
+
+use super::deposits::PathDeposits;
+use super::gbuffer::GSample;
+use crate::geometry::accel::{offset_origin, ray_epsilon};
+use crate::math::frame::Frame;
+use crate::math::rng::Pcg32;
+use crate::math::sampling::power_heuristic;
+use crate::math::Rgb;
+use crate::scene::Scene;
+use glam::Vec3;
+
+/// What one path leaves behind besides its deposits.
+#[derive(Default)]
+pub struct PathTally {
+    /// Sum of every finite contribution (in the window or not): the steady image.
+    pub steady: [f64; 3],
+    /// Contributions dropped because they were NaN or infinite.
+    pub dropped_nonfinite: u64,
+    /// Rays traced (closest-hit and shadow).
+    pub rays: u64,
+}
+
+/// Adds a contribution `c` arriving at OPL `opl` to the path's deposits.
+#[inline]
+fn contribute(scene: &Scene, deposits: &mut PathDeposits, tally: &mut PathTally, opl: f64, c: Rgb) {
+    if !c.is_finite() {
+        tally.dropped_nonfinite += 1;
+        return;
+    }
+    if c == Rgb::ZERO {
+        return;
+    }
+    let c = [c.x as f64, c.y as f64, c.z as f64];
+    for (s, v) in tally.steady.iter_mut().zip(c) {
+        *s += v;
+    }
+    if let Some(bin) = scene.film.bin(opl) {
+        deposits.add(bin, c);
+    }
+}
+
+/// Traces one camera path from the pinhole along unit direction `d`.
+pub fn trace_path(
+    scene: &Scene,
+    d: Vec3,
+    rng: &mut Pcg32,
+    deposits: &mut PathDeposits,
+    tally: &mut PathTally,
+) -> GSample {
+    let settings = &scene.integrator;
+    let n_emitters = scene.emitters.len();
+    let select_pdf = 1.0 / n_emitters as f32;
+    let mut g = GSample::default();
+    let mut g_pending = true;
+
+    let mut o = scene.camera.origin;
+    let mut d = d;
+    let mut opl = 0.0f64;
+    let mut beta = Rgb::ONE;
+    // Product of the relative IORs crossed: the current medium's IOR relative to the
+    // camera's. Scales segment lengths into OPL and enters Russian roulette as eta^2.
+    let mut eta = 1.0f32;
+    let mut prev_delta = true;
+    let mut prev_pdf = 1.0f32;
+    let mut depth: u32 = 0;
+    let max_depth = settings.max_depth;
+
+    loop {
+        tally.rays += 1;
+        let Some(hit) = scene.accel.intersect(&scene.shapes, o, d, f32::INFINITY) else {
+            break;
+        };
+        let segment = if depth == 0 && settings.camera_unwarp {
+            0.0
+        } else {
+            eta as f64 * hit.t as f64
+        };
+        opl += segment;
+        if depth == 0 {
+            g.depth = Some(hit.t);
+        }
+        let shape = &scene.shapes[hit.shape as usize];
+        let sp = hit.surface;
+        let wo_world = -d;
+        let frame = Frame::from_normal(sp.ns);
+        let wo = frame.to_local(wo_world);
+        let bsdf = &scene.bsdfs[shape.bsdf as usize];
+
+        // Emission (front side only), MIS-weighted against light sampling.
+        let mut seen_emitter = false;
+        if let Some(ei) = shape.emitter {
+            let cos_l = wo.z;
+            if cos_l > 0.0 {
+                seen_emitter = true;
+                if !(depth == 0 && settings.hide_emitters) {
+                    let emitter = &scene.emitters[ei as usize];
+                    let crate::lights::Emitter::Area { radiance, .. } = emitter else {
+                        unreachable!("shape emitters are area lights")
+                    };
+                    let w = if prev_delta {
+                        1.0
+                    } else {
+                        power_heuristic(prev_pdf, emitter.pdf_area_hit(select_pdf, hit.t, cos_l))
+                    };
+                    contribute(scene, deposits, tally, opl, beta * *radiance * w);
+                }
+            }
+        }
+
+        let delta = bsdf.is_delta(wo);
+        if g_pending && (!delta || seen_emitter) {
+            g_pending = false;
+            g.albedo = bsdf.albedo(wo);
+            g.normal = if sp.ns.dot(wo_world) >= 0.0 { sp.ns } else { -sp.ns };
+            g.emitter = seen_emitter;
+        }
+
+        // Mitsuba: the next segment exists only if depth + 1 < max_depth.
+        if max_depth >= 0 && depth as i64 + 1 >= max_depth as i64 {
+            break;
+        }
+
+        // Next-event estimation.
+        if !delta {
+            let u_sel = rng.next_f32();
+            let u1 = rng.next_f32();
+            let u2 = rng.next_2d();
+            let idx = ((u_sel * n_emitters as f32) as usize).min(n_emitters - 1);
+            let emitter = &scene.emitters[idx];
+            if let Some(ls) = emitter.sample(&scene.shapes, sp.p, select_pdf, u1, u2) {
+                let wi = frame.to_local(ls.wi);
+                let f = bsdf.eval(wo, wi);
+                if f != Rgb::ZERO && ls.pdf > 0.0 {
+                    let origin = offset_origin(sp.p, sp.ng, ls.wi);
+                    let target_eps = if ls.delta { 0.0 } else { ray_epsilon(ls.p) };
+                    let tmax = (ls.p - origin).length() - target_eps;
+                    tally.rays += 1;
+                    if tmax > 0.0 && !scene.accel.occluded(origin, ls.wi, tmax) {
+                        let w = if ls.delta {
+                            1.0
+                        } else {
+                            power_heuristic(ls.pdf, bsdf.pdf(wo, wi))
+                        };
+                        let arrival = opl + eta as f64 * ls.dist as f64;
+                        contribute(scene, deposits, tally, arrival, beta * f * ls.li * (w / ls.pdf));
+                    }
+                }
+            }
+        }
+
+        // BSDF sampling.
+        let u1 = rng.next_f32();
+        let u2 = rng.next_2d();
+        let Some(bs) = bsdf.sample(wo, u1, u2) else {
+            break;
+        };
+        let wi_world = frame.to_world(bs.wi);
+        beta *= bs.weight;
+        eta *= bs.eta;
+        prev_delta = bs.delta;
+        prev_pdf = bs.pdf;
+        o = offset_origin(sp.p, sp.ng, wi_world);
+        d = wi_world.normalize();
+        depth += 1;
+
+        // Russian roulette (Mitsuba: from rr_depth on, survival min(max(beta) eta^2, 0.95)).
+        let beta_max = beta.max_element();
+        let u_rr = rng.next_f32();
+        if depth >= settings.rr_depth {
+            let q = (beta_max * eta * eta).min(0.95);
+            if u_rr >= q {
+                break;
+            }
+            beta /= q;
+        }
+        if !(beta_max > 0.0) {
+            break;
+        }
+    }
+    g
+}

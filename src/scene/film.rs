@@ -1,0 +1,131 @@
+//! `transient_hdr_film` (mitransient's names): image size and the time axis.
+//!
+//! | parameter | type | default | meaning |
+//! |-----------|------|---------|---------|
+//! | width, height | integer | 768, 576 | image size in pixels |
+//! | temporal_bins | integer | required | number of time bins T |
+//! | start_opl | float | 0 | OPL of the start of bin 0 (t0, scene units) |
+//! | bin_width_opl | float | required | bin width h in OPL (scene units) |
+//! | rfilter | nested | box | only `box` (mitransient's transient block supports only it) |
+//!
+//! A contribution with path OPL `o` lands in bin `k = floor((o - t0) / h)` when
+//! `0 <= k < T` and in no bin otherwise (it still counts in the steady image).
+
+use super::error::SceneError;
+use super::props::{Ctx, Props};
+use roxmltree::Node;
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Film {
+    pub width: usize,
+    pub height: usize,
+    pub bins: usize,
+    /// t0, OPL in scene units.
+    pub start_opl: f64,
+    /// h, OPL in scene units.
+    pub bin_width_opl: f64,
+}
+
+impl Film {
+    /// Time bin of a contribution arriving at optical path length `opl`.
+    #[inline]
+    pub fn bin(&self, opl: f64) -> Option<u32> {
+        let k = ((opl - self.start_opl) / self.bin_width_opl).floor();
+        if k >= 0.0 && k < self.bins as f64 {
+            Some(k as u32)
+        } else {
+            None
+        }
+    }
+
+    pub fn pixels(&self) -> usize {
+        self.width * self.height
+    }
+
+    /// Checks the settings after overrides were applied.
+    pub fn validate(&self) -> Result<(), String> {
+        if self.width == 0 || self.height == 0 {
+            return Err(format!("film size {}x{} is empty", self.width, self.height));
+        }
+        if self.bins == 0 {
+            return Err("temporal_bins must be at least 1".into());
+        }
+        if !(self.bin_width_opl > 0.0 && self.bin_width_opl.is_finite()) {
+            return Err(format!("bin_width_opl must be positive, got {}", self.bin_width_opl));
+        }
+        if !self.start_opl.is_finite() {
+            return Err(format!("start_opl must be finite, got {}", self.start_opl));
+        }
+        Ok(())
+    }
+
+    pub fn parse(ctx: &Ctx, node: Node) -> Result<Film, SceneError> {
+        let kind = ctx.required_attr(node, "type")?;
+        if kind != "transient_hdr_film" {
+            return Err(ctx.err(node, format!("film type '{kind}' is not supported (use transient_hdr_film)")));
+        }
+        let mut p = Props::parse(ctx, node)?;
+        let dim = |p: &mut Props, name: &str, default: Option<i64>| -> Result<usize, SceneError> {
+            let v = match (p.integer(name)?, default) {
+                (Some(v), _) | (None, Some(v)) => v,
+                (None, None) => return Err(p.err(format!("missing parameter '{name}'"))),
+            };
+            if v <= 0 {
+                return Err(p.err_at(name, format!("{name} must be positive, got {v}")));
+            }
+            Ok(v as usize)
+        };
+        let width = dim(&mut p, "width", Some(768))?;
+        let height = dim(&mut p, "height", Some(576))?;
+        let bins = dim(&mut p, "temporal_bins", None)?;
+        let start_opl = p.float_or("start_opl", 0.0)?;
+        let bin_width_opl = p
+            .float("bin_width_opl")?
+            .ok_or_else(|| p.err("missing parameter 'bin_width_opl'"))?;
+        if bin_width_opl <= 0.0 {
+            return Err(p.err_at("bin_width_opl", format!("bin_width_opl must be positive, got {bin_width_opl}")));
+        }
+        // mitransient film flags that do not change what is computed here.
+        p.ignore("auto_detect_bins");
+        for obj in std::mem::take(&mut p.objects) {
+            match (obj.tag_name().name(), ctx.attr(obj, "type")?.as_deref()) {
+                ("rfilter", Some("box")) => Props::parse(ctx, obj)?.finish()?,
+                ("rfilter", other) => {
+                    return Err(ctx.err(obj, format!("reconstruction filter {other:?} is not supported; the transient film uses the box filter")))
+                }
+                (tag, _) => return Err(ctx.err(obj, format!("unexpected <{tag}> inside <film>"))),
+            }
+        }
+        p.finish()?;
+        Ok(Film {
+            width,
+            height,
+            bins,
+            start_opl,
+            bin_width_opl,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bins_are_half_open_boxes() {
+        let f = Film {
+            width: 1,
+            height: 1,
+            bins: 10,
+            start_opl: 2.0,
+            bin_width_opl: 0.5,
+        };
+        assert_eq!(f.bin(1.999), None);
+        assert_eq!(f.bin(2.0), Some(0));
+        assert_eq!(f.bin(2.49), Some(0));
+        assert_eq!(f.bin(2.5), Some(1));
+        assert_eq!(f.bin(6.99), Some(9));
+        assert_eq!(f.bin(7.0), None);
+        assert_eq!(f.bin(f64::NAN), None);
+    }
+}

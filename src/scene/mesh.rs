@@ -1,0 +1,1178 @@
+//! Loading triangle meshes from disk.
+//!
+//! Two formats are supported:
+//!
+//! * **PLY** (ASCII, binary little-endian and binary big-endian), read with the
+//!   `ply-rs` crate. The `vertex` element must have scalar `x`, `y`, `z`
+//!   properties (any numeric type, usually `float` or `double`); if it also has
+//!   `nx`, `ny`, `nz` they become per-vertex normals. The `face` element must
+//!   have an integer list property named `vertex_indices` (or `vertex_index`).
+//!   Other elements and properties are skipped (elements after both `vertex`
+//!   and `face` are not read at all).
+//! * **Wavefront OBJ**, read with the `tobj` crate using a single index per
+//!   vertex. All objects and groups in the file are merged into one mesh.
+//!   Vertices are numbered in order of first use by a face, and vertices no face
+//!   uses are dropped (this is how `tobj` builds a single index). Normals are
+//!   kept only if every vertex has one. Material libraries are not read; `l`
+//!   (line) and `p` (point) statements are ignored.
+//!
+//! In both formats, polygons with more than three vertices are split into a fan
+//! of triangles `(v0, v1, v2), (v0, v2, v3), ...`, keeping the vertex order
+//! (and so the winding) of the file. The result is a [`MeshData`] in the file's
+//! own coordinates; no transform is applied here.
+//!
+//! Every problem (missing file, malformed or truncated content, a face with
+//! fewer than three vertices or an index out of range, a non-finite coordinate,
+//! a file without faces) is returned as a [`MeshError`] whose message names the
+//! file. Vertex and face numbers in messages count from 0 in file order; OBJ
+//! messages also give the line. Nothing in here panics on bad input.
+
+use std::borrow::Cow;
+use std::io;
+use std::path::{Path, PathBuf};
+
+use glam::Vec3;
+use ply_rs::parser::Parser;
+use ply_rs::ply::{ElementDef, Encoding, Property, PropertyAccess, PropertyType, ScalarType};
+
+/// A triangle mesh as read from disk, before any to_world transform.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MeshData {
+    pub positions: Vec<Vec3>,
+    /// Per-vertex normals when the file has them (same length as positions).
+    pub normals: Option<Vec<Vec3>>,
+    /// Vertex indices, counter-clockwise as in the file; polygons are fan-triangulated.
+    pub triangles: Vec<[u32; 3]>,
+}
+
+/// Why a mesh file could not be loaded. Every message names the file and fits
+/// on one line.
+#[derive(Debug, thiserror::Error)]
+pub enum MeshError {
+    /// The file could not be opened or read.
+    #[error("cannot read mesh file {}: {source}", .path.display())]
+    Io {
+        path: PathBuf,
+        #[source]
+        source: io::Error,
+    },
+    /// The file was read but is not a usable PLY mesh.
+    #[error("invalid PLY file {}: {message}", .path.display())]
+    Ply { path: PathBuf, message: String },
+    /// The file was read but is not a usable OBJ mesh.
+    #[error("invalid OBJ file {}: {message}", .path.display())]
+    Obj { path: PathBuf, message: String },
+    /// The file is well formed but contains no faces (e.g. a point cloud).
+    #[error("mesh file {} has no faces", .path.display())]
+    NoFaces { path: PathBuf },
+}
+
+// ---------------------------------------------------------------------------
+// PLY
+// ---------------------------------------------------------------------------
+
+/// Loads a PLY mesh (ASCII or binary, either byte order).
+pub fn load_ply(path: &Path) -> Result<MeshData, MeshError> {
+    let bytes = read_file(path)?;
+    parse_ply(&bytes).map_err(|problem| match problem {
+        Problem::NoFaces => MeshError::NoFaces {
+            path: path.to_path_buf(),
+        },
+        Problem::Invalid(message) => MeshError::Ply {
+            path: path.to_path_buf(),
+            message,
+        },
+    })
+}
+
+/// What went wrong while decoding file contents; the caller adds the path.
+enum Problem {
+    NoFaces,
+    Invalid(String),
+}
+
+impl From<String> for Problem {
+    fn from(message: String) -> Self {
+        Problem::Invalid(message)
+    }
+}
+
+/// Names under which the face element stores its vertex list, in order of
+/// preference.
+const FACE_LIST_NAMES: [&str; 2] = ["vertex_indices", "vertex_index"];
+
+fn parse_ply(bytes: &[u8]) -> Result<MeshData, Problem> {
+    if !bytes.starts_with(b"ply") {
+        return Err("not a PLY file (it does not start with 'ply')"
+            .to_string()
+            .into());
+    }
+    check_header_numbers(bytes)?;
+
+    let mut data: &[u8] = bytes;
+    let header = Parser::<Skip>::new()
+        .read_header(&mut data)
+        .map_err(|e| format!("bad header: {}", one_line(&e.to_string())))?;
+    // Line number of the last header line, for ASCII error messages.
+    let mut line_no = bytes[..bytes.len() - data.len()]
+        .iter()
+        .filter(|&&b| b == b'\n')
+        .count();
+
+    // Check the header describes a mesh before reading any payload.
+    let vertex_def = header
+        .elements
+        .get("vertex")
+        .ok_or_else(|| "there is no 'vertex' element".to_string())?;
+    for name in ["x", "y", "z"] {
+        match vertex_def.properties.get(name).map(|p| &p.data_type) {
+            Some(PropertyType::Scalar(_)) => {}
+            Some(PropertyType::List(..)) => {
+                return Err(format!("vertex property '{name}' is a list, expected a number").into())
+            }
+            None => return Err(format!("the vertex element has no '{name}' property").into()),
+        }
+    }
+    let has_normals = ["nx", "ny", "nz"].iter().all(|name| {
+        matches!(
+            vertex_def.properties.get(*name).map(|p| &p.data_type),
+            Some(PropertyType::Scalar(_))
+        )
+    });
+    let face_def = match header.elements.get("face") {
+        Some(def) if def.count > 0 => def,
+        _ => return Err(Problem::NoFaces),
+    };
+    let list_name = FACE_LIST_NAMES
+        .into_iter()
+        .find(|name| face_def.properties.contains_key(*name))
+        .ok_or_else(|| {
+            "the face element has no 'vertex_indices' (or 'vertex_index') property".to_string()
+        })?;
+    match &face_def.properties[list_name].data_type {
+        PropertyType::List(_, item) if is_integer(item) => {}
+        other => {
+            return Err(format!(
+                "face property '{list_name}' must be a list of integers, found {other:?}"
+            )
+            .into())
+        }
+    }
+
+    // Read the elements in file order, stopping once we have what we need.
+    let mut vertices: Option<Vec<PlyVertex>> = None;
+    let mut faces: Option<Vec<PlyFace>> = None;
+    for def in header.elements.values() {
+        if vertices.is_some() && faces.is_some() {
+            break;
+        }
+        match def.name.as_str() {
+            "vertex" => {
+                vertices = Some(read_entries(&mut data, header.encoding, def, &mut line_no)?)
+            }
+            "face" => faces = Some(read_entries(&mut data, header.encoding, def, &mut line_no)?),
+            _ => {
+                read_entries::<Skip>(&mut data, header.encoding, def, &mut line_no)?;
+            }
+        }
+    }
+    let (vertices, faces) = match (vertices, faces) {
+        (Some(v), Some(f)) => (v, f),
+        _ => {
+            return Err("internal error: vertex or face element was not read"
+                .to_string()
+                .into())
+        }
+    };
+
+    let positions = vertices
+        .iter()
+        .enumerate()
+        .map(|(i, v)| {
+            finite_vec3(v.position)
+                .ok_or_else(|| format!("vertex {i}: position {:?} is not finite", v.position))
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    let normals = if has_normals {
+        let normals = vertices
+            .iter()
+            .enumerate()
+            .map(|(i, v)| {
+                finite_vec3(v.normal)
+                    .ok_or_else(|| format!("vertex {i}: normal {:?} is not finite", v.normal))
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        Some(normals)
+    } else {
+        None
+    };
+
+    let vertex_count = positions.len();
+    let mut triangles = Vec::with_capacity(faces.len());
+    let mut polygon = Vec::new();
+    for (f, face) in faces.iter().enumerate() {
+        if face.indices.len() < 3 {
+            return Err(format!(
+                "face {f} has {} vertices, at least 3 are needed",
+                face.indices.len()
+            )
+            .into());
+        }
+        polygon.clear();
+        for &index in &face.indices {
+            match u32::try_from(index) {
+                Ok(i) if (i as usize) < vertex_count => polygon.push(i),
+                _ => {
+                    return Err(format!(
+                    "face {f} refers to vertex {index}, but there are only {vertex_count} vertices"
+                )
+                    .into())
+                }
+            }
+        }
+        push_fan(&polygon, &mut triangles);
+    }
+
+    Ok(MeshData {
+        positions,
+        normals,
+        triangles,
+    })
+}
+
+/// `ply-rs` 0.1 panics (an `unwrap` in its header grammar) when an element
+/// count or the format version does not fit in a `u64`. Refuse such headers
+/// before handing them over.
+fn check_header_numbers(bytes: &[u8]) -> Result<(), String> {
+    for (i, line) in bytes.split(|&b| b == b'\n').enumerate() {
+        let line = String::from_utf8_lossy(line);
+        match line.split_whitespace().next() {
+            Some("end_header") => break,
+            Some("element") | Some("format") => {
+                let digit_runs = line.split(|c: char| !c.is_ascii_digit());
+                if let Some(run) = digit_runs
+                    .filter(|r| !r.is_empty())
+                    .find(|r| r.parse::<u64>().is_err())
+                {
+                    return Err(format!(
+                        "bad header: line {}: number {run} is too large",
+                        i + 1
+                    ));
+                }
+            }
+            _ => {}
+        }
+    }
+    Ok(())
+}
+
+/// Reads all entries of one element from `data` (positioned at its start).
+fn read_entries<E: PropertyAccess>(
+    data: &mut &[u8],
+    encoding: Encoding,
+    def: &ElementDef,
+    line_no: &mut usize,
+) -> Result<Vec<E>, String> {
+    // Every entry takes at least this many bytes, so a count that cannot fit
+    // in the rest of the file means truncation (or a corrupt header). Checking
+    // up front also keeps a bogus huge count from looping or allocating.
+    let min_bytes = match encoding {
+        Encoding::Ascii => 1,
+        _ => def
+            .properties
+            .values()
+            .map(|p| match &p.data_type {
+                PropertyType::Scalar(t) | PropertyType::List(t, _) => scalar_size(t),
+            })
+            .sum::<usize>()
+            .max(1),
+    };
+    if def
+        .count
+        .checked_mul(min_bytes)
+        .is_none_or(|n| n > data.len())
+    {
+        return Err(format!(
+            "file is truncated: element '{}' declares {} entries but only {} bytes remain",
+            def.name,
+            def.count,
+            data.len()
+        ));
+    }
+
+    let parser = Parser::<E>::new();
+    let mut entries = Vec::with_capacity(def.count);
+    for i in 0..def.count {
+        let entry = match encoding {
+            Encoding::Ascii => {
+                let line = next_line(data).ok_or_else(|| {
+                    format!(
+                        "file is truncated: it ends after {i} of {} '{}' entries",
+                        def.count, def.name
+                    )
+                })?;
+                *line_no += 1;
+                let text = std::str::from_utf8(line)
+                    .map_err(|_| format!("line {line_no}: not valid text"))?;
+                parser
+                    .read_ascii_element(
+                        &normalize_numbers(text.trim_end_matches(['\r', '\n'])),
+                        def,
+                    )
+                    .map_err(|e| {
+                        format!(
+                            "line {line_no} ('{}' entry {i}): {}",
+                            def.name,
+                            one_line(&e.to_string())
+                        )
+                    })?
+            }
+            Encoding::BinaryLittleEndian => parser
+                .read_little_endian_element(data, def)
+                .map_err(|e| binary_error(&e, def, i))?,
+            Encoding::BinaryBigEndian => parser
+                .read_big_endian_element(data, def)
+                .map_err(|e| binary_error(&e, def, i))?,
+        };
+        entries.push(entry);
+    }
+    Ok(entries)
+}
+
+fn binary_error(e: &io::Error, def: &ElementDef, i: usize) -> String {
+    // ply-rs wraps a failed read inside a list into an `InvalidInput` error
+    // whose text carries the original error's Debug form.
+    let text = e.to_string();
+    if e.kind() == io::ErrorKind::UnexpectedEof || text.contains("UnexpectedEof") {
+        format!(
+            "file is truncated: it ends inside '{}' entry {i} of {}",
+            def.name, def.count
+        )
+    } else {
+        format!("'{}' entry {i}: {}", def.name, one_line(&text))
+    }
+}
+
+/// The ASCII grammar of `ply-rs` only accepts numbers shaped like `-1.5e-3`.
+/// Rewrite the other common spellings, `1.5E-3`, `.5` and `5.`, into that
+/// shape; anything else is passed through (and rejected by `ply-rs`).
+fn normalize_numbers(line: &str) -> Cow<'_, str> {
+    let unusual = |t: &str| {
+        let digits = t.trim_start_matches(['-', '+']);
+        t.contains('E')
+            || digits.starts_with('.')
+            || t.ends_with('.')
+            || t.contains(".e")
+            || t.contains(".E")
+    };
+    if !line.split_whitespace().any(unusual) {
+        return Cow::Borrowed(line);
+    }
+    let tokens: Vec<String> = line
+        .split_whitespace()
+        .map(|token| {
+            let token = token.replace('E', "e");
+            let sign_len = usize::from(token.starts_with(['-', '+']));
+            let (sign, number) = token.split_at(sign_len);
+            let (mantissa, exponent) = number.split_at(number.find('e').unwrap_or(number.len()));
+            let mut out = sign.to_string();
+            if mantissa.starts_with('.') {
+                out.push('0');
+            }
+            out.push_str(mantissa);
+            if mantissa.ends_with('.') {
+                out.push('0');
+            }
+            out.push_str(exponent);
+            out
+        })
+        .collect();
+    Cow::Owned(tokens.join(" "))
+}
+
+/// Splits the next line (including its `\n`, if any) off the front of `data`.
+fn next_line<'a>(data: &mut &'a [u8]) -> Option<&'a [u8]> {
+    if data.is_empty() {
+        return None;
+    }
+    let end = data
+        .iter()
+        .position(|&b| b == b'\n')
+        .map_or(data.len(), |i| i + 1);
+    let (line, rest) = data.split_at(end);
+    *data = rest;
+    Some(line)
+}
+
+fn scalar_size(t: &ScalarType) -> usize {
+    match t {
+        ScalarType::Char | ScalarType::UChar => 1,
+        ScalarType::Short | ScalarType::UShort => 2,
+        ScalarType::Int | ScalarType::UInt | ScalarType::Float => 4,
+        ScalarType::Double => 8,
+    }
+}
+
+fn is_integer(t: &ScalarType) -> bool {
+    !matches!(t, ScalarType::Float | ScalarType::Double)
+}
+
+/// Value of a numeric scalar property, `None` for lists.
+fn scalar_value(p: &Property) -> Option<f64> {
+    Some(match *p {
+        Property::Char(v) => v.into(),
+        Property::UChar(v) => v.into(),
+        Property::Short(v) => v.into(),
+        Property::UShort(v) => v.into(),
+        Property::Int(v) => v.into(),
+        Property::UInt(v) => v.into(),
+        Property::Float(v) => v.into(),
+        Property::Double(v) => v,
+        _ => return None,
+    })
+}
+
+/// Entries of an integer list property, `None` for anything else.
+fn integer_list(p: Property) -> Option<Vec<i64>> {
+    fn widen<T: Into<i64>>(v: Vec<T>) -> Vec<i64> {
+        v.into_iter().map(Into::into).collect()
+    }
+    Some(match p {
+        Property::ListChar(v) => widen(v),
+        Property::ListUChar(v) => widen(v),
+        Property::ListShort(v) => widen(v),
+        Property::ListUShort(v) => widen(v),
+        Property::ListInt(v) => widen(v),
+        Property::ListUInt(v) => widen(v),
+        _ => return None,
+    })
+}
+
+/// One PLY `vertex` entry; only the properties we use are kept.
+#[derive(Default)]
+struct PlyVertex {
+    position: [f64; 3],
+    normal: [f64; 3],
+}
+
+impl PropertyAccess for PlyVertex {
+    fn new() -> Self {
+        Self::default()
+    }
+
+    fn set_property(&mut self, name: String, property: Property) {
+        let slot = match name.as_str() {
+            "x" => &mut self.position[0],
+            "y" => &mut self.position[1],
+            "z" => &mut self.position[2],
+            "nx" => &mut self.normal[0],
+            "ny" => &mut self.normal[1],
+            "nz" => &mut self.normal[2],
+            _ => return,
+        };
+        if let Some(value) = scalar_value(&property) {
+            *slot = value;
+        }
+    }
+}
+
+/// One PLY `face` entry: its vertex list. If a file has both list names, the
+/// preferred one (`vertex_indices`) wins whatever the property order.
+#[derive(Default)]
+struct PlyFace {
+    indices: Vec<i64>,
+    from_preferred_name: bool,
+}
+
+impl PropertyAccess for PlyFace {
+    fn new() -> Self {
+        Self::default()
+    }
+
+    fn set_property(&mut self, name: String, property: Property) {
+        let preferred = name == FACE_LIST_NAMES[0];
+        if !(preferred || (name == FACE_LIST_NAMES[1] && !self.from_preferred_name)) {
+            return;
+        }
+        if let Some(indices) = integer_list(property) {
+            self.indices = indices;
+            self.from_preferred_name = preferred;
+        }
+    }
+}
+
+/// An entry of an element we do not use: parsed (to advance through the file)
+/// and dropped.
+struct Skip;
+
+impl PropertyAccess for Skip {
+    fn new() -> Self {
+        Skip
+    }
+}
+
+// ---------------------------------------------------------------------------
+// OBJ
+// ---------------------------------------------------------------------------
+
+/// Loads a Wavefront OBJ mesh, merging all objects and groups into one mesh.
+pub fn load_obj(path: &Path) -> Result<MeshData, MeshError> {
+    let bytes = read_file(path)?;
+    parse_obj(&bytes).map_err(|problem| match problem {
+        Problem::NoFaces => MeshError::NoFaces {
+            path: path.to_path_buf(),
+        },
+        Problem::Invalid(message) => MeshError::Obj {
+            path: path.to_path_buf(),
+            message,
+        },
+    })
+}
+
+fn parse_obj(bytes: &[u8]) -> Result<MeshData, Problem> {
+    let text = std::str::from_utf8(bytes).map_err(|e| format!("not valid UTF-8 text ({e})"))?;
+    check_obj_faces(text)?;
+
+    // The struct update covers fields that only exist with tobj's optional
+    // `merging` / `reordering` features.
+    #[allow(clippy::needless_update)]
+    let options = tobj::LoadOptions {
+        single_index: true,
+        triangulate: true,
+        ignore_points: true,
+        ignore_lines: true,
+        ..Default::default()
+    };
+    // Materials are not needed: answer every `mtllib` with "not found", which
+    // tobj reports separately and we ignore.
+    let (models, _materials) = tobj::load_obj_buf(&mut text.as_bytes(), &options, |_| {
+        Err(tobj::LoadError::OpenFileFailed)
+    })
+    .map_err(|e| e.to_string())?;
+
+    let all_have_normals = models
+        .iter()
+        .all(|m| m.mesh.normals.len() == m.mesh.positions.len());
+    let mut positions = Vec::new();
+    let mut normals = Vec::new();
+    let mut triangles = Vec::new();
+    for model in &models {
+        let mesh = &model.mesh;
+        let offset = positions.len();
+        for p in mesh.positions.chunks_exact(3) {
+            let v = [to_f64(p[0]), to_f64(p[1]), to_f64(p[2])];
+            positions.push(
+                finite_vec3(v).ok_or_else(|| format!("vertex position {v:?} is not finite"))?,
+            );
+        }
+        if all_have_normals {
+            for n in mesh.normals.chunks_exact(3) {
+                let v = [to_f64(n[0]), to_f64(n[1]), to_f64(n[2])];
+                normals.push(
+                    finite_vec3(v).ok_or_else(|| format!("vertex normal {v:?} is not finite"))?,
+                );
+            }
+        }
+        if mesh.indices.len() % 3 != 0 {
+            return Err(format!(
+                "object '{}': index count is not a multiple of 3",
+                model.name
+            )
+            .into());
+        }
+        for tri in mesh.indices.chunks_exact(3) {
+            let mut out = [0u32; 3];
+            for (o, &i) in out.iter_mut().zip(tri) {
+                let global = offset + i as usize;
+                *o = match u32::try_from(global) {
+                    Ok(g) if global < positions.len() => g,
+                    _ => {
+                        return Err(format!(
+                            "object '{}': vertex index {i} is out of range",
+                            model.name
+                        )
+                        .into())
+                    }
+                };
+            }
+            triangles.push(out);
+        }
+    }
+    if triangles.is_empty() {
+        return Err(Problem::NoFaces);
+    }
+    Ok(MeshData {
+        positions,
+        normals: all_have_normals.then_some(normals),
+        triangles,
+    })
+}
+
+/// Checks every `f` statement before `tobj` sees it: at least three vertices,
+/// and every index non-zero and within range. Besides giving errors with line
+/// numbers, this shields us from `tobj` 4, whose index arithmetic overflows
+/// (a panic in debug builds) on a relative texture or normal index reaching
+/// before the first one, e.g. `f 1/-5 2/1 3/1`, and which silently treats a
+/// texture or normal index of 0 as absent.
+fn check_obj_faces(text: &str) -> Result<(), String> {
+    // (statement, singular, plural)
+    const KINDS: [(&str, &str, &str); 3] = [
+        ("v", "vertex", "vertices"),
+        ("vt", "texture coordinate", "texture coordinates"),
+        ("vn", "normal", "normals"),
+    ];
+    let mut totals = [0usize; 3];
+    for line in text.lines() {
+        let tag = line.split_whitespace().next();
+        if let Some(k) = KINDS.iter().position(|(t, ..)| tag == Some(*t)) {
+            totals[k] += 1;
+        }
+    }
+
+    let mut seen = [0usize; 3];
+    let mut face = 0usize;
+    for (n, line) in text.lines().enumerate() {
+        let mut words = line.split_whitespace();
+        let Some(tag) = words.next() else { continue };
+        if let Some(k) = KINDS.iter().position(|(t, ..)| *t == tag) {
+            seen[k] += 1;
+            continue;
+        }
+        if tag != "f" {
+            continue;
+        }
+        let corners: Vec<&str> = words.collect();
+        let at = format!("line {} (face {face})", n + 1);
+        if corners.len() < 3 {
+            return Err(format!(
+                "{at}: face has {} vertices, at least 3 are needed",
+                corners.len()
+            ));
+        }
+        for corner in corners {
+            let parts: Vec<&str> = corner.split('/').collect();
+            if parts.len() > 3 || parts[0].is_empty() {
+                return Err(format!("{at}: malformed face vertex '{corner}'"));
+            }
+            for (k, part) in parts.iter().enumerate().filter(|(_, p)| !p.is_empty()) {
+                let (_, kind, kinds) = KINDS[k];
+                let index: i64 = part
+                    .parse()
+                    .map_err(|_| format!("{at}: malformed face vertex '{corner}'"))?;
+                // Negative indices count back from the last one defined so far.
+                let ok = match index {
+                    0 => false,
+                    i if i < 0 => i.unsigned_abs() <= seen[k] as u64,
+                    i => i as u64 <= totals[k] as u64,
+                };
+                if !ok {
+                    return Err(format!(
+                        "{at}: {kind} index {index} is out of range ({} {kinds} defined, indices start at 1)",
+                        if index < 0 { seen[k] } else { totals[k] }
+                    ));
+                }
+            }
+        }
+        face += 1;
+    }
+    Ok(())
+}
+
+/// Widens a `tobj` float (`f32`, or `f64` with its `use_f64` feature).
+fn to_f64<T: Into<f64>>(v: T) -> f64 {
+    v.into()
+}
+
+// ---------------------------------------------------------------------------
+// Shared helpers
+// ---------------------------------------------------------------------------
+
+fn read_file(path: &Path) -> Result<Vec<u8>, MeshError> {
+    std::fs::read(path).map_err(|source| MeshError::Io {
+        path: path.to_path_buf(),
+        source,
+    })
+}
+
+/// Converts to `f32`; `None` if any component is (or overflows to) NaN or infinity.
+fn finite_vec3(v: [f64; 3]) -> Option<Vec3> {
+    let v = Vec3::new(v[0] as f32, v[1] as f32, v[2] as f32);
+    v.is_finite().then_some(v)
+}
+
+/// Fan-triangulates a polygon given by vertex indices (at least 3).
+fn push_fan(polygon: &[u32], out: &mut Vec<[u32; 3]>) {
+    for pair in polygon[1..].windows(2) {
+        out.push([polygon[0], pair[0], pair[1]]);
+    }
+}
+
+/// Collapses line breaks and tabs (which `ply-rs` puts in its messages) so an
+/// error message stays on one line.
+fn one_line(s: &str) -> String {
+    s.split_whitespace().collect::<Vec<_>>().join(" ")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::fs;
+
+    /// The test mesh: a unit quad (one polygon) plus a triangle sharing an
+    /// edge with it, all counter-clockwise seen from +z. Coordinates are
+    /// exactly representable so every format must give identical numbers.
+    const POSITIONS: [[f32; 3]; 5] = [
+        [0.0, 0.0, 0.0],
+        [1.0, 0.0, 0.0],
+        [1.0, 1.0, 0.0],
+        [0.0, 1.0, 0.0],
+        [2.0, 0.5, -0.25],
+    ];
+    /// Distinct per-vertex normals, so a mix-up of vertices would show.
+    const NORMALS: [[f32; 3]; 5] = [
+        [0.0, 0.0, 1.0],
+        [0.0, 1.0, 0.0],
+        [1.0, 0.0, 0.0],
+        [0.0, 0.0, -1.0],
+        [0.0, -0.5, 0.75],
+    ];
+    const QUAD: [u32; 4] = [0, 1, 2, 3];
+    const TRI: [u32; 3] = [1, 4, 2];
+
+    fn expected(with_normals: bool) -> MeshData {
+        MeshData {
+            positions: POSITIONS.iter().map(|p| Vec3::from_array(*p)).collect(),
+            normals: with_normals.then(|| NORMALS.iter().map(|n| Vec3::from_array(*n)).collect()),
+            triangles: vec![[0, 1, 2], [0, 2, 3], [1, 4, 2]],
+        }
+    }
+
+    fn ascii_ply(with_normals: bool) -> String {
+        let mut s = String::from("ply\nformat ascii 1.0\ncomment written by hand\n");
+        s += "element vertex 5\nproperty float x\nproperty float y\nproperty float z\n";
+        if with_normals {
+            s += "property float nx\nproperty float ny\nproperty float nz\n";
+        }
+        s += "element face 2\nproperty list uchar int vertex_indices\n";
+        // An element we do not use, after the ones we do.
+        s += "element material 1\nproperty uchar red\nend_header\n";
+        for (p, n) in POSITIONS.iter().zip(NORMALS) {
+            s += &format!("{} {} {}", p[0], p[1], p[2]);
+            if with_normals {
+                s += &format!(" {} {} {}", n[0], n[1], n[2]);
+            }
+            s += "\n";
+        }
+        s += "4 0 1 2 3\n3 1 4 2\n255\n";
+        s
+    }
+
+    /// Binary PLY with float coordinates and `list uchar int` faces, plus an
+    /// unused per-vertex property and an unused element *before* the vertices.
+    fn binary_ply(with_normals: bool, big_endian: bool) -> Vec<u8> {
+        let f32b = |v: f32| {
+            if big_endian {
+                v.to_be_bytes()
+            } else {
+                v.to_le_bytes()
+            }
+        };
+        let i32b = |v: i32| {
+            if big_endian {
+                v.to_be_bytes()
+            } else {
+                v.to_le_bytes()
+            }
+        };
+        let format = if big_endian {
+            "binary_big_endian"
+        } else {
+            "binary_little_endian"
+        };
+        let mut header = format!("ply\nformat {format} 1.0\nelement camera 1\nproperty int id\n");
+        header += "element vertex 5\nproperty float x\nproperty float y\nproperty float z\n";
+        header += "property uchar quality\n";
+        if with_normals {
+            header += "property float nx\nproperty float ny\nproperty float nz\n";
+        }
+        header += "element face 2\nproperty list uchar int vertex_indices\nend_header\n";
+        let mut bytes = header.into_bytes();
+        bytes.extend(i32b(7));
+        for (p, n) in POSITIONS.iter().zip(NORMALS) {
+            p.iter().for_each(|&c| bytes.extend(f32b(c)));
+            bytes.push(200);
+            if with_normals {
+                n.iter().for_each(|&c| bytes.extend(f32b(c)));
+            }
+        }
+        bytes.push(4);
+        QUAD.iter().for_each(|&i| bytes.extend(i32b(i as i32)));
+        bytes.push(3);
+        TRI.iter().for_each(|&i| bytes.extend(i32b(i as i32)));
+        bytes
+    }
+
+    /// Binary little-endian PLY with double coordinates and `list int uint`
+    /// faces named `vertex_index`.
+    fn binary_ply_double() -> Vec<u8> {
+        let mut bytes = b"ply\nformat binary_little_endian 1.0\nelement vertex 5\n\
+            property double x\nproperty double y\nproperty double z\n\
+            element face 2\nproperty list int uint vertex_index\nend_header\n"
+            .to_vec();
+        for p in POSITIONS {
+            p.iter()
+                .for_each(|&c| bytes.extend(f64::from(c).to_le_bytes()));
+        }
+        bytes.extend(4i32.to_le_bytes());
+        QUAD.iter().for_each(|&i| bytes.extend(i.to_le_bytes()));
+        bytes.extend(3i32.to_le_bytes());
+        TRI.iter().for_each(|&i| bytes.extend(i.to_le_bytes()));
+        bytes
+    }
+
+    fn obj(with_normals: bool) -> String {
+        let mut s = String::from("# test mesh\no quad_and_triangle\n");
+        for p in POSITIONS {
+            s += &format!("v {} {} {}\n", p[0], p[1], p[2]);
+        }
+        if with_normals {
+            for n in NORMALS {
+                s += &format!("vn {} {} {}\n", n[0], n[1], n[2]);
+            }
+        }
+        let corner = |i: u32| {
+            if with_normals {
+                format!(" {}//{}", i + 1, i + 1)
+            } else {
+                format!(" {}", i + 1)
+            }
+        };
+        s += "f";
+        QUAD.iter().for_each(|&i| s += &corner(i));
+        s += "\nf";
+        TRI.iter().for_each(|&i| s += &corner(i));
+        s += "\n";
+        s
+    }
+
+    fn write(dir: &tempfile::TempDir, name: &str, contents: impl AsRef<[u8]>) -> PathBuf {
+        let path = dir.path().join(name);
+        fs::write(&path, contents).unwrap();
+        path
+    }
+
+    /// Unwraps the error and checks its message names the file and is one line.
+    fn error_message(result: Result<MeshData, MeshError>, path: &Path) -> String {
+        let message = result.expect_err("loading should fail").to_string();
+        assert!(
+            message.contains(&path.display().to_string()),
+            "message does not name the file: {message}"
+        );
+        assert!(
+            !message.contains('\n'),
+            "message is not one line: {message}"
+        );
+        message
+    }
+
+    #[test]
+    fn all_formats_agree_without_normals() {
+        let dir = tempfile::tempdir().unwrap();
+        let want = expected(false);
+        let ascii = load_ply(&write(&dir, "a.ply", ascii_ply(false))).unwrap();
+        let crlf = load_ply(&write(
+            &dir,
+            "crlf.ply",
+            ascii_ply(false).replace('\n', "\r\n"),
+        ))
+        .unwrap();
+        let le = load_ply(&write(&dir, "le.ply", binary_ply(false, false))).unwrap();
+        let be = load_ply(&write(&dir, "be.ply", binary_ply(false, true))).unwrap();
+        let double = load_ply(&write(&dir, "d.ply", binary_ply_double())).unwrap();
+        let obj = load_obj(&write(&dir, "m.obj", obj(false))).unwrap();
+        assert_eq!(ascii, want);
+        assert_eq!(crlf, want);
+        assert_eq!(le, want);
+        assert_eq!(be, want);
+        assert_eq!(double, want);
+        assert_eq!(obj, want);
+    }
+
+    #[test]
+    fn all_formats_agree_with_normals() {
+        let dir = tempfile::tempdir().unwrap();
+        let want = expected(true);
+        assert_eq!(
+            load_ply(&write(&dir, "a.ply", ascii_ply(true))).unwrap(),
+            want
+        );
+        assert_eq!(
+            load_ply(&write(&dir, "le.ply", binary_ply(true, false))).unwrap(),
+            want
+        );
+        assert_eq!(
+            load_ply(&write(&dir, "be.ply", binary_ply(true, true))).unwrap(),
+            want
+        );
+        assert_eq!(load_obj(&write(&dir, "m.obj", obj(true))).unwrap(), want);
+    }
+
+    #[test]
+    fn missing_file_is_an_error_naming_it() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("does_not_exist.ply");
+        let message = error_message(load_ply(&path), &path);
+        assert!(message.contains("cannot read"), "{message}");
+        let path = dir.path().join("does_not_exist.obj");
+        error_message(load_obj(&path), &path);
+        // A directory cannot be read as a file either.
+        error_message(load_ply(dir.path()), dir.path());
+        error_message(load_obj(dir.path()), dir.path());
+    }
+
+    #[test]
+    fn truncated_binary_ply_is_an_error() {
+        let dir = tempfile::tempdir().unwrap();
+        for with_normals in [false, true] {
+            let full = binary_ply(with_normals, false);
+            // Every proper prefix, from empty up to one byte short, must fail.
+            for len in 0..full.len() {
+                let path = write(&dir, "cut.ply", &full[..len]);
+                error_message(load_ply(&path), &path);
+            }
+        }
+        let full = binary_ply(false, false);
+        let path = write(&dir, "cut.ply", &full[..full.len() - 1]);
+        let message = error_message(load_ply(&path), &path);
+        assert!(message.contains("truncated"), "{message}");
+    }
+
+    #[test]
+    fn truncated_ascii_ply_is_an_error() {
+        let dir = tempfile::tempdir().unwrap();
+        let full = ascii_ply(false);
+        let cut = &full[..full.find("3 1 4 2").unwrap()];
+        let path = write(&dir, "cut.ply", cut);
+        let message = error_message(load_ply(&path), &path);
+        assert!(message.contains("truncated"), "{message}");
+    }
+
+    #[test]
+    fn ascii_ply_accepts_other_number_spellings() {
+        let dir = tempfile::tempdir().unwrap();
+        let text = ascii_ply(false)
+            .replace("\n1 0 0\n", "\n1. 0 0\n")
+            .replace("2 0.5 -0.25", "2E0 .5 -2.5E-1");
+        assert!(text.contains("1. 0 0") && text.contains("-2.5E-1"));
+        let mesh = load_ply(&write(&dir, "spell.ply", text)).unwrap();
+        assert_eq!(mesh, expected(false));
+        assert_eq!(normalize_numbers("1 2 3"), "1 2 3");
+        assert_eq!(normalize_numbers("-.5 +1.E3 2e5"), "-0.5 +1.0e3 2e5");
+    }
+
+    #[test]
+    fn out_of_range_face_index_is_an_error() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = write(
+            &dir,
+            "bad.ply",
+            ascii_ply(false).replace("3 1 4 2", "3 1 5 2"),
+        );
+        let message = error_message(load_ply(&path), &path);
+        assert!(
+            message.contains("face 1") && message.contains("vertex 5"),
+            "{message}"
+        );
+
+        let path = write(
+            &dir,
+            "neg.ply",
+            ascii_ply(false).replace("3 1 4 2", "3 1 -1 2"),
+        );
+        let message = error_message(load_ply(&path), &path);
+        assert!(message.contains("face 1"), "{message}");
+
+        let path = write(&dir, "bad.obj", obj(false).replace("f 2 5 3", "f 2 6 3"));
+        let message = error_message(load_obj(&path), &path);
+        assert!(
+            message.contains("face 1") && message.contains("index 6"),
+            "{message}"
+        );
+
+        let path = write(&dir, "neg.obj", obj(false).replace("f 2 5 3", "f 2 -6 3"));
+        error_message(load_obj(&path), &path);
+    }
+
+    #[test]
+    fn bad_obj_indices_do_not_panic() {
+        let dir = tempfile::tempdir().unwrap();
+        let base = "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvn 0 0 1\n";
+        for face in [
+            "f 0 1 2",
+            "f 1/0 2/1 3/1",
+            "f 1//0 2//1 3//1",
+            "f 1/-9 2/1 3/1",
+            "f 1/1/1/1 2 3",
+            "f /1 2 3",
+            "f a b c",
+            "f 99999999999999999999 1 2",
+        ] {
+            let path = write(&dir, "bad.obj", format!("{base}{face}\n"));
+            error_message(load_obj(&path), &path);
+        }
+    }
+
+    #[test]
+    fn face_with_too_few_vertices_is_an_error() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = write(
+            &dir,
+            "two.ply",
+            ascii_ply(false).replace("3 1 4 2", "2 1 4"),
+        );
+        let message = error_message(load_ply(&path), &path);
+        assert!(message.contains("face 1"), "{message}");
+        let path = write(&dir, "two.obj", obj(false).replace("f 2 5 3", "f 2 5"));
+        error_message(load_obj(&path), &path);
+    }
+
+    #[test]
+    fn ply_without_faces_is_an_error() {
+        let dir = tempfile::tempdir().unwrap();
+        let cloud = "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\n\
+            property float y\nproperty float z\nend_header\n0 0 0\n";
+        let path = write(&dir, "cloud.ply", cloud);
+        let message = error_message(load_ply(&path), &path);
+        assert!(matches!(load_ply(&path), Err(MeshError::NoFaces { .. })));
+        assert!(message.contains("no faces"), "{message}");
+
+        let empty_faces = "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\n\
+            property float y\nproperty float z\nelement face 0\n\
+            property list uchar int vertex_indices\nend_header\n0 0 0\n";
+        let path = write(&dir, "empty.ply", empty_faces);
+        assert!(matches!(load_ply(&path), Err(MeshError::NoFaces { .. })));
+
+        let path = write(&dir, "empty.obj", "v 0 0 0\nv 1 0 0\nl 1 2\n");
+        assert!(matches!(load_obj(&path), Err(MeshError::NoFaces { .. })));
+    }
+
+    #[test]
+    fn missing_coordinate_is_an_error() {
+        let dir = tempfile::tempdir().unwrap();
+        let text = ascii_ply(false).replace("property float z\n", "");
+        let path = write(&dir, "noz.ply", text);
+        let message = error_message(load_ply(&path), &path);
+        assert!(message.contains("'z'"), "{message}");
+    }
+
+    #[test]
+    fn non_finite_coordinates_are_an_error() {
+        let dir = tempfile::tempdir().unwrap();
+        // ASCII: 1e39 overflows f32 to infinity.
+        let path = write(
+            &dir,
+            "inf.ply",
+            ascii_ply(false).replace("2 0.5 -0.25", "2 1e39 -0.25"),
+        );
+        let message = error_message(load_ply(&path), &path);
+        assert!(message.contains("vertex 4"), "{message}");
+        // Binary: a NaN in the first coordinate.
+        let mut bytes = binary_ply_double();
+        let start = bytes.len() - (5 * 3 * 8 + 2 * 4 + 4 * 4 + 3 * 4);
+        bytes[start..start + 8].copy_from_slice(&f64::NAN.to_le_bytes());
+        let path = write(&dir, "nan.ply", bytes);
+        error_message(load_ply(&path), &path);
+        // A double too large for f32.
+        let mut bytes = binary_ply_double();
+        bytes[start..start + 8].copy_from_slice(&1e300f64.to_le_bytes());
+        let path = write(&dir, "huge.ply", bytes);
+        error_message(load_ply(&path), &path);
+        // OBJ.
+        let path = write(
+            &dir,
+            "nan.obj",
+            obj(false).replace("v 2 0.5 -0.25", "v 2 NaN -0.25"),
+        );
+        error_message(load_obj(&path), &path);
+    }
+
+    #[test]
+    fn malformed_content_is_an_error() {
+        let dir = tempfile::tempdir().unwrap();
+        let cases: Vec<(&str, Vec<u8>)> = vec![
+            ("empty", Vec::new()),
+            ("garbage", (0..=255u8).cycle().take(4000).collect()),
+            ("not_ply", b"solid cube\nfacet normal 0 0 1\n".to_vec()),
+            (
+                "no_end_header",
+                b"ply\nformat ascii 1.0\nelement vertex 3\n".to_vec(),
+            ),
+            // ply-rs itself would panic on this count.
+            (
+                "huge_count",
+                b"ply\nformat ascii 1.0\nelement vertex 99999999999999999999999\n\
+                  property float x\nend_header\n"
+                    .to_vec(),
+            ),
+            // A count that fits but cannot be backed by the file's size.
+            (
+                "big_count",
+                b"ply\nformat binary_little_endian 1.0\nelement vertex 4000000000000\n\
+                  property float x\nproperty float y\nproperty float z\nend_header\n"
+                    .to_vec(),
+            ),
+            (
+                "bad_number",
+                ascii_ply(false).replace("0.5", "0.5x").into_bytes(),
+            ),
+            (
+                "float_indices",
+                ascii_ply(false)
+                    .replace("uchar int vertex", "uchar float vertex")
+                    .into_bytes(),
+            ),
+        ];
+        for (name, bytes) in cases {
+            let path = write(&dir, &format!("{name}.ply"), &bytes);
+            error_message(load_ply(&path), &path);
+            let path = write(&dir, &format!("{name}.obj"), &bytes);
+            error_message(load_obj(&path), &path);
+        }
+    }
+
+    #[test]
+    fn obj_objects_are_merged_with_offset_indices() {
+        let dir = tempfile::tempdir().unwrap();
+        let text = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 2 0.5 -0.25\n\
+            o quad\nf 1 2 3 4\no triangle\ng part\nf 2 5 3\n";
+        let mesh = load_obj(&write(&dir, "two.obj", text)).unwrap();
+        // tobj gives each object its own vertices, so shared ones are duplicated.
+        assert_eq!(mesh.triangles, vec![[0, 1, 2], [0, 2, 3], [4, 5, 6]]);
+        let at = |t: usize, k: usize| mesh.positions[mesh.triangles[t][k] as usize];
+        assert_eq!(at(2, 0), Vec3::new(1.0, 0.0, 0.0));
+        assert_eq!(at(2, 1), Vec3::new(2.0, 0.5, -0.25));
+        assert_eq!(at(2, 2), Vec3::new(1.0, 1.0, 0.0));
+        assert_eq!(mesh.normals, None);
+    }
+
+    #[test]
+    fn obj_normals_only_if_every_vertex_has_one() {
+        let dir = tempfile::tempdir().unwrap();
+        let text = obj(true).replace("f 2//2 5//5 3//3", "f 2//2 5 3//3");
+        let mesh = load_obj(&write(&dir, "partial.obj", text)).unwrap();
+        assert_eq!(mesh.normals, None);
+        assert_eq!(mesh.triangles.len(), 3);
+    }
+
+    #[test]
+    fn bunny_loads() {
+        let path = Path::new("/work/shared/data/meshes/bunny.ply");
+        if !path.exists() {
+            return;
+        }
+        let mesh = load_ply(path).unwrap();
+        assert_eq!(mesh.positions.len(), 1839);
+        assert_eq!(mesh.triangles.len(), 3674);
+        assert_eq!(mesh.normals, None);
+    }
+}

@@ -1,0 +1,322 @@
+//! The parameters of one XML plugin element (`<float name=...>`, `<rgb ...>`, ...),
+//! read by name with types checked, and a final check that no parameter was left
+//! unread: an unknown or misspelt parameter is an error, never a silent skip.
+
+use super::error::SceneError;
+use super::transform::parse_transform;
+use glam::{DMat4, Vec3};
+use roxmltree::Node;
+use std::collections::HashMap;
+use std::path::Path;
+
+/// How an element's text attributes are resolved: `$name` substitution from defaults.
+pub struct Ctx<'a> {
+    pub file: &'a Path,
+    pub text: &'a str,
+    pub defaults: &'a HashMap<String, String>,
+}
+
+impl Ctx<'_> {
+    pub fn line(&self, node: Node) -> u32 {
+        let doc = node.document();
+        doc.text_pos_at(node.range().start).row
+    }
+
+    pub fn describe(node: Node) -> String {
+        let tag = node.tag_name().name();
+        match (node.attribute("type"), node.attribute("name")) {
+            (Some(t), _) => format!("{tag} type=\"{t}\""),
+            (None, Some(n)) => format!("{tag} name=\"{n}\""),
+            _ => tag.to_string(),
+        }
+    }
+
+    pub fn err(&self, node: Node, message: impl Into<String>) -> SceneError {
+        SceneError::new(self.file, self.line(node), Self::describe(node), message)
+    }
+
+    /// An attribute with `$name` references replaced by their defaults.
+    pub fn attr(&self, node: Node, name: &str) -> Result<Option<String>, SceneError> {
+        match node.attribute(name) {
+            None => Ok(None),
+            Some(raw) => self.substitute(node, raw).map(Some),
+        }
+    }
+
+    pub fn required_attr(&self, node: Node, name: &str) -> Result<String, SceneError> {
+        self.attr(node, name)?
+            .ok_or_else(|| self.err(node, format!("missing attribute '{name}'")))
+    }
+
+    fn substitute(&self, node: Node, raw: &str) -> Result<String, SceneError> {
+        let mut out = String::with_capacity(raw.len());
+        let mut rest = raw;
+        while let Some(pos) = rest.find('$') {
+            out.push_str(&rest[..pos]);
+            let after = &rest[pos + 1..];
+            let len = after
+                .find(|c: char| !(c.is_ascii_alphanumeric() || c == '_'))
+                .unwrap_or(after.len());
+            let key = &after[..len];
+            match self.defaults.get(key) {
+                Some(v) => out.push_str(v),
+                None => {
+                    return Err(self.err(
+                        node,
+                        format!("'${key}' has no <default name=\"{key}\"> and no -D {key}=..."),
+                    ))
+                }
+            }
+            rest = &after[len..];
+        }
+        out.push_str(rest);
+        Ok(out)
+    }
+}
+
+/// A typed parameter value.
+#[derive(Clone, Debug)]
+pub enum Value {
+    Float(f64),
+    Integer(i64),
+    Boolean(bool),
+    Str(String),
+    Rgb([f64; 3]),
+    Point([f64; 3]),
+    Transform(DMat4),
+}
+
+struct Entry<'a, 'i> {
+    node: Node<'a, 'i>,
+    value: Value,
+    used: bool,
+}
+
+/// The parameters of one plugin element, plus its nested object elements.
+pub struct Props<'a, 'i, 'c> {
+    pub ctx: &'c Ctx<'c>,
+    pub node: Node<'a, 'i>,
+    entries: HashMap<String, Entry<'a, 'i>>,
+    /// Nested plugin elements (`bsdf`, `emitter`, `ref`, `film`, ...) in document order.
+    pub objects: Vec<Node<'a, 'i>>,
+}
+
+const OBJECT_TAGS: &[&str] = &[
+    "bsdf", "emitter", "shape", "sensor", "film", "sampler", "rfilter", "integrator", "ref",
+    "texture", "medium", "phase", "profile",
+];
+
+fn parse_floats(s: &str) -> Option<Vec<f64>> {
+    s.split(|c: char| c == ',' || c.is_whitespace())
+        .filter(|t| !t.is_empty())
+        .map(|t| t.parse::<f64>().ok().filter(|v| v.is_finite()))
+        .collect()
+}
+
+impl<'a, 'i, 'c> Props<'a, 'i, 'c> {
+    pub fn parse(ctx: &'c Ctx<'c>, node: Node<'a, 'i>) -> Result<Self, SceneError> {
+        let mut entries = HashMap::new();
+        let mut objects = Vec::new();
+        for child in node.children().filter(|c| c.is_element()) {
+            let tag = child.tag_name().name();
+            if OBJECT_TAGS.contains(&tag) {
+                objects.push(child);
+                continue;
+            }
+            let name = ctx.required_attr(child, "name")?;
+            let value = Self::parse_value(ctx, child, tag)?;
+            if entries.contains_key(&name) {
+                return Err(ctx.err(child, format!("parameter '{name}' given twice")));
+            }
+            entries.insert(
+                name,
+                Entry {
+                    node: child,
+                    value,
+                    used: false,
+                },
+            );
+        }
+        Ok(Props {
+            ctx,
+            node,
+            entries,
+            objects,
+        })
+    }
+
+    fn parse_value(ctx: &Ctx, node: Node, tag: &str) -> Result<Value, SceneError> {
+        let bad = |what: &str, v: &str| ctx.err(node, format!("'{v}' is not {what}"));
+        Ok(match tag {
+            "float" => {
+                let v = ctx.required_attr(node, "value")?;
+                Value::Float(
+                    v.trim()
+                        .parse::<f64>()
+                        .ok()
+                        .filter(|x| x.is_finite())
+                        .ok_or_else(|| bad("a finite number", &v))?,
+                )
+            }
+            "integer" => {
+                let v = ctx.required_attr(node, "value")?;
+                Value::Integer(v.trim().parse().map_err(|_| bad("an integer", &v))?)
+            }
+            "boolean" => {
+                let v = ctx.required_attr(node, "value")?;
+                Value::Boolean(match v.trim() {
+                    "true" => true,
+                    "false" => false,
+                    _ => return Err(bad("true or false", &v)),
+                })
+            }
+            "string" => Value::Str(ctx.required_attr(node, "value")?),
+            "rgb" | "spectrum" | "color" => {
+                let v = ctx.required_attr(node, "value")?;
+                let f = parse_floats(&v).ok_or_else(|| bad("a list of numbers", &v))?;
+                match f.len() {
+                    1 => Value::Rgb([f[0]; 3]),
+                    3 => Value::Rgb([f[0], f[1], f[2]]),
+                    _ => return Err(bad("one or three numbers (wavelength:value spectra are not supported)", &v)),
+                }
+            }
+            "point" | "vector" => {
+                let mut p = [0.0; 3];
+                if let Some(v) = ctx.attr(node, "value")? {
+                    let f = parse_floats(&v).ok_or_else(|| bad("three numbers", &v))?;
+                    if f.len() != 3 {
+                        return Err(bad("three numbers", &v));
+                    }
+                    p.copy_from_slice(&f);
+                }
+                for (i, axis) in ["x", "y", "z"].iter().enumerate() {
+                    if let Some(v) = ctx.attr(node, axis)? {
+                        p[i] = v
+                            .trim()
+                            .parse::<f64>()
+                            .ok()
+                            .filter(|x| x.is_finite())
+                            .ok_or_else(|| bad("a finite number", &v))?;
+                    }
+                }
+                Value::Point(p)
+            }
+            "transform" => Value::Transform(parse_transform(ctx, node)?),
+            other => {
+                return Err(ctx.err(
+                    node,
+                    format!("unknown element <{other}> (supported: float, integer, boolean, string, rgb, spectrum, point, vector, transform, and nested plugins)"),
+                ))
+            }
+        })
+    }
+
+    fn take(&mut self, name: &str) -> Option<(Node<'a, 'i>, Value)> {
+        self.entries.get_mut(name).map(|e| {
+            e.used = true;
+            (e.node, e.value.clone())
+        })
+    }
+
+    fn type_err(&self, node: Node, name: &str, want: &str) -> SceneError {
+        self.ctx.err(node, format!("parameter '{name}' must be {want}"))
+    }
+
+    pub fn has(&self, name: &str) -> bool {
+        self.entries.contains_key(name)
+    }
+
+    pub fn float(&mut self, name: &str) -> Result<Option<f64>, SceneError> {
+        match self.take(name) {
+            None => Ok(None),
+            Some((_, Value::Float(v))) => Ok(Some(v)),
+            Some((_, Value::Integer(v))) => Ok(Some(v as f64)),
+            Some((n, _)) => Err(self.type_err(n, name, "a <float>")),
+        }
+    }
+
+    pub fn float_or(&mut self, name: &str, default: f64) -> Result<f64, SceneError> {
+        Ok(self.float(name)?.unwrap_or(default))
+    }
+
+    pub fn integer(&mut self, name: &str) -> Result<Option<i64>, SceneError> {
+        match self.take(name) {
+            None => Ok(None),
+            Some((_, Value::Integer(v))) => Ok(Some(v)),
+            Some((n, _)) => Err(self.type_err(n, name, "an <integer>")),
+        }
+    }
+
+    pub fn boolean_or(&mut self, name: &str, default: bool) -> Result<bool, SceneError> {
+        match self.take(name) {
+            None => Ok(default),
+            Some((_, Value::Boolean(v))) => Ok(v),
+            Some((n, _)) => Err(self.type_err(n, name, "a <boolean>")),
+        }
+    }
+
+    pub fn string(&mut self, name: &str) -> Result<Option<String>, SceneError> {
+        match self.take(name) {
+            None => Ok(None),
+            Some((_, Value::Str(v))) => Ok(Some(v)),
+            Some((n, _)) => Err(self.type_err(n, name, "a <string>")),
+        }
+    }
+
+    /// An rgb colour; a `<float>` gives a grey.
+    pub fn rgb(&mut self, name: &str) -> Result<Option<Vec3>, SceneError> {
+        match self.take(name) {
+            None => Ok(None),
+            Some((_, Value::Rgb(c))) => Ok(Some(Vec3::new(c[0] as f32, c[1] as f32, c[2] as f32))),
+            Some((_, Value::Float(v))) => Ok(Some(Vec3::splat(v as f32))),
+            Some((n, _)) => Err(self.type_err(n, name, "an <rgb>, <spectrum> or <float>")),
+        }
+    }
+
+    pub fn point(&mut self, name: &str) -> Result<Option<[f64; 3]>, SceneError> {
+        match self.take(name) {
+            None => Ok(None),
+            Some((_, Value::Point(p))) => Ok(Some(p)),
+            Some((n, _)) => Err(self.type_err(n, name, "a <point>")),
+        }
+    }
+
+    pub fn transform(&mut self, name: &str) -> Result<Option<DMat4>, SceneError> {
+        match self.take(name) {
+            None => Ok(None),
+            Some((_, Value::Transform(m))) => Ok(Some(m)),
+            Some((n, _)) => Err(self.type_err(n, name, "a <transform>")),
+        }
+    }
+
+    /// Marks a parameter as accepted without using it (documented as ignored).
+    pub fn ignore(&mut self, name: &str) {
+        self.take(name);
+    }
+
+    /// An error located at a named parameter, or at the element when it is absent.
+    pub fn err_at(&self, name: &str, message: impl Into<String>) -> SceneError {
+        let node = self.entries.get(name).map_or(self.node, |e| e.node);
+        self.ctx.err(node, message)
+    }
+
+    pub fn err(&self, message: impl Into<String>) -> SceneError {
+        self.ctx.err(self.node, message)
+    }
+
+    /// Fails on the first parameter nobody read.
+    pub fn finish(self) -> Result<(), SceneError> {
+        let mut unused: Vec<_> = self.entries.iter().filter(|(_, e)| !e.used).collect();
+        unused.sort_by_key(|(_, e)| e.node.range().start);
+        if let Some((name, e)) = unused.first() {
+            return Err(self.ctx.err(
+                e.node,
+                format!(
+                    "unknown parameter '{name}' for <{}>",
+                    Ctx::describe(self.node)
+                ),
+            ));
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,171 @@
+//! Shape plugins: `rectangle`, `cube`, `sphere`, `ply`, `obj` (Mitsuba 3 semantics).
+//!
+//! | shape | parameters |
+//! |-------|------------|
+//! | rectangle | `to_world`; [-1, 1]^2 in the z = 0 plane, normal +z |
+//! | cube | `to_world`; [-1, 1]^3, normals outward |
+//! | sphere | `center` (point, 0), `radius` (float, 1), `to_world` (uniform scale only) |
+//! | ply, obj | `filename` (relative to the scene file), `to_world`, `face_normals` (bool, false) |
+//!
+//! Every shape takes `flip_normals` (bool, false), an optional nested `<bsdf>` or
+//! `<ref>` (default: diffuse 0.5) and an optional nested `<emitter type="area">`.
+
+use super::error::SceneError;
+use super::mesh::{load_obj, load_ply, MeshData};
+use super::props::Props;
+use crate::geometry::shape::ShapeGeom;
+use crate::geometry::sphere::SphereGeom;
+use glam::{DMat4, DVec3, Vec3};
+
+fn rectangle() -> MeshData {
+    MeshData {
+        positions: vec![
+            Vec3::new(-1.0, -1.0, 0.0),
+            Vec3::new(1.0, -1.0, 0.0),
+            Vec3::new(1.0, 1.0, 0.0),
+            Vec3::new(-1.0, 1.0, 0.0),
+        ],
+        normals: None,
+        triangles: vec![[0, 1, 2], [2, 3, 0]],
+    }
+}
+
+fn cube() -> MeshData {
+    let mut positions = Vec::new();
+    let mut triangles = Vec::new();
+    // Each face: outward normal n and two in-plane axes with u x v = n.
+    for axis in 0..3 {
+        for sign in [-1.0f32, 1.0] {
+            let mut n = Vec3::ZERO;
+            n[axis] = sign;
+            let mut u = Vec3::ZERO;
+            u[(axis + 1) % 3] = 1.0;
+            let v = n.cross(u);
+            let base = positions.len() as u32;
+            for (a, b) in [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
+                positions.push(n + u * a + v * b);
+            }
+            triangles.push([base, base + 1, base + 2]);
+            triangles.push([base + 2, base + 3, base]);
+        }
+    }
+    MeshData {
+        positions,
+        normals: None,
+        triangles,
+    }
+}
+
+/// Applies `to_world` to a mesh. For the built-in shapes (`keep_facing`), a mirroring
+/// transform reverses the winding so the normal stays the transformed +z (as Mitsuba's
+/// analytic shapes do); file meshes keep their winding.
+fn transform_mesh(mut m: MeshData, to_world: &DMat4, keep_facing: bool) -> ShapeGeom {
+    let normal_m = to_world.inverse().transpose();
+    for p in m.positions.iter_mut() {
+        *p = to_world.transform_point3(p.as_dvec3()).as_vec3();
+    }
+    if let Some(ns) = m.normals.as_mut() {
+        for n in ns.iter_mut() {
+            *n = normal_m
+                .transform_vector3(n.as_dvec3())
+                .normalize_or_zero()
+                .as_vec3();
+        }
+    }
+    if keep_facing && to_world.determinant() < 0.0 {
+        for t in m.triangles.iter_mut() {
+            t.swap(1, 2);
+        }
+    }
+    ShapeGeom::Mesh {
+        positions: m.positions,
+        normals: m.normals,
+        triangles: m.triangles,
+    }
+}
+
+/// Builds the geometry of a `<shape>`; consumes its geometric parameters from `props`.
+pub fn parse_geometry(kind: &str, props: &mut Props) -> Result<ShapeGeom, SceneError> {
+    let to_world = props.transform("to_world")?.unwrap_or(DMat4::IDENTITY);
+    match kind {
+        "rectangle" => Ok(transform_mesh(rectangle(), &to_world, true)),
+        "cube" => Ok(transform_mesh(cube(), &to_world, true)),
+        "sphere" => {
+            let c = props.point("center")?.unwrap_or([0.0; 3]);
+            let r = props.float_or("radius", 1.0)?;
+            if r <= 0.0 {
+                return Err(props.err_at("radius", format!("sphere radius must be positive, got {r}")));
+            }
+            let lens = [
+                to_world.x_axis.truncate().length(),
+                to_world.y_axis.truncate().length(),
+                to_world.z_axis.truncate().length(),
+            ];
+            if (lens[0] - lens[1]).abs() > 1e-6 * lens[0] || (lens[0] - lens[2]).abs() > 1e-6 * lens[0] {
+                return Err(props.err_at("to_world", "a sphere's to_world must scale uniformly"));
+            }
+            let center = to_world.transform_point3(DVec3::from(c)).as_vec3();
+            Ok(ShapeGeom::Sphere(SphereGeom {
+                center,
+                radius: (r * lens[0]) as f32,
+            }))
+        }
+        "ply" | "obj" => {
+            let name = props
+                .string("filename")?
+                .ok_or_else(|| props.err("missing parameter 'filename'"))?;
+            let path = props.ctx.file.parent().unwrap_or(std::path::Path::new(".")).join(&name);
+            let loaded = if kind == "ply" { load_ply(&path) } else { load_obj(&path) };
+            let mut mesh = loaded.map_err(|e| props.err_at("filename", e.to_string()))?;
+            if props.boolean_or("face_normals", false)? {
+                mesh.normals = None;
+            }
+            if mesh.triangles.is_empty() {
+                return Err(props.err_at("filename", format!("mesh '{name}' has no triangles")));
+            }
+            Ok(transform_mesh(mesh, &to_world, false))
+        }
+        other => Err(props.err(format!(
+            "unknown shape type '{other}' (supported: rectangle, cube, sphere, ply, obj)"
+        ))),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::shape::Shape;
+
+    #[test]
+    fn cube_faces_point_outward_and_cover_area_24() {
+        let geom = transform_mesh(cube(), &DMat4::IDENTITY, true);
+        let shape = Shape {
+            name: "c".into(),
+            geom,
+            flip_normals: false,
+            bsdf: 0,
+            emitter: None,
+        };
+        assert!((shape.area() - 24.0).abs() < 1e-5);
+        for f in 0..12 {
+            let t = shape.triangle(f);
+            let centroid = t.point(1.0 / 3.0, 1.0 / 3.0);
+            assert!(t.cross().dot(centroid) > 0.0, "face {f} points inward");
+        }
+    }
+
+    #[test]
+    fn mirrored_rectangle_keeps_transformed_normal() {
+        let m = DMat4::from_scale(DVec3::new(1.0, 1.0, -1.0));
+        let geom = transform_mesh(rectangle(), &m, true);
+        let shape = Shape {
+            name: "r".into(),
+            geom,
+            flip_normals: false,
+            bsdf: 0,
+            emitter: None,
+        };
+        let n = shape.surface(0, 0.2, 0.2, Vec3::ZERO).ng;
+        assert!((n - Vec3::new(0.0, 0.0, -1.0)).length() < 1e-6);
+    }
+}
