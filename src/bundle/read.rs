@@ -17,14 +17,20 @@ impl Bundle {
     pub fn open(dir: &Path) -> Result<Bundle, BundleError> {
         let mpath = dir.join("manifest.json");
         if !dir.is_dir() {
-            return Err(BundleError::Invalid(dir.to_path_buf(), "not a bundle directory".into()));
+            return Err(BundleError::Invalid(
+                dir.to_path_buf(),
+                "not a bundle directory".into(),
+            ));
         }
         let text = std::fs::read_to_string(&mpath)
             .map_err(|e| BundleError::Invalid(mpath.clone(), format!("cannot read: {e}")))?;
         let value: serde_json::Value = serde_json::from_str(&text)
             .map_err(|e| BundleError::Invalid(mpath.clone(), format!("not valid JSON: {e}")))?;
         if value.get("format").and_then(|f| f.as_str()) != Some(FORMAT) {
-            return Err(BundleError::Invalid(mpath, format!("not a '{FORMAT}' manifest")));
+            return Err(BundleError::Invalid(
+                mpath,
+                format!("not a '{FORMAT}' manifest"),
+            ));
         }
         let version = value.get("version").and_then(|v| v.as_u64());
         if version != Some(VERSION as u64) {
@@ -44,7 +50,10 @@ impl Bundle {
         if manifest.spp < 2 {
             return Err(BundleError::Invalid(
                 mpath,
-                format!("spp = {}: at least 2 samples are needed for the statistics", manifest.spp),
+                format!(
+                    "spp = {}: at least 2 samples are needed for the statistics",
+                    manifest.spp
+                ),
             ));
         }
         Ok(Bundle {
@@ -59,17 +68,25 @@ impl Bundle {
         shape: &[usize],
     ) -> Result<Array<A, D>, BundleError> {
         let info = self.manifest.array(name).ok_or_else(|| {
-            BundleError::Invalid(self.dir.join("manifest.json"), format!("lists no array '{name}'"))
+            BundleError::Invalid(
+                self.dir.join("manifest.json"),
+                format!("lists no array '{name}'"),
+            )
         })?;
         let path = self.dir.join(&info.file);
         if !path.is_file() {
             return Err(BundleError::Invalid(path, "missing".into()));
         }
-        let a: Array<A, D> = read_npy(&path).map_err(|e| BundleError::Invalid(path.clone(), e.to_string()))?;
+        let a: Array<A, D> =
+            read_npy(&path).map_err(|e| BundleError::Invalid(path.clone(), e.to_string()))?;
         if a.shape() != shape {
             return Err(BundleError::Invalid(
                 path,
-                format!("shape {:?} does not match the manifest's {:?}", a.shape(), shape),
+                format!(
+                    "shape {:?} does not match the manifest's {:?}",
+                    a.shape(),
+                    shape
+                ),
             ));
         }
         Ok(a)

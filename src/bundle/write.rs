@@ -133,22 +133,82 @@ pub fn write_bundle(
     write_atomically(out, force, |dir| {
         std::fs::create_dir(dir).map_err(|e| BundleError::Io(dir.to_path_buf(), e.to_string()))?;
         let arrays = &mut written.arrays;
-        npy(dir, "x1", "<f8", &Array4::from_shape_vec(shape4, acc.x1).map_err(shape_err)?, arrays)?;
-        npy(dir, "x2", "<f8", &Array4::from_shape_vec(shape4, acc.x2).map_err(shape_err)?, arrays)?;
-        npy(dir, "x3", "<f8", &Array4::from_shape_vec(shape4, acc.x3).map_err(shape_err)?, arrays)?;
+        npy(
+            dir,
+            "x1",
+            "<f8",
+            &Array4::from_shape_vec(shape4, acc.x1).map_err(shape_err)?,
+            arrays,
+        )?;
+        npy(
+            dir,
+            "x2",
+            "<f8",
+            &Array4::from_shape_vec(shape4, acc.x2).map_err(shape_err)?,
+            arrays,
+        )?;
+        npy(
+            dir,
+            "x3",
+            "<f8",
+            &Array4::from_shape_vec(shape4, acc.x3).map_err(shape_err)?,
+            arrays,
+        )?;
         if let Some(s) = acc.sum {
-            npy(dir, "sum", "<f8", &Array4::from_shape_vec(shape4, s).map_err(shape_err)?, arrays)?;
+            npy(
+                dir,
+                "sum",
+                "<f8",
+                &Array4::from_shape_vec(shape4, s).map_err(shape_err)?,
+                arrays,
+            )?;
         }
-        npy(dir, "nonzero", "<u4", &Array3::from_shape_vec((h, w, t), acc.nonzero).map_err(shape_err)?, arrays)?;
+        npy(
+            dir,
+            "nonzero",
+            "<u4",
+            &Array3::from_shape_vec((h, w, t), acc.nonzero).map_err(shape_err)?,
+            arrays,
+        )?;
         let albedo: Vec<f32> = g.iter().flat_map(|p| p.albedo).collect();
         let normal: Vec<f32> = g.iter().flat_map(|p| p.normal).collect();
         let depth: Vec<f32> = g.iter().map(|p| p.depth).collect();
         let emitter: Vec<f32> = g.iter().map(|p| p.emitter).collect();
-        npy(dir, "albedo", "<f4", &Array3::from_shape_vec((h, w, 3), albedo).map_err(shape_err)?, arrays)?;
-        npy(dir, "normal", "<f4", &Array3::from_shape_vec((h, w, 3), normal).map_err(shape_err)?, arrays)?;
-        npy(dir, "depth", "<f4", &Array2::from_shape_vec((h, w), depth).map_err(shape_err)?, arrays)?;
-        npy(dir, "emitter", "<f4", &Array2::from_shape_vec((h, w), emitter).map_err(shape_err)?, arrays)?;
-        npy(dir, "steady", "<f8", &Array3::from_shape_vec((h, w, CHANNELS), output.steady).map_err(shape_err)?, arrays)?;
+        npy(
+            dir,
+            "albedo",
+            "<f4",
+            &Array3::from_shape_vec((h, w, 3), albedo).map_err(shape_err)?,
+            arrays,
+        )?;
+        npy(
+            dir,
+            "normal",
+            "<f4",
+            &Array3::from_shape_vec((h, w, 3), normal).map_err(shape_err)?,
+            arrays,
+        )?;
+        npy(
+            dir,
+            "depth",
+            "<f4",
+            &Array2::from_shape_vec((h, w), depth).map_err(shape_err)?,
+            arrays,
+        )?;
+        npy(
+            dir,
+            "emitter",
+            "<f4",
+            &Array2::from_shape_vec((h, w), emitter).map_err(shape_err)?,
+            arrays,
+        )?;
+        npy(
+            dir,
+            "steady",
+            "<f8",
+            &Array3::from_shape_vec((h, w, CHANNELS), output.steady).map_err(shape_err)?,
+            arrays,
+        )?;
         let json = serde_json::to_string_pretty(&*written).expect("manifest serialises");
         let mpath = dir.join("manifest.json");
         std::fs::write(&mpath, json).map_err(|e| BundleError::Io(mpath, e.to_string()))

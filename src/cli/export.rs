@@ -23,14 +23,18 @@ pub struct ExportArgs {
 }
 
 fn extension(p: &Path) -> String {
-    p.extension().map(|e| e.to_string_lossy().to_lowercase()).unwrap_or_default()
+    p.extension()
+        .map(|e| e.to_string_lossy().to_lowercase())
+        .unwrap_or_default()
 }
 
 /// Writes an (H, W, 3) image as an RGB OpenEXR (f32, lossless).
 pub fn write_exr_rgb(path: &Path, img: &Array3<f32>) -> Result<(), BundleError> {
     let (h, w) = (img.shape()[0], img.shape()[1]);
-    exr::prelude::write_rgb_file(path, w, h, |x, y| (img[[y, x, 0]], img[[y, x, 1]], img[[y, x, 2]]))
-        .map_err(|e| BundleError::Io(path.to_path_buf(), e.to_string()))
+    exr::prelude::write_rgb_file(path, w, h, |x, y| {
+        (img[[y, x, 0]], img[[y, x, 1]], img[[y, x, 2]])
+    })
+    .map_err(|e| BundleError::Io(path.to_path_buf(), e.to_string()))
 }
 
 pub fn run(a: ExportArgs) -> anyhow::Result<()> {
@@ -54,7 +58,8 @@ pub fn run(a: ExportArgs) -> anyhow::Result<()> {
     if let Some(out) = &a.out {
         let mean = bundle.noisy_mean()?;
         write_atomically(out, a.force, |tmp| {
-            ndarray_npy::write_npy(tmp, &mean).map_err(|e| BundleError::Io(out.clone(), e.to_string()))
+            ndarray_npy::write_npy(tmp, &mean)
+                .map_err(|e| BundleError::Io(out.clone(), e.to_string()))
         })?;
         println!("wrote {} (f32 {:?})", out.display(), mean.shape());
     }
@@ -64,7 +69,8 @@ pub fn run(a: ExportArgs) -> anyhow::Result<()> {
             if extension(s) == "exr" {
                 write_exr_rgb(tmp, &img)
             } else {
-                ndarray_npy::write_npy(tmp, &img).map_err(|e| BundleError::Io(s.clone(), e.to_string()))
+                ndarray_npy::write_npy(tmp, &img)
+                    .map_err(|e| BundleError::Io(s.clone(), e.to_string()))
             }
         })?;
         println!("wrote {} (f32 {:?})", s.display(), img.shape());

@@ -14,9 +14,18 @@ pub fn run(a: InfoArgs) -> anyhow::Result<()> {
     let b = Bundle::open(&a.bundle)?;
     let m = &b.manifest;
     println!("bundle      {}", a.bundle.display());
-    println!("format      {} v{} (written by {} {})", m.format, m.version, m.program.name, m.program.version);
+    println!(
+        "format      {} v{} (written by {} {})",
+        m.format, m.version, m.program.name, m.program.version
+    );
     println!("scene       {} (sha256 {})", m.scene.path, m.scene.sha256);
-    println!("film        {} x {} px, {} bins, channels {}", m.width, m.height, m.bins, m.channels.join(","));
+    println!(
+        "film        {} x {} px, {} bins, channels {}",
+        m.width,
+        m.height,
+        m.bins,
+        m.channels.join(",")
+    );
     println!(
         "time axis   start {} OPL, bin width {} OPL ({:.4} ps per bin at {} m/unit)",
         m.start_opl,
@@ -24,12 +33,21 @@ pub fn run(a: InfoArgs) -> anyhow::Result<()> {
         m.bin_width_seconds * 1e12,
         m.unit_m
     );
-    println!("samples     {} spp, seed {}, max_depth {}", m.spp, m.seed, m.max_depth);
+    println!(
+        "samples     {} spp, seed {}, max_depth {}",
+        m.spp, m.seed, m.max_depth
+    );
     println!("transform   {}", m.transform);
-    println!("render      {:.3} s, {} non-finite contributions dropped", m.render_seconds, m.dropped_nonfinite);
+    println!(
+        "render      {:.3} s, {} non-finite contributions dropped",
+        m.render_seconds, m.dropped_nonfinite
+    );
     println!("arrays");
     for arr in &m.arrays {
-        println!("  {:<8} {:<12} {} {:?}", arr.name, arr.file, arr.dtype, arr.shape);
+        println!(
+            "  {:<8} {:<12} {} {:?}",
+            arr.name, arr.file, arr.dtype, arr.shape
+        );
     }
     Ok(())
 }

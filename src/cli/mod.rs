@@ -8,7 +8,11 @@ pub mod util;
 use clap::{Parser, Subcommand};
 
 #[derive(Parser, Debug)]
-#[command(name = "tstat", version, about = "Statistical transient rendering and denoising")]
+#[command(
+    name = "tstat",
+    version,
+    about = "Statistical transient rendering and denoising"
+)]
 pub struct Cli {
     #[command(subcommand)]
     pub command: Command,

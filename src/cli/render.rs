@@ -50,18 +50,27 @@ impl SceneArgs {
             defaults.push((k.to_string(), v.to_string()));
         }
         if let Some(s) = self.spp {
-            anyhow::ensure!(s >= 2, "--spp {s}: at least 2 samples per pixel are needed to estimate a variance");
+            anyhow::ensure!(
+                s >= 2,
+                "--spp {s}: at least 2 samples per pixel are needed to estimate a variance"
+            );
         }
         if self.bins == Some(0) {
             bail!("--bins must be at least 1");
         }
         if let Some(h) = self.bin_width_opl {
-            anyhow::ensure!(h > 0.0 && h.is_finite(), "--bin-width-opl must be positive, got {h}");
+            anyhow::ensure!(
+                h > 0.0 && h.is_finite(),
+                "--bin-width-opl must be positive, got {h}"
+            );
         }
         if let Some(t0) = self.start_opl {
             anyhow::ensure!(t0.is_finite(), "--start-opl must be finite");
         }
-        anyhow::ensure!(self.width != Some(0) && self.height != Some(0), "--width and --height must be positive");
+        anyhow::ensure!(
+            self.width != Some(0) && self.height != Some(0),
+            "--width and --height must be positive"
+        );
         Ok(Overrides {
             defaults,
             spp: self.spp,
@@ -105,8 +114,14 @@ pub struct RenderArgs {
 }
 
 pub fn run(a: RenderArgs) -> anyhow::Result<()> {
-    let transform: Transform = a.transform.parse().map_err(|e: String| anyhow::anyhow!("--transform: {e}"))?;
-    anyhow::ensure!(a.unit_m > 0.0 && a.unit_m.is_finite(), "--unit-m must be positive");
+    let transform: Transform = a
+        .transform
+        .parse()
+        .map_err(|e: String| anyhow::anyhow!("--transform: {e}"))?;
+    anyhow::ensure!(
+        a.unit_m > 0.0 && a.unit_m.is_finite(),
+        "--unit-m must be positive"
+    );
     let overrides = a.scene_args.overrides()?;
     check_output(&a.out, a.force)?;
     let scene = Scene::load(&a.scene, &overrides)?;
@@ -142,12 +157,19 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
     };
     let total = film.pixels() as u64 * scene.spp as u64;
     let bar = ProgressBar::new(total).with_style(
-        ProgressStyle::with_template("{bar:40} {percent:>3}% {human_pos}/{human_len} paths, {per_sec}, ETA {eta}")
-            .expect("valid template"),
+        ProgressStyle::with_template(
+            "{bar:40} {percent:>3}% {human_pos}/{human_len} paths, {per_sec}, ETA {eta}",
+        )
+        .expect("valid template"),
     );
     let output = with_threads(a.threads, || render(&scene, &settings, &|n| bar.inc(n)))?;
     bar.finish_and_clear();
-    let (seconds, paths, rays, dropped) = (output.seconds, output.paths, output.rays, output.dropped_nonfinite);
+    let (seconds, paths, rays, dropped) = (
+        output.seconds,
+        output.paths,
+        output.rays,
+        output.dropped_nonfinite,
+    );
     let meta = BundleMeta {
         seed: settings.seed,
         transform,

@@ -29,10 +29,7 @@ impl Boundable for Prim {
         match self.geom {
             PrimGeom::Triangle(t) => {
                 let (a, b, c) = (t.v0, t.v0 + t.e1, t.v0 + t.e2);
-                Aabb::new(
-                    Vec3A::from(a.min(b).min(c)),
-                    Vec3A::from(a.max(b).max(c)),
-                )
+                Aabb::new(Vec3A::from(a.min(b).min(c)), Vec3A::from(a.max(b).max(c)))
             }
             PrimGeom::Sphere(s) => Aabb::new(
                 Vec3A::from(s.center - Vec3::splat(s.radius)),
@@ -89,7 +86,11 @@ impl Accel {
             &mut std::time::Duration::default(),
         );
         // Reorder the primitives into leaf order so the closures index them directly.
-        let ordered = bvh.primitive_indices.iter().map(|&i| prims[i as usize]).collect();
+        let ordered = bvh
+            .primitive_indices
+            .iter()
+            .map(|&i| prims[i as usize])
+            .collect();
         Accel {
             bvh: Some(bvh),
             prims: ordered,

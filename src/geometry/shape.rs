@@ -146,7 +146,10 @@ impl AreaSampler {
     pub fn sample(&self, shape: &Shape, u1: f32, u2: [f32; 2]) -> SurfacePoint {
         match &shape.geom {
             ShapeGeom::Mesh { .. } => {
-                let face = self.cdf.partition_point(|&c| c <= u1).min(self.cdf.len() - 1);
+                let face = self
+                    .cdf
+                    .partition_point(|&c| c <= u1)
+                    .min(self.cdf.len() - 1);
                 let [b1, b2] = uniform_triangle(u2);
                 shape.surface(face as u32, b1, b2, Vec3::ZERO)
             }

@@ -54,12 +54,18 @@ mod tests {
         };
         let t = s.intersect(Vec3::ZERO, -Vec3::Z, 0.0).unwrap();
         assert!((t - 4.0).abs() < 1e-5);
-        let t = s.intersect(Vec3::new(0.0, 0.0, -5.0), -Vec3::Z, 0.0).unwrap();
+        let t = s
+            .intersect(Vec3::new(0.0, 0.0, -5.0), -Vec3::Z, 0.0)
+            .unwrap();
         assert!((t - 1.0).abs() < 1e-5);
-        assert!(s.intersect(Vec3::new(0.0, 1.01, 0.0), -Vec3::Z, 0.0).is_none());
+        assert!(s
+            .intersect(Vec3::new(0.0, 1.01, 0.0), -Vec3::Z, 0.0)
+            .is_none());
         assert!(s.intersect(Vec3::ZERO, Vec3::Z, 0.0).is_none());
         // Grazing far away: still on the surface.
-        let t = s.intersect(Vec3::new(0.0, 0.999, 1000.0), -Vec3::Z, 0.0).unwrap();
+        let t = s
+            .intersect(Vec3::new(0.0, 0.999, 1000.0), -Vec3::Z, 0.0)
+            .unwrap();
         let p = Vec3::new(0.0, 0.999, 1000.0 - t);
         assert!(((p - s.center).length() - 1.0).abs() < 1e-3);
     }

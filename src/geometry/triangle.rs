@@ -65,11 +65,19 @@ mod tests {
     #[test]
     fn hits_inside_misses_outside_and_behind() {
         let t = TriangleGeom::new(Vec3::ZERO, Vec3::X, Vec3::Y);
-        let (dist, b1, b2) = t.intersect(Vec3::new(0.25, 0.25, 2.0), -Vec3::Z, 0.0).unwrap();
+        let (dist, b1, b2) = t
+            .intersect(Vec3::new(0.25, 0.25, 2.0), -Vec3::Z, 0.0)
+            .unwrap();
         assert!((dist - 2.0).abs() < 1e-6 && (b1 - 0.25).abs() < 1e-6 && (b2 - 0.25).abs() < 1e-6);
-        assert!(t.intersect(Vec3::new(0.75, 0.75, 2.0), -Vec3::Z, 0.0).is_none());
-        assert!(t.intersect(Vec3::new(0.25, 0.25, 2.0), Vec3::Z, 0.0).is_none());
-        assert!(t.intersect(Vec3::new(0.25, 0.25, 1.0), Vec3::X, 0.0).is_none());
+        assert!(t
+            .intersect(Vec3::new(0.75, 0.75, 2.0), -Vec3::Z, 0.0)
+            .is_none());
+        assert!(t
+            .intersect(Vec3::new(0.25, 0.25, 2.0), Vec3::Z, 0.0)
+            .is_none());
+        assert!(t
+            .intersect(Vec3::new(0.25, 0.25, 1.0), Vec3::X, 0.0)
+            .is_none());
         assert!((t.area() - 0.5).abs() < 1e-7);
     }
 }

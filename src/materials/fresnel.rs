@@ -10,7 +10,11 @@ use glam::Vec3;
 /// relative IOR across the interface in both directions.
 pub fn fresnel_dielectric(cos_theta_i: f32, eta: f32) -> (f32, f32, f32, f32) {
     let outside = cos_theta_i >= 0.0;
-    let (eta_it, eta_ti) = if outside { (eta, 1.0 / eta) } else { (1.0 / eta, eta) };
+    let (eta_it, eta_ti) = if outside {
+        (eta, 1.0 / eta)
+    } else {
+        (1.0 / eta, eta)
+    };
     let cos_theta_t_sqr = 1.0 - eta_ti * eta_ti * (1.0 - cos_theta_i * cos_theta_i);
     let cos_i = cos_theta_i.abs();
     let cos_t = cos_theta_t_sqr.max(0.0).sqrt();

@@ -78,7 +78,11 @@ impl Bsdf {
     #[inline]
     pub fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
         let (b, flip) = self.side(wo);
-        let (wo, wi) = if flip { (flip_z(wo), flip_z(wi)) } else { (wo, wi) };
+        let (wo, wi) = if flip {
+            (flip_z(wo), flip_z(wi))
+        } else {
+            (wo, wi)
+        };
         match b {
             Bsdf::Diffuse(d) => d.eval(wo, wi),
             Bsdf::Dielectric(_) | Bsdf::Conductor(_) => Rgb::ZERO,
@@ -89,7 +93,11 @@ impl Bsdf {
     #[inline]
     pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         let (b, flip) = self.side(wo);
-        let (wo, wi) = if flip { (flip_z(wo), flip_z(wi)) } else { (wo, wi) };
+        let (wo, wi) = if flip {
+            (flip_z(wo), flip_z(wi))
+        } else {
+            (wo, wi)
+        };
         match b {
             Bsdf::Diffuse(d) => d.pdf(wo, wi),
             Bsdf::Dielectric(_) | Bsdf::Conductor(_) => 0.0,

@@ -3,7 +3,7 @@
 use super::{Bsdf, Conductor, Dielectric, Diffuse};
 use crate::math::Rgb;
 use crate::scene::error::SceneError;
-use crate::scene::props::{Ctx, Props};
+use crate::scene::props::{Ctx, Props, Value};
 use roxmltree::Node;
 use std::collections::HashMap;
 
@@ -35,14 +35,18 @@ pub const NAMED_IORS: &[(&str, f64)] = &[
 ];
 
 fn ior(props: &mut Props, name: &str, default: f64) -> Result<f64, SceneError> {
-    if let Some(s) = props.string(name)? {
+    if let Some(Value::Str(s)) = props.peek(name).cloned() {
+        props.ignore(name);
         return NAMED_IORS
             .iter()
             .find(|(n, _)| *n == s.to_lowercase())
             .map(|(_, v)| *v)
             .ok_or_else(|| {
                 let names: Vec<_> = NAMED_IORS.iter().map(|(n, _)| *n).collect();
-                props.err_at(name, format!("unknown IOR name '{s}' (known: {})", names.join(", ")))
+                props.err_at(
+                    name,
+                    format!("unknown IOR name '{s}' (known: {})", names.join(", ")),
+                )
             });
     }
     let v = props.float_or(name, default)?;
@@ -68,17 +72,23 @@ pub fn resolve_bsdf(
     match node.tag_name().name() {
         "ref" => {
             let id = ctx.required_attr(node, "id")?;
-            named
-                .get(&id)
-                .cloned()
-                .ok_or_else(|| ctx.err(node, format!("no BSDF with id '{id}' defined before this point")))
+            named.get(&id).cloned().ok_or_else(|| {
+                ctx.err(
+                    node,
+                    format!("no BSDF with id '{id}' defined before this point"),
+                )
+            })
         }
         "bsdf" => parse_bsdf(ctx, node, named),
         other => Err(ctx.err(node, format!("expected <bsdf> or <ref>, found <{other}>"))),
     }
 }
 
-pub fn parse_bsdf(ctx: &Ctx, node: Node, named: &HashMap<String, Bsdf>) -> Result<Bsdf, SceneError> {
+pub fn parse_bsdf(
+    ctx: &Ctx,
+    node: Node,
+    named: &HashMap<String, Bsdf>,
+) -> Result<Bsdf, SceneError> {
     let kind = ctx.required_attr(node, "type")?;
     let mut props = Props::parse(ctx, node)?;
     let bsdf = match kind.as_str() {
@@ -114,7 +124,9 @@ pub fn parse_bsdf(ctx: &Ctx, node: Node, named: &HashMap<String, Bsdf>) -> Resul
             let (eta, k) = match (eta, k) {
                 (None, None) => (Rgb::ZERO, Rgb::ONE),
                 (Some(e), Some(k)) if material.is_none() => (e, k),
-                (Some(_), Some(_)) => return Err(props.err("give either 'material' or 'eta' and 'k', not both")),
+                (Some(_), Some(_)) => {
+                    return Err(props.err("give either 'material' or 'eta' and 'k', not both"))
+                }
                 _ => return Err(props.err("'eta' and 'k' must be given together")),
             };
             if eta.min_element() < 0.0 || k.min_element() < 0.0 {
@@ -153,7 +165,12 @@ pub fn parse_bsdf(ctx: &Ctx, node: Node, named: &HashMap<String, Bsdf>) -> Resul
         }
     };
     if let Some(&obj) = props.objects.first() {
-        return Err(ctx.err(obj, format!("unexpected nested element in <bsdf type=\"{kind}\"> (textures are not supported)")));
+        return Err(ctx.err(
+            obj,
+            format!(
+                "unexpected nested element in <bsdf type=\"{kind}\"> (textures are not supported)"
+            ),
+        ));
     }
     props.finish()?;
     Ok(bsdf)

@@ -114,7 +114,11 @@ pub fn trace_path(
         if g_pending && (!delta || seen_emitter) {
             g_pending = false;
             g.albedo = bsdf.albedo(wo);
-            g.normal = if sp.ns.dot(wo_world) >= 0.0 { sp.ns } else { -sp.ns };
+            g.normal = if sp.ns.dot(wo_world) >= 0.0 {
+                sp.ns
+            } else {
+                -sp.ns
+            };
             g.emitter = seen_emitter;
         }
 
@@ -145,7 +149,13 @@ pub fn trace_path(
                             power_heuristic(ls.pdf, bsdf.pdf(wo, wi))
                         };
                         let arrival = opl + eta as f64 * ls.dist as f64;
-                        contribute(scene, deposits, tally, arrival, beta * f * ls.li * (w / ls.pdf));
+                        contribute(
+                            scene,
+                            deposits,
+                            tally,
+                            arrival,
+                            beta * f * ls.li * (w / ls.pdf),
+                        );
                     }
                 }
             }
@@ -176,7 +186,7 @@ pub fn trace_path(
             }
             beta /= q;
         }
-        if !(beta_max > 0.0) {
+        if beta_max.is_nan() || beta_max <= 0.0 {
             break;
         }
     }

@@ -65,7 +65,11 @@ impl Camera {
         let axis = |v: glam::DVec3| to_world.transform_vector3(v).normalize().as_vec3();
         Camera {
             origin: to_world.transform_point3(glam::DVec3::ZERO).as_vec3(),
-            axes: [axis(glam::DVec3::X), axis(glam::DVec3::Y), axis(glam::DVec3::Z)],
+            axes: [
+                axis(glam::DVec3::X),
+                axis(glam::DVec3::Y),
+                axis(glam::DVec3::Z),
+            ],
             tan_half: [tx as f32, ty as f32],
             width,
             height,

@@ -14,7 +14,12 @@ pub struct SceneError {
 }
 
 impl SceneError {
-    pub fn new(file: &Path, line: u32, element: impl Into<String>, message: impl Into<String>) -> Self {
+    pub fn new(
+        file: &Path,
+        line: u32,
+        element: impl Into<String>,
+        message: impl Into<String>,
+    ) -> Self {
         SceneError {
             file: file.to_path_buf(),
             line,

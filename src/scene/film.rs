@@ -51,7 +51,10 @@ impl Film {
             return Err("temporal_bins must be at least 1".into());
         }
         if !(self.bin_width_opl > 0.0 && self.bin_width_opl.is_finite()) {
-            return Err(format!("bin_width_opl must be positive, got {}", self.bin_width_opl));
+            return Err(format!(
+                "bin_width_opl must be positive, got {}",
+                self.bin_width_opl
+            ));
         }
         if !self.start_opl.is_finite() {
             return Err(format!("start_opl must be finite, got {}", self.start_opl));
@@ -62,7 +65,10 @@ impl Film {
     pub fn parse(ctx: &Ctx, node: Node) -> Result<Film, SceneError> {
         let kind = ctx.required_attr(node, "type")?;
         if kind != "transient_hdr_film" {
-            return Err(ctx.err(node, format!("film type '{kind}' is not supported (use transient_hdr_film)")));
+            return Err(ctx.err(
+                node,
+                format!("film type '{kind}' is not supported (use transient_hdr_film)"),
+            ));
         }
         let mut p = Props::parse(ctx, node)?;
         let dim = |p: &mut Props, name: &str, default: Option<i64>| -> Result<usize, SceneError> {
@@ -83,7 +89,10 @@ impl Film {
             .float("bin_width_opl")?
             .ok_or_else(|| p.err("missing parameter 'bin_width_opl'"))?;
         if bin_width_opl <= 0.0 {
-            return Err(p.err_at("bin_width_opl", format!("bin_width_opl must be positive, got {bin_width_opl}")));
+            return Err(p.err_at(
+                "bin_width_opl",
+                format!("bin_width_opl must be positive, got {bin_width_opl}"),
+            ));
         }
         // mitransient film flags that do not change what is computed here.
         p.ignore("auto_detect_bins");

@@ -102,8 +102,19 @@ pub struct Props<'a, 'i, 'c> {
 }
 
 const OBJECT_TAGS: &[&str] = &[
-    "bsdf", "emitter", "shape", "sensor", "film", "sampler", "rfilter", "integrator", "ref",
-    "texture", "medium", "phase", "profile",
+    "bsdf",
+    "emitter",
+    "shape",
+    "sensor",
+    "film",
+    "sampler",
+    "rfilter",
+    "integrator",
+    "ref",
+    "texture",
+    "medium",
+    "phase",
+    "profile",
 ];
 
 fn parse_floats(s: &str) -> Option<Vec<f64>> {
@@ -219,11 +230,13 @@ impl<'a, 'i, 'c> Props<'a, 'i, 'c> {
     }
 
     fn type_err(&self, node: Node, name: &str, want: &str) -> SceneError {
-        self.ctx.err(node, format!("parameter '{name}' must be {want}"))
+        self.ctx
+            .err(node, format!("parameter '{name}' must be {want}"))
     }
 
-    pub fn has(&self, name: &str) -> bool {
-        self.entries.contains_key(name)
+    /// The value of a parameter without marking it read.
+    pub fn peek(&self, name: &str) -> Option<&Value> {
+        self.entries.get(name).map(|e| &e.value)
     }
 
     pub fn float(&mut self, name: &str) -> Result<Option<f64>, SceneError> {

@@ -5,7 +5,7 @@
 //! | rectangle | `to_world`; [-1, 1]^2 in the z = 0 plane, normal +z |
 //! | cube | `to_world`; [-1, 1]^3, normals outward |
 //! | sphere | `center` (point, 0), `radius` (float, 1), `to_world` (uniform scale only) |
-//! | ply, obj | `filename` (relative to the scene file), `to_world`, `face_normals` (bool, false) |
+//! | ply, obj | `filename` (relative to the scene file), `to_world`, `face_normals` (bool, false: smooth normals from the file, or angle-weighted ones computed as Mitsuba does) |
 //!
 //! Every shape takes `flip_normals` (bool, false), an optional nested `<bsdf>` or
 //! `<ref>` (default: diffuse 0.5) and an optional nested `<emitter type="area">`.
@@ -84,6 +84,27 @@ fn transform_mesh(mut m: MeshData, to_world: &DMat4, keep_facing: bool) -> Shape
     }
 }
 
+/// Smooth vertex normals for a file mesh without them, as Mitsuba computes them:
+/// face normals weighted by the angle each face makes at the vertex.
+pub fn vertex_normals(m: &MeshData) -> Vec<Vec3> {
+    let mut acc = vec![glam::DVec3::ZERO; m.positions.len()];
+    for t in &m.triangles {
+        let p = t.map(|i| m.positions[i as usize].as_dvec3());
+        let n = (p[1] - p[0]).cross(p[2] - p[0]);
+        let Some(n) = n.try_normalize() else { continue };
+        for k in 0..3 {
+            let e1 = p[(k + 1) % 3] - p[k];
+            let e2 = p[(k + 2) % 3] - p[k];
+            if let (Some(a), Some(b)) = (e1.try_normalize(), e2.try_normalize()) {
+                acc[t[k] as usize] += n * a.dot(b).clamp(-1.0, 1.0).acos();
+            }
+        }
+    }
+    acc.into_iter()
+        .map(|n| n.normalize_or_zero().as_vec3())
+        .collect()
+}
+
 /// Builds the geometry of a `<shape>`; consumes its geometric parameters from `props`.
 pub fn parse_geometry(kind: &str, props: &mut Props) -> Result<ShapeGeom, SceneError> {
     let to_world = props.transform("to_world")?.unwrap_or(DMat4::IDENTITY);
@@ -94,14 +115,18 @@ pub fn parse_geometry(kind: &str, props: &mut Props) -> Result<ShapeGeom, SceneE
             let c = props.point("center")?.unwrap_or([0.0; 3]);
             let r = props.float_or("radius", 1.0)?;
             if r <= 0.0 {
-                return Err(props.err_at("radius", format!("sphere radius must be positive, got {r}")));
+                return Err(
+                    props.err_at("radius", format!("sphere radius must be positive, got {r}"))
+                );
             }
             let lens = [
                 to_world.x_axis.truncate().length(),
                 to_world.y_axis.truncate().length(),
                 to_world.z_axis.truncate().length(),
             ];
-            if (lens[0] - lens[1]).abs() > 1e-6 * lens[0] || (lens[0] - lens[2]).abs() > 1e-6 * lens[0] {
+            if (lens[0] - lens[1]).abs() > 1e-6 * lens[0]
+                || (lens[0] - lens[2]).abs() > 1e-6 * lens[0]
+            {
                 return Err(props.err_at("to_world", "a sphere's to_world must scale uniformly"));
             }
             let center = to_world.transform_point3(DVec3::from(c)).as_vec3();
@@ -114,11 +139,22 @@ pub fn parse_geometry(kind: &str, props: &mut Props) -> Result<ShapeGeom, SceneE
             let name = props
                 .string("filename")?
                 .ok_or_else(|| props.err("missing parameter 'filename'"))?;
-            let path = props.ctx.file.parent().unwrap_or(std::path::Path::new(".")).join(&name);
-            let loaded = if kind == "ply" { load_ply(&path) } else { load_obj(&path) };
+            let path = props
+                .ctx
+                .file
+                .parent()
+                .unwrap_or(std::path::Path::new("."))
+                .join(&name);
+            let loaded = if kind == "ply" {
+                load_ply(&path)
+            } else {
+                load_obj(&path)
+            };
             let mut mesh = loaded.map_err(|e| props.err_at("filename", e.to_string()))?;
             if props.boolean_or("face_normals", false)? {
                 mesh.normals = None;
+            } else if mesh.normals.is_none() {
+                mesh.normals = Some(vertex_normals(&mesh));
             }
             if mesh.triangles.is_empty() {
                 return Err(props.err_at("filename", format!("mesh '{name}' has no triangles")));
@@ -152,6 +188,29 @@ mod tests {
             let centroid = t.point(1.0 / 3.0, 1.0 / 3.0);
             assert!(t.cross().dot(centroid) > 0.0, "face {f} points inward");
         }
+    }
+
+    #[test]
+    fn vertex_normals_of_a_flat_fan_are_the_face_normal() {
+        let m = MeshData {
+            positions: vec![Vec3::ZERO, Vec3::X, Vec3::new(1.0, 1.0, 0.0), Vec3::Y],
+            normals: None,
+            triangles: vec![[0, 1, 2], [0, 2, 3]],
+        };
+        for n in vertex_normals(&m) {
+            assert!((n - Vec3::Z).length() < 1e-6);
+        }
+        // A vertex shared by two perpendicular faces gets the angle-weighted bisector.
+        let m = MeshData {
+            positions: vec![Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::Z],
+            normals: None,
+            triangles: vec![[0, 1, 2], [0, 3, 1]],
+        };
+        let n0 = vertex_normals(&m)[0];
+        assert!(
+            (n0 - Vec3::new(0.0, 1.0, 1.0).normalize()).length() < 1e-6,
+            "{n0}"
+        );
     }
 
     #[test]

@@ -14,7 +14,12 @@ fn number(ctx: &Ctx, node: Node, attr: &str, default: f64) -> Result<f64, SceneE
             .parse::<f64>()
             .ok()
             .filter(|x| x.is_finite())
-            .ok_or_else(|| ctx.err(node, format!("attribute '{attr}' = '{v}' is not a finite number"))),
+            .ok_or_else(|| {
+                ctx.err(
+                    node,
+                    format!("attribute '{attr}' = '{v}' is not a finite number"),
+                )
+            }),
     }
 }
 
@@ -25,9 +30,17 @@ fn vector(ctx: &Ctx, node: Node, attr: &str) -> Result<DVec3, SceneError> {
         .filter(|t| !t.is_empty())
         .map(|t| t.parse::<f64>().ok().filter(|x| x.is_finite()))
         .collect::<Option<_>>()
-        .ok_or_else(|| ctx.err(node, format!("attribute '{attr}' = '{v}' is not a list of numbers")))?;
+        .ok_or_else(|| {
+            ctx.err(
+                node,
+                format!("attribute '{attr}' = '{v}' is not a list of numbers"),
+            )
+        })?;
     if f.len() != 3 {
-        return Err(ctx.err(node, format!("attribute '{attr}' needs three numbers, got '{v}'")));
+        return Err(ctx.err(
+            node,
+            format!("attribute '{attr}' needs three numbers, got '{v}'"),
+        ));
     }
     Ok(DVec3::new(f[0], f[1], f[2]))
 }

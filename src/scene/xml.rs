@@ -29,7 +29,8 @@ struct Sensor {
 
 pub fn load(path: &Path, overrides: &Overrides) -> Result<Scene, SceneError> {
     let whole = |msg: String| SceneError::new(path, 0, "scene", msg);
-    let bytes = std::fs::read(path).map_err(|e| whole(format!("cannot read the scene file: {e}")))?;
+    let bytes =
+        std::fs::read(path).map_err(|e| whole(format!("cannot read the scene file: {e}")))?;
     let sha256 = format!("{:x}", Sha256::digest(&bytes));
     let text = String::from_utf8(bytes).map_err(|_| whole("the scene file is not UTF-8".into()))?;
     let doc = roxmltree::Document::parse(&text).map_err(|e| {
@@ -67,7 +68,10 @@ pub fn load(path: &Path, overrides: &Overrides) -> Result<Scene, SceneError> {
             .children()
             .any(|n| n.has_tag_name("default") && n.attribute("name") == Some(key))
         {
-            return Err(ctx.err(root, format!("-D {key}=...: the scene has no <default name=\"{key}\">")));
+            return Err(ctx.err(
+                root,
+                format!("-D {key}=...: the scene has no <default name=\"{key}\">"),
+            ));
         }
     }
 
@@ -141,11 +145,13 @@ pub fn load(path: &Path, overrides: &Overrides) -> Result<Scene, SceneError> {
     match (overrides.width, overrides.height) {
         (Some(w), Some(h)) => (film.width, film.height) = (w, h),
         (Some(w), None) => {
-            film.height = ((w as f64 * film.height as f64 / film.width as f64).round() as usize).max(1);
+            film.height =
+                ((w as f64 * film.height as f64 / film.width as f64).round() as usize).max(1);
             film.width = w;
         }
         (None, Some(h)) => {
-            film.width = ((h as f64 * film.width as f64 / film.height as f64).round() as usize).max(1);
+            film.width =
+                ((h as f64 * film.width as f64 / film.height as f64).round() as usize).max(1);
             film.height = h;
         }
         (None, None) => {}
@@ -159,12 +165,15 @@ pub fn load(path: &Path, overrides: &Overrides) -> Result<Scene, SceneError> {
     if let Some(h) = overrides.bin_width_opl {
         film.bin_width_opl = h;
     }
-    film.validate().map_err(|m| whole(m))?;
+    film.validate().map_err(whole)?;
     if let Some(d) = overrides.max_depth {
         integrator.max_depth = d;
     }
     if integrator.max_depth < -1 {
-        return Err(whole(format!("max_depth must be -1 (unbounded) or >= 0, got {}", integrator.max_depth)));
+        return Err(whole(format!(
+            "max_depth must be -1 (unbounded) or >= 0, got {}",
+            integrator.max_depth
+        )));
     }
     let spp = overrides.spp.unwrap_or(s.spp);
     if spp < 2 {
@@ -195,17 +204,26 @@ pub fn load(path: &Path, overrides: &Overrides) -> Result<Scene, SceneError> {
 fn parse_integrator(ctx: &Ctx, node: Node) -> Result<IntegratorSettings, SceneError> {
     let kind = ctx.required_attr(node, "type")?;
     if kind != "transient_path" && kind != "transient_prbvolpath" {
-        return Err(ctx.err(node, format!("integrator '{kind}' is not supported (use transient_path)")));
+        return Err(ctx.err(
+            node,
+            format!("integrator '{kind}' is not supported (use transient_path)"),
+        ));
     }
     let mut p = Props::parse(ctx, node)?;
     let d = IntegratorSettings::default();
     let max_depth = p.integer("max_depth")?.unwrap_or(d.max_depth as i64);
     if max_depth < -1 || max_depth > i32::MAX as i64 {
-        return Err(p.err_at("max_depth", format!("max_depth must be -1 or >= 0, got {max_depth}")));
+        return Err(p.err_at(
+            "max_depth",
+            format!("max_depth must be -1 or >= 0, got {max_depth}"),
+        ));
     }
     let rr_depth = p.integer("rr_depth")?.unwrap_or(d.rr_depth as i64);
     if rr_depth <= 0 || rr_depth > u32::MAX as i64 {
-        return Err(p.err_at("rr_depth", format!("rr_depth must be positive, got {rr_depth}")));
+        return Err(p.err_at(
+            "rr_depth",
+            format!("rr_depth must be positive, got {rr_depth}"),
+        ));
     }
     let s = IntegratorSettings {
         max_depth: max_depth as i32,
@@ -223,16 +241,24 @@ fn parse_integrator(ctx: &Ctx, node: Node) -> Result<IntegratorSettings, SceneEr
 fn parse_sensor(ctx: &Ctx, node: Node) -> Result<Sensor, SceneError> {
     let kind = ctx.required_attr(node, "type")?;
     if kind != "perspective" {
-        return Err(ctx.err(node, format!("sensor '{kind}' is not supported (use perspective)")));
+        return Err(ctx.err(
+            node,
+            format!("sensor '{kind}' is not supported (use perspective)"),
+        ));
     }
     let mut p = Props::parse(ctx, node)?;
-    let fov = p.float("fov")?.ok_or_else(|| p.err("missing parameter 'fov'"))?;
+    let fov = p
+        .float("fov")?
+        .ok_or_else(|| p.err("missing parameter 'fov'"))?;
     if !(fov > 0.0 && fov < 180.0) {
         return Err(p.err_at("fov", format!("fov must be in (0, 180) degrees, got {fov}")));
     }
     let axis_name = p.string("fov_axis")?.unwrap_or_else(|| "x".into());
     let fov_axis = FovAxis::parse(&axis_name).ok_or_else(|| {
-        p.err_at("fov_axis", format!("fov_axis '{axis_name}' is not one of x, y, smaller, larger, diagonal"))
+        p.err_at(
+            "fov_axis",
+            format!("fov_axis '{axis_name}' is not one of x, y, smaller, larger, diagonal"),
+        )
     })?;
     // Rays start at the pinhole (SPEC 2); the clip planes do not change what is rendered.
     p.ignore("near_clip");
@@ -251,7 +277,9 @@ fn parse_sensor(ctx: &Ctx, node: Node) -> Result<Sensor, SceneError> {
                 let mut sp = Props::parse(ctx, obj)?;
                 if let Some(n) = sp.integer("sample_count")? {
                     if !(0..=u32::MAX as i64).contains(&n) {
-                        return Err(sp.err_at("sample_count", format!("sample_count {n} is out of range")));
+                        return Err(
+                            sp.err_at("sample_count", format!("sample_count {n} is out of range"))
+                        );
                     }
                     spp = n as u32;
                 }
@@ -324,7 +352,9 @@ fn parse_shape(
         }
     }
     p.finish()?;
-    let name = ctx.attr(node, "id")?.unwrap_or_else(|| format!("shape#{index}"));
+    let name = ctx
+        .attr(node, "id")?
+        .unwrap_or_else(|| format!("shape#{index}"));
     let shape = Shape {
         name,
         geom,

@@ -91,7 +91,13 @@ pub struct RowAccum<'a> {
 impl RowAccum<'_> {
     /// Adds one path's total deposit `x` (rgb radiance) in voxel (x, bin) as one sample.
     #[inline]
-    pub fn add_sample(&mut self, z: impl Fn(f64) -> f64, px: usize, bin: usize, x: [f64; CHANNELS]) {
+    pub fn add_sample(
+        &mut self,
+        z: impl Fn(f64) -> f64,
+        px: usize,
+        bin: usize,
+        x: [f64; CHANNELS],
+    ) {
         let v = px * self.bins + bin;
         self.nonzero[v] += 1;
         let base = v * CHANNELS;

@@ -1,0 +1,344 @@
+//! The real binary on real files: bundled scenes, determinism across thread counts,
+//! and one clear error (non-zero exit, nothing written) for every kind of bad input.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn tstat(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_tstat"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+fn scene(name: &str) -> String {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("scenes")
+        .join(name)
+        .display()
+        .to_string()
+}
+
+fn s(p: &Path) -> String {
+    p.display().to_string()
+}
+
+const SMALL: &[&str] = &["--width", "12", "--spp", "4", "--bins", "20"];
+
+#[test]
+fn every_bundled_scene_renders_exports_and_prints_info() {
+    let dir = tempfile::tempdir().unwrap();
+    for name in [
+        "cbox.xml",
+        "cbox_confocal.xml",
+        "cbox_spheres.xml",
+        "bunny.xml",
+    ] {
+        let out = dir.path().join(format!("{name}.tstats"));
+        let mut args = vec!["render".to_string(), scene(name), "--out".into(), s(&out)];
+        args.extend(SMALL.iter().map(|a| a.to_string()));
+        let args: Vec<&str> = args.iter().map(|a| a.as_str()).collect();
+        let r = tstat(&args);
+        assert!(
+            r.status.success(),
+            "{name}: {}",
+            String::from_utf8_lossy(&r.stderr)
+        );
+        for f in [
+            "manifest.json",
+            "x1.npy",
+            "x2.npy",
+            "x3.npy",
+            "nonzero.npy",
+            "albedo.npy",
+            "normal.npy",
+            "depth.npy",
+            "emitter.npy",
+            "steady.npy",
+        ] {
+            assert!(out.join(f).is_file(), "{name}: {f} missing");
+        }
+        let noisy = dir.path().join(format!("{name}.npy"));
+        let exr = dir.path().join(format!("{name}.exr"));
+        let r = tstat(&[
+            "export",
+            &s(&out),
+            "--out",
+            &s(&noisy),
+            "--steady",
+            &s(&exr),
+        ]);
+        assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+        let vol: ndarray::Array4<f32> = ndarray_npy::read_npy(&noisy).unwrap();
+        assert_eq!(vol.shape(), &[12, 12, 20, 3]);
+        assert!(vol.iter().all(|v| v.is_finite()) && vol.iter().any(|&v| v > 0.0));
+        assert!(std::fs::metadata(&exr).unwrap().len() > 0);
+        let r = tstat(&["info", &s(&out)]);
+        assert!(r.status.success());
+        assert!(String::from_utf8_lossy(&r.stdout).contains("12 x 12 px, 20 bins"));
+    }
+}
+
+#[test]
+fn bundles_are_bit_identical_with_one_or_two_threads() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut outs = Vec::new();
+    for threads in ["1", "2"] {
+        let out = dir.path().join(format!("t{threads}.tstats"));
+        let r = tstat(&[
+            "render",
+            &scene("cbox_spheres.xml"),
+            "--out",
+            &s(&out),
+            "--threads",
+            threads,
+            "--width",
+            "16",
+            "--spp",
+            "8",
+            "--bins",
+            "40",
+            "--seed",
+            "77",
+            "--transform",
+            "box-cox:0.5",
+        ]);
+        assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+        outs.push(out);
+    }
+    for f in [
+        "x1.npy",
+        "x2.npy",
+        "x3.npy",
+        "sum.npy",
+        "nonzero.npy",
+        "albedo.npy",
+        "normal.npy",
+        "steady.npy",
+    ] {
+        let a = std::fs::read(outs[0].join(f)).unwrap();
+        let b = std::fs::read(outs[1].join(f)).unwrap();
+        assert!(a == b, "{f} differs between 1 and 2 threads");
+    }
+}
+
+/// A small valid scene; tests break one thing at a time.
+const VALID: &str = r#"<scene version="3.0.0">
+    <default name="spp" value="4"/>
+    <integrator type="transient_path"><integer name="max_depth" value="3"/></integrator>
+    <sensor type="perspective">
+        <float name="fov" value="40"/>
+        <transform name="to_world"><lookat origin="0,0,4" target="0,0,0" up="0,1,0"/></transform>
+        <sampler type="independent"><integer name="sample_count" value="$spp"/></sampler>
+        <film type="transient_hdr_film">
+            <integer name="width" value="8"/><integer name="height" value="8"/>
+            <integer name="temporal_bins" value="10"/>
+            <float name="start_opl" value="3"/><float name="bin_width_opl" value="0.5"/>
+        </film>
+    </sensor>
+    <bsdf type="diffuse" id="grey"><rgb name="reflectance" value="0.5, 0.5, 0.5"/></bsdf>
+    <shape type="rectangle"><ref id="grey"/></shape>
+    <emitter type="point"><point name="position" x="0" y="0" z="4"/><rgb name="intensity" value="5"/></emitter>
+</scene>"#;
+
+struct Case {
+    dir: tempfile::TempDir,
+    scene: PathBuf,
+    out: PathBuf,
+}
+
+fn case(xml: &str) -> Case {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("scene.xml");
+    std::fs::write(&scene, xml).unwrap();
+    let out = dir.path().join("out.tstats");
+    Case { dir, scene, out }
+}
+
+/// Runs render on `xml` with `extra` flags; asserts a clean failure mentioning `want`.
+fn assert_render_fails(xml: &str, extra: &[&str], want: &[&str]) {
+    let c = case(xml);
+    let mut args = vec![
+        "render",
+        c.scene.to_str().unwrap(),
+        "--out",
+        c.out.to_str().unwrap(),
+    ];
+    args.extend_from_slice(extra);
+    let r = tstat(&args);
+    let err = String::from_utf8_lossy(&r.stderr);
+    assert_eq!(r.status.code(), Some(1), "should fail: {err}");
+    assert!(!err.contains("panicked"), "{err}");
+    assert_eq!(
+        err.trim()
+            .lines()
+            .filter(|l| l.starts_with("error"))
+            .count(),
+        1,
+        "{err}"
+    );
+    for w in want {
+        assert!(err.contains(w), "expected '{w}' in: {err}");
+    }
+    // Nothing written: only the scene file remains.
+    let left: Vec<_> = std::fs::read_dir(c.dir.path())
+        .unwrap()
+        .flatten()
+        .map(|e| e.file_name())
+        .collect();
+    assert_eq!(left.len(), 1, "left behind: {left:?}");
+}
+
+#[test]
+fn the_valid_scene_renders() {
+    let c = case(VALID);
+    let r = tstat(&[
+        "render",
+        c.scene.to_str().unwrap(),
+        "--out",
+        c.out.to_str().unwrap(),
+    ]);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+}
+
+#[test]
+fn malformed_xml_names_file_and_line() {
+    let xml = VALID.replace(
+        "<shape type=\"rectangle\"><ref id=\"grey\"/></shape>",
+        "<shape type=\"rectangle\">",
+    );
+    assert_render_fails(&xml, &[], &["scene.xml:", "malformed XML"]);
+}
+
+#[test]
+fn unknown_plugin_names_the_element_and_line() {
+    let xml = VALID.replace("type=\"diffuse\"", "type=\"plastik\"");
+    assert_render_fails(&xml, &[], &["scene.xml:14:", "unknown BSDF type 'plastik'"]);
+    let xml = VALID.replace("type=\"rectangle\"", "type=\"torus\"");
+    assert_render_fails(&xml, &[], &["scene.xml:15:", "unknown shape type 'torus'"]);
+}
+
+#[test]
+fn unknown_parameter_is_an_error() {
+    let xml = VALID.replace("<rgb name=\"reflectance\"", "<rgb name=\"reflectanse\"");
+    assert_render_fails(
+        &xml,
+        &[],
+        &["scene.xml:14:", "unknown parameter 'reflectanse'"],
+    );
+}
+
+#[test]
+fn missing_mesh_file_is_an_error() {
+    let xml = VALID.replace(
+        "<shape type=\"rectangle\"><ref id=\"grey\"/></shape>",
+        "<shape type=\"ply\"><string name=\"filename\" value=\"nowhere.ply\"/></shape>",
+    );
+    assert_render_fails(&xml, &[], &["scene.xml:15:", "nowhere.ply"]);
+}
+
+#[test]
+fn bad_numbers_are_errors() {
+    let xml = VALID.replace("value=\"40\"", "value=\"forty\"");
+    assert_render_fails(
+        &xml,
+        &[],
+        &["scene.xml:5:", "'forty' is not a finite number"],
+    );
+    let xml = VALID.replace("value=\"0.5, 0.5, 0.5\"", "value=\"0.5, 0.5\"");
+    assert_render_fails(&xml, &[], &["scene.xml:14:", "one or three numbers"]);
+    let xml = VALID.replace(
+        "name=\"max_depth\" value=\"3\"",
+        "name=\"max_depth\" value=\"3.5\"",
+    );
+    assert_render_fails(&xml, &[], &["scene.xml:3:", "not an integer"]);
+}
+
+#[test]
+fn missing_sensor_or_film_is_an_error() {
+    let start = VALID.find("<sensor").unwrap();
+    let end = VALID.find("</sensor>").unwrap() + "</sensor>".len();
+    let no_sensor = format!("{}{}", &VALID[..start], &VALID[end..]);
+    assert_render_fails(&no_sensor, &[], &["scene.xml:1:", "no <sensor>"]);
+    let start = VALID.find("<film").unwrap();
+    let end = VALID.find("</film>").unwrap() + "</film>".len();
+    let no_film = format!("{}{}", &VALID[..start], &VALID[end..]);
+    assert_render_fails(&no_film, &[], &["scene.xml:4:", "no <film>"]);
+}
+
+#[test]
+fn undefined_reference_and_default_are_errors() {
+    let xml = VALID.replace("<ref id=\"grey\"/>", "<ref id=\"gray\"/>");
+    assert_render_fails(&xml, &[], &["scene.xml:15:", "no BSDF with id 'gray'"]);
+    let xml = VALID.replace("value=\"$spp\"", "value=\"$samples\"");
+    assert_render_fails(&xml, &[], &["scene.xml:7:", "'$samples'"]);
+    assert_render_fails(VALID, &["-D", "nope=3"], &["nope"]);
+}
+
+#[test]
+fn bad_render_options_are_errors() {
+    assert_render_fails(VALID, &["--spp", "1"], &["at least 2 samples"]);
+    assert_render_fails(
+        &VALID.replace("name=\"spp\" value=\"4\"", "name=\"spp\" value=\"1\""),
+        &[],
+        &["at least 2 samples"],
+    );
+    assert_render_fails(VALID, &["--bins", "0"], &["--bins"]);
+    assert_render_fails(
+        VALID,
+        &["--bin-width-opl", "-0.1"],
+        &["--bin-width-opl must be positive"],
+    );
+    assert_render_fails(VALID, &["--transform", "box-cox:-1"], &["--transform"]);
+    assert_render_fails(VALID, &["--max-memory", "1k"], &["--max-memory"]);
+    assert_render_fails(VALID, &["--threads", "0"], &["--threads"]);
+}
+
+#[test]
+fn an_existing_output_is_kept_without_force_and_replaced_with_it() {
+    let c = case(VALID);
+    let (sc, out) = (c.scene.to_str().unwrap(), c.out.to_str().unwrap());
+    std::fs::create_dir(&c.out).unwrap();
+    std::fs::write(c.out.join("mine.txt"), "precious").unwrap();
+    let r = tstat(&["render", sc, "--out", out]);
+    assert_eq!(r.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&r.stderr).contains("already exists (use --force"));
+    assert_eq!(
+        std::fs::read_to_string(c.out.join("mine.txt")).unwrap(),
+        "precious"
+    );
+    let r = tstat(&["render", sc, "--out", out, "--force"]);
+    assert!(r.status.success());
+    assert!(c.out.join("manifest.json").is_file() && !c.out.join("mine.txt").exists());
+    let left: Vec<_> = std::fs::read_dir(c.dir.path())
+        .unwrap()
+        .flatten()
+        .map(|e| e.file_name())
+        .collect();
+    assert_eq!(left.len(), 2, "temporary files left: {left:?}");
+}
+
+#[test]
+fn damaged_bundles_are_refused_naming_the_file() {
+    let c = case(VALID);
+    let (sc, out) = (c.scene.to_str().unwrap(), c.out.to_str().unwrap());
+    assert!(tstat(&["render", sc, "--out", out]).status.success());
+    let npy = c.dir.path().join("noisy.npy");
+    // Truncated array.
+    let x1 = c.out.join("x1.npy");
+    let bytes = std::fs::read(&x1).unwrap();
+    std::fs::write(&x1, &bytes[..bytes.len() / 2]).unwrap();
+    let r = tstat(&["export", out, "--out", npy.to_str().unwrap()]);
+    assert_eq!(r.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&r.stderr).contains("x1.npy"));
+    assert!(!npy.exists());
+    // Other format version.
+    let m = c.out.join("manifest.json");
+    let text = std::fs::read_to_string(&m)
+        .unwrap()
+        .replace("\"version\": 1", "\"version\": 99");
+    std::fs::write(&m, text).unwrap();
+    let r = tstat(&["info", out]);
+    assert_eq!(r.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&r.stderr).contains("manifest.json"));
+}

@@ -1,0 +1,269 @@
+//! Physical checks of the transient path tracer against closed forms and invariants.
+
+use tstat::math::rng::Pcg32;
+use tstat::render::deposits::PathDeposits;
+use tstat::render::integrator::{trace_path, PathTally};
+use tstat::render::{render, RenderOutput, RenderSettings};
+use tstat::scene::{Overrides, Scene};
+use tstat::stats::Transform;
+
+fn load(xml: &str, overrides: &Overrides) -> Scene {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("scene.xml");
+    std::fs::write(&path, xml).unwrap();
+    Scene::load(&path, overrides).unwrap()
+}
+
+fn run(scene: &Scene, seed: u64) -> RenderOutput {
+    let settings = RenderSettings {
+        spp: scene.spp,
+        seed,
+        transform: Transform::Identity,
+    };
+    render(scene, &settings, &|_| {})
+}
+
+fn cbox(overrides: &Overrides) -> Scene {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cbox.xml");
+    Scene::load(&path, overrides).unwrap()
+}
+
+/// A point light at the pinhole, a diffuse plane at distance d = 2 facing the camera.
+const CONFOCAL_PLANE: &str = r#"<scene version="3.0.0">
+  <integrator type="transient_path"><integer name="max_depth" value="2"/></integrator>
+  <sensor type="perspective">
+    <float name="fov" value="2"/>
+    <transform name="to_world"><lookat origin="0,0,0" target="0,0,-1" up="0,1,0"/></transform>
+    <sampler type="independent"><integer name="sample_count" value="512"/></sampler>
+    <film type="transient_hdr_film">
+      <integer name="width" value="5"/><integer name="height" value="5"/>
+      <integer name="temporal_bins" value="40"/>
+      <float name="start_opl" value="3.025"/><float name="bin_width_opl" value="0.05"/>
+    </film>
+  </sensor>
+  <emitter type="point"><point name="position" x="0" y="0" z="0"/><rgb name="intensity" value="10, 20, 30"/></emitter>
+  <shape type="rectangle">
+    <transform name="to_world"><scale value="5"/><translate z="-2"/></transform>
+    <bsdf type="diffuse"><rgb name="reflectance" value="0.5, 0.6, 0.7"/></bsdf>
+  </shape>
+</scene>"#;
+
+#[test]
+fn confocal_plane_lands_in_bin_of_twice_the_distance_with_closed_form_radiance() {
+    let scene = load(CONFOCAL_PLANE, &Overrides::default());
+    let out = run(&scene, 3);
+    let (w, t_bins, n) = (5usize, 40usize, scene.spp as f64);
+    let (cx, cy) = (2usize, 2usize);
+    // OPL = 2 d / cos(theta) ~ 4.0000x; bin floor((4 - 3.025) / 0.05) = 19.
+    let bin = 19usize;
+    // Closed form: L = rho / pi * I * cos^3(theta) / d^2, averaged over the pixel footprint.
+    let tan_half = (1.0f64).to_radians().tan();
+    let grid = 400;
+    let mut mean_cos3 = 0.0;
+    for i in 0..grid {
+        for j in 0..grid {
+            let x = cx as f64 + (i as f64 + 0.5) / grid as f64;
+            let y = cy as f64 + (j as f64 + 0.5) / grid as f64;
+            let sx = (1.0 - 2.0 * x / w as f64) * tan_half;
+            let sy = (1.0 - 2.0 * y / w as f64) * tan_half;
+            mean_cos3 += (1.0 + sx * sx + sy * sy).powf(-1.5);
+        }
+    }
+    mean_cos3 /= (grid * grid) as f64;
+    let rho = [0.5, 0.6, 0.7];
+    let intensity = [10.0, 20.0, 30.0];
+    let acc = &out.accum;
+    for c in 0..3 {
+        let want = rho[c] / std::f64::consts::PI * intensity[c] * mean_cos3 / 4.0;
+        let v = ((cy * w + cx) * t_bins + bin) * 3 + c;
+        let mean = acc.x1[v] / n;
+        let var = (acc.x2[v] / n - mean * mean).max(0.0) * n / (n - 1.0);
+        let se = (var / n).sqrt();
+        // Monte Carlo error (4 standard errors) plus f32 rounding of the path weights.
+        let tol = 4.0 * se + 1e-5 * want;
+        assert!(
+            (mean - want).abs() <= tol,
+            "channel {c}: {mean} vs {want} (tol {tol})"
+        );
+        // Every path reaches the plane and sees the light: one sample each.
+        assert_eq!(acc.nonzero[(cy * w + cx) * t_bins + bin], scene.spp);
+        // Nothing arrives in any other bin of this pixel.
+        for k in (0..t_bins).filter(|&k| k != bin) {
+            assert_eq!(acc.x1[((cy * w + cx) * t_bins + k) * 3 + c], 0.0, "bin {k}");
+        }
+    }
+}
+
+#[test]
+fn bins_sum_to_the_steady_image_when_the_window_covers_all_arrivals() {
+    // max_depth 4 bounds OPL by ~5 + 3 * 3.5 < 20.
+    let scene = cbox(&Overrides {
+        width: Some(12),
+        spp: Some(16),
+        bins: Some(200),
+        start_opl: Some(0.0),
+        bin_width_opl: Some(0.1),
+        max_depth: Some(4),
+        ..Default::default()
+    });
+    let out = run(&scene, 11);
+    let (t, n) = (scene.film.bins, scene.spp as f64);
+    let mut checked = 0;
+    for p in 0..scene.film.pixels() {
+        for c in 0..3 {
+            let sum: f64 = (0..t).map(|k| out.accum.x1[(p * t + k) * 3 + c] / n).sum();
+            let steady = out.steady[p * 3 + c];
+            assert!(
+                (sum - steady).abs() <= 1e-12 * steady.abs() + 1e-15,
+                "pixel {p} channel {c}: {sum} vs {steady}"
+            );
+            checked += (steady > 0.0) as usize;
+        }
+    }
+    assert!(checked > scene.film.pixels(), "the image is mostly black");
+}
+
+#[test]
+fn each_path_is_one_sample_per_voxel() {
+    // One bin covering every arrival: each path's whole contribution is one sample.
+    let seed = 5;
+    let scene = cbox(&Overrides {
+        width: Some(6),
+        spp: Some(24),
+        bins: Some(1),
+        start_opl: Some(0.0),
+        bin_width_opl: Some(1000.0),
+        max_depth: Some(6),
+        ..Default::default()
+    });
+    let out = run(&scene, seed);
+    let w = scene.film.width;
+    let mut deposits = PathDeposits::default();
+    let mut several = 0;
+    for p in 0..scene.film.pixels() {
+        // The slow reference: replay each path and flush its total by hand.
+        let (mut x1, mut x2, mut x3, mut nonzero) = ([0.0f64; 3], [0.0f64; 3], [0.0f64; 3], 0u32);
+        for s in 0..scene.spp {
+            let mut rng = Pcg32::for_path(seed, p as u64, s as u64);
+            let [u, v] = rng.next_2d();
+            let d = scene
+                .camera
+                .direction((p % w) as f32 + u, (p / w) as f32 + v);
+            let mut tally = PathTally::default();
+            trace_path(&scene, d, &mut rng, &mut deposits, &mut tally);
+            let entries: Vec<_> = deposits.drain().collect();
+            assert!(entries.len() <= 1);
+            if let Some((_, total)) = entries.first() {
+                nonzero += 1;
+                for c in 0..3 {
+                    x1[c] += total[c];
+                    x2[c] += total[c] * total[c];
+                    x3[c] += total[c] * total[c] * total[c];
+                }
+                // Count paths whose single sample merged several contributions.
+                let contributions = tally.steady.iter().sum::<f64>();
+                several += (contributions > 0.0 && tally.rays > 2) as usize;
+            }
+        }
+        assert_eq!(out.accum.nonzero[p], nonzero, "pixel {p}");
+        for c in 0..3 {
+            let close = |a: f64, b: f64| (a - b).abs() <= 1e-12 * b.abs().max(1e-300);
+            assert!(close(out.accum.x1[p * 3 + c], x1[c]), "x1 pixel {p}");
+            assert!(close(out.accum.x2[p * 3 + c], x2[c]), "x2 pixel {p}");
+            assert!(close(out.accum.x3[p * 3 + c], x3[c]), "x3 pixel {p}");
+        }
+    }
+    assert!(several > 0);
+}
+
+#[test]
+fn counts_never_exceed_spp_and_sums_satisfy_cauchy_schwarz() {
+    let scene = cbox(&Overrides {
+        width: Some(16),
+        spp: Some(32),
+        bins: Some(120),
+        bin_width_opl: Some(0.05),
+        ..Default::default()
+    });
+    let out = run(&scene, 2);
+    let n = scene.spp as f64;
+    assert!(out.accum.nonzero.iter().all(|&k| k <= scene.spp));
+    assert!(out.accum.nonzero.iter().any(|&k| k > 1));
+    for v in 0..out.accum.x1.len() {
+        let (x1, x2) = (out.accum.x1[v], out.accum.x2[v]);
+        // n * X2 >= X1^2 (the sample variance is non-negative), up to rounding.
+        assert!(n * x2 >= x1 * x1 * (1.0 - 1e-12), "voxel {v}: {x1} {x2}");
+    }
+}
+
+/// A camera looking through an optional glass slab (thickness 1, n = 1.5) at an area
+/// light 4 units away.
+fn slab_scene(with_slab: bool) -> String {
+    let slab = if with_slab {
+        r#"<shape type="cube">
+    <transform name="to_world"><scale x="2" y="2" z="0.5"/><translate z="-2"/></transform>
+    <bsdf type="dielectric"><float name="int_ior" value="1.5"/><float name="ext_ior" value="1.0"/></bsdf>
+  </shape>"#
+    } else {
+        ""
+    };
+    format!(
+        r#"<scene version="3.0.0">
+  <integrator type="transient_path"><integer name="max_depth" value="3"/></integrator>
+  <sensor type="perspective">
+    <float name="fov" value="0.5"/>
+    <transform name="to_world"><lookat origin="0,0,0" target="0,0,-1" up="0,1,0"/></transform>
+    <sampler type="independent"><integer name="sample_count" value="4096"/></sampler>
+    <film type="transient_hdr_film">
+      <integer name="width" value="1"/><integer name="height" value="1"/>
+      <integer name="temporal_bins" value="20"/>
+      <float name="start_opl" value="3.975"/><float name="bin_width_opl" value="0.05"/>
+    </film>
+  </sensor>
+  <shape type="rectangle">
+    <transform name="to_world"><scale value="3"/><translate z="-4"/></transform>
+    <emitter type="area"><rgb name="radiance" value="1"/></emitter>
+  </shape>
+  {slab}
+</scene>"#
+    )
+}
+
+#[test]
+fn a_glass_slab_delays_arrival_by_n_minus_one_times_thickness() {
+    let bins = 20;
+    let bin_of = |out: &RenderOutput| -> Vec<usize> {
+        (0..bins).filter(|&k| out.accum.x1[k * 3] > 0.0).collect()
+    };
+    let free = load(&slab_scene(false), &Overrides::default());
+    let free_out = run(&free, 1);
+    assert_eq!(bin_of(&free_out), vec![0], "OPL 4 lands in bin 0");
+    assert_eq!(free_out.accum.x1[0] / 4096.0, 1.0);
+
+    let glass = load(&slab_scene(true), &Overrides::default());
+    let out = run(&glass, 1);
+    // (n - 1) d = 0.5 OPL = 10 bins later; internal reflections are cut by max_depth.
+    assert_eq!(bin_of(&out), vec![10]);
+    // Transmitted twice at normal incidence: (1 - R)^2 with R = 0.04; each path's sample
+    // is 1 or 0, so the standard error is sqrt(p (1 - p) / n).
+    let n = 4096.0;
+    let p = 0.96f64 * 0.96;
+    let mean = out.accum.x1[10 * 3] / n;
+    let se = (p * (1.0 - p) / n).sqrt();
+    assert!((mean - p).abs() < 4.0 * se, "{mean} vs {p}");
+}
+
+#[test]
+fn same_seed_same_bits_different_seed_different_bits() {
+    let o = Overrides {
+        width: Some(8),
+        spp: Some(4),
+        bins: Some(30),
+        ..Default::default()
+    };
+    let a = run(&cbox(&o), 9);
+    let b = run(&cbox(&o), 9);
+    let c = run(&cbox(&o), 10);
+    assert!(a.accum.x1 == b.accum.x1 && a.accum.x3 == b.accum.x3 && a.steady == b.steady);
+    assert!(a.accum.x1 != c.accum.x1);
+}
