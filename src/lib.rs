@@ -6,6 +6,7 @@
 
 pub mod bundle;
 pub mod cli;
+pub mod denoise;
 pub mod geometry;
 pub mod lights;
 pub mod materials;

@@ -1,5 +1,6 @@
 //! Command-line interface: one file per subcommand.
 
+mod denoise;
 mod export;
 mod info;
 mod render;
@@ -22,6 +23,8 @@ pub struct Cli {
 pub enum Command {
     /// Render a scene transiently and write its statistics bundle.
     Render(render::RenderArgs),
+    /// Denoise a bundle with the statistical spatio-temporal filter.
+    Denoise(denoise::DenoiseArgs),
     /// Write the noisy mean volume and/or the steady image of a bundle.
     Export(export::ExportArgs),
     /// Print a bundle's manifest.
@@ -31,6 +34,7 @@ pub enum Command {
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Render(a) => render::run(a),
+        Command::Denoise(a) => denoise::run(a),
         Command::Export(a) => export::run(a),
         Command::Info(a) => info::run(a),
     }

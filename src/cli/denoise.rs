@@ -1,0 +1,183 @@
+//! `tstat denoise NAME.tstats --out denoised.npy`: the statistical spatio-temporal filter.
+
+use super::export::write_exr_rgb;
+use super::util::{human_bytes, with_threads};
+use crate::bundle::write::{check_output, write_atomically};
+use crate::bundle::{Bundle, BundleError};
+use crate::denoise::base_filter::{BaseKind, Sigmas};
+use crate::denoise::critical::Threshold;
+use crate::denoise::{denoise_bundle, memory_bytes, DenoiseParams};
+use anyhow::{bail, ensure};
+use clap::{Args, ValueEnum};
+use indicatif::{ProgressBar, ProgressStyle};
+use ndarray::{s, Array3, Array4};
+use std::path::{Path, PathBuf};
+
+#[derive(Clone, Copy, Debug, ValueEnum)]
+pub enum BaseArg {
+    /// Joint bilateral: pixel and bin offsets, albedo, normal.
+    Jbf,
+    /// Pixel and bin offsets only.
+    Gaussian,
+}
+
+/// The filter's options, shared by `denoise`, `report` and `run`.
+#[derive(Args, Debug, Clone)]
+pub struct FilterArgs {
+    /// Spatial radius r in pixels (window 2r + 1).
+    #[arg(long, default_value_t = 5, allow_negative_numbers = true)]
+    pub radius: i64,
+    /// Temporal radius r_t in bins.
+    #[arg(long, default_value_t = 1, allow_negative_numbers = true)]
+    pub temporal_radius: i64,
+    /// Membership threshold on 1 - w* (g^2 = 1/(2 gamma) - 1), in (0, 0.5). Default 0.1.
+    #[arg(long, conflicts_with = "alpha", allow_negative_numbers = true)]
+    pub gamma: Option<f64>,
+    /// Two-sided significance level of the Welch test, in (0, 1) (Student's t, 2n - 2 dof).
+    #[arg(long, allow_negative_numbers = true)]
+    pub alpha: Option<f64>,
+    /// Base filter.
+    #[arg(long, value_enum, default_value = "jbf")]
+    pub base: BaseArg,
+    /// Run the base filter alone (no membership test).
+    #[arg(long, conflicts_with_all = ["gamma", "alpha"])]
+    pub no_membership: bool,
+    /// Standard deviation of pixel offsets (default sqrt(10)).
+    #[arg(long, allow_negative_numbers = true)]
+    pub sigma_xy: Option<f64>,
+    /// Standard deviation of bin offsets (default 1).
+    #[arg(long, allow_negative_numbers = true)]
+    pub sigma_t: Option<f64>,
+    /// Standard deviation of albedo differences per channel (default sqrt(0.02)).
+    #[arg(long, allow_negative_numbers = true)]
+    pub sigma_albedo: Option<f64>,
+    /// Standard deviation of normal differences per component (default sqrt(0.1)).
+    #[arg(long, allow_negative_numbers = true)]
+    pub sigma_normal: Option<f64>,
+}
+
+impl FilterArgs {
+    pub fn params(&self) -> anyhow::Result<DenoiseParams> {
+        ensure!(self.radius >= 0, "--radius {}: must be >= 0", self.radius);
+        ensure!(
+            self.temporal_radius >= 0,
+            "--temporal-radius {}: must be >= 0",
+            self.temporal_radius
+        );
+        ensure!(self.radius <= 64, "--radius {}: at most 64", self.radius);
+        ensure!(
+            self.temporal_radius <= 64,
+            "--temporal-radius {}: at most 64",
+            self.temporal_radius
+        );
+        let d = Sigmas::default();
+        let p = DenoiseParams {
+            radius: self.radius as usize,
+            temporal_radius: self.temporal_radius as usize,
+            threshold: if self.no_membership {
+                None
+            } else {
+                Some(match (self.gamma, self.alpha) {
+                    (_, Some(a)) => Threshold::Alpha(a),
+                    (Some(g), None) => Threshold::Gamma(g),
+                    (None, None) => Threshold::Gamma(0.1),
+                })
+            },
+            base: match self.base {
+                BaseArg::Jbf => BaseKind::Jbf,
+                BaseArg::Gaussian => BaseKind::Gaussian,
+            },
+            sigmas: Sigmas {
+                xy: self.sigma_xy.unwrap_or(d.xy),
+                t: self.sigma_t.unwrap_or(d.t),
+                albedo: self.sigma_albedo.unwrap_or(d.albedo),
+                normal: self.sigma_normal.unwrap_or(d.normal),
+            },
+            ..Default::default()
+        };
+        p.validate().map_err(|e| anyhow::anyhow!(e))?;
+        Ok(p)
+    }
+}
+
+#[derive(Args, Debug)]
+pub struct DenoiseArgs {
+    /// A statistics bundle directory.
+    pub bundle: PathBuf,
+    /// Output volume, f32 (H, W, T, C) .npy.
+    #[arg(long)]
+    pub out: PathBuf,
+    #[command(flatten)]
+    pub filter: FilterArgs,
+    /// Also write one OpenEXR per bin into this directory.
+    #[arg(long)]
+    pub exr: Option<PathBuf>,
+    /// Worker threads (default: all cores). The output does not depend on it.
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Replace existing outputs.
+    #[arg(long)]
+    pub force: bool,
+}
+
+/// Writes every bin of an (H, W, T, C) volume as `DIR/bin_NNNN.exr`, atomically.
+pub fn write_exr_bins(dir: &Path, volume: &Array4<f32>, force: bool) -> Result<(), BundleError> {
+    write_atomically(dir, force, |tmp| {
+        std::fs::create_dir(tmp).map_err(|e| BundleError::Io(tmp.to_path_buf(), e.to_string()))?;
+        let digits = volume.shape()[2].to_string().len().max(4);
+        for k in 0..volume.shape()[2] {
+            let img: Array3<f32> = volume.slice(s![.., .., k, ..]).to_owned();
+            write_exr_rgb(&tmp.join(format!("bin_{k:0digits$}.exr")), &img)?;
+        }
+        Ok(())
+    })
+}
+
+pub fn run(a: DenoiseArgs) -> anyhow::Result<()> {
+    let params = a.filter.params()?;
+    if a.out.extension().and_then(|e| e.to_str()) != Some("npy") {
+        bail!("--out {}: the volume is written as .npy", a.out.display());
+    }
+    check_output(&a.out, a.force)?;
+    if let Some(d) = &a.exr {
+        check_output(d, a.force)?;
+    }
+    let bundle = Bundle::open(&a.bundle)?;
+    let m = &bundle.manifest;
+    eprintln!(
+        "{}: {}x{} px, {} bins, {} spp; denoiser memory ~{} (plus the f64 sums while reading)",
+        a.bundle.display(),
+        m.width,
+        m.height,
+        m.bins,
+        m.spp,
+        human_bytes(memory_bytes(m.height, m.width, m.bins))
+    );
+    let bar = ProgressBar::new((m.width * m.height) as u64).with_style(
+        ProgressStyle::with_template("{bar:40} {percent:>3}% pixels, ETA {eta}")
+            .expect("valid template"),
+    );
+    let result = with_threads(a.threads, || {
+        denoise_bundle(&bundle, &params, &|n| bar.inc(n))
+    })??;
+    bar.finish_and_clear();
+    write_atomically(&a.out, a.force, |tmp| {
+        ndarray_npy::write_npy(tmp, &result.volume)
+            .map_err(|e| BundleError::Io(a.out.clone(), e.to_string()))
+    })?;
+    if let Some(d) = &a.exr {
+        write_exr_bins(d, &result.volume, a.force)?;
+    }
+    println!(
+        "denoised {} -> {} in {:.2} s: {:.0} M voxel-neighbour evaluations/s{}",
+        a.bundle.display(),
+        a.out.display(),
+        result.seconds,
+        result.evaluations as f64 / result.seconds / 1e6,
+        a.exr
+            .as_ref()
+            .map(|d| format!("; EXR bins in {}", d.display()))
+            .unwrap_or_default()
+    );
+    Ok(())
+}

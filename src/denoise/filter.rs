@@ -1,0 +1,249 @@
+//! The fast statistical filter (SPEC 8):
+//! `out_j = sum_i w_ij mean_i / sum_i w_ij`, `w_ij = p_ij m_ij`, over the neighbours i
+//! with |dy|, |dx| <= r and |dt| <= r_t.
+//!
+//! Work is split into tiles: bands of image rows (run in parallel) cut into blocks of
+//! pixels and ranges of bins; a tile reads its halo (r pixels, r_t bins) straight from
+//! the shared read-only estimates. For each output pixel and neighbour pixel, the pixel
+//! part of p is computed once and reused for every bin; the inner loop runs over
+//! contiguous bins (planar layout) and vectorises. Each voxel's sums are accumulated
+//! in the same neighbour order whatever the tiling or thread count, so the output is
+//! bit-identical across both. Voxels whose whole neighbourhood is zero are skipped
+//! (they are zero).
+
+use super::base_filter::{BaseFilter, Features};
+use super::estimates::Estimates;
+use crate::stats::accumulators::CHANNELS;
+use rayon::prelude::*;
+
+#[derive(Clone, Copy, Debug)]
+pub struct FilterParams {
+    pub radius: usize,
+    pub temporal_radius: usize,
+    pub base: BaseFilter,
+    /// g^2 of the membership test; `None` runs the base filter alone.
+    pub g2: Option<f64>,
+}
+
+/// Tile shape: rows per band (the parallel unit), pixels per block, bins per range.
+#[derive(Clone, Copy, Debug)]
+pub struct Tiling {
+    pub rows: usize,
+    pub cols: usize,
+    pub bins: usize,
+}
+
+impl Default for Tiling {
+    fn default() -> Self {
+        Tiling {
+            rows: 4,
+            cols: 16,
+            bins: 64,
+        }
+    }
+}
+
+/// Per pixel, the first and one-past-last bin holding any non-zero estimate.
+fn active_ranges(e: &Estimates) -> Vec<(usize, usize)> {
+    let t = e.bins;
+    (0..e.height * e.width)
+        .into_par_iter()
+        .map(|p| {
+            let nz = |k: usize| {
+                (0..CHANNELS).any(|c| {
+                    let i = e.idx(p, c, k);
+                    e.mean[i] != 0.0 || e.theta[i] != 0.0 || e.v[i] != 0.0
+                })
+            };
+            match (0..t).find(|&k| nz(k)) {
+                None => (0, 0),
+                Some(lo) => (lo, (lo..t).rev().find(|&k| nz(k)).unwrap() + 1),
+            }
+        })
+        .collect()
+}
+
+/// The inner loop: one neighbour pixel at one bin offset, over `n` contiguous bins.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn accumulate<const MEMBERSHIP: bool>(
+    n: usize,
+    w: f32,
+    g2: f32,
+    theta_i: [&[f32]; 3],
+    theta_j: [&[f32]; 3],
+    v_i: [&[f32]; 3],
+    v_j: [&[f32]; 3],
+    mean_i: [&[f32]; 3],
+    num: [&mut [f32]; 3],
+    den: &mut [f32],
+) {
+    let (ti0, ti1, ti2) = (&theta_i[0][..n], &theta_i[1][..n], &theta_i[2][..n]);
+    let (tj0, tj1, tj2) = (&theta_j[0][..n], &theta_j[1][..n], &theta_j[2][..n]);
+    let (vi0, vi1, vi2) = (&v_i[0][..n], &v_i[1][..n], &v_i[2][..n]);
+    let (vj0, vj1, vj2) = (&v_j[0][..n], &v_j[1][..n], &v_j[2][..n]);
+    let (mi0, mi1, mi2) = (&mean_i[0][..n], &mean_i[1][..n], &mean_i[2][..n]);
+    let [n0, n1, n2] = num;
+    let (n0, n1, n2, den) = (&mut n0[..n], &mut n1[..n], &mut n2[..n], &mut den[..n]);
+    for k in 0..n {
+        let wk = if MEMBERSHIP {
+            let d0 = ti0[k] - tj0[k];
+            let d1 = ti1[k] - tj1[k];
+            let d2 = ti2[k] - tj2[k];
+            let m = (d0 * d0 <= g2 * (vi0[k] + vj0[k]))
+                & (d1 * d1 <= g2 * (vi1[k] + vj1[k]))
+                & (d2 * d2 <= g2 * (vi2[k] + vj2[k]));
+            if m {
+                w
+            } else {
+                0.0
+            }
+        } else {
+            w
+        };
+        n0[k] += wk * mi0[k];
+        n1[k] += wk * mi1[k];
+        n2[k] += wk * mi2[k];
+        den[k] += wk;
+    }
+}
+
+/// Filters `e`; returns the output in the planar layout (H, W, C, T) and the number of
+/// voxel-neighbour evaluations. `progress` is called with pixels finished.
+pub fn filter(
+    e: &Estimates,
+    features: &Features,
+    params: &FilterParams,
+    tiling: Tiling,
+    progress: &(dyn Fn(u64) + Sync),
+) -> (Vec<f32>, u64) {
+    let (h, w, t_bins) = (e.height, e.width, e.bins);
+    let per_pixel = CHANNELS * t_bins;
+    let mut out = vec![0.0f32; h * w * per_pixel];
+    let active = active_ranges(e);
+    let (r, rt) = (params.radius as i64, params.temporal_radius as i64);
+    let pt = params.base.time_weights(params.temporal_radius);
+    let g2 = params.g2.unwrap_or(0.0) as f32;
+    let rows = tiling.rows.max(1);
+    let band_len = rows * w * per_pixel;
+
+    let evaluations: u64 = out
+        .par_chunks_mut(band_len)
+        .enumerate()
+        .map(|(band, out_band)| {
+            let y0 = band * rows;
+            let y1 = (y0 + rows).min(h);
+            let mut num: [Vec<f32>; 3] = std::array::from_fn(|_| vec![0.0; tiling.bins.max(1)]);
+            let mut den = vec![0.0f32; tiling.bins.max(1)];
+            let mut evals = 0u64;
+            for b0 in (0..t_bins).step_by(tiling.bins.max(1)) {
+                let b1 = (b0 + tiling.bins.max(1)).min(t_bins);
+                for x0 in (0..w).step_by(tiling.cols.max(1)) {
+                    let x1 = (x0 + tiling.cols.max(1)).min(w);
+                    for yj in y0..y1 {
+                        for xj in x0..x1 {
+                            let j = yj * w + xj;
+                            let (ylo, yhi) =
+                                ((yj as i64 - r).max(0), (yj as i64 + r).min(h as i64 - 1));
+                            let (xlo, xhi) =
+                                ((xj as i64 - r).max(0), (xj as i64 + r).min(w as i64 - 1));
+                            // Bins of j whose neighbourhood holds anything non-zero.
+                            let (mut a, mut b) = (usize::MAX, 0usize);
+                            for yi in ylo..=yhi {
+                                for xi in xlo..=xhi {
+                                    let (lo, hi) = active[yi as usize * w + xi as usize];
+                                    if hi > lo {
+                                        a = a.min(lo.saturating_sub(rt as usize));
+                                        b = b.max((hi + rt as usize).min(t_bins));
+                                    }
+                                }
+                            }
+                            let (a, b) = (a.max(b0), b.min(b1));
+                            if a >= b {
+                                continue;
+                            }
+                            let n = b - a;
+                            for v in num.iter_mut() {
+                                v[..n].fill(0.0);
+                            }
+                            den[..n].fill(0.0);
+                            for yi in ylo..=yhi {
+                                for xi in xlo..=xhi {
+                                    let i = yi as usize * w + xi as usize;
+                                    let ps = params.base.pair_weight(
+                                        features,
+                                        j,
+                                        i,
+                                        yi - yj as i64,
+                                        xi - xj as i64,
+                                    );
+                                    for dt in -rt..=rt {
+                                        let wt = (ps * pt[(dt + rt) as usize]) as f32;
+                                        let ts = (a as i64).max(-dt) as usize;
+                                        let te = (b as i64).min(t_bins as i64 - dt);
+                                        if te <= ts as i64 {
+                                            continue;
+                                        }
+                                        let te = te as usize;
+                                        let m = te - ts;
+                                        let si = (ts as i64 + dt) as usize;
+                                        let oi: [usize; 3] =
+                                            std::array::from_fn(|c| e.idx(i, c, si));
+                                        let oj: [usize; 3] =
+                                            std::array::from_fn(|c| e.idx(j, c, ts));
+                                        let th_i = oi.map(|o| &e.theta[o..o + m]);
+                                        let th_j = oj.map(|o| &e.theta[o..o + m]);
+                                        let v_i = oi.map(|o| &e.v[o..o + m]);
+                                        let v_j = oj.map(|o| &e.v[o..o + m]);
+                                        let mu_i = oi.map(|o| &e.mean[o..o + m]);
+                                        let off = ts - a;
+                                        let [n0, n1, n2] = &mut num;
+                                        let sums = [&mut n0[off..], &mut n1[off..], &mut n2[off..]];
+                                        if params.g2.is_some() {
+                                            accumulate::<true>(
+                                                m,
+                                                wt,
+                                                g2,
+                                                th_i,
+                                                th_j,
+                                                v_i,
+                                                v_j,
+                                                mu_i,
+                                                sums,
+                                                &mut den[off..],
+                                            );
+                                        } else {
+                                            accumulate::<false>(
+                                                m,
+                                                wt,
+                                                g2,
+                                                th_i,
+                                                th_j,
+                                                v_i,
+                                                v_j,
+                                                mu_i,
+                                                sums,
+                                                &mut den[off..],
+                                            );
+                                        }
+                                        evals += m as u64;
+                                    }
+                                }
+                            }
+                            let local = (yj - y0) * w + xj;
+                            for c in 0..CHANNELS {
+                                let o = (local * CHANNELS + c) * t_bins;
+                                for k in 0..n {
+                                    out_band[o + a + k] = num[c][k] / den[k];
+                                }
+                            }
+                        }
+                    }
+                }
+            }
+            progress(((y1 - y0) * w) as u64);
+            evals
+        })
+        .sum();
+    (out, evaluations)
+}

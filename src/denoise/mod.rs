@@ -1,0 +1,147 @@
+//! Denoising (SPEC 8): estimates from the bundle's sums, then the statistical
+//! spatio-temporal filter (base filter x Welch-test membership).
+
+pub mod base_filter;
+pub mod critical;
+pub mod estimates;
+pub mod filter;
+pub mod membership;
+
+use crate::bundle::{Bundle, BundleError};
+use crate::stats::accumulators::CHANNELS;
+use base_filter::{BaseFilter, BaseKind, Features, Sigmas};
+use critical::Threshold;
+use estimates::{Estimates, SumsView};
+use filter::{filter, FilterParams, Tiling};
+use ndarray::Array4;
+
+/// Everything the denoiser is told.
+#[derive(Clone, Copy, Debug)]
+pub struct DenoiseParams {
+    pub radius: usize,
+    pub temporal_radius: usize,
+    /// The membership test's threshold; `None` runs the base filter alone.
+    pub threshold: Option<Threshold>,
+    pub base: BaseKind,
+    pub sigmas: Sigmas,
+    pub tiling: Tiling,
+}
+
+impl Default for DenoiseParams {
+    fn default() -> Self {
+        DenoiseParams {
+            radius: 5,
+            temporal_radius: 1,
+            threshold: Some(Threshold::Gamma(0.1)),
+            base: BaseKind::Jbf,
+            sigmas: Sigmas::default(),
+            tiling: Tiling::default(),
+        }
+    }
+}
+
+impl DenoiseParams {
+    pub fn validate(&self) -> Result<(), String> {
+        if let Some(t) = &self.threshold {
+            t.validate()?;
+        }
+        self.sigmas.validate()
+    }
+}
+
+pub struct Denoised {
+    /// f32 (H, W, T, C).
+    pub volume: Array4<f32>,
+    /// Voxel-neighbour evaluations performed.
+    pub evaluations: u64,
+    pub seconds: f64,
+}
+
+/// Bytes the denoiser holds at its peak for a volume of this size: the three estimate
+/// volumes and the output (f32), on top of the f64 sums while estimates are made.
+pub fn memory_bytes(height: usize, width: usize, bins: usize) -> u64 {
+    (height * width * bins * CHANNELS) as u64 * 4 * 4
+}
+
+/// Denoises from sums and G-buffers already in memory.
+pub fn denoise_sums(
+    sums: &SumsView,
+    albedo: &[f32],
+    normal: &[f32],
+    params: &DenoiseParams,
+    progress: &(dyn Fn(u64) + Sync),
+) -> Denoised {
+    let start = std::time::Instant::now();
+    let est = Estimates::from_sums(sums);
+    let fp = FilterParams {
+        radius: params.radius,
+        temporal_radius: params.temporal_radius,
+        base: BaseFilter {
+            kind: params.base,
+            sigmas: params.sigmas,
+        },
+        g2: params.threshold.map(|t| t.g2(sums.spp)),
+    };
+    let features = Features { albedo, normal };
+    let (planar, evaluations) = filter(&est, &features, &fp, params.tiling, progress);
+    drop(est);
+    let (h, w, t) = (sums.height, sums.width, sums.bins);
+    let volume = Array4::from_shape_fn((h, w, t, CHANNELS), |(y, x, k, c)| {
+        planar[((y * w + x) * CHANNELS + c) * t + k]
+    });
+    Denoised {
+        volume,
+        evaluations,
+        seconds: start.elapsed().as_secs_f64(),
+    }
+}
+
+/// Reads a bundle and denoises it.
+pub fn denoise_bundle(
+    bundle: &Bundle,
+    params: &DenoiseParams,
+    progress: &(dyn Fn(u64) + Sync),
+) -> Result<Denoised, BundleError> {
+    let m = &bundle.manifest;
+    let x1 = bundle.x1()?;
+    let x2 = bundle.x2()?;
+    let x3 = bundle.x3()?;
+    let sum = if m.transform.is_identity() {
+        None
+    } else {
+        Some(bundle.radiance_sum()?)
+    };
+    let nonzero = bundle.nonzero()?;
+    let albedo = bundle.albedo()?;
+    let normal = bundle.normal()?;
+    if let Some((v, _)) = nonzero.indexed_iter().find(|(_, &k)| k as u64 > m.spp) {
+        return Err(BundleError::Invalid(
+            bundle.dir.join("nonzero.npy"),
+            format!("count at {v:?} exceeds spp = {}", m.spp),
+        ));
+    }
+    let view = SumsView {
+        height: m.height,
+        width: m.width,
+        bins: m.bins,
+        spp: m.spp,
+        z0: m.transform.at_zero(),
+        x1: std_slice(&x1),
+        x2: std_slice(&x2),
+        x3: std_slice(&x3),
+        sum: std_slice(sum.as_ref().unwrap_or(&x1)),
+        nonzero: std_slice(&nonzero),
+    };
+    Ok(denoise_sums(
+        &view,
+        std_slice(&albedo),
+        std_slice(&normal),
+        params,
+        progress,
+    ))
+}
+
+/// Arrays from `read_npy` are in standard (C) layout.
+fn std_slice<T, D: ndarray::Dimension>(a: &ndarray::Array<T, D>) -> &[T] {
+    a.as_slice().expect("read_npy gives standard layout")
+}
