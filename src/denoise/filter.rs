@@ -231,10 +231,14 @@ pub fn filter(
                                 }
                             }
                             let local = (yj - y0) * w + xj;
-                            for c in 0..CHANNELS {
-                                let o = (local * CHANNELS + c) * t_bins;
-                                for k in 0..n {
-                                    out_band[o + a + k] = num[c][k] / den[k];
+                            for (c, num_c) in num.iter().enumerate() {
+                                let o = (local * CHANNELS + c) * t_bins + a;
+                                for ((out, &s), &d) in out_band[o..o + n]
+                                    .iter_mut()
+                                    .zip(&num_c[..n])
+                                    .zip(&den[..n])
+                                {
+                                    *out = s / d;
                                 }
                             }
                         }
