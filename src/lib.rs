@@ -12,5 +12,7 @@ pub mod lights;
 pub mod materials;
 pub mod math;
 pub mod render;
+pub mod report;
 pub mod scene;
 pub mod stats;
+pub mod viz;

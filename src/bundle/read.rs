@@ -41,6 +41,10 @@ impl Bundle {
         }
         let manifest: Manifest = serde_json::from_value(value)
             .map_err(|e| BundleError::Invalid(mpath.clone(), format!("bad manifest: {e}")))?;
+        manifest
+            .transform
+            .validate()
+            .map_err(|e| BundleError::Invalid(mpath.clone(), format!("transform: {e}")))?;
         if manifest.width == 0 || manifest.height == 0 || manifest.bins == 0 {
             return Err(BundleError::Invalid(mpath, "empty film size".into()));
         }

@@ -36,12 +36,19 @@ pub struct FilterArgs {
     /// Two-sided significance level of the Welch test, in (0, 1) (Student's t, 2n - 2 dof).
     #[arg(long, allow_negative_numbers = true)]
     pub alpha: Option<f64>,
-    /// Base filter.
-    #[arg(long, value_enum, default_value = "jbf")]
-    pub base: BaseArg,
     /// Run the base filter alone (no membership test).
     #[arg(long, conflicts_with_all = ["gamma", "alpha"])]
     pub no_membership: bool,
+    #[command(flatten)]
+    pub base: BaseFilterArgs,
+}
+
+/// The base filter's options.
+#[derive(Args, Debug, Clone)]
+pub struct BaseFilterArgs {
+    /// Base filter.
+    #[arg(long, value_enum, default_value = "jbf")]
+    pub base: BaseArg,
     /// Standard deviation of pixel offsets (default sqrt(10)).
     #[arg(long, allow_negative_numbers = true)]
     pub sigma_xy: Option<f64>,
@@ -54,6 +61,28 @@ pub struct FilterArgs {
     /// Standard deviation of normal differences per component (default sqrt(0.1)).
     #[arg(long, allow_negative_numbers = true)]
     pub sigma_normal: Option<f64>,
+}
+
+impl BaseFilterArgs {
+    /// Default parameters with this base filter.
+    pub fn params(&self) -> anyhow::Result<DenoiseParams> {
+        let d = Sigmas::default();
+        let p = DenoiseParams {
+            base: match self.base {
+                BaseArg::Jbf => BaseKind::Jbf,
+                BaseArg::Gaussian => BaseKind::Gaussian,
+            },
+            sigmas: Sigmas {
+                xy: self.sigma_xy.unwrap_or(d.xy),
+                t: self.sigma_t.unwrap_or(d.t),
+                albedo: self.sigma_albedo.unwrap_or(d.albedo),
+                normal: self.sigma_normal.unwrap_or(d.normal),
+            },
+            ..Default::default()
+        };
+        p.validate().map_err(|e| anyhow::anyhow!(e))?;
+        Ok(p)
+    }
 }
 
 impl FilterArgs {
@@ -70,7 +99,6 @@ impl FilterArgs {
             "--temporal-radius {}: at most 64",
             self.temporal_radius
         );
-        let d = Sigmas::default();
         let p = DenoiseParams {
             radius: self.radius as usize,
             temporal_radius: self.temporal_radius as usize,
@@ -83,17 +111,7 @@ impl FilterArgs {
                     (None, None) => Threshold::Gamma(0.1),
                 })
             },
-            base: match self.base {
-                BaseArg::Jbf => BaseKind::Jbf,
-                BaseArg::Gaussian => BaseKind::Gaussian,
-            },
-            sigmas: Sigmas {
-                xy: self.sigma_xy.unwrap_or(d.xy),
-                t: self.sigma_t.unwrap_or(d.t),
-                albedo: self.sigma_albedo.unwrap_or(d.albedo),
-                normal: self.sigma_normal.unwrap_or(d.normal),
-            },
-            ..Default::default()
+            ..self.base.params()?
         };
         p.validate().map_err(|e| anyhow::anyhow!(e))?;
         Ok(p)

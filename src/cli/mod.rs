@@ -2,8 +2,11 @@
 
 mod denoise;
 mod export;
+mod frames;
 mod info;
 mod render;
+mod report;
+mod run;
 pub mod util;
 
 use clap::{Parser, Subcommand};
@@ -21,21 +24,30 @@ pub struct Cli {
 
 #[derive(Subcommand, Debug)]
 pub enum Command {
+    /// The whole job: render, denoise, and write volumes, frames, a GIF and a streak image.
+    Run(run::RunArgs),
     /// Render a scene transiently and write its statistics bundle.
     Render(render::RenderArgs),
     /// Denoise a bundle with the statistical spatio-temporal filter.
     Denoise(denoise::DenoiseArgs),
     /// Write the noisy mean volume and/or the steady image of a bundle.
     Export(export::ExportArgs),
+    /// Error against a reference, speed against error, parameter sweeps.
+    Report(report::ReportArgs),
+    /// Tone-mapped PNG frames, an animated GIF and a streak image of a volume.
+    Frames(frames::FramesArgs),
     /// Print a bundle's manifest.
     Info(info::InfoArgs),
 }
 
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
+        Command::Run(a) => run::run(a),
         Command::Render(a) => render::run(a),
         Command::Denoise(a) => denoise::run(a),
         Command::Export(a) => export::run(a),
+        Command::Frames(a) => frames::run(a),
         Command::Info(a) => info::run(a),
+        Command::Report(a) => report::run(a),
     }
 }

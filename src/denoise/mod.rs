@@ -96,49 +96,78 @@ pub fn denoise_sums(
     }
 }
 
+/// A bundle's sums and G-buffers, read once (for several denoising runs).
+pub struct LoadedSums {
+    pub manifest: crate::bundle::Manifest,
+    x1: ndarray::Array4<f64>,
+    x2: ndarray::Array4<f64>,
+    x3: ndarray::Array4<f64>,
+    sum: Option<ndarray::Array4<f64>>,
+    nonzero: ndarray::Array3<u32>,
+    pub albedo: ndarray::Array3<f32>,
+    pub normal: ndarray::Array3<f32>,
+}
+
+impl LoadedSums {
+    pub fn read(bundle: &Bundle) -> Result<LoadedSums, BundleError> {
+        let m = &bundle.manifest;
+        let nonzero = bundle.nonzero()?;
+        if let Some((v, _)) = nonzero.indexed_iter().find(|(_, &k)| k as u64 > m.spp) {
+            return Err(BundleError::Invalid(
+                bundle.dir.join("nonzero.npy"),
+                format!("count at {v:?} exceeds spp = {}", m.spp),
+            ));
+        }
+        Ok(LoadedSums {
+            manifest: m.clone(),
+            x1: bundle.x1()?,
+            x2: bundle.x2()?,
+            x3: bundle.x3()?,
+            sum: if m.transform.is_identity() {
+                None
+            } else {
+                Some(bundle.radiance_sum()?)
+            },
+            nonzero,
+            albedo: bundle.albedo()?,
+            normal: bundle.normal()?,
+        })
+    }
+
+    pub fn view(&self) -> SumsView<'_> {
+        let m = &self.manifest;
+        SumsView {
+            height: m.height,
+            width: m.width,
+            bins: m.bins,
+            spp: m.spp,
+            z0: m.transform.at_zero(),
+            x1: std_slice(&self.x1),
+            x2: std_slice(&self.x2),
+            x3: std_slice(&self.x3),
+            sum: std_slice(self.sum.as_ref().unwrap_or(&self.x1)),
+            nonzero: std_slice(&self.nonzero),
+        }
+    }
+
+    pub fn denoise(&self, params: &DenoiseParams, progress: &(dyn Fn(u64) + Sync)) -> Denoised {
+        denoise_sums(
+            &self.view(),
+            std_slice(&self.albedo),
+            std_slice(&self.normal),
+            params,
+            progress,
+        )
+    }
+}
+
 /// Reads a bundle and denoises it.
 pub fn denoise_bundle(
     bundle: &Bundle,
     params: &DenoiseParams,
     progress: &(dyn Fn(u64) + Sync),
 ) -> Result<Denoised, BundleError> {
-    let m = &bundle.manifest;
-    let x1 = bundle.x1()?;
-    let x2 = bundle.x2()?;
-    let x3 = bundle.x3()?;
-    let sum = if m.transform.is_identity() {
-        None
-    } else {
-        Some(bundle.radiance_sum()?)
-    };
-    let nonzero = bundle.nonzero()?;
-    let albedo = bundle.albedo()?;
-    let normal = bundle.normal()?;
-    if let Some((v, _)) = nonzero.indexed_iter().find(|(_, &k)| k as u64 > m.spp) {
-        return Err(BundleError::Invalid(
-            bundle.dir.join("nonzero.npy"),
-            format!("count at {v:?} exceeds spp = {}", m.spp),
-        ));
-    }
-    let view = SumsView {
-        height: m.height,
-        width: m.width,
-        bins: m.bins,
-        spp: m.spp,
-        z0: m.transform.at_zero(),
-        x1: std_slice(&x1),
-        x2: std_slice(&x2),
-        x3: std_slice(&x3),
-        sum: std_slice(sum.as_ref().unwrap_or(&x1)),
-        nonzero: std_slice(&nonzero),
-    };
-    Ok(denoise_sums(
-        &view,
-        std_slice(&albedo),
-        std_slice(&normal),
-        params,
-        progress,
-    ))
+    Ok(LoadedSums::read(bundle)?.denoise(params, progress))
 }
 
 /// Arrays from `read_npy` are in standard (C) layout.

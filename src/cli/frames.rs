@@ -1,0 +1,119 @@
+//! `tstat frames VOLUME --out DIR`: tone-mapped PNG frames with one global exposure, an
+//! animated GIF and a streak image.
+
+use crate::bundle::write::write_atomically;
+use crate::bundle::{Bundle, BundleError};
+use crate::report::volume::load_volume;
+use crate::viz::frames::{write_all, FramesRequest, TimeAxis};
+use crate::viz::tonemap::global_exposure;
+use anyhow::{anyhow, ensure};
+use clap::Args;
+use std::path::PathBuf;
+
+#[derive(Args, Debug)]
+pub struct FramesArgs {
+    /// A volume: .npy (H, W, T, 3) or a bundle (its noisy mean).
+    pub volume: PathBuf,
+    /// Output directory (frames/, propagation.gif, streak.png).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Write every K-th bin.
+    #[arg(long, default_value_t = 1)]
+    pub every: usize,
+    /// Also write an animated GIF of the frames.
+    #[arg(long)]
+    pub gif: bool,
+    /// Row of the streak image (default: the middle row).
+    #[arg(long)]
+    pub streak_row: Option<usize>,
+    /// Take the time axis from this bundle (for .npy volumes).
+    #[arg(long)]
+    pub bundle: Option<PathBuf>,
+    /// Time axis for .npy volumes without --bundle: OPL at the start of bin 0.
+    #[arg(long, requires = "bin_width_opl", allow_negative_numbers = true)]
+    pub start_opl: Option<f64>,
+    /// Time axis for .npy volumes without --bundle: bin width in OPL.
+    #[arg(long, requires = "start_opl")]
+    pub bin_width_opl: Option<f64>,
+    /// Metres per scene unit (for picoseconds).
+    #[arg(long, default_value_t = 1.0)]
+    pub unit_m: f64,
+    /// Exposure multiplier (default: 1 / the 99.5th percentile luminance of the whole volume).
+    #[arg(long)]
+    pub exposure: Option<f32>,
+    /// Replace an existing output directory.
+    #[arg(long)]
+    pub force: bool,
+}
+
+pub fn axis_of(bundle: &Bundle) -> TimeAxis {
+    let m = &bundle.manifest;
+    TimeAxis {
+        start_opl: m.start_opl,
+        bin_width_opl: m.bin_width_opl,
+        unit_m: m.unit_m,
+    }
+}
+
+pub fn run(a: FramesArgs) -> anyhow::Result<()> {
+    ensure!(a.every >= 1, "--every must be at least 1");
+    ensure!(a.unit_m > 0.0, "--unit-m must be positive");
+    if let Some(e) = a.exposure {
+        ensure!(e > 0.0 && e.is_finite(), "--exposure must be positive");
+    }
+    if let Some(h) = a.bin_width_opl {
+        ensure!(h > 0.0, "--bin-width-opl must be positive");
+    }
+    crate::bundle::write::check_output(&a.out, a.force)?;
+    let loaded = load_volume(&a.volume)?;
+    let v = loaded.volume;
+    let axis = if a.volume.is_dir() {
+        Some(axis_of(&Bundle::open(&a.volume)?))
+    } else if let Some(b) = &a.bundle {
+        let b = Bundle::open(b)?;
+        let m = &b.manifest;
+        ensure!(
+            m.bins == v.shape()[2],
+            "--bundle has {} bins but the volume has {}",
+            m.bins,
+            v.shape()[2]
+        );
+        Some(axis_of(&b))
+    } else {
+        a.start_opl.zip(a.bin_width_opl).map(|(s, h)| TimeAxis {
+            start_opl: s,
+            bin_width_opl: h,
+            unit_m: a.unit_m,
+        })
+    };
+    let rows = v.shape()[0];
+    let streak_row = a.streak_row.unwrap_or(rows / 2);
+    ensure!(
+        streak_row < rows,
+        "--streak-row {streak_row}: the image has {rows} rows"
+    );
+    let req = FramesRequest {
+        every: a.every,
+        gif: a.gif,
+        streak_row,
+        exposure: a.exposure.unwrap_or_else(|| global_exposure(v.view())),
+        axis,
+    };
+    let mut count = 0;
+    write_atomically(&a.out, a.force, |tmp| {
+        std::fs::create_dir(tmp).map_err(|e| BundleError::Io(tmp.to_path_buf(), e.to_string()))?;
+        count = write_all(tmp, v.view(), &req).map_err(|e| BundleError::Io(a.out.clone(), e))?;
+        Ok(())
+    })
+    .map_err(|e| anyhow!(e))?;
+    println!(
+        "wrote {} frames to {}/frames/{}, streak image of row {streak_row} at {}/streak.png (exposure {:.4}{})",
+        count,
+        a.out.display(),
+        if a.gif { format!(", {}/propagation.gif", a.out.display()) } else { String::new() },
+        a.out.display(),
+        req.exposure,
+        if axis.is_none() { "; time axis unknown: labelled in bins" } else { "" }
+    );
+    Ok(())
+}

@@ -1,0 +1,569 @@
+//! `tstat report compare | convergence | sweep`: error against a reference, speed
+//! against error, and parameter sweeps, as tables (CSV, Markdown) and PNG plots.
+
+use super::denoise::{BaseFilterArgs, FilterArgs};
+use super::render::SceneArgs;
+use crate::denoise::critical::Threshold;
+use crate::report::convergence::{
+    run_convergence, ConvergenceConfig, ConvergenceResult, ReferenceSource, METHODS,
+};
+use crate::report::metrics::{compare, Metrics, REL_EPS};
+use crate::report::plot::{line_chart, Scale, Series};
+use crate::report::speedup::equal_error_speedup;
+use crate::report::sweep::{run_sweep, SweepConfig};
+use crate::report::table::{num, write_text, Table};
+use crate::report::volume::load_volume;
+use crate::stats::Transform;
+use anyhow::{anyhow, bail, ensure, Context};
+use clap::{Args, Subcommand};
+use std::path::{Path, PathBuf};
+
+#[derive(Subcommand, Debug)]
+pub enum ReportCommand {
+    /// Metrics of volumes (.npy or bundles) against a reference volume.
+    Compare(CompareArgs),
+    /// Render at a list of spp, denoise each, and measure error against time.
+    Convergence(ConvergenceArgs),
+    /// Error of every combination of denoiser parameters on bundles.
+    Sweep(SweepArgs),
+}
+
+#[derive(Args, Debug)]
+pub struct ReportArgs {
+    #[command(subcommand)]
+    pub command: ReportCommand,
+}
+
+#[derive(Args, Debug)]
+pub struct CompareArgs {
+    /// Reference volume: .npy (H, W, T, 3) or a bundle (its noisy mean).
+    #[arg(long)]
+    pub reference: PathBuf,
+    /// A volume to measure, LABEL=FILE (repeatable).
+    #[arg(long = "input", value_name = "LABEL=FILE", required = true)]
+    pub inputs: Vec<String>,
+    /// Also write metrics.csv, metrics.md, per_bin.csv and per_bin.png here.
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Replace existing result files in --out.
+    #[arg(long)]
+    pub force: bool,
+}
+
+#[derive(Args, Debug)]
+pub struct ConvergenceArgs {
+    /// Mitsuba 3 XML scene.
+    pub scene: PathBuf,
+    /// Comma-separated spp list, e.g. 16,32,64,128.
+    #[arg(long)]
+    pub spp: String,
+    /// Output directory (tables, plots, and the cached reference).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Reference volume (.npy or bundle) instead of rendering one.
+    #[arg(long, conflicts_with = "reference_spp")]
+    pub reference: Option<PathBuf>,
+    /// Render the reference at this spp (default 4096), cached in --out.
+    #[arg(long)]
+    pub reference_spp: Option<u32>,
+    /// Base seed: run k uses seed + 1 + k, the reference seed + 1000003.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Sample transform for the renders.
+    #[arg(long, default_value = "identity")]
+    pub transform: String,
+    #[command(flatten)]
+    pub scene_args: SceneArgs,
+    #[command(flatten)]
+    pub filter: FilterArgs,
+    /// Replace existing result files in --out.
+    #[arg(long)]
+    pub force: bool,
+}
+
+#[derive(Args, Debug)]
+pub struct SweepArgs {
+    /// Bundles to sweep (e.g. one per transform).
+    #[arg(required = true)]
+    pub bundles: Vec<PathBuf>,
+    /// Reference volume (.npy or bundle).
+    #[arg(long)]
+    pub reference: PathBuf,
+    /// Comma-separated gammas.
+    #[arg(long, default_value = "0.01,0.05,0.1,0.2")]
+    pub gamma: String,
+    /// Comma-separated spatial radii.
+    #[arg(long, default_value = "3,5,10")]
+    pub radius: String,
+    /// Comma-separated temporal radii.
+    #[arg(long, default_value = "0,1,2")]
+    pub temporal_radius: String,
+    /// Output directory for sweep.csv, sweep.md, sweep.png.
+    #[arg(long)]
+    pub out: PathBuf,
+    #[command(flatten)]
+    pub base: BaseFilterArgs,
+    /// Replace existing result files in --out.
+    #[arg(long)]
+    pub force: bool,
+}
+
+pub fn run(a: ReportArgs) -> anyhow::Result<()> {
+    match a.command {
+        ReportCommand::Compare(a) => run_compare(a),
+        ReportCommand::Convergence(a) => run_conv(a),
+        ReportCommand::Sweep(a) => run_sweep_cmd(a),
+    }
+}
+
+fn parse_list<T: std::str::FromStr>(flag: &str, s: &str) -> anyhow::Result<Vec<T>> {
+    let v: Vec<T> = s
+        .split(',')
+        .map(|t| t.trim())
+        .filter(|t| !t.is_empty())
+        .map(|t| {
+            t.parse::<T>()
+                .map_err(|_| anyhow!("{flag} {s}: '{t}' is not a valid value"))
+        })
+        .collect::<anyhow::Result<_>>()?;
+    ensure!(!v.is_empty(), "{flag}: the list is empty");
+    Ok(v)
+}
+
+/// Creates `dir` if needed; refuses to replace any of `files` there without --force.
+fn prepare_out(dir: &Path, files: &[&str], force: bool) -> anyhow::Result<()> {
+    if dir.exists() && !dir.is_dir() {
+        bail!("{}: exists and is not a directory", dir.display());
+    }
+    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    if !force {
+        if let Some(f) = files.iter().find(|f| dir.join(f).exists()) {
+            bail!(
+                "{}: already exists (use --force to replace it)",
+                dir.join(f).display()
+            );
+        }
+    }
+    Ok(())
+}
+
+fn metrics_cells(m: &Metrics) -> Vec<String> {
+    vec![num(m.rmse), num(m.relmse), num(m.psnr)]
+}
+
+fn run_compare(a: CompareArgs) -> anyhow::Result<()> {
+    let files = ["metrics.csv", "metrics.md", "per_bin.csv", "per_bin.png"];
+    let mut inputs = Vec::new();
+    for spec in &a.inputs {
+        let (label, file) = spec
+            .split_once('=')
+            .ok_or_else(|| anyhow!("--input {spec}: expected LABEL=FILE"))?;
+        ensure!(!label.is_empty(), "--input {spec}: the label is empty");
+        inputs.push((label.to_string(), PathBuf::from(file)));
+    }
+    if let Some(d) = &a.out {
+        prepare_out(d, &files, a.force)?;
+    }
+    let reference = load_volume(&a.reference)?;
+    let mut mask = reference.no_light_mask.clone();
+    let mut table = Table::new(&[
+        "input",
+        "rmse",
+        "relmse",
+        "psnr_db",
+        "rmse_no_light",
+        "relmse_no_light",
+        "psnr_no_light_db",
+    ]);
+    let mut per_bin = Vec::new();
+    let mut loaded = Vec::new();
+    for (label, file) in &inputs {
+        let v = load_volume(file)?;
+        ensure!(
+            v.volume.shape() == reference.volume.shape(),
+            "{}: shape {:?} does not match the reference's {:?}",
+            file.display(),
+            v.volume.shape(),
+            reference.volume.shape()
+        );
+        if mask.is_none() {
+            mask = v.no_light_mask.clone();
+        }
+        loaded.push((label.clone(), v));
+    }
+    for (label, v) in &loaded {
+        let (all, bins) = compare(v.volume.view(), reference.volume.view(), None);
+        let mut row = vec![label.clone()];
+        row.extend(metrics_cells(&all));
+        match &mask {
+            Some(m) => row.extend(metrics_cells(
+                &compare(v.volume.view(), reference.volume.view(), Some(m)).0,
+            )),
+            None => row.extend(["-".to_string(), "-".into(), "-".into()]),
+        }
+        table.push(row);
+        per_bin.push((label.clone(), bins));
+    }
+    let note = format!(
+        "relmse = mean (x - ref)^2 / (ref^2 + {REL_EPS}); PSNR peak = max of the reference; no-light columns: pixels whose emitter G-buffer is 0{}\n",
+        if mask.is_some() { "" } else { " (no bundle given: not computed)" }
+    );
+    print!("{}\n{note}", table.markdown());
+    if let Some(d) = &a.out {
+        write_text(&d.join("metrics.csv"), &table.csv()).map_err(|e| anyhow!(e))?;
+        write_text(
+            &d.join("metrics.md"),
+            &format!("{}\n{note}", table.markdown()),
+        )
+        .map_err(|e| anyhow!(e))?;
+        write_per_bin(d, "per_bin", &per_bin, "per-bin RMSE")?;
+        println!(
+            "wrote {}/{{metrics.csv, metrics.md, per_bin.csv, per_bin.png}}",
+            d.display()
+        );
+    }
+    Ok(())
+}
+
+fn write_per_bin(
+    dir: &Path,
+    stem: &str,
+    per_bin: &[(String, Vec<Metrics>)],
+    title: &str,
+) -> anyhow::Result<()> {
+    let mut header = vec!["bin".to_string()];
+    for (l, _) in per_bin {
+        header.extend([format!("{l}_rmse"), format!("{l}_relmse")]);
+    }
+    let mut t = Table {
+        header,
+        rows: Vec::new(),
+    };
+    let bins = per_bin.first().map_or(0, |p| p.1.len());
+    for k in 0..bins {
+        let mut row = vec![k.to_string()];
+        for (_, m) in per_bin {
+            row.extend([num(m[k].rmse), num(m[k].relmse)]);
+        }
+        t.push(row);
+    }
+    write_text(&dir.join(format!("{stem}.csv")), &t.csv()).map_err(|e| anyhow!(e))?;
+    let series: Vec<Series> = per_bin
+        .iter()
+        .map(|(l, m)| Series {
+            label: l.clone(),
+            points: m
+                .iter()
+                .enumerate()
+                .map(|(k, m)| (k as f64, m.rmse))
+                .collect(),
+        })
+        .collect();
+    line_chart(
+        &dir.join(format!("{stem}.png")),
+        title,
+        "time bin",
+        "RMSE",
+        &series,
+        Scale::Linear,
+        Scale::Log,
+    )
+    .map_err(|e| anyhow!(e))
+}
+
+fn run_conv(a: ConvergenceArgs) -> anyhow::Result<()> {
+    let files = [
+        "results.csv",
+        "results.md",
+        "error_vs_spp.png",
+        "error_vs_seconds.png",
+        "error_per_bin.png",
+        "error_per_bin.csv",
+    ];
+    let spp_list: Vec<u32> = parse_list("--spp", &a.spp)?;
+    if let Some(s) = spp_list.iter().find(|&&s| s < 2) {
+        bail!("--spp: {s} is below 2; at least 2 samples per pixel are needed");
+    }
+    let transform: Transform = a
+        .transform
+        .parse()
+        .map_err(|e: String| anyhow!("--transform: {e}"))?;
+    let mut overrides = a.scene_args.overrides()?;
+    overrides.spp = None;
+    let cfg = ConvergenceConfig {
+        scene: a.scene.clone(),
+        overrides,
+        spp_list,
+        seed: a.seed,
+        transform,
+        denoise: a.filter.params()?,
+        reference: match (&a.reference, a.reference_spp) {
+            (Some(p), _) => ReferenceSource::Volume(p.clone()),
+            (None, s) => {
+                let spp = s.unwrap_or(4096);
+                ensure!(spp >= 2, "--reference-spp must be at least 2");
+                ReferenceSource::Render { spp }
+            }
+        },
+    };
+    prepare_out(&a.out, &files, a.force)?;
+    let result = run_convergence(&cfg, &a.out, &|m| eprintln!("{m}")).map_err(|e| anyhow!(e))?;
+    let md = convergence_markdown(&a, &cfg, &result);
+    let mut t = Table::new(&[
+        "spp",
+        "method",
+        "render_s",
+        "denoise_s",
+        "total_s",
+        "rmse",
+        "relmse",
+        "psnr",
+        "rmse_no_light",
+        "relmse_no_light",
+    ]);
+    for r in &result.rows {
+        t.push(vec![
+            r.spp.to_string(),
+            r.method.into(),
+            num(r.render_s),
+            num(r.denoise_s),
+            num(r.total_s),
+            num(r.all.rmse),
+            num(r.all.relmse),
+            num(r.all.psnr),
+            num(r.no_light.rmse),
+            num(r.no_light.relmse),
+        ]);
+    }
+    write_text(&a.out.join("results.csv"), &t.csv()).map_err(|e| anyhow!(e))?;
+    write_text(&a.out.join("results.md"), &md).map_err(|e| anyhow!(e))?;
+    let curve = |m: &str, x: fn(&crate::report::convergence::Row) -> f64| Series {
+        label: m.to_string(),
+        points: result
+            .rows
+            .iter()
+            .filter(|r| r.method == m)
+            .map(|r| (x(r), r.all.rmse))
+            .collect(),
+    };
+    let by_spp: Vec<Series> = METHODS.iter().map(|m| curve(m, |r| r.spp as f64)).collect();
+    let by_time: Vec<Series> = METHODS.iter().map(|m| curve(m, |r| r.total_s)).collect();
+    line_chart(
+        &a.out.join("error_vs_spp.png"),
+        "RMSE against samples per pixel",
+        "spp",
+        "RMSE",
+        &by_spp,
+        Scale::Log,
+        Scale::Log,
+    )
+    .map_err(|e| anyhow!(e))?;
+    line_chart(
+        &a.out.join("error_vs_seconds.png"),
+        "RMSE against time (render + denoise)",
+        "seconds",
+        "RMSE",
+        &by_time,
+        Scale::Log,
+        Scale::Log,
+    )
+    .map_err(|e| anyhow!(e))?;
+    let per_bin: Vec<(String, Vec<Metrics>)> = result
+        .per_bin
+        .iter()
+        .map(|(m, b)| (m.to_string(), b.clone()))
+        .collect();
+    let max_spp = result.rows.iter().map(|r| r.spp).max().unwrap_or(0);
+    write_per_bin(
+        &a.out,
+        "error_per_bin",
+        &per_bin,
+        &format!("per-bin RMSE at {max_spp} spp"),
+    )?;
+    print!("{md}");
+    println!("wrote {}/{{{}}}", a.out.display(), files.join(", "));
+    Ok(())
+}
+
+fn convergence_markdown(
+    a: &ConvergenceArgs,
+    cfg: &ConvergenceConfig,
+    r: &ConvergenceResult,
+) -> String {
+    let mut md = format!(
+        "# Convergence: {}\n\nReference: {}. Denoiser: r = {}, r_t = {}, {}, base {:?}. Transform: {}.\n\n",
+        a.scene.display(),
+        r.reference_note,
+        cfg.denoise.radius,
+        cfg.denoise.temporal_radius,
+        match cfg.denoise.threshold {
+            Some(Threshold::Gamma(g)) => format!("gamma = {g}"),
+            Some(Threshold::Alpha(al)) => format!("alpha = {al}"),
+            None => "no membership".into(),
+        },
+        cfg.denoise.base,
+        cfg.transform
+    );
+    let mut t = Table::new(&[
+        "spp",
+        "method",
+        "render s",
+        "denoise s",
+        "total s",
+        "RMSE",
+        "relMSE",
+        "PSNR dB",
+        "RMSE (no direct light)",
+    ]);
+    for row in &r.rows {
+        t.push(vec![
+            row.spp.to_string(),
+            row.method.into(),
+            format!("{:.2}", row.render_s),
+            format!("{:.2}", row.denoise_s),
+            format!("{:.2}", row.total_s),
+            num(row.all.rmse),
+            num(row.all.relmse),
+            format!("{:.2}", row.all.psnr),
+            num(row.no_light.rmse),
+        ]);
+    }
+    md += &t.markdown();
+    md += "\n## Equal-error speed-up\n\nHow many times less time (render + denoise) the statistical result needs than the noisy render to reach the same RMSE (noisy curve interpolated in log-log).\n\n";
+    let noisy: Vec<(f64, f64)> = r
+        .rows
+        .iter()
+        .filter(|x| x.method == "noisy")
+        .map(|x| (x.total_s, x.all.rmse))
+        .collect();
+    let noisy_nl: Vec<(f64, f64)> = r
+        .rows
+        .iter()
+        .filter(|x| x.method == "noisy")
+        .map(|x| (x.total_s, x.no_light.rmse))
+        .collect();
+    let mut s = Table::new(&[
+        "spp",
+        "statistical RMSE",
+        "speed-up",
+        "speed-up (no direct light)",
+    ]);
+    let fmt = |v: Option<f64>| {
+        v.map_or("outside the measured noisy range".to_string(), |v| {
+            format!("{v:.2}x")
+        })
+    };
+    for row in r.rows.iter().filter(|x| x.method == "statistical") {
+        s.push(vec![
+            row.spp.to_string(),
+            num(row.all.rmse),
+            fmt(equal_error_speedup(&noisy, row.total_s, row.all.rmse)),
+            fmt(equal_error_speedup(
+                &noisy_nl,
+                row.total_s,
+                row.no_light.rmse,
+            )),
+        ]);
+    }
+    md += &s.markdown();
+    md += &format!(
+        "\nrelMSE = mean (x - ref)^2 / (ref^2 + {REL_EPS}); PSNR peak = max of the reference.\n"
+    );
+    md
+}
+
+fn run_sweep_cmd(a: SweepArgs) -> anyhow::Result<()> {
+    let files = ["sweep.csv", "sweep.md", "sweep.png"];
+    let gammas: Vec<f64> = parse_list("--gamma", &a.gamma)?;
+    for g in &gammas {
+        Threshold::Gamma(*g).validate().map_err(|e| anyhow!(e))?;
+    }
+    let radii: Vec<usize> = parse_list("--radius", &a.radius)?;
+    let rts: Vec<usize> = parse_list("--temporal-radius", &a.temporal_radius)?;
+    let base = a.base.params()?;
+    prepare_out(&a.out, &files, a.force)?;
+    let reference = load_volume(&a.reference)?;
+    let cfg = SweepConfig {
+        bundles: a.bundles.clone(),
+        gammas,
+        radii,
+        temporal_radii: rts,
+        base,
+    };
+    let pts = run_sweep(&cfg, &reference.volume, &|m| eprintln!("{m}"))?;
+    let mut t = Table::new(&[
+        "bundle",
+        "transform",
+        "gamma",
+        "radius",
+        "temporal_radius",
+        "seconds",
+        "rmse",
+        "rmse/noisy",
+        "relmse",
+        "rmse_no_light",
+    ]);
+    let mut sorted = pts.clone();
+    sorted.sort_by(|x, y| x.all.rmse.total_cmp(&y.all.rmse));
+    for p in &sorted {
+        t.push(vec![
+            p.bundle.clone(),
+            p.transform.clone(),
+            p.gamma.to_string(),
+            p.radius.to_string(),
+            p.temporal_radius.to_string(),
+            format!("{:.2}", p.seconds),
+            num(p.all.rmse),
+            format!("{:.3}", p.all.rmse / p.noisy.rmse),
+            num(p.all.relmse),
+            num(p.no_light.rmse),
+        ]);
+    }
+    write_text(&a.out.join("sweep.csv"), &t.csv()).map_err(|e| anyhow!(e))?;
+    let md = format!("# Sweep (sorted by RMSE, best first)\n\n{}", t.markdown());
+    write_text(&a.out.join("sweep.md"), &md).map_err(|e| anyhow!(e))?;
+    let mut series = Vec::new();
+    for b in &cfg.bundles {
+        for &r in &cfg.radii {
+            for &rt in &cfg.temporal_radii {
+                let label = format!(
+                    "{}{}r={r} rt={rt}",
+                    if cfg.bundles.len() > 1 {
+                        b.file_name()
+                            .map(|n| n.to_string_lossy().into_owned())
+                            .unwrap_or_default()
+                    } else {
+                        String::new()
+                    },
+                    if cfg.bundles.len() > 1 { " " } else { "" }
+                );
+                let points = pts
+                    .iter()
+                    .filter(|p| {
+                        p.bundle == b.display().to_string()
+                            && p.radius == r
+                            && p.temporal_radius == rt
+                    })
+                    .map(|p| (p.gamma, p.all.rmse / p.noisy.rmse))
+                    .collect();
+                series.push(Series { label, points });
+            }
+        }
+    }
+    line_chart(
+        &a.out.join("sweep.png"),
+        "denoised RMSE / noisy RMSE",
+        "gamma",
+        "RMSE ratio",
+        &series,
+        Scale::Log,
+        Scale::Linear,
+    )
+    .map_err(|e| anyhow!(e))?;
+    print!("{md}");
+    println!(
+        "wrote {}/{{sweep.csv, sweep.md, sweep.png}}",
+        a.out.display()
+    );
+    Ok(())
+}

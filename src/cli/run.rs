@@ -1,0 +1,155 @@
+//! `tstat run [SCENE.xml] --out DIR`: the whole job in one command. Renders with
+//! statistics, denoises, and writes the noisy and denoised volumes, side-by-side frames
+//! (noisy | denoised, one exposure), an animated GIF and a streak image. Without a
+//! scene it renders the bundled Cornell box.
+
+use super::denoise::FilterArgs;
+use super::frames::axis_of;
+use super::render::SceneArgs;
+use super::util::{human_bytes, with_threads};
+use crate::bundle::write::{check_output, write_atomically, write_bundle, BundleMeta};
+use crate::bundle::{Bundle, BundleError};
+use crate::denoise::denoise_bundle;
+use crate::render::{render, RenderSettings};
+use crate::scene::Scene;
+use crate::stats::accumulators::Accumulators;
+use crate::stats::Transform;
+use crate::viz::frames::{side_by_side, write_all, FramesRequest};
+use crate::viz::tonemap::global_exposure;
+use anyhow::{anyhow, bail, ensure, Context};
+use clap::Args;
+use std::path::PathBuf;
+
+/// The bundled Cornell box, compiled in so `tstat run` works from anywhere.
+const CBOX_XML: &str = include_str!("../../scenes/cbox.xml");
+
+#[derive(Args, Debug)]
+pub struct RunArgs {
+    /// Mitsuba 3 XML scene (default: the bundled Cornell box).
+    pub scene: Option<PathBuf>,
+    /// Output directory.
+    #[arg(long)]
+    pub out: PathBuf,
+    #[command(flatten)]
+    pub scene_args: SceneArgs,
+    /// Random seed.
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Sample transform: identity, box-cox:LAMBDA or yeo-johnson:LAMBDA.
+    #[arg(long, default_value = "identity")]
+    pub transform: String,
+    #[command(flatten)]
+    pub filter: FilterArgs,
+    /// Write every K-th bin as a frame.
+    #[arg(long, default_value_t = 1)]
+    pub every: usize,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Replace an existing output directory.
+    #[arg(long)]
+    pub force: bool,
+}
+
+pub fn run(a: RunArgs) -> anyhow::Result<()> {
+    ensure!(a.every >= 1, "--every must be at least 1");
+    let transform: Transform = a
+        .transform
+        .parse()
+        .map_err(|e: String| anyhow!("--transform: {e}"))?;
+    let params = a.filter.params()?;
+    let overrides = a.scene_args.overrides()?;
+    check_output(&a.out, a.force)?;
+    let started = std::time::Instant::now();
+    // Everything goes to a temporary directory that is renamed when complete.
+    write_atomically(&a.out, a.force, |tmp| {
+        let io = |e: std::io::Error| BundleError::Io(tmp.to_path_buf(), e.to_string());
+        std::fs::create_dir(tmp).map_err(io)?;
+        let scene_path = match &a.scene {
+            Some(p) => p.clone(),
+            None => {
+                let p = tmp.join("cbox.xml");
+                std::fs::write(&p, CBOX_XML).map_err(io)?;
+                p
+            }
+        };
+        job(&a, &scene_path, tmp, transform, &params, &overrides)
+            .map_err(|e| BundleError::Io(a.out.clone(), format!("{e:#}")))
+    })
+    .map_err(|e| anyhow!(e))?;
+    let o = a.out.display();
+    println!("done in {:.1} s. In {o}/:", started.elapsed().as_secs_f64());
+    println!("  scene.tstats/     statistics bundle (tstat info {o}/scene.tstats)");
+    println!("  noisy.npy         noisy mean volume, f32 (H, W, T, 3)");
+    println!("  denoised.npy      denoised volume, f32 (H, W, T, 3)");
+    println!("  frames/           PNG frames, noisy | denoised, one exposure for all bins");
+    println!("  propagation.gif   the light propagating, noisy | denoised");
+    println!(
+        "  streak.png        streak image (x against time) of the middle row, noisy | denoised"
+    );
+    Ok(())
+}
+
+fn job(
+    a: &RunArgs,
+    scene_path: &std::path::Path,
+    dir: &std::path::Path,
+    transform: Transform,
+    params: &crate::denoise::DenoiseParams,
+    overrides: &crate::scene::Overrides,
+) -> anyhow::Result<()> {
+    let scene = Scene::load(scene_path, overrides)?;
+    let film = &scene.film;
+    let need = Accumulators::bytes(film.height, film.width, film.bins, &transform);
+    eprintln!(
+        "{}: {}x{} px, {} bins, {} spp; accumulators {}",
+        scene_path.display(),
+        film.width,
+        film.height,
+        film.bins,
+        scene.spp,
+        human_bytes(need)
+    );
+    if let Some(mem) = super::util::physical_memory() {
+        if need > mem / 4 * 3 {
+            bail!(
+                "the accumulators need {} (over 75% of RAM); lower --width/--height/--bins",
+                human_bytes(need)
+            );
+        }
+    }
+    let settings = RenderSettings {
+        spp: scene.spp,
+        seed: a.seed.unwrap_or(scene.seed),
+        transform,
+    };
+    let out = with_threads(a.threads, || render(&scene, &settings, &|_| {}))?;
+    eprintln!(
+        "rendered in {:.2} s ({:.2} M paths/s)",
+        out.seconds,
+        out.paths as f64 / out.seconds / 1e6
+    );
+    let bundle_path = dir.join("scene.tstats");
+    let meta = BundleMeta {
+        seed: settings.seed,
+        transform,
+        unit_m: 1.0,
+    };
+    write_bundle(&bundle_path, false, &scene, &meta, out).context("writing the bundle")?;
+    let bundle = Bundle::open(&bundle_path)?;
+    let noisy = bundle.noisy_mean()?;
+    let den = with_threads(a.threads, || denoise_bundle(&bundle, params, &|_| {}))??;
+    eprintln!("denoised in {:.2} s", den.seconds);
+    ndarray_npy::write_npy(dir.join("noisy.npy"), &noisy)?;
+    ndarray_npy::write_npy(dir.join("denoised.npy"), &den.volume)?;
+    let both = side_by_side(noisy.view(), den.volume.view(), 2);
+    let req = FramesRequest {
+        every: a.every,
+        gif: true,
+        streak_row: noisy.shape()[0] / 2,
+        exposure: global_exposure(den.volume.view()),
+        axis: Some(axis_of(&bundle)),
+    };
+    write_all(dir, both.view(), &req).map_err(|e| anyhow!(e))?;
+    Ok(())
+}

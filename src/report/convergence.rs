@@ -1,0 +1,266 @@
+//! The convergence experiment: render a scene at a list of spp (a fresh seed each),
+//! denoise each render with the statistical filter and with the base filter alone,
+//! time render and denoise separately, and measure all three against a reference.
+
+use super::metrics::{compare, Metrics};
+use super::volume::no_light_mask;
+use crate::denoise::{denoise_sums, estimates::SumsView, DenoiseParams};
+use crate::render::{render, RenderOutput, RenderSettings};
+use crate::scene::{Overrides, Scene};
+use crate::stats::accumulators::CHANNELS;
+use crate::stats::Transform;
+use ndarray::{Array2, Array4};
+use sha2::{Digest, Sha256};
+use std::path::{Path, PathBuf};
+
+/// Where the reference volume comes from.
+pub enum ReferenceSource {
+    /// A given (H, W, T, C) volume (.npy or bundle).
+    Volume(PathBuf),
+    /// A render at this spp, cached in the output directory.
+    Render { spp: u32 },
+}
+
+pub struct ConvergenceConfig {
+    pub scene: PathBuf,
+    /// Render overrides (their `spp` is ignored: the list below is used).
+    pub overrides: Overrides,
+    pub spp_list: Vec<u32>,
+    pub seed: u64,
+    pub transform: Transform,
+    pub denoise: DenoiseParams,
+    pub reference: ReferenceSource,
+}
+
+pub const METHODS: [&str; 3] = ["noisy", "base-only", "statistical"];
+
+#[derive(Clone, Debug)]
+pub struct Row {
+    pub spp: u32,
+    pub method: &'static str,
+    pub render_s: f64,
+    pub denoise_s: f64,
+    pub total_s: f64,
+    pub all: Metrics,
+    /// Over the pixels that see no light directly.
+    pub no_light: Metrics,
+}
+
+pub struct ConvergenceResult {
+    pub rows: Vec<Row>,
+    /// Per-bin metrics of each method at the highest spp.
+    pub per_bin: Vec<(&'static str, Vec<Metrics>)>,
+    /// How the reference was obtained (for the report).
+    pub reference_note: String,
+}
+
+/// The noisy mean S / n of a render as an (H, W, T, C) f32 volume.
+pub fn noisy_mean(out: &RenderOutput, spp: u32) -> Array4<f32> {
+    let a = &out.accum;
+    let s = a.sum.as_ref().unwrap_or(&a.x1);
+    let n = spp as f64;
+    Array4::from_shape_fn((a.height, a.width, a.bins, CHANNELS), |(y, x, t, c)| {
+        (s[((y * a.width + x) * a.bins + t) * CHANNELS + c] / n) as f32
+    })
+}
+
+/// A view of a render's sums for the denoiser.
+pub fn sums_view<'a>(out: &'a RenderOutput, spp: u32, transform: &Transform) -> SumsView<'a> {
+    let a = &out.accum;
+    SumsView {
+        height: a.height,
+        width: a.width,
+        bins: a.bins,
+        spp: spp as u64,
+        z0: transform.at_zero(),
+        x1: &a.x1,
+        x2: &a.x2,
+        x3: &a.x3,
+        sum: a.sum.as_deref().unwrap_or(&a.x1),
+        nonzero: &a.nonzero,
+    }
+}
+
+fn gbuffer_arrays(out: &RenderOutput) -> (Vec<f32>, Vec<f32>, Vec<f32>) {
+    let albedo = out.gbuffer.iter().flat_map(|g| g.albedo).collect();
+    let normal = out.gbuffer.iter().flat_map(|g| g.normal).collect();
+    let emitter = out.gbuffer.iter().map(|g| g.emitter).collect();
+    (albedo, normal, emitter)
+}
+
+fn load_scene(cfg: &ConvergenceConfig, spp: u32) -> Result<Scene, String> {
+    let o = Overrides {
+        spp: Some(spp),
+        ..cfg.overrides.clone()
+    };
+    Scene::load(&cfg.scene, &o).map_err(|e| e.to_string())
+}
+
+/// The reference volume and its no-light mask, rendering (and caching in `dir`) when asked.
+fn reference(
+    cfg: &ConvergenceConfig,
+    dir: &Path,
+    log: &dyn Fn(&str),
+) -> Result<(Array4<f32>, Option<Vec<bool>>, String), String> {
+    match &cfg.reference {
+        ReferenceSource::Volume(p) => {
+            let v = super::volume::load_volume(p).map_err(|e| e.to_string())?;
+            Ok((
+                v.volume,
+                v.no_light_mask,
+                format!("given volume {}", p.display()),
+            ))
+        }
+        ReferenceSource::Render { spp } => {
+            let scene = load_scene(cfg, *spp)?;
+            let mut h = Sha256::new();
+            h.update(scene.sha256.as_bytes());
+            h.update(
+                format!(
+                    "{:?}|{:?}|{}|{}",
+                    scene.film, scene.integrator, spp, cfg.seed
+                )
+                .as_bytes(),
+            );
+            let key = format!("{:x}", h.finalize());
+            let key = &key[..16];
+            let vol_path = dir.join(format!("reference-{key}.npy"));
+            let em_path = dir.join(format!("reference-{key}-emitter.npy"));
+            if vol_path.is_file() && em_path.is_file() {
+                let v: Array4<f32> = ndarray_npy::read_npy(&vol_path)
+                    .map_err(|e| format!("{}: {e}", vol_path.display()))?;
+                let em: Array2<f32> = ndarray_npy::read_npy(&em_path)
+                    .map_err(|e| format!("{}: {e}", em_path.display()))?;
+                log(&format!("reusing cached reference {}", vol_path.display()));
+                return Ok((
+                    v,
+                    Some(no_light_mask(&em)),
+                    format!("{spp} spp render (cached {})", vol_path.display()),
+                ));
+            }
+            log(&format!("rendering the reference at {spp} spp"));
+            let settings = RenderSettings {
+                spp: *spp,
+                seed: cfg.seed.wrapping_add(1_000_003),
+                transform: Transform::Identity,
+            };
+            let out = render(&scene, &settings, &|_| {});
+            let v = noisy_mean(&out, *spp);
+            let (_, _, emitter) = gbuffer_arrays(&out);
+            let em = Array2::from_shape_vec((scene.film.height, scene.film.width), emitter)
+                .map_err(|e| e.to_string())?;
+            write_npy_atomic(&vol_path, &v)?;
+            write_npy_atomic(&em_path, &em)?;
+            Ok((
+                v,
+                Some(no_light_mask(&em)),
+                format!(
+                    "{spp} spp render, {:.1} s (cached as {})",
+                    out.seconds,
+                    vol_path.display()
+                ),
+            ))
+        }
+    }
+}
+
+/// Runs the experiment; `dir` holds the reference cache. `log` reports progress.
+pub fn run_convergence(
+    cfg: &ConvergenceConfig,
+    dir: &Path,
+    log: &dyn Fn(&str),
+) -> Result<ConvergenceResult, String> {
+    if cfg.spp_list.is_empty() {
+        return Err("the spp list is empty".into());
+    }
+    if let Some(s) = cfg.spp_list.iter().find(|&&s| s < 2) {
+        return Err(format!("spp {s}: at least 2 samples per pixel are needed"));
+    }
+    let (reference, ref_mask, reference_note) = reference(cfg, dir, log)?;
+    let mut rows = Vec::new();
+    let mut per_bin = Vec::new();
+    let max_spp = *cfg.spp_list.iter().max().expect("non-empty");
+    for (k, &spp) in cfg.spp_list.iter().enumerate() {
+        let scene = load_scene(cfg, spp)?;
+        let shape = [
+            scene.film.height,
+            scene.film.width,
+            scene.film.bins,
+            CHANNELS,
+        ];
+        if reference.shape() != shape {
+            return Err(format!(
+                "the reference has shape {:?} but the renders have {:?}",
+                reference.shape(),
+                shape
+            ));
+        }
+        let settings = RenderSettings {
+            spp,
+            seed: cfg.seed.wrapping_add(1 + k as u64),
+            transform: cfg.transform,
+        };
+        let out = render(&scene, &settings, &|_| {});
+        let (albedo, normal, emitter) = gbuffer_arrays(&out);
+        let mask = ref_mask
+            .clone()
+            .unwrap_or_else(|| emitter.iter().map(|&e| e == 0.0).collect());
+        let view = sums_view(&out, spp, &cfg.transform);
+        let noisy = noisy_mean(&out, spp);
+        let base = denoise_sums(
+            &view,
+            &albedo,
+            &normal,
+            &DenoiseParams {
+                threshold: None,
+                ..cfg.denoise
+            },
+            &|_| {},
+        );
+        let stat = denoise_sums(&view, &albedo, &normal, &cfg.denoise, &|_| {});
+        for (method, vol, den_s) in [
+            ("noisy", &noisy, 0.0),
+            ("base-only", &base.volume, base.seconds),
+            ("statistical", &stat.volume, stat.seconds),
+        ] {
+            let (all, bins) = compare(vol.view(), reference.view(), None);
+            let (no_light, _) = compare(vol.view(), reference.view(), Some(&mask));
+            rows.push(Row {
+                spp,
+                method,
+                render_s: out.seconds,
+                denoise_s: den_s,
+                total_s: out.seconds + den_s,
+                all,
+                no_light,
+            });
+            if spp == max_spp {
+                per_bin.push((method, bins));
+            }
+        }
+        let stat_row = rows.last().expect("just pushed");
+        log(&format!(
+            "spp {spp}: render {:.2} s, denoise {:.2} s; RMSE noisy {:.4e}, statistical {:.4e}",
+            out.seconds,
+            stat.seconds,
+            rows[rows.len() - 3].all.rmse,
+            stat_row.all.rmse
+        ));
+    }
+    Ok(ConvergenceResult {
+        rows,
+        per_bin,
+        reference_note,
+    })
+}
+
+fn write_npy_atomic<A: ndarray_npy::WritableElement, D: ndarray::Dimension>(
+    path: &Path,
+    a: &ndarray::Array<A, D>,
+) -> Result<(), String> {
+    crate::bundle::write::write_atomically(path, true, |tmp| {
+        ndarray_npy::write_npy(tmp, a)
+            .map_err(|e| crate::bundle::BundleError::Io(path.to_path_buf(), e.to_string()))
+    })
+    .map_err(|e| e.to_string())
+}

@@ -1,0 +1,74 @@
+//! Writing result tables as CSV and Markdown.
+
+use std::fmt::Write as _;
+use std::path::Path;
+
+/// A table of strings with a header row.
+pub struct Table {
+    pub header: Vec<String>,
+    pub rows: Vec<Vec<String>>,
+}
+
+impl Table {
+    pub fn new(header: &[&str]) -> Self {
+        Table {
+            header: header.iter().map(|s| s.to_string()).collect(),
+            rows: Vec::new(),
+        }
+    }
+
+    pub fn push(&mut self, row: Vec<String>) {
+        debug_assert_eq!(row.len(), self.header.len());
+        self.rows.push(row);
+    }
+
+    pub fn csv(&self) -> String {
+        let mut s = self.header.join(",") + "\n";
+        for r in &self.rows {
+            s += &r.join(",");
+            s.push('\n');
+        }
+        s
+    }
+
+    pub fn markdown(&self) -> String {
+        let mut s = format!("| {} |\n|", self.header.join(" | "));
+        for _ in &self.header {
+            s += "---|";
+        }
+        s.push('\n');
+        for r in &self.rows {
+            let _ = writeln!(s, "| {} |", r.join(" | "));
+        }
+        s
+    }
+}
+
+/// Writes text through a temporary sibling and a rename.
+pub fn write_text(path: &Path, text: &str) -> Result<(), String> {
+    let tmp = path.with_file_name(format!(
+        ".{}.partial-{}",
+        path.file_name()
+            .map(|n| n.to_string_lossy())
+            .unwrap_or_default(),
+        std::process::id()
+    ));
+    std::fs::write(&tmp, text).map_err(|e| format!("{}: {e}", path.display()))?;
+    std::fs::rename(&tmp, path).map_err(|e| format!("{}: {e}", path.display()))
+}
+
+/// A number for a table: 4 significant digits, `inf` kept readable.
+pub fn num(v: f64) -> String {
+    if v.is_infinite() {
+        "inf".into()
+    } else if v == 0.0 {
+        "0".into()
+    } else if v.abs() >= 1e-3 && v.abs() < 1e5 {
+        format!("{:.4}", v)
+            .trim_end_matches('0')
+            .trim_end_matches('.')
+            .to_string()
+    } else {
+        format!("{v:.4e}")
+    }
+}

@@ -1,0 +1,5 @@
+//! Pictures for people: tone-mapped frames with one global exposure, GIF animations,
+//! streak images.
+
+pub mod frames;
+pub mod tonemap;
