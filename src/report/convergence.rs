@@ -96,12 +96,11 @@ fn load_scene(cfg: &ConvergenceConfig, spp: u32) -> Result<Scene, String> {
     Scene::load(&cfg.scene, &o).map_err(|e| e.to_string())
 }
 
+/// A reference volume, its no-light mask, and how it was obtained.
+type Reference = (Array4<f32>, Option<Vec<bool>>, String);
+
 /// The reference volume and its no-light mask, rendering (and caching in `dir`) when asked.
-fn reference(
-    cfg: &ConvergenceConfig,
-    dir: &Path,
-    log: &dyn Fn(&str),
-) -> Result<(Array4<f32>, Option<Vec<bool>>, String), String> {
+fn reference(cfg: &ConvergenceConfig, dir: &Path, log: &dyn Fn(&str)) -> Result<Reference, String> {
     match &cfg.reference {
         ReferenceSource::Volume(p) => {
             let v = super::volume::load_volume(p).map_err(|e| e.to_string())?;
