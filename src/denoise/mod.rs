@@ -32,7 +32,7 @@ impl Default for DenoiseParams {
         DenoiseParams {
             radius: 5,
             temporal_radius: 1,
-            threshold: Some(Threshold::Gamma(0.1)),
+            threshold: Some(Threshold::Auto),
             base: BaseKind::Jbf,
             sigmas: Sigmas::default(),
             tiling: Tiling::default(),

@@ -1,0 +1,341 @@
+//! Reports, pictures and the one-command job: real experiments on small scenes, and
+//! clear errors for bad report input.
+
+use image::AnimationDecoder;
+use ndarray::Array4;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+use tstat::denoise::DenoiseParams;
+use tstat::report::convergence::{run_convergence, ConvergenceConfig, ReferenceSource};
+use tstat::scene::Overrides;
+use tstat::stats::Transform;
+use tstat::viz::frames::{write_all, FramesRequest, TimeAxis};
+use tstat::viz::tonemap::srgb8;
+
+fn tstat(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_tstat"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+fn cbox() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cbox.xml")
+}
+
+#[test]
+fn statistical_denoising_beats_the_noisy_render_at_every_spp_and_converges() {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = ConvergenceConfig {
+        scene: cbox(),
+        overrides: Overrides {
+            width: Some(32),
+            bins: Some(40),
+            bin_width_opl: Some(0.15),
+            ..Default::default()
+        },
+        spp_list: vec![8, 16, 32, 64, 128],
+        seed: 3,
+        transform: Transform::Identity,
+        denoise: DenoiseParams::default(),
+        reference: ReferenceSource::Render { spp: 4096 },
+    };
+    let r = run_convergence(&cfg, dir.path(), &|m| eprintln!("{m}")).unwrap();
+    let rmse = |method: &str| -> Vec<f64> {
+        r.rows
+            .iter()
+            .filter(|x| x.method == method)
+            .map(|x| x.all.rmse)
+            .collect()
+    };
+    let (noisy, stat) = (rmse("noisy"), rmse("statistical"));
+    eprintln!("noisy {noisy:?}\nstatistical {stat:?}");
+    for (k, (s, n)) in stat.iter().zip(&noisy).enumerate() {
+        assert!(s < n, "spp index {k}: statistical {s} >= noisy {n}");
+    }
+    for w in stat.windows(2) {
+        assert!(w[1] < w[0], "statistical RMSE does not fall: {stat:?}");
+    }
+    // The reference is cached: a second run reuses it.
+    let cached: Vec<_> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .flatten()
+        .map(|e| e.file_name())
+        .collect();
+    assert_eq!(cached.len(), 2, "{cached:?}");
+    let again = run_convergence(
+        &ConvergenceConfig {
+            spp_list: vec![8],
+            ..cfg
+        },
+        dir.path(),
+        &|_| {},
+    )
+    .unwrap();
+    assert!(again.reference_note.contains("cached"));
+    assert_eq!(again.rows[0].all.rmse, r.rows[0].all.rmse);
+}
+
+#[test]
+fn frames_gif_and_streak_share_one_exposure() {
+    let (h, w, t) = (6usize, 5usize, 7usize);
+    let mut v = Array4::<f32>::zeros((h, w, t, 3));
+    // Bin 2 is bright (1.0), bin 5 is dim (0.25): the dim frame must stay dim.
+    v.slice_mut(ndarray::s![.., .., 2, ..]).fill(1.0);
+    v.slice_mut(ndarray::s![.., .., 5, ..]).fill(0.25);
+    let dir = tempfile::tempdir().unwrap();
+    let req = FramesRequest {
+        every: 1,
+        gif: true,
+        streak_row: 3,
+        exposure: 1.0,
+        axis: Some(TimeAxis {
+            start_opl: 3.0,
+            bin_width_opl: 0.1,
+            unit_m: 1.0,
+        }),
+    };
+    assert_eq!(write_all(dir.path(), v.view(), &req).unwrap(), t);
+    let frame = |k: usize| {
+        image::open(dir.path().join(format!("frames/frame_{k:04}.png")))
+            .unwrap()
+            .to_rgb8()
+    };
+    let (bright, dim) = (frame(2), frame(5));
+    assert_eq!(bright.dimensions(), (w as u32, h as u32));
+    assert_eq!(bright.get_pixel(0, 0).0, [255; 3]);
+    assert_eq!(dim.get_pixel(0, 0).0, [srgb8(0.25); 3]);
+    assert!(srgb8(0.25) < 200);
+    assert_eq!(frame(0).get_pixel(1, 1).0, [0; 3]);
+    let gif = std::fs::File::open(dir.path().join("propagation.gif")).unwrap();
+    let frames = image::codecs::gif::GifDecoder::new(std::io::BufReader::new(gif))
+        .unwrap()
+        .into_frames()
+        .collect_frames()
+        .unwrap();
+    assert_eq!(frames.len(), t);
+    assert_eq!(frames[0].buffer().dimensions(), (w as u32, h as u32));
+    let streak = image::open(dir.path().join("streak.png")).unwrap();
+    assert!(streak.width() > t as u32 && streak.height() > w as u32);
+    // Every second bin.
+    let dir2 = tempfile::tempdir().unwrap();
+    let n = write_all(
+        dir2.path(),
+        v.view(),
+        &FramesRequest {
+            every: 2,
+            gif: false,
+            ..req
+        },
+    )
+    .unwrap();
+    assert_eq!(n, 4);
+    assert!(!dir2.path().join("propagation.gif").exists());
+}
+
+#[test]
+fn run_gives_a_new_user_everything_in_one_command() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("job");
+    let r = tstat(&[
+        "run",
+        "--out",
+        out.to_str().unwrap(),
+        "--width",
+        "16",
+        "--spp",
+        "4",
+        "--bins",
+        "24",
+        "--every",
+        "2",
+    ]);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    for f in [
+        "scene.tstats/manifest.json",
+        "noisy.npy",
+        "denoised.npy",
+        "propagation.gif",
+        "streak.png",
+        "frames/frame_0000.png",
+        "frames/frame_0022.png",
+    ] {
+        assert!(out.join(f).exists(), "{f} missing");
+    }
+    assert!(!out.join("frames/frame_0001.png").exists());
+    let den: Array4<f32> = ndarray_npy::read_npy(out.join("denoised.npy")).unwrap();
+    assert_eq!(den.shape(), &[16, 16, 24, 3]);
+    // Side by side: noisy | 2-px seam | denoised.
+    let f = image::open(out.join("frames/frame_0010.png")).unwrap();
+    assert_eq!((f.width(), f.height()), (34, 16));
+    assert!(String::from_utf8_lossy(&r.stdout).contains("propagation.gif"));
+    // Existing output without --force is refused and kept.
+    let again = tstat(&[
+        "run",
+        "--out",
+        out.to_str().unwrap(),
+        "--width",
+        "16",
+        "--spp",
+        "4",
+        "--bins",
+        "24",
+    ]);
+    assert_eq!(again.status.code(), Some(1));
+    assert!(out.join("noisy.npy").exists());
+}
+
+fn write_volume(path: &Path, shape: (usize, usize, usize, usize), value: f32) {
+    ndarray_npy::write_npy(path, &Array4::<f32>::from_elem(shape, value)).unwrap();
+}
+
+#[test]
+fn compare_reports_metrics_and_refuses_bad_input() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = |n: &str| dir.path().join(n).display().to_string();
+    write_volume(Path::new(&p("ref.npy")), (2, 3, 4, 3), 1.0);
+    write_volume(Path::new(&p("a.npy")), (2, 3, 4, 3), 1.5);
+    write_volume(Path::new(&p("small.npy")), (2, 3, 3, 3), 1.0);
+    let r = tstat(&[
+        "report",
+        "compare",
+        "--reference",
+        &p("ref.npy"),
+        "--input",
+        &format!("a={}", p("a.npy")),
+        "--out",
+        &p("out"),
+    ]);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let csv = std::fs::read_to_string(dir.path().join("out/metrics.csv")).unwrap();
+    // RMSE 0.5; relMSE 0.25 / 1.01.
+    assert!(
+        csv.lines().nth(1).unwrap().starts_with("a,0.5,0.2475,"),
+        "{csv}"
+    );
+    for f in ["metrics.md", "per_bin.csv", "per_bin.png"] {
+        assert!(dir.path().join("out").join(f).is_file(), "{f}");
+    }
+    let fails = |args: &[&str], want: &str| {
+        let r = tstat(args);
+        let err = String::from_utf8_lossy(&r.stderr);
+        assert_eq!(r.status.code(), Some(1), "{args:?}");
+        assert!(err.contains(want), "expected '{want}' in {err}");
+        assert!(!err.contains("panicked"));
+    };
+    fails(
+        &[
+            "report",
+            "compare",
+            "--reference",
+            &p("ref.npy"),
+            "--input",
+            &format!("s={}", p("small.npy")),
+        ],
+        "does not match the reference",
+    );
+    fails(
+        &[
+            "report",
+            "compare",
+            "--reference",
+            &p("missing.npy"),
+            "--input",
+            &format!("a={}", p("a.npy")),
+        ],
+        "missing.npy",
+    );
+    fails(
+        &[
+            "report",
+            "compare",
+            "--reference",
+            &p("ref.npy"),
+            "--input",
+            &p("a.npy"),
+        ],
+        "LABEL=FILE",
+    );
+    fails(
+        &[
+            "report",
+            "compare",
+            "--reference",
+            &p("ref.npy"),
+            "--input",
+            &format!("a={}", p("a.npy")),
+            "--out",
+            &p("out"),
+        ],
+        "already exists",
+    );
+    let scene = cbox().display().to_string();
+    fails(
+        &[
+            "report",
+            "convergence",
+            &scene,
+            "--spp",
+            "",
+            "--out",
+            &p("c"),
+        ],
+        "--spp",
+    );
+    fails(
+        &[
+            "report",
+            "convergence",
+            &scene,
+            "--spp",
+            "8,1",
+            "--out",
+            &p("c"),
+        ],
+        "below 2",
+    );
+    fails(
+        &[
+            "report",
+            "convergence",
+            &scene,
+            "--spp",
+            "8",
+            "--out",
+            &p("c2"),
+            "--reference",
+            &p("small.npy"),
+            "--width",
+            "8",
+            "--bins",
+            "5",
+        ],
+        "shape",
+    );
+    fails(
+        &[
+            "report",
+            "sweep",
+            &p("nothere.tstats"),
+            "--reference",
+            &p("ref.npy"),
+            "--out",
+            &p("s"),
+        ],
+        "nothere.tstats",
+    );
+    fails(
+        &[
+            "report",
+            "sweep",
+            &p("nothere.tstats"),
+            "--reference",
+            &p("ref.npy"),
+            "--out",
+            &p("s"),
+            "--gamma",
+            "0.7",
+        ],
+        "--gamma 0.7",
+    );
+}
