@@ -342,3 +342,52 @@ fn damaged_bundles_are_refused_naming_the_file() {
     assert_eq!(r.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&r.stderr).contains("manifest.json"));
 }
+
+#[test]
+fn denoise_writes_a_volume_and_refuses_bad_parameters() {
+    let c = case(VALID);
+    let (sc, out) = (c.scene.to_str().unwrap(), c.out.to_str().unwrap());
+    assert!(tstat(&["render", sc, "--out", out]).status.success());
+    let den = c.dir.path().join("den.npy");
+    let exr = c.dir.path().join("bins");
+    let r = tstat(&[
+        "denoise",
+        out,
+        "--out",
+        den.to_str().unwrap(),
+        "--exr",
+        exr.to_str().unwrap(),
+    ]);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    assert!(String::from_utf8_lossy(&r.stdout).contains("voxel-neighbour evaluations/s"));
+    let v: ndarray::Array4<f32> = ndarray_npy::read_npy(&den).unwrap();
+    assert_eq!(v.shape(), &[8, 8, 10, 3]);
+    assert_eq!(std::fs::read_dir(&exr).unwrap().count(), 10);
+    let fails = |extra: &[&str], want: &str| {
+        let target = c.dir.path().join("bad.npy");
+        let mut args = vec!["denoise", out, "--out", target.to_str().unwrap()];
+        args.extend_from_slice(extra);
+        let r = tstat(&args);
+        let err = String::from_utf8_lossy(&r.stderr);
+        // 1 for our errors, 2 for clap's usage errors.
+        assert!(matches!(r.status.code(), Some(1 | 2)), "{extra:?}: {err}");
+        assert!(err.contains(want), "expected '{want}' in {err}");
+        assert!(!target.exists());
+    };
+    fails(&["--radius", "-1"], "--radius -1");
+    fails(&["--temporal-radius", "-2"], "--temporal-radius -2");
+    fails(&["--gamma", "0.5"], "--gamma 0.5");
+    fails(&["--gamma", "0"], "--gamma 0");
+    fails(&["--alpha", "1.5"], "--alpha 1.5");
+    fails(&["--sigma-xy", "0"], "--sigma-xy");
+    fails(
+        &["--gamma", "0.1", "--alpha", "0.01"],
+        "cannot be used with",
+    );
+    // A bundle missing an array, and one with a mismatched array.
+    std::fs::remove_file(c.out.join("x3.npy")).unwrap();
+    fails(&[], "x3.npy");
+    std::fs::copy(c.out.join("x2.npy"), c.out.join("x3.npy")).unwrap();
+    std::fs::copy(c.out.join("steady.npy"), c.out.join("x2.npy")).unwrap();
+    fails(&[], "x2.npy");
+}
