@@ -237,14 +237,21 @@ fn random_bundle(
         })
         .collect();
     random_features(&mut b, &mut rng, |y, x| zero_pixel[y * w + x]);
-    let colours = [[1.0, 0.8, 0.5], [0.3, 0.9, 0.4], [0.6, 0.5, 1.2]];
+    // Some surfaces reflect nothing in some channels (exact zeros in one channel only).
+    let colours = [
+        [1.0, 0.8, 0.5],
+        [0.3, 0.9, 0.4],
+        [0.6, 0.5, 1.2],
+        [0.0, 0.9, 0.4],
+        [0.0, 0.0, 0.7],
+    ];
     for y in 0..h {
         for x in 0..w {
             if zero_pixel[y * w + x] {
                 continue;
             }
             let arrival = rng.below(t.div_ceil(3));
-            let colour = colours[rng.below(3)];
+            let colour = colours[rng.below(colours.len())];
             for k in arrival..t {
                 if rng.uniform() < 0.3 {
                     continue; // an exactly-zero voxel
@@ -631,6 +638,57 @@ fn fast_filter_matches_reference_on_random_bundles() {
         }
     }
     eprintln!("largest relative difference to the reference: {worst:e}");
+}
+
+/// One non-zero voxel in one channel (at the corners and inside): the voxels whose
+/// window reaches it get its share, every other voxel is skipped as all-zero and must
+/// be exactly 0; both must match the reference for every tiling.
+#[test]
+fn single_voxel_in_one_channel_matches_reference() {
+    let (h, w, t, spp) = (9, 10, 12, 8);
+    let mut rng = Rng::new(17);
+    for (y, x, k) in [(4, 5, 6), (0, 0, 0), (8, 9, 11), (0, 9, 3)] {
+        for c in 0..C {
+            // 3 of 8 paths deposit 1, 2, 3 (compatible with 0 at g = 2), or all 8
+            // deposit 2 (V = 0, incompatible with 0 for any g).
+            for certain in [false, true] {
+                let mut b = Bundle::new(h, w, t, spp, Transform::Identity);
+                random_features(&mut b, &mut rng, |_, _| false);
+                for s in 0..if certain { spp } else { 3 } {
+                    let mut rgb = [0.0; 3];
+                    rgb[c] = if certain { 2.0 } else { 1.0 + s as f64 };
+                    b.deposit(y, x, k, rgb);
+                }
+                let est = b.estimates();
+                for g2 in [None, Some(4.0)] {
+                    let p = FilterParams {
+                        radius: 2,
+                        temporal_radius: 1,
+                        base: BaseFilter {
+                            kind: BaseKind::Jbf,
+                            sigmas: Sigmas::default(),
+                        },
+                        g2,
+                    };
+                    let what = format!("({y},{x},{k}) c {c} certain {certain} {g2:?}");
+                    let reference = reference_filter(&est, &b.features(), &p);
+                    if (y, x, k) == (4, 5, 6) {
+                        let nonzero = reference.out.iter().filter(|&&v| v != 0.0).count();
+                        let expected = if certain && g2.is_some() {
+                            1
+                        } else {
+                            5 * 5 * 3
+                        };
+                        assert_eq!(nonzero, expected, "{what}");
+                    }
+                    for tiling in TILINGS {
+                        let out = run_filter(&est, &b.features(), &p, tiling);
+                        assert_close(&out, &reference.out, 1e-5, &format!("{what} {tiling:?}"));
+                    }
+                }
+            }
+        }
+    }
 }
 
 /// A volume with no voxel non-zero anywhere filters to exact zeros (no 0/0).

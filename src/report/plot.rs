@@ -157,10 +157,16 @@ where
         .x_label_area_size(50)
         .y_label_area_size(80)
         .build_cartesian_2d(x, y)?;
+    let fmt = |v: &f64| crate::report::table::num(*v);
     chart
         .configure_mesh()
         .x_desc(x_label)
         .y_desc(y_label)
+        .x_labels(8)
+        .y_labels(8)
+        .x_label_formatter(&fmt)
+        .y_label_formatter(&fmt)
+        .light_line_style(WHITE)
         .label_style(("sans-serif", 15))
         .draw()?;
     let ok = |v: f64, s: Scale| v.is_finite() && (s == Scale::Linear || v > 0.0);

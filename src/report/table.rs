@@ -69,6 +69,10 @@ pub fn num(v: f64) -> String {
             .trim_end_matches('.')
             .to_string()
     } else {
-        format!("{v:.4e}")
+        let s = format!("{v:.3e}");
+        match s.split_once('e') {
+            Some((m, e)) => format!("{}e{e}", m.trim_end_matches('0').trim_end_matches('.')),
+            None => s,
+        }
     }
 }
