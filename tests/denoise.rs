@@ -1093,12 +1093,9 @@ fn membership_is_symmetric_and_exact_at_zero_variance() {
     assert!(!passes(10.0, 10.0 - 3.0 * 0.1, 0.004, 0.006, 9.0 * 0.999));
 }
 
-/// Known limit, NOT a test of the SPEC's wording: with d != 0 but |d| < ~4e-23 the f32
-/// product d * d underflows to 0, so `d^2 <= g^2 * 0` holds and the pair passes
-/// although SPEC 8 says "d != 0, V = 0 fails". Radiances that small do not occur in
-/// practice, so this is reported rather than asserted.
+/// With d != 0 but |d| below ~4e-23 the f32 product d * d underflows to 0; SPEC 8's
+/// "d != 0, V = 0 fails" must hold anyway (the fast filter uses the same test).
 #[test]
-#[ignore = "library limit: d*d underflows in f32 for |d| < ~4e-23 (reported, not fixed)"]
 fn membership_tiny_nonzero_difference_with_zero_variance_fails() {
     assert!(!passes(1e-23, 2e-23, 0.0, 0.0, 4.0));
 }
@@ -1238,7 +1235,6 @@ fn mirrored_inputs_give_mirrored_outputs() {
         }
         let s_est = s.estimates();
         let so = run_filter(&s_est, &s.features(), &p, Tiling::default());
-        let mut worst = 0.0f64;
         for y in 0..h {
             for x in 0..w {
                 for k in 0..t {
@@ -1250,7 +1246,6 @@ fn mirrored_inputs_give_mirrored_outputs() {
                             d <= 1e-5 * a.abs().max(m.abs()) + ABS_FLOOR,
                             "{kind:?} ({y},{x},{k},{c}): {a} vs {m}"
                         );
-                        worst = worst.max(d);
                     }
                 }
             }

@@ -13,6 +13,7 @@
 
 use super::base_filter::{BaseFilter, Features};
 use super::estimates::Estimates;
+use super::membership::passes;
 use crate::stats::accumulators::CHANNELS;
 use rayon::prelude::*;
 
@@ -87,12 +88,10 @@ fn accumulate<const MEMBERSHIP: bool>(
     let (n0, n1, n2, den) = (&mut n0[..n], &mut n1[..n], &mut n2[..n], &mut den[..n]);
     for k in 0..n {
         let wk = if MEMBERSHIP {
-            let d0 = ti0[k] - tj0[k];
-            let d1 = ti1[k] - tj1[k];
-            let d2 = ti2[k] - tj2[k];
-            let m = (d0 * d0 <= g2 * (vi0[k] + vj0[k]))
-                & (d1 * d1 <= g2 * (vi1[k] + vj1[k]))
-                & (d2 * d2 <= g2 * (vi2[k] + vj2[k]));
+            // membership::passes on every channel, written out so it vectorises.
+            let m = passes(ti0[k], tj0[k], vi0[k], vj0[k], g2)
+                & passes(ti1[k], tj1[k], vi1[k], vj1[k], g2)
+                & passes(ti2[k], tj2[k], vi2[k], vj2[k], g2);
             if m {
                 w
             } else {
