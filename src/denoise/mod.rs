@@ -73,6 +73,22 @@ pub fn denoise_sums(
 ) -> Denoised {
     let start = std::time::Instant::now();
     let est = Estimates::from_sums(sums);
+    let mut d = denoise_estimates(est, sums.spp, albedo, normal, params, progress);
+    d.seconds = start.elapsed().as_secs_f64();
+    d
+}
+
+/// Filters estimates already made (consumed, so their memory is freed before the
+/// output is laid out).
+pub fn denoise_estimates(
+    est: Estimates,
+    spp: u64,
+    albedo: &[f32],
+    normal: &[f32],
+    params: &DenoiseParams,
+    progress: &(dyn Fn(u64) + Sync),
+) -> Denoised {
+    let start = std::time::Instant::now();
     let fp = FilterParams {
         radius: params.radius,
         temporal_radius: params.temporal_radius,
@@ -80,12 +96,12 @@ pub fn denoise_sums(
             kind: params.base,
             sigmas: params.sigmas,
         },
-        g2: params.threshold.map(|t| t.g2(sums.spp)),
+        g2: params.threshold.map(|t| t.g2(spp)),
     };
     let features = Features { albedo, normal };
     let (planar, evaluations) = filter(&est, &features, &fp, params.tiling, progress);
+    let (h, w, t) = (est.height, est.width, est.bins);
     drop(est);
-    let (h, w, t) = (sums.height, sums.width, sums.bins);
     let volume = Array4::from_shape_fn((h, w, t, CHANNELS), |(y, x, k, c)| {
         planar[((y * w + x) * CHANNELS + c) * t + k]
     });
@@ -150,6 +166,17 @@ impl LoadedSums {
         }
     }
 
+    /// Keeps the manifest and G-buffers, freeing the sums.
+    pub fn into_features(
+        self,
+    ) -> (
+        crate::bundle::Manifest,
+        ndarray::Array3<f32>,
+        ndarray::Array3<f32>,
+    ) {
+        (self.manifest, self.albedo, self.normal)
+    }
+
     pub fn denoise(&self, params: &DenoiseParams, progress: &(dyn Fn(u64) + Sync)) -> Denoised {
         denoise_sums(
             &self.view(),
@@ -161,13 +188,26 @@ impl LoadedSums {
     }
 }
 
-/// Reads a bundle and denoises it.
+/// Reads a bundle and denoises it; the f64 sums are freed once the estimates are made.
 pub fn denoise_bundle(
     bundle: &Bundle,
     params: &DenoiseParams,
     progress: &(dyn Fn(u64) + Sync),
 ) -> Result<Denoised, BundleError> {
-    Ok(LoadedSums::read(bundle)?.denoise(params, progress))
+    let start = std::time::Instant::now();
+    let sums = LoadedSums::read(bundle)?;
+    let est = Estimates::from_sums(&sums.view());
+    let (manifest, albedo, normal) = sums.into_features();
+    let mut d = denoise_estimates(
+        est,
+        manifest.spp,
+        std_slice(&albedo),
+        std_slice(&normal),
+        params,
+        progress,
+    );
+    d.seconds = start.elapsed().as_secs_f64();
+    Ok(d)
 }
 
 /// Arrays from `read_npy` are in standard (C) layout.
