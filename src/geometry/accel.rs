@@ -113,8 +113,23 @@ impl Accel {
         let bvh = self.bvh.as_ref()?;
         let ray = Ray::new(Vec3A::from(o), Vec3A::from(d), 0.0, tmax);
         let mut hit = RayHit::none();
-        let found = bvh.ray_traverse(ray, &mut hit, |r, id| {
-            self.prim_t(id, Vec3::from(r.origin), Vec3::from(r.direction), 0.0)
+        // The closure sees candidates in any order; keep the barycentrics of the nearest.
+        let (mut best_t, mut best_b) = (f32::INFINITY, (0.0f32, 0.0f32));
+        let found = bvh.ray_traverse(ray, &mut hit, |_, id| {
+            let t = match &self.prims[id].geom {
+                PrimGeom::Triangle(tri) => match tri.intersect(o, d, 0.0) {
+                    Some((t, b1, b2)) => {
+                        if t < best_t {
+                            best_t = t;
+                            best_b = (b1, b2);
+                        }
+                        t
+                    }
+                    None => f32::INFINITY,
+                },
+                PrimGeom::Sphere(s) => s.intersect(o, d, 0.0).unwrap_or(f32::INFINITY),
+            };
+            t
         });
         if !found {
             return None;
@@ -122,10 +137,7 @@ impl Accel {
         let p = &self.prims[hit.primitive_id as usize];
         let shape = &shapes[p.shape as usize];
         let surface = match &p.geom {
-            PrimGeom::Triangle(t) => {
-                let (_, b1, b2) = t.intersect(o, d, 0.0).unwrap_or((hit.t, 0.0, 0.0));
-                shape.surface(p.face, b1, b2, Vec3::ZERO)
-            }
+            PrimGeom::Triangle(t) => shape.surface_of(t, p.face, best_b.0, best_b.1),
             PrimGeom::Sphere(_) => shape.surface(0, 0.0, 0.0, o + d * hit.t),
         };
         Some(Hit {

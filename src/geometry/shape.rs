@@ -64,27 +64,7 @@ impl Shape {
     pub fn surface(&self, face: u32, b1: f32, b2: f32, p_hint: Vec3) -> SurfacePoint {
         let sign = if self.flip_normals { -1.0 } else { 1.0 };
         match &self.geom {
-            ShapeGeom::Mesh {
-                normals, triangles, ..
-            } => {
-                let tri = self.triangle(face);
-                let ng = tri.cross().normalize_or_zero() * sign;
-                let ns = match normals {
-                    Some(n) => {
-                        let [a, b, c] = triangles[face as usize];
-                        let v = n[a as usize] * (1.0 - b1 - b2)
-                            + n[b as usize] * b1
-                            + n[c as usize] * b2;
-                        v.try_normalize().map_or(ng, |v| v * sign)
-                    }
-                    None => ng,
-                };
-                SurfacePoint {
-                    p: tri.point(b1, b2),
-                    ng,
-                    ns,
-                }
-            }
+            ShapeGeom::Mesh { .. } => self.surface_of(&self.triangle(face), face, b1, b2),
             ShapeGeom::Sphere(s) => {
                 let n = (p_hint - s.center).normalize_or_zero();
                 // Project onto the surface to remove the hit's rounding error.
@@ -95,6 +75,30 @@ impl Shape {
                     ns: n * sign,
                 }
             }
+        }
+    }
+
+    /// The surface point on triangle `face` whose geometry `tri` the caller already has.
+    #[inline]
+    pub fn surface_of(&self, tri: &TriangleGeom, face: u32, b1: f32, b2: f32) -> SurfacePoint {
+        let sign = if self.flip_normals { -1.0 } else { 1.0 };
+        let ng = tri.cross().normalize_or_zero() * sign;
+        let ns = match &self.geom {
+            ShapeGeom::Mesh {
+                normals: Some(n),
+                triangles,
+                ..
+            } => {
+                let [a, b, c] = triangles[face as usize];
+                let v = n[a as usize] * (1.0 - b1 - b2) + n[b as usize] * b1 + n[c as usize] * b2;
+                v.try_normalize().map_or(ng, |v| v * sign)
+            }
+            _ => ng,
+        };
+        SurfacePoint {
+            p: tri.point(b1, b2),
+            ng,
+            ns,
         }
     }
 
@@ -113,6 +117,8 @@ impl Shape {
 pub struct AreaSampler {
     /// Cumulative triangle areas normalised to end at 1 (empty for spheres).
     cdf: Vec<f32>,
+    /// The triangles, in face order (empty for spheres).
+    tris: Vec<TriangleGeom>,
     pub total_area: f32,
 }
 
@@ -132,11 +138,15 @@ impl AreaSampler {
                 }
                 AreaSampler {
                     cdf,
+                    tris: (0..triangles.len() as u32)
+                        .map(|f| shape.triangle(f))
+                        .collect(),
                     total_area: acc as f32,
                 }
             }
             ShapeGeom::Sphere(s) => AreaSampler {
                 cdf: Vec::new(),
+                tris: Vec::new(),
                 total_area: s.area(),
             },
         }
@@ -151,7 +161,7 @@ impl AreaSampler {
                     .partition_point(|&c| c <= u1)
                     .min(self.cdf.len() - 1);
                 let [b1, b2] = uniform_triangle(u2);
-                shape.surface(face as u32, b1, b2, Vec3::ZERO)
+                shape.surface_of(&self.tris[face], face as u32, b1, b2)
             }
             ShapeGeom::Sphere(s) => {
                 let p = s.center + uniform_sphere(u2) * s.radius;
