@@ -115,21 +115,18 @@ impl Accel {
         let mut hit = RayHit::none();
         // The closure sees candidates in any order; keep the barycentrics of the nearest.
         let (mut best_t, mut best_b) = (f32::INFINITY, (0.0f32, 0.0f32));
-        let found = bvh.ray_traverse(ray, &mut hit, |_, id| {
-            let t = match &self.prims[id].geom {
-                PrimGeom::Triangle(tri) => match tri.intersect(o, d, 0.0) {
-                    Some((t, b1, b2)) => {
-                        if t < best_t {
-                            best_t = t;
-                            best_b = (b1, b2);
-                        }
-                        t
+        let found = bvh.ray_traverse(ray, &mut hit, |_, id| match &self.prims[id].geom {
+            PrimGeom::Triangle(tri) => match tri.intersect(o, d, 0.0) {
+                Some((t, b1, b2)) => {
+                    if t < best_t {
+                        best_t = t;
+                        best_b = (b1, b2);
                     }
-                    None => f32::INFINITY,
-                },
-                PrimGeom::Sphere(s) => s.intersect(o, d, 0.0).unwrap_or(f32::INFINITY),
-            };
-            t
+                    t
+                }
+                None => f32::INFINITY,
+            },
+            PrimGeom::Sphere(s) => s.intersect(o, d, 0.0).unwrap_or(f32::INFINITY),
         });
         if !found {
             return None;
