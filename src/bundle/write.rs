@@ -68,6 +68,18 @@ pub fn write_atomically(
     Ok(())
 }
 
+/// Writes one file through a temporary sibling and a rename, replacing an older file of
+/// that name (for report outputs, which their commands check up front).
+pub fn replace_file(
+    path: &Path,
+    write: impl FnOnce(&Path) -> Result<(), String>,
+) -> Result<(), String> {
+    write_atomically(path, true, |tmp| {
+        write(tmp).map_err(|e| BundleError::Io(path.to_path_buf(), e))
+    })
+    .map_err(|e| e.to_string())
+}
+
 fn npy<A: WritableElement, D: ndarray::Dimension>(
     dir: &Path,
     name: &str,

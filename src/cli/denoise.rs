@@ -187,11 +187,12 @@ pub fn run(a: DenoiseArgs) -> anyhow::Result<()> {
         write_exr_bins(d, &result.volume, a.force)?;
     }
     println!(
-        "denoised {} -> {} in {:.2} s: {:.0} M voxel-neighbour evaluations/s{}",
+        "denoised {} -> {} in {:.2} s (filter {:.2} s: {:.0} M voxel-neighbour evaluations/s){}",
         a.bundle.display(),
         a.out.display(),
         result.seconds,
-        result.evaluations as f64 / result.seconds / 1e6,
+        result.filter_seconds,
+        result.evaluations as f64 / result.filter_seconds / 1e6,
         a.exr
             .as_ref()
             .map(|d| format!("; EXR bins in {}", d.display()))

@@ -199,21 +199,15 @@ where
 
 /// Saves an RGB8 buffer as PNG through a temporary sibling and a rename.
 pub fn save_png_rgb(path: &Path, buf: &[u8], w: u32, h: u32) -> Result<(), String> {
-    let tmp = path.with_file_name(format!(
-        ".{}.partial-{}",
-        path.file_name()
-            .map(|n| n.to_string_lossy())
-            .unwrap_or_default(),
-        std::process::id()
-    ));
-    image::save_buffer_with_format(
-        &tmp,
-        buf,
-        w,
-        h,
-        image::ColorType::Rgb8,
-        image::ImageFormat::Png,
-    )
-    .map_err(|e| format!("{}: {e}", path.display()))?;
-    std::fs::rename(&tmp, path).map_err(|e| format!("{}: {e}", path.display()))
+    crate::bundle::write::replace_file(path, |tmp| {
+        image::save_buffer_with_format(
+            tmp,
+            buf,
+            w,
+            h,
+            image::ColorType::Rgb8,
+            image::ImageFormat::Png,
+        )
+        .map_err(|e| e.to_string())
+    })
 }

@@ -46,15 +46,9 @@ impl Table {
 
 /// Writes text through a temporary sibling and a rename.
 pub fn write_text(path: &Path, text: &str) -> Result<(), String> {
-    let tmp = path.with_file_name(format!(
-        ".{}.partial-{}",
-        path.file_name()
-            .map(|n| n.to_string_lossy())
-            .unwrap_or_default(),
-        std::process::id()
-    ));
-    std::fs::write(&tmp, text).map_err(|e| format!("{}: {e}", path.display()))?;
-    std::fs::rename(&tmp, path).map_err(|e| format!("{}: {e}", path.display()))
+    crate::bundle::write::replace_file(path, |tmp| {
+        std::fs::write(tmp, text).map_err(|e| e.to_string())
+    })
 }
 
 /// A number for a table: 4 significant digits, `inf` kept readable.

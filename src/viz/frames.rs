@@ -77,16 +77,9 @@ pub fn write_gif(
     delay_ms: u32,
 ) -> Result<(), String> {
     let (h, w, t) = (v.shape()[0], v.shape()[1], v.shape()[2]);
-    let err = |e: image::ImageError| format!("{}: {e}", path.display());
-    let tmp = path.with_file_name(format!(
-        ".{}.partial-{}",
-        path.file_name()
-            .map(|n| n.to_string_lossy())
-            .unwrap_or_default(),
-        std::process::id()
-    ));
-    {
-        let file = std::fs::File::create(&tmp).map_err(|e| format!("{}: {e}", path.display()))?;
+    crate::bundle::write::replace_file(path, |tmp| {
+        let err = |e: image::ImageError| e.to_string();
+        let file = std::fs::File::create(tmp).map_err(|e| e.to_string())?;
         let mut enc =
             image::codecs::gif::GifEncoder::new_with_speed(std::io::BufWriter::new(file), 10);
         enc.set_repeat(image::codecs::gif::Repeat::Infinite)
@@ -106,8 +99,8 @@ pub fn write_gif(
             ))
             .map_err(err)?;
         }
-    }
-    std::fs::rename(&tmp, path).map_err(|e| format!("{}: {e}", path.display()))
+        Ok(())
+    })
 }
 
 /// Writes the streak image of row `row`: time across (bottom axis in OPL, top axis in
