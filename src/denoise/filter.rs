@@ -111,6 +111,119 @@ fn accumulate<const MEMBERSHIP: bool>(
     }
 }
 
+type Kernel = fn(
+    usize,
+    f32,
+    f32,
+    [&[f32]; 3],
+    [&[f32]; 3],
+    [&[f32]; 3],
+    [&[f32]; 3],
+    [&[f32]; 3],
+    [&mut [f32]; 3],
+    &mut [f32],
+);
+
+/// What every pixel's filtering shares.
+struct Shared<'a> {
+    e: &'a Estimates,
+    features: &'a Features<'a>,
+    params: &'a FilterParams,
+    /// Per pixel, the bins holding anything non-zero.
+    active: Vec<(usize, usize)>,
+    /// The bin-offset part of p, index dt + r_t.
+    pt: Vec<f64>,
+    g2: f32,
+    kernel: Kernel,
+}
+
+/// Per-task sums over one range of bins.
+struct Scratch {
+    num: [Vec<f32>; 3],
+    den: Vec<f32>,
+}
+
+/// Filters pixel (yj, xj) over bins [b0, b1) into `out_j`, its (C, T) planar block;
+/// returns the voxel-neighbour evaluations made.
+fn filter_pixel(
+    s: &Shared,
+    yj: usize,
+    xj: usize,
+    b0: usize,
+    b1: usize,
+    scratch: &mut Scratch,
+    out_j: &mut [f32],
+) -> u64 {
+    let e = s.e;
+    let (h, w, t_bins) = (e.height, e.width, e.bins);
+    let (r, rt) = (s.params.radius as i64, s.params.temporal_radius as i64);
+    let j = yj * w + xj;
+    let (ylo, yhi) = ((yj as i64 - r).max(0), (yj as i64 + r).min(h as i64 - 1));
+    let (xlo, xhi) = ((xj as i64 - r).max(0), (xj as i64 + r).min(w as i64 - 1));
+    let neighbours = || (ylo..=yhi).flat_map(move |yi| (xlo..=xhi).map(move |xi| (yi, xi)));
+    // Bins of j whose neighbourhood holds anything non-zero; the rest stay zero.
+    let (mut a, mut b) = (usize::MAX, 0usize);
+    for (yi, xi) in neighbours() {
+        let (lo, hi) = s.active[yi as usize * w + xi as usize];
+        if hi > lo {
+            a = a.min(lo.saturating_sub(rt as usize));
+            b = b.max((hi + rt as usize).min(t_bins));
+        }
+    }
+    let (a, b) = (a.max(b0), b.min(b1));
+    if a >= b {
+        return 0;
+    }
+    let n = b - a;
+    let Scratch { num, den } = scratch;
+    for v in num.iter_mut() {
+        v[..n].fill(0.0);
+    }
+    den[..n].fill(0.0);
+    let mut evals = 0u64;
+    for (yi, xi) in neighbours() {
+        let i = yi as usize * w + xi as usize;
+        let ps = s
+            .params
+            .base
+            .pair_weight(s.features, j, i, yi - yj as i64, xi - xj as i64);
+        for dt in -rt..=rt {
+            // Bins t of j in [a, b) whose neighbour bin t + dt exists.
+            let ts = (a as i64).max(-dt) as usize;
+            let te = (b as i64).min(t_bins as i64 - dt);
+            if te <= ts as i64 {
+                continue;
+            }
+            let m = te as usize - ts;
+            let wt = (ps * s.pt[(dt + rt) as usize]) as f32;
+            let oi: [usize; 3] = std::array::from_fn(|c| e.idx(i, c, (ts as i64 + dt) as usize));
+            let oj: [usize; 3] = std::array::from_fn(|c| e.idx(j, c, ts));
+            let off = ts - a;
+            let [n0, n1, n2] = &mut *num;
+            (s.kernel)(
+                m,
+                wt,
+                s.g2,
+                oi.map(|o| &e.theta[o..o + m]),
+                oj.map(|o| &e.theta[o..o + m]),
+                oi.map(|o| &e.v[o..o + m]),
+                oj.map(|o| &e.v[o..o + m]),
+                oi.map(|o| &e.mean[o..o + m]),
+                [&mut n0[off..], &mut n1[off..], &mut n2[off..]],
+                &mut den[off..],
+            );
+            evals += m as u64;
+        }
+    }
+    for (c, num_c) in num.iter().enumerate() {
+        let o = c * t_bins + a;
+        for ((out, &sum), &d) in out_j[o..o + n].iter_mut().zip(&num_c[..n]).zip(&den[..n]) {
+            *out = sum / d;
+        }
+    }
+    evals
+}
+
 /// Filters `e`; returns the output in the planar layout (H, W, C, T) and the number of
 /// voxel-neighbour evaluations. `progress` is called with pixels finished.
 pub fn filter(
@@ -123,117 +236,45 @@ pub fn filter(
     let (h, w, t_bins) = (e.height, e.width, e.bins);
     let per_pixel = CHANNELS * t_bins;
     let mut out = vec![0.0f32; h * w * per_pixel];
-    let active = active_ranges(e);
-    let (r, rt) = (params.radius as i64, params.temporal_radius as i64);
-    let pt = params.base.time_weights(params.temporal_radius);
-    let g2 = params.g2.unwrap_or(0.0) as f32;
-    let rows = tiling.rows.max(1);
-    let kernel = if params.g2.is_some() {
-        accumulate::<true>
-    } else {
-        accumulate::<false>
+    let shared = Shared {
+        e,
+        features,
+        params,
+        active: active_ranges(e),
+        pt: params.base.time_weights(params.temporal_radius),
+        g2: params.g2.unwrap_or(0.0) as f32,
+        kernel: if params.g2.is_some() {
+            accumulate::<true>
+        } else {
+            accumulate::<false>
+        },
     };
-    let band_len = rows * w * per_pixel;
-
+    let (rows, cols, bins) = (tiling.rows.max(1), tiling.cols.max(1), tiling.bins.max(1));
     let evaluations: u64 = out
-        .par_chunks_mut(band_len)
+        .par_chunks_mut(rows * w * per_pixel)
         .enumerate()
         .map(|(band, out_band)| {
-            let y0 = band * rows;
-            let y1 = (y0 + rows).min(h);
-            let mut num: [Vec<f32>; 3] = std::array::from_fn(|_| vec![0.0; tiling.bins.max(1)]);
-            let mut den = vec![0.0f32; tiling.bins.max(1)];
+            let (y0, y1) = (band * rows, ((band + 1) * rows).min(h));
+            let mut scratch = Scratch {
+                num: std::array::from_fn(|_| vec![0.0; bins]),
+                den: vec![0.0; bins],
+            };
             let mut evals = 0u64;
-            for b0 in (0..t_bins).step_by(tiling.bins.max(1)) {
-                let b1 = (b0 + tiling.bins.max(1)).min(t_bins);
-                for x0 in (0..w).step_by(tiling.cols.max(1)) {
-                    let x1 = (x0 + tiling.cols.max(1)).min(w);
+            for b0 in (0..t_bins).step_by(bins) {
+                let b1 = (b0 + bins).min(t_bins);
+                for x0 in (0..w).step_by(cols) {
                     for yj in y0..y1 {
-                        for xj in x0..x1 {
-                            let j = yj * w + xj;
-                            let (ylo, yhi) =
-                                ((yj as i64 - r).max(0), (yj as i64 + r).min(h as i64 - 1));
-                            let (xlo, xhi) =
-                                ((xj as i64 - r).max(0), (xj as i64 + r).min(w as i64 - 1));
-                            // Bins of j whose neighbourhood holds anything non-zero.
-                            let (mut a, mut b) = (usize::MAX, 0usize);
-                            for yi in ylo..=yhi {
-                                for xi in xlo..=xhi {
-                                    let (lo, hi) = active[yi as usize * w + xi as usize];
-                                    if hi > lo {
-                                        a = a.min(lo.saturating_sub(rt as usize));
-                                        b = b.max((hi + rt as usize).min(t_bins));
-                                    }
-                                }
-                            }
-                            let (a, b) = (a.max(b0), b.min(b1));
-                            if a >= b {
-                                continue;
-                            }
-                            let n = b - a;
-                            for v in num.iter_mut() {
-                                v[..n].fill(0.0);
-                            }
-                            den[..n].fill(0.0);
-                            for yi in ylo..=yhi {
-                                for xi in xlo..=xhi {
-                                    let i = yi as usize * w + xi as usize;
-                                    let ps = params.base.pair_weight(
-                                        features,
-                                        j,
-                                        i,
-                                        yi - yj as i64,
-                                        xi - xj as i64,
-                                    );
-                                    for dt in -rt..=rt {
-                                        let wt = (ps * pt[(dt + rt) as usize]) as f32;
-                                        let ts = (a as i64).max(-dt) as usize;
-                                        let te = (b as i64).min(t_bins as i64 - dt);
-                                        if te <= ts as i64 {
-                                            continue;
-                                        }
-                                        let te = te as usize;
-                                        let m = te - ts;
-                                        let si = (ts as i64 + dt) as usize;
-                                        let oi: [usize; 3] =
-                                            std::array::from_fn(|c| e.idx(i, c, si));
-                                        let oj: [usize; 3] =
-                                            std::array::from_fn(|c| e.idx(j, c, ts));
-                                        let th_i = oi.map(|o| &e.theta[o..o + m]);
-                                        let th_j = oj.map(|o| &e.theta[o..o + m]);
-                                        let v_i = oi.map(|o| &e.v[o..o + m]);
-                                        let v_j = oj.map(|o| &e.v[o..o + m]);
-                                        let mu_i = oi.map(|o| &e.mean[o..o + m]);
-                                        let off = ts - a;
-                                        let [n0, n1, n2] = &mut num;
-                                        let sums = [&mut n0[off..], &mut n1[off..], &mut n2[off..]];
-                                        kernel(
-                                            m,
-                                            wt,
-                                            g2,
-                                            th_i,
-                                            th_j,
-                                            v_i,
-                                            v_j,
-                                            mu_i,
-                                            sums,
-                                            &mut den[off..],
-                                        );
-                                        evals += m as u64;
-                                    }
-                                }
-                            }
-                            let local = (yj - y0) * w + xj;
-                            for (c, num_c) in num.iter().enumerate() {
-                                let o = (local * CHANNELS + c) * t_bins + a;
-                                for ((out, &s), &d) in out_band[o..o + n]
-                                    .iter_mut()
-                                    .zip(&num_c[..n])
-                                    .zip(&den[..n])
-                                {
-                                    *out = s / d;
-                                }
-                            }
+                        for xj in x0..(x0 + cols).min(w) {
+                            let o = ((yj - y0) * w + xj) * per_pixel;
+                            evals += filter_pixel(
+                                &shared,
+                                yj,
+                                xj,
+                                b0,
+                                b1,
+                                &mut scratch,
+                                &mut out_band[o..o + per_pixel],
+                            );
                         }
                     }
                 }
