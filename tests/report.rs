@@ -94,6 +94,7 @@ fn frames_gif_and_streak_share_one_exposure() {
             bin_width_opl: 0.1,
             unit_m: 1.0,
         }),
+        caption: "streak".into(),
     };
     assert_eq!(write_all(dir.path(), v.view(), &req).unwrap(), t);
     let frame = |k: usize| {

@@ -98,6 +98,7 @@ pub fn run(a: FramesArgs) -> anyhow::Result<()> {
         streak_row,
         exposure: a.exposure.unwrap_or_else(|| global_exposure(v.view())),
         axis,
+        caption: format!("streak image, row {streak_row}"),
     };
     let mut count = 0;
     write_atomically(&a.out, a.force, |tmp| {

@@ -149,6 +149,13 @@ fn job(
         streak_row: noisy.shape()[0] / 2,
         exposure: global_exposure(den.volume.view()),
         axis: Some(axis_of(&bundle)),
+        caption: format!(
+            "row {}: noisy (columns 0-{}) | denoised (columns {}-{})",
+            noisy.shape()[0] / 2,
+            noisy.shape()[1] - 1,
+            noisy.shape()[1] + 2,
+            2 * noisy.shape()[1] + 1
+        ),
     };
     write_all(dir, both.view(), &req).map_err(|e| anyhow!(e))?;
     Ok(())

@@ -111,6 +111,7 @@ pub fn write_streak(
     row: usize,
     exposure: f32,
     axis: Option<TimeAxis>,
+    caption: &str,
 ) -> Result<(), String> {
     let (h, w, t) = (v.shape()[0], v.shape()[1], v.shape()[2]);
     if row >= h {
@@ -131,7 +132,7 @@ pub fn write_streak(
         let draw = || -> Result<(), Box<dyn std::error::Error>> {
             root.fill(&WHITE)?;
             let mut chart = ChartBuilder::on(&root)
-                .caption(format!("streak image, row {row}"), ("sans-serif", 20))
+                .caption(caption, ("sans-serif", 18))
                 .margin(10)
                 .x_label_area_size(45)
                 .top_x_label_area_size(45)
@@ -198,6 +199,8 @@ pub struct FramesRequest {
     pub streak_row: usize,
     pub exposure: f32,
     pub axis: Option<TimeAxis>,
+    /// Title of the streak image.
+    pub caption: String,
 }
 
 /// Writes frames into `dir` (which must exist) plus `propagation.gif` and
@@ -215,6 +218,7 @@ pub fn write_all(dir: &Path, v: ArrayView4<f32>, req: &FramesRequest) -> Result<
         req.streak_row,
         req.exposure,
         req.axis,
+        &req.caption,
     )?;
     Ok(names.len())
 }
