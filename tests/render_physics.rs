@@ -267,3 +267,31 @@ fn same_seed_same_bits_different_seed_different_bits() {
     assert!(a.accum.x1 == b.accum.x1 && a.accum.x3 == b.accum.x3 && a.steady == b.steady);
     assert!(a.accum.x1 != c.accum.x1);
 }
+
+#[test]
+fn non_finite_contributions_are_dropped_and_counted() {
+    // I / d^2 = 3e38 / 0.25 overflows f32: every light connection is infinite.
+    let xml = CONFOCAL_PLANE
+        .replace(
+            r#"<rgb name="intensity" value="10, 20, 30"/>"#,
+            r#"<rgb name="intensity" value="3e38"/>"#,
+        )
+        .replace(r#"<translate z="-2"/>"#, r#"<translate z="-0.5"/>"#)
+        .replace(
+            r#"<float name="start_opl" value="3.025"/>"#,
+            r#"<float name="start_opl" value="0"/>"#,
+        );
+    let scene = load(&xml, &Overrides::default());
+    let out = run(&scene, 1);
+    let paths = (scene.film.pixels() * scene.spp as usize) as u64;
+    // One NEE connection per path (max_depth 2), each dropped.
+    assert_eq!(out.dropped_nonfinite, paths);
+    assert!(out
+        .accum
+        .x1
+        .iter()
+        .chain(&out.accum.x2)
+        .chain(&out.steady)
+        .all(|v| *v == 0.0));
+    assert!(out.accum.nonzero.iter().all(|&k| k == 0));
+}
