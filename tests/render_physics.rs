@@ -295,3 +295,58 @@ fn non_finite_contributions_are_dropped_and_counted() {
         .all(|v| *v == 0.0));
     assert!(out.accum.nonzero.iter().all(|&k| k == 0));
 }
+
+#[test]
+fn gbuffers_hold_albedo_normal_depth_and_emitter_fraction() {
+    let scene = load(CONFOCAL_PLANE, &Overrides::default());
+    let out = run(&scene, 4);
+    for g in &out.gbuffer {
+        assert_eq!(g.albedo, [0.5, 0.6, 0.7]);
+        assert!((g.normal[2] - 1.0).abs() < 1e-6 && g.normal[0].abs() < 1e-6);
+        // Depth 2 / cos(theta), theta under 1.5 degrees.
+        assert!(g.depth >= 2.0 && g.depth < 2.0 / (1.5f32).to_radians().cos());
+        assert_eq!(g.emitter, 0.0);
+    }
+    // In the Cornell box, the centre of the light is seen directly by every sample, and
+    // a pixel on the back wall sees the white albedo.
+    let scene = cbox(&Overrides {
+        width: Some(32),
+        spp: Some(8),
+        bins: Some(4),
+        ..Default::default()
+    });
+    let out = run(&scene, 4);
+    let w = scene.film.width;
+    // The light's centre (0, 0.99, 0.01) projects to row ~ 16 - 16 * 0.99 / (3.89 tan 19.65 deg).
+    let row = (16.0 - 16.0 * 0.99 / (3.89 * 19.65f32.to_radians().tan())).floor() as usize;
+    let light = &out.gbuffer[row * w + 16];
+    assert_eq!(light.emitter, 1.0, "row {row}");
+    let wall = &out.gbuffer[12 * w + 16];
+    assert_eq!(wall.emitter, 0.0);
+    assert!((wall.albedo[0] - 0.885809).abs() < 1e-6);
+}
+
+#[test]
+fn gbuffers_follow_specular_chains_through_glass() {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cbox_spheres.xml");
+    let scene = Scene::load(
+        &path,
+        &Overrides {
+            width: Some(32),
+            spp: Some(64),
+            bins: Some(4),
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let out = run(&scene, 4);
+    // The glass sphere's centre (0.45, -0.6, 0.35) projects to pixel (row 23, column 21):
+    // most samples refract through it to the white floor or walls behind, so the
+    // G-buffer holds their albedo (not the glass's, which is a delta BSDF: 0), and the
+    // depth is that of the sphere's front surface (|centre - camera| - r = 3.63 - 0.4).
+    let g = &out.gbuffer[23 * 32 + 21];
+    assert!(g.albedo[0] > 0.3 && g.albedo[0] < 0.886, "{:?}", g.albedo);
+    let n = (g.normal[0].powi(2) + g.normal[1].powi(2) + g.normal[2].powi(2)).sqrt();
+    assert!((n - 1.0).abs() < 1e-5);
+    assert!((g.depth - 3.23).abs() < 0.03, "{}", g.depth);
+}
