@@ -350,3 +350,48 @@ fn gbuffers_follow_specular_chains_through_glass() {
     assert!((n - 1.0).abs() < 1e-5);
     assert!((g.depth - 3.23).abs() < 0.03, "{}", g.depth);
 }
+
+/// Steady-image means measured with mitransient 1.3.1 / Mitsuba 3.9.1 (`llvm_ad_rgb`,
+/// 64 x 64, 8192 spp) on the bundled scenes, unchanged: an independent reference.
+#[test]
+fn steady_images_agree_with_mitransient() {
+    let cases = [
+        ("cbox.xml", [0.2402, 0.1411, 0.0600]),
+        ("cbox_confocal.xml", [0.5717, 0.3790, 0.3203]),
+    ];
+    for (name, want) in cases {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("scenes")
+            .join(name);
+        let scene = Scene::load(
+            &path,
+            &Overrides {
+                width: Some(64),
+                spp: Some(64),
+                bins: Some(1),
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        // Four independent renders: their spread gives the Monte Carlo error of the mean.
+        let means: Vec<[f64; 3]> = (0..4)
+            .map(|seed| {
+                let out = run(&scene, 100 + seed);
+                let px = scene.film.pixels() as f64;
+                std::array::from_fn(|c| out.steady.iter().skip(c).step_by(3).sum::<f64>() / px)
+            })
+            .collect();
+        for c in 0..3 {
+            let m = means.iter().map(|v| v[c]).sum::<f64>() / 4.0;
+            let var = means.iter().map(|v| (v[c] - m).powi(2)).sum::<f64>() / 3.0;
+            let se = (var / 4.0).sqrt();
+            // 4 standard errors of ours, plus mitransient's own error and rounding (0.15%).
+            let tol = 4.0 * se + 1.5e-3 * want[c];
+            assert!(
+                (m - want[c]).abs() <= tol,
+                "{name} channel {c}: {m} vs {} (tol {tol})",
+                want[c]
+            );
+        }
+    }
+}
