@@ -340,3 +340,69 @@ fn compare_reports_metrics_and_refuses_bad_input() {
         "--gamma 0.7",
     );
 }
+
+#[test]
+fn frames_command_on_bundles_and_arrays() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = |n: &str| dir.path().join(n).display().to_string();
+    let scene = cbox().display().to_string();
+    let r = tstat(&[
+        "render",
+        &scene,
+        "--out",
+        &p("b.tstats"),
+        "--width",
+        "10",
+        "--spp",
+        "2",
+        "--bins",
+        "12",
+    ]);
+    assert!(r.status.success());
+    let r = tstat(&[
+        "frames",
+        &p("b.tstats"),
+        "--out",
+        &p("f"),
+        "--every",
+        "3",
+        "--gif",
+        "--streak-row",
+        "9",
+    ]);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    assert_eq!(
+        std::fs::read_dir(dir.path().join("f/frames"))
+            .unwrap()
+            .count(),
+        4
+    );
+    assert!(
+        dir.path().join("f/propagation.gif").is_file() && dir.path().join("f/streak.png").is_file()
+    );
+    // An .npy volume without a time axis is labelled in bins, and says so.
+    write_volume(Path::new(&p("v.npy")), (4, 5, 6, 3), 0.5);
+    let r = tstat(&["frames", &p("v.npy"), "--out", &p("g")]);
+    assert!(r.status.success());
+    assert!(String::from_utf8_lossy(&r.stdout).contains("time axis unknown"));
+    let fails = |args: &[&str], want: &str| {
+        let r = tstat(args);
+        let err = String::from_utf8_lossy(&r.stderr);
+        assert!(matches!(r.status.code(), Some(1 | 2)), "{args:?}");
+        assert!(err.contains(want), "expected '{want}' in {err}");
+    };
+    fails(
+        &["frames", &p("v.npy"), "--out", &p("h"), "--streak-row", "4"],
+        "--streak-row 4",
+    );
+    fails(
+        &["frames", &p("v.npy"), "--out", &p("h"), "--every", "0"],
+        "--every",
+    );
+    fails(&["frames", &p("v.npy"), "--out", &p("g")], "already exists");
+    fails(
+        &["frames", &p("nothing.npy"), "--out", &p("h")],
+        "nothing.npy",
+    );
+    assert!(!dir.path().join("h").exists());
+}
