@@ -27,11 +27,13 @@ pub struct Accumulators {
 }
 
 impl Accumulators {
-    /// Bytes needed for a film of this size with this transform.
+    /// Bytes needed for a film of this size with this transform (saturating, so absurd
+    /// sizes compare as too large instead of wrapping).
     pub fn bytes(height: usize, width: usize, bins: usize, transform: &Transform) -> u64 {
-        let voxels = (height * width * bins) as u64;
-        let arrays = if transform.is_identity() { 3 } else { 4 };
-        voxels * CHANNELS as u64 * 8 * arrays + voxels * 4
+        let arrays: u128 = if transform.is_identity() { 3 } else { 4 };
+        let voxels = height as u128 * width as u128 * bins as u128;
+        let b = voxels * CHANNELS as u128 * 8 * arrays + voxels * 4;
+        u64::try_from(b).unwrap_or(u64::MAX)
     }
 
     pub fn new(height: usize, width: usize, bins: usize, transform: &Transform) -> Self {
