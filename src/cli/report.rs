@@ -481,6 +481,9 @@ fn run_sweep_cmd(a: SweepArgs) -> anyhow::Result<()> {
     }
     let radii: Vec<usize> = parse_list("--radius", &a.radius)?;
     let rts: Vec<usize> = parse_list("--temporal-radius", &a.temporal_radius)?;
+    if let Some(r) = radii.iter().chain(&rts).find(|&&r| r > 64) {
+        bail!("radius {r}: at most 64 (as in `tstat denoise`)");
+    }
     let base = a.base.params()?;
     prepare_out(&a.out, &files, a.force)?;
     let reference = load_volume(&a.reference)?;
