@@ -391,3 +391,29 @@ fn denoise_writes_a_volume_and_refuses_bad_parameters() {
     std::fs::copy(c.out.join("steady.npy"), c.out.join("x2.npy")).unwrap();
     fails(&[], "x2.npy");
 }
+
+#[test]
+fn fortran_order_arrays_and_missing_output_directories() {
+    let c = case(VALID);
+    let (sc, out) = (c.scene.to_str().unwrap(), c.out.to_str().unwrap());
+    // The parent of the output must exist: refused before rendering.
+    let nowhere = c.dir.path().join("no/such/dir.tstats");
+    let r = tstat(&["render", sc, "--out", nowhere.to_str().unwrap()]);
+    assert_eq!(r.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&r.stderr).contains("does not exist"));
+    assert!(tstat(&["render", sc, "--out", out]).status.success());
+    let a = c.dir.path().join("a.npy");
+    assert!(tstat(&["denoise", out, "--out", a.to_str().unwrap()])
+        .status
+        .success());
+    // NumPy may save Fortran order: same numbers, same result.
+    let x1: ndarray::Array4<f64> = ndarray_npy::read_npy(c.out.join("x1.npy")).unwrap();
+    let mut f = ndarray::Array4::<f64>::zeros(ndarray::ShapeBuilder::f(x1.raw_dim()));
+    f.assign(&x1);
+    assert!(!f.is_standard_layout());
+    ndarray_npy::write_npy(c.out.join("x1.npy"), &f).unwrap();
+    let b = c.dir.path().join("b.npy");
+    let r = tstat(&["denoise", out, "--out", b.to_str().unwrap()]);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    assert_eq!(std::fs::read(&a).unwrap(), std::fs::read(&b).unwrap());
+}

@@ -780,6 +780,8 @@ fn estimates_match_two_pass_sample_statistics() {
                             "{what}: mean {} vs {mean}",
                             est.mean[i]
                         );
+                        // Stored relative to z(0).
+                        let theta = theta - transform.at_zero();
                         assert!(
                             close(est.theta[i], theta, theta.abs() + vv.sqrt()),
                             "{what}: theta {} vs {theta}",

@@ -395,3 +395,20 @@ fn steady_images_agree_with_mitransient() {
         }
     }
 }
+
+#[test]
+fn max_depth_zero_renders_nothing_and_one_only_visible_emitters() {
+    let o = |d| Overrides {
+        width: Some(16),
+        spp: Some(4),
+        bins: Some(10),
+        max_depth: Some(d),
+        ..Default::default()
+    };
+    let zero = run(&cbox(&o(0)), 1);
+    assert!(zero.steady.iter().all(|&v| v == 0.0));
+    let one = run(&cbox(&o(1)), 1);
+    // Only the light's pixels are lit at depth 1 (the walls need a bounce).
+    let lit = one.steady.chunks(3).filter(|p| p[0] > 0.0).count();
+    assert!(lit > 0 && lit < 16 * 16 / 10, "{lit}");
+}

@@ -56,7 +56,7 @@ fn statistical_denoising_beats_the_noisy_render_at_every_spp_and_converges() {
     for w in stat.windows(2) {
         assert!(w[1] < w[0], "statistical RMSE does not fall: {stat:?}");
     }
-    // The reference is cached: a second run reuses it.
+    // The reference is cached: a second run reuses it (and a changed scene does not).
     let cached: Vec<_> = std::fs::read_dir(dir.path())
         .unwrap()
         .flatten()
@@ -72,7 +72,7 @@ fn statistical_denoising_beats_the_noisy_render_at_every_spp_and_converges() {
         &|_| {},
     )
     .unwrap();
-    assert!(again.reference_note.contains("cached"));
+    assert!(again.reference_note.contains("cached ") && !again.reference_note.contains("render,"));
     assert_eq!(again.rows[0].all.rmse, r.rows[0].all.rmse);
 }
 
@@ -405,4 +405,71 @@ fn frames_command_on_bundles_and_arrays() {
         "nothing.npy",
     );
     assert!(!dir.path().join("h").exists());
+}
+
+#[test]
+fn the_reference_cache_key_follows_scene_defaults() {
+    let dir = tempfile::tempdir().unwrap();
+    let xml = std::fs::read_to_string(cbox())
+        .unwrap()
+        .replace(
+            r#"<rgb name="radiance" value="18.387, 13.9873, 6.75357"/>"#,
+            r#"<rgb name="radiance" value="$rad"/>"#,
+        )
+        .replace(
+            r#"<default name="spp" value="64"/>"#,
+            r#"<default name="spp" value="64"/><default name="rad" value="10"/>"#,
+        );
+    let scene = dir.path().join("s.xml");
+    std::fs::write(&scene, xml).unwrap();
+    let cfg = |rad: &str| ConvergenceConfig {
+        scene: scene.clone(),
+        overrides: Overrides {
+            width: Some(8),
+            bins: Some(6),
+            defaults: vec![("rad".into(), rad.into())],
+            ..Default::default()
+        },
+        spp_list: vec![4],
+        seed: 1,
+        transform: Transform::Identity,
+        denoise: DenoiseParams::default(),
+        reference: ReferenceSource::Render { spp: 8 },
+    };
+    let first = run_convergence(&cfg("10"), dir.path(), &|_| {}).unwrap();
+    assert!(
+        first.reference_note.contains("render,"),
+        "{}",
+        first.reference_note
+    );
+    let same = run_convergence(&cfg("10"), dir.path(), &|_| {}).unwrap();
+    assert!(same.reference_note.contains("cached ") && !same.reference_note.contains("render,"));
+    let other = run_convergence(&cfg("20"), dir.path(), &|_| {}).unwrap();
+    assert!(
+        other.reference_note.contains("render,"),
+        "{}",
+        other.reference_note
+    );
+}
+
+#[test]
+fn compare_of_identical_volumes_succeeds_without_a_plot() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = |n: &str| dir.path().join(n).display().to_string();
+    write_volume(Path::new(&p("r.npy")), (2, 2, 3, 3), 0.5);
+    let r = tstat(&[
+        "report",
+        "compare",
+        "--reference",
+        &p("r.npy"),
+        "--input",
+        &format!("same={}", p("r.npy")),
+        "--out",
+        &p("o"),
+    ]);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    assert!(String::from_utf8_lossy(&r.stderr).contains("not written"));
+    assert!(
+        dir.path().join("o/metrics.csv").is_file() && !dir.path().join("o/per_bin.png").exists()
+    );
 }

@@ -17,4 +17,6 @@ pub enum BundleError {
     Io(PathBuf, String),
     #[error("{path}: invalid bundle: {msg}", path = .0.display(), msg = .1)]
     Invalid(PathBuf, String),
+    #[error("{path}: {msg}", path = .0.display(), msg = .1)]
+    Volume(PathBuf, String),
 }

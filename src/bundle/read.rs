@@ -48,6 +48,17 @@ impl Bundle {
         if manifest.width == 0 || manifest.height == 0 || manifest.bins == 0 {
             return Err(BundleError::Invalid(mpath, "empty film size".into()));
         }
+        let finite_positive = |v: f64| v > 0.0 && v.is_finite();
+        let axis_ok = finite_positive(manifest.bin_width_opl)
+            && finite_positive(manifest.unit_m)
+            && manifest.start_opl.is_finite();
+        if !axis_ok {
+            return Err(BundleError::Invalid(
+                mpath,
+                "bad time axis (bin_width_opl and unit_m must be positive, start_opl finite)"
+                    .into(),
+            ));
+        }
         if manifest.channels.len() != CHANNELS {
             return Err(BundleError::Invalid(mpath, "expected 3 channels".into()));
         }
@@ -66,7 +77,7 @@ impl Bundle {
         })
     }
 
-    fn read<A: ReadableElement, D: Dimension>(
+    fn read<A: ReadableElement + Clone, D: Dimension>(
         &self,
         name: &str,
         shape: &[usize],
@@ -83,6 +94,12 @@ impl Bundle {
         }
         let a: Array<A, D> =
             read_npy(&path).map_err(|e| BundleError::Invalid(path.clone(), e.to_string()))?;
+        // NumPy may write Fortran order; everything downstream reads C order.
+        let a = if a.is_standard_layout() {
+            a
+        } else {
+            a.as_standard_layout().into_owned()
+        };
         if a.shape() != shape {
             return Err(BundleError::Invalid(
                 path,

@@ -23,6 +23,14 @@ pub fn check_output(out: &Path, force: bool) -> Result<(), BundleError> {
     if out.exists() && !force {
         return Err(BundleError::Exists(out.to_path_buf()));
     }
+    if let Some(parent) = out.parent().filter(|p| !p.as_os_str().is_empty()) {
+        if !parent.is_dir() {
+            return Err(BundleError::Io(
+                out.to_path_buf(),
+                format!("the directory {} does not exist", parent.display()),
+            ));
+        }
+    }
     Ok(())
 }
 

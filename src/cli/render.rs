@@ -142,7 +142,7 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
         scene.accel.primitive_count(),
         human_bytes(need)
     );
-    if need > limit {
+    if need > limit || need == u64::MAX {
         bail!(
             "the accumulators need {} but the limit is {} (--max-memory); lower --width/--height/--bins",
             human_bytes(need),

@@ -9,6 +9,25 @@ use crate::report::convergence::{
 };
 use crate::report::metrics::{compare, Metrics, REL_EPS};
 use crate::report::plot::{line_chart, Scale, Series};
+
+/// Draws a chart, noting on stderr when there is nothing to draw (all errors 0).
+fn chart(
+    path: &Path,
+    title: &str,
+    x: &str,
+    y: &str,
+    series: &[Series],
+    xs: Scale,
+    ys: Scale,
+) -> anyhow::Result<()> {
+    if !line_chart(path, title, x, y, series, xs, ys).map_err(|e| anyhow!(e))? {
+        eprintln!(
+            "note: {} not written: no positive finite values to plot",
+            path.display()
+        );
+    }
+    Ok(())
+}
 use crate::report::speedup::equal_error_speedup;
 use crate::report::sweep::{run_sweep, SweepConfig};
 use crate::report::table::{num, write_text, Table};
@@ -259,7 +278,7 @@ fn write_per_bin(
                 .collect(),
         })
         .collect();
-    line_chart(
+    chart(
         &dir.join(format!("{stem}.png")),
         title,
         "time bin",
@@ -268,7 +287,6 @@ fn write_per_bin(
         Scale::Linear,
         Scale::Log,
     )
-    .map_err(|e| anyhow!(e))
 }
 
 fn run_conv(a: ConvergenceArgs) -> anyhow::Result<()> {
@@ -348,7 +366,7 @@ fn run_conv(a: ConvergenceArgs) -> anyhow::Result<()> {
     };
     let by_spp: Vec<Series> = METHODS.iter().map(|m| curve(m, |r| r.spp as f64)).collect();
     let by_time: Vec<Series> = METHODS.iter().map(|m| curve(m, |r| r.total_s)).collect();
-    line_chart(
+    chart(
         &a.out.join("error_vs_spp.png"),
         "RMSE against samples per pixel",
         "spp",
@@ -356,9 +374,8 @@ fn run_conv(a: ConvergenceArgs) -> anyhow::Result<()> {
         &by_spp,
         Scale::Log,
         Scale::Log,
-    )
-    .map_err(|e| anyhow!(e))?;
-    line_chart(
+    )?;
+    chart(
         &a.out.join("error_vs_seconds.png"),
         "RMSE against time (render + denoise)",
         "seconds",
@@ -366,8 +383,7 @@ fn run_conv(a: ConvergenceArgs) -> anyhow::Result<()> {
         &by_time,
         Scale::Log,
         Scale::Log,
-    )
-    .map_err(|e| anyhow!(e))?;
+    )?;
     let per_bin: Vec<(String, Vec<Metrics>)> = result
         .per_bin
         .iter()
@@ -554,7 +570,7 @@ fn run_sweep_cmd(a: SweepArgs) -> anyhow::Result<()> {
             }
         }
     }
-    line_chart(
+    chart(
         &a.out.join("sweep.png"),
         "denoised RMSE / noisy RMSE",
         "gamma",
@@ -562,8 +578,7 @@ fn run_sweep_cmd(a: SweepArgs) -> anyhow::Result<()> {
         &series,
         Scale::Log,
         Scale::Linear,
-    )
-    .map_err(|e| anyhow!(e))?;
+    )?;
     print!("{md}");
     println!(
         "wrote {}/{{sweep.csv, sweep.md, sweep.png}}",

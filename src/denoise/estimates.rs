@@ -2,7 +2,10 @@
 //! stored planar, (H, W, C, T) in f32, so the filter's inner loop over bins reads
 //! contiguous memory:
 //! - `mean = S / n`, the radiance mean that is averaged;
-//! - `theta`, the skewness-corrected mean of the transformed samples, that is tested;
+//! - `theta`, the skewness-corrected mean of the transformed samples, that is tested,
+//!   stored as `theta - z(0)`: the test uses only differences, and the shift keeps
+//!   Box-Cox's large `z(0) = -1/lambda` out of the f32 values (precision, and no
+//!   overflow for tiny lambda);
 //! - `v = sigma^2 / n`, the variance of theta's estimate.
 //!
 //! Memory: 3 x H x W x T x 3 x 4 bytes (177 MB for 128 x 128 x 300).
@@ -72,7 +75,7 @@ impl Estimates {
                         );
                         let o = c * t_bins + t;
                         mean[o] = (s.sum[k] / n as f64) as f32;
-                        theta[o] = e.theta as f32;
+                        theta[o] = (e.theta - s.z0) as f32;
                         v[o] = e.v as f32;
                     }
                 }

@@ -63,7 +63,8 @@ pub struct Denoised {
 /// Bytes the denoiser holds at its peak for a volume of this size: the three estimate
 /// volumes and the output (f32), on top of the f64 sums while estimates are made.
 pub fn memory_bytes(height: usize, width: usize, bins: usize) -> u64 {
-    (height * width * bins * CHANNELS) as u64 * 4 * 4
+    let b = height as u128 * width as u128 * bins as u128 * CHANNELS as u128 * 16;
+    u64::try_from(b).unwrap_or(u64::MAX)
 }
 
 /// Denoises from sums and G-buffers already in memory.

@@ -69,8 +69,11 @@ impl Bsdf {
     /// Diffuse albedo seen from `wo` (for the G-buffer); delta BSDFs report their
     /// reflectance at normal incidence only through the chain they start.
     pub fn albedo(&self, wo: Vec3) -> Rgb {
-        match self.side(wo).0 {
-            Bsdf::Diffuse(d) => d.reflectance,
+        let (b, flip) = self.side(wo);
+        let wo = if flip { flip_z(wo) } else { wo };
+        match b {
+            // The back of a one-sided surface renders black: its albedo is 0.
+            Bsdf::Diffuse(d) if wo.z > 0.0 => d.reflectance,
             _ => Rgb::ZERO,
         }
     }

@@ -67,6 +67,10 @@ pub fn trace_path(
     let mut prev_pdf = 1.0f32;
     let mut depth: u32 = 0;
     let max_depth = settings.max_depth;
+    if max_depth == 0 {
+        // Mitsuba: max_depth = 0 renders nothing, not even directly visible emitters.
+        return g;
+    }
 
     loop {
         tally.rays += 1;

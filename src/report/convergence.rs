@@ -121,6 +121,7 @@ fn reference(cfg: &ConvergenceConfig, dir: &Path, log: &dyn Fn(&str)) -> Result<
                 )
                 .as_bytes(),
             );
+            hash_loaded_scene(&mut h, &scene, &cfg.overrides);
             let key = format!("{:x}", h.finalize());
             let key = &key[..16];
             let vol_path = dir.join(format!("reference-{key}.npy"));
@@ -262,4 +263,57 @@ fn write_npy_atomic<A: ndarray_npy::WritableElement, D: ndarray::Dimension>(
             .map_err(|e| crate::bundle::BundleError::Io(path.to_path_buf(), e.to_string()))
     })
     .map_err(|e| e.to_string())
+}
+
+/// Feeds what was loaded into the cache key: `-D` overrides and the files a scene reads
+/// (meshes) change the scene without changing its XML.
+fn hash_loaded_scene(h: &mut Sha256, scene: &Scene, overrides: &Overrides) {
+    use crate::geometry::shape::ShapeGeom;
+    use crate::lights::Emitter;
+    let f32s = |h: &mut Sha256, v: &[f32]| {
+        for x in v {
+            h.update(x.to_le_bytes());
+        }
+    };
+    let mut defaults = overrides.defaults.clone();
+    defaults.sort();
+    h.update(format!("{defaults:?}|{:?}", scene.bsdfs).as_bytes());
+    for shape in &scene.shapes {
+        h.update(
+            format!(
+                "{}|{}|{}|{:?}",
+                shape.name, shape.flip_normals, shape.bsdf, shape.emitter
+            )
+            .as_bytes(),
+        );
+        match &shape.geom {
+            ShapeGeom::Mesh {
+                positions,
+                triangles,
+                ..
+            } => {
+                for p in positions {
+                    f32s(h, &p.to_array());
+                }
+                for t in triangles {
+                    for i in t {
+                        h.update(i.to_le_bytes());
+                    }
+                }
+            }
+            ShapeGeom::Sphere(s) => f32s(h, &[s.center.x, s.center.y, s.center.z, s.radius]),
+        }
+    }
+    for e in &scene.emitters {
+        match e {
+            Emitter::Area { radiance, .. } => f32s(h, &radiance.to_array()),
+            Emitter::Point {
+                position,
+                intensity,
+            } => {
+                f32s(h, &position.to_array());
+                f32s(h, &intensity.to_array());
+            }
+        }
+    }
 }

@@ -61,6 +61,8 @@ fn bounds(values: impl Iterator<Item = f64>, scale: Scale) -> Option<(f64, f64)>
 }
 
 /// Draws `series` into a PNG at `path` (written via a temporary name and a rename).
+/// Returns `Ok(false)` and writes nothing when no point can be drawn (e.g. every error
+/// is 0 on a log axis).
 pub fn line_chart(
     path: &Path,
     title: &str,
@@ -69,11 +71,15 @@ pub fn line_chart(
     series: &[Series],
     x_scale: Scale,
     y_scale: Scale,
-) -> Result<(), String> {
+) -> Result<bool, String> {
     register_font();
     let all = || series.iter().flat_map(|s| s.points.iter());
-    let xb = bounds(all().map(|p| p.0), x_scale).ok_or("nothing to plot")?;
-    let yb = bounds(all().map(|p| p.1), y_scale).ok_or("nothing to plot")?;
+    let (Some(xb), Some(yb)) = (
+        bounds(all().map(|p| p.0), x_scale),
+        bounds(all().map(|p| p.1), y_scale),
+    ) else {
+        return Ok(false);
+    };
     let (w, h) = (900u32, 600u32);
     let mut buf = vec![255u8; (w * h * 3) as usize];
     {
@@ -128,7 +134,7 @@ pub fn line_chart(
         root.present()
             .map_err(|e| format!("drawing {}: {e}", path.display()))?;
     }
-    save_png_rgb(path, &buf, w, h)
+    save_png_rgb(path, &buf, w, h).map(|()| true)
 }
 
 #[allow(clippy::too_many_arguments)]

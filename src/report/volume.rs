@@ -30,14 +30,14 @@ pub fn load_volume(path: &Path) -> Result<LoadedVolume, BundleError> {
             "no such file or bundle".into(),
         ));
     }
-    let err = |e: String| BundleError::Invalid(path.to_path_buf(), e);
+    let err = |e: String| BundleError::Volume(path.to_path_buf(), e);
     let volume = match ndarray_npy::read_npy::<_, Array4<f32>>(path) {
         Ok(v) => v,
-        Err(first) => match ndarray_npy::read_npy::<_, Array4<f64>>(path) {
+        Err(as_f32) => match ndarray_npy::read_npy::<_, Array4<f64>>(path) {
             Ok(v) => v.mapv(|x| x as f32),
-            Err(_) => {
+            Err(as_f64) => {
                 return Err(err(format!(
-                    "not a 4-D f32/f64 .npy volume (H, W, T, C): {first}"
+                    "not a 4-D f32/f64 .npy volume (H, W, T, C): as f32: {as_f32}; as f64: {as_f64}"
                 )))
             }
         },
