@@ -417,3 +417,89 @@ fn fortran_order_arrays_and_missing_output_directories() {
     assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
     assert_eq!(std::fs::read(&a).unwrap(), std::fs::read(&b).unwrap());
 }
+
+#[test]
+fn merge_adds_sums_and_counts_exactly_and_refuses_mismatches() {
+    let c = case(VALID);
+    let sc = c.scene.to_str().unwrap();
+    let p = |n: &str| c.dir.path().join(n).display().to_string();
+    for (name, seed) in [("a.tstats", "1"), ("b.tstats", "2"), ("c.tstats", "1")] {
+        let r = tstat(&[
+            "render",
+            sc,
+            "--out",
+            &p(name),
+            "--seed",
+            seed,
+            "--transform",
+            "yeo-johnson:0.5",
+        ]);
+        assert!(r.status.success());
+    }
+    let r = tstat(&[
+        "merge",
+        &p("a.tstats"),
+        &p("b.tstats"),
+        "--out",
+        &p("m.tstats"),
+    ]);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let load = |d: &str, f: &str| -> ndarray::ArrayD<f64> {
+        ndarray_npy::read_npy(c.dir.path().join(d).join(f)).unwrap()
+    };
+    for f in ["x1.npy", "x2.npy", "x3.npy", "sum.npy"] {
+        assert_eq!(
+            load("m.tstats", f),
+            load("a.tstats", f) + load("b.tstats", f),
+            "{f}"
+        );
+    }
+    let counts = |d: &str| -> ndarray::ArrayD<u32> {
+        ndarray_npy::read_npy(c.dir.path().join(d).join("nonzero.npy")).unwrap()
+    };
+    assert_eq!(counts("m.tstats"), counts("a.tstats") + counts("b.tstats"));
+    // Means are averaged: equal spp, so the steady image is the plain average.
+    let steady = (load("a.tstats", "steady.npy") + load("b.tstats", "steady.npy")) * 0.5;
+    assert!((load("m.tstats", "steady.npy") - steady)
+        .iter()
+        .all(|d| d.abs() < 1e-12));
+    let info = tstat(&["info", &p("m.tstats")]);
+    assert!(String::from_utf8_lossy(&info.stdout).contains("8 spp"));
+    // The merged bundle denoises like any other.
+    assert!(tstat(&["denoise", &p("m.tstats"), "--out", &p("m.npy")])
+        .status
+        .success());
+    // Same seed twice: the same paths would count twice.
+    let r = tstat(&[
+        "merge",
+        &p("a.tstats"),
+        &p("c.tstats"),
+        "--out",
+        &p("x.tstats"),
+    ]);
+    assert_eq!(r.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&r.stderr).contains("seed 1 appears twice"));
+    // Different settings.
+    assert!(tstat(&[
+        "render",
+        sc,
+        "--out",
+        &p("d.tstats"),
+        "--seed",
+        "3",
+        "--bins",
+        "12"
+    ])
+    .status
+    .success());
+    let r = tstat(&[
+        "merge",
+        &p("a.tstats"),
+        &p("d.tstats"),
+        "--out",
+        &p("x.tstats"),
+    ]);
+    assert_eq!(r.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&r.stderr).contains("d.tstats"));
+    assert!(!c.dir.path().join("x.tstats").exists());
+}

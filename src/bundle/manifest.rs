@@ -49,6 +49,9 @@ pub struct Manifest {
     pub bin_width_seconds: f64,
     pub transform: Transform,
     pub seed: u64,
+    /// Seeds of every render summed into this bundle by `tstat merge` (empty otherwise).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub merged_seeds: Vec<u64>,
     pub scene: SceneRef,
     pub max_depth: i32,
     pub render_seconds: f64,

@@ -2,6 +2,7 @@
 //! arrays. The only interface between rendering and everything after it.
 
 pub mod manifest;
+pub mod merge;
 pub mod read;
 pub mod write;
 

@@ -88,7 +88,7 @@ pub fn replace_file(
     .map_err(|e| e.to_string())
 }
 
-fn npy<A: WritableElement, D: ndarray::Dimension>(
+pub(crate) fn npy<A: WritableElement, D: ndarray::Dimension>(
     dir: &Path,
     name: &str,
     dtype: &str,
@@ -133,6 +133,7 @@ pub fn write_bundle(
         bin_width_seconds: film.bin_width_opl * meta.unit_m / super::manifest::C_M_PER_S,
         transform: meta.transform,
         seed: meta.seed,
+        merged_seeds: Vec::new(),
         scene: SceneRef {
             path: scene.file.display().to_string(),
             sha256: scene.sha256.clone(),

@@ -37,6 +37,9 @@ pub fn run(a: InfoArgs) -> anyhow::Result<()> {
         "samples     {} spp, seed {}, max_depth {}",
         m.spp, m.seed, m.max_depth
     );
+    if !m.merged_seeds.is_empty() {
+        println!("merged      from renders with seeds {:?}", m.merged_seeds);
+    }
     println!("transform   {}", m.transform);
     println!(
         "render      {:.3} s, {} non-finite contributions dropped",

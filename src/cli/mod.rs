@@ -4,6 +4,7 @@ mod denoise;
 mod export;
 mod frames;
 mod info;
+mod merge;
 mod render;
 mod report;
 mod run;
@@ -36,6 +37,8 @@ pub enum Command {
     Report(report::ReportArgs),
     /// Tone-mapped PNG frames, an animated GIF and a streak image of a volume.
     Frames(frames::FramesArgs),
+    /// Merge bundles of the same scene and settings rendered with different seeds.
+    Merge(merge::MergeArgs),
     /// Print a bundle's manifest.
     Info(info::InfoArgs),
 }
@@ -48,6 +51,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Export(a) => export::run(a),
         Command::Frames(a) => frames::run(a),
         Command::Info(a) => info::run(a),
+        Command::Merge(a) => merge::run(a),
         Command::Report(a) => report::run(a),
     }
 }

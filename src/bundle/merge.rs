@@ -1,0 +1,127 @@
+//! Merging bundles rendered separately (other machines, other seeds) into one: the sums
+//! and counts add exactly; the G-buffers and the steady image, which are means, are
+//! averaged weighted by spp (normals renormalised). Only bundles of the same scene file
+//! and settings with different seeds merge: equal seeds would repeat the same paths.
+
+use super::manifest::Manifest;
+use super::write::{npy, write_atomically};
+use super::{Bundle, BundleError};
+use ndarray::{Array2, Array3, Array4, Zip};
+use std::path::{Path, PathBuf};
+
+fn same_settings(a: &Manifest, b: &Manifest) -> Result<(), String> {
+    let checks: [(&str, bool); 9] = [
+        ("scene (SHA-256)", a.scene.sha256 == b.scene.sha256),
+        ("width", a.width == b.width),
+        ("height", a.height == b.height),
+        ("bins", a.bins == b.bins),
+        ("start_opl", a.start_opl == b.start_opl),
+        ("bin_width_opl", a.bin_width_opl == b.bin_width_opl),
+        ("transform", a.transform == b.transform),
+        ("max_depth", a.max_depth == b.max_depth),
+        ("unit_m", a.unit_m == b.unit_m),
+    ];
+    match checks.iter().find(|c| !c.1) {
+        Some((what, _)) => Err(format!("its {what} differs from the first bundle's")),
+        None => Ok(()),
+    }
+}
+
+fn seeds(m: &Manifest) -> Vec<u64> {
+    if m.merged_seeds.is_empty() {
+        vec![m.seed]
+    } else {
+        m.merged_seeds.clone()
+    }
+}
+
+/// Merges `inputs` (at least two) into a new bundle at `out`; returns its manifest.
+pub fn merge_bundles(inputs: &[PathBuf], out: &Path, force: bool) -> Result<Manifest, BundleError> {
+    if inputs.len() < 2 {
+        return Err(BundleError::Io(
+            out.to_path_buf(),
+            "merge needs at least two bundles".into(),
+        ));
+    }
+    let bundles: Vec<Bundle> = inputs
+        .iter()
+        .map(|p| Bundle::open(p))
+        .collect::<Result<_, _>>()?;
+    let first = &bundles[0].manifest;
+    let mut all_seeds: Vec<u64> = Vec::new();
+    for b in &bundles {
+        same_settings(first, &b.manifest).map_err(|e| BundleError::Invalid(b.dir.clone(), e))?;
+        for s in seeds(&b.manifest) {
+            if all_seeds.contains(&s) {
+                return Err(BundleError::Invalid(
+                    b.dir.clone(),
+                    format!("seed {s} appears twice: merging would count the same paths twice"),
+                ));
+            }
+            all_seeds.push(s);
+        }
+    }
+    let (h, w, t) = (first.height, first.width, first.bins);
+    let total_spp: u64 = bundles.iter().map(|b| b.manifest.spp).sum();
+    let mut x1 = Array4::<f64>::zeros((h, w, t, 3));
+    let mut x2 = x1.clone();
+    let mut x3 = x1.clone();
+    let mut sum = (!first.transform.is_identity()).then(|| x1.clone());
+    let mut nonzero = Array3::<u32>::zeros((h, w, t));
+    let mut steady = Array3::<f64>::zeros((h, w, 3));
+    let mut albedo = Array3::<f64>::zeros((h, w, 3));
+    let mut normal = Array3::<f64>::zeros((h, w, 3));
+    let mut depth = Array2::<f64>::zeros((h, w));
+    let mut emitter = Array2::<f64>::zeros((h, w));
+    for b in &bundles {
+        x1 += &b.x1()?;
+        x2 += &b.x2()?;
+        x3 += &b.x3()?;
+        if let Some(s) = sum.as_mut() {
+            *s += &b.radiance_sum()?;
+        }
+        Zip::from(&mut nonzero)
+            .and(&b.nonzero()?)
+            .for_each(|a, &k| *a += k);
+        let wgt = b.manifest.spp as f64 / total_spp as f64;
+        steady.scaled_add(wgt, &b.steady()?);
+        albedo.scaled_add(wgt, &b.albedo()?.mapv(f64::from));
+        normal.scaled_add(wgt, &b.normal()?.mapv(f64::from));
+        depth.scaled_add(wgt, &b.depth()?.mapv(f64::from));
+        emitter.scaled_add(wgt, &b.emitter()?.mapv(f64::from));
+    }
+    for mut n in normal.rows_mut() {
+        let len = n.dot(&n).sqrt();
+        if len > 0.0 {
+            n /= len;
+        }
+    }
+    let mut manifest = first.clone();
+    manifest.spp = total_spp;
+    manifest.seed = all_seeds[0];
+    manifest.merged_seeds = all_seeds;
+    manifest.render_seconds = bundles.iter().map(|b| b.manifest.render_seconds).sum();
+    manifest.dropped_nonfinite = bundles.iter().map(|b| b.manifest.dropped_nonfinite).sum();
+    manifest.arrays.clear();
+    let f32s = |a: Array3<f64>| a.mapv(|v| v as f32);
+    write_atomically(out, force, |dir| {
+        std::fs::create_dir(dir).map_err(|e| BundleError::Io(dir.to_path_buf(), e.to_string()))?;
+        let arrays = &mut manifest.arrays;
+        npy(dir, "x1", "<f8", &x1, arrays)?;
+        npy(dir, "x2", "<f8", &x2, arrays)?;
+        npy(dir, "x3", "<f8", &x3, arrays)?;
+        if let Some(s) = &sum {
+            npy(dir, "sum", "<f8", s, arrays)?;
+        }
+        npy(dir, "nonzero", "<u4", &nonzero, arrays)?;
+        npy(dir, "albedo", "<f4", &f32s(albedo), arrays)?;
+        npy(dir, "normal", "<f4", &f32s(normal), arrays)?;
+        npy(dir, "depth", "<f4", &depth.mapv(|v| v as f32), arrays)?;
+        npy(dir, "emitter", "<f4", &emitter.mapv(|v| v as f32), arrays)?;
+        npy(dir, "steady", "<f8", &steady, arrays)?;
+        let json = serde_json::to_string_pretty(&manifest).expect("manifest serialises");
+        let mpath = dir.join("manifest.json");
+        std::fs::write(&mpath, json).map_err(|e| BundleError::Io(mpath, e.to_string()))
+    })?;
+    Ok(manifest)
+}

@@ -1,0 +1,33 @@
+//! `tstat merge A.tstats B.tstats ... --out C.tstats`: one bundle from renders of the
+//! same scene and settings with different seeds (e.g. from several machines).
+
+use crate::bundle::merge::merge_bundles;
+use crate::bundle::write::check_output;
+use clap::Args;
+use std::path::PathBuf;
+
+#[derive(Args, Debug)]
+pub struct MergeArgs {
+    /// Bundles to merge (at least two; same scene and settings, different seeds).
+    #[arg(required = true, num_args = 2..)]
+    pub bundles: Vec<PathBuf>,
+    /// Output bundle directory.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Replace an existing output.
+    #[arg(long)]
+    pub force: bool,
+}
+
+pub fn run(a: MergeArgs) -> anyhow::Result<()> {
+    check_output(&a.out, a.force)?;
+    let m = merge_bundles(&a.bundles, &a.out, a.force)?;
+    println!(
+        "merged {} bundles into {}: {} spp (seeds {:?})",
+        a.bundles.len(),
+        a.out.display(),
+        m.spp,
+        m.merged_seeds
+    );
+    Ok(())
+}
