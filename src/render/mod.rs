@@ -96,7 +96,15 @@ pub fn render(
     let mut accum = Accumulators::new(film.height, film.width, film.bins, &settings.transform);
     let per_row = film.width as u64 * settings.spp as u64;
     let rows = accum.rows_mut();
-    let run = |z: &(dyn Fn(f64) -> f64 + Sync)| -> Vec<RowResult> {
+    // Monomorphised per transform: the identity costs nothing per sample.
+    fn run<Z: Fn(f64) -> f64 + Sync>(
+        rows: Vec<RowAccum>,
+        scene: &Scene,
+        settings: &RenderSettings,
+        progress: &(dyn Fn(u64) + Sync),
+        per_row: u64,
+        z: Z,
+    ) -> Vec<RowResult> {
         rows.into_par_iter()
             .enumerate()
             .map(|(y, mut row)| {
@@ -105,11 +113,13 @@ pub fn render(
                 r
             })
             .collect()
-    };
+    }
     let t = settings.transform;
     let results = match t {
-        Transform::Identity => run(&|x| x),
-        _ => run(&move |x| t.apply(x)),
+        Transform::Identity => run(rows, scene, settings, progress, per_row, |x| x),
+        _ => run(rows, scene, settings, progress, per_row, move |x| {
+            t.apply(x)
+        }),
     };
     let mut out = RenderOutput {
         gbuffer: Vec::with_capacity(film.pixels()),
