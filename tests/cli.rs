@@ -26,7 +26,7 @@ fn s(p: &Path) -> String {
 const SMALL: &[&str] = &["--width", "12", "--spp", "4", "--bins", "20"];
 
 #[test]
-fn every_bundled_scene_renders_exports_and_prints_info() {
+fn every_bundled_scene_renders_denoises_exports_and_prints_info() {
     let dir = tempfile::tempdir().unwrap();
     for name in [
         "cbox.xml",
@@ -73,6 +73,16 @@ fn every_bundled_scene_renders_exports_and_prints_info() {
         assert_eq!(vol.shape(), &[12, 12, 20, 3]);
         assert!(vol.iter().all(|v| v.is_finite()) && vol.iter().any(|&v| v > 0.0));
         assert!(std::fs::metadata(&exr).unwrap().len() > 0);
+        let den = dir.path().join(format!("{name}.den.npy"));
+        let r = tstat(&["denoise", &s(&out), "--out", &s(&den)]);
+        assert!(
+            r.status.success(),
+            "{name}: {}",
+            String::from_utf8_lossy(&r.stderr)
+        );
+        let d: ndarray::Array4<f32> = ndarray_npy::read_npy(&den).unwrap();
+        assert_eq!(d.shape(), vol.shape());
+        assert!(d.iter().all(|v| v.is_finite()));
         let r = tstat(&["info", &s(&out)]);
         assert!(r.status.success());
         assert!(String::from_utf8_lossy(&r.stdout).contains("12 x 12 px, 20 bins"));
