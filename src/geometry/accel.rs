@@ -1,6 +1,8 @@
 //! The acceleration structure: one `obvhs` compressed-wide BVH over every primitive
-//! (triangles and analytic spheres), with closest-hit and occlusion queries.
+//! (triangles and analytic spheres), with closest-hit and occlusion queries. Scenes of
+//! at most [`FLAT_MAX`] primitives are tested exhaustively in SIMD packets instead.
 
+use super::flat::{FlatTriangles, FLAT_MAX};
 use super::shape::{Shape, ShapeGeom, SurfacePoint};
 use super::sphere::SphereGeom;
 use super::triangle::TriangleGeom;
@@ -50,6 +52,15 @@ pub struct Hit {
 pub struct Accel {
     bvh: Option<CwBvh>,
     prims: Vec<Prim>,
+    flat: Option<Flat>,
+}
+
+/// The exhaustive path for tiny scenes: the triangles in packets, the spheres in a list,
+/// both as indices into `prims`.
+struct Flat {
+    tris: FlatTriangles,
+    tri_prims: Vec<usize>,
+    sphere_prims: Vec<usize>,
 }
 
 impl Accel {
@@ -78,7 +89,33 @@ impl Accel {
             }
         }
         if prims.is_empty() {
-            return Accel { bvh: None, prims };
+            return Accel {
+                bvh: None,
+                prims,
+                flat: None,
+            };
+        }
+        if prims.len() <= FLAT_MAX {
+            let kind = |i: &usize| matches!(prims[*i].geom, PrimGeom::Triangle(_));
+            let (tri_prims, sphere_prims): (Vec<usize>, Vec<usize>) =
+                (0..prims.len()).partition(kind);
+            let tris: Vec<TriangleGeom> = tri_prims
+                .iter()
+                .map(|&i| match prims[i].geom {
+                    PrimGeom::Triangle(t) => t,
+                    PrimGeom::Sphere(_) => unreachable!("partitioned"),
+                })
+                .collect();
+            let flat = Flat {
+                tris: FlatTriangles::new(&tris),
+                tri_prims,
+                sphere_prims,
+            };
+            return Accel {
+                bvh: None,
+                prims,
+                flat: Some(flat),
+            };
         }
         let bvh = obvhs::cwbvh::builder::build_cwbvh(
             &prims,
@@ -94,6 +131,7 @@ impl Accel {
         Accel {
             bvh: Some(bvh),
             prims: ordered,
+            flat: None,
         }
     }
 
@@ -110,6 +148,9 @@ impl Accel {
     /// The closest surface along the ray (unit direction `d`) with t in (0, tmax).
     #[inline]
     pub fn intersect(&self, shapes: &[Shape], o: Vec3, d: Vec3, tmax: f32) -> Option<Hit> {
+        if let Some(flat) = &self.flat {
+            return self.intersect_flat(flat, shapes, o, d, tmax);
+        }
         let bvh = self.bvh.as_ref()?;
         let ray = Ray::new(Vec3A::from(o), Vec3A::from(d), 0.0, tmax);
         let mut hit = RayHit::none();
@@ -147,12 +188,51 @@ impl Accel {
     /// True when something blocks the segment from `o` along unit `d` before `tmax`.
     #[inline]
     pub fn occluded(&self, o: Vec3, d: Vec3, tmax: f32) -> bool {
+        if let Some(flat) = &self.flat {
+            return flat.tris.occluded(o, d, tmax)
+                || flat
+                    .sphere_prims
+                    .iter()
+                    .any(|&i| self.prim_t(i, o, d, 0.0) < tmax);
+        }
         let Some(bvh) = self.bvh.as_ref() else {
             return false;
         };
         let ray = Ray::new(Vec3A::from(o), Vec3A::from(d), 0.0, tmax);
         !bvh.ray_traverse_miss(ray, |r, id| {
             self.prim_t(id, Vec3::from(r.origin), Vec3::from(r.direction), 0.0)
+        })
+    }
+
+    fn intersect_flat(
+        &self,
+        flat: &Flat,
+        shapes: &[Shape],
+        o: Vec3,
+        d: Vec3,
+        tmax: f32,
+    ) -> Option<Hit> {
+        let mut best = flat
+            .tris
+            .intersect(o, d, tmax)
+            .map(|(k, t, b1, b2)| (flat.tri_prims[k], t, b1, b2));
+        for &i in &flat.sphere_prims {
+            let t = self.prim_t(i, o, d, 0.0);
+            if t < best.map_or(tmax, |b| b.1) {
+                best = Some((i, t, 0.0, 0.0));
+            }
+        }
+        let (i, t, b1, b2) = best?;
+        let p = &self.prims[i];
+        let shape = &shapes[p.shape as usize];
+        let surface = match &p.geom {
+            PrimGeom::Triangle(tri) => shape.surface_of(tri, p.face, b1, b2),
+            PrimGeom::Sphere(_) => shape.surface(0, 0.0, 0.0, o + d * t),
+        };
+        Some(Hit {
+            t,
+            shape: p.shape,
+            surface,
         })
     }
 

@@ -1,6 +1,7 @@
 //! Geometry: shapes in world space, ray-primitive intersection, and the BVH.
 
 pub mod accel;
+pub mod flat;
 pub mod shape;
 pub mod sphere;
 pub mod triangle;
