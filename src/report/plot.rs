@@ -84,17 +84,15 @@ pub fn line_chart(
     let mut buf = vec![255u8; (w * h * 3) as usize];
     {
         let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
+        // plotters labels a log axis at powers of its base: base 2 under two decades.
+        let base = |(lo, hi): (f64, f64)| if hi / lo < 100.0 { 2.0 } else { 10.0 };
+        let (xl, yl) = (
+            (xb.0..xb.1).log_scale().base(base(xb)),
+            (yb.0..yb.1).log_scale().base(base(yb)),
+        );
         let r = match (x_scale, y_scale) {
             (Scale::Log, Scale::Log) => draw(
-                &root,
-                title,
-                x_label,
-                y_label,
-                series,
-                (xb.0..xb.1).log_scale(),
-                (yb.0..yb.1).log_scale(),
-                x_scale,
-                y_scale,
+                &root, title, x_label, y_label, series, xl, yl, x_scale, y_scale,
             ),
             (Scale::Linear, Scale::Log) => draw(
                 &root,
@@ -103,7 +101,7 @@ pub fn line_chart(
                 y_label,
                 series,
                 xb.0..xb.1,
-                (yb.0..yb.1).log_scale(),
+                yl,
                 x_scale,
                 y_scale,
             ),
@@ -113,7 +111,7 @@ pub fn line_chart(
                 x_label,
                 y_label,
                 series,
-                (xb.0..xb.1).log_scale(),
+                xl,
                 yb.0..yb.1,
                 x_scale,
                 y_scale,
