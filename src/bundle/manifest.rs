@@ -64,9 +64,4 @@ impl Manifest {
     pub fn array(&self, name: &str) -> Option<&ArrayInfo> {
         self.arrays.iter().find(|a| a.name == name)
     }
-
-    /// Bin centres in picoseconds.
-    pub fn opl_to_seconds(&self, opl: f64) -> f64 {
-        opl * self.unit_m / C_M_PER_S
-    }
 }

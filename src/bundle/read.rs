@@ -4,6 +4,7 @@
 use super::manifest::{Manifest, FORMAT, VERSION};
 use super::BundleError;
 use crate::stats::accumulators::CHANNELS;
+use crate::stats::estimators::check_spp;
 use ndarray::{Array, Array2, Array3, Array4, Dimension};
 use ndarray_npy::{read_npy, ReadableElement};
 use std::path::{Path, PathBuf};
@@ -62,15 +63,7 @@ impl Bundle {
         if manifest.channels.len() != CHANNELS {
             return Err(BundleError::Invalid(mpath, "expected 3 channels".into()));
         }
-        if manifest.spp < 2 {
-            return Err(BundleError::Invalid(
-                mpath,
-                format!(
-                    "spp = {}: at least 2 samples are needed for the statistics",
-                    manifest.spp
-                ),
-            ));
-        }
+        check_spp(manifest.spp).map_err(|e| BundleError::Invalid(mpath.clone(), e))?;
         Ok(Bundle {
             dir: dir.to_path_buf(),
             manifest,

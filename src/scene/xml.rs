@@ -176,11 +176,7 @@ pub fn load(path: &Path, overrides: &Overrides) -> Result<Scene, SceneError> {
         )));
     }
     let spp = overrides.spp.unwrap_or(s.spp);
-    if spp < 2 {
-        return Err(whole(format!(
-            "spp = {spp}: at least 2 samples per pixel are needed to estimate a variance"
-        )));
-    }
+    crate::stats::estimators::check_spp(spp as u64).map_err(whole)?;
     if emitters.is_empty() {
         return Err(ctx.err(root, "the scene has no emitter; it would render black"));
     }
