@@ -1,6 +1,6 @@
 //! `tstat render SCENE.xml --out NAME.tstats`: render and write a statistics bundle.
 
-use super::util::{disk_size, human_bytes, parse_bytes, physical_memory, with_threads};
+use super::util::{check_memory, disk_size, human_bytes, parse_bytes, with_threads};
 use crate::bundle::write::{check_output, write_bundle, BundleMeta};
 use crate::render::{render, RenderSettings};
 use crate::scene::{Overrides, Scene};
@@ -129,8 +129,8 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
 
     let need = Accumulators::bytes(film.height, film.width, film.bins, &transform);
     let limit = match &a.max_memory {
-        Some(s) => parse_bytes(s).map_err(|e| anyhow::anyhow!("--max-memory: {e}"))?,
-        None => physical_memory().map_or(u64::MAX, |m| m / 4 * 3),
+        Some(s) => Some(parse_bytes(s).map_err(|e| anyhow::anyhow!("--max-memory: {e}"))?),
+        None => None,
     };
     eprintln!(
         "{}: {}x{} px, {} bins, {} spp, {} primitives; accumulators need {}",
@@ -142,13 +142,7 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
         scene.accel.primitive_count(),
         human_bytes(need)
     );
-    if need > limit || need == u64::MAX {
-        bail!(
-            "the accumulators need {} but the limit is {} (--max-memory); lower --width/--height/--bins",
-            human_bytes(need),
-            human_bytes(limit)
-        );
-    }
+    check_memory(need, limit)?;
 
     let settings = RenderSettings {
         spp: scene.spp,

@@ -16,7 +16,7 @@ use crate::stats::accumulators::Accumulators;
 use crate::stats::Transform;
 use crate::viz::frames::{side_by_side, write_all, FramesRequest};
 use crate::viz::tonemap::global_exposure;
-use anyhow::{anyhow, bail, ensure, Context};
+use anyhow::{anyhow, ensure, Context};
 use clap::Args;
 use std::path::PathBuf;
 
@@ -110,14 +110,7 @@ fn job(
         scene.spp,
         human_bytes(need)
     );
-    if let Some(mem) = super::util::physical_memory() {
-        if need > mem / 4 * 3 {
-            bail!(
-                "the accumulators need {} (over 75% of RAM); lower --width/--height/--bins",
-                human_bytes(need)
-            );
-        }
-    }
+    super::util::check_memory(need, None)?;
     let settings = RenderSettings {
         spp: scene.spp,
         seed: a.seed.unwrap_or(scene.seed),
