@@ -1,11 +1,13 @@
-//! The statistical filter on a synthetic 64 x 64 x 100 bundle (r = 5, r_t = 1): with
-//! membership, and the base filter alone. Throughput in voxel-neighbour evaluations is
-//! printed by `tstat denoise`; here criterion times the same kernel.
+//! The statistical filter on a synthetic 64 x 64 x 100 bundle (r = 5, r_t = 1): tstat's
+//! membership (emitter classes, depth alignment, patch test), the published Welch test,
+//! and the base filter alone. Throughput in voxel-neighbour evaluations is printed by
+//! `tstat denoise`; here criterion times the same kernel.
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use tstat::denoise::base_filter::{BaseFilter, BaseKind, Features, Sigmas};
 use tstat::denoise::estimates::{Estimates, SumsView};
-use tstat::denoise::filter::{filter, FilterParams, Tiling};
+use tstat::denoise::filter::{filter, FilterParams, Membership, Tiling};
+use tstat::denoise::tstat::TstatParams;
 use tstat::math::rng::Pcg32;
 
 fn synthetic(h: usize, w: usize, t: usize, spp: u64) -> (Vec<f64>, Vec<f64>, Vec<f64>, Vec<u32>) {
@@ -47,6 +49,7 @@ fn bench_denoise(c: &mut Criterion) {
         height: h,
         width: w,
         bins: t,
+        bin_width: 0.08,
         spp,
         z0: 0.0,
         x1: &x1,
@@ -61,9 +64,17 @@ fn bench_denoise(c: &mut Criterion) {
     let normal: Vec<f32> = (0..h * w * 3)
         .map(|i| if i % 3 == 2 { 1.0 } else { 0.0 })
         .collect();
+    // A slanted plane (depth grows along x by about a bin per 4 pixels) with a light
+    // in one corner.
+    let depth: Vec<f32> = (0..h * w).map(|p| 3.0 + 0.02 * (p % w) as f32).collect();
+    let emitter: Vec<f32> = (0..h * w)
+        .map(|p| if p / w < 6 && p % w < 6 { 1.0 } else { 0.0 })
+        .collect();
     let features = Features {
         albedo: &albedo,
         normal: &normal,
+        depth: &depth,
+        emitter: &emitter,
     };
     let base = BaseFilter {
         kind: BaseKind::Jbf,
@@ -72,12 +83,16 @@ fn bench_denoise(c: &mut Criterion) {
     let mut group = c.benchmark_group("denoise_64x64x100_r5_rt1");
     group.sample_size(10);
     group.throughput(Throughput::Elements((h * w * t) as u64 * 121 * 3));
-    for (name, g2) in [("statistical", Some(4.0)), ("base-only", None)] {
+    for (name, membership) in [
+        ("tstat", Membership::Tstat(TstatParams::default())),
+        ("published", Membership::Welch { g2: 4.0 }),
+        ("base-only", Membership::None),
+    ] {
         let params = FilterParams {
             radius: 5,
             temporal_radius: 1,
             base,
-            g2,
+            membership,
         };
         group.bench_function(name, |b| {
             b.iter(|| filter(&est, &features, &params, Tiling::default(), &|_| {}))

@@ -21,9 +21,10 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use tstat::denoise::base_filter::{BaseFilter, BaseKind, Features, Sigmas};
 use tstat::denoise::critical::Threshold;
 use tstat::denoise::estimates::{Estimates, SumsView};
-use tstat::denoise::filter::{filter, FilterParams, Tiling};
+use tstat::denoise::filter::{filter, FilterParams, Membership, Tiling};
+use tstat::denoise::gbuffers::GBuffers;
 use tstat::denoise::membership::passes;
-use tstat::denoise::{denoise_sums, DenoiseParams};
+use tstat::denoise::{denoise_sums, DenoiseParams, Method};
 use tstat::math::rng::Pcg32;
 use tstat::stats::Transform;
 
@@ -77,6 +78,11 @@ struct Bundle {
     /// (H, W, 3).
     albedo: Vec<f32>,
     normal: Vec<f32>,
+    /// (H, W).
+    depth: Vec<f32>,
+    emitter: Vec<f32>,
+    /// Bin width h in OPL.
+    bin_width: f64,
 }
 
 impl Bundle {
@@ -95,6 +101,9 @@ impl Bundle {
             nonzero: vec![0; h * w * t],
             albedo: vec![0.0; h * w * 3],
             normal: vec![0.0; h * w * 3],
+            depth: vec![0.0; h * w],
+            emitter: vec![0.0; h * w],
+            bin_width: 1.0,
         }
     }
 
@@ -120,6 +129,7 @@ impl Bundle {
             height: self.h,
             width: self.w,
             bins: self.t,
+            bin_width: self.bin_width,
             spp: self.spp,
             z0: self.transform.at_zero(),
             x1: &self.x1,
@@ -140,6 +150,8 @@ impl Bundle {
         Features {
             albedo: &self.albedo,
             normal: &self.normal,
+            depth: &self.depth,
+            emitter: &self.emitter,
         }
     }
 
@@ -321,10 +333,10 @@ fn reference_filter(e: &Estimates, f: &Features, p: &FilterParams) -> Reference 
                             let (dy, dx, dt) = (yi - yj, xi - xj, ti - tj);
                             let centre = dy == 0 && dx == 0 && dt == 0;
                             let (ti, tj) = (ti as usize, tj as usize);
-                            let member = match p.g2 {
-                                None => true,
-                                Some(_) if centre => true,
-                                Some(g2) => (0..C).all(|c| {
+                            let member = match p.membership {
+                                Membership::None => true,
+                                _ if centre => true,
+                                Membership::Welch { g2 } => (0..C).all(|c| {
                                     passes(
                                         e.theta[e.idx(i, c, ti)],
                                         e.theta[e.idx(j, c, tj)],
@@ -333,6 +345,9 @@ fn reference_filter(e: &Estimates, f: &Features, p: &FilterParams) -> Reference 
                                         g2 as f32,
                                     )
                                 }),
+                                Membership::Tstat(_) => {
+                                    unreachable!("tests/denoise_tstat.rs has tstat's reference")
+                                }
                             };
                             if !centre
                                 && (0..C).any(|c| {
@@ -405,6 +420,11 @@ fn assert_close(fast: &[f32], reference: &[f64], rel: f64, what: &str) -> f64 {
         }
     }
     worst
+}
+
+/// The published filter's membership with this g^2, or the base filter alone.
+fn welch(g2: Option<f64>) -> Membership {
+    g2.map_or(Membership::None, |g2| Membership::Welch { g2 })
 }
 
 fn pool(threads: usize) -> rayon::ThreadPool {
@@ -591,7 +611,7 @@ fn fast_filter_matches_reference_on_random_bundles() {
                         kind,
                         sigmas: case.sigmas,
                     },
-                    g2,
+                    membership: welch(g2),
                 };
                 let what = format!(
                     "case {n} ({}x{}x{}, spp {}, r {}, r_t {}), {kind:?}, g2 {g2:?}",
@@ -668,7 +688,7 @@ fn single_voxel_in_one_channel_matches_reference() {
                             kind: BaseKind::Jbf,
                             sigmas: Sigmas::default(),
                         },
-                        g2,
+                        membership: welch(g2),
                     };
                     let what = format!("({y},{x},{k}) c {c} certain {certain} {g2:?}");
                     let reference = reference_filter(&est, &b.features(), &p);
@@ -704,7 +724,7 @@ fn all_zero_volume_stays_zero() {
                 kind: BaseKind::Jbf,
                 sigmas: Sigmas::default(),
             },
-            g2,
+            membership: welch(g2),
         };
         let out = run_filter(&est, &b.features(), &p, Tiling::default());
         assert!(out.iter().all(|&v| v.to_bits() == 0), "{g2:?}");
@@ -804,18 +824,18 @@ fn estimates_match_two_pass_sample_statistics() {
 fn denoise_sums_is_the_filter_in_hwtc_layout() {
     let b = random_bundle(9, 11, 13, 16, Transform::Identity, 5);
     let est = b.estimates();
-    for (threshold, g2) in [
-        (Some(Threshold::Gamma(0.05)), Some(9.0)),
+    for (method, g2) in [
+        (Method::Published(Threshold::Gamma(0.05)), Some(9.0)),
         (
-            Some(Threshold::Alpha(0.005)),
+            Method::Published(Threshold::Alpha(0.005)),
             Some(Threshold::Alpha(0.005).g2(16)),
         ),
-        (None, None),
+        (Method::BaseOnly, None),
     ] {
         let params = DenoiseParams {
             radius: 3,
             temporal_radius: 1,
-            threshold,
+            method,
             base: BaseKind::Jbf,
             sigmas: Sigmas::default(),
             tiling: Tiling {
@@ -825,7 +845,7 @@ fn denoise_sums_is_the_filter_in_hwtc_layout() {
             },
         };
         let done = AtomicU64::new(0);
-        let d = denoise_sums(&b.view(), &b.albedo, &b.normal, &params, &|k| {
+        let d = denoise_sums(&b.view(), &b.features(), &params, &|k| {
             done.fetch_add(k, Ordering::Relaxed);
         });
         assert_eq!(done.load(Ordering::Relaxed), (b.h * b.w) as u64);
@@ -836,13 +856,13 @@ fn denoise_sums_is_the_filter_in_hwtc_layout() {
                 kind: BaseKind::Jbf,
                 sigmas: Sigmas::default(),
             },
-            g2,
+            membership: welch(g2),
         };
         let planar = run_filter(&est, &b.features(), &fp, Tiling::default());
         assert_eq!(d.volume.shape(), &[b.h, b.w, b.t, C]);
         for ((y, x, k, c), &v) in d.volume.indexed_iter() {
             let p = planar[est.idx(y * b.w + x, c, k)];
-            assert_eq!(v.to_bits(), p.to_bits(), "{threshold:?} ({y},{x},{k},{c})");
+            assert_eq!(v.to_bits(), p.to_bits(), "{method:?} ({y},{x},{k},{c})");
         }
     }
 }
@@ -861,7 +881,7 @@ fn filter_averages_radiance_whatever_the_transform() {
             kind: BaseKind::Jbf,
             sigmas: Sigmas::default(),
         },
-        g2: None,
+        membership: Membership::None,
     };
     let oa = run_filter(&a.estimates(), &a.features(), &p, Tiling::default());
     let ob = run_filter(&b.estimates(), &b.features(), &p, Tiling::default());
@@ -944,7 +964,7 @@ fn noise_free_volume_comes_back_unchanged() {
                         kind,
                         sigmas: Sigmas::default(),
                     },
-                    g2: Some(g2),
+                    membership: Membership::Welch { g2: g2 },
                 };
                 for tiling in [TILINGS[0], TILINGS[3]] {
                     let out = run_filter(&est, &b.features(), &p, tiling);
@@ -963,7 +983,10 @@ fn noise_free_volume_comes_back_unchanged() {
                 }
                 // Without membership the base filter blurs the same volume: the test
                 // above can fail.
-                let base_only = FilterParams { g2: None, ..p };
+                let base_only = FilterParams {
+                    membership: Membership::None,
+                    ..p
+                };
                 let out = run_filter(&est, &b.features(), &base_only, TILINGS[3]);
                 let moved = out
                     .iter()
@@ -1026,7 +1049,9 @@ fn step_edge_does_not_leak() {
                 kind,
                 sigmas: Sigmas::default(),
             },
-            g2: Some(Threshold::Gamma(0.1).g2(spp)),
+            membership: Membership::Welch {
+                g2: Threshold::Gamma(0.1).g2(spp),
+            },
         };
         let out = run_filter(&est, &b.features(), &p, Tiling::default());
         let e = edge_error(&out);
@@ -1034,7 +1059,10 @@ fn step_edge_does_not_leak() {
         let blurred = edge_error(&run_filter(
             &est,
             &b.features(),
-            &FilterParams { g2: None, ..p },
+            &FilterParams {
+                membership: Membership::None,
+                ..p
+            },
             Tiling::default(),
         ));
         assert!(
@@ -1132,7 +1160,7 @@ fn isolated_outlier_is_kept() {
                 kind,
                 sigmas: Sigmas::default(),
             },
-            g2: Some(4.0),
+            membership: Membership::Welch { g2: 4.0 },
         };
         let out = run_filter(&est, &b.features(), &p, Tiling::default());
         // Every neighbour fails the test, so only the centre counts: out = mean exactly.
@@ -1161,7 +1189,10 @@ fn isolated_outlier_is_kept() {
         let blurred = run_filter(
             &est,
             &b.features(),
-            &FilterParams { g2: None, ..p },
+            &FilterParams {
+                membership: Membership::None,
+                ..p
+            },
             Tiling::default(),
         );
         assert!(blurred[o(0)] < 1.2, "{kind:?}: {}", blurred[o(0)]);
@@ -1193,7 +1224,7 @@ fn mirrored_inputs_give_mirrored_outputs() {
                 kind,
                 sigmas: Sigmas::default(),
             },
-            g2: Some(4.0),
+            membership: Membership::Welch { g2: 4.0 },
         };
         let out = run_filter(&est, &b.features(), &p, TILINGS[1]);
         for (name, map, flip) in &maps {
@@ -1301,13 +1332,7 @@ fn output_converges_to_the_truth_as_spp_grows() {
                 }
             }
         }
-        let d = denoise_sums(
-            &b.view(),
-            &b.albedo,
-            &b.normal,
-            &DenoiseParams::default(),
-            &|_| {},
-        );
+        let d = denoise_sums(&b.view(), &b.features(), &DenoiseParams::default(), &|_| {});
         let denoised = d.volume.as_slice().unwrap();
         let rmse = |a: &mut dyn Iterator<Item = f64>| {
             let (s, n) = a
@@ -1446,12 +1471,12 @@ fn end_to_end_cbox_denoising_beats_the_noisy_render() {
     let render_s = start.elapsed().as_secs_f64();
     let (h, w, t) = (noisy.accum.height, noisy.accum.width, noisy.accum.bins);
     assert_eq!((h, w, t), (48, 48, 60));
-    let albedo: Vec<f32> = noisy.gbuffer.iter().flat_map(|g| g.albedo).collect();
-    let normal: Vec<f32> = noisy.gbuffer.iter().flat_map(|g| g.normal).collect();
+    let g = GBuffers::from_pixels(h, w, &noisy.gbuffer);
     let view = SumsView {
         height: h,
         width: w,
         bins: t,
+        bin_width: 0.1,
         spp: 32,
         z0: 0.0,
         x1: &noisy.accum.x1,
@@ -1460,7 +1485,7 @@ fn end_to_end_cbox_denoising_beats_the_noisy_render() {
         sum: &noisy.accum.x1,
         nonzero: &noisy.accum.nonzero,
     };
-    let d = denoise_sums(&view, &albedo, &normal, &DenoiseParams::default(), &|_| {});
+    let d = denoise_sums(&view, &g.features(), &DenoiseParams::default(), &|_| {});
     let truth: Vec<f64> = reference
         .accum
         .x1

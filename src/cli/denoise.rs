@@ -6,7 +6,8 @@ use crate::bundle::write::{check_output, write_atomically};
 use crate::bundle::{Bundle, BundleError};
 use crate::denoise::base_filter::{BaseKind, Sigmas};
 use crate::denoise::critical::Threshold;
-use crate::denoise::{denoise_bundle, memory_bytes, DenoiseParams};
+use crate::denoise::tstat::TstatParams;
+use crate::denoise::{denoise_bundle, memory_bytes, DenoiseParams, Method};
 use anyhow::{bail, ensure};
 use clap::{Args, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -21,23 +22,46 @@ pub enum BaseArg {
     Gaussian,
 }
 
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum MethodArg {
+    /// tstat: emitter classes, camera-depth alignment, patch test (default).
+    Tstat,
+    /// The published filter: a per-voxel Welch test (--gamma / --alpha).
+    Published,
+}
+
 /// The filter's options, shared by `denoise`, `report` and `run`.
 #[derive(Args, Debug, Clone)]
 pub struct FilterArgs {
+    /// Membership test.
+    #[arg(long, value_enum, default_value = "tstat")]
+    pub method: MethodArg,
     /// Spatial radius r in pixels (window 2r + 1).
     #[arg(long, default_value_t = 5, allow_negative_numbers = true)]
     pub radius: i64,
     /// Temporal radius r_t in bins.
     #[arg(long, default_value_t = 1, allow_negative_numbers = true)]
     pub temporal_radius: i64,
-    /// Membership threshold on 1 - w* (g^2 = 1/(2 gamma) - 1), in (0, 0.5). Default: 0.25 below 16 spp, 0.15 below 64, else 0.1.
+    /// tstat: per-voxel bound on the Welch statistic max_c d^2 / V.
+    #[arg(long, allow_negative_numbers = true)]
+    pub t2_max: Option<f64>,
+    /// tstat: bound on the statistic's mean over bins t-1..t+1.
+    #[arg(long, allow_negative_numbers = true)]
+    pub t2_patch: Option<f64>,
+    /// tstat: spatial radius of pixels that see an emitter (default 2r).
+    #[arg(long, allow_negative_numbers = true)]
+    pub emitter_radius: Option<i64>,
+    /// tstat: do not align neighbours' bins by camera depth.
+    #[arg(long)]
+    pub no_depth_align: bool,
+    /// Published: threshold on 1 - w* (g^2 = 1/(2 gamma) - 1), in (0, 0.5). Default: 0.25 below 16 spp, 0.15 below 64, else 0.1.
     #[arg(long, conflicts_with = "alpha", allow_negative_numbers = true)]
     pub gamma: Option<f64>,
-    /// Two-sided significance level of the Welch test, in (0, 1) (Student's t, 2n - 2 dof).
+    /// Published: two-sided significance level of the Welch test, in (0, 1) (Student's t, 2n - 2 dof).
     #[arg(long, allow_negative_numbers = true)]
     pub alpha: Option<f64>,
     /// Run the base filter alone (no membership test).
-    #[arg(long, conflicts_with_all = ["gamma", "alpha"])]
+    #[arg(long, conflicts_with_all = ["gamma", "alpha", "t2_max", "t2_patch", "emitter_radius", "no_depth_align"])]
     pub no_membership: bool,
     #[command(flatten)]
     pub base: BaseFilterArgs,
@@ -99,18 +123,48 @@ impl FilterArgs {
             "--temporal-radius {}: at most 64",
             self.temporal_radius
         );
+        let tstat_flags = self.t2_max.is_some()
+            || self.t2_patch.is_some()
+            || self.emitter_radius.is_some()
+            || self.no_depth_align;
+        let published_flags = self.gamma.is_some() || self.alpha.is_some();
+        let method = if self.no_membership {
+            Method::BaseOnly
+        } else {
+            match self.method {
+                MethodArg::Tstat => {
+                    ensure!(
+                        !published_flags,
+                        "--gamma / --alpha set the published filter's threshold: add --method published"
+                    );
+                    if let Some(r) = self.emitter_radius {
+                        ensure!(r >= 0, "--emitter-radius {r}: must be >= 0");
+                    }
+                    let d = TstatParams::default();
+                    Method::Tstat(TstatParams {
+                        t2_max: self.t2_max.unwrap_or(d.t2_max),
+                        t2_patch: self.t2_patch.unwrap_or(d.t2_patch),
+                        emitter_radius: self.emitter_radius.map(|r| r as usize),
+                        depth_align: !self.no_depth_align,
+                    })
+                }
+                MethodArg::Published => {
+                    ensure!(
+                        !tstat_flags,
+                        "--t2-max, --t2-patch, --emitter-radius and --no-depth-align belong to --method tstat"
+                    );
+                    Method::Published(match (self.gamma, self.alpha) {
+                        (_, Some(a)) => Threshold::Alpha(a),
+                        (Some(g), None) => Threshold::Gamma(g),
+                        (None, None) => Threshold::Auto,
+                    })
+                }
+            }
+        };
         let p = DenoiseParams {
             radius: self.radius as usize,
             temporal_radius: self.temporal_radius as usize,
-            threshold: if self.no_membership {
-                None
-            } else {
-                Some(match (self.gamma, self.alpha) {
-                    (_, Some(a)) => Threshold::Alpha(a),
-                    (Some(g), None) => Threshold::Gamma(g),
-                    (None, None) => Threshold::Auto,
-                })
-            },
+            method,
             ..self.base.params()?
         };
         p.validate().map_err(|e| anyhow::anyhow!(e))?;

@@ -412,12 +412,7 @@ fn convergence_markdown(
         r.reference_note,
         cfg.denoise.radius,
         cfg.denoise.temporal_radius,
-        match cfg.denoise.threshold {
-            Some(Threshold::Gamma(g)) => format!("gamma = {g}"),
-            Some(Threshold::Alpha(al)) => format!("alpha = {al}"),
-            Some(Threshold::Auto) => "gamma = auto (0.25 below 16 spp, 0.15 below 64, else 0.1)".into(),
-            None => "no membership".into(),
-        },
+        cfg.denoise.method.describe(),
         cfg.denoise.base,
         cfg.transform
     );

@@ -54,11 +54,17 @@ impl Sigmas {
     }
 }
 
-/// Per-pixel features, shared by all bins of the pixel.
+/// Per-pixel G-buffers, shared by all bins of the pixel. The base filter reads albedo
+/// and normal; tstat's membership reads depth and emitter.
 pub struct Features<'a> {
     /// (H, W, 3) row-major.
     pub albedo: &'a [f32],
+    /// (H, W, 3) row-major.
     pub normal: &'a [f32],
+    /// (H, W): mean camera distance to the first hit, 0 where nothing was hit.
+    pub depth: &'a [f32],
+    /// (H, W): fraction of samples whose first non-delta vertex is an emitter.
+    pub emitter: &'a [f32],
 }
 
 #[derive(Clone, Copy, Debug)]

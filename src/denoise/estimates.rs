@@ -18,6 +18,8 @@ pub struct Estimates {
     pub height: usize,
     pub width: usize,
     pub bins: usize,
+    /// Bin width h in OPL (scene units).
+    pub bin_width: f64,
     pub mean: Vec<f32>,
     pub theta: Vec<f32>,
     pub v: Vec<f32>,
@@ -28,6 +30,8 @@ pub struct SumsView<'a> {
     pub height: usize,
     pub width: usize,
     pub bins: usize,
+    /// Bin width h in OPL (scene units).
+    pub bin_width: f64,
     pub spp: u64,
     /// z(0) of the transform the sums were taken with.
     pub z0: f64,
@@ -84,6 +88,7 @@ impl Estimates {
             height: s.height,
             width: s.width,
             bins: s.bins,
+            bin_width: s.bin_width,
             mean,
             theta,
             v,

@@ -2,28 +2,44 @@
 //! `out_j = sum_i w_ij mean_i / sum_i w_ij`, `w_ij = p_ij m_ij`, over the neighbours i
 //! with |dy|, |dx| <= r and |dt| <= r_t.
 //!
+//! Two memberships m: the published per-voxel Welch test, and tstat's (see `tstat.rs`:
+//! emitter classes, camera-depth alignment, which moves the neighbour's bins by a
+//! per-pair shift k, and the patch test).
+//!
 //! Work is split into tiles: bands of image rows (run in parallel) cut into blocks of
-//! pixels and ranges of bins; a tile reads its halo (r pixels, r_t bins) straight from
-//! the shared read-only estimates. For each output pixel and neighbour pixel, the pixel
-//! part of p is computed once and reused for every bin; the inner loop runs over
-//! contiguous bins (planar layout) and vectorises. Each voxel's sums are accumulated
-//! in the same neighbour order whatever the tiling or thread count, so the output is
-//! bit-identical across both. Voxels whose whole neighbourhood is zero are skipped
-//! (they are zero).
+//! pixels and ranges of bins; a tile reads its halo (r pixels, r_t + |k| bins) straight
+//! from the shared read-only estimates. For each output pixel and neighbour pixel, the
+//! pixel part of p (and the shift k) is computed once and reused for every bin; the
+//! inner loop runs over contiguous bins (planar layout) and vectorises. Each voxel's
+//! sums are accumulated in the same neighbour order whatever the tiling or thread
+//! count, so the output is bit-identical across both (the patch test reads s(t +- 1)
+//! from the volume, not the tile). Voxels whose whole neighbourhood is zero are
+//! skipped (they are zero).
 
 use super::base_filter::{BaseFilter, Features};
 use super::estimates::Estimates;
 use super::membership::passes;
+use super::tstat::{depth_shift, sees_emitter, statistic, TstatParams};
 use crate::stats::accumulators::CHANNELS;
 use rayon::prelude::*;
+
+/// Which membership test m the filter applies.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Membership {
+    /// The base filter alone (m = 1).
+    None,
+    /// The published per-voxel Welch test with this g^2.
+    Welch { g2: f64 },
+    /// tstat's classes, depth alignment and patch test.
+    Tstat(TstatParams),
+}
 
 #[derive(Clone, Copy, Debug)]
 pub struct FilterParams {
     pub radius: usize,
     pub temporal_radius: usize,
     pub base: BaseFilter,
-    /// g^2 of the membership test; `None` runs the base filter alone.
-    pub g2: Option<f64>,
+    pub membership: Membership,
 }
 
 /// Tile shape: rows per band (the parallel unit), pixels per block, bins per range.
@@ -111,6 +127,57 @@ fn accumulate<const MEMBERSHIP: bool>(
     }
 }
 
+/// tstat's statistic over `n` contiguous bins: `out[k] = max_c s_c`.
+#[inline(always)]
+fn statistics(
+    n: usize,
+    theta_i: [&[f32]; 3],
+    theta_j: [&[f32]; 3],
+    v_i: [&[f32]; 3],
+    v_j: [&[f32]; 3],
+    out: &mut [f32],
+) {
+    let (ti0, ti1, ti2) = (&theta_i[0][..n], &theta_i[1][..n], &theta_i[2][..n]);
+    let (tj0, tj1, tj2) = (&theta_j[0][..n], &theta_j[1][..n], &theta_j[2][..n]);
+    let (vi0, vi1, vi2) = (&v_i[0][..n], &v_i[1][..n], &v_i[2][..n]);
+    let (vj0, vj1, vj2) = (&v_j[0][..n], &v_j[1][..n], &v_j[2][..n]);
+    let out = &mut out[..n];
+    for k in 0..n {
+        let s0 = statistic(ti0[k], tj0[k], vi0[k], vj0[k]);
+        let s1 = statistic(ti1[k], tj1[k], vi1[k], vj1[k]);
+        let s2 = statistic(ti2[k], tj2[k], vi2[k], vj2[k]);
+        out[k] = s0.max(s1).max(s2);
+    }
+}
+
+/// tstat's inner loop: `s` holds the statistic at bins t - 1 .. t + n (n + 2 values,
+/// the ends already repeated where the volume ends); a neighbour voxel counts with
+/// weight `w` where `s(t) <= t2_max` and `s(t-1) + s(t) + s(t+1) <= 3 t2_patch`.
+#[inline(always)]
+fn accumulate_patch(
+    n: usize,
+    w: f32,
+    t2_max: f32,
+    t2_patch3: f32,
+    s: &[f32],
+    mean_i: [&[f32]; 3],
+    num: [&mut [f32]; 3],
+    den: &mut [f32],
+) {
+    let (sp, sc, sn) = (&s[..n], &s[1..n + 1], &s[2..n + 2]);
+    let (mi0, mi1, mi2) = (&mean_i[0][..n], &mean_i[1][..n], &mean_i[2][..n]);
+    let [n0, n1, n2] = num;
+    let (n0, n1, n2, den) = (&mut n0[..n], &mut n1[..n], &mut n2[..n], &mut den[..n]);
+    for k in 0..n {
+        let pass = (sc[k] <= t2_max) & (sp[k] + sc[k] + sn[k] <= t2_patch3);
+        let wk = if pass { w } else { 0.0 };
+        n0[k] += wk * mi0[k];
+        n1[k] += wk * mi1[k];
+        n2[k] += wk * mi2[k];
+        den[k] += wk;
+    }
+}
+
 type Kernel = fn(
     usize,
     f32,
@@ -129,6 +196,10 @@ struct Shared<'a> {
     e: &'a Estimates,
     features: &'a Features<'a>,
     params: &'a FilterParams,
+    /// tstat's parameters, when that is the membership.
+    tstat: Option<TstatParams>,
+    /// The base filter of emitter pixels under tstat (spatial sigma scaled by r_e / r).
+    base_emitter: BaseFilter,
     /// Per pixel, the bins holding anything non-zero.
     active: Vec<(usize, usize)>,
     /// The bin-offset part of p, index dt + r_t.
@@ -137,10 +208,67 @@ struct Shared<'a> {
     kernel: Kernel,
 }
 
-/// Per-task sums over one range of bins.
+/// One neighbour pixel of an output pixel.
+#[derive(Clone, Copy)]
+struct Neighbour {
+    /// Pixel index.
+    i: usize,
+    /// The pixel-pair part of p.
+    weight: f64,
+    /// Bin shift k: bin t of the output pixel meets bin t + dt + k of the neighbour.
+    shift: i64,
+}
+
+/// Per-task scratch.
 struct Scratch {
     num: [Vec<f32>; 3],
     den: Vec<f32>,
+    /// tstat's statistic over a range of bins plus one on each side.
+    stat: Vec<f32>,
+    neighbours: Vec<Neighbour>,
+}
+
+impl Shared<'_> {
+    /// The neighbours of pixel (yj, xj) in accumulation order, and its temporal radius.
+    fn neighbours(&self, yj: usize, xj: usize, out: &mut Vec<Neighbour>) -> i64 {
+        let (h, w) = (self.e.height as i64, self.e.width as i64);
+        let f = self.features;
+        let j = yj * w as usize + xj;
+        let (mut r, mut rt) = (
+            self.params.radius as i64,
+            self.params.temporal_radius as i64,
+        );
+        let mut base = &self.params.base;
+        let class_j = sees_emitter(f.emitter[j]);
+        if let Some(tp) = &self.tstat {
+            if class_j {
+                r = tp.emitter_radius(self.params.radius) as i64;
+                rt = 0;
+                base = &self.base_emitter;
+            }
+        }
+        out.clear();
+        for yi in (yj as i64 - r).max(0)..=(yj as i64 + r).min(h - 1) {
+            for xi in (xj as i64 - r).max(0)..=(xj as i64 + r).min(w - 1) {
+                let i = (yi * w + xi) as usize;
+                let mut shift = 0;
+                if let Some(tp) = &self.tstat {
+                    if sees_emitter(f.emitter[i]) != class_j {
+                        continue;
+                    }
+                    if tp.depth_align {
+                        shift = depth_shift(f.depth[j], f.depth[i], self.e.bin_width);
+                    }
+                }
+                out.push(Neighbour {
+                    i,
+                    weight: base.pair_weight(f, j, i, yi - yj as i64, xi - xj as i64),
+                    shift,
+                });
+            }
+        }
+        rt
+    }
 }
 
 /// Filters pixel (yj, xj) over bins [b0, b1) into `out_j`, its (C, T) planar block;
@@ -155,69 +283,108 @@ fn filter_pixel(
     out_j: &mut [f32],
 ) -> u64 {
     let e = s.e;
-    let (h, w, t_bins) = (e.height, e.width, e.bins);
-    let (r, rt) = (s.params.radius as i64, s.params.temporal_radius as i64);
-    let j = yj * w + xj;
-    let (ylo, yhi) = ((yj as i64 - r).max(0), (yj as i64 + r).min(h as i64 - 1));
-    let (xlo, xhi) = ((xj as i64 - r).max(0), (xj as i64 + r).min(w as i64 - 1));
-    let neighbours = || (ylo..=yhi).flat_map(move |yi| (xlo..=xhi).map(move |xi| (yi, xi)));
+    let t_bins = e.bins as i64;
+    let j = yj * e.width + xj;
+    let Scratch {
+        num,
+        den,
+        stat,
+        neighbours,
+    } = scratch;
+    let rt = s.neighbours(yj, xj, neighbours);
     // Bins of j whose neighbourhood holds anything non-zero; the rest stay zero.
-    let (mut a, mut b) = (usize::MAX, 0usize);
-    for (yi, xi) in neighbours() {
-        let (lo, hi) = s.active[yi as usize * w + xi as usize];
+    let (mut a, mut b) = (i64::MAX, i64::MIN);
+    for nb in neighbours.iter() {
+        let (lo, hi) = s.active[nb.i];
         if hi > lo {
-            a = a.min(lo.saturating_sub(rt as usize));
-            b = b.max((hi + rt as usize).min(t_bins));
+            a = a.min(lo as i64 - rt - nb.shift);
+            b = b.max(hi as i64 + rt - nb.shift);
         }
     }
-    let (a, b) = (a.max(b0), b.min(b1));
+    let (a, b) = (a.max(b0 as i64).max(0), b.min(b1 as i64).min(t_bins));
     if a >= b {
         return 0;
     }
-    let n = b - a;
-    let Scratch { num, den } = scratch;
+    let n = (b - a) as usize;
     for v in num.iter_mut() {
         v[..n].fill(0.0);
     }
     den[..n].fill(0.0);
     let mut evals = 0u64;
-    for (yi, xi) in neighbours() {
-        let i = yi as usize * w + xi as usize;
-        let ps = s
-            .params
-            .base
-            .pair_weight(s.features, j, i, yi - yj as i64, xi - xj as i64);
+    for nb in neighbours.iter() {
+        let i = nb.i;
         for dt in -rt..=rt {
-            // Bins t of j in [a, b) whose neighbour bin t + dt exists.
-            let ts = (a as i64).max(-dt) as usize;
-            let te = (b as i64).min(t_bins as i64 - dt);
-            if te <= ts as i64 {
+            let o = dt + nb.shift;
+            // Bins t of j in [a, b) whose neighbour bin t + o exists.
+            let ts = a.max(-o);
+            let te = b.min(t_bins - o);
+            if te <= ts {
                 continue;
             }
-            let m = te as usize - ts;
-            let wt = (ps * s.pt[(dt + rt) as usize]) as f32;
-            let oi: [usize; 3] = std::array::from_fn(|c| e.idx(i, c, (ts as i64 + dt) as usize));
-            let oj: [usize; 3] = std::array::from_fn(|c| e.idx(j, c, ts));
-            let off = ts - a;
+            let m = (te - ts) as usize;
+            let wt = (nb.weight * s.pt[(dt + s.params.temporal_radius as i64) as usize]) as f32;
+            let oi: [usize; 3] = std::array::from_fn(|c| e.idx(i, c, (ts + o) as usize));
+            let oj: [usize; 3] = std::array::from_fn(|c| e.idx(j, c, ts as usize));
+            let off = (ts - a) as usize;
             let [n0, n1, n2] = &mut *num;
-            (s.kernel)(
-                m,
-                wt,
-                s.g2,
-                oi.map(|o| &e.theta[o..o + m]),
-                oj.map(|o| &e.theta[o..o + m]),
-                oi.map(|o| &e.v[o..o + m]),
-                oj.map(|o| &e.v[o..o + m]),
-                oi.map(|o| &e.mean[o..o + m]),
-                [&mut n0[off..], &mut n1[off..], &mut n2[off..]],
-                &mut den[off..],
-            );
+            let acc = [&mut n0[off..], &mut n1[off..], &mut n2[off..]];
+            match &s.tstat {
+                None => (s.kernel)(
+                    m,
+                    wt,
+                    s.g2,
+                    oi.map(|q| &e.theta[q..q + m]),
+                    oj.map(|q| &e.theta[q..q + m]),
+                    oi.map(|q| &e.v[q..q + m]),
+                    oj.map(|q| &e.v[q..q + m]),
+                    oi.map(|q| &e.mean[q..q + m]),
+                    acc,
+                    &mut den[off..],
+                ),
+                Some(tp) => {
+                    // s over [lo, hi): one more bin on each side where both voxels exist.
+                    let lo = if ts - 1 >= (-o).max(0) { ts - 1 } else { ts };
+                    let hi = if te + 1 <= t_bins.min(t_bins - o) {
+                        te + 1
+                    } else {
+                        te
+                    };
+                    let len = (hi - lo) as usize;
+                    let first = if lo < ts { 0 } else { 1 };
+                    let si: [usize; 3] = std::array::from_fn(|c| e.idx(i, c, (lo + o) as usize));
+                    let sj: [usize; 3] = std::array::from_fn(|c| e.idx(j, c, lo as usize));
+                    statistics(
+                        len,
+                        si.map(|q| &e.theta[q..q + len]),
+                        sj.map(|q| &e.theta[q..q + len]),
+                        si.map(|q| &e.v[q..q + len]),
+                        sj.map(|q| &e.v[q..q + len]),
+                        &mut stat[first..first + len],
+                    );
+                    if first == 1 {
+                        stat[0] = stat[1];
+                    }
+                    if hi == te {
+                        stat[m + 1] = stat[m];
+                    }
+                    accumulate_patch(
+                        m,
+                        wt,
+                        tp.t2_max as f32,
+                        (3.0 * tp.t2_patch) as f32,
+                        &stat[..m + 2],
+                        oi.map(|q| &e.mean[q..q + m]),
+                        acc,
+                        &mut den[off..],
+                    );
+                }
+            }
             evals += m as u64;
         }
     }
     for (c, num_c) in num.iter().enumerate() {
-        let o = c * t_bins + a;
-        for ((out, &sum), &d) in out_j[o..o + n].iter_mut().zip(&num_c[..n]).zip(&den[..n]) {
+        let q = c * e.bins + a as usize;
+        for ((out, &sum), &d) in out_j[q..q + n].iter_mut().zip(&num_c[..n]).zip(&den[..n]) {
             *out = sum / d;
         }
     }
@@ -236,17 +403,30 @@ pub fn filter(
     let (h, w, t_bins) = (e.height, e.width, e.bins);
     let per_pixel = CHANNELS * t_bins;
     let mut out = vec![0.0f32; h * w * per_pixel];
+    let tstat = match params.membership {
+        Membership::Tstat(tp) => Some(tp),
+        _ => None,
+    };
+    let mut base_emitter = params.base;
+    if let Some(tp) = &tstat {
+        base_emitter.sigmas.xy *=
+            tp.emitter_radius(params.radius).max(1) as f64 / params.radius.max(1) as f64;
+    }
     let shared = Shared {
         e,
         features,
         params,
+        tstat,
+        base_emitter,
         active: active_ranges(e),
         pt: params.base.time_weights(params.temporal_radius),
-        g2: params.g2.unwrap_or(0.0) as f32,
-        kernel: if params.g2.is_some() {
-            accumulate::<true>
-        } else {
-            accumulate::<false>
+        g2: match params.membership {
+            Membership::Welch { g2 } => g2 as f32,
+            _ => 0.0,
+        },
+        kernel: match params.membership {
+            Membership::Welch { .. } => accumulate::<true>,
+            _ => accumulate::<false>,
         },
     };
     let (rows, cols, bins) = (tiling.rows.max(1), tiling.cols.max(1), tiling.bins.max(1));
@@ -258,6 +438,8 @@ pub fn filter(
             let mut scratch = Scratch {
                 num: std::array::from_fn(|_| vec![0.0; bins]),
                 den: vec![0.0; bins],
+                stat: vec![0.0; bins + 2],
+                neighbours: Vec::new(),
             };
             let mut evals = 0u64;
             for b0 in (0..t_bins).step_by(bins) {

@@ -1,27 +1,72 @@
 //! Denoising (SPEC 8): estimates from the bundle's sums, then the statistical
-//! spatio-temporal filter (base filter x Welch-test membership).
+//! spatio-temporal filter (base filter x membership): tstat's membership (default,
+//! `tstat.rs`) or the published per-voxel Welch test (`membership.rs`).
 
 pub mod base_filter;
 pub mod critical;
 pub mod estimates;
 pub mod filter;
+pub mod gbuffers;
 pub mod membership;
+pub mod tstat;
 
 use crate::bundle::{Bundle, BundleError};
 use crate::stats::accumulators::CHANNELS;
 use base_filter::{BaseFilter, BaseKind, Features, Sigmas};
 use critical::Threshold;
 use estimates::{Estimates, SumsView};
-use filter::{filter, FilterParams, Tiling};
+use filter::{filter, FilterParams, Membership, Tiling};
+use gbuffers::GBuffers;
 use ndarray::Array4;
+use tstat::TstatParams;
+
+/// Which membership test the denoiser applies.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Method {
+    /// tstat's classes, depth alignment and patch test (the default).
+    Tstat(TstatParams),
+    /// The published filter's per-voxel Welch test.
+    Published(Threshold),
+    /// The base filter alone (no membership test).
+    BaseOnly,
+}
+
+impl Method {
+    /// A short name for reports.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Method::Tstat(_) => "tstat",
+            Method::Published(_) => "published",
+            Method::BaseOnly => "base-only",
+        }
+    }
+
+    /// The method and its settings, for reports.
+    pub fn describe(&self) -> String {
+        match self {
+            Method::Tstat(t) => format!(
+                "tstat (t2_max = {}, t2_patch = {}, emitter radius = {}, depth alignment {})",
+                t.t2_max,
+                t.t2_patch,
+                t.emitter_radius.map_or("2r".to_string(), |r| r.to_string()),
+                if t.depth_align { "on" } else { "off" }
+            ),
+            Method::Published(Threshold::Gamma(g)) => format!("published, gamma = {g}"),
+            Method::Published(Threshold::Alpha(a)) => format!("published, alpha = {a}"),
+            Method::Published(Threshold::Auto) => {
+                "published, gamma = auto (0.25 below 16 spp, 0.15 below 64, else 0.1)".into()
+            }
+            Method::BaseOnly => "base filter alone (no membership)".into(),
+        }
+    }
+}
 
 /// Everything the denoiser is told.
 #[derive(Clone, Copy, Debug)]
 pub struct DenoiseParams {
     pub radius: usize,
     pub temporal_radius: usize,
-    /// The membership test's threshold; `None` runs the base filter alone.
-    pub threshold: Option<Threshold>,
+    pub method: Method,
     pub base: BaseKind,
     pub sigmas: Sigmas,
     pub tiling: Tiling,
@@ -32,7 +77,7 @@ impl Default for DenoiseParams {
         DenoiseParams {
             radius: 5,
             temporal_radius: 1,
-            threshold: Some(Threshold::Auto),
+            method: Method::Tstat(TstatParams::default()),
             base: BaseKind::Jbf,
             sigmas: Sigmas::default(),
             tiling: Tiling::default(),
@@ -42,10 +87,29 @@ impl Default for DenoiseParams {
 
 impl DenoiseParams {
     pub fn validate(&self) -> Result<(), String> {
-        if let Some(t) = &self.threshold {
-            t.validate()?;
+        match &self.method {
+            Method::Tstat(t) => t.validate()?,
+            Method::Published(t) => t.validate()?,
+            Method::BaseOnly => {}
         }
         self.sigmas.validate()
+    }
+
+    /// The filter's parameters for a bundle of `spp` samples per pixel.
+    pub fn filter_params(&self, spp: u64) -> FilterParams {
+        FilterParams {
+            radius: self.radius,
+            temporal_radius: self.temporal_radius,
+            base: BaseFilter {
+                kind: self.base,
+                sigmas: self.sigmas,
+            },
+            membership: match self.method {
+                Method::Tstat(t) => Membership::Tstat(t),
+                Method::Published(t) => Membership::Welch { g2: t.g2(spp) },
+                Method::BaseOnly => Membership::None,
+            },
+        }
     }
 }
 
@@ -70,14 +134,13 @@ pub fn memory_bytes(height: usize, width: usize, bins: usize) -> u64 {
 /// Denoises from sums and G-buffers already in memory.
 pub fn denoise_sums(
     sums: &SumsView,
-    albedo: &[f32],
-    normal: &[f32],
+    features: &Features,
     params: &DenoiseParams,
     progress: &(dyn Fn(u64) + Sync),
 ) -> Denoised {
     let start = std::time::Instant::now();
     let est = Estimates::from_sums(sums);
-    let mut d = denoise_estimates(est, sums.spp, albedo, normal, params, progress);
+    let mut d = denoise_estimates(est, sums.spp, features, params, progress);
     d.seconds = start.elapsed().as_secs_f64();
     d
 }
@@ -87,23 +150,13 @@ pub fn denoise_sums(
 pub fn denoise_estimates(
     est: Estimates,
     spp: u64,
-    albedo: &[f32],
-    normal: &[f32],
+    features: &Features,
     params: &DenoiseParams,
     progress: &(dyn Fn(u64) + Sync),
 ) -> Denoised {
     let start = std::time::Instant::now();
-    let fp = FilterParams {
-        radius: params.radius,
-        temporal_radius: params.temporal_radius,
-        base: BaseFilter {
-            kind: params.base,
-            sigmas: params.sigmas,
-        },
-        g2: params.threshold.map(|t| t.g2(spp)),
-    };
-    let features = Features { albedo, normal };
-    let (planar, evaluations) = filter(&est, &features, &fp, params.tiling, progress);
+    let fp = params.filter_params(spp);
+    let (planar, evaluations) = filter(&est, features, &fp, params.tiling, progress);
     let filter_seconds = start.elapsed().as_secs_f64();
     let (h, w, t) = (est.height, est.width, est.bins);
     drop(est);
@@ -126,8 +179,7 @@ pub struct LoadedSums {
     x3: ndarray::Array4<f64>,
     sum: Option<ndarray::Array4<f64>>,
     nonzero: ndarray::Array3<u32>,
-    pub albedo: ndarray::Array3<f32>,
-    pub normal: ndarray::Array3<f32>,
+    pub gbuffers: GBuffers,
 }
 
 impl LoadedSums {
@@ -151,8 +203,7 @@ impl LoadedSums {
                 Some(bundle.radiance_sum()?)
             },
             nonzero,
-            albedo: bundle.albedo()?,
-            normal: bundle.normal()?,
+            gbuffers: GBuffers::read(bundle)?,
         })
     }
 
@@ -162,6 +213,7 @@ impl LoadedSums {
             height: m.height,
             width: m.width,
             bins: m.bins,
+            bin_width: m.bin_width_opl,
             spp: m.spp,
             z0: m.transform.at_zero(),
             x1: std_slice(&self.x1),
@@ -173,24 +225,12 @@ impl LoadedSums {
     }
 
     /// Keeps the manifest and G-buffers, freeing the sums.
-    pub fn into_features(
-        self,
-    ) -> (
-        crate::bundle::Manifest,
-        ndarray::Array3<f32>,
-        ndarray::Array3<f32>,
-    ) {
-        (self.manifest, self.albedo, self.normal)
+    pub fn into_gbuffers(self) -> (crate::bundle::Manifest, GBuffers) {
+        (self.manifest, self.gbuffers)
     }
 
     pub fn denoise(&self, params: &DenoiseParams, progress: &(dyn Fn(u64) + Sync)) -> Denoised {
-        denoise_sums(
-            &self.view(),
-            std_slice(&self.albedo),
-            std_slice(&self.normal),
-            params,
-            progress,
-        )
+        denoise_sums(&self.view(), &self.gbuffers.features(), params, progress)
     }
 }
 
@@ -203,20 +243,13 @@ pub fn denoise_bundle(
     let start = std::time::Instant::now();
     let sums = LoadedSums::read(bundle)?;
     let est = Estimates::from_sums(&sums.view());
-    let (manifest, albedo, normal) = sums.into_features();
-    let mut d = denoise_estimates(
-        est,
-        manifest.spp,
-        std_slice(&albedo),
-        std_slice(&normal),
-        params,
-        progress,
-    );
+    let (manifest, gbuffers) = sums.into_gbuffers();
+    let mut d = denoise_estimates(est, manifest.spp, &gbuffers.features(), params, progress);
     d.seconds = start.elapsed().as_secs_f64();
     Ok(d)
 }
 
 /// Arrays from `read_npy` are in standard (C) layout.
-fn std_slice<T, D: ndarray::Dimension>(a: &ndarray::Array<T, D>) -> &[T] {
+pub(crate) fn std_slice<T, D: ndarray::Dimension>(a: &ndarray::Array<T, D>) -> &[T] {
     a.as_slice().expect("read_npy gives standard layout")
 }

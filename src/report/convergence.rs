@@ -4,7 +4,8 @@
 
 use super::metrics::{compare, Metrics};
 use super::volume::no_light_mask;
-use crate::denoise::{denoise_sums, estimates::SumsView, DenoiseParams};
+use crate::denoise::gbuffers::GBuffers;
+use crate::denoise::{denoise_sums, estimates::SumsView, DenoiseParams, Method};
 use crate::render::{render, RenderOutput, RenderSettings};
 use crate::scene::{Overrides, Scene};
 use crate::stats::accumulators::CHANNELS;
@@ -65,12 +66,18 @@ pub fn noisy_mean(out: &RenderOutput, spp: u32) -> Array4<f32> {
 }
 
 /// A view of a render's sums for the denoiser.
-pub fn sums_view<'a>(out: &'a RenderOutput, spp: u32, transform: &Transform) -> SumsView<'a> {
+pub fn sums_view<'a>(
+    out: &'a RenderOutput,
+    spp: u32,
+    transform: &Transform,
+    bin_width: f64,
+) -> SumsView<'a> {
     let a = &out.accum;
     SumsView {
         height: a.height,
         width: a.width,
         bins: a.bins,
+        bin_width,
         spp: spp as u64,
         z0: transform.at_zero(),
         x1: &a.x1,
@@ -81,11 +88,8 @@ pub fn sums_view<'a>(out: &'a RenderOutput, spp: u32, transform: &Transform) -> 
     }
 }
 
-fn gbuffer_arrays(out: &RenderOutput) -> (Vec<f32>, Vec<f32>, Vec<f32>) {
-    let albedo = out.gbuffer.iter().flat_map(|g| g.albedo).collect();
-    let normal = out.gbuffer.iter().flat_map(|g| g.normal).collect();
-    let emitter = out.gbuffer.iter().map(|g| g.emitter).collect();
-    (albedo, normal, emitter)
+fn gbuffers(out: &RenderOutput) -> GBuffers {
+    GBuffers::from_pixels(out.accum.height, out.accum.width, &out.gbuffer)
 }
 
 fn load_scene(cfg: &ConvergenceConfig, spp: u32) -> Result<Scene, String> {
@@ -146,9 +150,7 @@ fn reference(cfg: &ConvergenceConfig, dir: &Path, log: &dyn Fn(&str)) -> Result<
             };
             let out = render(&scene, &settings, &|_| {});
             let v = noisy_mean(&out, *spp);
-            let (_, _, emitter) = gbuffer_arrays(&out);
-            let em = Array2::from_shape_vec((scene.film.height, scene.film.width), emitter)
-                .map_err(|e| e.to_string())?;
+            let em: Array2<f32> = gbuffers(&out).emitter;
             write_npy_atomic(&vol_path, &v)?;
             write_npy_atomic(&em_path, &em)?;
             Ok((
@@ -201,23 +203,23 @@ pub fn run_convergence(
             transform: cfg.transform,
         };
         let out = render(&scene, &settings, &|_| {});
-        let (albedo, normal, emitter) = gbuffer_arrays(&out);
+        let g = gbuffers(&out);
+        let features = g.features();
         let mask = ref_mask
             .clone()
-            .unwrap_or_else(|| emitter.iter().map(|&e| e == 0.0).collect());
-        let view = sums_view(&out, spp, &cfg.transform);
+            .unwrap_or_else(|| features.emitter.iter().map(|&e| e == 0.0).collect());
+        let view = sums_view(&out, spp, &cfg.transform, scene.film.bin_width_opl);
         let noisy = noisy_mean(&out, spp);
         let base = denoise_sums(
             &view,
-            &albedo,
-            &normal,
+            &features,
             &DenoiseParams {
-                threshold: None,
+                method: Method::BaseOnly,
                 ..cfg.denoise
             },
             &|_| {},
         );
-        let stat = denoise_sums(&view, &albedo, &normal, &cfg.denoise, &|_| {});
+        let stat = denoise_sums(&view, &features, &cfg.denoise, &|_| {});
         for (method, vol, den_s) in [
             ("noisy", &noisy, 0.0),
             ("base-only", &base.volume, base.seconds),

@@ -5,7 +5,7 @@
 use super::metrics::{compare, Metrics};
 use crate::bundle::{Bundle, BundleError};
 use crate::denoise::critical::Threshold;
-use crate::denoise::{DenoiseParams, LoadedSums};
+use crate::denoise::{DenoiseParams, LoadedSums, Method};
 use ndarray::Array4;
 use std::path::PathBuf;
 
@@ -62,7 +62,7 @@ pub fn run_sweep(
                     let params = DenoiseParams {
                         radius,
                         temporal_radius,
-                        threshold: Some(Threshold::Gamma(gamma)),
+                        method: Method::Published(Threshold::Gamma(gamma)),
                         ..cfg.base
                     };
                     let d = sums.denoise(&params, &|_| {});

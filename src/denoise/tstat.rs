@@ -1,0 +1,141 @@
+//! tstat's membership (the default method; SPEC 8 describes the published one):
+//!
+//! 1. **Classes.** Pixels that see an emitter directly (emitter G-buffer > 0) and pixels
+//!    that do not are never neighbours. Emitter pixels are filtered purely spatially
+//!    (no bin offsets) over a wider radius `r_e`, with the spatial sigma scaled by
+//!    `r_e / r`: their signal is one bin of direct emission whose value only coverage
+//!    at the light's edge changes.
+//! 2. **Camera-depth alignment.** Voxel (p, t) is compared with (q, t + dt + k),
+//!    `k = round((depth_q - depth_p) / h)` (h the bin width in OPL; k = 0 when either
+//!    pixel saw nothing): the same light reaches a farther surface later, so the
+//!    transient of q is that of p delayed by the extra camera distance (the transient
+//!    analogue of motion compensation).
+//! 3. **Patch test.** With the per-channel maximum of the Welch statistic
+//!    `s(t) = max_c (theta_q - theta_p)^2 / (V_q + V_p)` (0 when d = V = 0, infinite
+//!    when V = 0 and d != 0), a neighbour at one offset passes at bin t when
+//!    `s(t) <= t2_max` and `(s(t-1) + s(t) + s(t+1)) / 3 <= t2_patch`; at the ends of the
+//!    range where both voxels exist, the missing side repeats s(t). The patch mean
+//!    rejects neighbours that pass a single voxel's test by chance but differ over
+//!    their bins (the blotches of the per-voxel test at low spp).
+//!
+//! As spp grows V shrinks like 1/n, so any fixed difference in expectation eventually
+//! fails the test: the filter is consistent. The centre voxel always passes (s = 0).
+
+/// Parameters of tstat's membership.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TstatParams {
+    /// Per-voxel bound on s (a t^2 value).
+    pub t2_max: f64,
+    /// Bound on the mean of s over bins t-1..t+1.
+    pub t2_patch: f64,
+    /// Spatial radius for pixels that see an emitter; `None` = 2r.
+    pub emitter_radius: Option<usize>,
+    /// Camera-depth time alignment.
+    pub depth_align: bool,
+}
+
+impl Default for TstatParams {
+    fn default() -> Self {
+        TstatParams {
+            t2_max: 4.0,
+            t2_patch: 1.5,
+            emitter_radius: None,
+            depth_align: true,
+        }
+    }
+}
+
+impl TstatParams {
+    pub fn validate(&self) -> Result<(), String> {
+        for (name, v) in [("--t2-max", self.t2_max), ("--t2-patch", self.t2_patch)] {
+            if !(v > 0.0 && v.is_finite()) {
+                return Err(format!("{name} {v}: must be a positive number"));
+            }
+        }
+        if let Some(r) = self.emitter_radius {
+            if r > 64 {
+                return Err(format!("--emitter-radius {r}: at most 64"));
+            }
+        }
+        Ok(())
+    }
+
+    /// The emitter pixels' radius for spatial radius `r`.
+    pub fn emitter_radius(&self, r: usize) -> usize {
+        self.emitter_radius.unwrap_or(2 * r)
+    }
+}
+
+/// One channel's Welch statistic `d^2 / V` with `d = theta_i - theta_j`,
+/// `V = v_i + v_j`: 0 when d = 0 and V = 0, infinite when V = 0 and d != 0.
+#[inline(always)]
+pub fn statistic(theta_i: f32, theta_j: f32, v_i: f32, v_j: f32) -> f32 {
+    let d = theta_i - theta_j;
+    let v = v_i + v_j;
+    let q = d * d / v;
+    if v > 0.0 {
+        q
+    } else if d == 0.0 {
+        0.0
+    } else {
+        f32::INFINITY
+    }
+}
+
+/// The bin shift k of neighbour q for pixel p: camera depths (0 = saw nothing) over
+/// the bin width h, rounded to the nearest bin (halves away from zero).
+#[inline]
+pub fn depth_shift(depth_p: f32, depth_q: f32, h: f64) -> i64 {
+    if depth_p > 0.0 && depth_q > 0.0 && h > 0.0 {
+        let k = ((depth_q as f64 - depth_p as f64) / h).round();
+        // Depths are finite film-scale distances; the clamp only guards absurd inputs.
+        k.clamp(-(1i64 << 40) as f64, (1i64 << 40) as f64) as i64
+    } else {
+        0
+    }
+}
+
+/// Whether a pixel belongs to the emitter class.
+#[inline]
+pub fn sees_emitter(emitter_fraction: f32) -> bool {
+    emitter_fraction > 0.0
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn statistic_edge_cases_and_symmetry() {
+        assert_eq!(statistic(1.0, 1.0, 0.0, 0.0), 0.0);
+        assert_eq!(statistic(1.0, 1.5, 0.0, 0.0), f32::INFINITY);
+        // d * d underflows but d != 0 with V = 0 still fails every bound.
+        assert_eq!(statistic(1e-23, 2e-23, 0.0, 0.0), f32::INFINITY);
+        assert_eq!(statistic(3.0, 1.0, 0.5, 1.5), 2.0);
+        assert_eq!(statistic(3.0, 1.0, 0.5, 1.5), statistic(1.0, 3.0, 1.5, 0.5));
+    }
+
+    #[test]
+    fn depth_shift_rounds_to_nearest_and_ignores_misses() {
+        assert_eq!(depth_shift(1.0, 1.625, 0.25), 3); // exactly 2.5 -> 3 (away from zero)
+        assert_eq!(depth_shift(1.625, 1.0, 0.25), -3);
+        assert_eq!(depth_shift(2.0, 2.3, 0.1), 3);
+        assert_eq!(depth_shift(2.0, 2.03, 0.08), 0);
+        assert_eq!(depth_shift(2.0, 2.05, 0.08), 1);
+        assert_eq!(depth_shift(0.0, 5.0, 0.1), 0);
+        assert_eq!(depth_shift(5.0, 0.0, 0.1), 0);
+    }
+
+    #[test]
+    fn validation() {
+        assert!(TstatParams::default().validate().is_ok());
+        for bad in [0.0, -1.0, f64::NAN, f64::INFINITY] {
+            let p = TstatParams {
+                t2_patch: bad,
+                ..Default::default()
+            };
+            assert!(p.validate().is_err());
+        }
+        assert_eq!(TstatParams::default().emitter_radius(5), 10);
+    }
+}
