@@ -964,7 +964,7 @@ fn noise_free_volume_comes_back_unchanged() {
                         kind,
                         sigmas: Sigmas::default(),
                     },
-                    membership: Membership::Welch { g2: g2 },
+                    membership: Membership::Welch { g2 },
                 };
                 for tiling in [TILINGS[0], TILINGS[3]] {
                     let out = run_filter(&est, &b.features(), &p, tiling);

@@ -42,7 +42,7 @@ pub enum ReportCommand {
     /// Metrics of volumes (.npy or bundles) against a reference volume.
     Compare(CompareArgs),
     /// Render at a list of spp, denoise each, and measure error against time.
-    Convergence(ConvergenceArgs),
+    Convergence(Box<ConvergenceArgs>),
     /// Error of every combination of denoiser parameters on bundles.
     Sweep(SweepArgs),
 }
@@ -130,7 +130,7 @@ pub struct SweepArgs {
 pub fn run(a: ReportArgs) -> anyhow::Result<()> {
     match a.command {
         ReportCommand::Compare(a) => run_compare(a),
-        ReportCommand::Convergence(a) => run_conv(a),
+        ReportCommand::Convergence(a) => run_conv(*a),
         ReportCommand::Sweep(a) => run_sweep_cmd(a),
     }
 }

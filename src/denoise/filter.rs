@@ -154,6 +154,7 @@ fn statistics(
 /// the ends already repeated where the volume ends); a neighbour voxel counts with
 /// weight `w` where `s(t) <= t2_max` and `s(t-1) + s(t) + s(t+1) <= 3 t2_patch`.
 #[inline(always)]
+#[allow(clippy::too_many_arguments)]
 fn accumulate_patch(
     n: usize,
     w: f32,
@@ -343,8 +344,8 @@ fn filter_pixel(
                 ),
                 Some(tp) => {
                     // s over [lo, hi): one more bin on each side where both voxels exist.
-                    let lo = if ts - 1 >= (-o).max(0) { ts - 1 } else { ts };
-                    let hi = if te + 1 <= t_bins.min(t_bins - o) {
+                    let lo = if ts > (-o).max(0) { ts - 1 } else { ts };
+                    let hi = if te < t_bins.min(t_bins - o) {
                         te + 1
                     } else {
                         te
