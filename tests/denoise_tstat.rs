@@ -147,7 +147,7 @@ fn reference(vol: &Volume, p: &FilterParams, tp: &TstatParams) -> (Vec<f64>, u64
     let e = &vol.e;
     let (h, w, t) = (e.height as i64, e.width as i64, e.bins as i64);
     let s = p.base.sigmas;
-    let re = tp.emitter_radius.unwrap_or(2 * p.radius);
+    let re = tp.emitter_radius.unwrap_or(4 * p.radius);
     let mut out = vec![0.0f64; e.mean.len()];
     let (mut members, mut pairs) = (0u64, 0u64);
     let at = |px: usize, c: usize, k: i64| e.idx(px, c, k as usize);

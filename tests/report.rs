@@ -334,10 +334,26 @@ fn compare_reports_metrics_and_refuses_bad_input() {
             &p("ref.npy"),
             "--out",
             &p("s"),
+            "--method",
+            "published",
             "--gamma",
             "0.7",
         ],
         "--gamma 0.7",
+    );
+    fails(
+        &[
+            "report",
+            "sweep",
+            &p("nothere.tstats"),
+            "--reference",
+            &p("ref.npy"),
+            "--out",
+            &p("s"),
+            "--gamma",
+            "0.1",
+        ],
+        "--method published",
     );
 }
 

@@ -1,9 +1,11 @@
 //! `tstat report compare | convergence | sweep`: error against a reference, speed
 //! against error, and parameter sweeps, as tables (CSV, Markdown) and PNG plots.
 
-use super::denoise::{BaseFilterArgs, FilterArgs};
+use super::denoise::{BaseFilterArgs, FilterArgs, MethodArg};
 use super::render::SceneArgs;
 use crate::denoise::critical::Threshold;
+use crate::denoise::tstat::TstatParams;
+use crate::denoise::Method;
 use crate::report::convergence::{
     run_convergence, ConvergenceConfig, ConvergenceResult, ReferenceSource, METHODS,
 };
@@ -108,9 +110,24 @@ pub struct SweepArgs {
     /// Reference volume (.npy or bundle).
     #[arg(long)]
     pub reference: PathBuf,
-    /// Comma-separated gammas.
-    #[arg(long, default_value = "0.01,0.05,0.1,0.2")]
-    pub gamma: String,
+    /// Membership test to sweep.
+    #[arg(long, value_enum, default_value = "tstat")]
+    pub method: MethodArg,
+    /// Published: comma-separated gammas [default: 0.01,0.05,0.1,0.2].
+    #[arg(long)]
+    pub gamma: Option<String>,
+    /// tstat: comma-separated per-voxel bounds t2_max [default: 4].
+    #[arg(long)]
+    pub t2_max: Option<String>,
+    /// tstat: comma-separated patch bounds t2_patch [default: 1,1.5,2].
+    #[arg(long)]
+    pub t2_patch: Option<String>,
+    /// tstat: comma-separated emitter radii [default: 4r].
+    #[arg(long)]
+    pub emitter_radius: Option<String>,
+    /// tstat: depth alignment settings to try: on, off or on,off [default: on].
+    #[arg(long)]
+    pub depth_align: Option<String>,
     /// Comma-separated spatial radii.
     #[arg(long, default_value = "3,5,10")]
     pub radius: String,
@@ -484,12 +501,81 @@ fn convergence_markdown(
     md
 }
 
+/// The membership settings a sweep tries, and for each the value plotted on x.
+fn sweep_methods(a: &SweepArgs) -> anyhow::Result<(Vec<(Method, f64)>, &'static str)> {
+    let mut out = Vec::new();
+    let tstat_flags = a.t2_max.is_some()
+        || a.t2_patch.is_some()
+        || a.emitter_radius.is_some()
+        || a.depth_align.is_some();
+    match a.method {
+        MethodArg::Published => {
+            ensure!(
+                !tstat_flags,
+                "--t2-max, --t2-patch, --emitter-radius and --depth-align belong to --method tstat"
+            );
+            let gammas = a.gamma.as_deref().unwrap_or("0.01,0.05,0.1,0.2");
+            for g in parse_list::<f64>("--gamma", gammas)? {
+                let t = Threshold::Gamma(g);
+                t.validate().map_err(|e| anyhow!(e))?;
+                out.push((Method::Published(t), g));
+            }
+            Ok((out, "gamma"))
+        }
+        MethodArg::Tstat => {
+            ensure!(
+                a.gamma.is_none(),
+                "--gamma sweeps the published filter: add --method published"
+            );
+            let radii: Vec<Option<usize>> = match &a.emitter_radius {
+                None => vec![None],
+                Some(l) => parse_list::<usize>("--emitter-radius", l)?
+                    .into_iter()
+                    .map(Some)
+                    .collect(),
+            };
+            let aligns: Vec<bool> =
+                parse_list::<String>("--depth-align", a.depth_align.as_deref().unwrap_or("on"))?
+                    .iter()
+                    .map(|v| match v.as_str() {
+                        "on" => Ok(true),
+                        "off" => Ok(false),
+                        _ => Err(anyhow!("--depth-align {v}: use on, off or on,off")),
+                    })
+                    .collect::<anyhow::Result<_>>()?;
+            let t2_patches =
+                parse_list::<f64>("--t2-patch", a.t2_patch.as_deref().unwrap_or("1,1.5,2"))?;
+            for t2_max in parse_list::<f64>("--t2-max", a.t2_max.as_deref().unwrap_or("4"))? {
+                for &t2_patch in &t2_patches {
+                    for &emitter_radius in &radii {
+                        for &depth_align in &aligns {
+                            let t = TstatParams {
+                                t2_max,
+                                t2_patch,
+                                emitter_radius,
+                                depth_align,
+                            };
+                            t.validate().map_err(|e| anyhow!(e))?;
+                            out.push((Method::Tstat(t), t2_patch));
+                        }
+                    }
+                }
+            }
+            Ok((out, "t2_patch"))
+        }
+    }
+}
+
+fn ratio(m: Option<Metrics>, noisy: Option<Metrics>) -> String {
+    match (m, noisy) {
+        (Some(m), Some(n)) if n.rmse > 0.0 => format!("{:.3}", m.rmse / n.rmse),
+        _ => "n/a".into(),
+    }
+}
+
 fn run_sweep_cmd(a: SweepArgs) -> anyhow::Result<()> {
     let files = ["sweep.csv", "sweep.md", "sweep.png"];
-    let gammas: Vec<f64> = parse_list("--gamma", &a.gamma)?;
-    for g in &gammas {
-        Threshold::Gamma(*g).validate().map_err(|e| anyhow!(e))?;
-    }
+    let (methods, x_name) = sweep_methods(&a)?;
     let radii: Vec<usize> = parse_list("--radius", &a.radius)?;
     let rts: Vec<usize> = parse_list("--temporal-radius", &a.temporal_radius)?;
     if let Some(r) = radii.iter().chain(&rts).find(|&&r| r > 64) {
@@ -500,7 +586,7 @@ fn run_sweep_cmd(a: SweepArgs) -> anyhow::Result<()> {
     let reference = load_volume(&a.reference)?;
     let cfg = SweepConfig {
         bundles: a.bundles.clone(),
-        gammas,
+        methods: methods.iter().map(|m| m.0).collect(),
         radii,
         temporal_radii: rts,
         base,
@@ -509,69 +595,98 @@ fn run_sweep_cmd(a: SweepArgs) -> anyhow::Result<()> {
     let mut t = Table::new(&[
         "bundle",
         "transform",
-        "gamma",
+        "spp",
+        "method",
         "radius",
         "temporal_radius",
         "seconds",
         "rmse",
         "rmse/noisy",
+        "rmse_light/noisy",
+        "rmse_rest/noisy",
         "relmse",
-        "rmse_no_light",
     ]);
     let mut sorted = pts.clone();
-    sorted.sort_by(|x, y| x.all.rmse.total_cmp(&y.all.rmse));
+    sorted.sort_by(|x, y| x.error.all.rmse.total_cmp(&y.error.all.rmse));
     for p in &sorted {
         t.push(vec![
             p.bundle.clone(),
             p.transform.clone(),
-            p.gamma.to_string(),
+            p.spp.to_string(),
+            p.method.describe(),
             p.radius.to_string(),
             p.temporal_radius.to_string(),
             format!("{:.2}", p.seconds),
-            num(p.all.rmse),
-            format!("{:.3}", p.all.rmse / p.noisy.rmse),
-            num(p.all.relmse),
-            num(p.no_light.rmse),
+            num(p.error.all.rmse),
+            ratio(Some(p.error.all), Some(p.noisy.all)),
+            ratio(p.error.light, p.noisy.light),
+            ratio(Some(p.error.rest), Some(p.noisy.rest)),
+            num(p.error.all.relmse),
         ]);
     }
     write_text(&a.out.join("sweep.csv"), &t.csv()).map_err(|e| anyhow!(e))?;
-    let md = format!("# Sweep (sorted by RMSE, best first)\n\n{}", t.markdown());
+    let md = format!(
+        "# Sweep (sorted by RMSE, best first)\n\nRatios are to the noisy mean's RMSE over the same region: all voxels, pixels that see a light directly, the rest.\n\n{}",
+        t.markdown()
+    );
     write_text(&a.out.join("sweep.md"), &md).map_err(|e| anyhow!(e))?;
-    let mut series = Vec::new();
-    for b in &cfg.bundles {
-        for &r in &cfg.radii {
-            for &rt in &cfg.temporal_radii {
-                let label = format!(
-                    "{}{}r={r} rt={rt}",
-                    if cfg.bundles.len() > 1 {
-                        b.file_name()
-                            .map(|n| n.to_string_lossy().into_owned())
-                            .unwrap_or_default()
-                    } else {
-                        String::new()
-                    },
-                    if cfg.bundles.len() > 1 { " " } else { "" }
-                );
-                let points = pts
-                    .iter()
-                    .filter(|p| {
-                        p.bundle == b.display().to_string()
-                            && p.radius == r
-                            && p.temporal_radius == rt
-                    })
-                    .map(|p| (p.gamma, p.all.rmse / p.noisy.rmse))
-                    .collect();
-                series.push(Series { label, points });
-            }
+    // One curve per bundle and setting other than the plotted one.
+    let mut series: Vec<Series> = Vec::new();
+    for p in &pts {
+        let x = methods
+            .iter()
+            .find(|m| m.0 == p.method)
+            .map(|m| m.1)
+            .unwrap_or(0.0);
+        let mut key = p.method;
+        match &mut key {
+            Method::Tstat(t) => t.t2_patch = 0.0,
+            Method::Published(t) => *t = Threshold::Auto,
+            Method::BaseOnly => {}
+        }
+        let name = Path::new(&p.bundle)
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        let label = format!(
+            "{}{}r={} rt={}",
+            if cfg.bundles.len() > 1 {
+                name
+            } else {
+                String::new()
+            },
+            match key {
+                Method::Tstat(t) => format!(
+                    " max={} re={} align={} ",
+                    t.t2_max,
+                    t.emitter_radius.map_or("4r".into(), |r| r.to_string()),
+                    t.depth_align
+                ),
+                _ => " ".into(),
+            },
+            p.radius,
+            p.temporal_radius
+        );
+        let y = p.error.all.rmse / p.noisy.all.rmse;
+        match series.iter_mut().find(|s| s.label == label) {
+            Some(s) => s.points.push((x, y)),
+            None => series.push(Series {
+                label,
+                points: vec![(x, y)],
+            }),
         }
     }
     chart(
         &a.out.join("sweep.png"),
         "denoised RMSE / noisy RMSE",
-        "gamma",
+        x_name,
         "RMSE ratio",
         &series,
-        Scale::Log,
+        if x_name == "gamma" {
+            Scale::Log
+        } else {
+            Scale::Linear
+        },
         Scale::Linear,
     )?;
     print!("{md}");

@@ -28,7 +28,7 @@ pub struct TstatParams {
     pub t2_max: f64,
     /// Bound on the mean of s over bins t-1..t+1.
     pub t2_patch: f64,
-    /// Spatial radius for pixels that see an emitter; `None` = 2r.
+    /// Spatial radius for pixels that see an emitter; `None` = 4r.
     pub emitter_radius: Option<usize>,
     /// Camera-depth time alignment.
     pub depth_align: bool,
@@ -38,7 +38,7 @@ impl Default for TstatParams {
     fn default() -> Self {
         TstatParams {
             t2_max: 4.0,
-            t2_patch: 1.5,
+            t2_patch: 2.0,
             emitter_radius: None,
             depth_align: true,
         }
@@ -62,7 +62,7 @@ impl TstatParams {
 
     /// The emitter pixels' radius for spatial radius `r`.
     pub fn emitter_radius(&self, r: usize) -> usize {
-        self.emitter_radius.unwrap_or(2 * r)
+        self.emitter_radius.unwrap_or(4 * r)
     }
 }
 
@@ -136,6 +136,6 @@ mod tests {
             };
             assert!(p.validate().is_err());
         }
-        assert_eq!(TstatParams::default().emitter_radius(5), 10);
+        assert_eq!(TstatParams::default().emitter_radius(5), 20);
     }
 }

@@ -1,35 +1,56 @@
-//! Parameter sweeps: the error of every combination of gamma, radius and temporal
-//! radius on one or more bundles (e.g. rendered with different transforms), so the
-//! defaults are chosen by measurement.
+//! Parameter sweeps: the error of every combination of membership settings (tstat's
+//! t2 bounds and emitter radius, or the published filter's gamma), radius and
+//! temporal radius on one or more bundles, over all voxels, the pixels that see a
+//! light and the rest, so the defaults are chosen by measurement.
 
 use super::metrics::{compare, Metrics};
 use crate::bundle::{Bundle, BundleError};
-use crate::denoise::critical::Threshold;
 use crate::denoise::{DenoiseParams, LoadedSums, Method};
 use ndarray::Array4;
 use std::path::PathBuf;
+
+/// Errors over the three regions.
+#[derive(Clone, Copy, Debug)]
+pub struct RegionMetrics {
+    pub all: Metrics,
+    /// Pixels that see an emitter directly (`None` when there are none).
+    pub light: Option<Metrics>,
+    pub rest: Metrics,
+}
 
 #[derive(Clone, Debug)]
 pub struct SweepPoint {
     pub bundle: String,
     pub transform: String,
-    pub gamma: f64,
+    pub spp: u64,
+    pub method: Method,
     pub radius: usize,
     pub temporal_radius: usize,
     pub seconds: f64,
-    pub all: Metrics,
-    pub no_light: Metrics,
-    /// The noisy mean's metrics on the same bundle, for scale.
-    pub noisy: Metrics,
+    pub error: RegionMetrics,
+    /// The noisy mean's errors on the same bundle, for scale.
+    pub noisy: RegionMetrics,
 }
 
 pub struct SweepConfig {
     pub bundles: Vec<PathBuf>,
-    pub gammas: Vec<f64>,
+    pub methods: Vec<Method>,
     pub radii: Vec<usize>,
     pub temporal_radii: Vec<usize>,
     /// Everything else (base filter, sigmas) is taken from here.
     pub base: DenoiseParams,
+}
+
+fn region_metrics(x: &Array4<f32>, reference: &Array4<f32>, rest: &[bool]) -> RegionMetrics {
+    let light: Vec<bool> = rest.iter().map(|&r| !r).collect();
+    RegionMetrics {
+        all: compare(x.view(), reference.view(), None).0,
+        light: light
+            .iter()
+            .any(|&l| l)
+            .then(|| compare(x.view(), reference.view(), Some(&light)).0),
+        rest: compare(x.view(), reference.view(), Some(rest)).0,
+    }
 }
 
 pub fn run_sweep(
@@ -52,38 +73,38 @@ pub fn run_sweep(
                 ),
             ));
         }
-        let mask = super::volume::no_light_mask(&bundle.emitter()?);
+        let rest = super::volume::no_light_mask(&bundle.emitter()?);
         let sums = LoadedSums::read(&bundle)?;
-        let noisy = bundle.noisy_mean()?;
-        let (noisy_m, _) = compare(noisy.view(), reference.view(), None);
-        for &gamma in &cfg.gammas {
+        let noisy = region_metrics(&bundle.noisy_mean()?, reference, &rest);
+        for &method in &cfg.methods {
             for &radius in &cfg.radii {
                 for &temporal_radius in &cfg.temporal_radii {
                     let params = DenoiseParams {
                         radius,
                         temporal_radius,
-                        method: Method::Published(Threshold::Gamma(gamma)),
+                        method,
                         ..cfg.base
                     };
                     let d = sums.denoise(&params, &|_| {});
-                    let (all, _) = compare(d.volume.view(), reference.view(), None);
-                    let (no_light, _) = compare(d.volume.view(), reference.view(), Some(&mask));
+                    let error = region_metrics(&d.volume, reference, &rest);
                     log(&format!(
-                        "{}: gamma {gamma}, r {radius}, r_t {temporal_radius}: RMSE {:.4e} ({:.3} of noisy)",
+                        "{}: {}, r {radius}, r_t {temporal_radius}: RMSE {:.4e} ({:.3} of noisy; rest {:.3})",
                         path.display(),
-                        all.rmse,
-                        all.rmse / noisy_m.rmse
+                        method.describe(),
+                        error.all.rmse,
+                        error.all.rmse / noisy.all.rmse,
+                        error.rest.rmse / noisy.rest.rmse,
                     ));
                     points.push(SweepPoint {
                         bundle: path.display().to_string(),
                         transform: m.transform.to_string(),
-                        gamma,
+                        spp: m.spp,
+                        method,
                         radius,
                         temporal_radius,
                         seconds: d.seconds,
-                        all,
-                        no_light,
-                        noisy: noisy_m,
+                        error,
+                        noisy,
                     });
                 }
             }

@@ -22,11 +22,19 @@ impl Table {
         self.rows.push(row);
     }
 
+    /// RFC 4180: fields holding a comma, quote or line break are quoted.
     pub fn csv(&self) -> String {
-        let mut s = self.header.join(",") + "\n";
+        fn field(f: &str) -> String {
+            if f.contains([',', '"', '\n', '\r']) {
+                format!("\"{}\"", f.replace('"', "\"\""))
+            } else {
+                f.to_string()
+            }
+        }
+        let line = |r: &[String]| r.iter().map(|f| field(f)).collect::<Vec<_>>().join(",") + "\n";
+        let mut s = line(&self.header);
         for r in &self.rows {
-            s += &r.join(",");
-            s.push('\n');
+            s += &line(r);
         }
         s
     }
@@ -68,5 +76,18 @@ pub fn num(v: f64) -> String {
             Some((m, e)) => format!("{}e{e}", m.trim_end_matches('0').trim_end_matches('.')),
             None => s,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn csv_quotes_fields_with_commas_and_quotes() {
+        let mut t = Table::new(&["a", "b"]);
+        t.push(vec!["x, y".into(), "say \"hi\"".into()]);
+        t.push(vec!["1".into(), "2".into()]);
+        assert_eq!(t.csv(), "a,b\n\"x, y\",\"say \"\"hi\"\"\"\n1,2\n");
     }
 }
