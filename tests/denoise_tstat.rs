@@ -43,6 +43,7 @@ impl Volume {
                 width: w,
                 bins: t,
                 bin_width,
+                spp: 16,
                 mean: vec![0.0; n],
                 theta: vec![0.0; n],
                 v: vec![0.0; n],
@@ -191,6 +192,14 @@ fn reference(vol: &Volume, p: &FilterParams, tp: &TstatParams) -> (Vec<f64>, u64
                         let i = (yi * w + xi) as usize;
                         if (vol.emitter[i] > 0.0) != class_j {
                             continue;
+                        }
+                        if class_j {
+                            // Binomial Welch test on the covered fractions.
+                            let (fi, fj) = (vol.emitter[i] as f64, vol.emitter[j] as f64);
+                            let v = (fi * (1.0 - fi) + fj * (1.0 - fj)) / e.spp as f64;
+                            if fi != fj && (fi - fj).powi(2) > tp.t2_max * v {
+                                continue;
+                            }
                         }
                         let k = if tp.depth_align && vol.depth[i] > 0.0 && vol.depth[j] > 0.0 {
                             ((vol.depth[i] as f64 - vol.depth[j] as f64) / e.bin_width).round()

@@ -20,6 +20,8 @@ pub struct Estimates {
     pub bins: usize,
     /// Bin width h in OPL (scene units).
     pub bin_width: f64,
+    /// Samples per pixel behind the estimates.
+    pub spp: u64,
     pub mean: Vec<f32>,
     pub theta: Vec<f32>,
     pub v: Vec<f32>,
@@ -89,6 +91,7 @@ impl Estimates {
             width: s.width,
             bins: s.bins,
             bin_width: s.bin_width,
+            spp: s.spp,
             mean,
             theta,
             v,

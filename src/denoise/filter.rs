@@ -19,7 +19,7 @@
 use super::base_filter::{BaseFilter, Features};
 use super::estimates::Estimates;
 use super::membership::passes;
-use super::tstat::{depth_shift, sees_emitter, statistic, TstatParams};
+use super::tstat::{depth_shift, same_coverage, sees_emitter, statistic, TstatParams};
 use crate::stats::accumulators::CHANNELS;
 use rayon::prelude::*;
 
@@ -255,6 +255,10 @@ impl Shared<'_> {
                 let mut shift = 0;
                 if let Some(tp) = &self.tstat {
                     if sees_emitter(f.emitter[i]) != class_j {
+                        continue;
+                    }
+                    if class_j && !same_coverage(f.emitter[i], f.emitter[j], self.e.spp, tp.t2_max)
+                    {
                         continue;
                     }
                     if tp.depth_align {
