@@ -314,6 +314,7 @@ fn run_conv(a: ConvergenceArgs) -> anyhow::Result<()> {
         spp_list,
         seed: a.seed,
         transform,
+        pixel_sampling: a.scene_args.pixel_sampling,
         denoise: a.filter.params()?,
         reference: match (&a.reference, a.reference_spp) {
             (Some(p), _) => ReferenceSource::Volume(p.clone()),
@@ -407,7 +408,7 @@ fn convergence_markdown(
     r: &ConvergenceResult,
 ) -> String {
     let mut md = format!(
-        "# Convergence: {}\n\nReference: {}. Denoiser: r = {}, r_t = {}, {}, base {:?}. Transform: {}.\n\n",
+        "# Convergence: {}\n\nReference: {}. Denoiser: r = {}, r_t = {}, {}, base {:?}. Transform: {}. Pixel sampling: {}.\n\n",
         a.scene.display(),
         r.reference_note,
         cfg.denoise.radius,
@@ -419,7 +420,8 @@ fn convergence_markdown(
             None => "no membership".into(),
         },
         cfg.denoise.base,
-        cfg.transform
+        cfg.transform,
+        cfg.pixel_sampling
     );
     let mut t = Table::new(&[
         "spp",
