@@ -2,7 +2,7 @@
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use std::path::Path;
-use tstat::render::{render, RenderSettings};
+use tstat::render::{render, PixelSampling, RenderSettings};
 use tstat::scene::{Overrides, Scene};
 use tstat::stats::Transform;
 
@@ -24,6 +24,7 @@ fn bench_render(c: &mut Criterion) {
             spp: scene.spp,
             seed: 1,
             transform,
+            pixel_sampling: PixelSampling::default(),
         };
         group.bench_function(name, |b| b.iter(|| render(&scene, &settings, &|_| {})));
     }

@@ -1442,7 +1442,7 @@ fn alpha_threshold_is_finite_and_sane_for_huge_spp() {
 
 #[test]
 fn end_to_end_cbox_denoising_beats_the_noisy_render() {
-    use tstat::render::{render, RenderSettings};
+    use tstat::render::{render, PixelSampling, RenderSettings};
     use tstat::scene::{Overrides, Scene};
     let path = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cbox.xml");
     let load = |spp| {
@@ -1461,6 +1461,7 @@ fn end_to_end_cbox_denoising_beats_the_noisy_render() {
             spp,
             seed,
             transform: Transform::Identity,
+            pixel_sampling: PixelSampling::Independent,
         };
         render(&scene, &settings, &|_| {})
     };

@@ -3,7 +3,7 @@
 use tstat::math::rng::Pcg32;
 use tstat::render::deposits::PathDeposits;
 use tstat::render::integrator::{trace_path, PathTally};
-use tstat::render::{render, RenderOutput, RenderSettings};
+use tstat::render::{render, PixelSampling, RenderOutput, RenderSettings};
 use tstat::scene::{Overrides, Scene};
 use tstat::stats::Transform;
 
@@ -19,6 +19,7 @@ fn run(scene: &Scene, seed: u64) -> RenderOutput {
         spp: scene.spp,
         seed,
         transform: Transform::Identity,
+        pixel_sampling: PixelSampling::Independent,
     };
     render(scene, &settings, &|_| {})
 }

@@ -6,6 +6,7 @@ use ndarray::Array4;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 use tstat::denoise::DenoiseParams;
+use tstat::render::PixelSampling;
 use tstat::report::convergence::{run_convergence, ConvergenceConfig, ReferenceSource};
 use tstat::scene::Overrides;
 use tstat::stats::Transform;
@@ -37,6 +38,7 @@ fn statistical_denoising_beats_the_noisy_render_at_every_spp_and_converges() {
         spp_list: vec![8, 16, 32, 64, 128],
         seed: 3,
         transform: Transform::Identity,
+        pixel_sampling: PixelSampling::Independent,
         denoise: DenoiseParams::default(),
         reference: ReferenceSource::Render { spp: 4096 },
     };
@@ -449,6 +451,7 @@ fn the_reference_cache_key_follows_scene_defaults() {
         spp_list: vec![4],
         seed: 1,
         transform: Transform::Identity,
+        pixel_sampling: PixelSampling::Independent,
         denoise: DenoiseParams::default(),
         reference: ReferenceSource::Render { spp: 8 },
     };

@@ -1,5 +1,6 @@
 //! `manifest.json`: what a statistics bundle holds and how it was made (SPEC 9).
 
+use crate::render::PixelSampling;
 use crate::stats::Transform;
 use serde::{Deserialize, Serialize};
 
@@ -30,6 +31,59 @@ pub struct Program {
     pub version: String,
 }
 
+/// How a bundle's sub-pixel positions were drawn (`pixel_sampling` in the manifest).
+#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+pub enum SamplingRecord {
+    /// Each render's samples of a pixel form one stratified set. After `merge`, the
+    /// merged bundle is a union of such sets, one per render (each unbiased; the
+    /// union is not one stratified set of the total spp).
+    Stratified,
+    /// i.i.d. uniform positions: the statistics' assumption holds exactly.
+    Independent,
+    /// Merged from renders that used different modes.
+    Mixed,
+}
+
+impl From<PixelSampling> for SamplingRecord {
+    fn from(p: PixelSampling) -> Self {
+        match p {
+            PixelSampling::Stratified => SamplingRecord::Stratified,
+            PixelSampling::Independent => SamplingRecord::Independent,
+        }
+    }
+}
+
+impl SamplingRecord {
+    /// Bundles written before the field existed were all rendered with i.i.d. positions.
+    pub fn legacy() -> Self {
+        SamplingRecord::Independent
+    }
+
+    /// The record of a merge of bundles recorded `self` and `other`.
+    pub fn merged(self, other: SamplingRecord) -> Self {
+        if self == other {
+            self
+        } else {
+            SamplingRecord::Mixed
+        }
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            SamplingRecord::Stratified => "stratified",
+            SamplingRecord::Independent => "independent",
+            SamplingRecord::Mixed => "mixed",
+        }
+    }
+}
+
+impl std::fmt::Display for SamplingRecord {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
 pub struct Manifest {
     pub format: String,
@@ -48,6 +102,11 @@ pub struct Manifest {
     pub start_seconds: f64,
     pub bin_width_seconds: f64,
     pub transform: Transform,
+    /// Sub-pixel sampling of the primary rays; "independent" for bundles that predate
+    /// the field. With "stratified" (or "mixed") samples, the variances estimated from
+    /// the sums over-estimate the variance of the mean (see `render::pixel_sampling`).
+    #[serde(default = "SamplingRecord::legacy")]
+    pub pixel_sampling: SamplingRecord,
     pub seed: u64,
     /// Seeds of every render summed into this bundle by `tstat merge` (empty otherwise).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]

@@ -2,6 +2,9 @@
 //! and counts add exactly; the G-buffers and the steady image, which are means, are
 //! averaged weighted by spp (normals renormalised). Only bundles of the same scene file
 //! and settings with different seeds merge: equal seeds would repeat the same paths.
+//! Bundles of different pixel sampling modes merge too (every sample of either mode is
+//! marginally uniform over its pixel, so the sum stays unbiased); the result records
+//! the common mode, or "mixed" when they differ.
 
 use super::manifest::Manifest;
 use super::write::{npy, write_atomically};
@@ -99,6 +102,10 @@ pub fn merge_bundles(inputs: &[PathBuf], out: &Path, force: bool) -> Result<Mani
     let mut manifest = first.clone();
     manifest.spp = total_spp;
     manifest.seed = all_seeds[0];
+    manifest.pixel_sampling = bundles
+        .iter()
+        .map(|b| b.manifest.pixel_sampling)
+        .fold(first.pixel_sampling, |a, b| a.merged(b));
     manifest.merged_seeds = all_seeds;
     manifest.render_seconds = bundles.iter().map(|b| b.manifest.render_seconds).sum();
     manifest.dropped_nonfinite = bundles.iter().map(|b| b.manifest.dropped_nonfinite).sum();

@@ -16,6 +16,7 @@ pub struct BundleMeta {
     pub seed: u64,
     pub transform: Transform,
     pub unit_m: f64,
+    pub pixel_sampling: crate::render::PixelSampling,
 }
 
 /// Refuses an existing output unless `force`; call before spending time on a render.
@@ -132,6 +133,7 @@ pub fn write_bundle(
         start_seconds: film.start_opl * meta.unit_m / super::manifest::C_M_PER_S,
         bin_width_seconds: film.bin_width_opl * meta.unit_m / super::manifest::C_M_PER_S,
         transform: meta.transform,
+        pixel_sampling: meta.pixel_sampling.into(),
         seed: meta.seed,
         merged_seeds: Vec::new(),
         scene: SceneRef {

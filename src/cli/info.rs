@@ -1,5 +1,6 @@
 //! `tstat info NAME.tstats`: the manifest in a readable form.
 
+use crate::bundle::manifest::SamplingRecord;
 use crate::bundle::Bundle;
 use clap::Args;
 use std::path::PathBuf;
@@ -41,6 +42,17 @@ pub fn run(a: InfoArgs) -> anyhow::Result<()> {
         println!("merged      from renders with seeds {:?}", m.merged_seeds);
     }
     println!("transform   {}", m.transform);
+    println!(
+        "pixels      {} sub-pixel sampling{}",
+        m.pixel_sampling,
+        match m.pixel_sampling {
+            SamplingRecord::Independent => "",
+            SamplingRecord::Stratified if !m.merged_seeds.is_empty() => {
+                " (per merged render; variances are over-estimates)"
+            }
+            _ => " (variances are over-estimates)",
+        }
+    );
     println!(
         "render      {:.3} s, {} non-finite contributions dropped",
         m.render_seconds, m.dropped_nonfinite

@@ -331,6 +331,7 @@ fn run_conv(a: ConvergenceArgs) -> anyhow::Result<()> {
         spp_list,
         seed: a.seed,
         transform,
+        pixel_sampling: a.scene_args.pixel_sampling,
         denoise: a.filter.params()?,
         reference: match (&a.reference, a.reference_spp) {
             (Some(p), _) => ReferenceSource::Volume(p.clone()),
@@ -424,14 +425,15 @@ fn convergence_markdown(
     r: &ConvergenceResult,
 ) -> String {
     let mut md = format!(
-        "# Convergence: {}\n\nReference: {}. Denoiser: r = {}, r_t = {}, {}, base {:?}. Transform: {}.\n\n",
+        "# Convergence: {}\n\nReference: {}. Denoiser: r = {}, r_t = {}, {}, base {:?}. Transform: {}. Pixel sampling: {}.\n\n",
         a.scene.display(),
         r.reference_note,
         cfg.denoise.radius,
         cfg.denoise.temporal_radius,
         cfg.denoise.method.describe(),
         cfg.denoise.base,
-        cfg.transform
+        cfg.transform,
+        cfg.pixel_sampling
     );
     let mut t = Table::new(&[
         "spp",

@@ -102,12 +102,13 @@ fn job(
     let film = &scene.film;
     let need = Accumulators::bytes(film.height, film.width, film.bins, &transform);
     eprintln!(
-        "{}: {}x{} px, {} bins, {} spp; accumulators {}",
+        "{}: {}x{} px, {} bins, {} spp ({}); accumulators {}",
         scene_path.display(),
         film.width,
         film.height,
         film.bins,
         scene.spp,
+        a.scene_args.pixel_sampling,
         human_bytes(need)
     );
     super::util::check_memory(need, None)?;
@@ -115,6 +116,7 @@ fn job(
         spp: scene.spp,
         seed: a.seed.unwrap_or(scene.seed),
         transform,
+        pixel_sampling: a.scene_args.pixel_sampling,
     };
     let out = with_threads(a.threads, || render(&scene, &settings, &|_| {}))?;
     eprintln!(
@@ -127,6 +129,7 @@ fn job(
         seed: settings.seed,
         transform,
         unit_m: 1.0,
+        pixel_sampling: settings.pixel_sampling,
     };
     write_bundle(&bundle_path, false, &scene, &meta, out).context("writing the bundle")?;
     let bundle = Bundle::open(&bundle_path)?;

@@ -4,10 +4,17 @@
 //! Determinism: a path's random stream is hashed from (seed, pixel, sample index), and
 //! a pixel's samples are traced and summed in order by one task, so the result is
 //! bit-identical whatever the number of threads.
+//!
+//! Sub-pixel positions: [`PixelSampling::Stratified`] (the default) spreads a pixel's
+//! samples as a randomised low-discrepancy set ([`pixel_sampling`]); `Independent` takes
+//! them from the path's stream. Either way the path's stream is the same and its first
+//! two numbers are drawn for the position, so everything after the primary ray uses
+//! the same random numbers in both modes, and independent renders are unchanged.
 
 pub mod deposits;
 pub mod gbuffer;
 pub mod integrator;
+pub mod pixel_sampling;
 
 use crate::math::rng::Pcg32;
 use crate::scene::Scene;
@@ -16,6 +23,7 @@ use crate::stats::Transform;
 use deposits::PathDeposits;
 use gbuffer::{GAccum, GPixel};
 use integrator::{trace_path, PathTally};
+pub use pixel_sampling::{PixelPattern, PixelSampling};
 use rayon::prelude::*;
 
 #[derive(Clone, Debug)]
@@ -23,6 +31,49 @@ pub struct RenderSettings {
     pub spp: u32,
     pub seed: u64,
     pub transform: Transform,
+    /// How primary rays choose their sub-pixel positions.
+    pub pixel_sampling: PixelSampling,
+}
+
+/// The sub-pixel positions of `pixel`'s samples `0..settings.spp`, in `[0, 1)^2`, in
+/// the order the renderer uses them (for tests and tools; `render` computes them the
+/// same way).
+pub fn pixel_positions(settings: &RenderSettings, pixel: u64) -> Vec<[f32; 2]> {
+    let pattern = PixelPositions::new(settings, pixel);
+    (0..settings.spp)
+        .map(|s| {
+            let mut rng = Pcg32::for_path(settings.seed, pixel, s as u64);
+            pattern.position(s, &mut rng)
+        })
+        .collect()
+}
+
+/// One pixel's position generator.
+enum PixelPositions {
+    Independent,
+    Stratified(PixelPattern),
+}
+
+impl PixelPositions {
+    fn new(settings: &RenderSettings, pixel: u64) -> Self {
+        match settings.pixel_sampling {
+            PixelSampling::Independent => PixelPositions::Independent,
+            PixelSampling::Stratified => {
+                PixelPositions::Stratified(PixelPattern::new(settings.seed, pixel, settings.spp))
+            }
+        }
+    }
+
+    /// The position of sample `s`. Always draws two numbers from the path's `rng`, so
+    /// the rest of the path sees the same stream in both modes.
+    #[inline]
+    fn position(&self, s: u32, rng: &mut Pcg32) -> [f32; 2] {
+        let jitter = rng.next_2d();
+        match self {
+            PixelPositions::Independent => jitter,
+            PixelPositions::Stratified(p) => p.position(s),
+        }
+    }
 }
 
 /// Everything a render produces, in memory.
@@ -65,9 +116,10 @@ fn render_row(
         let pixel = (y * width + x) as u64;
         let mut g = GAccum::default();
         let mut tally = PathTally::default();
+        let positions = PixelPositions::new(settings, pixel);
         for s in 0..settings.spp {
             let mut rng = Pcg32::for_path(settings.seed, pixel, s as u64);
-            let [u, v] = rng.next_2d();
+            let [u, v] = positions.position(s, &mut rng);
             let d = scene.camera.direction(x as f32 + u, y as f32 + v);
             g.add(&trace_path(scene, d, &mut rng, &mut deposits, &mut tally));
             for (bin, c) in deposits.drain() {

@@ -6,7 +6,7 @@ use super::metrics::{compare, Metrics};
 use super::volume::no_light_mask;
 use crate::denoise::gbuffers::GBuffers;
 use crate::denoise::{denoise_sums, estimates::SumsView, DenoiseParams, Method};
-use crate::render::{render, RenderOutput, RenderSettings};
+use crate::render::{render, PixelSampling, RenderOutput, RenderSettings};
 use crate::scene::{Overrides, Scene};
 use crate::stats::accumulators::CHANNELS;
 use crate::stats::Transform;
@@ -29,6 +29,8 @@ pub struct ConvergenceConfig {
     pub spp_list: Vec<u32>,
     pub seed: u64,
     pub transform: Transform,
+    /// Sub-pixel sampling of the renders and of a rendered reference.
+    pub pixel_sampling: PixelSampling,
     pub denoise: DenoiseParams,
     pub reference: ReferenceSource,
 }
@@ -120,8 +122,8 @@ fn reference(cfg: &ConvergenceConfig, dir: &Path, log: &dyn Fn(&str)) -> Result<
             h.update(scene.sha256.as_bytes());
             h.update(
                 format!(
-                    "{:?}|{:?}|{}|{}",
-                    scene.film, scene.integrator, spp, cfg.seed
+                    "{:?}|{:?}|{}|{}|{}",
+                    scene.film, scene.integrator, spp, cfg.seed, cfg.pixel_sampling
                 )
                 .as_bytes(),
             );
@@ -147,6 +149,7 @@ fn reference(cfg: &ConvergenceConfig, dir: &Path, log: &dyn Fn(&str)) -> Result<
                 spp: *spp,
                 seed: cfg.seed.wrapping_add(1_000_003),
                 transform: Transform::Identity,
+                pixel_sampling: cfg.pixel_sampling,
             };
             let out = render(&scene, &settings, &|_| {});
             let v = noisy_mean(&out, *spp);
@@ -201,6 +204,7 @@ pub fn run_convergence(
             spp,
             seed: cfg.seed.wrapping_add(1 + k as u64),
             transform: cfg.transform,
+            pixel_sampling: cfg.pixel_sampling,
         };
         let out = render(&scene, &settings, &|_| {});
         let g = gbuffers(&out);

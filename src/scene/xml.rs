@@ -266,11 +266,21 @@ fn parse_sensor(ctx: &Ctx, node: Node) -> Result<Sensor, SceneError> {
         match obj.tag_name().name() {
             "film" => film = Some(Film::parse(ctx, obj)?),
             "sampler" => {
+                // The sampler type only decides whether the scene loads: sub-pixel
+                // positions are chosen by `--pixel-sampling` (default stratified), and
+                // every other dimension of a path is always independent. Mitsuba's
+                // stratified-like samplers are accepted as plain requests for spp/seed.
                 let k = ctx.required_attr(obj, "type")?;
-                if k != "independent" {
-                    return Err(ctx.err(obj, format!("sampler '{k}' is not supported: the statistics need independent samples (use independent)")));
+                const STRATIFIED_LIKE: [&str; 4] =
+                    ["stratified", "multijitter", "orthogonal", "ldsampler"];
+                if k != "independent" && !STRATIFIED_LIKE.contains(&k.as_str()) {
+                    return Err(ctx.err(obj, format!("sampler '{k}' is not supported (use independent; sub-pixel positions are set by --pixel-sampling)")));
                 }
                 let mut sp = Props::parse(ctx, obj)?;
+                if k != "independent" {
+                    sp.ignore("jitter");
+                    sp.ignore("strength");
+                }
                 if let Some(n) = sp.integer("sample_count")? {
                     if !(0..=u32::MAX as i64).contains(&n) {
                         return Err(
