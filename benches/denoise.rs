@@ -51,6 +51,7 @@ fn bench_denoise(c: &mut Criterion) {
         bins: t,
         bin_width: 0.08,
         spp,
+        stratified: false,
         z0: 0.0,
         x1: &x1,
         x2: &x2,

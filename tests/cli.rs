@@ -386,9 +386,16 @@ fn denoise_writes_a_volume_and_refuses_bad_parameters() {
     };
     fails(&["--radius", "-1"], "--radius -1");
     fails(&["--temporal-radius", "-2"], "--temporal-radius -2");
-    fails(&["--gamma", "0.5"], "--gamma 0.5");
-    fails(&["--gamma", "0"], "--gamma 0");
-    fails(&["--alpha", "1.5"], "--alpha 1.5");
+    let published = |flag: &'static str, value: &'static str| {
+        fails(
+            &["--method", "published", flag, value],
+            &format!("{flag} {value}"),
+        );
+    };
+    published("--gamma", "0.5");
+    published("--gamma", "0");
+    published("--alpha", "1.5");
+    fails(&["--gamma", "0.5"], "add --method published");
     fails(&["--sigma-xy", "0"], "--sigma-xy");
     fails(
         &["--gamma", "0.1", "--alpha", "0.01"],

@@ -131,6 +131,7 @@ impl Bundle {
             bins: self.t,
             bin_width: self.bin_width,
             spp: self.spp,
+            stratified: false,
             z0: self.transform.at_zero(),
             x1: &self.x1,
             x2: &self.x2,
@@ -1479,6 +1480,7 @@ fn end_to_end_cbox_denoising_beats_the_noisy_render() {
         bins: t,
         bin_width: 0.1,
         spp: 32,
+        stratified: false, // rendered with independent positions
         z0: 0.0,
         x1: &noisy.accum.x1,
         x2: &noisy.accum.x2,

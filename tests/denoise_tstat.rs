@@ -44,6 +44,7 @@ impl Volume {
                 bins: t,
                 bin_width,
                 spp: 16,
+                stratified: false,
                 mean: vec![0.0; n],
                 theta: vec![0.0; n],
                 v: vec![0.0; n],

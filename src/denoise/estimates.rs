@@ -22,6 +22,9 @@ pub struct Estimates {
     pub bin_width: f64,
     /// Samples per pixel behind the estimates.
     pub spp: u64,
+    /// Sub-pixel positions were stratified: `v` over-estimates the variance of the
+    /// mean (most at edges, where coverage noise dominates).
+    pub stratified: bool,
     pub mean: Vec<f32>,
     pub theta: Vec<f32>,
     pub v: Vec<f32>,
@@ -35,6 +38,8 @@ pub struct SumsView<'a> {
     /// Bin width h in OPL (scene units).
     pub bin_width: f64,
     pub spp: u64,
+    /// Sub-pixel positions were stratified (the renders' `pixel_sampling`).
+    pub stratified: bool,
     /// z(0) of the transform the sums were taken with.
     pub z0: f64,
     pub x1: &'a [f64],
@@ -92,6 +97,7 @@ impl Estimates {
             bins: s.bins,
             bin_width: s.bin_width,
             spp: s.spp,
+            stratified: s.stratified,
             mean,
             theta,
             v,

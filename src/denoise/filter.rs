@@ -243,7 +243,7 @@ impl Shared<'_> {
         let class_j = sees_emitter(f.emitter[j]);
         if let Some(tp) = &self.tstat {
             if class_j {
-                r = tp.emitter_radius(self.params.radius) as i64;
+                r = tp.emitter_radius(self.params.radius, self.e.stratified) as i64;
                 rt = 0;
                 base = &self.base_emitter;
             }
@@ -414,8 +414,8 @@ pub fn filter(
     };
     let mut base_emitter = params.base;
     if let Some(tp) = &tstat {
-        base_emitter.sigmas.xy *=
-            tp.emitter_radius(params.radius).max(1) as f64 / params.radius.max(1) as f64;
+        base_emitter.sigmas.xy *= tp.emitter_radius(params.radius, e.stratified).max(1) as f64
+            / params.radius.max(1) as f64;
     }
     let shared = Shared {
         e,

@@ -215,6 +215,7 @@ impl LoadedSums {
             bins: m.bins,
             bin_width: m.bin_width_opl,
             spp: m.spp,
+            stratified: m.pixel_sampling != crate::bundle::manifest::SamplingRecord::Independent,
             z0: m.transform.at_zero(),
             x1: std_slice(&self.x1),
             x2: std_slice(&self.x2),

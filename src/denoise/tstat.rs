@@ -28,7 +28,8 @@ pub struct TstatParams {
     pub t2_max: f64,
     /// Bound on the mean of s over bins t-1..t+1.
     pub t2_patch: f64,
-    /// Spatial radius for pixels that see an emitter; `None` = 4r.
+    /// Spatial radius for pixels that see an emitter; `None`: 4r for independent
+    /// sub-pixel positions, 0 (left as rendered) for stratified ones.
     pub emitter_radius: Option<usize>,
     /// Camera-depth time alignment.
     pub depth_align: bool,
@@ -60,9 +61,16 @@ impl TstatParams {
         Ok(())
     }
 
-    /// The emitter pixels' radius for spatial radius `r`.
-    pub fn emitter_radius(&self, r: usize) -> usize {
-        self.emitter_radius.unwrap_or(4 * r)
+    /// The emitter pixels' radius for spatial radius `r`. With stratified positions
+    /// the light's pixels hold little noise (their noise is coverage, which
+    /// stratification removes), while their i.i.d. variance estimate over-states it,
+    /// so the test would let different coverages mix: they are left as rendered.
+    pub fn emitter_radius(&self, r: usize, stratified: bool) -> usize {
+        match self.emitter_radius {
+            Some(re) => re,
+            None if stratified => 0,
+            None => 4 * r,
+        }
     }
 }
 
@@ -163,6 +171,12 @@ mod tests {
             };
             assert!(p.validate().is_err());
         }
-        assert_eq!(TstatParams::default().emitter_radius(5), 20);
+        assert_eq!(TstatParams::default().emitter_radius(5, false), 20);
+        assert_eq!(TstatParams::default().emitter_radius(5, true), 0);
+        let fixed = TstatParams {
+            emitter_radius: Some(7),
+            ..Default::default()
+        };
+        assert_eq!(fixed.emitter_radius(5, true), 7);
     }
 }

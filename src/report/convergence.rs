@@ -73,6 +73,7 @@ pub fn sums_view<'a>(
     spp: u32,
     transform: &Transform,
     bin_width: f64,
+    pixel_sampling: PixelSampling,
 ) -> SumsView<'a> {
     let a = &out.accum;
     SumsView {
@@ -81,6 +82,7 @@ pub fn sums_view<'a>(
         bins: a.bins,
         bin_width,
         spp: spp as u64,
+        stratified: pixel_sampling == PixelSampling::Stratified,
         z0: transform.at_zero(),
         x1: &a.x1,
         x2: &a.x2,
@@ -212,7 +214,13 @@ pub fn run_convergence(
         let mask = ref_mask
             .clone()
             .unwrap_or_else(|| features.emitter.iter().map(|&e| e == 0.0).collect());
-        let view = sums_view(&out, spp, &cfg.transform, scene.film.bin_width_opl);
+        let view = sums_view(
+            &out,
+            spp,
+            &cfg.transform,
+            scene.film.bin_width_opl,
+            cfg.pixel_sampling,
+        );
         let noisy = noisy_mean(&out, spp);
         let base = denoise_sums(
             &view,
