@@ -8,6 +8,7 @@ use std::process::{Command, Output};
 use tstat::denoise::DenoiseParams;
 use tstat::render::PixelSampling;
 use tstat::report::convergence::{run_convergence, ConvergenceConfig, ReferenceSource};
+use tstat::report::region::Region;
 use tstat::scene::Overrides;
 use tstat::stats::Transform;
 use tstat::viz::frames::{write_all, FramesRequest, TimeAxis};
@@ -25,7 +26,7 @@ fn cbox() -> PathBuf {
 }
 
 #[test]
-fn statistical_denoising_beats_the_noisy_render_at_every_spp_and_converges() {
+fn tstat_denoising_beats_the_noisy_render_in_every_region_at_every_spp_and_converges() {
     let dir = tempfile::tempdir().unwrap();
     let cfg = ConvergenceConfig {
         scene: cbox(),
@@ -43,20 +44,52 @@ fn statistical_denoising_beats_the_noisy_render_at_every_spp_and_converges() {
         reference: ReferenceSource::Render { spp: 4096 },
     };
     let r = run_convergence(&cfg, dir.path(), &|m| eprintln!("{m}")).unwrap();
-    let rmse = |method: &str| -> Vec<f64> {
-        r.rows
-            .iter()
-            .filter(|x| x.method == method)
-            .map(|x| x.all.rmse)
+    assert_eq!(r.methods, ["noisy", "base-only", "published", "tstat"]);
+    assert_eq!(r.rows.len(), 5 * 4);
+    let rows = |method: &'static str| r.rows.iter().filter(move |x| x.method == method);
+    let rmse = |method: &'static str, region: Region| -> Vec<f64> {
+        rows(method)
+            .map(|x| x.error.get(region).expect("the reference is a render").rmse)
             .collect()
     };
-    let (noisy, stat) = (rmse("noisy"), rmse("statistical"));
-    eprintln!("noisy {noisy:?}\nstatistical {stat:?}");
-    for (k, (s, n)) in stat.iter().zip(&noisy).enumerate() {
-        assert!(s < n, "spp index {k}: statistical {s} >= noisy {n}");
+    for region in Region::ALL {
+        let (noisy, stat) = (rmse("noisy", region), rmse("tstat", region));
+        eprintln!("{region:?}: noisy {noisy:?}\ntstat {stat:?}");
+        for (k, (s, n)) in stat.iter().zip(&noisy).enumerate() {
+            assert!(s < n, "{region:?} spp index {k}: tstat {s} >= noisy {n}");
+        }
+        for w in stat.windows(2) {
+            assert!(
+                w[1] < w[0],
+                "{region:?}: tstat RMSE does not fall: {stat:?}"
+            );
+        }
     }
-    for w in stat.windows(2) {
-        assert!(w[1] < w[0], "statistical RMSE does not fall: {stat:?}");
+    // The regions split the squared error: all^2 = (n_l light^2 + n_r rest^2) / n.
+    let x = rows("tstat").next().unwrap();
+    let (a, l, re) = (
+        x.error.all.rmse.powi(2),
+        x.error.light.unwrap().rmse.powi(2),
+        x.error.rest.unwrap().rmse.powi(2),
+    );
+    assert!(a > l.min(re) && a < l.max(re), "{a} {l} {re}");
+    // Speed-ups: none for the noisy rows; a denoised result below the noisy curve's
+    // range has none either, and every speed-up given is consistent with the curve.
+    assert!(rows("noisy").all(|x| x.speedup == [None; 3]));
+    for x in r.rows.iter().filter(|x| x.method != "noisy") {
+        assert!(x.evaluations_per_s > 0.0, "{}", x.method);
+        for region in Region::ALL {
+            if let Some(v) = x.speedup(region) {
+                let t = tstat::report::speedup::time_to_reach(
+                    &rows("noisy")
+                        .map(|n| (n.total_s, n.error.get(region).unwrap().rmse))
+                        .collect::<Vec<_>>(),
+                    x.error.get(region).unwrap().rmse,
+                )
+                .unwrap();
+                assert!((v - t / x.total_s).abs() < 1e-9 * v);
+            }
+        }
     }
     // The reference is cached: a second run reuses it (and a changed scene does not).
     let cached: Vec<_> = std::fs::read_dir(dir.path())
@@ -75,7 +108,7 @@ fn statistical_denoising_beats_the_noisy_render_at_every_spp_and_converges() {
     )
     .unwrap();
     assert!(again.reference_note.contains("cached ") && !again.reference_note.contains("render,"));
-    assert_eq!(again.rows[0].all.rmse, r.rows[0].all.rmse);
+    assert_eq!(again.rows[0].error, r.rows[0].error);
 }
 
 #[test]
@@ -216,6 +249,12 @@ fn compare_reports_metrics_and_refuses_bad_input() {
         csv.lines().nth(1).unwrap().starts_with("a,0.5,0.2475,"),
         "{csv}"
     );
+    // Without a bundle the light / rest split is unknown: those cells say so.
+    assert_eq!(
+        csv.lines().next().unwrap(),
+        "input,rmse_all,relmse_all,psnr_db_all,rmse_light,relmse_light,psnr_db_light,rmse_rest,relmse_rest,psnr_db_rest"
+    );
+    assert!(csv.lines().nth(1).unwrap().ends_with(",-,-,-,-,-,-"), "{csv}");
     for f in ["metrics.md", "per_bin.csv", "per_bin.png"] {
         assert!(dir.path().join("out").join(f).is_file(), "{f}");
     }

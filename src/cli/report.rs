@@ -7,10 +7,11 @@ use crate::denoise::critical::Threshold;
 use crate::denoise::tstat::TstatParams;
 use crate::denoise::Method;
 use crate::report::convergence::{
-    run_convergence, ConvergenceConfig, ConvergenceResult, ReferenceSource, METHODS,
+    self, run_convergence, ConvergenceConfig, ConvergenceResult, ReferenceSource, Row,
 };
-use crate::report::metrics::{compare, Metrics, REL_EPS};
+use crate::report::metrics::{Metrics, REL_EPS};
 use crate::report::plot::{line_chart, Scale, Series};
+use crate::report::region::{compare_regions, Region, RegionMetrics};
 
 /// Draws a chart, noting on stderr when there is nothing to draw (all errors 0).
 fn chart(
@@ -30,7 +31,6 @@ fn chart(
     }
     Ok(())
 }
-use crate::report::speedup::equal_error_speedup;
 use crate::report::sweep::{run_sweep, SweepConfig};
 use crate::report::table::{num, write_text, Table};
 use crate::report::volume::load_volume;
@@ -46,7 +46,7 @@ pub enum ReportCommand {
     /// Render at a list of spp, denoise each, and measure error against time.
     Convergence(Box<ConvergenceArgs>),
     /// Error of every combination of denoiser parameters on bundles.
-    Sweep(SweepArgs),
+    Sweep(Box<SweepArgs>),
 }
 
 #[derive(Args, Debug)]
@@ -148,7 +148,7 @@ pub fn run(a: ReportArgs) -> anyhow::Result<()> {
     match a.command {
         ReportCommand::Compare(a) => run_compare(a),
         ReportCommand::Convergence(a) => run_conv(*a),
-        ReportCommand::Sweep(a) => run_sweep_cmd(a),
+        ReportCommand::Sweep(a) => run_sweep_cmd(*a),
     }
 }
 
@@ -183,8 +183,27 @@ fn prepare_out(dir: &Path, files: &[&str], force: bool) -> anyhow::Result<()> {
     Ok(())
 }
 
-fn metrics_cells(m: &Metrics) -> Vec<String> {
-    vec![num(m.rmse), num(m.relmse), num(m.psnr)]
+/// Column names `{rmse,relmse,psnr_db}_{region}` for every region.
+fn metrics_header() -> Vec<String> {
+    Region::ALL
+        .iter()
+        .flat_map(|r| {
+            ["rmse", "relmse", "psnr_db"]
+                .into_iter()
+                .map(move |m| format!("{m}_{}", r.name()))
+        })
+        .collect()
+}
+
+/// The cells of [`metrics_header`]; "-" where a region is unknown or empty.
+fn metrics_cells(m: &RegionMetrics) -> Vec<String> {
+    Region::ALL
+        .iter()
+        .flat_map(|&r| match m.get(r) {
+            Some(m) => [num(m.rmse), num(m.relmse), num(m.psnr)],
+            None => ["-".to_string(), "-".into(), "-".into()],
+        })
+        .collect()
 }
 
 fn run_compare(a: CompareArgs) -> anyhow::Result<()> {
@@ -202,15 +221,12 @@ fn run_compare(a: CompareArgs) -> anyhow::Result<()> {
     }
     let reference = load_volume(&a.reference)?;
     let mut mask = reference.no_light_mask.clone();
-    let mut table = Table::new(&[
-        "input",
-        "rmse",
-        "relmse",
-        "psnr_db",
-        "rmse_no_light",
-        "relmse_no_light",
-        "psnr_no_light_db",
-    ]);
+    let mut header = vec!["input".to_string()];
+    header.extend(metrics_header());
+    let mut table = Table {
+        header,
+        rows: Vec::new(),
+    };
     let mut per_bin = Vec::new();
     let mut loaded = Vec::new();
     for (label, file) in &inputs {
@@ -228,21 +244,19 @@ fn run_compare(a: CompareArgs) -> anyhow::Result<()> {
         loaded.push((label.clone(), v));
     }
     for (label, v) in &loaded {
-        let (all, bins) = compare(v.volume.view(), reference.volume.view(), None);
+        let (m, bins) = compare_regions(v.volume.view(), reference.volume.view(), mask.as_deref());
         let mut row = vec![label.clone()];
-        row.extend(metrics_cells(&all));
-        match &mask {
-            Some(m) => row.extend(metrics_cells(
-                &compare(v.volume.view(), reference.volume.view(), Some(m)).0,
-            )),
-            None => row.extend(["-".to_string(), "-".into(), "-".into()]),
-        }
+        row.extend(metrics_cells(&m));
         table.push(row);
         per_bin.push((label.clone(), bins));
     }
     let note = format!(
-        "relmse = mean (x - ref)^2 / (ref^2 + {REL_EPS}); PSNR peak = max of the reference; no-light columns: pixels whose emitter G-buffer is 0{}\n",
-        if mask.is_some() { "" } else { " (no bundle given: not computed)" }
+        "relmse = mean (x - ref)^2 / (ref^2 + {REL_EPS}); PSNR peak = max of the reference; light: pixels whose emitter G-buffer is > 0 (they see a light directly), rest: the others{}\n",
+        if mask.is_some() {
+            ""
+        } else {
+            " (no bundle given, so the split is unknown: not computed)"
+        }
     );
     print!("{}\n{note}", table.markdown());
     if let Some(d) = &a.out {
@@ -312,6 +326,8 @@ fn run_conv(a: ConvergenceArgs) -> anyhow::Result<()> {
         "results.md",
         "error_vs_spp.png",
         "error_vs_seconds.png",
+        "error_vs_seconds_light.png",
+        "error_vs_seconds_rest.png",
         "error_per_bin.png",
         "error_per_bin.csv",
     ];
@@ -345,63 +361,70 @@ fn run_conv(a: ConvergenceArgs) -> anyhow::Result<()> {
     prepare_out(&a.out, &files, a.force)?;
     let result = run_convergence(&cfg, &a.out, &|m| eprintln!("{m}")).map_err(|e| anyhow!(e))?;
     let md = convergence_markdown(&a, &cfg, &result);
-    let mut t = Table::new(&[
-        "spp",
-        "method",
-        "render_s",
-        "denoise_s",
-        "total_s",
-        "rmse",
-        "relmse",
-        "psnr",
-        "rmse_no_light",
-        "relmse_no_light",
-    ]);
+    let mut header: Vec<String> = ["spp", "method", "render_s", "denoise_s", "total_s"]
+        .map(String::from)
+        .to_vec();
+    header.extend(metrics_header());
+    header.extend(Region::ALL.map(|r| format!("speedup_{}", r.name())));
+    header.push("g_evaluations_per_s".into());
+    let mut t = Table {
+        header,
+        rows: Vec::new(),
+    };
     for r in &result.rows {
-        t.push(vec![
+        let mut row = vec![
             r.spp.to_string(),
             r.method.into(),
             num(r.render_s),
             num(r.denoise_s),
             num(r.total_s),
-            num(r.all.rmse),
-            num(r.all.relmse),
-            num(r.all.psnr),
-            num(r.no_light.rmse),
-            num(r.no_light.relmse),
-        ]);
+        ];
+        row.extend(metrics_cells(&r.error));
+        row.extend(Region::ALL.map(|g| r.speedup(g).map_or("-".into(), num)));
+        row.push(num(r.evaluations_per_s / 1e9));
+        t.push(row);
     }
     write_text(&a.out.join("results.csv"), &t.csv()).map_err(|e| anyhow!(e))?;
     write_text(&a.out.join("results.md"), &md).map_err(|e| anyhow!(e))?;
-    let curve = |m: &str, x: fn(&crate::report::convergence::Row) -> f64| Series {
+    let curve = |m: &str, region: Region, x: fn(&Row) -> f64| Series {
         label: m.to_string(),
         points: result
             .rows
             .iter()
             .filter(|r| r.method == m)
-            .map(|r| (x(r), r.all.rmse))
+            .filter_map(|r| r.error.get(region).map(|e| (x(r), e.rmse)))
             .collect(),
     };
-    let by_spp: Vec<Series> = METHODS.iter().map(|m| curve(m, |r| r.spp as f64)).collect();
-    let by_time: Vec<Series> = METHODS.iter().map(|m| curve(m, |r| r.total_s)).collect();
+    let series = |region: Region, x: fn(&Row) -> f64| -> Vec<Series> {
+        result.methods.iter().map(|m| curve(m, region, x)).collect()
+    };
     chart(
         &a.out.join("error_vs_spp.png"),
         "RMSE against samples per pixel",
         "spp",
         "RMSE",
-        &by_spp,
+        &series(Region::All, |r| r.spp as f64),
         Scale::Log,
         Scale::Log,
     )?;
-    chart(
-        &a.out.join("error_vs_seconds.png"),
-        "RMSE against time (render + denoise)",
-        "seconds",
-        "RMSE",
-        &by_time,
-        Scale::Log,
-        Scale::Log,
-    )?;
+    for region in Region::ALL {
+        let stem = match region {
+            Region::All => "error_vs_seconds".to_string(),
+            r => format!("error_vs_seconds_{}", r.name()),
+        };
+        chart(
+            &a.out.join(format!("{stem}.png")),
+            &format!(
+                "RMSE against time (render + denoise), {}",
+                region.describe()
+            ),
+            "seconds",
+            "RMSE",
+            &series(region, |r| r.total_s),
+            Scale::Log,
+            Scale::Log,
+        )?;
+    }
     let per_bin: Vec<(String, Vec<Metrics>)> = result
         .per_bin
         .iter()
@@ -424,28 +447,36 @@ fn convergence_markdown(
     cfg: &ConvergenceConfig,
     r: &ConvergenceResult,
 ) -> String {
+    let methods = convergence::methods(&cfg.denoise);
     let mut md = format!(
-        "# Convergence: {}\n\nReference: {}. Denoiser: r = {}, r_t = {}, {}, base {:?}. Transform: {}. Pixel sampling: {}.\n\n",
+        "# Convergence: {}\n\nReference: {}. Denoisers: r = {}, r_t = {}, base {:?}; {}. Transform: {}. Pixel sampling: {}. Every spp is a separate render with its own seed.\n\n",
         a.scene.display(),
         r.reference_note,
         cfg.denoise.radius,
         cfg.denoise.temporal_radius,
-        cfg.denoise.method.describe(),
         cfg.denoise.base,
+        methods
+            .iter()
+            .filter_map(|(name, p)| p.map(|p| format!("{name}: {}", p.method.describe())))
+            .collect::<Vec<_>>()
+            .join("; "),
         cfg.transform,
         cfg.pixel_sampling
     );
+    md += "Regions: all voxels; light = pixels that see a light directly (emitter G-buffer > 0); rest = the other pixels.\n\n";
     let mut t = Table::new(&[
         "spp",
         "method",
         "render s",
         "denoise s",
         "total s",
-        "RMSE",
-        "relMSE",
+        "RMSE all",
+        "RMSE light",
+        "RMSE rest",
         "PSNR dB",
-        "RMSE (no direct light)",
+        "G eval/s",
     ]);
+    let rmse = |m: Option<Metrics>| m.map_or("-".into(), |m| num(m.rmse));
     for row in &r.rows {
         t.push(vec![
             row.spp.to_string(),
@@ -453,48 +484,44 @@ fn convergence_markdown(
             format!("{:.2}", row.render_s),
             format!("{:.2}", row.denoise_s),
             format!("{:.2}", row.total_s),
-            num(row.all.rmse),
-            num(row.all.relmse),
-            format!("{:.2}", row.all.psnr),
-            num(row.no_light.rmse),
+            num(row.error.all.rmse),
+            rmse(row.error.light),
+            rmse(row.error.rest),
+            format!("{:.2}", row.error.all.psnr),
+            if row.method == "noisy" {
+                "-".into()
+            } else {
+                format!("{:.2}", row.evaluations_per_s / 1e9)
+            },
         ]);
     }
     md += &t.markdown();
-    md += "\n## Equal-error speed-up\n\nHow many times less time (render + denoise) the statistical result needs than the noisy render to reach the same RMSE (noisy curve interpolated in log-log).\n\n";
-    let noisy: Vec<(f64, f64)> = r
-        .rows
-        .iter()
-        .filter(|x| x.method == "noisy")
-        .map(|x| (x.total_s, x.all.rmse))
-        .collect();
-    let noisy_nl: Vec<(f64, f64)> = r
-        .rows
-        .iter()
-        .filter(|x| x.method == "noisy")
-        .map(|x| (x.total_s, x.no_light.rmse))
-        .collect();
+    md += "\n## Against the noisy render\n\nRMSE / noisy RMSE at the same spp (same render), and the equal-error speed-up: how many times less time (render + denoise) the result needs than the noisy render to reach the same RMSE over the same region (noisy curve interpolated in log-log; `-` outside its measured range).\n\n";
     let mut s = Table::new(&[
         "spp",
-        "statistical RMSE",
-        "speed-up",
-        "speed-up (no direct light)",
+        "method",
+        "ratio all",
+        "ratio light",
+        "ratio rest",
+        "speed-up all",
+        "speed-up light",
+        "speed-up rest",
     ]);
-    let fmt = |v: Option<f64>| {
-        v.map_or("outside the measured noisy range".to_string(), |v| {
-            format!("{v:.2}x")
-        })
-    };
-    for row in r.rows.iter().filter(|x| x.method == "statistical") {
-        s.push(vec![
-            row.spp.to_string(),
-            num(row.all.rmse),
-            fmt(equal_error_speedup(&noisy, row.total_s, row.all.rmse)),
-            fmt(equal_error_speedup(
-                &noisy_nl,
-                row.total_s,
-                row.no_light.rmse,
-            )),
-        ]);
+    for row in r.rows.iter().filter(|x| x.method != "noisy") {
+        let noisy = r
+            .rows
+            .iter()
+            .find(|x| x.method == "noisy" && x.spp == row.spp)
+            .expect("every spp has a noisy row");
+        let ratio = |g: Region| match (row.error.get(g), noisy.error.get(g)) {
+            (Some(m), Some(n)) if n.rmse > 0.0 => format!("{:.3}", m.rmse / n.rmse),
+            _ => "-".into(),
+        };
+        let mut cells = vec![row.spp.to_string(), row.method.into()];
+        cells.extend(Region::ALL.map(ratio));
+        cells
+            .extend(Region::ALL.map(|g| row.speedup(g).map_or("-".into(), |v| format!("{v:.2}x"))));
+        s.push(cells);
     }
     md += &s.markdown();
     md += &format!(
@@ -622,7 +649,7 @@ fn run_sweep_cmd(a: SweepArgs) -> anyhow::Result<()> {
             num(p.error.all.rmse),
             ratio(Some(p.error.all), Some(p.noisy.all)),
             ratio(p.error.light, p.noisy.light),
-            ratio(Some(p.error.rest), Some(p.noisy.rest)),
+            ratio(p.error.rest, p.noisy.rest),
             num(p.error.all.relmse),
         ]);
     }

@@ -1,10 +1,16 @@
-//! The convergence experiment: render a scene at a list of spp (a fresh seed each),
-//! denoise each render with the statistical filter and with the base filter alone,
-//! time render and denoise separately, and measure all three against a reference.
+//! The convergence experiment: render a scene at a list of spp (a fresh seed each, so
+//! no two renders share samples), denoise each render with every method of
+//! [`methods`], time render and denoise separately, and measure each result against a
+//! reference over the three regions of [`super::region`], with the equal-error
+//! speed-up of each denoised result against the noisy curve of the same region.
 
-use super::metrics::{compare, Metrics};
+use super::metrics::Metrics;
+use super::region::{compare_regions, Region, RegionMetrics};
+use super::speedup::equal_error_speedup;
 use super::volume::no_light_mask;
+use crate::denoise::critical::Threshold;
 use crate::denoise::gbuffers::GBuffers;
+use crate::denoise::tstat::TstatParams;
 use crate::denoise::{denoise_sums, estimates::SumsView, DenoiseParams, Method};
 use crate::render::{render, PixelSampling, RenderOutput, RenderSettings};
 use crate::scene::{Overrides, Scene};
@@ -35,7 +41,27 @@ pub struct ConvergenceConfig {
     pub reference: ReferenceSource,
 }
 
-pub const METHODS: [&str; 3] = ["noisy", "base-only", "statistical"];
+/// The methods compared, in table order, each with its denoiser settings (`None`: the
+/// noisy mean). `published` and `tstat` take the configured settings when the
+/// configuration selects that method, else their defaults, with the configured radii,
+/// base filter and sigmas.
+pub fn methods(denoise: &DenoiseParams) -> Vec<(&'static str, Option<DenoiseParams>)> {
+    let with = |method| DenoiseParams { method, ..*denoise };
+    let published = match denoise.method {
+        m @ Method::Published(_) => m,
+        _ => Method::Published(Threshold::Auto),
+    };
+    let tstat = match denoise.method {
+        m @ Method::Tstat(_) => m,
+        _ => Method::Tstat(TstatParams::default()),
+    };
+    vec![
+        ("noisy", None),
+        ("base-only", Some(with(Method::BaseOnly))),
+        ("published", Some(with(published))),
+        ("tstat", Some(with(tstat))),
+    ]
+}
 
 #[derive(Clone, Debug)]
 pub struct Row {
@@ -44,13 +70,26 @@ pub struct Row {
     pub render_s: f64,
     pub denoise_s: f64,
     pub total_s: f64,
-    pub all: Metrics,
-    /// Over the pixels that see no light directly.
-    pub no_light: Metrics,
+    pub error: RegionMetrics,
+    /// Equal-error speed-up per region (all, light, rest) against the noisy curve of
+    /// that region: `None` for the noisy rows, for regions that do not exist, and where
+    /// the error lies outside the noisy curve's measured range.
+    pub speedup: [Option<f64>; 3],
+    /// Voxel-neighbour evaluations per second of the filter (0 for the noisy rows).
+    pub evaluations_per_s: f64,
+}
+
+impl Row {
+    /// Speed-up over one region.
+    pub fn speedup(&self, r: Region) -> Option<f64> {
+        self.speedup[r as usize]
+    }
 }
 
 pub struct ConvergenceResult {
     pub rows: Vec<Row>,
+    /// Method names in table order.
+    pub methods: Vec<&'static str>,
     /// Per-bin metrics of each method at the highest spp.
     pub per_bin: Vec<(&'static str, Vec<Metrics>)>,
     /// How the reference was obtained (for the report).
@@ -184,6 +223,7 @@ pub fn run_convergence(
         return Err(format!("spp {s}: at least 2 samples per pixel are needed"));
     }
     let (reference, ref_mask, reference_note) = reference(cfg, dir, log)?;
+    let list = methods(&cfg.denoise);
     let mut rows = Vec::new();
     let mut per_bin = Vec::new();
     let max_spp = *cfg.spp_list.iter().max().expect("non-empty");
@@ -221,51 +261,59 @@ pub fn run_convergence(
             scene.film.bin_width_opl,
             cfg.pixel_sampling,
         );
-        let noisy = noisy_mean(&out, spp);
-        let base = denoise_sums(
-            &view,
-            &features,
-            &DenoiseParams {
-                method: Method::BaseOnly,
-                ..cfg.denoise
-            },
-            &|_| {},
-        );
-        let stat = denoise_sums(&view, &features, &cfg.denoise, &|_| {});
-        for (method, vol, den_s) in [
-            ("noisy", &noisy, 0.0),
-            ("base-only", &base.volume, base.seconds),
-            ("statistical", &stat.volume, stat.seconds),
-        ] {
-            let (all, bins) = compare(vol.view(), reference.view(), None);
-            let (no_light, _) = compare(vol.view(), reference.view(), Some(&mask));
+        let mut line = format!("spp {spp}: render {:.2} s", out.seconds);
+        for &(method, params) in &list {
+            let (vol, den_s, evals) = match params {
+                None => (noisy_mean(&out, spp), 0.0, 0.0),
+                Some(p) => {
+                    let d = denoise_sums(&view, &features, &p, &|_| {});
+                    let rate = d.evaluations as f64 / d.filter_seconds.max(1e-9);
+                    (d.volume, d.seconds, rate)
+                }
+            };
+            let (error, bins) = compare_regions(vol.view(), reference.view(), Some(&mask));
+            line += &format!("; {method} {:.4e} ({den_s:.2} s)", error.all.rmse);
             rows.push(Row {
                 spp,
                 method,
                 render_s: out.seconds,
                 denoise_s: den_s,
                 total_s: out.seconds + den_s,
-                all,
-                no_light,
+                error,
+                speedup: [None; 3],
+                evaluations_per_s: evals,
             });
             if spp == max_spp {
                 per_bin.push((method, bins));
             }
         }
-        let stat_row = rows.last().expect("just pushed");
-        log(&format!(
-            "spp {spp}: render {:.2} s, denoise {:.2} s; RMSE noisy {:.4e}, statistical {:.4e}",
-            out.seconds,
-            stat.seconds,
-            rows[rows.len() - 3].all.rmse,
-            stat_row.all.rmse
-        ));
+        log(&line);
     }
+    fill_speedups(&mut rows);
     Ok(ConvergenceResult {
         rows,
+        methods: list.iter().map(|m| m.0).collect(),
         per_bin,
         reference_note,
     })
+}
+
+/// The equal-error speed-up of every denoised row, per region, against the noisy rows'
+/// (seconds, RMSE) curve over the same region.
+fn fill_speedups(rows: &mut [Row]) {
+    for region in Region::ALL {
+        let noisy: Vec<(f64, f64)> = rows
+            .iter()
+            .filter(|r| r.method == "noisy")
+            .filter_map(|r| r.error.get(region).map(|m| (r.total_s, m.rmse)))
+            .collect();
+        for r in rows.iter_mut().filter(|r| r.method != "noisy") {
+            r.speedup[region as usize] = r
+                .error
+                .get(region)
+                .and_then(|m| equal_error_speedup(&noisy, r.total_s, m.rmse));
+        }
+    }
 }
 
 fn write_npy_atomic<A: ndarray_npy::WritableElement, D: ndarray::Dimension>(

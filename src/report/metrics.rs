@@ -19,16 +19,16 @@ pub struct Metrics {
     pub psnr: f64,
 }
 
-#[derive(Default)]
-struct Acc {
+#[derive(Clone, Copy, Default)]
+pub(super) struct Acc {
     se: f64,
     rel: f64,
-    count: u64,
+    pub(super) count: u64,
 }
 
 impl Acc {
     #[inline]
-    fn add(&mut self, x: f32, r: f32) {
+    pub(super) fn add(&mut self, x: f32, r: f32) {
         let (x, r) = (x as f64, r as f64);
         let e = (x - r) * (x - r);
         self.se += e;
@@ -36,7 +36,16 @@ impl Acc {
         self.count += 1;
     }
 
-    fn finish(&self, peak: f64) -> Metrics {
+    /// The accumulator of both regions together.
+    pub(super) fn merged(&self, o: &Acc) -> Acc {
+        Acc {
+            se: self.se + o.se,
+            rel: self.rel + o.rel,
+            count: self.count + o.count,
+        }
+    }
+
+    pub(super) fn finish(&self, peak: f64) -> Metrics {
         let n = self.count.max(1) as f64;
         let mse = self.se / n;
         Metrics {
@@ -49,6 +58,11 @@ impl Acc {
             },
         }
     }
+}
+
+/// The PSNR peak: the reference's maximum.
+pub(super) fn peak(reference: ArrayView4<f32>) -> f64 {
+    reference.iter().fold(0.0f64, |m, &v| m.max(v as f64))
 }
 
 /// Metrics of `x` against `reference`, both (H, W, T, C), over the voxels of the pixels
@@ -65,7 +79,7 @@ pub fn compare(
         "shapes are checked by the caller"
     );
     let (h, w, t) = (x.shape()[0], x.shape()[1], x.shape()[2]);
-    let peak = reference.iter().fold(0.0f64, |m, &v| m.max(v as f64));
+    let peak = peak(reference);
     let mut all = Acc::default();
     let mut per_bin: Vec<Acc> = (0..t).map(|_| Acc::default()).collect();
     for y in 0..h {

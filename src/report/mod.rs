@@ -5,6 +5,7 @@
 pub mod convergence;
 pub mod metrics;
 pub mod plot;
+pub mod region;
 pub mod speedup;
 pub mod sweep;
 pub mod table;

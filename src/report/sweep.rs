@@ -3,20 +3,11 @@
 //! temporal radius on one or more bundles, over all voxels, the pixels that see a
 //! light and the rest, so the defaults are chosen by measurement.
 
-use super::metrics::{compare, Metrics};
+use super::region::{compare_regions, RegionMetrics};
 use crate::bundle::{Bundle, BundleError};
 use crate::denoise::{DenoiseParams, LoadedSums, Method};
 use ndarray::Array4;
 use std::path::PathBuf;
-
-/// Errors over the three regions.
-#[derive(Clone, Copy, Debug)]
-pub struct RegionMetrics {
-    pub all: Metrics,
-    /// Pixels that see an emitter directly (`None` when there are none).
-    pub light: Option<Metrics>,
-    pub rest: Metrics,
-}
 
 #[derive(Clone, Debug)]
 pub struct SweepPoint {
@@ -42,15 +33,7 @@ pub struct SweepConfig {
 }
 
 fn region_metrics(x: &Array4<f32>, reference: &Array4<f32>, rest: &[bool]) -> RegionMetrics {
-    let light: Vec<bool> = rest.iter().map(|&r| !r).collect();
-    RegionMetrics {
-        all: compare(x.view(), reference.view(), None).0,
-        light: light
-            .iter()
-            .any(|&l| l)
-            .then(|| compare(x.view(), reference.view(), Some(&light)).0),
-        rest: compare(x.view(), reference.view(), Some(rest)).0,
-    }
+    compare_regions(x.view(), reference.view(), Some(rest)).0
 }
 
 pub fn run_sweep(
@@ -87,13 +70,16 @@ pub fn run_sweep(
                     };
                     let d = sums.denoise(&params, &|_| {});
                     let error = region_metrics(&d.volume, reference, &rest);
+                    let rest_ratio = match (error.rest, noisy.rest) {
+                        (Some(e), Some(n)) => format!("{:.3}", e.rmse / n.rmse),
+                        _ => "n/a".into(),
+                    };
                     log(&format!(
-                        "{}: {}, r {radius}, r_t {temporal_radius}: RMSE {:.4e} ({:.3} of noisy; rest {:.3})",
+                        "{}: {}, r {radius}, r_t {temporal_radius}: RMSE {:.4e} ({:.3} of noisy; rest {rest_ratio})",
                         path.display(),
                         method.describe(),
                         error.all.rmse,
                         error.all.rmse / noisy.all.rmse,
-                        error.rest.rmse / noisy.rest.rmse,
                     ));
                     points.push(SweepPoint {
                         bundle: path.display().to_string(),
