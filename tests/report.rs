@@ -205,6 +205,33 @@ fn run_gives_a_new_user_everything_in_one_command() {
     let f = image::open(out.join("frames/frame_0010.png")).unwrap();
     assert_eq!((f.width(), f.height()), (34, 16));
     assert!(String::from_utf8_lossy(&r.stdout).contains("propagation.gif"));
+    // With a bundle as the reference, compare splits the pixels that see the light
+    // from the rest; the noisy volume is the bundle's own mean: zero error everywhere.
+    let path = |f: &str| out.join(f).display().to_string();
+    let c = tstat(&[
+        "report",
+        "compare",
+        "--reference",
+        &path("scene.tstats"),
+        "--input",
+        &format!("noisy={}", path("noisy.npy")),
+        "--input",
+        &format!("denoised={}", path("denoised.npy")),
+        "--out",
+        &path("cmp"),
+    ]);
+    assert!(c.status.success(), "{}", String::from_utf8_lossy(&c.stderr));
+    let csv = std::fs::read_to_string(out.join("cmp/metrics.csv")).unwrap();
+    let cells: Vec<Vec<&str>> = csv.lines().map(|l| l.split(',').collect()).collect();
+    assert_eq!(
+        cells[1][..],
+        ["noisy", "0", "0", "inf", "0", "0", "inf", "0", "0", "inf"]
+    );
+    // The denoised volume differs from the noisy one off the light; on a stratified
+    // render the light pixels have no neighbours by default (see the README), so there
+    // it equals the noisy mean.
+    let v = |k: usize| -> f64 { cells[2][k].parse().unwrap_or_else(|_| panic!("{csv}")) };
+    assert!(v(1) > 0.0 && v(7) > 0.0 && v(4) == 0.0, "{csv}");
     // Existing output without --force is refused and kept.
     let again = tstat(&[
         "run",
@@ -254,7 +281,10 @@ fn compare_reports_metrics_and_refuses_bad_input() {
         csv.lines().next().unwrap(),
         "input,rmse_all,relmse_all,psnr_db_all,rmse_light,relmse_light,psnr_db_light,rmse_rest,relmse_rest,psnr_db_rest"
     );
-    assert!(csv.lines().nth(1).unwrap().ends_with(",-,-,-,-,-,-"), "{csv}");
+    assert!(
+        csv.lines().nth(1).unwrap().ends_with(",-,-,-,-,-,-"),
+        "{csv}"
+    );
     for f in ["metrics.md", "per_bin.csv", "per_bin.png"] {
         assert!(dir.path().join("out").join(f).is_file(), "{f}");
     }
