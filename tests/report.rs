@@ -561,3 +561,62 @@ fn compare_of_identical_volumes_succeeds_without_a_plot() {
         dir.path().join("o/metrics.csv").is_file() && !dir.path().join("o/per_bin.png").exists()
     );
 }
+
+#[test]
+fn stratified_convergence_adds_the_independent_baseline() {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = ConvergenceConfig {
+        scene: cbox(),
+        overrides: Overrides {
+            width: Some(16),
+            bins: Some(30),
+            bin_width_opl: Some(0.2),
+            ..Default::default()
+        },
+        spp_list: vec![8, 32, 128],
+        seed: 5,
+        transform: Transform::Identity,
+        pixel_sampling: PixelSampling::Stratified,
+        denoise: DenoiseParams::default(),
+        reference: ReferenceSource::Render { spp: 2048 },
+    };
+    let r = run_convergence(&cfg, dir.path(), &|m| eprintln!("{m}")).unwrap();
+    assert_eq!(
+        r.methods,
+        ["noisy", "noisy-independent", "base-only", "published", "tstat"]
+    );
+    let get = |m: &str, spp: u32| {
+        r.rows
+            .iter()
+            .find(|x| x.method == m && x.spp == spp)
+            .unwrap()
+    };
+    // Stratified positions lower the noisy error where the light's edge is (seeds differ).
+    for spp in [32, 128] {
+        let (st, ind) = (get("noisy", spp), get("noisy-independent", spp));
+        assert!(
+            st.error.light.unwrap().rmse < ind.error.light.unwrap().rmse,
+            "{spp}: {:?} vs {:?}",
+            st.error,
+            ind.error
+        );
+        assert_eq!(ind.speedup_independent, [None; 3]);
+    }
+    // Speed-ups against the baseline are given exactly where the error is inside the
+    // baseline curve's range.
+    for t in r.rows.iter().filter(|x| x.method == "tstat") {
+        for region in Region::ALL {
+            let errs: Vec<f64> = r
+                .rows
+                .iter()
+                .filter(|x| x.method == "noisy-independent")
+                .map(|x| x.error.get(region).unwrap().rmse)
+                .collect();
+            let e = t.error.get(region).unwrap().rmse;
+            let inside = errs.iter().any(|&b| b <= e) && errs.iter().any(|&b| b >= e);
+            let v = t.speedup_independent[region as usize];
+            assert_eq!(v.is_some(), inside, "{region:?} {t:?} {errs:?}");
+            assert!(v.is_none_or(|v| v > 0.0));
+        }
+    }
+}

@@ -7,7 +7,7 @@ use crate::denoise::critical::Threshold;
 use crate::denoise::tstat::TstatParams;
 use crate::denoise::Method;
 use crate::report::convergence::{
-    self, run_convergence, ConvergenceConfig, ConvergenceResult, ReferenceSource, Row,
+    self, run_convergence, ConvergenceConfig, ConvergenceResult, ReferenceSource, Row, BASELINE,
 };
 use crate::report::metrics::{Metrics, REL_EPS};
 use crate::report::plot::{line_chart, Scale, Series};
@@ -366,6 +366,7 @@ fn run_conv(a: ConvergenceArgs) -> anyhow::Result<()> {
         .to_vec();
     header.extend(metrics_header());
     header.extend(Region::ALL.map(|r| format!("speedup_{}", r.name())));
+    header.extend(Region::ALL.map(|r| format!("speedup_vs_independent_{}", r.name())));
     header.push("g_evaluations_per_s".into());
     let mut t = Table {
         header,
@@ -381,6 +382,7 @@ fn run_conv(a: ConvergenceArgs) -> anyhow::Result<()> {
         ];
         row.extend(metrics_cells(&r.error));
         row.extend(Region::ALL.map(|g| r.speedup(g).map_or("-".into(), num)));
+        row.extend(r.speedup_independent.map(|v| v.map_or("-".into(), num)));
         row.push(num(r.evaluations_per_s / 1e9));
         t.push(row);
     }
@@ -488,7 +490,7 @@ fn convergence_markdown(
             rmse(row.error.light),
             rmse(row.error.rest),
             format!("{:.2}", row.error.all.psnr),
-            if row.method == "noisy" {
+            if row.evaluations_per_s == 0.0 {
                 "-".into()
             } else {
                 format!("{:.2}", row.evaluations_per_s / 1e9)
@@ -496,8 +498,9 @@ fn convergence_markdown(
         ]);
     }
     md += &t.markdown();
-    md += "\n## Against the noisy render\n\nRMSE / noisy RMSE at the same spp (same render), and the equal-error speed-up: how many times less time (render + denoise) the result needs than the noisy render to reach the same RMSE over the same region (noisy curve interpolated in log-log; `-` outside its measured range).\n\n";
-    let mut s = Table::new(&[
+    md += "\n## Against the noisy render\n\nRMSE / noisy RMSE at the same spp (same render), and the equal-error speed-up: how many times less time (render + denoise) the result needs than the noisy render to reach the same RMSE over the same region (noisy curve interpolated in log-log; `-` outside its measured range).";
+    let baseline = r.methods.contains(&BASELINE);
+    let mut header = vec![
         "spp",
         "method",
         "ratio all",
@@ -506,8 +509,23 @@ fn convergence_markdown(
         "speed-up all",
         "speed-up light",
         "speed-up rest",
-    ]);
-    for row in r.rows.iter().filter(|x| x.method != "noisy") {
+    ];
+    if baseline {
+        md += " The last three columns: the speed-up against the noisy render with independent sub-pixel positions (`noisy-independent`, separate seeds), i.e. stratified sampling and denoising together against a renderer without either.";
+        header.extend([
+            "vs independent all",
+            "vs independent light",
+            "vs independent rest",
+        ]);
+    }
+    md += "\n\n";
+    let mut s = Table::new(&header);
+    let x_fmt = |v: Option<f64>| v.map_or("-".into(), |v| format!("{v:.2}x"));
+    for row in r
+        .rows
+        .iter()
+        .filter(|x| x.method != "noisy" && x.method != BASELINE)
+    {
         let noisy = r
             .rows
             .iter()
@@ -519,8 +537,10 @@ fn convergence_markdown(
         };
         let mut cells = vec![row.spp.to_string(), row.method.into()];
         cells.extend(Region::ALL.map(ratio));
-        cells
-            .extend(Region::ALL.map(|g| row.speedup(g).map_or("-".into(), |v| format!("{v:.2}x"))));
+        cells.extend(Region::ALL.map(|g| x_fmt(row.speedup(g))));
+        if baseline {
+            cells.extend(row.speedup_independent.map(x_fmt));
+        }
         s.push(cells);
     }
     md += &s.markdown();

@@ -63,6 +63,11 @@ pub fn methods(denoise: &DenoiseParams) -> Vec<(&'static str, Option<DenoisePara
     ]
 }
 
+/// With stratified renders, each spp is also rendered with independent sub-pixel
+/// positions (the sampler of renderers without stratification, e.g. mitransient's
+/// `independent`): its noisy mean is this row, and speed-ups are given against both.
+pub const BASELINE: &str = "noisy-independent";
+
 #[derive(Clone, Debug)]
 pub struct Row {
     pub spp: u32,
@@ -75,6 +80,8 @@ pub struct Row {
     /// that region: `None` for the noisy rows, for regions that do not exist, and where
     /// the error lies outside the noisy curve's measured range.
     pub speedup: [Option<f64>; 3],
+    /// The same against the [`BASELINE`] curve (stratified runs only).
+    pub speedup_independent: [Option<f64>; 3],
     /// Voxel-neighbour evaluations per second of the filter (0 for the noisy rows).
     pub evaluations_per_s: f64,
 }
@@ -262,6 +269,31 @@ pub fn run_convergence(
             cfg.pixel_sampling,
         );
         let mut line = format!("spp {spp}: render {:.2} s", out.seconds);
+        if cfg.pixel_sampling == PixelSampling::Stratified {
+            let settings = RenderSettings {
+                pixel_sampling: PixelSampling::Independent,
+                seed: cfg.seed.wrapping_add(500_001 + k as u64),
+                ..settings
+            };
+            let base = render(&scene, &settings, &|_| {});
+            let (error, bins) =
+                compare_regions(noisy_mean(&base, spp).view(), reference.view(), Some(&mask));
+            line += &format!("; {BASELINE} {:.4e}", error.all.rmse);
+            rows.push(Row {
+                spp,
+                method: BASELINE,
+                render_s: base.seconds,
+                denoise_s: 0.0,
+                total_s: base.seconds,
+                error,
+                speedup: [None; 3],
+                speedup_independent: [None; 3],
+                evaluations_per_s: 0.0,
+            });
+            if spp == max_spp {
+                per_bin.push((BASELINE, bins));
+            }
+        }
         for &(method, params) in &list {
             let (vol, den_s, evals) = match params {
                 None => (noisy_mean(&out, spp), 0.0, 0.0),
@@ -281,6 +313,7 @@ pub fn run_convergence(
                 total_s: out.seconds + den_s,
                 error,
                 speedup: [None; 3],
+                speedup_independent: [None; 3],
                 evaluations_per_s: evals,
             });
             if spp == max_spp {
@@ -290,28 +323,38 @@ pub fn run_convergence(
         log(&line);
     }
     fill_speedups(&mut rows);
+    let mut methods: Vec<&'static str> = list.iter().map(|m| m.0).collect();
+    if cfg.pixel_sampling == PixelSampling::Stratified {
+        methods.insert(1, BASELINE);
+    }
     Ok(ConvergenceResult {
         rows,
-        methods: list.iter().map(|m| m.0).collect(),
+        methods,
         per_bin,
         reference_note,
     })
 }
 
 /// The equal-error speed-up of every denoised row, per region, against the noisy rows'
-/// (seconds, RMSE) curve over the same region.
+/// (seconds, RMSE) curve over the same region, and against the independent baseline's.
 fn fill_speedups(rows: &mut [Row]) {
+    let is_noisy = |m: &str| m == "noisy" || m == BASELINE;
     for region in Region::ALL {
-        let noisy: Vec<(f64, f64)> = rows
-            .iter()
-            .filter(|r| r.method == "noisy")
-            .filter_map(|r| r.error.get(region).map(|m| (r.total_s, m.rmse)))
-            .collect();
-        for r in rows.iter_mut().filter(|r| r.method != "noisy") {
-            r.speedup[region as usize] = r
-                .error
-                .get(region)
-                .and_then(|m| equal_error_speedup(&noisy, r.total_s, m.rmse));
+        let curve = |name: &str| -> Vec<(f64, f64)> {
+            rows.iter()
+                .filter(|r| r.method == name)
+                .filter_map(|r| r.error.get(region).map(|m| (r.total_s, m.rmse)))
+                .collect()
+        };
+        let (noisy, baseline) = (curve("noisy"), curve(BASELINE));
+        for r in rows.iter_mut().filter(|r| !is_noisy(r.method)) {
+            let speedup = |c: &[(f64, f64)]| {
+                r.error
+                    .get(region)
+                    .and_then(|m| equal_error_speedup(c, r.total_s, m.rmse))
+            };
+            r.speedup[region as usize] = speedup(&noisy);
+            r.speedup_independent[region as usize] = speedup(&baseline);
         }
     }
 }
