@@ -9,6 +9,7 @@ use tstat::denoise::DenoiseParams;
 use tstat::render::PixelSampling;
 use tstat::report::convergence::{run_convergence, ConvergenceConfig, ReferenceSource};
 use tstat::report::region::Region;
+use tstat::report::speedup::Speedup;
 use tstat::scene::Overrides;
 use tstat::stats::Transform;
 use tstat::viz::frames::{write_all, FramesRequest, TimeAxis};
@@ -73,21 +74,27 @@ fn tstat_denoising_beats_the_noisy_render_in_every_region_at_every_spp_and_conve
         x.error.rest.unwrap().rmse.powi(2),
     );
     assert!(a > l.min(re) && a < l.max(re), "{a} {l} {re}");
-    // Speed-ups: none for the noisy rows; a denoised result below the noisy curve's
-    // range has none either, and every speed-up given is consistent with the curve.
+    // Speed-ups: none for the noisy rows; every other row has one per region, exact
+    // where its error lies inside the noisy curve's range (and then consistent with the
+    // interpolation), a bound outside it.
     assert!(rows("noisy").all(|x| x.speedup == [None; 3]));
     for x in r.rows.iter().filter(|x| x.method != "noisy") {
         assert!(x.evaluations_per_s > 0.0, "{}", x.method);
         for region in Region::ALL {
-            if let Some(v) = x.speedup(region) {
-                let t = tstat::report::speedup::time_to_reach(
-                    &rows("noisy")
-                        .map(|n| (n.total_s, n.error.get(region).unwrap().rmse))
-                        .collect::<Vec<_>>(),
-                    x.error.get(region).unwrap().rmse,
-                )
-                .unwrap();
-                assert!((v - t / x.total_s).abs() < 1e-9 * v);
+            let curve: Vec<(f64, f64)> = rows("noisy")
+                .map(|n| (n.total_s, n.error.get(region).unwrap().rmse))
+                .collect();
+            let e = x.error.get(region).unwrap().rmse;
+            let (lo, hi) = curve
+                .iter()
+                .fold((f64::MAX, 0.0f64), |(l, h), p| (l.min(p.1), h.max(p.1)));
+            match x.speedup(region).unwrap() {
+                Speedup::Exact(v) => {
+                    let t = tstat::report::speedup::time_to_reach(&curve, e).unwrap();
+                    assert!((v - t / x.total_s).abs() < 1e-9 * v);
+                }
+                Speedup::AtLeast(_) => assert!(e < lo),
+                Speedup::AtMost(_) => assert!(e > hi),
             }
         }
     }
@@ -583,7 +590,13 @@ fn stratified_convergence_adds_the_independent_baseline() {
     let r = run_convergence(&cfg, dir.path(), &|m| eprintln!("{m}")).unwrap();
     assert_eq!(
         r.methods,
-        ["noisy", "noisy-independent", "base-only", "published", "tstat"]
+        [
+            "noisy",
+            "noisy-independent",
+            "base-only",
+            "published",
+            "tstat"
+        ]
     );
     let get = |m: &str, spp: u32| {
         r.rows
@@ -602,8 +615,8 @@ fn stratified_convergence_adds_the_independent_baseline() {
         );
         assert_eq!(ind.speedup_independent, [None; 3]);
     }
-    // Speed-ups against the baseline are given exactly where the error is inside the
-    // baseline curve's range.
+    // Speed-ups against the baseline are exact exactly where the error is inside the
+    // baseline curve's range, bounds elsewhere.
     for t in r.rows.iter().filter(|x| x.method == "tstat") {
         for region in Region::ALL {
             let errs: Vec<f64> = r
@@ -614,9 +627,13 @@ fn stratified_convergence_adds_the_independent_baseline() {
                 .collect();
             let e = t.error.get(region).unwrap().rmse;
             let inside = errs.iter().any(|&b| b <= e) && errs.iter().any(|&b| b >= e);
-            let v = t.speedup_independent[region as usize];
-            assert_eq!(v.is_some(), inside, "{region:?} {t:?} {errs:?}");
-            assert!(v.is_none_or(|v| v > 0.0));
+            let v = t.speedup_independent[region as usize].unwrap();
+            assert_eq!(
+                matches!(v, Speedup::Exact(_)),
+                inside,
+                "{region:?} {t:?} {errs:?}"
+            );
+            assert!(v.value() > 0.0);
         }
     }
 }

@@ -48,7 +48,7 @@ pub struct FilterArgs {
     /// tstat: bound on the statistic's mean over bins t-1..t+1.
     #[arg(long, allow_negative_numbers = true)]
     pub t2_patch: Option<f64>,
-    /// tstat: spatial radius of pixels that see an emitter (default 4r).
+    /// tstat: spatial radius of pixels that see an emitter (default 4r on independent renders, 0 on stratified ones).
     #[arg(long, allow_negative_numbers = true)]
     pub emitter_radius: Option<i64>,
     /// tstat: do not align neighbours' bins by camera depth.

@@ -12,6 +12,7 @@ use crate::report::convergence::{
 use crate::report::metrics::{Metrics, REL_EPS};
 use crate::report::plot::{line_chart, Scale, Series};
 use crate::report::region::{compare_regions, Region, RegionMetrics};
+use crate::report::speedup::Speedup;
 
 /// Draws a chart, noting on stderr when there is nothing to draw (all errors 0).
 fn chart(
@@ -381,8 +382,11 @@ fn run_conv(a: ConvergenceArgs) -> anyhow::Result<()> {
             num(r.total_s),
         ];
         row.extend(metrics_cells(&r.error));
-        row.extend(Region::ALL.map(|g| r.speedup(g).map_or("-".into(), num)));
-        row.extend(r.speedup_independent.map(|v| v.map_or("-".into(), num)));
+        row.extend(Region::ALL.map(|g| r.speedup(g).map_or("-".into(), |v| v.to_string())));
+        row.extend(
+            r.speedup_independent
+                .map(|v| v.map_or("-".into(), |v| v.to_string())),
+        );
         row.push(num(r.evaluations_per_s / 1e9));
         t.push(row);
     }
@@ -498,7 +502,7 @@ fn convergence_markdown(
         ]);
     }
     md += &t.markdown();
-    md += "\n## Against the noisy render\n\nRMSE / noisy RMSE at the same spp (same render), and the equal-error speed-up: how many times less time (render + denoise) the result needs than the noisy render to reach the same RMSE over the same region (noisy curve interpolated in log-log; `-` outside its measured range).";
+    md += "\n## Against the noisy render\n\nRMSE / noisy RMSE at the same spp (same render), and the equal-error speed-up: how many times less time (render + denoise) the result needs than the noisy render to reach the same RMSE over the same region (noisy curve interpolated in log-log; outside its measured range, a bound: `>Ax` when the result beats the noisy render's best point, A = that point's time over the result's, `<Ax` when it is worse than its first point).";
     let baseline = r.methods.contains(&BASELINE);
     let mut header = vec![
         "spp",
@@ -520,7 +524,7 @@ fn convergence_markdown(
     }
     md += "\n\n";
     let mut s = Table::new(&header);
-    let x_fmt = |v: Option<f64>| v.map_or("-".into(), |v| format!("{v:.2}x"));
+    let x_fmt = |v: Option<Speedup>| v.map_or("-".into(), |v| format!("{v}x"));
     for row in r
         .rows
         .iter()
@@ -708,7 +712,7 @@ fn run_sweep_cmd(a: SweepArgs) -> anyhow::Result<()> {
                 Method::Tstat(t) => format!(
                     " max={} re={} align={} ",
                     t.t2_max,
-                    t.emitter_radius.map_or("4r".into(), |r| r.to_string()),
+                    t.emitter_radius.map_or("auto".into(), |r| r.to_string()),
                     t.depth_align
                 ),
                 _ => " ".into(),

@@ -48,7 +48,9 @@ impl Method {
                 "tstat (t2_max = {}, t2_patch = {}, emitter radius = {}, depth alignment {})",
                 t.t2_max,
                 t.t2_patch,
-                t.emitter_radius.map_or("4r".to_string(), |r| r.to_string()),
+                t.emitter_radius
+                    .map_or("auto (4r; 0 on stratified renders)".to_string(), |r| r
+                        .to_string()),
                 if t.depth_align { "on" } else { "off" }
             ),
             Method::Published(Threshold::Gamma(g)) => format!("published, gamma = {g}"),

@@ -4,7 +4,9 @@
 //!    that do not are never neighbours. Emitter pixels are filtered purely spatially
 //!    (no bin offsets) over a wider radius `r_e`, with the spatial sigma scaled by
 //!    `r_e / r`: their signal is one bin of direct emission whose value only coverage
-//!    at the light's edge changes.
+//!    at the light's edge changes. Two emitter pixels are neighbours only when their
+//!    covered fractions agree ([`same_coverage`]). With stratified sub-pixel positions
+//!    the default `r_e` is 0 (see [`TstatParams::emitter_radius`]).
 //! 2. **Camera-depth alignment.** Voxel (p, t) is compared with (q, t + dt + k),
 //!    `k = round((depth_q - depth_p) / h)` (h the bin width in OPL; k = 0 when either
 //!    pixel saw nothing): the same light reaches a farther surface later, so the

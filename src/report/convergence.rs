@@ -6,7 +6,7 @@
 
 use super::metrics::Metrics;
 use super::region::{compare_regions, Region, RegionMetrics};
-use super::speedup::equal_error_speedup;
+use super::speedup::{speedup_or_bound, Speedup};
 use super::volume::no_light_mask;
 use crate::denoise::critical::Threshold;
 use crate::denoise::gbuffers::GBuffers;
@@ -77,18 +77,18 @@ pub struct Row {
     pub total_s: f64,
     pub error: RegionMetrics,
     /// Equal-error speed-up per region (all, light, rest) against the noisy curve of
-    /// that region: `None` for the noisy rows, for regions that do not exist, and where
-    /// the error lies outside the noisy curve's measured range.
-    pub speedup: [Option<f64>; 3],
+    /// that region, or its bound where the error lies outside the curve's measured
+    /// range: `None` for the noisy rows and for regions that do not exist.
+    pub speedup: [Option<Speedup>; 3],
     /// The same against the [`BASELINE`] curve (stratified runs only).
-    pub speedup_independent: [Option<f64>; 3],
+    pub speedup_independent: [Option<Speedup>; 3],
     /// Voxel-neighbour evaluations per second of the filter (0 for the noisy rows).
     pub evaluations_per_s: f64,
 }
 
 impl Row {
     /// Speed-up over one region.
-    pub fn speedup(&self, r: Region) -> Option<f64> {
+    pub fn speedup(&self, r: Region) -> Option<Speedup> {
         self.speedup[r as usize]
     }
 }
@@ -351,7 +351,7 @@ fn fill_speedups(rows: &mut [Row]) {
             let speedup = |c: &[(f64, f64)]| {
                 r.error
                     .get(region)
-                    .and_then(|m| equal_error_speedup(c, r.total_s, m.rmse))
+                    .and_then(|m| speedup_or_bound(c, r.total_s, m.rmse))
             };
             r.speedup[region as usize] = speedup(&noisy);
             r.speedup_independent[region as usize] = speedup(&baseline);

@@ -34,6 +34,62 @@ pub fn equal_error_speedup(noisy: &[(f64, f64)], seconds: f64, error: f64) -> Op
     time_to_reach(noisy, error).map(|t| t / seconds)
 }
 
+/// An equal-error speed-up, or a bound on it when the error lies outside the noisy
+/// curve's measured range.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Speedup {
+    Exact(f64),
+    /// The error is below every noisy point: the noisy render would need more than the
+    /// time of its lowest-error point (its error falls with time), so the speed-up
+    /// exceeds that time over the method's.
+    AtLeast(f64),
+    /// The error is above every noisy point: the noisy render gets there in less than
+    /// the time of its highest-error point.
+    AtMost(f64),
+}
+
+impl Speedup {
+    /// The number (the bound for a bound).
+    pub fn value(self) -> f64 {
+        match self {
+            Speedup::Exact(v) | Speedup::AtLeast(v) | Speedup::AtMost(v) => v,
+        }
+    }
+}
+
+impl std::fmt::Display for Speedup {
+    /// `2.31`, `>4.1`, `<0.4` (two decimals).
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Speedup::Exact(v) => write!(f, "{v:.2}"),
+            Speedup::AtLeast(v) => write!(f, ">{v:.2}"),
+            Speedup::AtMost(v) => write!(f, "<{v:.2}"),
+        }
+    }
+}
+
+/// [`equal_error_speedup`], with a bound instead of nothing outside the measured range.
+/// `None` only when the curve or the error is unusable (empty, non-positive, NaN).
+pub fn speedup_or_bound(noisy: &[(f64, f64)], seconds: f64, error: f64) -> Option<Speedup> {
+    if let Some(v) = equal_error_speedup(noisy, seconds, error) {
+        return Some(Speedup::Exact(v));
+    }
+    let pts = noisy
+        .iter()
+        .filter(|&&(s, e)| s > 0.0 && e > 0.0 && s.is_finite() && e.is_finite());
+    let lowest = pts.clone().min_by(|a, b| a.1.total_cmp(&b.1))?;
+    let highest = pts.max_by(|a, b| a.1.total_cmp(&b.1))?;
+    if !(error > 0.0 && seconds > 0.0) {
+        None
+    } else if error < lowest.1 {
+        Some(Speedup::AtLeast(lowest.0 / seconds))
+    } else if error > highest.1 {
+        Some(Speedup::AtMost(highest.0 / seconds))
+    } else {
+        None
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -51,6 +107,28 @@ mod tests {
         assert!((equal_error_speedup(&curve, 5.0, 0.2).unwrap() - 5.0).abs() < 1e-9);
         // Measured points are hit exactly.
         assert!((time_to_reach(&curve, 0.25).unwrap() - 16.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn bounds_outside_the_range() {
+        // Noisy: error 1 at 1 s, 0.5 at 4 s.
+        let curve = vec![(1.0, 1.0), (4.0, 0.5)];
+        assert_eq!(
+            speedup_or_bound(&curve, 2.0, 0.1),
+            Some(Speedup::AtLeast(2.0))
+        );
+        assert_eq!(
+            speedup_or_bound(&curve, 2.0, 3.0),
+            Some(Speedup::AtMost(0.5))
+        );
+        assert_eq!(
+            speedup_or_bound(&curve, 1.0, 0.5),
+            Some(Speedup::Exact(4.0))
+        );
+        assert_eq!(speedup_or_bound(&[], 1.0, 0.5), None);
+        assert_eq!(speedup_or_bound(&curve, 1.0, f64::NAN), None);
+        assert_eq!(Speedup::AtLeast(4.123).to_string(), ">4.12");
+        assert_eq!(Speedup::AtMost(0.5).to_string(), "<0.50");
     }
 
     #[test]
