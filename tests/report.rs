@@ -42,6 +42,7 @@ fn tstat_denoising_beats_the_noisy_render_in_every_region_at_every_spp_and_conve
         transform: Transform::Identity,
         pixel_sampling: PixelSampling::Independent,
         denoise: DenoiseParams::default(),
+        method_radii: true,
         reference: ReferenceSource::Render { spp: 4096 },
     };
     let r = run_convergence(&cfg, dir.path(), &|m| eprintln!("{m}")).unwrap();
@@ -529,6 +530,7 @@ fn the_reference_cache_key_follows_scene_defaults() {
         transform: Transform::Identity,
         pixel_sampling: PixelSampling::Independent,
         denoise: DenoiseParams::default(),
+        method_radii: true,
         reference: ReferenceSource::Render { spp: 8 },
     };
     let first = run_convergence(&cfg("10"), dir.path(), &|_| {}).unwrap();
@@ -585,6 +587,7 @@ fn stratified_convergence_adds_the_independent_baseline() {
         transform: Transform::Identity,
         pixel_sampling: PixelSampling::Stratified,
         denoise: DenoiseParams::default(),
+        method_radii: true,
         reference: ReferenceSource::Render { spp: 2048 },
     };
     let r = run_convergence(&cfg, dir.path(), &|m| eprintln!("{m}")).unwrap();

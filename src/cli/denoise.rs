@@ -36,9 +36,10 @@ pub struct FilterArgs {
     /// Membership test.
     #[arg(long, value_enum, default_value = "tstat")]
     pub method: MethodArg,
-    /// Spatial radius r in pixels (window 2r + 1).
-    #[arg(long, default_value_t = 5, allow_negative_numbers = true)]
-    pub radius: i64,
+    /// Spatial radius r in pixels (window 2r + 1) [default: 3 for tstat, 5 for published
+    /// and --no-membership].
+    #[arg(long, allow_negative_numbers = true)]
+    pub radius: Option<i64>,
     /// Temporal radius r_t in bins.
     #[arg(long, default_value_t = 1, allow_negative_numbers = true)]
     pub temporal_radius: i64,
@@ -111,13 +112,15 @@ impl BaseFilterArgs {
 
 impl FilterArgs {
     pub fn params(&self) -> anyhow::Result<DenoiseParams> {
-        ensure!(self.radius >= 0, "--radius {}: must be >= 0", self.radius);
+        if let Some(r) = self.radius {
+            ensure!(r >= 0, "--radius {r}: must be >= 0");
+            ensure!(r <= 64, "--radius {r}: at most 64");
+        }
         ensure!(
             self.temporal_radius >= 0,
             "--temporal-radius {}: must be >= 0",
             self.temporal_radius
         );
-        ensure!(self.radius <= 64, "--radius {}: at most 64", self.radius);
         ensure!(
             self.temporal_radius <= 64,
             "--temporal-radius {}: at most 64",
@@ -162,7 +165,7 @@ impl FilterArgs {
             }
         };
         let p = DenoiseParams {
-            radius: self.radius as usize,
+            radius: self.radius.map_or(method.default_radius(), |r| r as usize),
             temporal_radius: self.temporal_radius as usize,
             method,
             ..self.base.params()?

