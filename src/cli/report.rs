@@ -46,7 +46,7 @@ pub enum ReportCommand {
     /// Render at a list of spp, denoise each, and measure error against time.
     Convergence(Box<ConvergenceArgs>),
     /// Error of every combination of denoiser parameters on bundles.
-    Sweep(SweepArgs),
+    Sweep(Box<SweepArgs>),
 }
 
 #[derive(Args, Debug)]
@@ -148,7 +148,7 @@ pub fn run(a: ReportArgs) -> anyhow::Result<()> {
     match a.command {
         ReportCommand::Compare(a) => run_compare(a),
         ReportCommand::Convergence(a) => run_conv(*a),
-        ReportCommand::Sweep(a) => run_sweep_cmd(a),
+        ReportCommand::Sweep(a) => run_sweep_cmd(*a),
     }
 }
 
