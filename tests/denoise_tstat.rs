@@ -149,7 +149,10 @@ fn reference(vol: &Volume, p: &FilterParams, tp: &TstatParams) -> (Vec<f64>, u64
     let e = &vol.e;
     let (h, w, t) = (e.height as i64, e.width as i64, e.bins as i64);
     let s = p.base.sigmas;
-    let re = tp.emitter_radius.unwrap_or(4 * p.radius);
+    // The default emitter radius: 4r, or 0 (left as rendered) on stratified estimates.
+    let re = tp
+        .emitter_radius
+        .unwrap_or(if e.stratified { 0 } else { 4 * p.radius });
     let mut out = vec![0.0f64; e.mean.len()];
     let (mut members, mut pairs) = (0u64, 0u64);
     let at = |px: usize, c: usize, k: i64| e.idx(px, c, k as usize);
@@ -372,11 +375,14 @@ fn fast_filter_matches_the_definition() {
             BaseKind::Jbf,
         ),
         (5, 5, 3, 0.5, 4, 1, None, 4.0, 1.5, true, BaseKind::Jbf),
+        // The first case again on stratified estimates (default r_e becomes 0).
+        (9, 11, 17, 0.08, 2, 1, None, 4.0, 1.5, true, BaseKind::Jbf),
     ];
     for (n, &(h, w, t, hw, r, rt, re, t2_max, t2_patch, depth_align, kind)) in
         cases.iter().enumerate()
     {
-        let vol = Volume::random(h, w, t, hw, 100 + n as u64);
+        let mut vol = Volume::random(h, w, t, hw, 100 + n as u64);
+        vol.e.stratified = n == cases.len() - 1;
         let tp = TstatParams {
             t2_max,
             t2_patch,
