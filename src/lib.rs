@@ -8,6 +8,7 @@ pub mod bundle;
 pub mod cli;
 pub mod denoise;
 pub mod geometry;
+pub mod io;
 pub mod lights;
 pub mod materials;
 pub mod math;
