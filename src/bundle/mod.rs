@@ -3,6 +3,7 @@
 
 pub mod manifest;
 pub mod merge;
+pub mod npy;
 pub mod read;
 pub mod write;
 

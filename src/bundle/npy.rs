@@ -1,0 +1,805 @@
+//! Reading `.npy` files that may be hostile: the header is parsed here (a strict parser
+//! for the one dictionary NumPy writes, no general Python-literal parser that a deeply
+//! nested header could drive into a stack overflow), and everything it declares is
+//! checked against the file before a byte of data is allocated:
+//!
+//! - the file is a regular file (after following links), not `/dev/zero` or a FIFO;
+//! - the header is at most [`MAX_HEADER_BYTES`] long (the limit NumPy itself applies to
+//!   untrusted files) and lies inside the file;
+//! - the dtype is a plain little-endian number of the expected kind, the shape the one
+//!   the caller expects (when it knows it), and the element count does not overflow;
+//! - the file holds exactly `header + elements x itemsize` bytes: a header claiming
+//!   10^12 elements in a 200-byte file is refused before anything is allocated, and so
+//!   are truncated files and files with trailing bytes.
+//!
+//! The data are then read in blocks of about 1 MiB, converted from little-endian bytes
+//! into the destination vector and handed, block by block, to the caller's check while
+//! still in cache: one pass over the file, no second copy of the array.
+//!
+//! Every error is one line (header content is quoted with `{:?}`, so control characters
+//! in a malicious header cannot break it) and carries no path: callers name the file.
+
+use std::fs::File;
+use std::io::Read;
+use std::path::Path;
+
+/// The longest header accepted, in bytes (NumPy's `max_header_size` default).
+pub const MAX_HEADER_BYTES: usize = 10_000;
+
+const MAGIC: &[u8] = b"\x93NUMPY";
+
+/// An element type a bundle or report array may hold.
+pub trait Element: Copy + Send + Sync + 'static {
+    /// The NumPy descriptor of its little-endian form, e.g. `"<f8"`.
+    const DTYPE: &'static str;
+    /// Bytes per element.
+    const SIZE: usize;
+    fn from_le(bytes: &[u8]) -> Self;
+    /// Exact conversion, for checks and messages.
+    fn to_f64(self) -> f64;
+}
+
+impl Element for f64 {
+    const DTYPE: &'static str = "<f8";
+    const SIZE: usize = 8;
+    #[inline]
+    fn from_le(b: &[u8]) -> Self {
+        f64::from_le_bytes(b.try_into().expect("8 bytes"))
+    }
+    #[inline]
+    fn to_f64(self) -> f64 {
+        self
+    }
+}
+
+impl Element for f32 {
+    const DTYPE: &'static str = "<f4";
+    const SIZE: usize = 4;
+    #[inline]
+    fn from_le(b: &[u8]) -> Self {
+        f32::from_le_bytes(b.try_into().expect("4 bytes"))
+    }
+    #[inline]
+    fn to_f64(self) -> f64 {
+        f64::from(self)
+    }
+}
+
+impl Element for u32 {
+    const DTYPE: &'static str = "<u4";
+    const SIZE: usize = 4;
+    #[inline]
+    fn from_le(b: &[u8]) -> Self {
+        u32::from_le_bytes(b.try_into().expect("4 bytes"))
+    }
+    #[inline]
+    fn to_f64(self) -> f64 {
+        f64::from(self)
+    }
+}
+
+/// What a `.npy` header declares, checked against the file's size.
+#[derive(Clone, Debug, PartialEq)]
+pub struct NpyHeader {
+    /// The NumPy descriptor, e.g. `"<f8"`.
+    pub dtype: String,
+    /// Bytes per element (from the descriptor).
+    pub itemsize: usize,
+    pub fortran_order: bool,
+    pub shape: Vec<usize>,
+    /// The number of elements (the shape's product, known not to overflow).
+    pub len: usize,
+    /// Where the data start.
+    pub data_offset: u64,
+}
+
+impl NpyHeader {
+    /// Refuses any dtype but `T`'s, and any shape but `shape` (when given).
+    pub fn expect<T: Element>(&self, shape: Option<&[usize]>) -> Result<(), String> {
+        if self.dtype != T::DTYPE {
+            return Err(format!(
+                "dtype {:?} is not the expected {:?} ({})",
+                self.dtype,
+                T::DTYPE,
+                describe_dtype(T::DTYPE)
+            ));
+        }
+        if let Some(s) = shape {
+            if self.shape != s {
+                return Err(format!(
+                    "shape {:?} does not match the expected {:?}",
+                    self.shape, s
+                ));
+            }
+        }
+        Ok(())
+    }
+}
+
+fn describe_dtype(d: &str) -> &'static str {
+    match d {
+        "<f8" => "f64, little-endian",
+        "<f4" => "f32, little-endian",
+        "<u4" => "u32, little-endian",
+        _ => "another type",
+    }
+}
+
+/// An open `.npy` file whose header has been read and checked against its size.
+pub struct NpyFile {
+    file: File,
+    pub header: NpyHeader,
+}
+
+/// Opens `path` and checks its header (see the module docs).
+pub fn open(path: &Path) -> Result<NpyFile, String> {
+    let meta = std::fs::metadata(path).map_err(|e| format!("cannot read: {e}"))?;
+    if !meta.is_file() {
+        return Err(if meta.is_dir() {
+            "is a directory, not a .npy file".into()
+        } else {
+            "is not a regular file (a device, FIFO or socket)".into()
+        });
+    }
+    let mut file = File::open(path).map_err(|e| format!("cannot read: {e}"))?;
+    // The size of the file actually opened (a link could have changed meanwhile).
+    let size = file
+        .metadata()
+        .map_err(|e| format!("cannot read: {e}"))?
+        .len();
+    if !file.metadata().map(|m| m.is_file()).unwrap_or(false) {
+        return Err("is not a regular file".into());
+    }
+    let header = read_header(&mut file, size)?;
+    Ok(NpyFile { file, header })
+}
+
+fn read_header(file: &mut File, size: u64) -> Result<NpyHeader, String> {
+    let truncated = || format!("truncated: {size} bytes is too short for a .npy header");
+    let mut pre = [0u8; 8];
+    file.read_exact(&mut pre).map_err(|_| truncated())?;
+    if &pre[..6] != MAGIC {
+        return Err("not a .npy file (no NumPy magic string)".into());
+    }
+    let (major, minor) = (pre[6], pre[7]);
+    let header_len = match (major, minor) {
+        (1, 0) => {
+            let mut b = [0u8; 2];
+            file.read_exact(&mut b).map_err(|_| truncated())?;
+            u16::from_le_bytes(b) as u64
+        }
+        (2, 0) | (3, 0) => {
+            let mut b = [0u8; 4];
+            file.read_exact(&mut b).map_err(|_| truncated())?;
+            u32::from_le_bytes(b) as u64
+        }
+        _ => {
+            return Err(format!(
+                ".npy format version {major}.{minor} is not supported"
+            ))
+        }
+    };
+    let prefix = if major == 1 { 10 } else { 12 };
+    if header_len > MAX_HEADER_BYTES as u64 {
+        return Err(format!(
+            "header length {header_len} bytes is above the limit of {MAX_HEADER_BYTES}"
+        ));
+    }
+    if prefix + header_len > size {
+        return Err(format!(
+            "truncated: the header claims {header_len} bytes, the file holds {size} bytes"
+        ));
+    }
+    let mut text = vec![0u8; header_len as usize];
+    file.read_exact(&mut text).map_err(|_| truncated())?;
+    let text = match text.split_last() {
+        Some((b'\n', rest)) => rest,
+        _ => return Err("header does not end with a newline".into()),
+    };
+    let text = std::str::from_utf8(text).map_err(|_| "header is not text".to_string())?;
+    let dict = parse_dict(text).map_err(|e| format!("malformed header: {e}"))?;
+    let dtype = dict.descr.ok_or("header has no 'descr' (dtype)")?;
+    let fortran_order = dict.fortran_order.ok_or("header has no 'fortran_order'")?;
+    let shape = dict.shape.ok_or("header has no 'shape'")?;
+    let itemsize = itemsize(&dtype)?;
+    let len = shape
+        .iter()
+        .try_fold(1usize, |a, &d| a.checked_mul(d))
+        .ok_or_else(|| format!("shape {shape:?} has more elements than memory can address"))?;
+    let data_offset = prefix + header_len;
+    let want = (len as u128) * (itemsize as u128);
+    let have = (size - data_offset) as u128;
+    if have != want {
+        return Err(if have < want {
+            format!(
+                "truncated: shape {shape:?} of {dtype:?} needs {want} bytes of data, the file holds {have}"
+            )
+        } else {
+            format!(
+                "{} bytes after the data of shape {shape:?} ({dtype:?}): not one .npy array",
+                have - want
+            )
+        });
+    }
+    Ok(NpyHeader {
+        dtype,
+        itemsize,
+        fortran_order,
+        shape,
+        len,
+        data_offset,
+    })
+}
+
+/// Bytes per element of a plain numeric descriptor such as `"<f8"`, `"|u1"`.
+fn itemsize(dtype: &str) -> Result<usize, String> {
+    let bad = || format!("dtype {dtype:?} is not a plain numeric type");
+    let mut chars = dtype.chars();
+    let order = chars.next().ok_or_else(bad)?;
+    let kind = chars.next().ok_or_else(bad)?;
+    let digits = chars.as_str();
+    if !matches!(order, '<' | '>' | '|' | '=')
+        || !matches!(kind, 'f' | 'i' | 'u' | 'b' | 'c')
+        || digits.is_empty()
+        || digits.len() > 2
+        || !digits.bytes().all(|b| b.is_ascii_digit())
+    {
+        return Err(bad());
+    }
+    match digits.parse::<usize>() {
+        Ok(n @ (1 | 2 | 4 | 8 | 16)) => Ok(n),
+        _ => Err(bad()),
+    }
+}
+
+#[derive(Default)]
+struct Dict {
+    descr: Option<String>,
+    fortran_order: Option<bool>,
+    shape: Option<Vec<usize>>,
+}
+
+/// Parses NumPy's header dictionary, e.g.
+/// `{'descr': '<f8', 'fortran_order': False, 'shape': (8, 8, 10, 3), }` (any key
+/// order, either quote, optional trailing commas, padding spaces). Nothing else.
+fn parse_dict(text: &str) -> Result<Dict, String> {
+    let mut p = Parser {
+        s: text.as_bytes(),
+        i: 0,
+    };
+    let mut d = Dict::default();
+    p.ws();
+    p.expect(b'{')?;
+    loop {
+        p.ws();
+        if p.eat(b'}') {
+            break;
+        }
+        let key = p.string()?;
+        p.ws();
+        p.expect(b':')?;
+        p.ws();
+        match key.as_str() {
+            "descr" if d.descr.is_none() => d.descr = Some(p.string()?),
+            "fortran_order" if d.fortran_order.is_none() => d.fortran_order = Some(p.boolean()?),
+            "shape" if d.shape.is_none() => d.shape = Some(p.tuple()?),
+            "descr" | "fortran_order" | "shape" => return Err(format!("key {key:?} twice")),
+            _ => return Err(format!("unknown key {key:?}")),
+        }
+        p.ws();
+        if !p.eat(b',') {
+            p.ws();
+            p.expect(b'}')?;
+            break;
+        }
+    }
+    p.ws();
+    if p.i != p.s.len() {
+        return Err(format!(
+            "unexpected text after the dictionary at byte {}",
+            p.i
+        ));
+    }
+    Ok(d)
+}
+
+struct Parser<'a> {
+    s: &'a [u8],
+    i: usize,
+}
+
+impl Parser<'_> {
+    fn ws(&mut self) {
+        while self.i < self.s.len() && matches!(self.s[self.i], b' ' | b'\t') {
+            self.i += 1;
+        }
+    }
+
+    fn eat(&mut self, c: u8) -> bool {
+        if self.s.get(self.i) == Some(&c) {
+            self.i += 1;
+            true
+        } else {
+            false
+        }
+    }
+
+    fn found(&self) -> String {
+        match self.s.get(self.i) {
+            Some(&c) => format!("{:?}", c as char),
+            None => "the end".into(),
+        }
+    }
+
+    fn expect(&mut self, c: u8) -> Result<(), String> {
+        if self.eat(c) {
+            Ok(())
+        } else {
+            Err(format!(
+                "expected {:?} at byte {}, found {}",
+                c as char,
+                self.i,
+                self.found()
+            ))
+        }
+    }
+
+    fn string(&mut self) -> Result<String, String> {
+        let q = match self.s.get(self.i) {
+            Some(&q @ (b'\'' | b'"')) => q,
+            _ => {
+                return Err(format!(
+                    "expected a quoted string at byte {}, found {}",
+                    self.i,
+                    self.found()
+                ))
+            }
+        };
+        let start = self.i + 1;
+        let len = self.s[start..]
+            .iter()
+            .position(|&c| c == q)
+            .ok_or("unterminated string")?;
+        let v = &self.s[start..start + len];
+        if v.len() > 64 || v.iter().any(|&c| c == b'\\' || !(b' '..=b'~').contains(&c)) {
+            return Err(format!("unexpected string at byte {}", self.i));
+        }
+        self.i = start + len + 1;
+        Ok(String::from_utf8_lossy(v).into_owned())
+    }
+
+    fn boolean(&mut self) -> Result<bool, String> {
+        for (word, v) in [(&b"True"[..], true), (&b"False"[..], false)] {
+            if self.s[self.i..].starts_with(word) {
+                self.i += word.len();
+                return Ok(v);
+            }
+        }
+        Err(format!(
+            "expected True or False at byte {}, found {}",
+            self.i,
+            self.found()
+        ))
+    }
+
+    fn tuple(&mut self) -> Result<Vec<usize>, String> {
+        self.expect(b'(')?;
+        let mut v = Vec::new();
+        loop {
+            self.ws();
+            if self.eat(b')') {
+                return Ok(v);
+            }
+            let start = self.i;
+            while self.i < self.s.len() && self.s[self.i].is_ascii_digit() {
+                self.i += 1;
+            }
+            if self.i == start {
+                return Err(format!(
+                    "expected a dimension at byte {}, found {}",
+                    self.i,
+                    self.found()
+                ));
+            }
+            let digits = std::str::from_utf8(&self.s[start..self.i]).expect("ASCII digits");
+            let d: usize = digits
+                .parse()
+                .map_err(|_| format!("dimension {digits} is too large"))?;
+            self.eat(b'L'); // Python 2 long literals
+            v.push(d);
+            if v.len() > 32 {
+                return Err("more than 32 dimensions".into());
+            }
+            self.ws();
+            if !self.eat(b',') {
+                self.ws();
+                self.expect(b')')?;
+                return Ok(v);
+            }
+        }
+    }
+}
+
+/// Multi-index of the `flat`-th element of a C-order array of `shape`.
+pub fn unravel(mut flat: usize, shape: &[usize]) -> Vec<usize> {
+    let mut idx = vec![0; shape.len()];
+    for (i, &d) in shape.iter().enumerate().rev() {
+        if d > 0 {
+            idx[i] = flat % d;
+            flat /= d;
+        }
+    }
+    idx
+}
+
+/// "(y 3, x 5, t 17, c 1)" from axis names and an index.
+pub fn describe_index(axes: &[&str], idx: &[usize]) -> String {
+    let parts: Vec<String> = idx
+        .iter()
+        .enumerate()
+        .map(|(i, v)| match axes.get(i) {
+            Some(a) if axes.len() == idx.len() => format!("{a} {v}"),
+            _ => v.to_string(),
+        })
+        .collect();
+    format!("({})", parts.join(", "))
+}
+
+/// Block size for reading: a multiple of 3 channels, so that blocks of (H, W, T, C)
+/// sums start at a voxel's first channel.
+const BLOCK_ELEMS: usize = 3 << 15;
+
+/// The outcome of a block check: the C-order flat index and reason of the first bad
+/// value.
+pub type Bad = Option<(usize, String)>;
+
+impl NpyFile {
+    /// Reads the data as `T` (which the header must declare, see [`NpyHeader::expect`])
+    /// in C order. `check(start, block)` sees each block of values (C-order flat index
+    /// of its first element, a multiple of 3) right after it is decoded, and the first
+    /// bad value it reports ends the read with that error, naming the element by its
+    /// index on `axes`. Fortran-order files are transposed first and checked whole.
+    pub fn read<T: Element>(
+        self,
+        mut check: impl FnMut(usize, &[T]) -> Bad,
+        axes: &[&str],
+    ) -> Result<Vec<T>, String> {
+        let shape = self.header.shape.clone();
+        let mut out: Vec<T> = Vec::with_capacity(self.header.len);
+        let fortran = self.fortran();
+        self.blocks::<T>(|done, bytes| {
+            out.extend(bytes.chunks_exact(T::SIZE).map(T::from_le));
+            match fortran {
+                true => None,
+                false => check(done, &out[done..]),
+            }
+        })
+        .map_err(|e| e.describe(axes, &shape))?;
+        if fortran {
+            out = to_c_order(out, &shape)?;
+            if let Some(b) = check(0, &out) {
+                return Err(Failure::Bad(b).describe(axes, &shape));
+            }
+        }
+        Ok(out)
+    }
+
+    /// [`NpyFile::read`], each value mapped to `O` as it is read (the source array is
+    /// never held whole, except for Fortran-order files).
+    pub fn read_mapped<T: Element, O: Copy>(
+        self,
+        map: impl Fn(T) -> O,
+        mut check: impl FnMut(usize, &[T]) -> Bad,
+        axes: &[&str],
+    ) -> Result<Vec<O>, String> {
+        if self.fortran() {
+            let v = self.read(check, axes)?;
+            return Ok(v.into_iter().map(map).collect());
+        }
+        let shape = self.header.shape.clone();
+        let mut out: Vec<O> = Vec::with_capacity(self.header.len);
+        let mut block: Vec<T> = Vec::with_capacity(BLOCK_ELEMS);
+        self.blocks::<T>(|done, bytes| {
+            block.clear();
+            block.extend(bytes.chunks_exact(T::SIZE).map(T::from_le));
+            let bad = check(done, &block);
+            out.extend(block.iter().map(|&v| map(v)));
+            bad
+        })
+        .map_err(|e| e.describe(axes, &shape))?;
+        Ok(out)
+    }
+
+    fn fortran(&self) -> bool {
+        self.header.fortran_order && self.header.shape.len() > 1
+    }
+
+    /// Feeds the data to `f` in blocks of raw bytes, with the element index of each
+    /// block's start.
+    fn blocks<T: Element>(mut self, mut f: impl FnMut(usize, &[u8]) -> Bad) -> Result<(), Failure> {
+        use std::io::{Seek, SeekFrom};
+        let h = &self.header;
+        if h.dtype != T::DTYPE {
+            return Err(Failure::Io(format!(
+                "dtype {:?} is not {:?}",
+                h.dtype,
+                T::DTYPE
+            )));
+        }
+        let len = h.len;
+        self.file
+            .seek(SeekFrom::Start(h.data_offset))
+            .map_err(|e| Failure::Io(format!("cannot read: {e}")))?;
+        let mut bytes = vec![0u8; BLOCK_ELEMS.min(len) * T::SIZE];
+        let mut done = 0;
+        while done < len {
+            let n = BLOCK_ELEMS.min(len - done);
+            let buf = &mut bytes[..n * T::SIZE];
+            self.file
+                .read_exact(buf)
+                .map_err(|e| Failure::Io(format!("truncated while reading the data: {e}")))?;
+            if let Some(b) = f(done, buf) {
+                return Err(Failure::Bad(b));
+            }
+            done += n;
+        }
+        Ok(())
+    }
+}
+
+enum Failure {
+    Io(String),
+    Bad((usize, String)),
+}
+
+impl Failure {
+    fn describe(self, axes: &[&str], shape: &[usize]) -> String {
+        match self {
+            Failure::Io(e) => e,
+            Failure::Bad((flat, why)) => {
+                format!("{} {why}", describe_voxel(axes, &unravel(flat, shape)))
+            }
+        }
+    }
+}
+
+/// A Fortran-order array (first axis fastest) in C order.
+fn to_c_order<T: Element>(v: Vec<T>, shape: &[usize]) -> Result<Vec<T>, String> {
+    let a = ndarray::ArrayD::from_shape_vec(ndarray::ShapeBuilder::f(ndarray::IxDyn(shape)), v)
+        .map_err(|e| e.to_string())?;
+    Ok(a.as_standard_layout().iter().copied().collect())
+}
+
+fn describe_voxel(axes: &[&str], idx: &[usize]) -> String {
+    let what = if axes.len() == idx.len() && axes.first() == Some(&"y") {
+        if axes.contains(&"t") {
+            "voxel"
+        } else {
+            "pixel"
+        }
+    } else {
+        "element"
+    };
+    format!("{what} {}", describe_index(axes, idx))
+}
+
+/// The first value of `block` (C-order flat index `start`) that fails `ok`, with its
+/// reason from `why`.
+#[inline]
+pub fn first_bad<T: Element>(
+    start: usize,
+    block: &[T],
+    ok: impl Fn(usize, T) -> bool,
+    why: impl Fn(usize, T) -> String,
+) -> Option<(usize, String)> {
+    // Branch-light scan first; the position is looked for only when something fails.
+    let all_ok = block
+        .iter()
+        .enumerate()
+        .fold(true, |acc, (i, &v)| acc & ok(start + i, v));
+    if all_ok {
+        return None;
+    }
+    block
+        .iter()
+        .enumerate()
+        .find(|&(i, &v)| !ok(start + i, v))
+        .map(|(i, &v)| (start + i, why(start + i, v)))
+}
+
+/// "NaN", "+inf", "-2.5" for messages.
+pub fn show(v: f64) -> String {
+    if v.is_nan() {
+        "NaN".into()
+    } else if v.is_infinite() {
+        if v > 0.0 { "+inf" } else { "-inf" }.into()
+    } else {
+        format!("{v}")
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn npy_bytes(dict: &str, data: &[u8], major: u8) -> Vec<u8> {
+        let mut h = dict.as_bytes().to_vec();
+        h.push(b'\n');
+        let mut v = MAGIC.to_vec();
+        v.extend([major, 0]);
+        if major == 1 {
+            v.extend((h.len() as u16).to_le_bytes());
+        } else {
+            v.extend((h.len() as u32).to_le_bytes());
+        }
+        v.extend(h);
+        v.extend(data);
+        v
+    }
+
+    fn open_bytes(bytes: &[u8]) -> Result<NpyFile, String> {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("a.npy");
+        std::fs::write(&p, bytes).unwrap();
+        open(&p)
+    }
+
+    fn f64s(v: &[f64]) -> Vec<u8> {
+        v.iter().flat_map(|x| x.to_le_bytes()).collect()
+    }
+
+    fn one_line(e: &str) {
+        assert!(!e.contains('\n') && !e.is_empty(), "{e:?}");
+    }
+
+    #[test]
+    fn reads_what_ndarray_npy_and_numpy_write() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("a.npy");
+        let a = ndarray::Array3::from_shape_fn((2, 3, 4), |(i, j, k)| (i * 12 + j * 4 + k) as f64);
+        ndarray_npy::write_npy(&p, &a).unwrap();
+        let f = open(&p).unwrap();
+        assert_eq!(f.header.shape, vec![2, 3, 4]);
+        f.header.expect::<f64>(Some(&[2, 3, 4])).unwrap();
+        let v = f.read::<f64>(|_, _| None, &[]).unwrap();
+        assert_eq!(v, a.iter().copied().collect::<Vec<_>>());
+        // NumPy's own spelling: double quotes, version 2, 1-D "(6,)", Python 2 longs.
+        let b = npy_bytes(
+            "{\"descr\": \"<f8\", \"fortran_order\": False, \"shape\": (6L,), }   ",
+            &f64s(&[1.0, 2.0, 3.0, 4.0, 5.0, 6.0]),
+            2,
+        );
+        let f = open_bytes(&b).unwrap();
+        assert_eq!(f.header.shape, vec![6]);
+        // Fortran order: the file lists the first axis fastest.
+        let b = npy_bytes(
+            "{'shape': (2, 3), 'fortran_order': True, 'descr': '<f8'}",
+            &f64s(&[0.0, 3.0, 1.0, 4.0, 2.0, 5.0]),
+            1,
+        );
+        let v = open_bytes(&b)
+            .unwrap()
+            .read_mapped::<f64, f32>(|x| x as f32, |_, _| None, &[])
+            .unwrap();
+        assert_eq!(v, vec![0.0, 1.0, 2.0, 3.0, 4.0, 5.0]);
+    }
+
+    #[test]
+    fn hostile_headers_are_one_line_errors_before_any_allocation() {
+        let good = "{'descr': '<f8', 'fortran_order': False, 'shape': (2, 2), }";
+        let data = f64s(&[1.0; 4]);
+        let cases: Vec<(Vec<u8>, &str)> = vec![
+            (b"".to_vec(), "truncated"),
+            (b"\x93NUMP".to_vec(), "truncated"),
+            (b"PK\x03\x04 this is a zip".to_vec(), "magic"),
+            (npy_bytes(good, &data, 7), "version 7.0"),
+            (
+                // 10^12 elements declared in a tiny file.
+                npy_bytes(
+                    "{'descr': '<f8', 'fortran_order': False, 'shape': (1000000, 1000000), }",
+                    &data,
+                    1,
+                ),
+                "truncated",
+            ),
+            (
+                npy_bytes(
+                    "{'descr': '<f8', 'fortran_order': False, 'shape': (4294967296, 4294967296, 4294967296), }",
+                    &data,
+                    1,
+                ),
+                "more elements than memory",
+            ),
+            (
+                npy_bytes(
+                    "{'descr': '<f8', 'fortran_order': False, 'shape': (99999999999999999999999,), }",
+                    &data,
+                    1,
+                ),
+                "too large",
+            ),
+            (npy_bytes(good, &data[..20], 1), "truncated"),
+            (npy_bytes(good, &f64s(&[1.0; 5]), 1), "8 bytes after the data"),
+            (
+                npy_bytes(&"(".repeat(5000), &data, 1),
+                "malformed header",
+            ),
+            (
+                npy_bytes(&format!("{{'descr': {}", "[".repeat(9000)), &data, 2),
+                "malformed header",
+            ),
+            (npy_bytes("{'descr': [('a', '<f8')], 'fortran_order': False, 'shape': (2,)}", &data, 1), "quoted string"),
+            (npy_bytes("{'descr': '|O', 'fortran_order': False, 'shape': (2, 2)}", &data, 1), "not a plain numeric"),
+            (npy_bytes("{'descr': '<f8', 'fortran_order': 0, 'shape': (2, 2)}", &data, 1), "True or False"),
+            (npy_bytes("{'descr': '<f8', 'shape': (2, 2)}", &data, 1), "fortran_order"),
+            (npy_bytes("{'descr': '<f8', 'fortran_order': False, 'shape': (2, 2), 'x': 1}", &data, 1), "unknown key"),
+            (npy_bytes("{'descr': '<f8', 'descr': '<f8', 'fortran_order': False, 'shape': (2, 2)}", &data, 1), "twice"),
+            (npy_bytes("{'descr': '<f8\n\x07', 'fortran_order': False, 'shape': (2, 2)}", &data, 1), "malformed"),
+            (npy_bytes("{'descr': '<f8', 'fortran_order': False, 'shape': (-2, 2)}", &data, 1), "dimension"),
+        ];
+        for (bytes, want) in &cases {
+            let e = open_bytes(bytes)
+                .err()
+                .unwrap_or_else(|| panic!("accepted for {want}"));
+            one_line(&e);
+            assert!(e.contains(want), "expected {want:?} in {e:?}");
+        }
+        // A header length field far beyond the file (v2: 4 GiB).
+        let mut b = MAGIC.to_vec();
+        b.extend([2, 0]);
+        b.extend(u32::MAX.to_le_bytes());
+        b.extend(b"{}");
+        let e = open_bytes(&b).err().unwrap();
+        assert!(e.contains("above the limit"), "{e}");
+        // Header bytes that are not text, and one without its final newline.
+        let mut b = npy_bytes(good, &data, 1);
+        b[20] = 0xff;
+        one_line(&open_bytes(&b).err().unwrap());
+        let mut b = MAGIC.to_vec();
+        b.extend([1, 0, 4, 0]);
+        b.extend(b"{}  ");
+        assert!(open_bytes(&b).err().unwrap().contains("newline"));
+    }
+
+    #[test]
+    fn wrong_dtype_or_shape_is_named() {
+        let b = npy_bytes(
+            "{'descr': '<f4', 'fortran_order': False, 'shape': (4,)}",
+            &[0u8; 16],
+            1,
+        );
+        let f = open_bytes(&b).unwrap();
+        let e = f.header.expect::<f64>(Some(&[4])).unwrap_err();
+        assert!(e.contains("\"<f4\"") && e.contains("f64"), "{e}");
+        f.header.expect::<f32>(Some(&[4])).unwrap();
+        let e = f.header.expect::<f32>(Some(&[2, 2])).unwrap_err();
+        assert!(e.contains("[4]") && e.contains("[2, 2]"), "{e}");
+        let e = f.read::<f64>(|_, _| None, &[]).unwrap_err();
+        one_line(&e);
+    }
+
+    #[test]
+    fn the_first_bad_value_is_named_by_its_index() {
+        let mut v = vec![1.0f64; 2 * 3 * 4 * 3];
+        // Shape (2, 3, 4, 3): (y 1, x 2, t 3, c 1) is flat index ((1 * 3 + 2) * 4 + 3) * 3 + 1.
+        let at = |y: usize, x: usize, t: usize, c: usize| ((y * 3 + x) * 4 + t) * 3 + c;
+        v[at(1, 2, 3, 1)] = f64::NAN;
+        v[at(1, 2, 3, 2)] = -1.0;
+        let b = npy_bytes(
+            "{'descr': '<f8', 'fortran_order': False, 'shape': (2, 3, 4, 3), }",
+            &f64s(&v),
+            1,
+        );
+        let check = |s: usize, b: &[f64]| {
+            first_bad(s, b, |_, x| x >= 0.0, |_, x| format!("is {}", show(x)))
+        };
+        let e = open_bytes(&b)
+            .unwrap()
+            .read::<f64>(check, &["y", "x", "t", "c"])
+            .unwrap_err();
+        assert_eq!(e, "voxel (y 1, x 2, t 3, c 1) is NaN");
+        assert_eq!(unravel(5, &[2, 3]), vec![1, 2]);
+        assert_eq!(describe_index(&["y", "x"], &[1, 2]), "(y 1, x 2)");
+        assert_eq!(show(f64::NEG_INFINITY), "-inf");
+    }
+}
