@@ -8,12 +8,13 @@
 
 use super::manifest::Manifest;
 use super::write::{npy, write_atomically};
-use super::{Bundle, BundleError};
+use super::{Bundle, BundleError, SumArray};
 use ndarray::{Array2, Array3, Array4, Zip};
 use std::path::{Path, PathBuf};
 
 fn same_settings(a: &Manifest, b: &Manifest) -> Result<(), String> {
-    let checks: [(&str, bool); 9] = [
+    let checks: [(&str, bool); 10] = [
+        ("channels", a.channels == b.channels),
         ("scene (SHA-256)", a.scene.sha256 == b.scene.sha256),
         ("width", a.width == b.width),
         ("height", a.height == b.height),
@@ -65,7 +66,15 @@ pub fn merge_bundles(inputs: &[PathBuf], out: &Path, force: bool) -> Result<Mani
         }
     }
     let (h, w, t) = (first.height, first.width, first.bins);
-    let total_spp: u64 = bundles.iter().map(|b| b.manifest.spp).sum();
+    let total_spp = bundles
+        .iter()
+        .try_fold(0u64, |a, b| a.checked_add(b.manifest.spp))
+        .ok_or_else(|| {
+            BundleError::Invalid(
+                bundles[0].dir.clone(),
+                "the merged spp would overflow a 64-bit count".into(),
+            )
+        })?;
     let mut x1 = Array4::<f64>::zeros((h, w, t, 3));
     let mut x2 = x1.clone();
     let mut x3 = x1.clone();
@@ -77,15 +86,32 @@ pub fn merge_bundles(inputs: &[PathBuf], out: &Path, force: bool) -> Result<Mani
     let mut depth = Array2::<f64>::zeros((h, w));
     let mut emitter = Array2::<f64>::zeros((h, w));
     for b in &bundles {
-        x1 += &b.x1()?;
-        x2 += &b.x2()?;
-        x3 += &b.x3()?;
+        let counts = b.nonzero()?;
+        x1 += &b.sum_array(SumArray::X1, &counts)?;
+        x2 += &b.sum_array(SumArray::X2, &counts)?;
+        x3 += &b.sum_array(SumArray::X3, &counts)?;
         if let Some(s) = sum.as_mut() {
-            *s += &b.radiance_sum()?;
+            *s += &b.sum_array(SumArray::Radiance, &counts)?;
         }
-        Zip::from(&mut nonzero)
-            .and(&b.nonzero()?)
-            .for_each(|a, &k| *a += k);
+        // Counts are u32 on disk: a merge of more than 2^32 - 1 samples per pixel
+        // could wrap them, so refuse it where it happens.
+        let mut overflow = None;
+        Zip::indexed(&mut nonzero)
+            .and(&counts)
+            .for_each(|i, a, &k| match a.checked_add(k) {
+                Some(v) => *a = v,
+                None => {
+                    overflow.get_or_insert(i);
+                }
+            });
+        if let Some((y, x, k)) = overflow {
+            return Err(BundleError::Invalid(
+                b.dir.join("nonzero.npy"),
+                format!(
+                    "voxel (y {y}, x {x}, t {k}): the merged count exceeds the u32 range of nonzero.npy"
+                ),
+            ));
+        }
         let wgt = b.manifest.spp as f64 / total_spp as f64;
         steady.scaled_add(wgt, &b.steady()?);
         albedo.scaled_add(wgt, &b.albedo()?.mapv(f64::from));

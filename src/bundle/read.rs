@@ -1,12 +1,46 @@
-//! Reading a bundle: the manifest is checked first (format, version, sizes), then each
-//! array on demand, checked against the shape the manifest promises.
+//! Reading a bundle that may be damaged or hostile. Three layers of checks, each
+//! refusing with one line that names the file:
+//!
+//! 1. [`Bundle::open`]: the directory is a directory; `manifest.json` is a regular file
+//!    of at most [`MAX_MANIFEST_BYTES`](crate::io::MAX_MANIFEST_BYTES), of this format
+//!    and version, with valid fields (see [`validate`]); every array the format needs
+//!    is listed once, with the dtype and shape the manifest's sizes imply, in a file
+//!    that lies inside the bundle directory (no absolute paths, `..` or links leading
+//!    out); and every such file's `.npy` header agrees with the manifest and with the
+//!    file's size (so `info` refuses a truncated bundle, and nothing later allocates
+//!    what a header merely claims); the per-pixel arrays (G-buffers, steady image,
+//!    at most H x W x 3 values) are read and checked whole.
+//! 2. Each array read checks its header again (the file may have changed), then its
+//!    values, in the same pass that reads them (see [`Bundle::sum_array`] and the
+//!    G-buffer readers); the first bad value is named by its voxel.
+//! 3. Cross-array rules that need the counts (a sum where no sample landed) are
+//!    checked against `nonzero.npy`, which the readers of sums take as an argument.
+//!
+//! What is an error and what is not. Everything a correct render or merge can never
+//! write is an error, because loading it would silently turn into wrong output:
+//! - any NaN or infinity (SPEC 4: non-finite contributions never reach a sum; f32
+//!   contributions cannot overflow the f64 sums of their cubes);
+//! - a negative `X2` (a sum of squares), a negative raw radiance sum `S`, steady image,
+//!   albedo, depth or emitter fraction (radiance and reflectance are non-negative;
+//!   the scene loader refuses negative ones);
+//! - a negative `X1` or `X3` when `z(0) = 0` (identity, Yeo-Johnson: `z(x) >= 0` for
+//!   `x >= 0`); under Box-Cox `z` ranges down to `-1/lambda`, so they may be negative;
+//! - a count above spp (a path adds at most one sample to a voxel, SPEC 4);
+//! - a non-zero sum in a voxel whose count is 0 (sums are over the samples counted);
+//! - a normal component outside [-1, 1] or an emitter fraction above 1 (beyond f32
+//!   rounding of a renormalised or spp-weighted mean).
+//!
+//! Nothing is merely warned about: every rule above is a hard invariant of the
+//! writer, and the legal-but-unusual (a voxel no path reached, a pixel that sees
+//! nothing, unknown extra manifest fields, which are ignored for forward
+//! compatibility) loads silently.
 
-use super::manifest::{Manifest, FORMAT, VERSION};
+use super::manifest::{ArrayInfo, Manifest, FORMAT, VERSION};
+use super::npy::{self, first_bad, show, Element};
 use super::BundleError;
 use crate::stats::accumulators::CHANNELS;
 use crate::stats::estimators::check_spp;
-use ndarray::{Array, Array2, Array3, Array4, Dimension};
-use ndarray_npy::{read_npy, ReadableElement};
+use ndarray::{Array, Array2, Array3, Array4, Dimension, IntoDimension};
 use std::path::{Path, PathBuf};
 
 pub struct Bundle {
@@ -14,16 +48,120 @@ pub struct Bundle {
     pub manifest: Manifest,
 }
 
+/// The four sum arrays of SPEC 5.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SumArray {
+    X1,
+    X2,
+    X3,
+    /// Raw radiance sums S (X1 itself for the identity transform).
+    Radiance,
+}
+
+const AXES4: [&str; 4] = ["y", "x", "t", "c"];
+const AXES3T: [&str; 3] = ["y", "x", "t"];
+const AXES3C: [&str; 3] = ["y", "x", "c"];
+const AXES2: [&str; 2] = ["y", "x"];
+
+/// Slack for f32 rounding of unit-range G-buffer values (normals renormalised in f64
+/// and cast, spp-weighted means of fractions).
+const UNIT_SLACK: f64 = 1e-3;
+
+/// The arrays a bundle of this manifest must hold: name, dtype, shape.
+pub fn required_arrays(m: &Manifest) -> Vec<(&'static str, &'static str, Vec<usize>)> {
+    let (h, w, t) = (m.height, m.width, m.bins);
+    let s4 = vec![h, w, t, CHANNELS];
+    let mut v = vec![
+        ("x1", f64::DTYPE, s4.clone()),
+        ("x2", f64::DTYPE, s4.clone()),
+        ("x3", f64::DTYPE, s4.clone()),
+    ];
+    if !m.transform.is_identity() {
+        v.push(("sum", f64::DTYPE, s4));
+    }
+    v.extend([
+        ("nonzero", u32::DTYPE, vec![h, w, t]),
+        ("albedo", f32::DTYPE, vec![h, w, 3]),
+        ("normal", f32::DTYPE, vec![h, w, 3]),
+        ("depth", f32::DTYPE, vec![h, w]),
+        ("emitter", f32::DTYPE, vec![h, w]),
+        ("steady", f64::DTYPE, vec![h, w, CHANNELS]),
+    ]);
+    v
+}
+
+/// The manifest's own fields (after the format and version are known): sizes,
+/// sample count, time axis, transform, metadata. The error is a short reason.
+pub fn validate(m: &Manifest) -> Result<(), String> {
+    m.transform
+        .validate()
+        .map_err(|e| format!("transform: {e}"))?;
+    if m.width == 0 || m.height == 0 || m.bins == 0 {
+        return Err(format!(
+            "empty film size ({} x {} px, {} bins)",
+            m.width, m.height, m.bins
+        ));
+    }
+    // The largest array, in bytes, must be addressable (and the element count of
+    // every array is a factor of it).
+    [m.height, m.width, m.bins, CHANNELS, 8]
+        .iter()
+        .try_fold(1usize, |a, &d| a.checked_mul(d))
+        .filter(|&b| b <= isize::MAX as usize)
+        .ok_or_else(|| {
+            format!(
+                "film size {} x {} px x {} bins overflows the address space",
+                m.width, m.height, m.bins
+            )
+        })?;
+    if m.channels.len() != CHANNELS {
+        return Err(format!(
+            "expected {CHANNELS} channels, found {}",
+            m.channels.len()
+        ));
+    }
+    check_spp(m.spp)?;
+    let finite_positive = |v: f64| v > 0.0 && v.is_finite();
+    if !(finite_positive(m.bin_width_opl) && finite_positive(m.unit_m) && m.start_opl.is_finite()) {
+        return Err(
+            "bad time axis (bin_width_opl and unit_m must be positive, start_opl finite)".into(),
+        );
+    }
+    if !(m.start_seconds.is_finite() && finite_positive(m.bin_width_seconds)) {
+        return Err("bad time axis in seconds (start_seconds, bin_width_seconds)".into());
+    }
+    if !(m.render_seconds.is_finite() && m.render_seconds >= 0.0) {
+        return Err(format!(
+            "render_seconds = {} is not a duration",
+            m.render_seconds
+        ));
+    }
+    if m.max_depth < -1 {
+        return Err(format!("max_depth = {} (-1 means unbounded)", m.max_depth));
+    }
+    if let Some(i) =
+        (1..m.merged_seeds.len()).find(|&i| m.merged_seeds[..i].contains(&m.merged_seeds[i]))
+    {
+        return Err(format!(
+            "merged_seeds lists seed {} twice",
+            m.merged_seeds[i]
+        ));
+    }
+    Ok(())
+}
+
 impl Bundle {
     pub fn open(dir: &Path) -> Result<Bundle, BundleError> {
         let mpath = dir.join("manifest.json");
         if !dir.is_dir() {
-            return Err(BundleError::Invalid(
-                dir.to_path_buf(),
-                "not a bundle directory".into(),
-            ));
+            let why = if dir.exists() {
+                "not a bundle directory (a bundle is a directory holding manifest.json)"
+            } else {
+                "no such bundle directory"
+            };
+            return Err(BundleError::Invalid(dir.to_path_buf(), why.into()));
         }
-        let text = std::fs::read_to_string(&mpath)
+        let text = crate::io::read_regular_text(&mpath, crate::io::MAX_MANIFEST_BYTES)
             .map_err(|e| BundleError::Invalid(mpath.clone(), format!("cannot read: {e}")))?;
         let value: serde_json::Value = serde_json::from_str(&text)
             .map_err(|e| BundleError::Invalid(mpath.clone(), format!("not valid JSON: {e}")))?;
@@ -35,75 +173,135 @@ impl Bundle {
         }
         let version = value.get("version").and_then(|v| v.as_u64());
         if version != Some(VERSION as u64) {
+            let found = value
+                .get("version")
+                .map_or("missing".to_string(), |v| v.to_string());
             return Err(BundleError::Invalid(
                 mpath,
-                format!("format version {version:?} is not the supported version {VERSION}"),
+                format!("format version {found} is not the supported version {VERSION}"),
             ));
         }
         let manifest: Manifest = serde_json::from_value(value)
             .map_err(|e| BundleError::Invalid(mpath.clone(), format!("bad manifest: {e}")))?;
-        manifest
-            .transform
-            .validate()
-            .map_err(|e| BundleError::Invalid(mpath.clone(), format!("transform: {e}")))?;
-        if manifest.width == 0 || manifest.height == 0 || manifest.bins == 0 {
-            return Err(BundleError::Invalid(mpath, "empty film size".into()));
-        }
-        let finite_positive = |v: f64| v > 0.0 && v.is_finite();
-        let axis_ok = finite_positive(manifest.bin_width_opl)
-            && finite_positive(manifest.unit_m)
-            && manifest.start_opl.is_finite();
-        if !axis_ok {
-            return Err(BundleError::Invalid(
-                mpath,
-                "bad time axis (bin_width_opl and unit_m must be positive, start_opl finite)"
-                    .into(),
-            ));
-        }
-        if manifest.channels.len() != CHANNELS {
-            return Err(BundleError::Invalid(mpath, "expected 3 channels".into()));
-        }
-        check_spp(manifest.spp).map_err(|e| BundleError::Invalid(mpath.clone(), e))?;
-        Ok(Bundle {
+        validate(&manifest).map_err(|e| BundleError::Invalid(mpath.clone(), e))?;
+        let bundle = Bundle {
             dir: dir.to_path_buf(),
             manifest,
-        })
+        };
+        bundle.check_arrays()?;
+        Ok(bundle)
     }
 
-    fn read<A: ReadableElement + Clone, D: Dimension>(
-        &self,
-        name: &str,
-        shape: &[usize],
-    ) -> Result<Array<A, D>, BundleError> {
-        let info = self.manifest.array(name).ok_or_else(|| {
-            BundleError::Invalid(
-                self.dir.join("manifest.json"),
-                format!("lists no array '{name}'"),
-            )
-        })?;
-        let path = self.dir.join(&info.file);
-        if !path.is_file() {
-            return Err(BundleError::Invalid(path, "missing".into()));
+    fn manifest_error(&self, msg: String) -> BundleError {
+        BundleError::Invalid(self.dir.join("manifest.json"), msg)
+    }
+
+    /// The listing of every required array, and each file's header (cheap: a few
+    /// hundred bytes per file).
+    fn check_arrays(&self) -> Result<(), BundleError> {
+        let arrays = &self.manifest.arrays;
+        if let Some(i) =
+            (1..arrays.len()).find(|&i| arrays[..i].iter().any(|a| a.name == arrays[i].name))
+        {
+            return Err(self.manifest_error(format!("lists the array '{}' twice", arrays[i].name)));
         }
-        let a: Array<A, D> =
-            read_npy(&path).map_err(|e| BundleError::Invalid(path.clone(), e.to_string()))?;
-        // NumPy may write Fortran order; everything downstream reads C order.
-        let a = if a.is_standard_layout() {
-            a
-        } else {
-            a.as_standard_layout().into_owned()
+        let mut files: Vec<(PathBuf, &str)> = Vec::new();
+        for (name, dtype, shape) in required_arrays(&self.manifest) {
+            let info = self.info(name)?;
+            if info.dtype != dtype || info.shape != shape {
+                return Err(self.manifest_error(format!(
+                    "lists '{name}' as {:?} {:?}; the film's sizes need {dtype:?} {shape:?}",
+                    info.dtype, info.shape
+                )));
+            }
+            let (path, f) = self.open_npy(name)?;
+            check_header(&path, &f.header, dtype, &shape)?;
+            // Two arrays read from one file (x2 listed in x1.npy, or links to one
+            // target) would load without a complaint and mean nothing.
+            let real = std::fs::canonicalize(&path)
+                .map_err(|e| BundleError::Invalid(path.clone(), format!("cannot read: {e}")))?;
+            if let Some((_, other)) = files.iter().find(|(p, _)| *p == real) {
+                return Err(self.manifest_error(format!(
+                    "the arrays '{other}' and '{name}' are both in {}",
+                    real.display()
+                )));
+            }
+            files.push((real, name));
+        }
+        // The per-pixel arrays are small (H x W x 3 at most): their values are checked
+        // here too, so that no command starts writing before finding them damaged.
+        self.albedo()?;
+        self.normal()?;
+        self.depth()?;
+        self.emitter()?;
+        self.steady()?;
+        Ok(())
+    }
+
+    fn info(&self, name: &str) -> Result<&ArrayInfo, BundleError> {
+        self.manifest
+            .array(name)
+            .ok_or_else(|| self.manifest_error(format!("lists no array '{name}'")))
+    }
+
+    /// The path of an array's file, refused unless it is a plain file name whose
+    /// target (after links) lies inside the bundle directory.
+    fn array_path(&self, name: &str) -> Result<PathBuf, BundleError> {
+        let info = self.info(name)?;
+        let rel = Path::new(&info.file);
+        let plain = matches!(
+            rel.components().collect::<Vec<_>>().as_slice(),
+            [std::path::Component::Normal(_)]
+        );
+        if !plain || info.file.contains('/') || info.file.contains('\\') {
+            return Err(self.manifest_error(format!(
+                "array '{name}' is in {:?}, which is not a file name inside the bundle",
+                info.file
+            )));
+        }
+        let path = self.dir.join(rel);
+        let real = match std::fs::canonicalize(&path) {
+            Ok(r) => r,
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+                return Err(BundleError::Invalid(path, "missing".into()))
+            }
+            Err(e) => return Err(BundleError::Invalid(path, format!("cannot read: {e}"))),
         };
-        if a.shape() != shape {
+        let dir = std::fs::canonicalize(&self.dir)
+            .map_err(|e| BundleError::Invalid(self.dir.clone(), format!("cannot read: {e}")))?;
+        if !real.starts_with(&dir) {
             return Err(BundleError::Invalid(
                 path,
                 format!(
-                    "shape {:?} does not match the manifest's {:?}",
-                    a.shape(),
-                    shape
+                    "leads outside the bundle (to {}); a bundle's arrays live in its directory",
+                    real.display()
                 ),
             ));
         }
-        Ok(a)
+        Ok(path)
+    }
+
+    fn open_npy(&self, name: &str) -> Result<(PathBuf, npy::NpyFile), BundleError> {
+        let path = self.array_path(name)?;
+        let f = npy::open(&path).map_err(|e| BundleError::Invalid(path.clone(), e))?;
+        Ok((path, f))
+    }
+
+    /// Reads array `name` as `T` of `shape`, checking every value with `check` (see
+    /// [`npy::NpyFile::read`]) in the same pass.
+    fn read_checked<T: Element, D: Dimension>(
+        &self,
+        name: &str,
+        shape: D,
+        axes: &[&str],
+        check: impl FnMut(usize, &[T]) -> npy::Bad,
+    ) -> Result<Array<T, D>, BundleError> {
+        let (path, f) = self.open_npy(name)?;
+        check_header(&path, &f.header, T::DTYPE, shape.slice())?;
+        let data = f
+            .read(check, axes)
+            .map_err(|e| BundleError::Invalid(path.clone(), e))?;
+        Array::from_shape_vec(shape, data).map_err(|e| BundleError::Invalid(path, e.to_string()))
     }
 
     fn shape4(&self) -> [usize; 4] {
@@ -111,51 +309,212 @@ impl Bundle {
         [m.height, m.width, m.bins, CHANNELS]
     }
 
-    pub fn x1(&self) -> Result<Array4<f64>, BundleError> {
-        self.read("x1", &self.shape4())
-    }
-    pub fn x2(&self) -> Result<Array4<f64>, BundleError> {
-        self.read("x2", &self.shape4())
-    }
-    pub fn x3(&self) -> Result<Array4<f64>, BundleError> {
-        self.read("x3", &self.shape4())
-    }
-    /// Raw radiance sums S (X1 itself for the identity transform).
-    pub fn radiance_sum(&self) -> Result<Array4<f64>, BundleError> {
-        if self.manifest.transform.is_identity() {
-            self.x1()
-        } else {
-            self.read("sum", &self.shape4())
-        }
-    }
+    /// The per-voxel counts of samples that deposited something; each at most spp.
     pub fn nonzero(&self) -> Result<Array3<u32>, BundleError> {
         let m = &self.manifest;
-        self.read("nonzero", &[m.height, m.width, m.bins])
+        let spp = m.spp;
+        self.read_checked(
+            "nonzero",
+            [m.height, m.width, m.bins].into_dimension(),
+            &AXES3T,
+            |s, b: &[u32]| {
+                first_bad(
+                    s,
+                    b,
+                    |_, v| u64::from(v) <= spp,
+                    |_, v| format!("counts {v} samples, more than spp = {spp}"),
+                )
+            },
+        )
     }
+
+    /// One of the sum arrays, checked against the module's rules and against the
+    /// counts (from [`Bundle::nonzero`]): no sum where no sample was counted.
+    pub fn sum_array(
+        &self,
+        which: SumArray,
+        counts: &Array3<u32>,
+    ) -> Result<Array4<f64>, BundleError> {
+        let (name, check) = self.sum_check(which, counts);
+        self.read_checked(name, self.shape4().into_dimension(), &AXES4, check)
+    }
+
+    /// The file and value check of a sum array.
+    fn sum_check<'a>(
+        &self,
+        which: SumArray,
+        counts: &'a Array3<u32>,
+    ) -> (&'static str, impl FnMut(usize, &[f64]) -> npy::Bad + 'a) {
+        let m = &self.manifest;
+        let radiance = "radiance is never negative".to_string();
+        let (name, rule) = match which {
+            SumArray::X2 => ("x2", Some("a sum of squares cannot be negative".into())),
+            SumArray::X1 | SumArray::X3 if m.transform.at_zero() == 0.0 => (
+                if which == SumArray::X1 { "x1" } else { "x3" },
+                Some(if m.transform.is_identity() {
+                    radiance
+                } else {
+                    format!(
+                        "the {} transform of radiance is never negative",
+                        m.transform
+                    )
+                }),
+            ),
+            SumArray::X1 => ("x1", None),
+            SumArray::X3 => ("x3", None),
+            SumArray::Radiance if m.transform.is_identity() => ("x1", Some(radiance)),
+            SumArray::Radiance => ("sum", Some(radiance)),
+        };
+        let counts = counts.as_slice().expect("counts in standard layout");
+        let nonneg = rule.is_some();
+        let ok = move |v: f64| v.is_finite() && (!nonneg || v >= 0.0);
+        let check = move |start: usize, block: &[f64]| {
+            // Blocks start at a voxel's first channel (npy::BLOCK_ELEMS is a multiple
+            // of 3): check whole voxels against their counts, branch-free; look for
+            // the culprit only when something fails.
+            let k0 = start / CHANNELS;
+            let voxels = block.chunks_exact(CHANNELS).zip(&counts[k0..]);
+            let all_ok = voxels.fold(true, |acc, (v, &k)| {
+                acc & ok(v[0])
+                    & ok(v[1])
+                    & ok(v[2])
+                    & ((k != 0) | ((v[0] == 0.0) & (v[1] == 0.0) & (v[2] == 0.0)))
+            });
+            if all_ok {
+                return None;
+            }
+            let i = block
+                .iter()
+                .enumerate()
+                .position(|(i, &v)| !ok(v) || (v != 0.0 && counts[k0 + i / CHANNELS] == 0))
+                .expect("a failing value");
+            let v = block[i];
+            let why = if !v.is_finite() {
+                format!("is {}", show(v))
+            } else if v < 0.0 && nonneg {
+                format!(
+                    "is {}, but {}",
+                    show(v),
+                    rule.as_deref().unwrap_or_default()
+                )
+            } else {
+                format!(
+                    "is {} where nonzero.npy counts no samples (a sum without samples)",
+                    show(v)
+                )
+            };
+            Some((start + i, why))
+        };
+        (name, check)
+    }
+
+    /// `check` for G-buffers and the steady image: finite, within `[lo, hi]`.
+    fn read_ranged<T: Element, D: Dimension>(
+        &self,
+        name: &str,
+        shape: D,
+        axes: &[&str],
+        (lo, hi): (f64, f64),
+    ) -> Result<Array<T, D>, BundleError> {
+        let ok = move |_: usize, v: T| {
+            let v = v.to_f64();
+            v >= lo && v <= hi
+        };
+        let why = move |_: usize, v: T| {
+            let v = v.to_f64();
+            if !v.is_finite() {
+                format!("is {}", show(v))
+            } else {
+                let range = if hi < f64::MAX {
+                    format!("lie in [{lo}, {hi}]")
+                } else {
+                    format!("be at least {lo}")
+                };
+                format!("is {}, but {name} values must {range}", show(v))
+            }
+        };
+        self.read_checked(name, shape, axes, |s, b| first_bad(s, b, ok, why))
+    }
+
     pub fn albedo(&self) -> Result<Array3<f32>, BundleError> {
         let m = &self.manifest;
-        self.read("albedo", &[m.height, m.width, 3])
+        self.read_ranged(
+            "albedo",
+            [m.height, m.width, 3].into_dimension(),
+            &AXES3C,
+            (0.0, f64::MAX),
+        )
     }
     pub fn normal(&self) -> Result<Array3<f32>, BundleError> {
         let m = &self.manifest;
-        self.read("normal", &[m.height, m.width, 3])
+        let r = 1.0 + UNIT_SLACK;
+        self.read_ranged(
+            "normal",
+            [m.height, m.width, 3].into_dimension(),
+            &AXES3C,
+            (-r, r),
+        )
     }
     pub fn depth(&self) -> Result<Array2<f32>, BundleError> {
         let m = &self.manifest;
-        self.read("depth", &[m.height, m.width])
+        self.read_ranged(
+            "depth",
+            [m.height, m.width].into_dimension(),
+            &AXES2,
+            (0.0, f64::MAX),
+        )
     }
     pub fn emitter(&self) -> Result<Array2<f32>, BundleError> {
         let m = &self.manifest;
-        self.read("emitter", &[m.height, m.width])
+        self.read_ranged(
+            "emitter",
+            [m.height, m.width].into_dimension(),
+            &AXES2,
+            (0.0, 1.0 + UNIT_SLACK),
+        )
     }
     pub fn steady(&self) -> Result<Array3<f64>, BundleError> {
         let m = &self.manifest;
-        self.read("steady", &[m.height, m.width, CHANNELS])
+        self.read_ranged(
+            "steady",
+            [m.height, m.width, CHANNELS].into_dimension(),
+            &AXES3C,
+            (0.0, f64::MAX),
+        )
     }
 
-    /// The noisy mean volume S / n as f32, (H, W, T, C).
+    /// The noisy mean volume S / n as f32, (H, W, T, C), converted while reading (the
+    /// f64 sums are never held whole).
     pub fn noisy_mean(&self) -> Result<Array4<f32>, BundleError> {
         let n = self.manifest.spp as f64;
-        Ok(self.radiance_sum()?.mapv(|s| (s / n) as f32))
+        let counts = self.nonzero()?;
+        let (name, check) = self.sum_check(SumArray::Radiance, &counts);
+        let (path, f) = self.open_npy(name)?;
+        let shape = self.shape4();
+        check_header(&path, &f.header, f64::DTYPE, &shape)?;
+        let data = f
+            .read_mapped(|s: f64| (s / n) as f32, check, &AXES4)
+            .map_err(|e| BundleError::Invalid(path.clone(), e))?;
+        Array::from_shape_vec(shape, data).map_err(|e| BundleError::Invalid(path, e.to_string()))
     }
+}
+
+/// An array's header against what the manifest promises.
+fn check_header(
+    path: &Path,
+    h: &npy::NpyHeader,
+    dtype: &str,
+    shape: &[usize],
+) -> Result<(), BundleError> {
+    let msg = if h.dtype != dtype {
+        format!("dtype {:?} is not the format's {dtype:?}", h.dtype)
+    } else if h.shape != shape {
+        format!(
+            "shape {:?} does not match the manifest's {:?}",
+            h.shape, shape
+        )
+    } else {
+        return Ok(());
+    };
+    Err(BundleError::Invalid(path.to_path_buf(), msg))
 }

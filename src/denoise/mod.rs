@@ -10,7 +10,7 @@ pub mod gbuffers;
 pub mod membership;
 pub mod tstat;
 
-use crate::bundle::{Bundle, BundleError};
+use crate::bundle::{Bundle, BundleError, SumArray};
 use crate::stats::accumulators::CHANNELS;
 use base_filter::{BaseFilter, BaseKind, Features, Sigmas};
 use critical::Threshold;
@@ -195,24 +195,20 @@ pub struct LoadedSums {
 }
 
 impl LoadedSums {
+    /// Reads the sums, counts and G-buffers, each checked on load (see
+    /// `bundle::read`): counts first, so that every sum is checked against them.
     pub fn read(bundle: &Bundle) -> Result<LoadedSums, BundleError> {
         let m = &bundle.manifest;
         let nonzero = bundle.nonzero()?;
-        if let Some((v, _)) = nonzero.indexed_iter().find(|(_, &k)| k as u64 > m.spp) {
-            return Err(BundleError::Invalid(
-                bundle.dir.join("nonzero.npy"),
-                format!("count at {v:?} exceeds spp = {}", m.spp),
-            ));
-        }
         Ok(LoadedSums {
             manifest: m.clone(),
-            x1: bundle.x1()?,
-            x2: bundle.x2()?,
-            x3: bundle.x3()?,
+            x1: bundle.sum_array(SumArray::X1, &nonzero)?,
+            x2: bundle.sum_array(SumArray::X2, &nonzero)?,
+            x3: bundle.sum_array(SumArray::X3, &nonzero)?,
             sum: if m.transform.is_identity() {
                 None
             } else {
-                Some(bundle.radiance_sum()?)
+                Some(bundle.sum_array(SumArray::Radiance, &nonzero)?)
             },
             nonzero,
             gbuffers: GBuffers::read(bundle)?,
@@ -262,7 +258,8 @@ pub fn denoise_bundle(
     Ok(d)
 }
 
-/// Arrays from `read_npy` are in standard (C) layout.
+/// Arrays read from a bundle are in standard (C) layout.
 pub(crate) fn std_slice<T, D: ndarray::Dimension>(a: &ndarray::Array<T, D>) -> &[T] {
-    a.as_slice().expect("read_npy gives standard layout")
+    a.as_slice()
+        .expect("bundle arrays are read in standard layout")
 }
