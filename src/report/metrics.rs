@@ -45,24 +45,44 @@ impl Acc {
         }
     }
 
+    /// The metrics; NaN (never a plausible number) when no voxel was measured or a
+    /// value was not finite. Callers refuse such volumes when loading them
+    /// (`volume::load_volume`); this keeps a library caller from reading an infinite
+    /// PSNR into an empty or NaN comparison. Identical volumes keep PSNR = inf.
     pub(super) fn finish(&self, peak: f64) -> Metrics {
-        let n = self.count.max(1) as f64;
+        if self.count == 0 {
+            return Metrics {
+                rmse: f64::NAN,
+                relmse: f64::NAN,
+                psnr: f64::NAN,
+            };
+        }
+        let n = self.count as f64;
         let mse = self.se / n;
         Metrics {
             rmse: mse.sqrt(),
             relmse: self.rel / n,
             psnr: if mse > 0.0 {
                 10.0 * (peak * peak / mse).log10()
-            } else {
+            } else if mse == 0.0 {
                 f64::INFINITY
+            } else {
+                f64::NAN
             },
         }
     }
 }
 
-/// The PSNR peak: the reference's maximum.
+/// The PSNR peak: the reference's maximum (NaN if the reference holds a NaN, which
+/// `f64::max` alone would skip).
 pub(super) fn peak(reference: ArrayView4<f32>) -> f64 {
-    reference.iter().fold(0.0f64, |m, &v| m.max(v as f64))
+    reference.iter().fold(0.0f64, |m, &v| {
+        if v.is_nan() || m.is_nan() {
+            f64::NAN
+        } else {
+            m.max(v as f64)
+        }
+    })
 }
 
 /// Metrics of `x` against `reference`, both (H, W, T, C), over the voxels of the pixels
@@ -125,6 +145,25 @@ mod tests {
         // Identical volumes: zero error, infinite PSNR.
         let (m, _) = compare(r.view(), r.view(), None);
         assert_eq!((m.rmse, m.relmse, m.psnr), (0.0, 0.0, f64::INFINITY));
+    }
+
+    #[test]
+    fn empty_or_nan_comparisons_are_nan_not_infinite_psnr() {
+        let empty = Array4::<f32>::zeros((0, 2, 1, 3));
+        let (m, _) = compare(empty.view(), empty.view(), None);
+        assert!(
+            m.rmse.is_nan() && m.relmse.is_nan() && m.psnr.is_nan(),
+            "{m:?}"
+        );
+        let mut r = Array4::<f32>::ones((1, 2, 1, 1));
+        let x = r.clone();
+        r[[0, 1, 0, 0]] = f32::NAN;
+        let (m, bins) = compare(x.view(), r.view(), None);
+        assert!(m.rmse.is_nan() && m.psnr.is_nan(), "{m:?}");
+        assert!(bins[0].psnr.is_nan());
+        // A NaN in the input, not the reference: NaN as well, never inf.
+        let (m, _) = compare(r.view(), x.view(), None);
+        assert!(m.psnr.is_nan(), "{m:?}");
     }
 
     #[test]

@@ -1,7 +1,7 @@
 //! Loading the volumes a report compares: `.npy` arrays (f32 or f64, (H, W, T, C)) or
 //! bundles (their noisy mean).
 
-use crate::bundle::{Bundle, BundleError};
+use crate::bundle::{npy, Bundle, BundleError};
 use ndarray::{Array2, Array4};
 use std::path::Path;
 
@@ -16,6 +16,12 @@ pub fn no_light_mask(emitter: &Array2<f32>) -> Vec<bool> {
     emitter.iter().map(|&e| e == 0.0).collect()
 }
 
+/// Loads a volume: a bundle's noisy mean (checked as every bundle read is), or a
+/// `.npy` of f32 or f64 (H, W, T, 3). A `.npy` is checked before its data are
+/// allocated (header against the file's size, see `bundle::npy`), must hold at least
+/// one voxel, and every value must be finite (as f32: an f64 beyond the f32 range
+/// counts as infinite). Errors would otherwise pass silently into the metrics: a NaN
+/// reference gave an infinite PSNR, an empty one a zero RMSE.
 pub fn load_volume(path: &Path) -> Result<LoadedVolume, BundleError> {
     if path.is_dir() {
         let b = Bundle::open(path)?;
@@ -24,30 +30,57 @@ pub fn load_volume(path: &Path) -> Result<LoadedVolume, BundleError> {
             no_light_mask: Some(no_light_mask(&b.emitter()?)),
         });
     }
-    if !path.is_file() {
+    if !path.exists() {
         return Err(BundleError::Io(
             path.to_path_buf(),
             "no such file or bundle".into(),
         ));
     }
     let err = |e: String| BundleError::Volume(path.to_path_buf(), e);
-    let volume = match ndarray_npy::read_npy::<_, Array4<f32>>(path) {
-        Ok(v) => v,
-        Err(as_f32) => match ndarray_npy::read_npy::<_, Array4<f64>>(path) {
-            Ok(v) => v.mapv(|x| x as f32),
-            Err(as_f64) => {
-                return Err(err(format!(
-                    "not a 4-D f32/f64 .npy volume (H, W, T, C): as f32: {as_f32}; as f64: {as_f64}"
-                )))
-            }
-        },
-    };
-    if volume.shape()[3] != 3 {
+    let f = npy::open(path).map_err(err)?;
+    let shape = f.header.shape.clone();
+    if shape.len() != 4 || shape[3] != 3 {
         return Err(err(format!(
-            "expected 3 channels, shape is {:?}",
-            volume.shape()
+            "expected a 4-D volume (H, W, T, 3), the shape is {shape:?}"
         )));
     }
+    if f.header.len == 0 {
+        return Err(err(format!("holds no voxels (shape {shape:?})")));
+    }
+    const AXES: [&str; 4] = ["y", "x", "t", "c"];
+    let why = |_: usize, v: f64| format!("is {}", npy::show(v));
+    let data = match f.header.dtype.as_str() {
+        "<f4" => f.read::<f32>(
+            |s, b| npy::first_bad(s, b, |_, v| v.is_finite(), |i, v| why(i, v.into())),
+            &AXES,
+        ),
+        "<f8" => f.read_mapped::<f64, f32>(
+            |v| v as f32,
+            |s, b| {
+                npy::first_bad(
+                    s,
+                    b,
+                    |_, v| (v as f32).is_finite(),
+                    |i, v| {
+                        if v.is_finite() {
+                            format!("is {v}, beyond the f32 range of a volume")
+                        } else {
+                            why(i, v)
+                        }
+                    },
+                )
+            },
+            &AXES,
+        ),
+        d => {
+            return Err(err(format!(
+                "dtype {d:?} is not a volume's f32 or f64 (\"<f4\" or \"<f8\")"
+            )))
+        }
+    }
+    .map_err(err)?;
+    let volume = Array4::from_shape_vec((shape[0], shape[1], shape[2], shape[3]), data)
+        .map_err(|e| err(e.to_string()))?;
     Ok(LoadedVolume {
         volume,
         no_light_mask: None,
