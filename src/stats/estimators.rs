@@ -473,7 +473,7 @@ mod tests {
     #[test]
     fn all_zero_voxel_is_z0_with_zero_variance() {
         for t in transforms() {
-            for n in [2u64, 64, 1_000_000] {
+            for n in [2u64, 64, 1_000_000, 1 << 40, u64::MAX] {
                 let e = estimate(Sums::default(), 0, n, t.at_zero());
                 let want = Estimate {
                     mu: t.at_zero(),
@@ -541,6 +541,143 @@ mod tests {
                     "{ctx}: {} vs {theta}",
                     e.theta
                 );
+            }
+        }
+    }
+
+    // ---- huge spp ---------------------------------------------------------------
+
+    /// Sums of `k` equal samples `z` as the product a merge of many renders
+    /// approaches (one rounding each instead of `k`).
+    fn sums_of_equal(k: u32, z: f64) -> Sums {
+        let kf = f64::from(k);
+        Sums {
+            x1: kf * z,
+            x2: kf * (z * z),
+            x3: kf * (z * z * z),
+        }
+    }
+
+    /// spp = 2^40 (a merge of many renders; a voxel's count is a u32, so at most
+    /// 2^32 - 1 of its samples deposit): `k` deposits of `z` among `n` samples is a
+    /// two-point distribution, `z` with p = k/n and `z0` otherwise.
+    #[test]
+    fn huge_spp_two_point_closed_forms() {
+        let n = 1u64 << 40;
+        let nf = n as f64;
+        for t in transforms() {
+            // x >= 1: z >= 0 for every transform, so no cancellation against z0
+            // beyond the closed form's own (see one_nonzero_sample_among_a_million).
+            for x in [1.0, 3.0, 7.5] {
+                for k in [1u32, 1000, u32::MAX] {
+                    let (z, z0) = (t.apply(x), t.at_zero());
+                    let s = sums_of_equal(k, z);
+                    let e = estimate(s, k, n, z0);
+                    let ctx = format!("{t} x={x} k={k}: {e:?}");
+                    assert_no_nan(&e, &ctx);
+                    let (p, d) = (f64::from(k) / nf, z - z0);
+                    let mu = z0 + p * d;
+                    let sigma2 = d * d * p * (1.0 - p) * nf / (nf - 1.0);
+                    let m3 = d * d * d * p * (1.0 - p) * (1.0 - 2.0 * p);
+                    let theta = mu + m3 / (6.0 * sigma2 * nf);
+                    let f = Floors::new(s, k, n, z0);
+                    assert!(sigma2 > 10.0 * f.floor2, "{ctx}: {f:?}");
+                    assert!(close(e.mu, mu, 1e-12, 0.0), "{ctx}: mu {mu}");
+                    assert!(close(e.sigma2, sigma2, 1e-12, 0.0), "{ctx}: {sigma2}");
+                    assert!(close(e.v, sigma2 / nf, 1e-12, 0.0), "{ctx}");
+                    // The Cauchy-Schwarz bound on sum |z|^3 makes floor3 loose by
+                    // sqrt(k): m3 is exact where it stands clear of it, else zeroed.
+                    if m3.abs() > 2.0 * f.floor3 {
+                        assert!(close(e.m3, m3, 1e-12, 0.0), "{ctx}: m3 {m3}");
+                    } else {
+                        assert!((e.m3 - m3).abs() <= f.floor3, "{ctx}: m3 {m3}, {f:?}");
+                    }
+                    // theta - mu = m3 / (6 sigma2 n) is ~1e-13 of mu here unless
+                    // k = 1, where it is 1/6 of mu - z0: there it must be exact.
+                    assert!(
+                        close(e.theta - z0, theta - z0, 1e-12, 0.0),
+                        "{ctx}: theta {theta}"
+                    );
+                }
+            }
+        }
+    }
+
+    /// The largest voxel where every sample deposits: n = k = 2^32 - 1 equal values.
+    /// X2/n - mu^2 cancels completely and must come out exactly 0; a spread of a
+    /// few per cent must survive the cancellation.
+    #[test]
+    fn huge_spp_cancellation() {
+        let k = u32::MAX;
+        let n = u64::from(k);
+        for z in [0.1, std::f64::consts::PI, 1.1e-12, 7.3e11, 1e100, 1e-100] {
+            let e = estimate(sums_of_equal(k, z), k, n, 0.0);
+            let ctx = format!("z={z}: {e:?}");
+            assert_no_nan(&e, &ctx);
+            assert_eq!((e.sigma2, e.v, e.m3), (0.0, 0.0, 0.0), "{ctx}");
+            assert_eq!(e.theta, e.mu, "{ctx}");
+            assert!(close(e.mu, z, 4.0 * EPS, 0.0), "{ctx}");
+            // Half the samples z, half z (1 + delta): s2 = (z delta / 2)^2, about
+            // 400 times below X2/n for delta = 0.1; the floor is ~3e-6 X2/n.
+            let delta = 0.1;
+            let (a, b) = (
+                sums_of_equal(k / 2, z),
+                sums_of_equal(k - k / 2, z * (1.0 + delta)),
+            );
+            let s = Sums {
+                x1: a.x1 + b.x1,
+                x2: a.x2 + b.x2,
+                x3: a.x3 + b.x3,
+            };
+            let e = estimate(s, k, n, 0.0);
+            let (pa, nf) = (f64::from(k / 2) / n as f64, n as f64);
+            let dz = z * delta;
+            let s2 = dz * dz * pa * (1.0 - pa);
+            assert!(
+                close(e.sigma2, s2 * nf / (nf - 1.0), 1e-12, 0.0),
+                "{ctx}: sigma2 {} vs {}",
+                e.sigma2,
+                s2 * nf / (nf - 1.0)
+            );
+        }
+    }
+
+    // ---- values near the f64 limits ------------------------------------------------
+
+    /// Samples spread by 5% around 1e100 and 1e-100 (cubes still normal f64): as
+    /// accurate as anywhere (m3 to its floor). Around 1e150 the cubes overflow:
+    /// X3 = inf zeroes m3 (theta = mu) while mu and the variance stay accurate. Around 1e-160 the squares
+    /// are subnormal: the variance is lost to underflow, but never NaN or
+    /// negative, and mu is exact.
+    #[test]
+    fn values_near_the_f64_limits() {
+        let mut rng = Rng(21);
+        let n = 1000usize;
+        for scale in [1e100, 1e-100, 1e150, 1e-160] {
+            let z: Vec<f64> = (0..n)
+                .map(|_| scale * (1.0 + 0.05 * rng.normal()))
+                .collect();
+            let s = sums_of(z.iter().copied());
+            let e = estimate(s, n as u32, n as u64, 0.0);
+            let r = reference(&z);
+            let ctx = format!("scale {scale}: {s:?} {e:?} vs {r:?}");
+            assert_no_nan(&e, &ctx);
+            assert!(close(e.mu, r.mu, 1e-12, 0.0), "{ctx}");
+            if scale == 1e150 {
+                assert!(s.x3.is_infinite() && s.x2.is_finite(), "{ctx}");
+                assert_eq!((e.m3, e.theta), (0.0, e.mu), "{ctx}");
+                assert!(close(e.sigma2, r.sigma2, 1e-11, 0.0), "{ctx}");
+            } else if scale == 1e-160 {
+                assert!(s.x2 < f64::MIN_POSITIVE, "{ctx}");
+                assert!(e.sigma2 <= 2.0 * r.sigma2 + 1e-300, "{ctx}");
+            } else {
+                // X2/n - mu^2 cancels by a factor ~400 (s2 good to ~1e-13); the
+                // third moment cancels by ~6e4 and is held to its floor.
+                let f = Floors::new(s, n as u32, n as u64, 0.0);
+                assert!(close(e.sigma2, r.sigma2, 1e-12, 0.0), "{ctx}");
+                assert!(close(e.v, r.v, 1e-12, 0.0), "{ctx}");
+                assert!((e.m3 - r.m3).abs() <= f.floor3, "{ctx}: {f:?}");
+                assert!(close(e.theta, r.theta, 1e-12, 0.0), "{ctx}");
             }
         }
     }
