@@ -388,6 +388,26 @@ fn cases() -> Vec<Case> {
             want: &["manifest.json", "bad manifest"],
         },
         Case {
+            // A JSON value keeps the last of two equal keys; the manifest must not.
+            name: "key given twice",
+            make: |_, b| {
+                let p = b.join("manifest.json");
+                let text = std::fs::read_to_string(&p).unwrap();
+                let text = text.replacen("\"spp\": 4,", "\"spp\": 4, \"spp\": 64,", 1);
+                std::fs::write(p, text).unwrap();
+            },
+            bundle: true,
+            cmds: BUNDLE,
+            want: &["manifest.json", "duplicate field `spp`"],
+        },
+        Case {
+            name: "seconds that do not restate the OPL axis",
+            make: |_, b| edit_manifest(b, |v| v["bin_width_seconds"] = 1.0.into()),
+            bundle: true,
+            cmds: BUNDLE,
+            want: &["manifest.json", "bin_width_seconds = 1"],
+        },
+        Case {
             name: "merged seeds listed twice",
             make: |_, b| edit_manifest(b, |v| v["merged_seeds"] = serde_json::json!([0, 3, 3])),
             bundle: true,

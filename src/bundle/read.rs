@@ -35,7 +35,7 @@
 //! nothing, unknown extra manifest fields, which are ignored for forward
 //! compatibility) loads silently.
 
-use super::manifest::{ArrayInfo, Manifest, FORMAT, VERSION};
+use super::manifest::{ArrayInfo, Manifest, C_M_PER_S, FORMAT, VERSION};
 use super::npy::{self, first_bad, show, Element};
 use super::BundleError;
 use crate::stats::accumulators::CHANNELS;
@@ -127,8 +127,22 @@ pub fn validate(m: &Manifest) -> Result<(), String> {
             "bad time axis (bin_width_opl and unit_m must be positive, start_opl finite)".into(),
         );
     }
-    if !(m.start_seconds.is_finite() && finite_positive(m.bin_width_seconds)) {
-        return Err("bad time axis in seconds (start_seconds, bin_width_seconds)".into());
+    // The seconds are derived (opl * unit_m / c); `info` shows them, so they must
+    // agree with the OPL axis they restate.
+    let seconds = |opl: f64| opl * m.unit_m / C_M_PER_S;
+    let agrees = |s: f64, opl: f64| {
+        s.is_finite()
+            && (s - seconds(opl)).abs() <= 1e-9 * seconds(opl).abs().max(seconds(m.bin_width_opl))
+    };
+    if !(agrees(m.start_seconds, m.start_opl) && agrees(m.bin_width_seconds, m.bin_width_opl)) {
+        return Err(format!(
+            "start_seconds = {} and bin_width_seconds = {} do not restate start_opl and bin_width_opl in seconds ({} and {} at unit_m = {})",
+            m.start_seconds,
+            m.bin_width_seconds,
+            seconds(m.start_opl),
+            seconds(m.bin_width_opl),
+            m.unit_m
+        ));
     }
     if !(m.render_seconds.is_finite() && m.render_seconds >= 0.0) {
         return Err(format!(
@@ -181,7 +195,9 @@ impl Bundle {
                 format!("format version {found} is not the supported version {VERSION}"),
             ));
         }
-        let manifest: Manifest = serde_json::from_value(value)
+        // From the text, not the value: a key given twice ("spp": 4, "spp": 64) is an
+        // error there, where a JSON value silently keeps the last one.
+        let manifest: Manifest = serde_json::from_str(&text)
             .map_err(|e| BundleError::Invalid(mpath.clone(), format!("bad manifest: {e}")))?;
         validate(&manifest).map_err(|e| BundleError::Invalid(mpath.clone(), e))?;
         let bundle = Bundle {
