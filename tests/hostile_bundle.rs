@@ -670,6 +670,21 @@ fn cases() -> Vec<Case> {
             want: &["x1.npy", "voxel (y 0, x 1, t 2, c 0) is +inf"],
         },
         Case {
+            // Finite, but its mean is not an f32: the filter turned it into 51
+            // non-finite output voxels.
+            name: "radiance sum whose mean overflows f32",
+            make: |_, b| {
+                let [y, x, t] = lit_voxel(b);
+                poke_f64(b, "x1.npy", [y, x, t, 1], 1e300)
+            },
+            bundle: true,
+            cmds: VALUES,
+            want: &[
+                "x1.npy",
+                "is 1e300: its mean over 4 samples is beyond the f32 range",
+            ],
+        },
+        Case {
             name: "negative X2",
             make: |_, b| {
                 let [y, x, t] = lit_voxel(b);
@@ -820,7 +835,7 @@ fn cases() -> Vec<Case> {
             },
             bundle: false,
             cmds: VOLUME,
-            want: &["voxel (y 0, x 0, t 9, c 2) is 1000000000000000000000000000000000000000"],
+            want: &["voxel (y 0, x 0, t 9, c 2) is 1e39, beyond the f32 range"],
         },
         Case {
             name: "empty volume",

@@ -607,12 +607,15 @@ pub fn first_bad<T: Element>(
         .map(|(i, &v)| (start + i, why(start + i, v)))
 }
 
-/// "NaN", "+inf", "-2.5" for messages.
+/// "NaN", "+inf", "-2.5", "1e300" for messages (exponent notation for very large
+/// and very small magnitudes, so that a message stays short).
 pub fn show(v: f64) -> String {
     if v.is_nan() {
         "NaN".into()
     } else if v.is_infinite() {
         if v > 0.0 { "+inf" } else { "-inf" }.into()
+    } else if v != 0.0 && !(1e-6..1e16).contains(&v.abs()) {
+        format!("{v:e}")
     } else {
         format!("{v}")
     }
@@ -801,5 +804,8 @@ mod tests {
         assert_eq!(unravel(5, &[2, 3]), vec![1, 2]);
         assert_eq!(describe_index(&["y", "x"], &[1, 2]), "(y 1, x 2)");
         assert_eq!(show(f64::NEG_INFINITY), "-inf");
+        assert_eq!(show(1e300), "1e300");
+        assert_eq!(show(-2.5e-9), "-2.5e-9");
+        assert_eq!(show(0.001), "0.001");
     }
 }

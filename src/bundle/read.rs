@@ -25,6 +25,8 @@
 //!   the scene loader refuses negative ones);
 //! - a negative `X1` or `X3` when `z(0) = 0` (identity, Yeo-Johnson: `z(x) >= 0` for
 //!   `x >= 0`); under Box-Cox `z` ranges down to `-1/lambda`, so they may be negative;
+//! - a radiance sum S (X1 under the identity) whose mean S / spp overflows f32, the
+//!   type of every volume the bundle becomes (the filter turned it into infinities);
 //! - a count above spp (a path adds at most one sample to a voxel, SPEC 4);
 //! - a non-zero sum in a voxel whose count is 0 (sums are over the samples counted);
 //! - a normal component outside [-1, 1] or an emitter fraction above 1 (beyond f32
@@ -383,7 +385,17 @@ impl Bundle {
         };
         let counts = counts.as_slice().expect("counts in standard layout");
         let nonneg = rule.is_some();
-        let ok = move |v: f64| v.is_finite() && (!nonneg || v >= 0.0);
+        // Radiance sums (S, which is X1 under the identity) become the f32 mean S / n
+        // of every volume: a sum whose mean overflows f32 is refused here rather
+        // than turned into infinities (and NaN neighbours) by the filter.
+        let spp = m.spp;
+        let is_radiance = name == "sum" || (name == "x1" && m.transform.is_identity());
+        let max = if is_radiance {
+            f64::from(f32::MAX) * m.spp as f64
+        } else {
+            f64::MAX
+        };
+        let ok = move |v: f64| v.is_finite() && (!nonneg || v >= 0.0) && v <= max;
         let check = move |start: usize, block: &[f64]| {
             // Blocks start at a voxel's first channel (npy::BLOCK_ELEMS is a multiple
             // of 3): check whole voxels against their counts, branch-free; look for
@@ -407,6 +419,12 @@ impl Bundle {
             let v = block[i];
             let why = if !v.is_finite() {
                 format!("is {}", show(v))
+            } else if v > max {
+                format!(
+                    "is {}: its mean over {} samples is beyond the f32 range of a volume",
+                    show(v),
+                    spp
+                )
             } else if v < 0.0 && nonneg {
                 format!(
                     "is {}, but {}",

@@ -63,7 +63,7 @@ pub fn load_volume(path: &Path) -> Result<LoadedVolume, BundleError> {
                     |_, v| (v as f32).is_finite(),
                     |i, v| {
                         if v.is_finite() {
-                            format!("is {v}, beyond the f32 range of a volume")
+                            format!("is {}, beyond the f32 range of a volume", npy::show(v))
                         } else {
                             why(i, v)
                         }
