@@ -408,6 +408,31 @@ fn cases() -> Vec<Case> {
             want: &["manifest.json", "bin_width_seconds = 1"],
         },
         Case {
+            name: "escape sequence in the scene path",
+            make: |_, b| {
+                edit_manifest(b, |v| {
+                    v["scene"]["path"] = "x.xml\u{1b}[2J\nfake line".into()
+                })
+            },
+            bundle: true,
+            cmds: BUNDLE,
+            want: &["manifest.json", "\"scene\".\"path\"", "U+001B"],
+        },
+        Case {
+            name: "channels other than RGB",
+            make: |_, b| edit_manifest(b, |v| v["channels"] = serde_json::json!(["X", "Y", "Z"])),
+            bundle: true,
+            cmds: BUNDLE,
+            want: &["manifest.json", "channels [\"X\", \"Y\", \"Z\"]"],
+        },
+        Case {
+            name: "scene hash that is not a SHA-256",
+            make: |_, b| edit_manifest(b, |v| v["scene"]["sha256"] = "".into()),
+            bundle: true,
+            cmds: BUNDLE,
+            want: &["manifest.json", "not a SHA-256"],
+        },
+        Case {
             name: "merged seeds listed twice",
             make: |_, b| edit_manifest(b, |v| v["merged_seeds"] = serde_json::json!([0, 3, 3])),
             bundle: true,

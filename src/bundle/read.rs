@@ -116,10 +116,16 @@ pub fn validate(m: &Manifest) -> Result<(), String> {
                 m.width, m.height, m.bins
             )
         })?;
-    if m.channels.len() != CHANNELS {
+    if m.channels != ["R", "G", "B"] {
         return Err(format!(
-            "expected {CHANNELS} channels, found {}",
-            m.channels.len()
+            "channels {:?}: the format holds [\"R\", \"G\", \"B\"]",
+            m.channels
+        ));
+    }
+    let sha = &m.scene.sha256;
+    if sha.len() != 64 || !sha.bytes().all(|b| b.is_ascii_hexdigit()) {
+        return Err(format!(
+            "scene.sha256 {sha:?} is not a SHA-256 (64 hexadecimal digits); merge compares it"
         ));
     }
     check_spp(m.spp)?;
@@ -195,6 +201,15 @@ impl Bundle {
             return Err(BundleError::Invalid(
                 mpath,
                 format!("format version {found} is not the supported version {VERSION}"),
+            ));
+        }
+        if let Some((at, c)) = control_character(&value, &mut String::new()) {
+            return Err(BundleError::Invalid(
+                mpath,
+                format!(
+                    "the text at {at} holds the control character U+{:04X} (a manifest's strings are printed as they are)",
+                    c as u32
+                ),
             ));
         }
         // From the text, not the value: a key given twice ("spp": 4, "spp": 64) is an
@@ -530,6 +545,36 @@ impl Bundle {
             .read_mapped(|s: f64| (s / n) as f32, check, &AXES4)
             .map_err(|e| BundleError::Invalid(path.clone(), e))?;
         Array::from_shape_vec(shape, data).map_err(|e| BundleError::Invalid(path, e.to_string()))
+    }
+}
+
+/// The first string (or object key) of `v` holding a control character (a newline or
+/// an escape sequence that `info` would print into the terminal), with its location.
+fn control_character(v: &serde_json::Value, at: &mut String) -> Option<(String, char)> {
+    use serde_json::Value;
+    let bad = |s: &str| s.chars().find(|c| c.is_control());
+    match v {
+        Value::String(s) => bad(s).map(|c| (at.clone(), c)),
+        Value::Array(a) => a.iter().enumerate().find_map(|(i, x)| {
+            let len = at.len();
+            at.push_str(&format!("[{i}]"));
+            let r = control_character(x, at);
+            at.truncate(len);
+            r
+        }),
+        Value::Object(o) => o.iter().find_map(|(k, x)| {
+            let len = at.len();
+            if !at.is_empty() {
+                at.push('.');
+            }
+            at.push_str(&format!("{k:?}"));
+            let r = bad(k)
+                .map(|c| (at.clone(), c))
+                .or_else(|| control_character(x, at));
+            at.truncate(len);
+            r
+        }),
+        _ => None,
     }
 }
 
