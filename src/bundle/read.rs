@@ -19,7 +19,10 @@
 //! What is an error and what is not. Everything a correct render or merge can never
 //! write is an error, because loading it would silently turn into wrong output:
 //! - any NaN or infinity (SPEC 4: non-finite contributions never reach a sum; f32
-//!   contributions cannot overflow the f64 sums of their cubes);
+//!   contributions cannot overflow the f64 sums of their cubes). One render does
+//!   write infinities: Box-Cox with lambda so small that z(0)^2 = lambda^-2
+//!   overflows (e.g. 1e-200, in a voxel where one channel is 0); its sums hold no
+//!   information, and it is refused here naming the voxel;
 //! - a negative `X2` (a sum of squares), a negative raw radiance sum `S`, steady image,
 //!   albedo, depth or emitter fraction (radiance and reflectance are non-negative;
 //!   the scene loader refuses negative ones);
