@@ -1,0 +1,466 @@
+//! Fuzzing on the stable toolchain: property tests that mutate valid inputs (scene XML,
+//! PLY and OBJ bytes, `.npy` files and manifests of a bundle) and require "a clean error
+//! or a valid result, never a panic". A panic anywhere (parser, loader, renderer,
+//! reader) fails the property, and proptest shrinks the mutation list to a small case.
+//!
+//! CI runs 1000-3000 cases per target (6000 in all, well under a minute); a developer runs more
+//! with `TSTAT_FUZZ_CASES=20000 TSTAT_FUZZ_SEED=$RANDOM cargo test --release --test fuzz`
+//! (README, "Fuzzing"); CI's seed is fixed so its runs are reproducible.
+
+use proptest::prelude::*;
+use proptest::test_runner::{Config, RngAlgorithm, TestCaseError, TestRng, TestRunner};
+use std::path::{Path, PathBuf};
+use tstat::bundle::Bundle;
+use tstat::denoise::LoadedSums;
+use tstat::render::{render, PixelSampling, RenderSettings};
+use tstat::scene::mesh::{load_obj, load_ply};
+use tstat::scene::{Overrides, Scene};
+use tstat::stats::Transform;
+
+/// Cases per target: `TSTAT_FUZZ_CASES` or the CI default.
+fn cases(default: u32) -> u32 {
+    std::env::var("TSTAT_FUZZ_CASES")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(default)
+}
+
+/// A runner with a fixed seed, so CI is reproducible; `TSTAT_FUZZ_SEED=N` explores
+/// other inputs.
+fn runner(default_cases: u32) -> TestRunner {
+    let seed: u64 = std::env::var("TSTAT_FUZZ_SEED")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(20261202);
+    let mut bytes = [0u8; 32];
+    bytes[..8].copy_from_slice(&seed.to_le_bytes());
+    let config = Config {
+        cases: cases(default_cases),
+        failure_persistence: None,
+        ..Config::default()
+    };
+    TestRunner::new_with_rng(config, TestRng::from_seed(RngAlgorithm::ChaCha, &bytes))
+}
+
+/// Numbers and words that break parsers and the arithmetic behind them.
+const NASTY: &[&str] = &[
+    "0",
+    "-0",
+    "-1",
+    "1e39",
+    "-1e39",
+    "1e308",
+    "1e-45",
+    "nan",
+    "NaN",
+    "inf",
+    "-inf",
+    "4294967296",
+    "18446744073709551616",
+    "99999999999999999999999",
+    "-2147483649",
+    "",
+    "abc",
+    "1,2",
+    "0x10",
+    "1e",
+    "$x",
+    "&amp;",
+];
+
+/// One edit of a byte string; positions are fractions of its length.
+#[derive(Clone, Debug)]
+enum Mutation {
+    Delete {
+        at: f64,
+        len: usize,
+    },
+    Duplicate {
+        at: f64,
+        len: usize,
+        to: f64,
+    },
+    Insert {
+        at: f64,
+        bytes: Vec<u8>,
+    },
+    Flip {
+        at: f64,
+        bit: u8,
+    },
+    /// Replace the k-th number (modulo their count) with a nasty token.
+    Number {
+        k: usize,
+        token: usize,
+    },
+}
+
+fn mutation() -> impl Strategy<Value = Mutation> {
+    let at = 0.0..1.0f64;
+    prop_oneof![
+        (at.clone(), 1..64usize).prop_map(|(at, len)| Mutation::Delete { at, len }),
+        (at.clone(), 1..64usize, 0.0..1.0f64).prop_map(|(at, len, to)| Mutation::Duplicate {
+            at,
+            len,
+            to
+        }),
+        (at.clone(), prop::collection::vec(any::<u8>(), 1..8))
+            .prop_map(|(at, bytes)| Mutation::Insert { at, bytes }),
+        (at, 0..8u8).prop_map(|(at, bit)| Mutation::Flip { at, bit }),
+        (0..10_000usize, 0..NASTY.len()).prop_map(|(k, token)| Mutation::Number { k, token }),
+    ]
+}
+
+fn pos(at: f64, len: usize) -> usize {
+    ((at * len as f64) as usize).min(len)
+}
+
+/// Byte ranges of the numeric literals in `b`.
+fn numbers(b: &[u8]) -> Vec<(usize, usize)> {
+    let mut out = Vec::new();
+    let mut i = 0;
+    while i < b.len() {
+        let starts = b[i].is_ascii_digit()
+            || (matches!(b[i], b'-' | b'.') && b.get(i + 1).is_some_and(|c| c.is_ascii_digit()));
+        if starts {
+            let s = i;
+            i += 1;
+            while i < b.len() && (b[i].is_ascii_digit() || matches!(b[i], b'.' | b'e' | b'E')) {
+                i += 1;
+            }
+            out.push((s, i));
+        } else {
+            i += 1;
+        }
+    }
+    out
+}
+
+fn apply(base: &[u8], muts: &[Mutation]) -> Vec<u8> {
+    let mut b = base.to_vec();
+    for m in muts {
+        let n = b.len();
+        match m {
+            Mutation::Delete { at, len } => {
+                let s = pos(*at, n);
+                b.drain(s..(s + len).min(n));
+            }
+            Mutation::Duplicate { at, len, to } => {
+                let s = pos(*at, n);
+                let piece = b[s..(s + len).min(n)].to_vec();
+                let t = pos(*to, n);
+                b.splice(t..t, piece);
+            }
+            Mutation::Insert { at, bytes } => {
+                let s = pos(*at, n);
+                b.splice(s..s, bytes.iter().copied());
+            }
+            Mutation::Flip { at, bit } => {
+                if n > 0 {
+                    let s = pos(*at, n - 1);
+                    b[s] ^= 1 << bit;
+                }
+            }
+            Mutation::Number { k, token } => {
+                let nums = numbers(&b);
+                if !nums.is_empty() {
+                    let (s, e) = nums[k % nums.len()];
+                    b.splice(s..e, NASTY[*token].bytes());
+                }
+            }
+        }
+    }
+    b
+}
+
+fn mutations(max: usize) -> impl Strategy<Value = Vec<Mutation>> {
+    prop::collection::vec(mutation(), 1..=max)
+}
+
+fn repo(p: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join(p)
+}
+
+/// Small film overrides: every mutated scene that loads is also rendered.
+fn tiny() -> Overrides {
+    Overrides {
+        spp: Some(2),
+        width: Some(4),
+        height: Some(4),
+        bins: Some(6),
+        max_depth: Some(4),
+        ..Default::default()
+    }
+}
+
+fn render_tiny(scene: &Scene) -> Result<(), TestCaseError> {
+    let out = render(
+        scene,
+        &RenderSettings {
+            spp: 2,
+            seed: 1,
+            transform: Transform::Identity,
+            pixel_sampling: PixelSampling::Stratified,
+        },
+        &|_| {},
+    );
+    prop_assert!(
+        out.accum.x1.iter().all(|v| v.is_finite()),
+        "a scene that loads renders finite sums"
+    );
+    Ok(())
+}
+
+#[test]
+fn mutated_scenes_load_cleanly_or_fail_cleanly() {
+    let dir = tempfile::tempdir().unwrap();
+    // The bundled scenes, plus a tiny one with a PLY mesh next to it.
+    std::fs::write(dir.path().join("quad.ply"), ascii_ply()).unwrap();
+    let mesh_scene = std::fs::read_to_string(repo("scenes/cbox.xml"))
+        .unwrap()
+        .replacen(
+            "</scene>",
+            r#"<shape type="ply"><string name="filename" value="quad.ply"/></shape></scene>"#,
+            1,
+        );
+    let bases: Vec<Vec<u8>> = ["cbox.xml", "cbox_spheres.xml", "cbox_confocal.xml"]
+        .iter()
+        .map(|s| std::fs::read(repo(&format!("scenes/{s}"))).unwrap())
+        .chain([mesh_scene.into_bytes()])
+        .collect();
+    let file = dir.path().join("s.xml");
+    runner(1000)
+        .run(&(0..bases.len(), mutations(4)), |(k, muts)| {
+            std::fs::write(&file, apply(&bases[k], &muts)).unwrap();
+            match Scene::load(&file, &tiny()) {
+                Ok(scene) => render_tiny(&scene)?,
+                Err(e) => {
+                    let msg = e.to_string();
+                    prop_assert!(!msg.is_empty() && !msg.contains('\n'), "{msg:?}");
+                }
+            }
+            Ok(())
+        })
+        .unwrap();
+}
+
+fn ascii_ply() -> Vec<u8> {
+    b"ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n4 0 1 2 3\n".to_vec()
+}
+
+fn binary_ply() -> Vec<u8> {
+    let mut b = b"ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nproperty float nx\nproperty float ny\nproperty float nz\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n".to_vec();
+    for v in [[0.0f32, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]] {
+        for x in v.iter().chain(&[0.0, 0.0, 1.0]) {
+            b.extend_from_slice(&x.to_le_bytes());
+        }
+    }
+    b.push(3);
+    for i in [0i32, 1, 2] {
+        b.extend_from_slice(&i.to_le_bytes());
+    }
+    b
+}
+
+fn obj() -> Vec<u8> {
+    b"# quad\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvn 0 0 1\nvt 0 0\nf 1//1 2//1 3//1\nf 1/1/1 3/1/1 4/1/1\n".to_vec()
+}
+
+#[test]
+fn mutated_meshes_load_cleanly_or_fail_cleanly() {
+    let dir = tempfile::tempdir().unwrap();
+    let bases = [
+        ("m.ply", ascii_ply()),
+        ("b.ply", binary_ply()),
+        ("m.obj", obj()),
+    ];
+    runner(3000)
+        .run(&(0..bases.len(), mutations(4)), |(k, muts)| {
+            let (name, base) = &bases[k];
+            let path = dir.path().join(name);
+            std::fs::write(&path, apply(base, &muts)).unwrap();
+            let loaded = if name.ends_with(".obj") {
+                load_obj(&path)
+            } else {
+                load_ply(&path)
+            };
+            match loaded {
+                Ok(m) => {
+                    // A valid result: finite positions, indices in range.
+                    prop_assert!(m.positions.iter().all(|p| p.is_finite()));
+                    let n = m.positions.len() as u32;
+                    prop_assert!(m.triangles.iter().flatten().all(|&i| i < n));
+                    if let Some(normals) = &m.normals {
+                        prop_assert_eq!(normals.len(), m.positions.len());
+                    }
+                }
+                Err(e) => {
+                    let msg = e.to_string();
+                    prop_assert!(!msg.is_empty() && !msg.contains('\n'), "{msg:?}");
+                }
+            }
+            Ok(())
+        })
+        .unwrap();
+}
+
+/// A tiny valid bundle, rendered once by the binary.
+fn tiny_bundle(dir: &Path) -> PathBuf {
+    let out = dir.join("base.tstats");
+    let r = std::process::Command::new(env!("CARGO_BIN_EXE_tstat"))
+        .args(["render", repo("scenes/cbox.xml").to_str().unwrap(), "--out"])
+        .arg(&out)
+        .args(["--width", "5", "--height", "4", "--spp", "3", "--bins", "6"])
+        .output()
+        .unwrap();
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    out
+}
+
+fn copy_dir(from: &Path, to: &Path) {
+    let _ = std::fs::remove_dir_all(to);
+    std::fs::create_dir(to).unwrap();
+    for e in std::fs::read_dir(from).unwrap().flatten() {
+        std::fs::copy(e.path(), to.join(e.file_name())).unwrap();
+    }
+}
+
+/// Opens a bundle the way `denoise` does; a bundle that opens must give finite volumes.
+fn read_bundle(dir: &Path) -> Result<(), TestCaseError> {
+    let loaded = Bundle::open(dir).and_then(|b| {
+        let sums = LoadedSums::read(&b)?;
+        let noisy = b.noisy_mean()?;
+        Ok((sums, noisy))
+    });
+    match loaded {
+        Ok((sums, noisy)) => {
+            prop_assert!(noisy.iter().all(|v| v.is_finite()), "non-finite noisy mean");
+            let d = sums.denoise(&Default::default(), &|_| {});
+            prop_assert!(d.volume.iter().all(|v| v.is_finite()), "non-finite output");
+        }
+        Err(e) => {
+            let msg = e.to_string();
+            prop_assert!(!msg.is_empty() && !msg.contains('\n'), "{msg:?}");
+        }
+    }
+    Ok(())
+}
+
+#[test]
+fn mutated_npy_files_are_read_cleanly_or_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let base = tiny_bundle(dir.path());
+    let arrays: Vec<String> = std::fs::read_dir(&base)
+        .unwrap()
+        .flatten()
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .filter(|n| n.ends_with(".npy"))
+        .collect();
+    let work = dir.path().join("case.tstats");
+    // Mutations aimed at the header (the first ~128 bytes) and anywhere in the data.
+    let header_bias = prop_oneof![
+        mutations(3).prop_map(|m| m
+            .into_iter()
+            .map(|m| match m {
+                Mutation::Delete { at, len } => Mutation::Delete { at: at * 0.05, len },
+                Mutation::Flip { at, bit } => Mutation::Flip { at: at * 0.05, bit },
+                Mutation::Insert { at, bytes } => Mutation::Insert {
+                    at: at * 0.05,
+                    bytes
+                },
+                other => other,
+            })
+            .collect::<Vec<_>>()),
+        mutations(3),
+    ];
+    runner(1000)
+        .run(&(0..arrays.len(), header_bias), |(k, muts)| {
+            copy_dir(&base, &work);
+            let path = work.join(&arrays[k]);
+            let bytes = std::fs::read(&path).unwrap();
+            std::fs::write(&path, apply(&bytes, &muts)).unwrap();
+            read_bundle(&work)
+        })
+        .unwrap();
+}
+
+/// Every JSON pointer of a value (objects and arrays, recursively).
+fn pointers(v: &serde_json::Value, at: String, out: &mut Vec<String>) {
+    match v {
+        serde_json::Value::Object(m) => {
+            for (k, x) in m {
+                let p = format!("{at}/{}", k.replace('~', "~0").replace('/', "~1"));
+                out.push(p.clone());
+                pointers(x, p, out);
+            }
+        }
+        serde_json::Value::Array(a) => {
+            for (i, x) in a.iter().enumerate() {
+                let p = format!("{at}/{i}");
+                out.push(p.clone());
+                pointers(x, p, out);
+            }
+        }
+        _ => {}
+    }
+}
+
+#[test]
+fn mutated_manifests_are_read_cleanly_or_refused() {
+    use serde_json::{json, Value};
+    let dir = tempfile::tempdir().unwrap();
+    let base = tiny_bundle(dir.path());
+    let manifest: Value =
+        serde_json::from_str(&std::fs::read_to_string(base.join("manifest.json")).unwrap())
+            .unwrap();
+    let mut paths = Vec::new();
+    pointers(&manifest, String::new(), &mut paths);
+    let values = [
+        json!(null),
+        json!(0),
+        json!(-1),
+        json!(1e300),
+        json!(-1e300),
+        json!(u64::MAX),
+        json!(0.5),
+        json!(""),
+        json!("../../etc/passwd"),
+        json!("/dev/zero"),
+        json!("x3.npy"),
+        json!([]),
+        json!({}),
+        json!(true),
+        json!(4_000_000_000u64),
+    ];
+    let work = dir.path().join("case.tstats");
+    runner(1000)
+        .run(
+            &prop::collection::vec((0..paths.len(), 0..values.len() + 1), 1..4),
+            |edits| {
+                copy_dir(&base, &work);
+                let mut m = manifest.clone();
+                for (p, v) in edits {
+                    let (parent, key) = paths[p].rsplit_once('/').unwrap();
+                    match (m.pointer_mut(parent), values.get(v)) {
+                        (Some(Value::Object(o)), None) => {
+                            o.remove(key);
+                        }
+                        (Some(Value::Object(o)), Some(v)) => {
+                            o.insert(key.replace("~1", "/").replace("~0", "~"), v.clone());
+                        }
+                        (Some(Value::Array(a)), Some(v)) => {
+                            if let Ok(i) = key.parse::<usize>() {
+                                if i < a.len() {
+                                    a[i] = v.clone();
+                                }
+                            }
+                        }
+                        _ => {}
+                    }
+                }
+                std::fs::write(work.join("manifest.json"), m.to_string()).unwrap();
+                read_bundle(&work)
+            },
+        )
+        .unwrap();
+}
