@@ -547,6 +547,20 @@ fn the_reference_cache_key_follows_scene_defaults() {
         "{}",
         other.reference_note
     );
+    // A damaged cache is an error naming the file, not a panic or a silent NaN.
+    for e in std::fs::read_dir(dir.path()).unwrap().flatten() {
+        let name = e.file_name().to_string_lossy().into_owned();
+        if name.starts_with("reference-") && name.ends_with("-emitter.npy") {
+            let mut b = std::fs::read(e.path()).unwrap();
+            let n = b.len();
+            b[n - 4..].copy_from_slice(&f32::NAN.to_le_bytes());
+            std::fs::write(e.path(), b).unwrap();
+        }
+    }
+    let err = run_convergence(&cfg("10"), dir.path(), &|_| {})
+        .err()
+        .expect("a damaged cache is refused");
+    assert!(err.contains("-emitter.npy") && err.contains("NaN"), "{err}");
 }
 
 #[test]

@@ -196,10 +196,11 @@ fn reference(cfg: &ConvergenceConfig, dir: &Path, log: &dyn Fn(&str)) -> Result<
             let vol_path = dir.join(format!("reference-{key}.npy"));
             let em_path = dir.join(format!("reference-{key}-emitter.npy"));
             if vol_path.is_file() && em_path.is_file() {
-                let v: Array4<f32> = ndarray_npy::read_npy(&vol_path)
-                    .map_err(|e| format!("{}: {e}", vol_path.display()))?;
-                let em: Array2<f32> = ndarray_npy::read_npy(&em_path)
-                    .map_err(|e| format!("{}: {e}", em_path.display()))?;
+                // Checked reads: a damaged cache is an error naming the file.
+                let v = super::volume::load_volume(&vol_path)
+                    .map_err(|e| e.to_string())?
+                    .volume;
+                let em = read_emitter(&em_path, v.shape()[0], v.shape()[1])?;
                 log(&format!("reusing cached reference {}", vol_path.display()));
                 return Ok((
                     v,
@@ -372,6 +373,29 @@ fn fill_speedups(rows: &mut [Row]) {
             r.speedup_independent[region as usize] = speedup(&baseline);
         }
     }
+}
+
+/// A cached (H, W) f32 emitter G-buffer: header, size and values checked (fractions in
+/// [0, 1]) before use.
+fn read_emitter(path: &Path, h: usize, w: usize) -> Result<Array2<f32>, String> {
+    use crate::bundle::npy;
+    let err = |e: String| format!("{}: {e}", path.display());
+    let f = npy::open(path).map_err(err)?;
+    f.header.expect::<f32>(Some(&[h, w])).map_err(err)?;
+    let data = f
+        .read::<f32>(
+            |s, b| {
+                npy::first_bad(
+                    s,
+                    b,
+                    |_, v| (0.0..=1.0).contains(&v),
+                    |_, v| format!("is {}, not a fraction", npy::show(v.into())),
+                )
+            },
+            &["y", "x"],
+        )
+        .map_err(err)?;
+    Array2::from_shape_vec((h, w), data).map_err(|e| err(e.to_string()))
 }
 
 fn write_npy_atomic<A: ndarray_npy::WritableElement, D: ndarray::Dimension>(
