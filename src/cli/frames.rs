@@ -1,6 +1,7 @@
 //! `tstat frames VOLUME --out DIR`: tone-mapped PNG frames with one global exposure, an
 //! animated GIF and a streak image.
 
+use super::util::{arg, check_outputs, Kind};
 use crate::bundle::write::write_atomically;
 use crate::bundle::{Bundle, BundleError};
 use crate::report::volume::load_volume;
@@ -64,7 +65,11 @@ pub fn run(a: FramesArgs) -> anyhow::Result<()> {
     if let Some(h) = a.bin_width_opl {
         ensure!(h > 0.0, "--bin-width-opl must be positive");
     }
-    crate::bundle::write::check_output(&a.out, a.force)?;
+    let mut inputs = vec![arg("volume", &a.volume)];
+    if let Some(b) = &a.bundle {
+        inputs.push(arg("--bundle", b));
+    }
+    check_outputs(&inputs, &[(arg("--out", &a.out), Kind::Dir)], a.force)?;
     let loaded = load_volume(&a.volume)?;
     let v = loaded.volume;
     let axis = if a.volume.is_dir() {

@@ -1,7 +1,9 @@
 //! `tstat render SCENE.xml --out NAME.tstats`: render and write a statistics bundle.
 
-use super::util::{check_memory, disk_size, human_bytes, parse_bytes, with_threads};
-use crate::bundle::write::{check_output, write_bundle, BundleMeta};
+use super::util::{
+    arg, check_memory, check_outputs, disk_size, human_bytes, parse_bytes, with_threads, Kind,
+};
+use crate::bundle::write::{write_bundle, BundleMeta};
 use crate::render::{render, PixelSampling, RenderSettings};
 use crate::scene::{Overrides, Scene};
 use crate::stats::accumulators::Accumulators;
@@ -128,7 +130,11 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
         "--unit-m must be positive"
     );
     let overrides = a.scene_args.overrides()?;
-    check_output(&a.out, a.force)?;
+    check_outputs(
+        &[arg("scene", &a.scene)],
+        &[(arg("--out", &a.out), Kind::Dir)],
+        a.force,
+    )?;
     let scene = Scene::load(&a.scene, &overrides)?;
     let film = &scene.film;
 

@@ -3,6 +3,7 @@
 
 use super::denoise::{BaseFilterArgs, FilterArgs, MethodArg};
 use super::render::SceneArgs;
+use super::util::{arg, Arg, ReportDir};
 use crate::denoise::critical::Threshold;
 use crate::denoise::tstat::TstatParams;
 use crate::denoise::Method;
@@ -36,7 +37,7 @@ use crate::report::sweep::{run_sweep, SweepConfig};
 use crate::report::table::{num, write_text, Table};
 use crate::report::volume::load_volume;
 use crate::stats::Transform;
-use anyhow::{anyhow, bail, ensure, Context};
+use anyhow::{anyhow, bail, ensure};
 use clap::{Args, Subcommand};
 use std::path::{Path, PathBuf};
 
@@ -167,23 +168,6 @@ fn parse_list<T: std::str::FromStr>(flag: &str, s: &str) -> anyhow::Result<Vec<T
     Ok(v)
 }
 
-/// Creates `dir` if needed; refuses to replace any of `files` there without --force.
-fn prepare_out(dir: &Path, files: &[&str], force: bool) -> anyhow::Result<()> {
-    if dir.exists() && !dir.is_dir() {
-        bail!("{}: exists and is not a directory", dir.display());
-    }
-    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-    if !force {
-        if let Some(f) = files.iter().find(|f| dir.join(f).exists()) {
-            bail!(
-                "{}: already exists (use --force to replace it)",
-                dir.join(f).display()
-            );
-        }
-    }
-    Ok(())
-}
-
 /// Column names `{rmse,relmse,psnr_db}_{region}` for every region.
 fn metrics_header() -> Vec<String> {
     Region::ALL
@@ -215,11 +199,22 @@ fn run_compare(a: CompareArgs) -> anyhow::Result<()> {
             .split_once('=')
             .ok_or_else(|| anyhow!("--input {spec}: expected LABEL=FILE"))?;
         ensure!(!label.is_empty(), "--input {spec}: the label is empty");
+        ensure!(!file.is_empty(), "--input {spec}: the file is empty");
         inputs.push((label.to_string(), PathBuf::from(file)));
     }
-    if let Some(d) = &a.out {
-        prepare_out(d, &files, a.force)?;
-    }
+    let mut args: Vec<Arg> = vec![arg("--reference", &a.reference)];
+    args.extend(inputs.iter().map(|(l, f)| arg(format!("--input {l}="), f)));
+    let out = match &a.out {
+        Some(d) => Some(ReportDir::prepare(
+            "--out",
+            d,
+            &files,
+            |_| false,
+            &args,
+            a.force,
+        )?),
+        None => None,
+    };
     let reference = load_volume(&a.reference)?;
     let mut mask = reference.no_light_mask.clone();
     let mut header = vec!["input".to_string()];
@@ -260,7 +255,9 @@ fn run_compare(a: CompareArgs) -> anyhow::Result<()> {
         }
     );
     print!("{}\n{note}", table.markdown());
-    if let Some(d) = &a.out {
+    if let Some(mut out) = out {
+        let d = out.create()?.to_path_buf();
+        let d = &d;
         write_text(&d.join("metrics.csv"), &table.csv()).map_err(|e| anyhow!(e))?;
         write_text(
             &d.join("metrics.md"),
@@ -268,6 +265,7 @@ fn run_compare(a: CompareArgs) -> anyhow::Result<()> {
         )
         .map_err(|e| anyhow!(e))?;
         write_per_bin(d, "per_bin", &per_bin, "per-bin RMSE")?;
+        out.finish();
         println!(
             "wrote {}/{{metrics.csv, metrics.md, per_bin.csv, per_bin.png}}",
             d.display()
@@ -360,7 +358,14 @@ fn run_conv(a: ConvergenceArgs) -> anyhow::Result<()> {
             }
         },
     };
-    prepare_out(&a.out, &files, a.force)?;
+    let mut args = vec![arg("scene", &a.scene)];
+    if let Some(r) = &a.reference {
+        args.push(arg("--reference", r));
+    }
+    // The cached reference renders are this command's files too.
+    let is_cache = |n: &str| n.starts_with("reference-") && n.ends_with(".npy");
+    let mut out = ReportDir::prepare("--out", &a.out, &files, is_cache, &args, a.force)?;
+    out.create()?;
     let result = run_convergence(&cfg, &a.out, &|m| eprintln!("{m}")).map_err(|e| anyhow!(e))?;
     let md = convergence_markdown(&a, &cfg, &result);
     let mut header: Vec<String> = ["spp", "method", "render_s", "denoise_s", "total_s"]
@@ -444,6 +449,7 @@ fn run_conv(a: ConvergenceArgs) -> anyhow::Result<()> {
         &per_bin,
         &format!("per-bin RMSE at {max_spp} spp"),
     )?;
+    out.finish();
     print!("{md}");
     println!("wrote {}/{{{}}}", a.out.display(), files.join(", "));
     Ok(())
@@ -637,7 +643,9 @@ fn run_sweep_cmd(a: SweepArgs) -> anyhow::Result<()> {
         bail!("radius {r}: at most 64 (as in `tstat denoise`)");
     }
     let base = a.base.params()?;
-    prepare_out(&a.out, &files, a.force)?;
+    let mut args = vec![arg("--reference", &a.reference)];
+    args.extend(a.bundles.iter().map(|b| arg("bundle", b)));
+    let mut out = ReportDir::prepare("--out", &a.out, &files, |_| false, &args, a.force)?;
     let reference = load_volume(&a.reference)?;
     let cfg = SweepConfig {
         bundles: a.bundles.clone(),
@@ -679,6 +687,7 @@ fn run_sweep_cmd(a: SweepArgs) -> anyhow::Result<()> {
             num(p.error.all.relmse),
         ]);
     }
+    out.create()?;
     write_text(&a.out.join("sweep.csv"), &t.csv()).map_err(|e| anyhow!(e))?;
     let md = format!(
         "# Sweep (sorted by RMSE, best first)\n\nRatios are to the noisy mean's RMSE over the same region: all voxels, pixels that see a light directly, the rest.\n\n{}",
@@ -744,6 +753,7 @@ fn run_sweep_cmd(a: SweepArgs) -> anyhow::Result<()> {
         },
         Scale::Linear,
     )?;
+    out.finish();
     print!("{md}");
     println!(
         "wrote {}/{{sweep.csv, sweep.md, sweep.png}}",

@@ -6,8 +6,8 @@
 use super::denoise::FilterArgs;
 use super::frames::axis_of;
 use super::render::SceneArgs;
-use super::util::{human_bytes, with_threads};
-use crate::bundle::write::{check_output, write_atomically, write_bundle, BundleMeta};
+use super::util::{arg, check_outputs, human_bytes, with_threads, Kind};
+use crate::bundle::write::{write_atomically, write_bundle, BundleMeta};
 use crate::bundle::{Bundle, BundleError};
 use crate::denoise::denoise_bundle;
 use crate::render::{render, RenderSettings};
@@ -59,7 +59,8 @@ pub fn run(a: RunArgs) -> anyhow::Result<()> {
         .map_err(|e: String| anyhow!("--transform: {e}"))?;
     let params = a.filter.params()?;
     let overrides = a.scene_args.overrides()?;
-    check_output(&a.out, a.force)?;
+    let inputs: Vec<_> = a.scene.iter().map(|p| arg("scene", p)).collect();
+    check_outputs(&inputs, &[(arg("--out", &a.out), Kind::Dir)], a.force)?;
     let started = std::time::Instant::now();
     // Everything goes to a temporary directory that is renamed when complete.
     write_atomically(&a.out, a.force, |tmp| {
