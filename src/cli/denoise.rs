@@ -1,7 +1,7 @@
 //! `tstat denoise NAME.tstats --out denoised.npy`: the statistical spatio-temporal filter.
 
 use super::export::write_exr_rgb;
-use super::util::{arg, check_outputs, human_bytes, with_threads, Kind};
+use super::util::{arg, check_outputs, human_bytes, threads, with_threads, Kind};
 use crate::bundle::write::{stage, Staged};
 use crate::bundle::{Bundle, BundleError};
 use crate::denoise::base_filter::{BaseKind, Sigmas};
@@ -188,8 +188,8 @@ pub struct DenoiseArgs {
     #[arg(long)]
     pub exr: Option<PathBuf>,
     /// Worker threads (default: all cores). The output does not depend on it.
-    #[arg(long)]
-    pub threads: Option<usize>,
+    #[arg(long, allow_negative_numbers = true)]
+    pub threads: Option<i64>,
     /// Replace existing outputs.
     #[arg(long)]
     pub force: bool,
@@ -218,6 +218,7 @@ pub fn run(a: DenoiseArgs) -> anyhow::Result<()> {
     if a.out.extension().and_then(|e| e.to_str()) != Some("npy") {
         bail!("--out {}: the volume is written as .npy", a.out.display());
     }
+    let threads = threads(a.threads)?;
     let mut outputs = vec![(arg("--out", &a.out), Kind::File)];
     if let Some(d) = &a.exr {
         outputs.push((arg("--exr", d), Kind::Dir));
@@ -238,7 +239,7 @@ pub fn run(a: DenoiseArgs) -> anyhow::Result<()> {
         ProgressStyle::with_template("{bar:40} {percent:>3}% pixels, ETA {eta}")
             .expect("valid template"),
     );
-    let result = with_threads(a.threads, || {
+    let result = with_threads(threads, || {
         denoise_bundle(&bundle, &params, &|n| bar.inc(n))
     })??;
     bar.finish_and_clear();

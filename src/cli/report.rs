@@ -3,7 +3,7 @@
 
 use super::denoise::{BaseFilterArgs, FilterArgs, MethodArg};
 use super::render::SceneArgs;
-use super::util::{arg, Arg, ReportDir};
+use super::util::{arg, float_list, int_flag, int_list, seed, split_list, Arg, ReportDir};
 use crate::denoise::critical::Threshold;
 use crate::denoise::tstat::TstatParams;
 use crate::denoise::Method;
@@ -78,7 +78,7 @@ pub struct ConvergenceArgs {
     /// Mitsuba 3 XML scene.
     pub scene: PathBuf,
     /// Comma-separated spp list, e.g. 16,32,64,128.
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     pub spp: String,
     /// Output directory (tables, plots, and the cached reference).
     #[arg(long)]
@@ -87,11 +87,11 @@ pub struct ConvergenceArgs {
     #[arg(long, conflicts_with = "reference_spp")]
     pub reference: Option<PathBuf>,
     /// Render the reference at this spp (default 4096), cached in --out.
-    #[arg(long)]
-    pub reference_spp: Option<u32>,
+    #[arg(long, allow_negative_numbers = true)]
+    pub reference_spp: Option<i64>,
     /// Base seed: run k uses seed + 1 + k, the reference seed + 1000003.
-    #[arg(long, default_value_t = 0)]
-    pub seed: u64,
+    #[arg(long, default_value_t = 0, allow_negative_numbers = true)]
+    pub seed: i128,
     /// Sample transform for the renders.
     #[arg(long, default_value = "identity")]
     pub transform: String,
@@ -116,25 +116,25 @@ pub struct SweepArgs {
     #[arg(long, value_enum, default_value = "tstat")]
     pub method: MethodArg,
     /// Published: comma-separated gammas [default: 0.01,0.05,0.1,0.2].
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     pub gamma: Option<String>,
     /// tstat: comma-separated per-voxel bounds t2_max [default: 4].
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     pub t2_max: Option<String>,
     /// tstat: comma-separated patch bounds t2_patch [default: 1,1.5,2].
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     pub t2_patch: Option<String>,
     /// tstat: comma-separated emitter radii [default: 4r].
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     pub emitter_radius: Option<String>,
     /// tstat: depth alignment settings to try: on, off or on,off [default: on].
     #[arg(long)]
     pub depth_align: Option<String>,
     /// Comma-separated spatial radii.
-    #[arg(long, default_value = "3,5,10")]
+    #[arg(long, default_value = "3,5,10", allow_hyphen_values = true)]
     pub radius: String,
     /// Comma-separated temporal radii.
-    #[arg(long, default_value = "0,1,2")]
+    #[arg(long, default_value = "0,1,2", allow_hyphen_values = true)]
     pub temporal_radius: String,
     /// Output directory for sweep.csv, sweep.md, sweep.png.
     #[arg(long)]
@@ -154,18 +154,15 @@ pub fn run(a: ReportArgs) -> anyhow::Result<()> {
     }
 }
 
-fn parse_list<T: std::str::FromStr>(flag: &str, s: &str) -> anyhow::Result<Vec<T>> {
-    let v: Vec<T> = s
-        .split(',')
-        .map(|t| t.trim())
-        .filter(|t| !t.is_empty())
-        .map(|t| {
-            t.parse::<T>()
-                .map_err(|_| anyhow!("{flag} {s}: '{t}' is not a valid value"))
-        })
-        .collect::<anyhow::Result<_>>()?;
-    ensure!(!v.is_empty(), "{flag}: the list is empty");
-    Ok(v)
+/// The largest spatial or temporal radius (as in `tstat denoise`).
+const MAX_RADIUS: i64 = 64;
+
+/// A list of radii in `0..=MAX_RADIUS`.
+fn radius_list(flag: &str, s: &str) -> anyhow::Result<Vec<usize>> {
+    Ok(int_list(flag, s, 0, MAX_RADIUS)?
+        .into_iter()
+        .map(|r| r as usize)
+        .collect())
 }
 
 /// Column names `{rmse,relmse,psnr_db}_{region}` for every region.
@@ -330,21 +327,22 @@ fn run_conv(a: ConvergenceArgs) -> anyhow::Result<()> {
         "error_per_bin.png",
         "error_per_bin.csv",
     ];
-    let spp_list: Vec<u32> = parse_list("--spp", &a.spp)?;
+    let spp_list = int_list("--spp", &a.spp, i64::MIN, u32::MAX as i64)?;
     if let Some(s) = spp_list.iter().find(|&&s| s < 2) {
-        bail!("--spp: {s} is below 2; at least 2 samples per pixel are needed");
+        bail!("--spp {s}: must be at least 2 (below 2 samples per pixel no variance can be estimated)");
     }
+    let spp_list: Vec<u32> = spp_list.into_iter().map(|s| s as u32).collect();
+    let base_seed = seed(Some(a.seed))?.unwrap_or(0);
     let transform: Transform = a
         .transform
         .parse()
         .map_err(|e: String| anyhow!("--transform: {e}"))?;
-    let mut overrides = a.scene_args.overrides()?;
-    overrides.spp = None;
+    let overrides = a.scene_args.overrides(None)?;
     let cfg = ConvergenceConfig {
         scene: a.scene.clone(),
         overrides,
         spp_list,
-        seed: a.seed,
+        seed: base_seed,
         transform,
         pixel_sampling: a.scene_args.pixel_sampling,
         denoise: a.filter.params()?,
@@ -352,9 +350,8 @@ fn run_conv(a: ConvergenceArgs) -> anyhow::Result<()> {
         reference: match (&a.reference, a.reference_spp) {
             (Some(p), _) => ReferenceSource::Volume(p.clone()),
             (None, s) => {
-                let spp = s.unwrap_or(4096);
-                ensure!(spp >= 2, "--reference-spp must be at least 2");
-                ReferenceSource::Render { spp }
+                let spp = int_flag("--reference-spp", s.unwrap_or(4096), 2, u32::MAX as i64)?;
+                ReferenceSource::Render { spp: spp as u32 }
             }
         },
     };
@@ -576,7 +573,7 @@ fn sweep_methods(a: &SweepArgs) -> anyhow::Result<(Vec<(Method, f64)>, &'static 
                 "--t2-max, --t2-patch, --emitter-radius and --depth-align belong to --method tstat"
             );
             let gammas = a.gamma.as_deref().unwrap_or("0.01,0.05,0.1,0.2");
-            for g in parse_list::<f64>("--gamma", gammas)? {
+            for g in float_list("--gamma", gammas)? {
                 let t = Threshold::Gamma(g);
                 t.validate().map_err(|e| anyhow!(e))?;
                 out.push((Method::Published(t), g));
@@ -590,23 +587,22 @@ fn sweep_methods(a: &SweepArgs) -> anyhow::Result<(Vec<(Method, f64)>, &'static 
             );
             let radii: Vec<Option<usize>> = match &a.emitter_radius {
                 None => vec![None],
-                Some(l) => parse_list::<usize>("--emitter-radius", l)?
+                Some(l) => int_list("--emitter-radius", l, 0, i64::MAX)?
                     .into_iter()
-                    .map(Some)
+                    .map(|r| Some(r as usize))
                     .collect(),
             };
             let aligns: Vec<bool> =
-                parse_list::<String>("--depth-align", a.depth_align.as_deref().unwrap_or("on"))?
-                    .iter()
-                    .map(|v| match v.as_str() {
+                split_list("--depth-align", a.depth_align.as_deref().unwrap_or("on"))?
+                    .into_iter()
+                    .map(|v| match v {
                         "on" => Ok(true),
                         "off" => Ok(false),
                         _ => Err(anyhow!("--depth-align {v}: use on, off or on,off")),
                     })
                     .collect::<anyhow::Result<_>>()?;
-            let t2_patches =
-                parse_list::<f64>("--t2-patch", a.t2_patch.as_deref().unwrap_or("1,1.5,2"))?;
-            for t2_max in parse_list::<f64>("--t2-max", a.t2_max.as_deref().unwrap_or("4"))? {
+            let t2_patches = float_list("--t2-patch", a.t2_patch.as_deref().unwrap_or("1,1.5,2"))?;
+            for t2_max in float_list("--t2-max", a.t2_max.as_deref().unwrap_or("4"))? {
                 for &t2_patch in &t2_patches {
                     for &emitter_radius in &radii {
                         for &depth_align in &aligns {
@@ -637,11 +633,8 @@ fn ratio(m: Option<Metrics>, noisy: Option<Metrics>) -> String {
 fn run_sweep_cmd(a: SweepArgs) -> anyhow::Result<()> {
     let files = ["sweep.csv", "sweep.md", "sweep.png"];
     let (methods, x_name) = sweep_methods(&a)?;
-    let radii: Vec<usize> = parse_list("--radius", &a.radius)?;
-    let rts: Vec<usize> = parse_list("--temporal-radius", &a.temporal_radius)?;
-    if let Some(r) = radii.iter().chain(&rts).find(|&&r| r > 64) {
-        bail!("radius {r}: at most 64 (as in `tstat denoise`)");
-    }
+    let radii = radius_list("--radius", &a.radius)?;
+    let rts = radius_list("--temporal-radius", &a.temporal_radius)?;
     let base = a.base.params()?;
     let mut args = vec![arg("--reference", &a.reference)];
     args.extend(a.bundles.iter().map(|b| arg("bundle", b)));

@@ -1,8 +1,8 @@
-//! Small helpers shared by subcommands: sizes, memory, thread pools, output paths
-//! (checked against each other and the inputs before anything is written) and report
-//! directories.
+//! Small helpers shared by subcommands: sizes, memory, thread pools, numeric flags,
+//! output paths (checked against each other and the inputs before anything is
+//! written) and report directories.
 
-use anyhow::{anyhow, bail, ensure, Context};
+use anyhow::{anyhow, bail, ensure};
 use std::collections::HashSet;
 use std::ffi::OsString;
 use std::path::{Component, Path, PathBuf};
@@ -59,18 +59,116 @@ pub fn check_memory(need: u64, limit: Option<u64>) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Runs `f` on a rayon pool of `threads` threads (all cores when `None`).
+/// Runs `f` on a rayon pool of `threads` threads (all cores when `None`); check the
+/// flag first with [`threads`].
 pub fn with_threads<T: Send>(
     threads: Option<usize>,
     f: impl FnOnce() -> T + Send,
 ) -> anyhow::Result<T> {
     let mut b = rayon::ThreadPoolBuilder::new();
     if let Some(n) = threads {
-        anyhow::ensure!(n >= 1, "--threads must be at least 1");
+        ensure!(n >= 1, "--threads must be at least 1");
         b = b.num_threads(n);
     }
-    let pool = b.build().context("cannot start the thread pool")?;
+    // The build error already names its cause: no context chain (it would repeat it).
+    let pool = b
+        .build()
+        .map_err(|e| anyhow!("cannot start the worker threads: {e}"))?;
     Ok(pool.install(f))
+}
+
+// ---------------------------------------------------------------------------------
+// Numeric flags. They are parsed as wide signed numbers with negative literals allowed,
+// so that `--spp -3` reaches these checks and gets "--spp -3: must be at least 2"
+// instead of clap's "unexpected argument '-3'".
+
+/// The most worker threads `--threads` accepts (more only costs memory).
+pub const MAX_THREADS: i64 = 1024;
+/// The largest `--width`, `--height` and `--bins` (the memory check refuses far less;
+/// this only keeps the arithmetic on them far from overflow).
+pub const MAX_FILM_SIDE: i64 = 1_000_000;
+
+/// Checks a whole-number flag against `min..=max`.
+pub fn int_flag(flag: &str, v: i64, min: i64, max: i64) -> anyhow::Result<i64> {
+    ensure!(v >= min, "{flag} {v}: must be at least {min}");
+    ensure!(v <= max, "{flag} {v}: must be at most {max}");
+    Ok(v)
+}
+
+/// [`int_flag`] for an optional flag, converted to the type the program uses.
+pub fn opt_int<T: TryFrom<i64>>(
+    flag: &str,
+    v: Option<i64>,
+    min: i64,
+    max: i64,
+) -> anyhow::Result<Option<T>> {
+    v.map(|v| {
+        let v = int_flag(flag, v, min, max)?;
+        T::try_from(v).map_err(|_| anyhow!("{flag} {v}: out of range"))
+    })
+    .transpose()
+}
+
+/// `--threads`: 1 to [`MAX_THREADS`].
+pub fn threads(v: Option<i64>) -> anyhow::Result<Option<usize>> {
+    opt_int("--threads", v, 1, MAX_THREADS)
+}
+
+/// `--seed`: 0 to 2^64 - 1.
+pub fn seed(v: Option<i128>) -> anyhow::Result<Option<u64>> {
+    v.map(|s| {
+        u64::try_from(s).map_err(|_| anyhow!("--seed {s}: must be between 0 and {}", u64::MAX))
+    })
+    .transpose()
+}
+
+/// A flag that must be a positive finite number.
+pub fn positive(flag: &str, v: f64) -> anyhow::Result<f64> {
+    ensure!(
+        v > 0.0 && v.is_finite(),
+        "{flag} {v}: must be a positive finite number"
+    );
+    Ok(v)
+}
+
+/// A flag that must be a finite number.
+pub fn finite(flag: &str, v: f64) -> anyhow::Result<f64> {
+    ensure!(v.is_finite(), "{flag} {v}: must be a finite number");
+    Ok(v)
+}
+
+/// A comma-separated list of whole numbers in `min..=max` ("3,5,10").
+pub fn int_list(flag: &str, s: &str, min: i64, max: i64) -> anyhow::Result<Vec<i64>> {
+    let v = split_list(flag, s)?
+        .into_iter()
+        .map(|t| match t.parse::<i64>() {
+            Ok(v) => int_flag(flag, v, min, max),
+            Err(_) => bail!("{flag} {s}: '{t}' is not a whole number"),
+        })
+        .collect::<anyhow::Result<Vec<_>>>()?;
+    Ok(v)
+}
+
+/// A comma-separated list of finite numbers ("0.5,1,2").
+pub fn float_list(flag: &str, s: &str) -> anyhow::Result<Vec<f64>> {
+    split_list(flag, s)?
+        .into_iter()
+        .map(|t| match t.parse::<f64>() {
+            Ok(v) if v.is_finite() => Ok(v),
+            _ => bail!("{flag} {s}: '{t}' is not a finite number"),
+        })
+        .collect()
+}
+
+/// The non-empty items of a comma-separated list; an empty list is an error.
+pub fn split_list<'a>(flag: &str, s: &'a str) -> anyhow::Result<Vec<&'a str>> {
+    let v: Vec<&str> = s
+        .split(',')
+        .map(str::trim)
+        .filter(|t| !t.is_empty())
+        .collect();
+    ensure!(!v.is_empty(), "{flag}: the list is empty");
+    Ok(v)
 }
 
 // ---------------------------------------------------------------------------------
