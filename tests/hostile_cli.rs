@@ -190,8 +190,8 @@ const CASES: &[Case] = &[
     (&[R, "s.xml", "--out", "n.tstats", "--transform", "box-cox:nan"], Ours, "--transform"),
     // clap's usage errors: exit 2, the whole complaint on the first line.
     (&[R, "s.xml", "--out", "n.tstats", "--seed", "0x10"], Usage, "invalid value '0x10' for '--seed"),
-    (&[R, "s.xml", "--out", "n.tstats", "--pixel-sampling", "foo"], Usage, "invalid value 'foo' for '--pixel-sampling"),
-    (&[R], Usage, "required arguments were not provided"),
+    (&[R, "s.xml", "--out", "n.tstats", "--pixel-sampling", "foo"], Usage, "[possible values: stratified, independent]"),
+    (&[R], Usage, "required arguments were not provided: --out <OUT> <SCENE>"),
     (&[R, "s.xml", "--out", ""], Usage, "a value is required for '--out <OUT>'"),
     (&["rendr", "s.xml"], Usage, "unrecognized subcommand 'rendr'"),
     // Outputs that are, contain or sit inside an input, or another output.
