@@ -319,6 +319,42 @@ fn hostile_command_lines_fail_cleanly_and_leave_nothing() {
     );
 }
 
+/// A closed pipe on stdout (`tstat info B | head -0`) ends quietly; a full device is
+/// one error line. Neither panics.
+#[test]
+fn stdout_that_cannot_be_written_is_no_panic() {
+    let fx = fixture();
+    let (reader, writer) = std::io::pipe().unwrap();
+    drop(reader);
+    let out = Command::new(bin())
+        .current_dir(fx.path())
+        .args(["info", "b.tstats"])
+        .stdout(writer)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!err.contains("panicked"), "{err}");
+    assert_eq!(out.status.code(), Some(0), "{err}");
+    if Path::new("/dev/full").exists() {
+        let full = std::fs::OpenOptions::new()
+            .write(true)
+            .open("/dev/full")
+            .unwrap();
+        let out = Command::new(bin())
+            .current_dir(fx.path())
+            .args(["info", "b.tstats"])
+            .stdout(full)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{err}");
+        assert!(
+            err.starts_with("error: writing to standard output:") && err.lines().count() == 1,
+            "{err}"
+        );
+    }
+}
+
 /// The checks refuse only what is wrong: the same commands with distinct, valid
 /// outputs succeed, and a report into an existing directory adds its files and keeps
 /// what was there.

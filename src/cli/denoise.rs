@@ -256,7 +256,7 @@ pub fn run(a: DenoiseArgs) -> anyhow::Result<()> {
     if let Some(e) = exr {
         e.commit()?;
     }
-    println!(
+    say!(
         "denoised {} -> {} in {:.2} s (filter {:.2} s: {:.0} M voxel-neighbour evaluations/s){}",
         a.bundle.display(),
         a.out.display(),

@@ -93,7 +93,7 @@ pub fn run(a: ExportArgs) -> anyhow::Result<()> {
         lines.push(line);
     }
     for l in lines {
-        println!("{l}");
+        say!("{l}");
     }
     Ok(())
 }

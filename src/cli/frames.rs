@@ -125,7 +125,7 @@ pub fn run(a: FramesArgs) -> anyhow::Result<()> {
         Ok(())
     })
     .map_err(|e| anyhow!(e))?;
-    println!(
+    say!(
         "wrote {} frames to {}/frames/{}, streak image of row {streak_row} at {}/streak.png (exposure {:.4}{})",
         count,
         a.out.display(),

@@ -23,7 +23,7 @@ pub fn run(a: MergeArgs) -> anyhow::Result<()> {
     let inputs: Vec<_> = a.bundles.iter().map(|b| arg("bundle", b)).collect();
     check_outputs(&inputs, &[(arg("--out", &a.out), Kind::Dir)], a.force)?;
     let m = merge_bundles(&a.bundles, &a.out, a.force)?;
-    println!(
+    say!(
         "merged {} bundles into {}: {} spp (seeds {:?})",
         a.bundles.len(),
         a.out.display(),

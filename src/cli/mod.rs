@@ -1,5 +1,13 @@
 //! Command-line interface: one file per subcommand.
 
+/// `println!` that returns an error instead of panicking when stdout fails (see
+/// [`util::say`]); use inside functions returning `anyhow::Result`.
+macro_rules! say {
+    ($($arg:tt)*) => {
+        $crate::cli::util::say(format_args!("{}\n", format_args!($($arg)*)))?
+    };
+}
+
 mod denoise;
 mod export;
 mod frames;

@@ -180,7 +180,7 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
         pixel_sampling: settings.pixel_sampling,
     };
     write_bundle(&a.out, a.force, &scene, &meta, output).context("writing the bundle")?;
-    println!(
+    say!(
         "rendered {} in {:.2} s: {:.2} M paths/s, {:.2} M rays/s; bundle {} ({}){}",
         a.out.display(),
         seconds,

@@ -251,7 +251,7 @@ fn run_compare(a: CompareArgs) -> anyhow::Result<()> {
             " (no bundle given, so the split is unknown: not computed)"
         }
     );
-    print!("{}\n{note}", table.markdown());
+    super::util::say(format_args!("{}\n{note}", table.markdown()))?;
     if let Some(mut out) = out {
         let d = out.create()?.to_path_buf();
         let d = &d;
@@ -263,7 +263,7 @@ fn run_compare(a: CompareArgs) -> anyhow::Result<()> {
         .map_err(|e| anyhow!(e))?;
         write_per_bin(d, "per_bin", &per_bin, "per-bin RMSE")?;
         out.finish();
-        println!(
+        say!(
             "wrote {}/{{metrics.csv, metrics.md, per_bin.csv, per_bin.png}}",
             d.display()
         );
@@ -447,8 +447,8 @@ fn run_conv(a: ConvergenceArgs) -> anyhow::Result<()> {
         &format!("per-bin RMSE at {max_spp} spp"),
     )?;
     out.finish();
-    print!("{md}");
-    println!("wrote {}/{{{}}}", a.out.display(), files.join(", "));
+    super::util::say(format_args!("{md}"))?;
+    say!("wrote {}/{{{}}}", a.out.display(), files.join(", "));
     Ok(())
 }
 
@@ -747,8 +747,8 @@ fn run_sweep_cmd(a: SweepArgs) -> anyhow::Result<()> {
         Scale::Linear,
     )?;
     out.finish();
-    print!("{md}");
-    println!(
+    super::util::say(format_args!("{md}"))?;
+    say!(
         "wrote {}/{{sweep.csv, sweep.md, sweep.png}}",
         a.out.display()
     );

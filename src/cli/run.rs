@@ -89,15 +89,13 @@ pub fn run(a: RunArgs) -> anyhow::Result<()> {
     })
     .map_err(|e| anyhow!(e))?;
     let o = a.out.display();
-    println!("done in {:.1} s. In {o}/:", started.elapsed().as_secs_f64());
-    println!("  scene.tstats/     statistics bundle (tstat info {o}/scene.tstats)");
-    println!("  noisy.npy         noisy mean volume, f32 (H, W, T, 3)");
-    println!("  denoised.npy      denoised volume, f32 (H, W, T, 3)");
-    println!("  frames/           PNG frames, noisy | denoised, one exposure for all bins");
-    println!("  propagation.gif   the light propagating, noisy | denoised");
-    println!(
-        "  streak.png        streak image (x against time) of the middle row, noisy | denoised"
-    );
+    say!("done in {:.1} s. In {o}/:", started.elapsed().as_secs_f64());
+    say!("  scene.tstats/     statistics bundle (tstat info {o}/scene.tstats)");
+    say!("  noisy.npy         noisy mean volume, f32 (H, W, T, 3)");
+    say!("  denoised.npy      denoised volume, f32 (H, W, T, 3)");
+    say!("  frames/           PNG frames, noisy | denoised, one exposure for all bins");
+    say!("  propagation.gif   the light propagating, noisy | denoised");
+    say!("  streak.png        streak image (x against time) of the middle row, noisy | denoised");
     Ok(())
 }
 

@@ -1,6 +1,6 @@
 //! Small helpers shared by subcommands: sizes, memory, thread pools, numeric flags,
 //! output paths (checked against each other and the inputs before anything is
-//! written) and report directories.
+//! written), report directories, and printing to stdout.
 
 use anyhow::{anyhow, bail, ensure};
 use std::collections::HashSet;
@@ -511,6 +511,21 @@ impl Drop for ReportDir {
             // Only when empty: never removes anything this run did not write.
             let _ = std::fs::remove_dir(&self.path);
         }
+    }
+}
+
+// ---------------------------------------------------------------------------------
+// Standard output.
+
+/// Prints to stdout. A closed pipe (`tstat info B | head -1`) ends the printing quietly;
+/// any other failure (a full disk) is an error instead of a panic.
+pub fn say(args: std::fmt::Arguments) -> anyhow::Result<()> {
+    use std::io::Write;
+    let mut out = std::io::stdout().lock();
+    match out.write_fmt(args).and_then(|()| out.flush()) {
+        Ok(()) => Ok(()),
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Ok(()),
+        Err(e) => Err(anyhow!("writing to standard output: {e}")),
     }
 }
 
