@@ -247,6 +247,7 @@ const CASES: &[Case] = &[
     // keeps exactly what it held (the convergence cases fail after creating it).
     (&["report", "compare", "--reference", "b.tstats", "--input", "a=missing.npy", "--out", "cmp"], Ours, "missing.npy"),
     (&["report", "compare", "--reference", "b.tstats", "--input", "a=missing.npy", "--out", "existing"], Ours, "missing.npy"),
+    (&["report", "compare", "--reference", "b.tstats", "--input", "a=c.tstats", "--input", "a=vol.npy"], Ours, "the label a is given twice"),
     (&["report", "compare", "--reference", "b.tstats", "--input", "=c.tstats"], Ours, "the label is empty"),
     (&["report", "compare", "--reference", "b.tstats", "--input", "a=c.tstats", "--out", "file.txt"], Ours, "exists and is not a directory"),
     (&["report", "sweep", "c.tstats", "--reference", "missing.npy", "--out", "sw"], Ours, "missing.npy"),
@@ -387,4 +388,34 @@ fn valid_outputs_next_to_the_inputs_still_work() {
     tstat(&["frames", "vol.npy", "--out", "f"]);
     tstat(&["frames", "vol.npy", "--out", "f", "--force", "--every", "2"]);
     assert_eq!(std::fs::read_dir(d.join("f/frames")).unwrap().count(), 2);
+}
+
+/// Legal but suspicious: a time window the light never reaches renders, with a warning.
+#[test]
+fn an_empty_time_window_is_a_warning() {
+    let fx = fixture();
+    let out = Command::new(bin())
+        .current_dir(fx.path())
+        .args([
+            "render",
+            "s.xml",
+            "--out",
+            "late.tstats",
+            "--width",
+            "4",
+            "--spp",
+            "2",
+            "--bins",
+            "2",
+            "--start-opl",
+            "1000",
+        ])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(
+        err.contains("warning: nothing landed in the time window (OPL 1000 to"),
+        "{err}"
+    );
 }

@@ -173,6 +173,7 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
         output.rays,
         output.dropped_nonfinite,
     );
+    warn_if_empty(&output, film);
     let meta = BundleMeta {
         seed: settings.seed,
         transform,
@@ -195,4 +196,17 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
         }
     );
     Ok(())
+}
+
+/// Warns when no path deposited anything in the time window: legal (e.g. --max-depth 0,
+/// or a window placed before or after the light arrives) but an all-zero bundle.
+pub fn warn_if_empty(output: &crate::render::RenderOutput, film: &crate::scene::film::Film) {
+    if output.accum.nonzero.iter().all(|&c| c == 0) {
+        eprintln!(
+            "warning: nothing landed in the time window (OPL {} to {}, {} bins): the transient volume is all zero; check --start-opl, --bin-width-opl, --bins and max_depth",
+            film.start_opl,
+            film.start_opl + film.bins as f64 * film.bin_width_opl,
+            film.bins
+        );
+    }
 }

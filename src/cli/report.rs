@@ -197,6 +197,10 @@ fn run_compare(a: CompareArgs) -> anyhow::Result<()> {
             .ok_or_else(|| anyhow!("--input {spec}: expected LABEL=FILE"))?;
         ensure!(!label.is_empty(), "--input {spec}: the label is empty");
         ensure!(!file.is_empty(), "--input {spec}: the file is empty");
+        ensure!(
+            !inputs.iter().any(|(l, _)| l == label),
+            "--input {spec}: the label {label} is given twice"
+        );
         inputs.push((label.to_string(), PathBuf::from(file)));
     }
     let mut args: Vec<Arg> = vec![arg("--reference", &a.reference)];

@@ -72,8 +72,10 @@ pub fn run(a: RunArgs) -> anyhow::Result<()> {
         seed,
     };
     let started = std::time::Instant::now();
-    // Everything goes to a temporary directory that is renamed when complete.
-    write_atomically(&a.out, a.force, |tmp| {
+    // Everything goes to a temporary directory that is renamed when complete. The job's
+    // own error is returned as it is (not prefixed with the output directory).
+    let mut failure = None;
+    let written = write_atomically(&a.out, a.force, |tmp| {
         let io = |e: std::io::Error| BundleError::Io(tmp.to_path_buf(), e.to_string());
         std::fs::create_dir(tmp).map_err(io)?;
         let scene_path = match &a.scene {
@@ -84,10 +86,16 @@ pub fn run(a: RunArgs) -> anyhow::Result<()> {
                 p
             }
         };
-        job(&a, &opts, &scene_path, tmp, transform, &params, &overrides)
-            .map_err(|e| BundleError::Io(a.out.clone(), format!("{e:#}")))
-    })
-    .map_err(|e| anyhow!(e))?;
+        job(&a, &opts, &scene_path, tmp, transform, &params, &overrides).map_err(|e| {
+            let msg = format!("{e:#}");
+            failure = Some(e);
+            BundleError::Io(a.out.clone(), msg)
+        })
+    });
+    if let Some(e) = failure {
+        return Err(e);
+    }
+    written.map_err(|e| anyhow!(e))?;
     let o = a.out.display();
     say!("done in {:.1} s. In {o}/:", started.elapsed().as_secs_f64());
     say!("  scene.tstats/     statistics bundle (tstat info {o}/scene.tstats)");
@@ -136,6 +144,7 @@ fn job(
         pixel_sampling: a.scene_args.pixel_sampling,
     };
     let out = with_threads(o.threads, || render(&scene, &settings, &|_| {}))?;
+    super::render::warn_if_empty(&out, film);
     eprintln!(
         "rendered in {:.2} s ({:.2} M paths/s)",
         out.seconds,
