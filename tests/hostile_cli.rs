@@ -384,6 +384,29 @@ fn valid_outputs_next_to_the_inputs_still_work() {
     ]);
     assert!(d.join("existing/metrics.csv").is_file());
     assert_eq!(std::fs::read(d.join("existing/keep.txt")).unwrap(), b"keep");
+    // A volume against itself has no error to plot: the summary lists only what was
+    // written.
+    let out = Command::new(bin())
+        .current_dir(d)
+        .args([
+            "report",
+            "compare",
+            "--reference",
+            "vol.npy",
+            "--input",
+            "same=vol.npy",
+            "--out",
+            "same",
+        ])
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(!d.join("same/per_bin.png").exists());
+    assert!(
+        stdout.contains("wrote same/{metrics.csv, metrics.md, per_bin.csv}"),
+        "{stdout}"
+    );
     // --force replaces an earlier output of the same kind.
     tstat(&["frames", "vol.npy", "--out", "f"]);
     tstat(&["frames", "vol.npy", "--out", "f", "--force", "--every", "2"]);

@@ -165,6 +165,17 @@ fn radius_list(flag: &str, s: &str) -> anyhow::Result<Vec<usize>> {
         .collect())
 }
 
+/// "wrote DIR/{a, b}": the result files that were written (a plot with nothing to
+/// draw is not, and says so on stderr).
+fn wrote(dir: &Path, files: &[&str]) -> String {
+    let written: Vec<&str> = files
+        .iter()
+        .copied()
+        .filter(|f| dir.join(f).is_file())
+        .collect();
+    format!("wrote {}/{{{}}}", dir.display(), written.join(", "))
+}
+
 /// Column names `{rmse,relmse,psnr_db}_{region}` for every region.
 fn metrics_header() -> Vec<String> {
     Region::ALL
@@ -267,10 +278,7 @@ fn run_compare(a: CompareArgs) -> anyhow::Result<()> {
         .map_err(|e| anyhow!(e))?;
         write_per_bin(d, "per_bin", &per_bin, "per-bin RMSE")?;
         out.finish();
-        say!(
-            "wrote {}/{{metrics.csv, metrics.md, per_bin.csv, per_bin.png}}",
-            d.display()
-        );
+        say!("{}", wrote(d, &files));
     }
     Ok(())
 }
@@ -452,7 +460,7 @@ fn run_conv(a: ConvergenceArgs) -> anyhow::Result<()> {
     )?;
     out.finish();
     super::util::say(format_args!("{md}"))?;
-    say!("wrote {}/{{{}}}", a.out.display(), files.join(", "));
+    say!("{}", wrote(&a.out, &files));
     Ok(())
 }
 
@@ -752,9 +760,6 @@ fn run_sweep_cmd(a: SweepArgs) -> anyhow::Result<()> {
     )?;
     out.finish();
     super::util::say(format_args!("{md}"))?;
-    say!(
-        "wrote {}/{{sweep.csv, sweep.md, sweep.png}}",
-        a.out.display()
-    );
+    say!("{}", wrote(&a.out, &files));
     Ok(())
 }
