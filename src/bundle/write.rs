@@ -41,6 +41,36 @@ pub fn write_atomically(
     force: bool,
     write: impl FnOnce(&Path) -> Result<(), BundleError>,
 ) -> Result<(), BundleError> {
+    stage(final_path, force, write)?.commit()
+}
+
+/// An output written completely under a temporary sibling name, not yet in place:
+/// [`Staged::commit`] renames it; dropped uncommitted, it is deleted. A command with
+/// several outputs stages them all before committing any, so a failure in one leaves
+/// none of them behind.
+pub struct Staged {
+    tmp: PathBuf,
+    final_path: PathBuf,
+    name: String,
+    parent: PathBuf,
+    force: bool,
+    done: bool,
+}
+
+fn remove_any(p: &Path) {
+    let _ = if p.is_dir() {
+        std::fs::remove_dir_all(p)
+    } else {
+        std::fs::remove_file(p)
+    };
+}
+
+/// Writes `final_path`'s content under a temporary sibling name (see [`Staged`]).
+pub fn stage(
+    final_path: &Path,
+    force: bool,
+    write: impl FnOnce(&Path) -> Result<(), BundleError>,
+) -> Result<Staged, BundleError> {
     check_output(final_path, force)?;
     let name = final_path
         .file_name()
@@ -50,31 +80,68 @@ pub fn write_atomically(
     let parent = final_path
         .parent()
         .filter(|p| !p.as_os_str().is_empty())
-        .unwrap_or(Path::new("."));
+        .unwrap_or(Path::new("."))
+        .to_path_buf();
     let tmp = parent.join(format!(".{name}.partial-{}", std::process::id()));
-    let cleanup = |p: &Path| {
-        let _ = if p.is_dir() {
-            std::fs::remove_dir_all(p)
-        } else {
-            std::fs::remove_file(p)
-        };
+    remove_any(&tmp);
+    let staged = Staged {
+        tmp,
+        final_path: final_path.to_path_buf(),
+        name,
+        parent,
+        force,
+        done: false,
     };
-    cleanup(&tmp);
-    if let Err(e) = write(&tmp) {
-        cleanup(&tmp);
-        return Err(e);
+    write(&staged.tmp)?;
+    Ok(staged)
+}
+
+impl Staged {
+    /// Puts the output in place (replacing an older one only with `force`).
+    pub fn commit(mut self) -> Result<(), BundleError> {
+        self.done = true;
+        let final_path = &self.final_path;
+        let io = |e: std::io::Error| BundleError::Io(final_path.to_path_buf(), e.to_string());
+        let result = if final_path.exists() {
+            if !self.force {
+                Err(BundleError::Exists(final_path.clone()))
+            } else {
+                // --force: move the old output aside, put the new one in place, then delete.
+                let old = self
+                    .parent
+                    .join(format!(".{}.old-{}", self.name, std::process::id()));
+                std::fs::rename(final_path, &old)
+                    .map_err(io)
+                    .and_then(|()| {
+                        match std::fs::rename(&self.tmp, final_path) {
+                            Ok(()) => {
+                                remove_any(&old);
+                                Ok(())
+                            }
+                            Err(e) => {
+                                // Put the old output back rather than leave nothing.
+                                let _ = std::fs::rename(&old, final_path);
+                                Err(io(e))
+                            }
+                        }
+                    })
+            }
+        } else {
+            std::fs::rename(&self.tmp, final_path).map_err(io)
+        };
+        if result.is_err() {
+            remove_any(&self.tmp);
+        }
+        result
     }
-    let io = |e: std::io::Error| BundleError::Io(final_path.to_path_buf(), e.to_string());
-    if final_path.exists() {
-        // --force: move the old output aside, put the new one in place, then delete.
-        let old = parent.join(format!(".{name}.old-{}", std::process::id()));
-        std::fs::rename(final_path, &old).map_err(io)?;
-        std::fs::rename(&tmp, final_path).map_err(io)?;
-        cleanup(&old);
-    } else {
-        std::fs::rename(&tmp, final_path).map_err(io)?;
+}
+
+impl Drop for Staged {
+    fn drop(&mut self) {
+        if !self.done {
+            remove_any(&self.tmp);
+        }
     }
-    Ok(())
 }
 
 /// Writes one file through a temporary sibling and a rename, replacing an older file of

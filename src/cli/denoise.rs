@@ -1,8 +1,8 @@
 //! `tstat denoise NAME.tstats --out denoised.npy`: the statistical spatio-temporal filter.
 
 use super::export::write_exr_rgb;
-use super::util::{human_bytes, with_threads};
-use crate::bundle::write::{check_output, write_atomically};
+use super::util::{arg, check_outputs, human_bytes, threads, with_threads, Kind};
+use crate::bundle::write::{stage, Staged};
 use crate::bundle::{Bundle, BundleError};
 use crate::denoise::base_filter::{BaseKind, Sigmas};
 use crate::denoise::critical::Threshold;
@@ -188,16 +188,21 @@ pub struct DenoiseArgs {
     #[arg(long)]
     pub exr: Option<PathBuf>,
     /// Worker threads (default: all cores). The output does not depend on it.
-    #[arg(long)]
-    pub threads: Option<usize>,
+    #[arg(long, allow_negative_numbers = true)]
+    pub threads: Option<i64>,
     /// Replace existing outputs.
     #[arg(long)]
     pub force: bool,
 }
 
-/// Writes every bin of an (H, W, T, C) volume as `DIR/bin_NNNN.exr`, atomically.
-pub fn write_exr_bins(dir: &Path, volume: &Array4<f32>, force: bool) -> Result<(), BundleError> {
-    write_atomically(dir, force, |tmp| {
+/// Writes every bin of an (H, W, T, C) volume as `DIR/bin_NNNN.exr` under a temporary
+/// name; the caller commits it.
+pub fn stage_exr_bins(
+    dir: &Path,
+    volume: &Array4<f32>,
+    force: bool,
+) -> Result<Staged, BundleError> {
+    stage(dir, force, |tmp| {
         std::fs::create_dir(tmp).map_err(|e| BundleError::Io(tmp.to_path_buf(), e.to_string()))?;
         let digits = volume.shape()[2].to_string().len().max(4);
         for k in 0..volume.shape()[2] {
@@ -213,10 +218,12 @@ pub fn run(a: DenoiseArgs) -> anyhow::Result<()> {
     if a.out.extension().and_then(|e| e.to_str()) != Some("npy") {
         bail!("--out {}: the volume is written as .npy", a.out.display());
     }
-    check_output(&a.out, a.force)?;
+    let threads = threads(a.threads)?;
+    let mut outputs = vec![(arg("--out", &a.out), Kind::File)];
     if let Some(d) = &a.exr {
-        check_output(d, a.force)?;
+        outputs.push((arg("--exr", d), Kind::Dir));
     }
+    check_outputs(&[arg("bundle", &a.bundle)], &outputs, a.force)?;
     let bundle = Bundle::open(&a.bundle)?;
     let m = &bundle.manifest;
     eprintln!(
@@ -232,18 +239,24 @@ pub fn run(a: DenoiseArgs) -> anyhow::Result<()> {
         ProgressStyle::with_template("{bar:40} {percent:>3}% pixels, ETA {eta}")
             .expect("valid template"),
     );
-    let result = with_threads(a.threads, || {
+    let result = with_threads(threads, || {
         denoise_bundle(&bundle, &params, &|n| bar.inc(n))
     })??;
     bar.finish_and_clear();
-    write_atomically(&a.out, a.force, |tmp| {
+    // Both outputs are written completely before either is put in place.
+    let volume = stage(&a.out, a.force, |tmp| {
         ndarray_npy::write_npy(tmp, &result.volume)
             .map_err(|e| BundleError::Io(a.out.clone(), e.to_string()))
     })?;
-    if let Some(d) = &a.exr {
-        write_exr_bins(d, &result.volume, a.force)?;
+    let exr = match &a.exr {
+        Some(d) => Some(stage_exr_bins(d, &result.volume, a.force)?),
+        None => None,
+    };
+    volume.commit()?;
+    if let Some(e) = exr {
+        e.commit()?;
     }
-    println!(
+    say!(
         "denoised {} -> {} in {:.2} s (filter {:.2} s: {:.0} M voxel-neighbour evaluations/s){}",
         a.bundle.display(),
         a.out.display(),

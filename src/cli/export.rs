@@ -1,6 +1,7 @@
 //! `tstat export NAME.tstats --out noisy.npy [--steady steady.exr|.npy]`.
 
-use crate::bundle::write::write_atomically;
+use super::util::{arg, check_outputs, Kind};
+use crate::bundle::write::stage;
 use crate::bundle::{Bundle, BundleError};
 use anyhow::bail;
 use clap::Args;
@@ -41,9 +42,6 @@ pub fn run(a: ExportArgs) -> anyhow::Result<()> {
     if a.out.is_none() && a.steady.is_none() {
         bail!("nothing to export: give --out VOLUME.npy and/or --steady IMAGE.exr|.npy");
     }
-    for p in a.out.iter().chain(a.steady.iter()) {
-        crate::bundle::write::check_output(p, a.force)?;
-    }
     if let Some(out) = &a.out {
         if extension(out) != "npy" {
             bail!("--out {}: the volume is written as .npy", out.display());
@@ -54,26 +52,48 @@ pub fn run(a: ExportArgs) -> anyhow::Result<()> {
             bail!("--steady {}: use a .exr or .npy file name", s.display());
         }
     }
+    let mut outputs = Vec::new();
+    if let Some(out) = &a.out {
+        outputs.push((arg("--out", out), Kind::File));
+    }
+    if let Some(s) = &a.steady {
+        outputs.push((arg("--steady", s), Kind::File));
+    }
+    check_outputs(&[arg("bundle", &a.bundle)], &outputs, a.force)?;
     let bundle = Bundle::open(&a.bundle)?;
+    // Every output is written completely before any is put in place.
+    let mut staged = Vec::new();
     if let Some(out) = &a.out {
         let mean = bundle.noisy_mean()?;
-        write_atomically(out, a.force, |tmp| {
-            ndarray_npy::write_npy(tmp, &mean)
-                .map_err(|e| BundleError::Io(out.clone(), e.to_string()))
-        })?;
-        println!("wrote {} (f32 {:?})", out.display(), mean.shape());
+        staged.push((
+            stage(out, a.force, |tmp| {
+                ndarray_npy::write_npy(tmp, &mean)
+                    .map_err(|e| BundleError::Io(out.clone(), e.to_string()))
+            })?,
+            format!("wrote {} (f32 {:?})", out.display(), mean.shape()),
+        ));
     }
     if let Some(s) = &a.steady {
         let img = bundle.steady()?.mapv(|v| v as f32);
-        write_atomically(s, a.force, |tmp| {
-            if extension(s) == "exr" {
-                write_exr_rgb(tmp, &img)
-            } else {
-                ndarray_npy::write_npy(tmp, &img)
-                    .map_err(|e| BundleError::Io(s.clone(), e.to_string()))
-            }
-        })?;
-        println!("wrote {} (f32 {:?})", s.display(), img.shape());
+        staged.push((
+            stage(s, a.force, |tmp| {
+                if extension(s) == "exr" {
+                    write_exr_rgb(tmp, &img)
+                } else {
+                    ndarray_npy::write_npy(tmp, &img)
+                        .map_err(|e| BundleError::Io(s.clone(), e.to_string()))
+                }
+            })?,
+            format!("wrote {} (f32 {:?})", s.display(), img.shape()),
+        ));
+    }
+    let mut lines = Vec::new();
+    for (file, line) in staged {
+        file.commit()?;
+        lines.push(line);
+    }
+    for l in lines {
+        say!("{l}");
     }
     Ok(())
 }

@@ -1,6 +1,7 @@
 //! `tstat frames VOLUME --out DIR`: tone-mapped PNG frames with one global exposure, an
 //! animated GIF and a streak image.
 
+use super::util::{arg, check_outputs, finite, int_flag, positive, Kind};
 use crate::bundle::write::write_atomically;
 use crate::bundle::{Bundle, BundleError};
 use crate::report::volume::load_volume;
@@ -18,14 +19,14 @@ pub struct FramesArgs {
     #[arg(long)]
     pub out: PathBuf,
     /// Write every K-th bin.
-    #[arg(long, default_value_t = 1)]
-    pub every: usize,
+    #[arg(long, default_value_t = 1, allow_negative_numbers = true)]
+    pub every: i64,
     /// Also write an animated GIF of the frames.
     #[arg(long)]
     pub gif: bool,
     /// Row of the streak image (default: the middle row).
-    #[arg(long)]
-    pub streak_row: Option<usize>,
+    #[arg(long, allow_negative_numbers = true)]
+    pub streak_row: Option<i64>,
     /// Take the time axis from this bundle (for .npy volumes).
     #[arg(long)]
     pub bundle: Option<PathBuf>,
@@ -33,14 +34,14 @@ pub struct FramesArgs {
     #[arg(long, requires = "bin_width_opl", allow_negative_numbers = true)]
     pub start_opl: Option<f64>,
     /// Time axis for .npy volumes without --bundle: bin width in OPL.
-    #[arg(long, requires = "start_opl")]
+    #[arg(long, requires = "start_opl", allow_negative_numbers = true)]
     pub bin_width_opl: Option<f64>,
     /// Metres per scene unit (for picoseconds).
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
     pub unit_m: f64,
     /// Exposure multiplier (default: 1 / the 99.5th percentile luminance of the whole volume).
-    #[arg(long)]
-    pub exposure: Option<f32>,
+    #[arg(long, allow_negative_numbers = true)]
+    pub exposure: Option<f64>,
     /// Replace an existing output directory.
     #[arg(long)]
     pub force: bool,
@@ -56,15 +57,30 @@ pub fn axis_of(bundle: &Bundle) -> TimeAxis {
 }
 
 pub fn run(a: FramesArgs) -> anyhow::Result<()> {
-    ensure!(a.every >= 1, "--every must be at least 1");
-    ensure!(a.unit_m > 0.0, "--unit-m must be positive");
+    let every = int_flag("--every", a.every, 1, i64::MAX)? as usize;
+    positive("--unit-m", a.unit_m)?;
     if let Some(e) = a.exposure {
-        ensure!(e > 0.0 && e.is_finite(), "--exposure must be positive");
+        positive("--exposure", e)?;
+        ensure!(
+            (e as f32).is_finite() && e as f32 > 0.0,
+            "--exposure {e:e}: beyond the range of f32"
+        );
     }
     if let Some(h) = a.bin_width_opl {
-        ensure!(h > 0.0, "--bin-width-opl must be positive");
+        positive("--bin-width-opl", h)?;
     }
-    crate::bundle::write::check_output(&a.out, a.force)?;
+    if let Some(t0) = a.start_opl {
+        finite("--start-opl", t0)?;
+    }
+    let streak_row = match a.streak_row {
+        Some(r) => Some(int_flag("--streak-row", r, 0, i64::MAX)? as usize),
+        None => None,
+    };
+    let mut inputs = vec![arg("volume", &a.volume)];
+    if let Some(b) = &a.bundle {
+        inputs.push(arg("--bundle", b));
+    }
+    check_outputs(&inputs, &[(arg("--out", &a.out), Kind::Dir)], a.force)?;
     let loaded = load_volume(&a.volume)?;
     let v = loaded.volume;
     let axis = if a.volume.is_dir() {
@@ -87,16 +103,18 @@ pub fn run(a: FramesArgs) -> anyhow::Result<()> {
         })
     };
     let rows = v.shape()[0];
-    let streak_row = a.streak_row.unwrap_or(rows / 2);
+    let streak_row = streak_row.unwrap_or(rows / 2);
     ensure!(
         streak_row < rows,
         "--streak-row {streak_row}: the image has {rows} rows"
     );
     let req = FramesRequest {
-        every: a.every,
+        every,
         gif: a.gif,
         streak_row,
-        exposure: a.exposure.unwrap_or_else(|| global_exposure(v.view())),
+        exposure: a
+            .exposure
+            .map_or_else(|| global_exposure(v.view()), |e| e as f32),
         axis,
         caption: format!("streak image, row {streak_row}"),
     };
@@ -107,7 +125,7 @@ pub fn run(a: FramesArgs) -> anyhow::Result<()> {
         Ok(())
     })
     .map_err(|e| anyhow!(e))?;
-    println!(
+    say!(
         "wrote {} frames to {}/frames/{}, streak image of row {streak_row} at {}/streak.png (exposure {:.4}{})",
         count,
         a.out.display(),

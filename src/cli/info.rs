@@ -14,35 +14,40 @@ pub struct InfoArgs {
 pub fn run(a: InfoArgs) -> anyhow::Result<()> {
     let b = Bundle::open(&a.bundle)?;
     let m = &b.manifest;
-    println!("bundle      {}", a.bundle.display());
-    println!(
+    say!("bundle      {}", a.bundle.display());
+    say!(
         "format      {} v{} (written by {} {})",
-        m.format, m.version, m.program.name, m.program.version
+        m.format,
+        m.version,
+        m.program.name,
+        m.program.version
     );
-    println!("scene       {} (sha256 {})", m.scene.path, m.scene.sha256);
-    println!(
+    say!("scene       {} (sha256 {})", m.scene.path, m.scene.sha256);
+    say!(
         "film        {} x {} px, {} bins, channels {}",
         m.width,
         m.height,
         m.bins,
         m.channels.join(",")
     );
-    println!(
+    say!(
         "time axis   start {} OPL, bin width {} OPL ({:.4} ps per bin at {} m/unit)",
         m.start_opl,
         m.bin_width_opl,
         m.bin_width_seconds * 1e12,
         m.unit_m
     );
-    println!(
+    say!(
         "samples     {} spp, seed {}, max_depth {}",
-        m.spp, m.seed, m.max_depth
+        m.spp,
+        m.seed,
+        m.max_depth
     );
     if !m.merged_seeds.is_empty() {
-        println!("merged      from renders with seeds {:?}", m.merged_seeds);
+        say!("merged      from renders with seeds {:?}", m.merged_seeds);
     }
-    println!("transform   {}", m.transform);
-    println!(
+    say!("transform   {}", m.transform);
+    say!(
         "pixels      {} sub-pixel sampling{}",
         m.pixel_sampling,
         match m.pixel_sampling {
@@ -53,15 +58,19 @@ pub fn run(a: InfoArgs) -> anyhow::Result<()> {
             _ => " (variances are over-estimates)",
         }
     );
-    println!(
+    say!(
         "render      {:.3} s, {} non-finite contributions dropped",
-        m.render_seconds, m.dropped_nonfinite
+        m.render_seconds,
+        m.dropped_nonfinite
     );
-    println!("arrays");
+    say!("arrays");
     for arr in &m.arrays {
-        println!(
+        say!(
             "  {:<8} {:<12} {} {:?}",
-            arr.name, arr.file, arr.dtype, arr.shape
+            arr.name,
+            arr.file,
+            arr.dtype,
+            arr.shape
         );
     }
     Ok(())

@@ -1,8 +1,8 @@
 //! `tstat merge A.tstats B.tstats ... --out C.tstats`: one bundle from renders of the
 //! same scene and settings with different seeds (e.g. from several machines).
 
+use super::util::{arg, check_outputs, Kind};
 use crate::bundle::merge::merge_bundles;
-use crate::bundle::write::check_output;
 use clap::Args;
 use std::path::PathBuf;
 
@@ -20,9 +20,10 @@ pub struct MergeArgs {
 }
 
 pub fn run(a: MergeArgs) -> anyhow::Result<()> {
-    check_output(&a.out, a.force)?;
+    let inputs: Vec<_> = a.bundles.iter().map(|b| arg("bundle", b)).collect();
+    check_outputs(&inputs, &[(arg("--out", &a.out), Kind::Dir)], a.force)?;
     let m = merge_bundles(&a.bundles, &a.out, a.force)?;
-    println!(
+    say!(
         "merged {} bundles into {}: {} spp (seeds {:?})",
         a.bundles.len(),
         a.out.display(),

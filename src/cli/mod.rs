@@ -1,5 +1,13 @@
 //! Command-line interface: one file per subcommand.
 
+/// `println!` that returns an error instead of panicking when stdout fails (see
+/// [`util::say`]); use inside functions returning `anyhow::Result`.
+macro_rules! say {
+    ($($arg:tt)*) => {
+        $crate::cli::util::say(format_args!("{}\n", format_args!($($arg)*)))?
+    };
+}
+
 mod denoise;
 mod export;
 mod frames;
@@ -53,5 +61,65 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Info(a) => info::run(a),
         Command::Merge(a) => merge::run(a),
         Command::Report(a) => report::run(a),
+    }
+}
+
+/// One error as the user sees it: `error: ` and a single line (a message that spans
+/// lines is joined with "; ").
+pub fn error_line(e: &anyhow::Error) -> String {
+    let text = format!("{e:#}");
+    let parts: Vec<&str> = text
+        .lines()
+        .map(str::trim)
+        .filter(|l| !l.is_empty())
+        .collect();
+    format!("error: {}", parts.join("; "))
+}
+
+/// A clap usage error with its first paragraph on one line (e.g. "error: the following
+/// required arguments were not provided: --out <OUT>, <SCENE>" or "error: invalid value
+/// 'x' for '--pixel-sampling <PIXEL_SAMPLING>' [possible values: stratified,
+/// independent]"), then clap's usage and hints as it prints them.
+pub fn usage_error(e: &clap::Error) -> String {
+    let text = e.render().to_string();
+    let mut paragraphs = text.splitn(2, "\n\n");
+    let first = paragraphs.next().unwrap_or_default();
+    let mut lines = first.lines().map(str::trim).filter(|l| !l.is_empty());
+    let mut head = lines
+        .next()
+        .unwrap_or("error: invalid arguments")
+        .to_string();
+    for l in lines {
+        head.push(' ');
+        head.push_str(l);
+    }
+    match paragraphs.next() {
+        Some(rest) => format!("{head}\n\n{rest}"),
+        None => format!("{head}\n"),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::CommandFactory;
+
+    #[test]
+    fn the_command_line_definition_is_consistent() {
+        Cli::command().debug_assert();
+    }
+
+    #[test]
+    fn usage_errors_start_with_one_clear_line() {
+        let first = |args: &[&str]| {
+            let e = Cli::try_parse_from(args).unwrap_err();
+            usage_error(&e).lines().next().unwrap().to_string()
+        };
+        assert_eq!(
+            first(&["tstat", "render"]),
+            "error: the following required arguments were not provided: --out <OUT> <SCENE>"
+        );
+        assert!(first(&["tstat", "render", "s.xml", "--out", "o", "--pixel-sampling", "x"])
+            .contains("'x' for '--pixel-sampling <PIXEL_SAMPLING>' [possible values: stratified, independent]"));
     }
 }

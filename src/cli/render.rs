@@ -1,7 +1,10 @@
 //! `tstat render SCENE.xml --out NAME.tstats`: render and write a statistics bundle.
 
-use super::util::{check_memory, disk_size, human_bytes, parse_bytes, with_threads};
-use crate::bundle::write::{check_output, write_bundle, BundleMeta};
+use super::util::{
+    arg, check_memory, check_outputs, disk_size, finite, human_bytes, opt_int, parse_bytes,
+    positive, seed, threads, with_threads, Kind, MAX_FILM_SIDE,
+};
+use crate::bundle::write::{write_bundle, BundleMeta};
 use crate::render::{render, PixelSampling, RenderSettings};
 use crate::scene::{Overrides, Scene};
 use crate::stats::accumulators::Accumulators;
@@ -11,20 +14,19 @@ use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::PathBuf;
 
+/// The scene's film, time axis, path depth, `<default>`s and sub-pixel sampling (the
+/// spp is each command's own flag: `report convergence` takes a list).
 #[derive(Args, Debug, Clone)]
 pub struct SceneArgs {
-    /// Samples per pixel (overrides the sampler's sample_count; at least 2).
-    #[arg(long)]
-    pub spp: Option<u32>,
     /// Image width (keeps the aspect ratio unless --height is given too).
-    #[arg(long)]
-    pub width: Option<usize>,
+    #[arg(long, allow_negative_numbers = true)]
+    pub width: Option<i64>,
     /// Image height.
-    #[arg(long)]
-    pub height: Option<usize>,
+    #[arg(long, allow_negative_numbers = true)]
+    pub height: Option<i64>,
     /// Number of time bins.
-    #[arg(long)]
-    pub bins: Option<usize>,
+    #[arg(long, allow_negative_numbers = true)]
+    pub bins: Option<i64>,
     /// OPL at the start of bin 0 (scene units).
     #[arg(long, allow_negative_numbers = true)]
     pub start_opl: Option<f64>,
@@ -33,7 +35,7 @@ pub struct SceneArgs {
     pub bin_width_opl: Option<f64>,
     /// Longest path in segments (-1: unbounded).
     #[arg(long, allow_negative_numbers = true)]
-    pub max_depth: Option<i32>,
+    pub max_depth: Option<i64>,
     /// Set a scene <default>: -D name=value (repeatable).
     #[arg(short = 'D', value_name = "NAME=VALUE")]
     pub defines: Vec<String>,
@@ -45,23 +47,21 @@ pub struct SceneArgs {
 }
 
 impl SceneArgs {
-    pub fn overrides(&self) -> anyhow::Result<Overrides> {
+    /// The checked overrides, with `--spp` if given.
+    pub fn overrides(&self, spp: Option<i64>) -> anyhow::Result<Overrides> {
         let mut defaults = Vec::new();
         for d in &self.defines {
             let Some((k, v)) = d.split_once('=') else {
                 bail!("-D {d}: expected name=value");
             };
-            anyhow::ensure!(!k.is_empty(), "-D {d}: the name is empty");
+            anyhow::ensure!(!k.trim().is_empty(), "-D {d}: the name is empty");
             defaults.push((k.to_string(), v.to_string()));
         }
-        if let Some(s) = self.spp {
+        if let Some(s) = spp {
             anyhow::ensure!(
                 s >= 2,
-                "--spp {s}: at least 2 samples per pixel are needed to estimate a variance"
+                "--spp {s}: must be at least 2 (at least 2 samples per pixel are needed to estimate a variance)"
             );
-        }
-        if self.bins == Some(0) {
-            bail!("--bins must be at least 1");
         }
         if let Some(h) = self.bin_width_opl {
             anyhow::ensure!(
@@ -70,21 +70,17 @@ impl SceneArgs {
             );
         }
         if let Some(t0) = self.start_opl {
-            anyhow::ensure!(t0.is_finite(), "--start-opl must be finite");
+            finite("--start-opl", t0)?;
         }
-        anyhow::ensure!(
-            self.width != Some(0) && self.height != Some(0),
-            "--width and --height must be positive"
-        );
         Ok(Overrides {
             defaults,
-            spp: self.spp,
-            width: self.width,
-            height: self.height,
-            bins: self.bins,
+            spp: opt_int("--spp", spp, 2, u32::MAX as i64)?,
+            width: opt_int("--width", self.width, 1, MAX_FILM_SIDE)?,
+            height: opt_int("--height", self.height, 1, MAX_FILM_SIDE)?,
+            bins: opt_int("--bins", self.bins, 1, MAX_FILM_SIDE)?,
             start_opl: self.start_opl,
             bin_width_opl: self.bin_width_opl,
-            max_depth: self.max_depth,
+            max_depth: opt_int("--max-depth", self.max_depth, -1, i32::MAX as i64)?,
         })
     }
 }
@@ -96,22 +92,25 @@ pub struct RenderArgs {
     /// Output bundle directory (conventionally NAME.tstats).
     #[arg(long)]
     pub out: PathBuf,
+    /// Samples per pixel (overrides the sampler's sample_count; at least 2).
+    #[arg(long, allow_negative_numbers = true)]
+    pub spp: Option<i64>,
     #[command(flatten)]
     pub scene_args: SceneArgs,
     /// Random seed (default: the sampler's seed parameter, else 0).
-    #[arg(long)]
-    pub seed: Option<u64>,
+    #[arg(long, allow_negative_numbers = true)]
+    pub seed: Option<i128>,
     /// Worker threads (default: all cores). The bundle does not depend on it.
-    #[arg(long)]
-    pub threads: Option<usize>,
+    #[arg(long, allow_negative_numbers = true)]
+    pub threads: Option<i64>,
     /// Sample transform: identity, box-cox:LAMBDA or yeo-johnson:LAMBDA.
     #[arg(long, default_value = "identity")]
     pub transform: String,
     /// Metres per scene unit (for the seconds in the manifest).
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
     pub unit_m: f64,
     /// Refuse to render when the accumulators need more than this (e.g. 8G; default 75% of RAM).
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     pub max_memory: Option<String>,
     /// Replace an existing output.
     #[arg(long)]
@@ -123,20 +122,24 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
         .transform
         .parse()
         .map_err(|e: String| anyhow::anyhow!("--transform: {e}"))?;
-    anyhow::ensure!(
-        a.unit_m > 0.0 && a.unit_m.is_finite(),
-        "--unit-m must be positive"
-    );
-    let overrides = a.scene_args.overrides()?;
-    check_output(&a.out, a.force)?;
-    let scene = Scene::load(&a.scene, &overrides)?;
-    let film = &scene.film;
-
-    let need = Accumulators::bytes(film.height, film.width, film.bins, &transform);
+    positive("--unit-m", a.unit_m)?;
+    let overrides = a.scene_args.overrides(a.spp)?;
+    let threads = threads(a.threads)?;
+    let seed = seed(a.seed)?;
     let limit = match &a.max_memory {
         Some(s) => Some(parse_bytes(s).map_err(|e| anyhow::anyhow!("--max-memory: {e}"))?),
         None => None,
     };
+    check_outputs(
+        &[arg("scene", &a.scene)],
+        &[(arg("--out", &a.out), Kind::Dir)],
+        a.force,
+    )?;
+    let scene = Scene::load(&a.scene, &overrides)?;
+    let film = &scene.film;
+
+    let need = Accumulators::bytes(film.height, film.width, film.bins, &transform);
+    check_memory(need, limit)?;
     eprintln!(
         "{}: {}x{} px, {} bins, {} spp ({}), {} primitives; accumulators need {}",
         a.scene.display(),
@@ -148,11 +151,10 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
         scene.accel.primitive_count(),
         human_bytes(need)
     );
-    check_memory(need, limit)?;
 
     let settings = RenderSettings {
         spp: scene.spp,
-        seed: a.seed.unwrap_or(scene.seed),
+        seed: seed.unwrap_or(scene.seed),
         transform,
         pixel_sampling: a.scene_args.pixel_sampling,
     };
@@ -163,7 +165,7 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
         )
         .expect("valid template"),
     );
-    let output = with_threads(a.threads, || render(&scene, &settings, &|n| bar.inc(n)))?;
+    let output = with_threads(threads, || render(&scene, &settings, &|n| bar.inc(n)))?;
     bar.finish_and_clear();
     let (seconds, paths, rays, dropped) = (
         output.seconds,
@@ -171,6 +173,7 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
         output.rays,
         output.dropped_nonfinite,
     );
+    warn_if_empty(&output, film);
     let meta = BundleMeta {
         seed: settings.seed,
         transform,
@@ -178,7 +181,7 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
         pixel_sampling: settings.pixel_sampling,
     };
     write_bundle(&a.out, a.force, &scene, &meta, output).context("writing the bundle")?;
-    println!(
+    say!(
         "rendered {} in {:.2} s: {:.2} M paths/s, {:.2} M rays/s; bundle {} ({}){}",
         a.out.display(),
         seconds,
@@ -193,4 +196,17 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
         }
     );
     Ok(())
+}
+
+/// Warns when no path deposited anything in the time window: legal (e.g. --max-depth 0,
+/// or a window placed before or after the light arrives) but an all-zero bundle.
+pub fn warn_if_empty(output: &crate::render::RenderOutput, film: &crate::scene::film::Film) {
+    if output.accum.nonzero.iter().all(|&c| c == 0) {
+        eprintln!(
+            "warning: nothing landed in the time window (OPL {} to {}, {} bins): the transient volume is all zero; check --start-opl, --bin-width-opl, --bins and max_depth",
+            film.start_opl,
+            film.start_opl + film.bins as f64 * film.bin_width_opl,
+            film.bins
+        );
+    }
 }

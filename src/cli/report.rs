@@ -3,6 +3,7 @@
 
 use super::denoise::{BaseFilterArgs, FilterArgs, MethodArg};
 use super::render::SceneArgs;
+use super::util::{arg, float_list, int_flag, int_list, seed, split_list, Arg, ReportDir};
 use crate::denoise::critical::Threshold;
 use crate::denoise::tstat::TstatParams;
 use crate::denoise::Method;
@@ -36,7 +37,7 @@ use crate::report::sweep::{run_sweep, SweepConfig};
 use crate::report::table::{num, write_text, Table};
 use crate::report::volume::load_volume;
 use crate::stats::Transform;
-use anyhow::{anyhow, bail, ensure, Context};
+use anyhow::{anyhow, bail, ensure};
 use clap::{Args, Subcommand};
 use std::path::{Path, PathBuf};
 
@@ -77,7 +78,7 @@ pub struct ConvergenceArgs {
     /// Mitsuba 3 XML scene.
     pub scene: PathBuf,
     /// Comma-separated spp list, e.g. 16,32,64,128.
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     pub spp: String,
     /// Output directory (tables, plots, and the cached reference).
     #[arg(long)]
@@ -86,11 +87,11 @@ pub struct ConvergenceArgs {
     #[arg(long, conflicts_with = "reference_spp")]
     pub reference: Option<PathBuf>,
     /// Render the reference at this spp (default 4096), cached in --out.
-    #[arg(long)]
-    pub reference_spp: Option<u32>,
+    #[arg(long, allow_negative_numbers = true)]
+    pub reference_spp: Option<i64>,
     /// Base seed: run k uses seed + 1 + k, the reference seed + 1000003.
-    #[arg(long, default_value_t = 0)]
-    pub seed: u64,
+    #[arg(long, default_value_t = 0, allow_negative_numbers = true)]
+    pub seed: i128,
     /// Sample transform for the renders.
     #[arg(long, default_value = "identity")]
     pub transform: String,
@@ -115,25 +116,25 @@ pub struct SweepArgs {
     #[arg(long, value_enum, default_value = "tstat")]
     pub method: MethodArg,
     /// Published: comma-separated gammas [default: 0.01,0.05,0.1,0.2].
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     pub gamma: Option<String>,
     /// tstat: comma-separated per-voxel bounds t2_max [default: 4].
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     pub t2_max: Option<String>,
     /// tstat: comma-separated patch bounds t2_patch [default: 1,1.5,2].
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     pub t2_patch: Option<String>,
     /// tstat: comma-separated emitter radii [default: 4r].
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     pub emitter_radius: Option<String>,
     /// tstat: depth alignment settings to try: on, off or on,off [default: on].
     #[arg(long)]
     pub depth_align: Option<String>,
     /// Comma-separated spatial radii.
-    #[arg(long, default_value = "3,5,10")]
+    #[arg(long, default_value = "3,5,10", allow_hyphen_values = true)]
     pub radius: String,
     /// Comma-separated temporal radii.
-    #[arg(long, default_value = "0,1,2")]
+    #[arg(long, default_value = "0,1,2", allow_hyphen_values = true)]
     pub temporal_radius: String,
     /// Output directory for sweep.csv, sweep.md, sweep.png.
     #[arg(long)]
@@ -153,35 +154,26 @@ pub fn run(a: ReportArgs) -> anyhow::Result<()> {
     }
 }
 
-fn parse_list<T: std::str::FromStr>(flag: &str, s: &str) -> anyhow::Result<Vec<T>> {
-    let v: Vec<T> = s
-        .split(',')
-        .map(|t| t.trim())
-        .filter(|t| !t.is_empty())
-        .map(|t| {
-            t.parse::<T>()
-                .map_err(|_| anyhow!("{flag} {s}: '{t}' is not a valid value"))
-        })
-        .collect::<anyhow::Result<_>>()?;
-    ensure!(!v.is_empty(), "{flag}: the list is empty");
-    Ok(v)
+/// The largest spatial or temporal radius (as in `tstat denoise`).
+const MAX_RADIUS: i64 = 64;
+
+/// A list of radii in `0..=MAX_RADIUS`.
+fn radius_list(flag: &str, s: &str) -> anyhow::Result<Vec<usize>> {
+    Ok(int_list(flag, s, 0, MAX_RADIUS)?
+        .into_iter()
+        .map(|r| r as usize)
+        .collect())
 }
 
-/// Creates `dir` if needed; refuses to replace any of `files` there without --force.
-fn prepare_out(dir: &Path, files: &[&str], force: bool) -> anyhow::Result<()> {
-    if dir.exists() && !dir.is_dir() {
-        bail!("{}: exists and is not a directory", dir.display());
-    }
-    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-    if !force {
-        if let Some(f) = files.iter().find(|f| dir.join(f).exists()) {
-            bail!(
-                "{}: already exists (use --force to replace it)",
-                dir.join(f).display()
-            );
-        }
-    }
-    Ok(())
+/// "wrote DIR/{a, b}": the result files that were written (a plot with nothing to
+/// draw is not, and says so on stderr).
+fn wrote(dir: &Path, files: &[&str]) -> String {
+    let written: Vec<&str> = files
+        .iter()
+        .copied()
+        .filter(|f| dir.join(f).is_file())
+        .collect();
+    format!("wrote {}/{{{}}}", dir.display(), written.join(", "))
 }
 
 /// Column names `{rmse,relmse,psnr_db}_{region}` for every region.
@@ -215,11 +207,26 @@ fn run_compare(a: CompareArgs) -> anyhow::Result<()> {
             .split_once('=')
             .ok_or_else(|| anyhow!("--input {spec}: expected LABEL=FILE"))?;
         ensure!(!label.is_empty(), "--input {spec}: the label is empty");
+        ensure!(!file.is_empty(), "--input {spec}: the file is empty");
+        ensure!(
+            !inputs.iter().any(|(l, _)| l == label),
+            "--input {spec}: the label {label} is given twice"
+        );
         inputs.push((label.to_string(), PathBuf::from(file)));
     }
-    if let Some(d) = &a.out {
-        prepare_out(d, &files, a.force)?;
-    }
+    let mut args: Vec<Arg> = vec![arg("--reference", &a.reference)];
+    args.extend(inputs.iter().map(|(l, f)| arg(format!("--input {l}="), f)));
+    let out = match &a.out {
+        Some(d) => Some(ReportDir::prepare(
+            "--out",
+            d,
+            &files,
+            |_| false,
+            &args,
+            a.force,
+        )?),
+        None => None,
+    };
     let reference = load_volume(&a.reference)?;
     let mut mask = reference.no_light_mask.clone();
     let mut header = vec!["input".to_string()];
@@ -259,8 +266,10 @@ fn run_compare(a: CompareArgs) -> anyhow::Result<()> {
             " (no bundle given, so the split is unknown: not computed)"
         }
     );
-    print!("{}\n{note}", table.markdown());
-    if let Some(d) = &a.out {
+    super::util::say(format_args!("{}\n{note}", table.markdown()))?;
+    if let Some(mut out) = out {
+        let d = out.create()?.to_path_buf();
+        let d = &d;
         write_text(&d.join("metrics.csv"), &table.csv()).map_err(|e| anyhow!(e))?;
         write_text(
             &d.join("metrics.md"),
@@ -268,10 +277,8 @@ fn run_compare(a: CompareArgs) -> anyhow::Result<()> {
         )
         .map_err(|e| anyhow!(e))?;
         write_per_bin(d, "per_bin", &per_bin, "per-bin RMSE")?;
-        println!(
-            "wrote {}/{{metrics.csv, metrics.md, per_bin.csv, per_bin.png}}",
-            d.display()
-        );
+        out.finish();
+        say!("{}", wrote(d, &files));
     }
     Ok(())
 }
@@ -332,21 +339,22 @@ fn run_conv(a: ConvergenceArgs) -> anyhow::Result<()> {
         "error_per_bin.png",
         "error_per_bin.csv",
     ];
-    let spp_list: Vec<u32> = parse_list("--spp", &a.spp)?;
+    let spp_list = int_list("--spp", &a.spp, i64::MIN, u32::MAX as i64)?;
     if let Some(s) = spp_list.iter().find(|&&s| s < 2) {
-        bail!("--spp: {s} is below 2; at least 2 samples per pixel are needed");
+        bail!("--spp {s}: must be at least 2 (below 2 samples per pixel no variance can be estimated)");
     }
+    let spp_list: Vec<u32> = spp_list.into_iter().map(|s| s as u32).collect();
+    let base_seed = seed(Some(a.seed))?.unwrap_or(0);
     let transform: Transform = a
         .transform
         .parse()
         .map_err(|e: String| anyhow!("--transform: {e}"))?;
-    let mut overrides = a.scene_args.overrides()?;
-    overrides.spp = None;
+    let overrides = a.scene_args.overrides(None)?;
     let cfg = ConvergenceConfig {
         scene: a.scene.clone(),
         overrides,
         spp_list,
-        seed: a.seed,
+        seed: base_seed,
         transform,
         pixel_sampling: a.scene_args.pixel_sampling,
         denoise: a.filter.params()?,
@@ -354,13 +362,19 @@ fn run_conv(a: ConvergenceArgs) -> anyhow::Result<()> {
         reference: match (&a.reference, a.reference_spp) {
             (Some(p), _) => ReferenceSource::Volume(p.clone()),
             (None, s) => {
-                let spp = s.unwrap_or(4096);
-                ensure!(spp >= 2, "--reference-spp must be at least 2");
-                ReferenceSource::Render { spp }
+                let spp = int_flag("--reference-spp", s.unwrap_or(4096), 2, u32::MAX as i64)?;
+                ReferenceSource::Render { spp: spp as u32 }
             }
         },
     };
-    prepare_out(&a.out, &files, a.force)?;
+    let mut args = vec![arg("scene", &a.scene)];
+    if let Some(r) = &a.reference {
+        args.push(arg("--reference", r));
+    }
+    // The cached reference renders are this command's files too.
+    let is_cache = |n: &str| n.starts_with("reference-") && n.ends_with(".npy");
+    let mut out = ReportDir::prepare("--out", &a.out, &files, is_cache, &args, a.force)?;
+    out.create()?;
     let result = run_convergence(&cfg, &a.out, &|m| eprintln!("{m}")).map_err(|e| anyhow!(e))?;
     let md = convergence_markdown(&a, &cfg, &result);
     let mut header: Vec<String> = ["spp", "method", "render_s", "denoise_s", "total_s"]
@@ -444,8 +458,9 @@ fn run_conv(a: ConvergenceArgs) -> anyhow::Result<()> {
         &per_bin,
         &format!("per-bin RMSE at {max_spp} spp"),
     )?;
-    print!("{md}");
-    println!("wrote {}/{{{}}}", a.out.display(), files.join(", "));
+    out.finish();
+    super::util::say(format_args!("{md}"))?;
+    say!("{}", wrote(&a.out, &files));
     Ok(())
 }
 
@@ -570,7 +585,7 @@ fn sweep_methods(a: &SweepArgs) -> anyhow::Result<(Vec<(Method, f64)>, &'static 
                 "--t2-max, --t2-patch, --emitter-radius and --depth-align belong to --method tstat"
             );
             let gammas = a.gamma.as_deref().unwrap_or("0.01,0.05,0.1,0.2");
-            for g in parse_list::<f64>("--gamma", gammas)? {
+            for g in float_list("--gamma", gammas)? {
                 let t = Threshold::Gamma(g);
                 t.validate().map_err(|e| anyhow!(e))?;
                 out.push((Method::Published(t), g));
@@ -584,23 +599,22 @@ fn sweep_methods(a: &SweepArgs) -> anyhow::Result<(Vec<(Method, f64)>, &'static 
             );
             let radii: Vec<Option<usize>> = match &a.emitter_radius {
                 None => vec![None],
-                Some(l) => parse_list::<usize>("--emitter-radius", l)?
+                Some(l) => int_list("--emitter-radius", l, 0, i64::MAX)?
                     .into_iter()
-                    .map(Some)
+                    .map(|r| Some(r as usize))
                     .collect(),
             };
             let aligns: Vec<bool> =
-                parse_list::<String>("--depth-align", a.depth_align.as_deref().unwrap_or("on"))?
-                    .iter()
-                    .map(|v| match v.as_str() {
+                split_list("--depth-align", a.depth_align.as_deref().unwrap_or("on"))?
+                    .into_iter()
+                    .map(|v| match v {
                         "on" => Ok(true),
                         "off" => Ok(false),
                         _ => Err(anyhow!("--depth-align {v}: use on, off or on,off")),
                     })
                     .collect::<anyhow::Result<_>>()?;
-            let t2_patches =
-                parse_list::<f64>("--t2-patch", a.t2_patch.as_deref().unwrap_or("1,1.5,2"))?;
-            for t2_max in parse_list::<f64>("--t2-max", a.t2_max.as_deref().unwrap_or("4"))? {
+            let t2_patches = float_list("--t2-patch", a.t2_patch.as_deref().unwrap_or("1,1.5,2"))?;
+            for t2_max in float_list("--t2-max", a.t2_max.as_deref().unwrap_or("4"))? {
                 for &t2_patch in &t2_patches {
                     for &emitter_radius in &radii {
                         for &depth_align in &aligns {
@@ -631,13 +645,12 @@ fn ratio(m: Option<Metrics>, noisy: Option<Metrics>) -> String {
 fn run_sweep_cmd(a: SweepArgs) -> anyhow::Result<()> {
     let files = ["sweep.csv", "sweep.md", "sweep.png"];
     let (methods, x_name) = sweep_methods(&a)?;
-    let radii: Vec<usize> = parse_list("--radius", &a.radius)?;
-    let rts: Vec<usize> = parse_list("--temporal-radius", &a.temporal_radius)?;
-    if let Some(r) = radii.iter().chain(&rts).find(|&&r| r > 64) {
-        bail!("radius {r}: at most 64 (as in `tstat denoise`)");
-    }
+    let radii = radius_list("--radius", &a.radius)?;
+    let rts = radius_list("--temporal-radius", &a.temporal_radius)?;
     let base = a.base.params()?;
-    prepare_out(&a.out, &files, a.force)?;
+    let mut args = vec![arg("--reference", &a.reference)];
+    args.extend(a.bundles.iter().map(|b| arg("bundle", b)));
+    let mut out = ReportDir::prepare("--out", &a.out, &files, |_| false, &args, a.force)?;
     let reference = load_volume(&a.reference)?;
     let cfg = SweepConfig {
         bundles: a.bundles.clone(),
@@ -679,6 +692,7 @@ fn run_sweep_cmd(a: SweepArgs) -> anyhow::Result<()> {
             num(p.error.all.relmse),
         ]);
     }
+    out.create()?;
     write_text(&a.out.join("sweep.csv"), &t.csv()).map_err(|e| anyhow!(e))?;
     let md = format!(
         "# Sweep (sorted by RMSE, best first)\n\nRatios are to the noisy mean's RMSE over the same region: all voxels, pixels that see a light directly, the rest.\n\n{}",
@@ -744,10 +758,8 @@ fn run_sweep_cmd(a: SweepArgs) -> anyhow::Result<()> {
         },
         Scale::Linear,
     )?;
-    print!("{md}");
-    println!(
-        "wrote {}/{{sweep.csv, sweep.md, sweep.png}}",
-        a.out.display()
-    );
+    out.finish();
+    super::util::say(format_args!("{md}"))?;
+    say!("{}", wrote(&a.out, &files));
     Ok(())
 }

@@ -6,8 +6,8 @@
 use super::denoise::FilterArgs;
 use super::frames::axis_of;
 use super::render::SceneArgs;
-use super::util::{human_bytes, with_threads};
-use crate::bundle::write::{check_output, write_atomically, write_bundle, BundleMeta};
+use super::util::{arg, check_outputs, human_bytes, int_flag, seed, threads, with_threads, Kind};
+use crate::bundle::write::{write_atomically, write_bundle, BundleMeta};
 use crate::bundle::{Bundle, BundleError};
 use crate::denoise::denoise_bundle;
 use crate::render::{render, RenderSettings};
@@ -16,7 +16,7 @@ use crate::stats::accumulators::Accumulators;
 use crate::stats::Transform;
 use crate::viz::frames::{side_by_side, write_all, FramesRequest};
 use crate::viz::tonemap::global_exposure;
-use anyhow::{anyhow, ensure, Context};
+use anyhow::{anyhow, Context};
 use clap::Args;
 use std::path::PathBuf;
 
@@ -30,39 +30,52 @@ pub struct RunArgs {
     /// Output directory.
     #[arg(long)]
     pub out: PathBuf,
+    /// Samples per pixel (overrides the sampler's sample_count; at least 2).
+    #[arg(long, allow_negative_numbers = true)]
+    pub spp: Option<i64>,
     #[command(flatten)]
     pub scene_args: SceneArgs,
     /// Random seed.
-    #[arg(long)]
-    pub seed: Option<u64>,
+    #[arg(long, allow_negative_numbers = true)]
+    pub seed: Option<i128>,
     /// Sample transform: identity, box-cox:LAMBDA or yeo-johnson:LAMBDA.
     #[arg(long, default_value = "identity")]
     pub transform: String,
     #[command(flatten)]
     pub filter: FilterArgs,
     /// Write every K-th bin as a frame.
-    #[arg(long, default_value_t = 1)]
-    pub every: usize,
+    #[arg(long, default_value_t = 1, allow_negative_numbers = true)]
+    pub every: i64,
     /// Worker threads (default: all cores).
-    #[arg(long)]
-    pub threads: Option<usize>,
+    #[arg(long, allow_negative_numbers = true)]
+    pub threads: Option<i64>,
     /// Replace an existing output directory.
     #[arg(long)]
     pub force: bool,
 }
 
 pub fn run(a: RunArgs) -> anyhow::Result<()> {
-    ensure!(a.every >= 1, "--every must be at least 1");
+    let every = int_flag("--every", a.every, 1, i64::MAX)? as usize;
+    let threads = threads(a.threads)?;
+    let seed = seed(a.seed)?;
     let transform: Transform = a
         .transform
         .parse()
         .map_err(|e: String| anyhow!("--transform: {e}"))?;
     let params = a.filter.params()?;
-    let overrides = a.scene_args.overrides()?;
-    check_output(&a.out, a.force)?;
+    let overrides = a.scene_args.overrides(a.spp)?;
+    let inputs: Vec<_> = a.scene.iter().map(|p| arg("scene", p)).collect();
+    check_outputs(&inputs, &[(arg("--out", &a.out), Kind::Dir)], a.force)?;
+    let opts = Opts {
+        every,
+        threads,
+        seed,
+    };
     let started = std::time::Instant::now();
-    // Everything goes to a temporary directory that is renamed when complete.
-    write_atomically(&a.out, a.force, |tmp| {
+    // Everything goes to a temporary directory that is renamed when complete. The job's
+    // own error is returned as it is (not prefixed with the output directory).
+    let mut failure = None;
+    let written = write_atomically(&a.out, a.force, |tmp| {
         let io = |e: std::io::Error| BundleError::Io(tmp.to_path_buf(), e.to_string());
         std::fs::create_dir(tmp).map_err(io)?;
         let scene_path = match &a.scene {
@@ -73,25 +86,37 @@ pub fn run(a: RunArgs) -> anyhow::Result<()> {
                 p
             }
         };
-        job(&a, &scene_path, tmp, transform, &params, &overrides)
-            .map_err(|e| BundleError::Io(a.out.clone(), format!("{e:#}")))
-    })
-    .map_err(|e| anyhow!(e))?;
+        job(&a, &opts, &scene_path, tmp, transform, &params, &overrides).map_err(|e| {
+            let msg = format!("{e:#}");
+            failure = Some(e);
+            BundleError::Io(a.out.clone(), msg)
+        })
+    });
+    if let Some(e) = failure {
+        return Err(e);
+    }
+    written.map_err(|e| anyhow!(e))?;
     let o = a.out.display();
-    println!("done in {:.1} s. In {o}/:", started.elapsed().as_secs_f64());
-    println!("  scene.tstats/     statistics bundle (tstat info {o}/scene.tstats)");
-    println!("  noisy.npy         noisy mean volume, f32 (H, W, T, 3)");
-    println!("  denoised.npy      denoised volume, f32 (H, W, T, 3)");
-    println!("  frames/           PNG frames, noisy | denoised, one exposure for all bins");
-    println!("  propagation.gif   the light propagating, noisy | denoised");
-    println!(
-        "  streak.png        streak image (x against time) of the middle row, noisy | denoised"
-    );
+    say!("done in {:.1} s. In {o}/:", started.elapsed().as_secs_f64());
+    say!("  scene.tstats/     statistics bundle (tstat info {o}/scene.tstats)");
+    say!("  noisy.npy         noisy mean volume, f32 (H, W, T, 3)");
+    say!("  denoised.npy      denoised volume, f32 (H, W, T, 3)");
+    say!("  frames/           PNG frames, noisy | denoised, one exposure for all bins");
+    say!("  propagation.gif   the light propagating, noisy | denoised");
+    say!("  streak.png        streak image (x against time) of the middle row, noisy | denoised");
     Ok(())
+}
+
+/// The checked numeric options.
+struct Opts {
+    every: usize,
+    threads: Option<usize>,
+    seed: Option<u64>,
 }
 
 fn job(
     a: &RunArgs,
+    o: &Opts,
     scene_path: &std::path::Path,
     dir: &std::path::Path,
     transform: Transform,
@@ -101,6 +126,7 @@ fn job(
     let scene = Scene::load(scene_path, overrides)?;
     let film = &scene.film;
     let need = Accumulators::bytes(film.height, film.width, film.bins, &transform);
+    super::util::check_memory(need, None)?;
     eprintln!(
         "{}: {}x{} px, {} bins, {} spp ({}); accumulators {}",
         scene_path.display(),
@@ -111,14 +137,14 @@ fn job(
         a.scene_args.pixel_sampling,
         human_bytes(need)
     );
-    super::util::check_memory(need, None)?;
     let settings = RenderSettings {
         spp: scene.spp,
-        seed: a.seed.unwrap_or(scene.seed),
+        seed: o.seed.unwrap_or(scene.seed),
         transform,
         pixel_sampling: a.scene_args.pixel_sampling,
     };
-    let out = with_threads(a.threads, || render(&scene, &settings, &|_| {}))?;
+    let out = with_threads(o.threads, || render(&scene, &settings, &|_| {}))?;
+    super::render::warn_if_empty(&out, film);
     eprintln!(
         "rendered in {:.2} s ({:.2} M paths/s)",
         out.seconds,
@@ -134,13 +160,13 @@ fn job(
     write_bundle(&bundle_path, false, &scene, &meta, out).context("writing the bundle")?;
     let bundle = Bundle::open(&bundle_path)?;
     let noisy = bundle.noisy_mean()?;
-    let den = with_threads(a.threads, || denoise_bundle(&bundle, params, &|_| {}))??;
+    let den = with_threads(o.threads, || denoise_bundle(&bundle, params, &|_| {}))??;
     eprintln!("denoised in {:.2} s", den.seconds);
     ndarray_npy::write_npy(dir.join("noisy.npy"), &noisy)?;
     ndarray_npy::write_npy(dir.join("denoised.npy"), &den.volume)?;
     let both = side_by_side(noisy.view(), den.volume.view(), 2);
     let req = FramesRequest {
-        every: a.every,
+        every: o.every,
         gif: true,
         streak_row: noisy.shape()[0] / 2,
         exposure: global_exposure(den.volume.view()),

@@ -1,6 +1,11 @@
-//! Small helpers shared by subcommands: sizes, memory, thread pools.
+//! Small helpers shared by subcommands: sizes, memory, thread pools, numeric flags,
+//! output paths (checked against each other and the inputs before anything is
+//! written), report directories, and printing to stdout.
 
-use anyhow::Context;
+use anyhow::{anyhow, bail, ensure};
+use std::collections::HashSet;
+use std::ffi::OsString;
+use std::path::{Component, Path, PathBuf};
 
 /// "354.0 MB" style sizes (decimal units).
 pub fn human_bytes(b: u64) -> String {
@@ -54,18 +59,474 @@ pub fn check_memory(need: u64, limit: Option<u64>) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Runs `f` on a rayon pool of `threads` threads (all cores when `None`).
+/// Runs `f` on a rayon pool of `threads` threads (all cores when `None`); check the
+/// flag first with [`threads`].
 pub fn with_threads<T: Send>(
     threads: Option<usize>,
     f: impl FnOnce() -> T + Send,
 ) -> anyhow::Result<T> {
     let mut b = rayon::ThreadPoolBuilder::new();
     if let Some(n) = threads {
-        anyhow::ensure!(n >= 1, "--threads must be at least 1");
+        ensure!(n >= 1, "--threads must be at least 1");
         b = b.num_threads(n);
     }
-    let pool = b.build().context("cannot start the thread pool")?;
+    // The build error already names its cause: no context chain (it would repeat it).
+    let pool = b
+        .build()
+        .map_err(|e| anyhow!("cannot start the worker threads: {e}"))?;
     Ok(pool.install(f))
+}
+
+// ---------------------------------------------------------------------------------
+// Numeric flags. They are parsed as wide signed numbers with negative literals allowed,
+// so that `--spp -3` reaches these checks and gets "--spp -3: must be at least 2"
+// instead of clap's "unexpected argument '-3'".
+
+/// The most worker threads `--threads` accepts (more only costs memory).
+pub const MAX_THREADS: i64 = 1024;
+/// The largest `--width`, `--height` and `--bins` (the memory check refuses far less;
+/// this only keeps the arithmetic on them far from overflow).
+pub const MAX_FILM_SIDE: i64 = 1_000_000;
+
+/// Checks a whole-number flag against `min..=max`.
+pub fn int_flag(flag: &str, v: i64, min: i64, max: i64) -> anyhow::Result<i64> {
+    ensure!(v >= min, "{flag} {v}: must be at least {min}");
+    ensure!(v <= max, "{flag} {v}: must be at most {max}");
+    Ok(v)
+}
+
+/// [`int_flag`] for an optional flag, converted to the type the program uses.
+pub fn opt_int<T: TryFrom<i64>>(
+    flag: &str,
+    v: Option<i64>,
+    min: i64,
+    max: i64,
+) -> anyhow::Result<Option<T>> {
+    v.map(|v| {
+        let v = int_flag(flag, v, min, max)?;
+        T::try_from(v).map_err(|_| anyhow!("{flag} {v}: out of range"))
+    })
+    .transpose()
+}
+
+/// `--threads`: 1 to [`MAX_THREADS`].
+pub fn threads(v: Option<i64>) -> anyhow::Result<Option<usize>> {
+    opt_int("--threads", v, 1, MAX_THREADS)
+}
+
+/// `--seed`: 0 to 2^64 - 1.
+pub fn seed(v: Option<i128>) -> anyhow::Result<Option<u64>> {
+    v.map(|s| {
+        u64::try_from(s).map_err(|_| anyhow!("--seed {s}: must be between 0 and {}", u64::MAX))
+    })
+    .transpose()
+}
+
+/// A flag that must be a positive finite number.
+pub fn positive(flag: &str, v: f64) -> anyhow::Result<f64> {
+    ensure!(
+        v > 0.0 && v.is_finite(),
+        "{flag} {v}: must be a positive finite number"
+    );
+    Ok(v)
+}
+
+/// A flag that must be a finite number.
+pub fn finite(flag: &str, v: f64) -> anyhow::Result<f64> {
+    ensure!(v.is_finite(), "{flag} {v}: must be a finite number");
+    Ok(v)
+}
+
+/// A comma-separated list of whole numbers in `min..=max` ("3,5,10").
+pub fn int_list(flag: &str, s: &str, min: i64, max: i64) -> anyhow::Result<Vec<i64>> {
+    let v = split_list(flag, s)?
+        .into_iter()
+        .map(|t| match t.parse::<i64>() {
+            Ok(v) => int_flag(flag, v, min, max),
+            Err(_) => bail!("{flag} {s}: '{t}' is not a whole number"),
+        })
+        .collect::<anyhow::Result<Vec<_>>>()?;
+    Ok(v)
+}
+
+/// A comma-separated list of finite numbers ("0.5,1,2").
+pub fn float_list(flag: &str, s: &str) -> anyhow::Result<Vec<f64>> {
+    split_list(flag, s)?
+        .into_iter()
+        .map(|t| match t.parse::<f64>() {
+            Ok(v) if v.is_finite() => Ok(v),
+            _ => bail!("{flag} {s}: '{t}' is not a finite number"),
+        })
+        .collect()
+}
+
+/// The non-empty items of a comma-separated list; an empty list is an error.
+pub fn split_list<'a>(flag: &str, s: &'a str) -> anyhow::Result<Vec<&'a str>> {
+    let v: Vec<&str> = s
+        .split(',')
+        .map(str::trim)
+        .filter(|t| !t.is_empty())
+        .collect();
+    ensure!(!v.is_empty(), "{flag}: the list is empty");
+    Ok(v)
+}
+
+// ---------------------------------------------------------------------------------
+// Output paths.
+
+/// What a command writes at an output path.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Kind {
+    /// A file (a volume, an image, a table).
+    File,
+    /// A directory the command creates whole (a bundle, frames, a run).
+    Dir,
+}
+
+/// A path argument: how the user gave it ("--out", "the scene", "--input a") and the path.
+#[derive(Clone, Debug)]
+pub struct Arg {
+    pub name: String,
+    pub path: PathBuf,
+}
+
+/// `Arg { name, path }`.
+pub fn arg(name: impl Into<String>, path: impl AsRef<Path>) -> Arg {
+    Arg {
+        name: name.into(),
+        path: path.as_ref().to_path_buf(),
+    }
+}
+
+/// The path with every existing prefix resolved (symlinks, `.`, `..`), made absolute;
+/// the components that do not exist yet are appended as written (`..` lexically). Two
+/// spellings of the same place (`./a` and `a`, a link and its target) resolve equal.
+pub fn resolve(p: &Path) -> PathBuf {
+    let abs = if p.is_absolute() {
+        p.to_path_buf()
+    } else {
+        match std::env::current_dir() {
+            Ok(d) => d.join(p),
+            Err(_) => p.to_path_buf(),
+        }
+    };
+    let comps: Vec<Component> = abs.components().collect();
+    for k in (1..=comps.len()).rev() {
+        let prefix: PathBuf = comps[..k].iter().collect();
+        if let Ok(mut out) = prefix.canonicalize() {
+            for c in &comps[k..] {
+                match c {
+                    Component::CurDir => {}
+                    Component::ParentDir => {
+                        out.pop();
+                    }
+                    other => out.push(other),
+                }
+            }
+            return out;
+        }
+    }
+    abs
+}
+
+/// Refuses outputs that would replace or write into an input, or another output of the
+/// same command: equal paths (through any spelling or link), an output inside an input
+/// directory, an input inside an output directory (replacing it would delete the
+/// input), and two outputs of which one is, or is inside, the other.
+pub fn check_collisions(inputs: &[Arg], outputs: &[Arg]) -> anyhow::Result<()> {
+    let ins: Vec<PathBuf> = inputs.iter().map(|a| resolve(&a.path)).collect();
+    let outs: Vec<PathBuf> = outputs.iter().map(|a| resolve(&a.path)).collect();
+    let show = |a: &Arg| {
+        let sep = if a.name.ends_with('=') { "" } else { " " };
+        format!("{}{sep}{}", a.name, a.path.display())
+    };
+    for (o, op) in outputs.iter().zip(&outs) {
+        for (i, ip) in inputs.iter().zip(&ins) {
+            if op == ip {
+                bail!(
+                    "{}: is the input {}; an output never replaces an input",
+                    show(o),
+                    show(i)
+                );
+            }
+            if op.starts_with(ip) {
+                bail!(
+                    "{}: is inside the input {}; write it elsewhere",
+                    show(o),
+                    show(i)
+                );
+            }
+            if ip.starts_with(op) {
+                bail!(
+                    "{}: contains the input {}; replacing it would delete the input",
+                    show(o),
+                    show(i)
+                );
+            }
+        }
+    }
+    for (k, (b, bp)) in outputs.iter().zip(&outs).enumerate() {
+        for (a, ap) in outputs.iter().zip(&outs).take(k) {
+            if bp == ap {
+                bail!("{}: is the same path as {}", show(b), show(a));
+            }
+            if bp.starts_with(ap) || ap.starts_with(bp) {
+                let (inner, outer) = if bp.starts_with(ap) { (b, a) } else { (a, b) };
+                bail!(
+                    "{}: is inside {}; one output would replace the other",
+                    show(inner),
+                    show(outer)
+                );
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Refuses a path that names no file ("", ".", "..", "/"), or a file path ending in "/".
+fn check_name(o: &Arg, kind: Kind) -> anyhow::Result<()> {
+    let p = &o.path;
+    ensure!(!p.as_os_str().is_empty(), "{}: the path is empty", o.name);
+    let last = p.components().next_back();
+    ensure!(
+        matches!(last, Some(Component::Normal(_))),
+        "{} {}: does not name a file or directory to create",
+        o.name,
+        p.display()
+    );
+    if kind == Kind::File {
+        let text = p.as_os_str().to_string_lossy();
+        ensure!(
+            !text.ends_with('/'),
+            "{} {}: ends with '/', but a file is written here",
+            o.name,
+            p.display()
+        );
+    }
+    Ok(())
+}
+
+/// The directory an output goes into (`.` for a bare name).
+fn parent_of(p: &Path) -> &Path {
+    match p.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    }
+}
+
+/// Refuses when the directory `o` goes into is missing, not a directory, or does not
+/// take a file of the temporary name the output is first written under (tried by
+/// creating and removing it: permissions alone do not tell, e.g. for root or /proc;
+/// this also catches names too long for the file system).
+fn check_writable_dir(o: &Arg, dir: &Path, name: &std::ffi::OsStr) -> anyhow::Result<()> {
+    ensure!(
+        dir.exists(),
+        "{} {}: the directory {} does not exist",
+        o.name,
+        o.path.display(),
+        dir.display()
+    );
+    ensure!(
+        dir.is_dir(),
+        "{} {}: {} is not a directory",
+        o.name,
+        o.path.display(),
+        dir.display()
+    );
+    let mut probe_name = OsString::from(".");
+    probe_name.push(name);
+    probe_name.push(format!(".partial-{}", std::process::id()));
+    let probe = dir.join(probe_name);
+    if probe.exists() {
+        return Ok(()); // left by an earlier run of this process id; the write replaces it
+    }
+    match std::fs::OpenOptions::new()
+        .write(true)
+        .create_new(true)
+        .open(&probe)
+    {
+        Ok(_) => {
+            let _ = std::fs::remove_file(&probe);
+            Ok(())
+        }
+        Err(e) => bail!(
+            "{} {}: cannot write in {}: {e}",
+            o.name,
+            o.path.display(),
+            dir.display()
+        ),
+    }
+}
+
+/// Refuses an existing output without `force`, and even with it anything but an
+/// earlier output of the same kind: a file is never replaced by a directory or the
+/// other way round, and no directory holding the current directory is replaced.
+fn check_existing(o: &Arg, kind: Kind, force: bool) -> anyhow::Result<()> {
+    let Ok(meta) = std::fs::metadata(&o.path) else {
+        return Ok(());
+    };
+    ensure!(
+        force,
+        "{}: already exists (use --force to replace it)",
+        o.path.display()
+    );
+    match kind {
+        Kind::File => ensure!(
+            !meta.is_dir(),
+            "{} {}: is a directory; a file is written here, so it is not replaced even with --force",
+            o.name,
+            o.path.display()
+        ),
+        Kind::Dir => {
+            ensure!(
+                meta.is_dir(),
+                "{} {}: is a file; a directory is written here, so it is not replaced even with --force",
+                o.name,
+                o.path.display()
+            );
+            if let Ok(cwd) = std::env::current_dir() {
+                ensure!(
+                    !resolve(&cwd).starts_with(resolve(&o.path)),
+                    "{} {}: holds the current directory; not replacing it",
+                    o.name,
+                    o.path.display()
+                );
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Every check on a command's outputs, made before anything is read or written: names,
+/// collisions with the inputs and with each other ([`check_collisions`]), existing
+/// outputs (`force`), and that each output's directory exists and is writable.
+pub fn check_outputs(inputs: &[Arg], outputs: &[(Arg, Kind)], force: bool) -> anyhow::Result<()> {
+    for (o, kind) in outputs {
+        check_name(o, *kind)?;
+    }
+    let outs: Vec<Arg> = outputs.iter().map(|o| o.0.clone()).collect();
+    check_collisions(inputs, &outs)?;
+    for (o, kind) in outputs {
+        check_existing(o, *kind, force)?;
+        let name = o.path.file_name().unwrap_or_default();
+        check_writable_dir(o, parent_of(&o.path), name)?;
+    }
+    Ok(())
+}
+
+/// A report's output directory (`--out DIR` of `report compare | convergence | sweep`):
+/// checked before any work, created only when the command writes its results, and on
+/// failure (when dropped before [`ReportDir::finish`]) cleaned of what this run put
+/// there: the files it wrote that were not there before, and the directory itself if
+/// this run created it. Files that existed before are never removed.
+pub struct ReportDir {
+    path: PathBuf,
+    created: bool,
+    before: HashSet<OsString>,
+    ours: Box<dyn Fn(&str) -> bool>,
+    done: bool,
+}
+
+impl ReportDir {
+    /// Checks `dir` and the result `files` it will hold (plus any file for which
+    /// `extra` holds, e.g. a cache) against the inputs and `force`.
+    pub fn prepare(
+        flag: &str,
+        dir: &Path,
+        files: &[&str],
+        extra: fn(&str) -> bool,
+        inputs: &[Arg],
+        force: bool,
+    ) -> anyhow::Result<ReportDir> {
+        let d = arg(flag, dir);
+        // Unlike a command's own output, DIR may be "." or "..": it is written into,
+        // never replaced.
+        ensure!(!dir.as_os_str().is_empty(), "{flag}: the path is empty");
+        ensure!(
+            !dir.exists() || dir.is_dir(),
+            "{}: exists and is not a directory",
+            dir.display()
+        );
+        let outs: Vec<Arg> = files.iter().map(|f| arg(flag, dir.join(f))).collect();
+        check_collisions(inputs, &outs)?;
+        for o in &outs {
+            check_existing(o, Kind::File, force)?;
+        }
+        let before = match std::fs::read_dir(dir) {
+            Ok(it) => it.flatten().map(|e| e.file_name()).collect(),
+            Err(_) => HashSet::new(),
+        };
+        match dir.is_dir() {
+            true => {
+                for f in files {
+                    check_writable_dir(&d, dir, std::ffi::OsStr::new(f))?;
+                }
+            }
+            false => check_writable_dir(
+                &d,
+                parent_of(dir),
+                dir.file_name().unwrap_or(dir.as_os_str()),
+            )?,
+        }
+        let names: Vec<String> = files.iter().map(|f| f.to_string()).collect();
+        Ok(ReportDir {
+            path: dir.to_path_buf(),
+            created: false,
+            before,
+            ours: Box::new(move |n| names.iter().any(|f| f == n) || extra(n)),
+            done: false,
+        })
+    }
+
+    /// Creates the directory if needed; returns it.
+    pub fn create(&mut self) -> anyhow::Result<&Path> {
+        if !self.path.is_dir() {
+            std::fs::create_dir(&self.path)
+                .map_err(|e| anyhow!("creating {}: {e}", self.path.display()))?;
+            self.created = true;
+        }
+        Ok(&self.path)
+    }
+
+    /// The results are complete: keep them.
+    pub fn finish(mut self) {
+        self.done = true;
+    }
+}
+
+impl Drop for ReportDir {
+    fn drop(&mut self) {
+        if self.done {
+            return;
+        }
+        if let Ok(it) = std::fs::read_dir(&self.path) {
+            for e in it.flatten() {
+                let name = e.file_name();
+                if !self.before.contains(&name) && (self.ours)(&name.to_string_lossy()) {
+                    let _ = std::fs::remove_file(e.path());
+                }
+            }
+        }
+        if self.created {
+            // Only when empty: never removes anything this run did not write.
+            let _ = std::fs::remove_dir(&self.path);
+        }
+    }
+}
+
+// ---------------------------------------------------------------------------------
+// Standard output.
+
+/// Prints to stdout. A closed pipe (`tstat info B | head -1`) ends the printing quietly;
+/// any other failure (a full disk) is an error instead of a panic.
+pub fn say(args: std::fmt::Arguments) -> anyhow::Result<()> {
+    use std::io::Write;
+    let mut out = std::io::stdout().lock();
+    match out.write_fmt(args).and_then(|()| out.flush()) {
+        Ok(()) => Ok(()),
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Ok(()),
+        Err(e) => Err(anyhow!("writing to standard output: {e}")),
+    }
 }
 
 /// Total size of a file or of the files in a directory.

@@ -1,0 +1,444 @@
+//! Hostile command lines: a table of malformed invocations of the real binary, each of
+//! which must fail with exit 1 (our errors) or 2 (clap's usage errors), one clear first
+//! line on stderr starting "error:", no panic, in bounded time and memory, and without
+//! leaving anything behind: the whole working directory (inputs, pre-existing files,
+//! hidden temporary names) is compared before and after every case.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+const TIME_LIMIT: Duration = Duration::from_secs(20);
+/// Address-space limit for every run (bytes).
+const MEMORY_LIMIT: u64 = 2_000_000_000;
+
+fn bin() -> &'static str {
+    env!("CARGO_BIN_EXE_tstat")
+}
+
+/// The binary under an address-space limit: `prlimit` if present, else `ulimit -v`.
+fn limited(args: &[String], dir: &Path) -> Command {
+    let prlimit = ["/usr/bin/prlimit", "/bin/prlimit"]
+        .into_iter()
+        .find(|p| Path::new(p).exists());
+    let mut c = match prlimit {
+        Some(p) => {
+            let mut c = Command::new(p);
+            c.arg(format!("--as={MEMORY_LIMIT}")).arg(bin());
+            c
+        }
+        None => {
+            let mut c = Command::new("sh");
+            c.arg("-c")
+                .arg(format!(
+                    "ulimit -v {}; exec \"$0\" \"$@\"",
+                    MEMORY_LIMIT / 1000
+                ))
+                .arg(bin());
+            c
+        }
+    };
+    c.args(args).current_dir(dir);
+    c
+}
+
+struct Run {
+    code: Option<i32>,
+    stderr: String,
+    timed_out: bool,
+}
+
+/// Runs with a deadline: a run that takes longer is killed (and reported).
+fn run(mut cmd: Command) -> Run {
+    let mut child = cmd
+        .stdin(Stdio::null())
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("spawn tstat");
+    let mut err = child.stderr.take().unwrap();
+    let reader = std::thread::spawn(move || {
+        let mut s = String::new();
+        std::io::Read::read_to_string(&mut err, &mut s).ok();
+        s
+    });
+    let start = Instant::now();
+    let mut timed_out = false;
+    let status = loop {
+        if let Some(s) = child.try_wait().unwrap() {
+            break s;
+        }
+        if start.elapsed() > TIME_LIMIT {
+            timed_out = true;
+            let _ = child.kill();
+            break child.wait().unwrap();
+        }
+        std::thread::sleep(Duration::from_millis(5));
+    };
+    Run {
+        code: status.code(),
+        stderr: reader.join().unwrap(),
+        timed_out,
+    }
+}
+
+/// Every entry under `dir` (hidden ones too): file contents, directories, link targets.
+fn snapshot(dir: &Path) -> BTreeMap<PathBuf, Vec<u8>> {
+    fn walk(root: &Path, dir: &Path, out: &mut BTreeMap<PathBuf, Vec<u8>>) {
+        for e in std::fs::read_dir(dir).unwrap().flatten() {
+            let p = e.path();
+            let rel = p.strip_prefix(root).unwrap().to_path_buf();
+            let meta = std::fs::symlink_metadata(&p).unwrap();
+            if meta.file_type().is_symlink() {
+                let t = std::fs::read_link(&p).unwrap();
+                out.insert(rel, format!("link {}", t.display()).into_bytes());
+            } else if meta.is_dir() {
+                out.insert(rel, b"dir".to_vec());
+                walk(root, &p, out);
+            } else {
+                out.insert(rel, std::fs::read(&p).unwrap());
+            }
+        }
+    }
+    let mut out = BTreeMap::new();
+    walk(dir, dir, &mut out);
+    out
+}
+
+fn ok(mut c: Command) {
+    let out = c.output().unwrap();
+    assert!(
+        out.status.success(),
+        "{:?}: {}",
+        c,
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+/// Valid inputs, built once: bundles b (seed 0) and c (seed 5) of the Cornell box at
+/// 8 x 8, 4 bins, 2 spp; vol.npy (b's noisy mean); the scene s.xml, a link to it, a
+/// link `here` to the directory itself, and a copy inside scenes/; a precious file, a directory named like a file, and an existing
+/// report directory holding a file.
+fn fixture() -> tempfile::TempDir {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let cbox = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cbox.xml");
+    std::fs::copy(&cbox, d.join("s.xml")).unwrap();
+    std::fs::create_dir(d.join("scenes")).unwrap();
+    std::fs::copy(&cbox, d.join("scenes/s2.xml")).unwrap();
+    std::os::unix::fs::symlink("s.xml", d.join("link.xml")).unwrap();
+    std::os::unix::fs::symlink(".", d.join("here")).unwrap();
+    for (name, seed) in [("b.tstats", "0"), ("c.tstats", "5")] {
+        let mut c = Command::new(bin());
+        c.current_dir(d).args([
+            "render", "s.xml", "--out", name, "--width", "8", "--spp", "2", "--bins", "4",
+            "--seed", seed,
+        ]);
+        ok(c);
+    }
+    let mut c = Command::new(bin());
+    c.current_dir(d)
+        .args(["export", "b.tstats", "--out", "vol.npy"]);
+    ok(c);
+    std::fs::write(d.join("file.txt"), "precious").unwrap();
+    std::fs::create_dir(d.join("dir.npy")).unwrap();
+    std::fs::write(d.join("dir.npy/inside.txt"), "also precious").unwrap();
+    std::fs::create_dir(d.join("existing")).unwrap();
+    std::fs::write(d.join("existing/keep.txt"), "keep").unwrap();
+    dir
+}
+
+/// Usage errors (clap's): exit 2. Ours: exit 1.
+#[derive(Clone, Copy, PartialEq, Debug)]
+enum Exit {
+    Ours,
+    Usage,
+}
+use Exit::{Ours, Usage};
+
+/// One hostile invocation: the arguments (run in the fixture directory), who reports
+/// it, and a piece of the first stderr line.
+type Case = (&'static [&'static str], Exit, &'static str);
+
+const R: &str = "render";
+
+#[rustfmt::skip]
+const CASES: &[Case] = &[
+    // Negative and out-of-range numbers: our message naming the flag and the value.
+    (&[R, "s.xml", "--out", "n.tstats", "--spp", "-3"], Ours, "--spp -3: must be at least 2"),
+    (&[R, "s.xml", "--out", "n.tstats", "--spp", "0"], Ours, "--spp 0: must be at least 2"),
+    (&[R, "s.xml", "--out", "n.tstats", "--spp", "99999999999"], Ours, "--spp 99999999999: must be at most"),
+    (&[R, "s.xml", "--out", "n.tstats", "--width", "-1"], Ours, "--width -1: must be at least 1"),
+    (&[R, "s.xml", "--out", "n.tstats", "--height", "0"], Ours, "--height 0: must be at least 1"),
+    (&[R, "s.xml", "--out", "n.tstats", "--bins", "-5"], Ours, "--bins -5: must be at least 1"),
+    (&[R, "s.xml", "--out", "n.tstats", "--width", "2000000"], Ours, "--width 2000000: must be at most"),
+    (&[R, "s.xml", "--out", "n.tstats", "--threads", "-1"], Ours, "--threads -1: must be at least 1"),
+    (&[R, "s.xml", "--out", "n.tstats", "--threads", "0"], Ours, "--threads 0: must be at least 1"),
+    (&[R, "s.xml", "--out", "n.tstats", "--threads", "100000"], Ours, "--threads 100000: must be at most"),
+    (&[R, "s.xml", "--out", "n.tstats", "--seed", "-1"], Ours, "--seed -1: must be between 0 and"),
+    (&[R, "s.xml", "--out", "n.tstats", "--max-depth", "-5"], Ours, "--max-depth -5: must be at least -1"),
+    (&[R, "s.xml", "--out", "n.tstats", "--unit-m", "-1"], Ours, "--unit-m -1: must be a positive"),
+    (&[R, "s.xml", "--out", "n.tstats", "--unit-m", "nan"], Ours, "--unit-m NaN: must be a positive"),
+    (&[R, "s.xml", "--out", "n.tstats", "--start-opl", "inf"], Ours, "--start-opl inf: must be a finite"),
+    (&[R, "s.xml", "--out", "n.tstats", "--bin-width-opl", "-1"], Ours, "--bin-width-opl must be positive"),
+    (&[R, "s.xml", "--out", "n.tstats", "--max-memory", "-1G"], Ours, "--max-memory"),
+    // The memory check comes before any allocation (here under a 2 GB address space).
+    (&[R, "s.xml", "--out", "n.tstats", "--width", "1000000", "--height", "1000000"], Ours, "the accumulators need"),
+    (&[R, "s.xml", "--out", "n.tstats", "-D", "a"], Ours, "-D a: expected name=value"),
+    (&[R, "s.xml", "--out", "n.tstats", "-D", "=b"], Ours, "-D =b: the name is empty"),
+    (&[R, "s.xml", "--out", "n.tstats", "--transform", "box-cox:nan"], Ours, "--transform"),
+    // clap's usage errors: exit 2, the whole complaint on the first line.
+    (&[R, "s.xml", "--out", "n.tstats", "--seed", "0x10"], Usage, "invalid value '0x10' for '--seed"),
+    (&[R, "s.xml", "--out", "n.tstats", "--pixel-sampling", "foo"], Usage, "[possible values: stratified, independent]"),
+    (&[R], Usage, "required arguments were not provided: --out <OUT> <SCENE>"),
+    (&[R, "s.xml", "--out", ""], Usage, "a value is required for '--out <OUT>'"),
+    (&["rendr", "s.xml"], Usage, "unrecognized subcommand 'rendr'"),
+    // Outputs that are, contain or sit inside an input, or another output.
+    (&[R, "s.xml", "--out", "s.xml", "--force"], Ours, "--out s.xml: is the input scene s.xml"),
+    (&[R, "s.xml", "--out", "./s.xml", "--force"], Ours, "is the input scene s.xml"),
+    (&[R, "s.xml", "--out", "link.xml", "--force"], Ours, "is the input scene s.xml"),
+    (&[R, "link.xml", "--out", "s.xml", "--force"], Ours, "is the input scene link.xml"),
+    (&[R, "s.xml", "--out", "here/s.xml", "--force"], Ours, "is the input scene s.xml"),
+    (&[R, "s.xml", "--out", "here", "--force"], Ours, "contains the input scene s.xml"),
+    (&[R, concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cbox.xml"), "--out", "here", "--force"], Ours, "holds the current directory"),
+    (&[R, "scenes/s2.xml", "--out", "scenes", "--force"], Ours, "contains the input scene scenes/s2.xml"),
+    (&["run", "s.xml", "--out", "s.xml", "--force", "--width", "4", "--spp", "2", "--bins", "2"], Ours, "is the input scene"),
+    (&["denoise", "b.tstats", "--out", "d.npy", "--exr", "d.npy"], Ours, "--exr d.npy: is the same path as --out d.npy"),
+    (&["denoise", "b.tstats", "--out", "d.npy", "--exr", "./d.npy/"], Ours, "is the same path as --out d.npy"),
+    (&["denoise", "b.tstats", "--out", "e/d.npy", "--exr", "e"], Ours, "is inside --exr e"),
+    (&["denoise", "b.tstats", "--out", "b.tstats/x.npy"], Ours, "is inside the input bundle b.tstats"),
+    (&["export", "b.tstats", "--out", "e.npy", "--steady", "e.npy"], Ours, "--steady e.npy: is the same path as --out e.npy"),
+    (&["export", "b.tstats", "--out", "e.npy", "--steady", "./e.npy"], Ours, "is the same path as --out e.npy"),
+    (&["merge", "b.tstats", "c.tstats", "--out", "b.tstats", "--force"], Ours, "is the input bundle b.tstats"),
+    (&["merge", "b.tstats", "c.tstats", "--out", "./c.tstats/", "--force"], Ours, "is the input bundle c.tstats"),
+    (&["frames", "b.tstats", "--out", "b.tstats/frames"], Ours, "is inside the input volume b.tstats"),
+    (&["frames", "vol.npy", "--out", "vol.npy", "--force"], Ours, "is the input volume vol.npy"),
+    (&["report", "compare", "--reference", "b.tstats", "--input", "a=c.tstats", "--out", "b.tstats"], Ours, "is inside the input --reference b.tstats"),
+    (&["report", "sweep", "c.tstats", "--reference", "b.tstats", "--out", "c.tstats", "--force"], Ours, "is inside the input bundle c.tstats"),
+    // Paths that name nothing, lead nowhere, or are the wrong kind of thing.
+    (&[R, "s.xml", "--out", ".", "--force"], Ours, "--out .: does not name a file or directory"),
+    (&[R, "s.xml", "--out", "nodir/n.tstats"], Ours, "the directory nodir does not exist"),
+    (&[R, "s.xml", "--out", "file.txt/n.tstats"], Ours, "file.txt is not a directory"),
+    (&[R, "s.xml", "--out", "/proc/n.tstats"], Ours, "cannot write in /proc"),
+    (&[R, "s.xml", "--out", "file.txt", "--force"], Ours, "file.txt: is a file"),
+    (&[R, "s.xml", "--out", "b.tstats"], Ours, "b.tstats: already exists (use --force"),
+    (&["denoise", "b.tstats", "--out", "dir.npy", "--force"], Ours, "dir.npy: is a directory"),
+    (&["export", "b.tstats", "--steady", "dir.npy", "--force"], Ours, "dir.npy: is a directory"),
+    // Other commands' numbers.
+    (&["run", "--out", "r", "--every", "0"], Ours, "--every 0: must be at least 1"),
+    (&["run", "--out", "r", "--seed", "-7"], Ours, "--seed -7"),
+    (&["denoise", "b.tstats", "--out", "d.npy", "--threads", "-2"], Ours, "--threads -2: must be at least 1"),
+    (&["frames", "b.tstats", "--out", "f", "--every", "-1"], Ours, "--every -1: must be at least 1"),
+    (&["frames", "b.tstats", "--out", "f", "--exposure", "-1"], Ours, "--exposure -1: must be a positive"),
+    (&["frames", "b.tstats", "--out", "f", "--exposure", "nan"], Ours, "--exposure NaN"),
+    (&["frames", "b.tstats", "--out", "f", "--exposure", "1e39"], Ours, "beyond the range of f32"),
+    (&["frames", "b.tstats", "--out", "f", "--streak-row", "100"], Ours, "--streak-row 100: the image has 8 rows"),
+    (&["frames", "b.tstats", "--out", "f", "--streak-row", "-1"], Ours, "--streak-row -1: must be at least 0"),
+    (&["frames", "vol.npy", "--out", "f", "--start-opl", "0", "--bin-width-opl", "inf"], Ours, "--bin-width-opl inf"),
+    (&["frames", "vol.npy", "--out", "f", "--unit-m", "inf"], Ours, "--unit-m inf"),
+    (&["report", "sweep", "c.tstats", "--reference", "b.tstats", "--out", "sw", "--radius", "-1"], Ours, "--radius -1: must be at least 0"),
+    (&["report", "sweep", "c.tstats", "--reference", "b.tstats", "--out", "sw", "--temporal-radius", "1,-2"], Ours, "--temporal-radius -2: must be at least 0"),
+    (&["report", "sweep", "c.tstats", "--reference", "b.tstats", "--out", "sw", "--method", "published", "--gamma", "nan"], Ours, "--gamma nan: 'nan' is not a finite number"),
+    (&["report", "convergence", "s.xml", "--out", "cv", "--spp", "2,-3"], Ours, "--spp -3: must be at least 2"),
+    (&["report", "convergence", "s.xml", "--out", "cv", "--spp", "4", "--reference-spp", "-1"], Ours, "--reference-spp -1: must be at least 2"),
+    (&["report", "convergence", "s.xml", "--out", "cv", "--spp", "4", "--seed", "-1"], Ours, "--seed -1"),
+    // Report commands that fail: no output directory left behind, and an existing one
+    // keeps exactly what it held (the convergence cases fail after creating it).
+    (&["report", "compare", "--reference", "b.tstats", "--input", "a=missing.npy", "--out", "cmp"], Ours, "missing.npy"),
+    (&["report", "compare", "--reference", "b.tstats", "--input", "a=missing.npy", "--out", "existing"], Ours, "missing.npy"),
+    (&["report", "compare", "--reference", "b.tstats", "--input", "a=c.tstats", "--input", "a=vol.npy"], Ours, "the label a is given twice"),
+    (&["report", "compare", "--reference", "b.tstats", "--input", "=c.tstats"], Ours, "the label is empty"),
+    (&["report", "compare", "--reference", "b.tstats", "--input", "a=c.tstats", "--out", "file.txt"], Ours, "exists and is not a directory"),
+    (&["report", "sweep", "c.tstats", "--reference", "missing.npy", "--out", "sw"], Ours, "missing.npy"),
+    (&["report", "sweep", "c.tstats", "--reference", "missing.npy", "--out", "existing"], Ours, "missing.npy"),
+    (&["report", "convergence", "s.xml", "--out", "cv", "--spp", "2", "--width", "4", "--bins", "2", "--reference", "c.tstats"], Ours, "the reference has shape"),
+    (&["report", "convergence", "s.xml", "--out", "existing", "--spp", "2", "--width", "4", "--bins", "2", "--reference", "c.tstats"], Ours, "the reference has shape"),
+    (&["report", "convergence", "missing.xml", "--out", "cv", "--spp", "2"], Ours, "missing.xml"),
+];
+
+#[test]
+fn hostile_command_lines_fail_cleanly_and_leave_nothing() {
+    let fx = fixture();
+    let dir = fx.path();
+    let started = Instant::now();
+    let mut failures = Vec::new();
+    for (k, (args, exit, want)) in CASES.iter().enumerate() {
+        let args: Vec<String> = args.iter().map(|a| a.to_string()).collect();
+        let what = format!("case {k}: tstat {}", args.join(" "));
+        let before = snapshot(dir);
+        let r = run(limited(&args, dir));
+        let after = snapshot(dir);
+        let first = r.stderr.lines().next().unwrap_or_default();
+        let want_code = match exit {
+            Ours => 1,
+            Usage => 2,
+        };
+        let mut problems = Vec::new();
+        if r.timed_out {
+            problems.push(format!("killed after {TIME_LIMIT:?}"));
+        }
+        if r.code != Some(want_code) {
+            problems.push(format!("exit {:?}, expected {want_code}", r.code));
+        }
+        if !first.starts_with("error: ") || !first.contains(want) {
+            problems.push(format!("first stderr line {first:?} lacks {want:?}"));
+        }
+        if r.stderr.contains("panicked") {
+            problems.push("panicked".into());
+        }
+        if *exit == Ours && r.stderr.lines().filter(|l| l.starts_with("error")).count() != 1 {
+            problems.push("more than one error line".into());
+        }
+        if before != after {
+            let changed: Vec<_> = before
+                .keys()
+                .chain(after.keys())
+                .filter(|p| before.get(*p) != after.get(*p))
+                .collect();
+            problems.push(format!("changed on disk: {changed:?}"));
+        }
+        if !problems.is_empty() {
+            failures.push(format!(
+                "{what}\n  {}\n  stderr: {}",
+                problems.join("; "),
+                r.stderr
+            ));
+        }
+    }
+    assert!(
+        failures.is_empty(),
+        "{} of {} cases failed:\n{}",
+        failures.len(),
+        CASES.len(),
+        failures.join("\n")
+    );
+    assert!(
+        started.elapsed() < Duration::from_secs(60),
+        "the corpus took {:?}",
+        started.elapsed()
+    );
+}
+
+/// A closed pipe on stdout (`tstat info B | head -0`) ends quietly; a full device is
+/// one error line. Neither panics.
+#[test]
+fn stdout_that_cannot_be_written_is_no_panic() {
+    let fx = fixture();
+    let (reader, writer) = std::io::pipe().unwrap();
+    drop(reader);
+    let out = Command::new(bin())
+        .current_dir(fx.path())
+        .args(["info", "b.tstats"])
+        .stdout(writer)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!err.contains("panicked"), "{err}");
+    assert_eq!(out.status.code(), Some(0), "{err}");
+    if Path::new("/dev/full").exists() {
+        let full = std::fs::OpenOptions::new()
+            .write(true)
+            .open("/dev/full")
+            .unwrap();
+        let out = Command::new(bin())
+            .current_dir(fx.path())
+            .args(["info", "b.tstats"])
+            .stdout(full)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{err}");
+        assert!(
+            err.starts_with("error: writing to standard output:") && err.lines().count() == 1,
+            "{err}"
+        );
+    }
+}
+
+/// The checks refuse only what is wrong: the same commands with distinct, valid
+/// outputs succeed, and a report into an existing directory adds its files and keeps
+/// what was there.
+#[test]
+fn valid_outputs_next_to_the_inputs_still_work() {
+    let fx = fixture();
+    let d = fx.path();
+    let tstat = |args: &[&str]| {
+        let mut c = Command::new(bin());
+        c.current_dir(d).args(args);
+        ok(c);
+    };
+    tstat(&["denoise", "b.tstats", "--out", "d.npy", "--exr", "d_exr"]);
+    assert!(d.join("d.npy").is_file() && d.join("d_exr/bin_0000.exr").is_file());
+    tstat(&["export", "b.tstats", "--out", "e.npy", "--steady", "e.exr"]);
+    tstat(&["merge", "b.tstats", "./c.tstats/", "--out", "m.tstats"]);
+    tstat(&[
+        "report",
+        "compare",
+        "--reference",
+        "m.tstats",
+        "--input",
+        "b=b.tstats",
+        "--out",
+        "existing",
+    ]);
+    assert!(d.join("existing/metrics.csv").is_file());
+    assert_eq!(std::fs::read(d.join("existing/keep.txt")).unwrap(), b"keep");
+    // A volume against itself has no error to plot: the summary lists only what was
+    // written.
+    let out = Command::new(bin())
+        .current_dir(d)
+        .args([
+            "report",
+            "compare",
+            "--reference",
+            "vol.npy",
+            "--input",
+            "same=vol.npy",
+            "--out",
+            "same",
+        ])
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(!d.join("same/per_bin.png").exists());
+    assert!(
+        stdout.contains("wrote same/{metrics.csv, metrics.md, per_bin.csv}"),
+        "{stdout}"
+    );
+    // --force replaces an earlier output of the same kind.
+    tstat(&["frames", "vol.npy", "--out", "f"]);
+    tstat(&["frames", "vol.npy", "--out", "f", "--force", "--every", "2"]);
+    assert_eq!(std::fs::read_dir(d.join("f/frames")).unwrap().count(), 2);
+}
+
+/// Legal but suspicious: a time window the light never reaches renders, with a warning.
+#[test]
+fn an_empty_time_window_is_a_warning() {
+    let fx = fixture();
+    let out = Command::new(bin())
+        .current_dir(fx.path())
+        .args([
+            "render",
+            "s.xml",
+            "--out",
+            "late.tstats",
+            "--width",
+            "4",
+            "--spp",
+            "2",
+            "--bins",
+            "2",
+            "--start-opl",
+            "1000",
+        ])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(
+        err.contains("warning: nothing landed in the time window (OPL 1000 to"),
+        "{err}"
+    );
+}
