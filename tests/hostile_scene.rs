@@ -272,6 +272,23 @@ fn cases() -> Vec<Case> {
             "the transform overflows",
         ),
         scene_case(
+            "cube_edges_of_2e10",
+            scene_with(r#"<shape type="cube"><transform name="to_world"><scale value="1e10"/></transform></shape>"#),
+            "triangle 0 is too large for single-precision arithmetic",
+        ),
+        scene_case(
+            "scene_spans_3e-5",
+            File::Text(
+                BASE.replace("SHAPES", "")
+                    .replace("SENSOR", "")
+                    .replace(
+                        r#"<shape type="rectangle">"#,
+                        r#"<shape type="rectangle"><transform name="to_world"><scale value="1e-5"/></transform>"#,
+                    ),
+            ),
+            "within ten ray offsets",
+        ),
+        scene_case(
             "sphere_radius_times_scale_overflows",
             sphere(r#"<float name="radius" value="1e30"/><transform name="to_world"><scale value="1e30"/></transform>"#),
             "world-space radius",
@@ -714,37 +731,55 @@ fn suspicious_scenes_warn_once_and_render() {
     let cases = [
         (
             "radiance_zero",
-            r#"<shape type="cube"><emitter type="area"><rgb name="radiance" value="0"/></emitter></shape>"#,
+            scene_with(
+                r#"<shape type="cube"><emitter type="area"><rgb name="radiance" value="0"/></emitter></shape>"#,
+            ),
             "radiance is zero",
         ),
         (
             "radiance_scaled_to_nothing",
-            r#"<shape type="cube"><emitter type="area"><rgb name="radiance" value="1e-300"/></emitter></shape>"#,
+            scene_with(
+                r#"<shape type="cube"><emitter type="area"><rgb name="radiance" value="1e-300"/></emitter></shape>"#,
+            ),
             "radiance is zero",
         ),
         (
             "point_light_zero",
-            r#"<emitter type="point"><rgb name="intensity" value="0"/><point name="position" x="0" y="0" z="1"/></emitter>"#,
+            scene_with(
+                r#"<emitter type="point"><rgb name="intensity" value="0"/><point name="position" x="0" y="0" z="1"/></emitter>"#,
+            ),
             "intensity is zero",
         ),
         (
             "shape_without_area",
-            r#"<shape type="cube"><transform name="to_world"><scale value="1e-30"/></transform></shape>"#,
+            scene_with(
+                r#"<shape type="cube"><transform name="to_world"><scale value="1e-30"/></transform></shape>"#,
+            ),
             "the shape has zero area",
         ),
         (
+            "scene_spans_3e-3",
+            base_replace(
+                r#"<shape type="rectangle">"#,
+                r#"<shape type="rectangle"><transform name="to_world"><scale value="1e-3"/></transform>"#,
+            ),
+            "ray offsets",
+        ),
+        (
             "reflectance_above_one",
-            r#"<shape type="cube"><bsdf type="diffuse"><rgb name="reflectance" value="2"/></bsdf></shape>"#,
+            scene_with(
+                r#"<shape type="cube"><bsdf type="diffuse"><rgb name="reflectance" value="2"/></bsdf></shape>"#,
+            ),
             "exceeds 1",
         ),
     ];
     let mut failures = Vec::new();
-    for (name, shapes, want) in cases {
+    for (name, scene, want) in cases {
         let tmp = tempfile::tempdir().unwrap();
         let dir = tmp.path();
-        make(dir, "scene.xml", &scene_with(shapes));
+        make(dir, "scene.xml", &scene);
         let out = dir.join("out.tstats");
-        let c = scene_case(name, scene_with(shapes), want);
+        let c = scene_case(name, scene, want);
         let r = run(dir, &render_args(&c, dir, &out));
         let warnings: Vec<&str> = r
             .stderr

@@ -94,6 +94,17 @@ fn transform_mesh(
                 .as_vec3();
         }
     }
+    // The renderer takes |e1 x e2| in single precision (normals, areas): its square
+    // must not overflow, which bounds the edges to about 4e9 units.
+    for (f, t) in m.triangles.iter().enumerate() {
+        let [a, b, c] = t.map(|i| m.positions[i as usize]);
+        if !(b - a).cross(c - a).length_squared().is_finite() {
+            return Err(format!(
+                "triangle {f} is too large for single-precision arithmetic (edges of {:e} units; scale the scene down)",
+                (b - a).length().max((c - a).length())
+            ));
+        }
+    }
     if keep_facing && to_world.determinant() < 0.0 {
         for t in m.triangles.iter_mut() {
             t.swap(1, 2);
