@@ -417,6 +417,19 @@ fn cases() -> Vec<Case> {
             r#"<float name="fov">: '1e39' overflows"#,
         )
         .args(&["-D", "fov=1e39"]),
+        scene_case(
+            "default_expands_to_100_gb",
+            File::Text(
+                BASE.replace("SHAPES", "")
+                    .replace("SENSOR", "")
+                    .replace(
+                        "<scene version=\"3.0.0\">",
+                        &format!("<scene version=\"3.0.0\"><default name=\"a\" value=\"{}\"/>", "x".repeat(1_000_000)),
+                    )
+                    .replace("<shape type=\"rectangle\">", &format!("<shape type=\"rectangle\" id=\"{}\">", "$a".repeat(100_000))),
+            ),
+            "longer than 1048576 bytes",
+        ),
         // ---- meshes: file kinds ----
         case(
             "ply_is_dev_zero",
@@ -764,6 +777,14 @@ fn suspicious_scenes_warn_once_and_render() {
                 r#"<shape type="rectangle"><transform name="to_world"><scale value="1e-3"/></transform>"#,
             ),
             "ray offsets",
+        ),
+        (
+            "time_axis_before_any_light",
+            base_replace(
+                r#"<float name="bin_width_opl" value="1"/>"#,
+                r#"<float name="bin_width_opl" value="1"/><float name="start_opl" value="-10"/>"#,
+            ),
+            "every bin stays empty",
         ),
         (
             "reflectance_above_one",

@@ -6,7 +6,7 @@ use super::error::SceneError;
 use super::transform::parse_transform;
 use glam::{DMat4, Vec3};
 use roxmltree::Node;
-use std::cell::RefCell;
+use std::cell::{Cell, RefCell};
 use std::collections::HashMap;
 use std::path::Path;
 
@@ -18,6 +18,8 @@ pub struct Ctx<'a> {
     pub defaults: &'a HashMap<String, String>,
     /// One line each, `file:line: <element>: message` (the caller adds "warning: ").
     pub warnings: RefCell<Vec<String>>,
+    /// Bytes added by `$name` substitutions so far (bounded by [`MAX_EXPANDED_BYTES`]).
+    expanded: Cell<usize>,
 }
 
 /// The largest magnitude a scene number may have: every number ends up in single
@@ -56,6 +58,7 @@ impl<'a> Ctx<'a> {
             text,
             defaults,
             warnings: RefCell::new(Vec::new()),
+            expanded: Cell::new(0),
         }
     }
 
@@ -107,7 +110,15 @@ impl<'a> Ctx<'a> {
                 .unwrap_or(after.len());
             let key = &after[..len];
             match self.defaults.get(key) {
-                Some(v) => out.push_str(v),
+                Some(v) => {
+                    if out.len() + v.len() > MAX_SUBSTITUTED_BYTES {
+                        return Err(self.err(
+                            node,
+                            format!("'$' substitution makes an attribute longer than {MAX_SUBSTITUTED_BYTES} bytes"),
+                        ));
+                    }
+                    out.push_str(v)
+                }
                 None => {
                     return Err(self.err(
                         node,
@@ -118,9 +129,25 @@ impl<'a> Ctx<'a> {
             rest = &after[len..];
         }
         out.push_str(rest);
+        let grown = self.expanded.get() + out.len().saturating_sub(raw.len());
+        if grown > MAX_EXPANDED_BYTES {
+            return Err(self.err(
+                node,
+                format!(
+                    "'$' substitutions add more than {MAX_EXPANDED_BYTES} bytes to the document"
+                ),
+            ));
+        }
+        self.expanded.set(grown);
         Ok(out)
     }
 }
+
+/// The longest attribute value after `$name` substitution (real ones are a few hundred
+/// bytes): defaults referenced many times must not expand a small file into gigabytes.
+pub const MAX_SUBSTITUTED_BYTES: usize = 1 << 20;
+/// The most that substitutions may add over the whole document.
+pub const MAX_EXPANDED_BYTES: usize = 64 << 20;
 
 /// A typed parameter value.
 #[derive(Clone, Debug)]

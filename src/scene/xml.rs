@@ -35,7 +35,19 @@ pub fn load(path: &Path, overrides: &Overrides) -> Result<Scene, SceneError> {
     let bytes = crate::io::read_regular(path, crate::io::MAX_SCENE_BYTES)
         .map_err(|e| whole(format!("cannot read the scene file: {e}")))?;
     let sha256 = format!("{:x}", Sha256::digest(&bytes));
-    let text = String::from_utf8(bytes).map_err(|_| whole("the scene file is not UTF-8".into()))?;
+    let text = String::from_utf8(bytes).map_err(|e| {
+        let valid = &e.as_bytes()[..e.utf8_error().valid_up_to()];
+        let line = valid.iter().filter(|&&b| b == b'\n').count() + 1;
+        SceneError::new(
+            path,
+            line as u32,
+            "scene",
+            format!(
+                "the scene file is not UTF-8 (byte {} is invalid)",
+                valid.len()
+            ),
+        )
+    })?;
     limits::prescan(&text).map_err(|r| {
         let line = text[..r.offset].bytes().filter(|&b| b == b'\n').count() + 1;
         SceneError::new(path, line as u32, "xml", r.message)
@@ -195,6 +207,13 @@ pub fn load(path: &Path, overrides: &Overrides) -> Result<Scene, SceneError> {
         film.bin_width_opl = h;
     }
     film.validate().map_err(whole)?;
+    let end = film.start_opl + film.bins as f64 * film.bin_width_opl;
+    if end <= 0.0 {
+        ctx.warn(
+            root,
+            format!("the time axis ends at OPL {end}, before any light can arrive (path lengths are positive): every bin stays empty"),
+        );
+    }
     if let Some(d) = overrides.max_depth {
         integrator.max_depth = d;
     }
@@ -853,6 +872,42 @@ mod tests {
     }
 
     #[test]
+    fn default_substitution_cannot_blow_up_a_small_file() {
+        let big = "x".repeat(100_000);
+        let refs = "$a".repeat(20);
+        let head = format!("<scene version=\"3.0.0\"><default name=\"a\" value=\"{big}\"/>");
+        let e = fails(
+            &with(&LIGHT.replace("<shape ", &format!("<shape id=\"{refs}\" ")))
+                .replace("<scene version=\"3.0.0\">", &head),
+        );
+        assert!(e.contains("longer than 1048576 bytes"), "{e}");
+        // Each attribute within the limit, the document as a whole not.
+        let ids: String = (0..700)
+            .map(|k| format!("<bsdf type=\"diffuse\" id=\"$a-{k}\"/>"))
+            .collect();
+        let e = fails(&with(&format!("{LIGHT}{ids}")).replace("<scene version=\"3.0.0\">", &head));
+        assert!(e.contains("substitutions add more than"), "{e}");
+    }
+
+    #[test]
+    fn invalid_utf8_names_its_line() {
+        let mut bytes = with(LIGHT).into_bytes();
+        let at = bytes.windows(6).position(|w| w == b"<shape").unwrap();
+        bytes.insert(at, 0xff);
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("s.xml");
+        std::fs::write(&path, bytes).unwrap();
+        let e = load(&path, &Overrides::default())
+            .err()
+            .unwrap()
+            .to_string();
+        assert!(
+            e.contains("s.xml:11: <scene>: the scene file is not UTF-8"),
+            "{e}"
+        );
+    }
+
+    #[test]
     fn suspicious_settings_warn() {
         let w = warnings(&with(&format!(
             "{LIGHT}<shape type=\"cube\"><bsdf type=\"diffuse\"><rgb name=\"reflectance\" value=\"0.5, 1.5, 0.5\"/></bsdf></shape>"
@@ -867,6 +922,12 @@ mod tests {
         )));
         assert_eq!(w.len(), 1, "{w:?}");
         assert!(w[0].contains("max_depth is 0"), "{w:?}");
+        let w = warnings(&with(LIGHT).replace(
+            "<float name=\"bin_width_opl\" value=\"1\"/>",
+            "<float name=\"bin_width_opl\" value=\"1\"/><float name=\"start_opl\" value=\"-4\"/>",
+        ));
+        assert_eq!(w.len(), 1, "{w:?}");
+        assert!(w[0].contains("the time axis ends at OPL 0"), "{w:?}");
     }
 
     #[test]
