@@ -372,6 +372,18 @@ fn cases() -> Vec<Case> {
             scene_with(r#"<bsdf type="diffuse" id="a"/><shape type="cube" id="a"/>"#),
             "id 'a' is already used on line",
         ),
+        // Finding a line number scans the text: only errors may do it, or 300000 ids
+        // on one line take minutes.
+        scene_case(
+            "300k_ids_on_one_line_then_a_duplicate",
+            scene_with(
+                &((0..300_000)
+                    .map(|k| format!("<bsdf type=\"diffuse\" id=\"b{k}\"/>"))
+                    .collect::<String>()
+                    + "<bsdf type=\"diffuse\" id=\"b0\"/>"),
+            ),
+            "scene.xml:13: <bsdf type=\"diffuse\">: id 'b0' is already used on line 13",
+        ),
         scene_case(
             "duplicate_default",
             base_replace(

@@ -17,10 +17,15 @@ pub struct Ctx<'a> {
     pub text: &'a str,
     pub defaults: &'a HashMap<String, String>,
     /// One line each, `file:line: <element>: message` (the caller adds "warning: ").
-    pub warnings: RefCell<Vec<String>>,
+    warnings: RefCell<Vec<String>>,
     /// Bytes added by `$name` substitutions so far (bounded by [`MAX_EXPANDED_BYTES`]).
     expanded: Cell<usize>,
+    /// Warnings recorded, including those beyond [`MAX_WARNINGS`].
+    warning_count: Cell<usize>,
 }
+
+/// Warnings kept with their location; the rest are counted.
+pub const MAX_WARNINGS: usize = 10;
 
 /// The largest magnitude a scene number may have: every number ends up in single
 /// precision somewhere (positions, colours, IORs), where anything larger is infinite.
@@ -59,13 +64,33 @@ impl<'a> Ctx<'a> {
             defaults,
             warnings: RefCell::new(Vec::new()),
             expanded: Cell::new(0),
+            warning_count: Cell::new(0),
         }
     }
 
-    /// Records a warning located at `node`.
+    /// Records a warning located at `node`. After [`MAX_WARNINGS`], further warnings are
+    /// only counted (one summary line): a scene of a million silent emitters needs one
+    /// screen, and finding a line number scans the text.
     pub fn warn(&self, node: Node, message: impl Into<String>) {
-        let e = self.err(node, message);
-        self.warnings.borrow_mut().push(e.to_string());
+        let mut w = self.warnings.borrow_mut();
+        if w.len() < MAX_WARNINGS {
+            w.push(self.err(node, message).to_string());
+        }
+        drop(w);
+        self.warning_count.set(self.warning_count.get() + 1);
+    }
+
+    /// The warnings, with a last line counting those not shown.
+    pub fn take_warnings(&self) -> Vec<String> {
+        let mut w = self.warnings.take();
+        let more = self.warning_count.get().saturating_sub(w.len());
+        if more > 0 {
+            w.push(format!(
+                "{}: {more} more warnings not shown",
+                self.file.display()
+            ));
+        }
+        w
     }
 
     pub fn line(&self, node: Node) -> u32 {

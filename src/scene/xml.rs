@@ -78,7 +78,8 @@ pub fn load(path: &Path, overrides: &Overrides) -> Result<Scene, SceneError> {
     // Defaults: the command line wins over the file.
     let mut defaults: HashMap<String, String> = overrides.defaults.iter().cloned().collect();
     let cli_keys: Vec<String> = defaults.keys().cloned().collect();
-    let mut in_file: HashMap<String, u32> = HashMap::new();
+    // Nodes, not line numbers: finding a line scans the text, so only errors do it.
+    let mut in_file: HashMap<String, Node> = HashMap::new();
     for node in root.children().filter(|n| n.has_tag_name("default")) {
         let empty = HashMap::new();
         let ctx = Ctx::new(path, &text, &empty);
@@ -91,7 +92,8 @@ pub fn load(path: &Path, overrides: &Overrides) -> Result<Scene, SceneError> {
             ));
         }
         let value = ctx.required_attr(node, "value")?;
-        if let Some(first) = in_file.insert(name.clone(), ctx.line(node)) {
+        if let Some(first) = in_file.insert(name.clone(), node) {
+            let first = ctx.line(first);
             return Err(ctx.err(
                 node,
                 format!("<default name=\"{name}\"> is given twice (first on line {first})"),
@@ -117,6 +119,7 @@ pub fn load(path: &Path, overrides: &Overrides) -> Result<Scene, SceneError> {
 
     let mut named_bsdfs: HashMap<String, Bsdf> = HashMap::new();
     let mut bsdfs: Vec<Bsdf> = Vec::new();
+    let mut bsdf_index: HashMap<String, usize> = HashMap::new();
     let mut shapes: Vec<Shape> = Vec::new();
     let mut emitters: Vec<Emitter> = Vec::new();
     let mut sensor: Option<Sensor> = None;
@@ -148,13 +151,12 @@ pub fn load(path: &Path, overrides: &Overrides) -> Result<Scene, SceneError> {
             "shape" => {
                 let index = shapes.len() as u32;
                 let (shape, bsdf, emission) = parse_shape(&ctx, node, index, &named_bsdfs)?;
-                let bsdf_index = match bsdfs.iter().position(|b| *b == bsdf) {
-                    Some(i) => i,
-                    None => {
-                        bsdfs.push(bsdf);
-                        bsdfs.len() - 1
-                    }
-                };
+                // Equal BSDFs share an index; found by their exact Debug text, so
+                // that many distinct BSDFs do not cost a quadratic search.
+                let bsdf_index = *bsdf_index.entry(format!("{bsdf:?}")).or_insert_with(|| {
+                    bsdfs.push(bsdf);
+                    bsdfs.len() - 1
+                });
                 let mut shape = Shape {
                     bsdf: bsdf_index as u32,
                     ..shape
@@ -263,7 +265,7 @@ pub fn load(path: &Path, overrides: &Overrides) -> Result<Scene, SceneError> {
         shapes,
         emitters,
         accel,
-        warnings: ctx.warnings.take(),
+        warnings: ctx.take_warnings(),
     })
 }
 
@@ -454,7 +456,7 @@ fn allowed_attributes(tag: &str) -> Option<&'static [&'static str]> {
 /// Checks every element's attributes, and that one id names one object in the file
 /// (ids name objects for `<ref>`s; Mitsuba has the same rule).
 fn check_elements(ctx: &Ctx, root: Node) -> Result<(), SceneError> {
-    let mut seen: HashMap<String, u32> = HashMap::new();
+    let mut seen: HashMap<String, Node> = HashMap::new();
     for node in root.descendants().filter(|n| n.is_element()) {
         let tag = node.tag_name().name();
         if let Some(allowed) = allowed_attributes(tag) {
@@ -476,7 +478,8 @@ fn check_elements(ctx: &Ctx, root: Node) -> Result<(), SceneError> {
             continue;
         }
         if let Some(id) = ctx.attr(node, "id")? {
-            if let Some(first) = seen.insert(id.clone(), ctx.line(node)) {
+            if let Some(first) = seen.insert(id.clone(), node) {
+                let first = ctx.line(first);
                 return Err(ctx.err(node, format!("id '{id}' is already used on line {first}")));
             }
         }
@@ -904,6 +907,18 @@ mod tests {
         assert!(
             e.contains("s.xml:11: <scene>: the scene file is not UTF-8"),
             "{e}"
+        );
+    }
+
+    #[test]
+    fn warnings_beyond_ten_are_counted() {
+        let silent = "<shape type=\"cube\"><emitter type=\"area\"><rgb name=\"radiance\" value=\"0\"/></emitter></shape>";
+        let w = warnings(&with(&format!("{LIGHT}{}", silent.repeat(25))));
+        assert_eq!(w.len(), 11, "{w:?}");
+        assert!(w[9].contains("radiance is zero"), "{w:?}");
+        assert!(
+            w[10].ends_with("s.xml: 15 more warnings not shown"),
+            "{w:?}"
         );
     }
 
