@@ -454,6 +454,8 @@ fn cases() -> Vec<Case> {
         mesh_case("obj_is_fifo", "obj", "m.obj", File::Fifo, "not a regular file"),
         mesh_case("obj_is_directory", "obj", "m.obj", File::Dir, "is a directory"),
         mesh_case("ply_is_17_gib", "ply", "m.ply", File::Sparse(17 << 30), "above the limit"),
+        // Within the size limit, beyond the 2 GB address space of the test.
+        mesh_case("ply_is_10_gib", "ply", "m.ply", File::Sparse(10 << 30), "more than can be allocated"),
         case(
             "mesh_filename_empty",
             vec![("scene.xml", mesh_scene("obj", ""))],
