@@ -33,7 +33,15 @@ pub fn read_regular(path: &Path, max_bytes: u64) -> Result<Vec<u8>, String> {
         ));
     }
     let file = std::fs::File::open(path).map_err(|e| e.to_string())?;
-    let mut bytes = Vec::with_capacity(meta.len() as usize);
+    let mut bytes = Vec::new();
+    // A file within the limit may still not fit in memory (or under `ulimit -v`):
+    // that is an error, not an abort.
+    bytes.try_reserve_exact(meta.len() as usize).map_err(|_| {
+        format!(
+            "is {} bytes, more than can be allocated to read it",
+            meta.len()
+        )
+    })?;
     file.take(max_bytes + 1)
         .read_to_end(&mut bytes)
         .map_err(|e| e.to_string())?;

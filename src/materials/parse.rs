@@ -50,15 +50,30 @@ fn ior(props: &mut Props, name: &str, default: f64) -> Result<f64, SceneError> {
             });
     }
     let v = props.float_or(name, default)?;
-    if v <= 0.0 {
-        return Err(props.err_at(name, format!("{name} must be positive, got {v}")));
+    if !(v > 0.0 && v <= MAX_OPTICAL_CONSTANT) {
+        return Err(props.err_at(
+            name,
+            format!("{name} must be positive and at most {MAX_OPTICAL_CONSTANT:e}, got {v}"),
+        ));
     }
     Ok(v)
 }
 
+/// The largest IOR, conductor eta or k accepted: Fresnel's single-precision arithmetic
+/// raises them to the fourth power (real materials stay below about 10).
+pub const MAX_OPTICAL_CONSTANT: f64 = 1e6;
+
+/// Reflectances and transmittances: never negative; above 1 the material creates energy,
+/// which is legal (Mitsuba renders it) but almost always a typo, so it is a warning.
 fn check_reflectance(props: &Props, name: &str, c: Rgb) -> Result<Rgb, SceneError> {
     if c.min_element() < 0.0 {
         return Err(props.err_at(name, format!("{name} must be non-negative, got {c}")));
+    }
+    if c.max_element() > 1.0 {
+        props.warn_at(
+            name,
+            format!("{name} {c} exceeds 1: the material reflects more energy than it receives"),
+        );
     }
     Ok(c)
 }
@@ -101,10 +116,17 @@ pub fn parse_bsdf(
         "dielectric" => {
             let int_ior = ior(&mut props, "int_ior", 1.5046)?;
             let ext_ior = ior(&mut props, "ext_ior", 1.000277)?;
+            let eta = int_ior / ext_ior;
+            if !(1.0 / MAX_OPTICAL_CONSTANT..=MAX_OPTICAL_CONSTANT).contains(&eta) {
+                return Err(props.err(format!(
+                    "the relative IOR int_ior/ext_ior = {eta:e} is outside [{:e}, {MAX_OPTICAL_CONSTANT:e}]",
+                    1.0 / MAX_OPTICAL_CONSTANT
+                )));
+            }
             let sr = props.rgb("specular_reflectance")?.unwrap_or(Rgb::ONE);
             let st = props.rgb("specular_transmittance")?.unwrap_or(Rgb::ONE);
             Bsdf::Dielectric(Dielectric {
-                eta: (int_ior / ext_ior) as f32,
+                eta: eta as f32,
                 specular_reflectance: check_reflectance(&props, "specular_reflectance", sr)?,
                 specular_transmittance: check_reflectance(&props, "specular_transmittance", st)?,
             })
@@ -131,6 +153,14 @@ pub fn parse_bsdf(
             };
             if eta.min_element() < 0.0 || k.min_element() < 0.0 {
                 return Err(props.err("conductor eta and k must be non-negative"));
+            }
+            let limit = MAX_OPTICAL_CONSTANT as f32;
+            for (name, v) in [("eta", eta), ("k", k)] {
+                if v.max_element() > limit {
+                    return Err(
+                        props.err_at(name, format!("conductor {name} {v} exceeds {limit:e}"))
+                    );
+                }
             }
             let sr = props.rgb("specular_reflectance")?.unwrap_or(Rgb::ONE);
             Bsdf::Conductor(Conductor {

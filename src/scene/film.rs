@@ -50,6 +50,23 @@ impl Film {
         if self.bins == 0 {
             return Err("temporal_bins must be at least 1".into());
         }
+        // Every later size computation (sums, G-buffers, bytes) stays within usize.
+        let bytes = [self.height, self.bins, 3, 8, 4]
+            .iter()
+            .try_fold(self.width, |n, &f| n.checked_mul(f));
+        if bytes.is_none() {
+            return Err(format!(
+                "a film of {}x{} px and {} bins is too large to address",
+                self.width, self.height, self.bins
+            ));
+        }
+        if self.bins > u32::MAX as usize {
+            return Err(format!(
+                "temporal_bins {} is above the largest supported count {}",
+                self.bins,
+                u32::MAX
+            ));
+        }
         if !(self.bin_width_opl > 0.0 && self.bin_width_opl.is_finite()) {
             return Err(format!(
                 "bin_width_opl must be positive, got {}",

@@ -277,7 +277,9 @@ fn read_entries<E: PropertyAccess>(
     // in the rest of the file means truncation (or a corrupt header). Checking
     // up front also keeps a bogus huge count from looping or allocating.
     let min_bytes = match encoding {
-        Encoding::Ascii => 1,
+        // Each value takes a digit and a separator (space or line end).
+        // (the file's last line may lack its line end: one byte of slack below).
+        Encoding::Ascii => (2 * def.properties.len()).max(1),
         _ => def
             .properties
             .values()
@@ -287,10 +289,11 @@ fn read_entries<E: PropertyAccess>(
             .sum::<usize>()
             .max(1),
     };
+    let slack = usize::from(encoding == Encoding::Ascii);
     if def
         .count
         .checked_mul(min_bytes)
-        .is_none_or(|n| n > data.len())
+        .is_none_or(|n| n > data.len() + slack)
     {
         return Err(format!(
             "file is truncated: element '{}' declares {} entries but only {} bytes remain",
@@ -687,10 +690,12 @@ fn to_f64<T: Into<f64>>(v: T) -> f64 {
 // Shared helpers
 // ---------------------------------------------------------------------------
 
+/// Reads a regular file of at most [`crate::io::MAX_MESH_BYTES`]; devices, FIFOs,
+/// directories (and links to them) are refused before anything is read.
 fn read_file(path: &Path) -> Result<Vec<u8>, MeshError> {
-    std::fs::read(path).map_err(|source| MeshError::Io {
+    crate::io::read_regular(path, crate::io::MAX_MESH_BYTES).map_err(|e| MeshError::Io {
         path: path.to_path_buf(),
-        source,
+        source: io::Error::other(e),
     })
 }
 
@@ -945,6 +950,46 @@ mod tests {
         let path = write(&dir, "cut.ply", &full[..full.len() - 1]);
         let message = error_message(load_ply(&path), &path);
         assert!(message.contains("truncated"), "{message}");
+    }
+
+    #[test]
+    fn non_regular_mesh_files_are_refused_before_reading() {
+        let dir = tempfile::tempdir().unwrap();
+        let zero = Path::new("/dev/zero");
+        let message = error_message(load_ply(zero), zero);
+        assert!(message.contains("not a regular file"), "{message}");
+        let message = error_message(load_obj(zero), zero);
+        assert!(message.contains("not a regular file"), "{message}");
+        #[cfg(unix)]
+        {
+            let link = dir.path().join("zero.obj");
+            std::os::unix::fs::symlink("/dev/zero", &link).unwrap();
+            let message = error_message(load_obj(&link), &link);
+            assert!(message.contains("not a regular file"), "{message}");
+        }
+    }
+
+    #[test]
+    fn ascii_counts_are_checked_against_the_bytes_they_need() {
+        // 100 vertices of three values need at least 600 bytes; 25 lines are there.
+        let dir = tempfile::tempdir().unwrap();
+        let text = "ply\nformat ascii 1.0\nelement vertex 100\nproperty float x\n\
+            property float y\nproperty float z\nelement face 1\n\
+            property list uchar int vertex_indices\nend_header\n"
+            .to_string()
+            + &"0 0 0\n".repeat(25);
+        let path = write(&dir, "short.ply", text);
+        let message = error_message(load_ply(&path), &path);
+        assert!(
+            message.contains("declares 100 entries but only 150 bytes remain"),
+            "{message}"
+        );
+        // The shortest complete file passes the check (last line without its end).
+        let text = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\n\
+            property float y\nproperty float z\nelement face 1\n\
+            property list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2";
+        let mesh = load_ply(&write(&dir, "min.ply", text)).unwrap();
+        assert_eq!(mesh.triangles, vec![[0, 1, 2]]);
     }
 
     #[test]

@@ -5,6 +5,7 @@
 pub mod camera;
 pub mod error;
 pub mod film;
+pub mod limits;
 pub mod mesh;
 pub mod props;
 pub mod shapes;
@@ -77,6 +78,10 @@ pub struct Scene {
     pub shapes: Vec<Shape>,
     pub emitters: Vec<Emitter>,
     pub accel: Accel,
+    /// Legal but suspicious input (an emitter that contributes nothing, a shape with no
+    /// area), one line each as `file:line: <element>: message`. The caller prints them
+    /// (as `warning: ...` on stderr); loading goes on.
+    pub warnings: Vec<String>,
 }
 
 impl Scene {

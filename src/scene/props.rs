@@ -6,17 +6,93 @@ use super::error::SceneError;
 use super::transform::parse_transform;
 use glam::{DMat4, Vec3};
 use roxmltree::Node;
+use std::cell::{Cell, RefCell};
 use std::collections::HashMap;
 use std::path::Path;
 
 /// How an element's text attributes are resolved: `$name` substitution from defaults.
+/// Also collects the warnings of the load (legal but suspicious input).
 pub struct Ctx<'a> {
     pub file: &'a Path,
     pub text: &'a str,
     pub defaults: &'a HashMap<String, String>,
+    /// One line each, `file:line: <element>: message` (the caller adds "warning: ").
+    warnings: RefCell<Vec<String>>,
+    /// Bytes added by `$name` substitutions so far (bounded by [`MAX_EXPANDED_BYTES`]).
+    expanded: Cell<usize>,
+    /// Warnings recorded, including those beyond [`MAX_WARNINGS`].
+    warning_count: Cell<usize>,
 }
 
-impl Ctx<'_> {
+/// Warnings kept with their location; the rest are counted.
+pub const MAX_WARNINGS: usize = 10;
+
+/// The largest magnitude a scene number may have: every number ends up in single
+/// precision somewhere (positions, colours, IORs), where anything larger is infinite.
+pub const MAX_NUMBER: f64 = f32::MAX as f64;
+
+/// Parses one number of a scene file: finite and within single precision.
+pub fn scene_number(token: &str) -> Result<f64, String> {
+    let t = token.trim();
+    let v: f64 = t
+        .parse()
+        .map_err(|_| format!("'{t}' is not a finite number"))?;
+    if !v.is_finite() {
+        return Err(format!("'{t}' is not a finite number"));
+    }
+    if v.abs() > MAX_NUMBER {
+        return Err(format!(
+            "'{t}' overflows single precision (largest magnitude {MAX_NUMBER:.3e})"
+        ));
+    }
+    Ok(v)
+}
+
+/// Parses a list of numbers separated by commas and/or whitespace.
+pub fn scene_numbers(s: &str) -> Result<Vec<f64>, String> {
+    s.split(|c: char| c == ',' || c.is_whitespace())
+        .filter(|t| !t.is_empty())
+        .map(scene_number)
+        .collect()
+}
+
+impl<'a> Ctx<'a> {
+    pub fn new(file: &'a Path, text: &'a str, defaults: &'a HashMap<String, String>) -> Self {
+        Ctx {
+            file,
+            text,
+            defaults,
+            warnings: RefCell::new(Vec::new()),
+            expanded: Cell::new(0),
+            warning_count: Cell::new(0),
+        }
+    }
+
+    /// Records a warning located at `node`. After [`MAX_WARNINGS`], further warnings are
+    /// only counted (one summary line): a scene of a million silent emitters needs one
+    /// screen, and finding a line number scans the text.
+    pub fn warn(&self, node: Node, message: impl Into<String>) {
+        let mut w = self.warnings.borrow_mut();
+        if w.len() < MAX_WARNINGS {
+            w.push(self.err(node, message).to_string());
+        }
+        drop(w);
+        self.warning_count.set(self.warning_count.get() + 1);
+    }
+
+    /// The warnings, with a last line counting those not shown.
+    pub fn take_warnings(&self) -> Vec<String> {
+        let mut w = self.warnings.take();
+        let more = self.warning_count.get().saturating_sub(w.len());
+        if more > 0 {
+            w.push(format!(
+                "{}: {more} more warnings not shown",
+                self.file.display()
+            ));
+        }
+        w
+    }
+
     pub fn line(&self, node: Node) -> u32 {
         let doc = node.document();
         doc.text_pos_at(node.range().start).row
@@ -59,7 +135,15 @@ impl Ctx<'_> {
                 .unwrap_or(after.len());
             let key = &after[..len];
             match self.defaults.get(key) {
-                Some(v) => out.push_str(v),
+                Some(v) => {
+                    if out.len() + v.len() > MAX_SUBSTITUTED_BYTES {
+                        return Err(self.err(
+                            node,
+                            format!("'$' substitution makes an attribute longer than {MAX_SUBSTITUTED_BYTES} bytes"),
+                        ));
+                    }
+                    out.push_str(v)
+                }
                 None => {
                     return Err(self.err(
                         node,
@@ -70,9 +154,25 @@ impl Ctx<'_> {
             rest = &after[len..];
         }
         out.push_str(rest);
+        let grown = self.expanded.get() + out.len().saturating_sub(raw.len());
+        if grown > MAX_EXPANDED_BYTES {
+            return Err(self.err(
+                node,
+                format!(
+                    "'$' substitutions add more than {MAX_EXPANDED_BYTES} bytes to the document"
+                ),
+            ));
+        }
+        self.expanded.set(grown);
         Ok(out)
     }
 }
+
+/// The longest attribute value after `$name` substitution (real ones are a few hundred
+/// bytes): defaults referenced many times must not expand a small file into gigabytes.
+pub const MAX_SUBSTITUTED_BYTES: usize = 1 << 20;
+/// The most that substitutions may add over the whole document.
+pub const MAX_EXPANDED_BYTES: usize = 64 << 20;
 
 /// A typed parameter value.
 #[derive(Clone, Debug)]
@@ -101,7 +201,8 @@ pub struct Props<'a, 'i, 'c> {
     pub objects: Vec<Node<'a, 'i>>,
 }
 
-const OBJECT_TAGS: &[&str] = &[
+/// Tags of nested plugin elements (everything else in a plugin is a parameter).
+pub const OBJECT_TAGS: &[&str] = &[
     "bsdf",
     "emitter",
     "shape",
@@ -116,13 +217,6 @@ const OBJECT_TAGS: &[&str] = &[
     "phase",
     "profile",
 ];
-
-fn parse_floats(s: &str) -> Option<Vec<f64>> {
-    s.split(|c: char| c == ',' || c.is_whitespace())
-        .filter(|t| !t.is_empty())
-        .map(|t| t.parse::<f64>().ok().filter(|v| v.is_finite()))
-        .collect()
-}
 
 impl<'a, 'i, 'c> Props<'a, 'i, 'c> {
     pub fn parse(ctx: &'c Ctx<'c>, node: Node<'a, 'i>) -> Result<Self, SceneError> {
@@ -158,16 +252,11 @@ impl<'a, 'i, 'c> Props<'a, 'i, 'c> {
 
     fn parse_value(ctx: &Ctx, node: Node, tag: &str) -> Result<Value, SceneError> {
         let bad = |what: &str, v: &str| ctx.err(node, format!("'{v}' is not {what}"));
+        let numbers = |v: &str| scene_numbers(v).map_err(|e| ctx.err(node, e));
         Ok(match tag {
             "float" => {
                 let v = ctx.required_attr(node, "value")?;
-                Value::Float(
-                    v.trim()
-                        .parse::<f64>()
-                        .ok()
-                        .filter(|x| x.is_finite())
-                        .ok_or_else(|| bad("a finite number", &v))?,
-                )
+                Value::Float(scene_number(&v).map_err(|e| ctx.err(node, e))?)
             }
             "integer" => {
                 let v = ctx.required_attr(node, "value")?;
@@ -184,7 +273,7 @@ impl<'a, 'i, 'c> Props<'a, 'i, 'c> {
             "string" => Value::Str(ctx.required_attr(node, "value")?),
             "rgb" | "spectrum" | "color" => {
                 let v = ctx.required_attr(node, "value")?;
-                let f = parse_floats(&v).ok_or_else(|| bad("a list of numbers", &v))?;
+                let f = numbers(&v)?;
                 match f.len() {
                     1 => Value::Rgb([f[0]; 3]),
                     3 => Value::Rgb([f[0], f[1], f[2]]),
@@ -194,7 +283,7 @@ impl<'a, 'i, 'c> Props<'a, 'i, 'c> {
             "point" | "vector" => {
                 let mut p = [0.0; 3];
                 if let Some(v) = ctx.attr(node, "value")? {
-                    let f = parse_floats(&v).ok_or_else(|| bad("three numbers", &v))?;
+                    let f = numbers(&v)?;
                     if f.len() != 3 {
                         return Err(bad("three numbers", &v));
                     }
@@ -202,12 +291,8 @@ impl<'a, 'i, 'c> Props<'a, 'i, 'c> {
                 }
                 for (i, axis) in ["x", "y", "z"].iter().enumerate() {
                     if let Some(v) = ctx.attr(node, axis)? {
-                        p[i] = v
-                            .trim()
-                            .parse::<f64>()
-                            .ok()
-                            .filter(|x| x.is_finite())
-                            .ok_or_else(|| bad("a finite number", &v))?;
+                        p[i] = scene_number(&v)
+                            .map_err(|e| ctx.err(node, format!("attribute '{axis}': {e}")))?;
                     }
                 }
                 Value::Point(p)
@@ -315,6 +400,12 @@ impl<'a, 'i, 'c> Props<'a, 'i, 'c> {
 
     pub fn err(&self, message: impl Into<String>) -> SceneError {
         self.ctx.err(self.node, message)
+    }
+
+    /// A warning located at a named parameter, or at the element when it is absent.
+    pub fn warn_at(&self, name: &str, message: impl Into<String>) {
+        let node = self.entries.get(name).map_or(self.node, |e| e.node);
+        self.ctx.warn(node, message)
     }
 
     /// Fails on the first parameter nobody read.

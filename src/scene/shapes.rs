@@ -56,13 +56,35 @@ fn cube() -> MeshData {
     }
 }
 
+/// The largest world-space coordinate accepted. Geometry is single precision and its
+/// arithmetic squares distances (edge cross products, sphere tests, 1/r^2 falloff), so
+/// coordinates must stay far below sqrt(f32::MAX) ~ 1.8e19.
+pub const MAX_COORDINATE: f64 = 1e15;
+
+/// A world-space point must be finite in single precision and within [`MAX_COORDINATE`].
+pub fn check_world_point(p: DVec3) -> Result<(), String> {
+    if p.is_finite() && p.abs().max_element() <= MAX_COORDINATE {
+        Ok(())
+    } else {
+        Err(format!(
+            "world-space point {p} lies beyond +-{MAX_COORDINATE:e} (single-precision geometry would overflow)"
+        ))
+    }
+}
+
 /// Applies `to_world` to a mesh. For the built-in shapes (`keep_facing`), a mirroring
 /// transform reverses the winding so the normal stays the transformed +z (as Mitsuba's
 /// analytic shapes do); file meshes keep their winding.
-fn transform_mesh(mut m: MeshData, to_world: &DMat4, keep_facing: bool) -> ShapeGeom {
+fn transform_mesh(
+    mut m: MeshData,
+    to_world: &DMat4,
+    keep_facing: bool,
+) -> Result<ShapeGeom, String> {
     let normal_m = to_world.inverse().transpose();
-    for p in m.positions.iter_mut() {
-        *p = to_world.transform_point3(p.as_dvec3()).as_vec3();
+    for (i, p) in m.positions.iter_mut().enumerate() {
+        let w = to_world.transform_point3(p.as_dvec3());
+        check_world_point(w).map_err(|e| format!("vertex {i}: {e}"))?;
+        *p = w.as_vec3();
     }
     if let Some(ns) = m.normals.as_mut() {
         for n in ns.iter_mut() {
@@ -72,16 +94,27 @@ fn transform_mesh(mut m: MeshData, to_world: &DMat4, keep_facing: bool) -> Shape
                 .as_vec3();
         }
     }
+    // The renderer takes |e1 x e2| in single precision (normals, areas): its square
+    // must not overflow, which bounds the edges to about 4e9 units.
+    for (f, t) in m.triangles.iter().enumerate() {
+        let [a, b, c] = t.map(|i| m.positions[i as usize]);
+        if !(b - a).cross(c - a).length_squared().is_finite() {
+            return Err(format!(
+                "triangle {f} is too large for single-precision arithmetic (edges of {:e} units; scale the scene down)",
+                (b - a).length().max((c - a).length())
+            ));
+        }
+    }
     if keep_facing && to_world.determinant() < 0.0 {
         for t in m.triangles.iter_mut() {
             t.swap(1, 2);
         }
     }
-    ShapeGeom::Mesh {
+    Ok(ShapeGeom::Mesh {
         positions: m.positions,
         normals: m.normals,
         triangles: m.triangles,
-    }
+    })
 }
 
 /// Smooth vertex normals for a file mesh without them, as Mitsuba computes them:
@@ -108,9 +141,12 @@ pub fn vertex_normals(m: &MeshData) -> Vec<Vec3> {
 /// Builds the geometry of a `<shape>`; consumes its geometric parameters from `props`.
 pub fn parse_geometry(kind: &str, props: &mut Props) -> Result<ShapeGeom, SceneError> {
     let to_world = props.transform("to_world")?.unwrap_or(DMat4::IDENTITY);
+    let at_transform = |props: &Props, e: String| props.err_at("to_world", e);
     match kind {
-        "rectangle" => Ok(transform_mesh(rectangle(), &to_world, true)),
-        "cube" => Ok(transform_mesh(cube(), &to_world, true)),
+        "rectangle" => {
+            transform_mesh(rectangle(), &to_world, true).map_err(|e| at_transform(props, e))
+        }
+        "cube" => transform_mesh(cube(), &to_world, true).map_err(|e| at_transform(props, e)),
         "sphere" => {
             let c = props.point("center")?.unwrap_or([0.0; 3]);
             let r = props.float_or("radius", 1.0)?;
@@ -129,16 +165,28 @@ pub fn parse_geometry(kind: &str, props: &mut Props) -> Result<ShapeGeom, SceneE
             {
                 return Err(props.err_at("to_world", "a sphere's to_world must scale uniformly"));
             }
-            let center = to_world.transform_point3(DVec3::from(c)).as_vec3();
+            let center = to_world.transform_point3(DVec3::from(c));
+            check_world_point(center)
+                .map_err(|e| props.err_at("center", format!("center: {e}")))?;
+            let radius = r * lens[0];
+            if !(radius as f32 >= f32::MIN_POSITIVE && radius <= MAX_COORDINATE) {
+                return Err(props.err_at(
+                    "radius",
+                    format!("the world-space radius {radius:e} is outside [{:e}, {MAX_COORDINATE:e}] (single-precision geometry)", f32::MIN_POSITIVE),
+                ));
+            }
             Ok(ShapeGeom::Sphere(SphereGeom {
-                center,
-                radius: (r * lens[0]) as f32,
+                center: center.as_vec3(),
+                radius: radius as f32,
             }))
         }
         "ply" | "obj" => {
             let name = props
                 .string("filename")?
                 .ok_or_else(|| props.err("missing parameter 'filename'"))?;
+            if name.trim().is_empty() {
+                return Err(props.err_at("filename", "the filename is empty"));
+            }
             let path = props
                 .ctx
                 .file
@@ -159,7 +207,8 @@ pub fn parse_geometry(kind: &str, props: &mut Props) -> Result<ShapeGeom, SceneE
             if mesh.triangles.is_empty() {
                 return Err(props.err_at("filename", format!("mesh '{name}' has no triangles")));
             }
-            Ok(transform_mesh(mesh, &to_world, false))
+            transform_mesh(mesh, &to_world, false)
+                .map_err(|e| props.err_at("filename", format!("mesh '{name}': {e}")))
         }
         other => Err(props.err(format!(
             "unknown shape type '{other}' (supported: rectangle, cube, sphere, ply, obj)"
@@ -174,7 +223,7 @@ mod tests {
 
     #[test]
     fn cube_faces_point_outward_and_cover_area_24() {
-        let geom = transform_mesh(cube(), &DMat4::IDENTITY, true);
+        let geom = transform_mesh(cube(), &DMat4::IDENTITY, true).unwrap();
         let shape = Shape {
             name: "c".into(),
             geom,
@@ -216,7 +265,7 @@ mod tests {
     #[test]
     fn mirrored_rectangle_keeps_transformed_normal() {
         let m = DMat4::from_scale(DVec3::new(1.0, 1.0, -1.0));
-        let geom = transform_mesh(rectangle(), &m, true);
+        let geom = transform_mesh(rectangle(), &m, true).unwrap();
         let shape = Shape {
             name: "r".into(),
             geom,

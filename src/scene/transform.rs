@@ -2,40 +2,20 @@
 //! document order (each element applies after the previous ones), as in Mitsuba 3.
 
 use super::error::SceneError;
-use super::props::Ctx;
+use super::props::{scene_number, scene_numbers, Ctx};
 use glam::{DMat4, DVec3, DVec4};
 use roxmltree::Node;
 
 fn number(ctx: &Ctx, node: Node, attr: &str, default: f64) -> Result<f64, SceneError> {
     match ctx.attr(node, attr)? {
         None => Ok(default),
-        Some(v) => v
-            .trim()
-            .parse::<f64>()
-            .ok()
-            .filter(|x| x.is_finite())
-            .ok_or_else(|| {
-                ctx.err(
-                    node,
-                    format!("attribute '{attr}' = '{v}' is not a finite number"),
-                )
-            }),
+        Some(v) => scene_number(&v).map_err(|e| ctx.err(node, format!("attribute '{attr}': {e}"))),
     }
 }
 
 fn vector(ctx: &Ctx, node: Node, attr: &str) -> Result<DVec3, SceneError> {
     let v = ctx.required_attr(node, attr)?;
-    let f: Vec<f64> = v
-        .split(|c: char| c == ',' || c.is_whitespace())
-        .filter(|t| !t.is_empty())
-        .map(|t| t.parse::<f64>().ok().filter(|x| x.is_finite()))
-        .collect::<Option<_>>()
-        .ok_or_else(|| {
-            ctx.err(
-                node,
-                format!("attribute '{attr}' = '{v}' is not a list of numbers"),
-            )
-        })?;
+    let f = scene_numbers(&v).map_err(|e| ctx.err(node, format!("attribute '{attr}': {e}")))?;
     if f.len() != 3 {
         return Err(ctx.err(
             node,
@@ -121,14 +101,22 @@ pub fn parse_transform(ctx: &Ctx, node: Node) -> Result<DMat4, SceneError> {
             "matrix" => {
                 check_attrs(ctx, child, &["value"])?;
                 let v = ctx.required_attr(child, "value")?;
-                let f: Option<Vec<f64>> = v
-                    .split(|c: char| c == ',' || c.is_whitespace())
-                    .filter(|t| !t.is_empty())
-                    .map(|t| t.parse::<f64>().ok().filter(|x| x.is_finite()))
-                    .collect();
-                let f = f.filter(|f| f.len() == 16 || f.len() == 9).ok_or_else(|| {
-                    ctx.err(child, format!("'{v}' is not 16 (or 9) numbers in row-major order"))
-                })?;
+                let f = scene_numbers(&v).map_err(|e| ctx.err(child, e))?;
+                if f.len() != 16 && f.len() != 9 {
+                    return Err(ctx.err(
+                        child,
+                        format!("'{v}' is not 16 (or 9) numbers in row-major order"),
+                    ));
+                }
+                if f.len() == 16 && f[12..] != [0.0, 0.0, 0.0, 1.0] {
+                    return Err(ctx.err(
+                        child,
+                        format!(
+                            "the last row is {}, not 0 0 0 1: projective transforms are not supported",
+                            f[12..].iter().map(|x| x.to_string()).collect::<Vec<_>>().join(" ")
+                        ),
+                    ));
+                }
                 if f.len() == 16 {
                     // Row-major in the file; glam is column-major.
                     DMat4::from_cols_array(&[
@@ -164,11 +152,37 @@ pub fn parse_transform(ctx: &Ctx, node: Node) -> Result<DMat4, SceneError> {
             }
         };
         m = step * m;
+        if !m.is_finite() {
+            return Err(ctx.err(
+                child,
+                "the transform overflows (its entries are not finite)",
+            ));
+        }
     }
-    if m.determinant().abs() < 1e-300 || !m.is_finite() {
-        return Err(ctx.err(node, "transform is singular"));
-    }
+    check_invertible(&m).map_err(|e| ctx.err(node, e))?;
     Ok(m)
+}
+
+/// A transform must map 3D onto 3D: its linear part may not flatten any direction.
+/// Scale-invariant: compares the determinant with the product of the column lengths
+/// (1 for any rotation or scaling, 0 for a matrix that collapses a direction), so a
+/// tiny but uniform scale passes and a nearly flat one does not.
+fn check_invertible(m: &DMat4) -> Result<(), String> {
+    let cols = [
+        m.x_axis.truncate(),
+        m.y_axis.truncate(),
+        m.z_axis.truncate(),
+    ];
+    let lens = cols.map(|c| c.length());
+    let det = cols[0].dot(cols[1].cross(cols[2]));
+    let scale = lens[0] * lens[1] * lens[2];
+    if !(scale > 0.0 && scale.is_finite() && det.is_finite()) || det.abs() < 1e-12 * scale {
+        return Err(format!(
+            "the transform is singular (it flattens space: relative determinant {:.1e})",
+            if scale > 0.0 { det.abs() / scale } else { 0.0 }
+        ));
+    }
+    Ok(())
 }
 
 #[cfg(test)]
@@ -180,11 +194,7 @@ mod tests {
     fn parse(xml: &str) -> Result<DMat4, SceneError> {
         let doc = roxmltree::Document::parse(xml).unwrap();
         let defaults = HashMap::new();
-        let ctx = Ctx {
-            file: Path::new("t.xml"),
-            text: xml,
-            defaults: &defaults,
-        };
+        let ctx = Ctx::new(Path::new("t.xml"), xml, &defaults);
         parse_transform(&ctx, doc.root_element())
     }
 
@@ -225,5 +235,43 @@ mod tests {
         assert!(parse(r#"<transform name="t"><scale x="0"/></transform>"#).is_err());
         assert!(parse(r#"<transform name="t"><translate x="abc"/></transform>"#).is_err());
         assert!(parse(r#"<transform name="t"><matrix value="1 2 3"/></transform>"#).is_err());
+    }
+
+    fn message(xml: &str) -> String {
+        parse(xml).unwrap_err().to_string()
+    }
+
+    #[test]
+    fn projective_overflowing_and_flat_transforms_are_errors() {
+        let e = message(
+            r#"<transform name="t"><matrix value="1 0 0 0 0 1 0 0 0 0 1 0 0 0 1 1"/></transform>"#,
+        );
+        assert!(e.contains("projective") && e.contains("matrix"), "{e}");
+        let e = message(r#"<transform name="t"><translate x="1e39"/></transform>"#);
+        assert!(
+            e.contains("overflows single precision") && e.contains("'x'"),
+            "{e}"
+        );
+        let e = message(
+            r#"<transform name="t"><scale value="1e30"/><scale value="1e30"/><scale value="1e30"/><scale value="1e30"/><scale value="1e30"/><scale value="1e30"/><scale value="1e30"/><scale value="1e30"/><scale value="1e30"/><scale value="1e30"/><scale value="1e30"/></transform>"#,
+        );
+        assert!(e.contains("overflows"), "{e}");
+        assert!(parse(
+            r#"<transform name="t"><matrix value="1 0 0 0 0 1 0 0 0 0 1 0 0 0 0 1"/></transform>"#
+        )
+        .is_ok());
+        // Flat: a z scale of 1e-200 passes an absolute determinant test but not ours.
+        let e = message(
+            r#"<transform name="t"><matrix value="1 0 0 0 0 1 0 0 0 0 1e-200 0 0 0 0 1"/></transform>"#,
+        );
+        assert!(e.contains("singular"), "{e}");
+        let e = message(
+            r#"<transform name="t"><matrix value="1 1 0 0 1 1 0 0 0 0 1 0 0 0 0 1"/></transform>"#,
+        );
+        assert!(e.contains("singular"), "{e}");
+        // A tiny uniform scale is not singular.
+        assert!(parse(r#"<transform name="t"><scale value="1e-30"/></transform>"#).is_ok());
+        assert!(parse(r#"<transform name="t"><translate x="nan"/></transform>"#).is_err());
+        assert!(parse(r#"<transform name="t"><rotate x="1" angle="inf"/></transform>"#).is_err());
     }
 }
