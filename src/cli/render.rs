@@ -136,6 +136,7 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
         a.force,
     )?;
     let scene = Scene::load(&a.scene, &overrides)?;
+    super::util::print_scene_warnings(&scene);
     let film = &scene.film;
 
     let need = Accumulators::bytes(film.height, film.width, film.bins, &transform);

@@ -540,6 +540,13 @@ pub fn disk_size(path: &std::path::Path) -> u64 {
     }
 }
 
+/// Prints a loaded scene's warnings (legal but suspicious input), one line each.
+pub fn print_scene_warnings(scene: &crate::scene::Scene) {
+    for w in &scene.warnings {
+        eprintln!("warning: {w}");
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

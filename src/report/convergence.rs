@@ -252,6 +252,11 @@ pub fn run_convergence(
     let max_spp = *cfg.spp_list.iter().max().expect("non-empty");
     for (k, &spp) in cfg.spp_list.iter().enumerate() {
         let scene = load_scene(cfg, spp)?;
+        if k == 0 {
+            for w in &scene.warnings {
+                log(&format!("warning: {w}"));
+            }
+        }
         let shape = [
             scene.film.height,
             scene.film.width,
