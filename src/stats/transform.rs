@@ -90,9 +90,14 @@ impl Transform {
         }
     }
 
-    /// Checks the parameter: finite, and `> 0` for Box-Cox. [`FromStr`] always
-    /// validates; use this on values deserialised from a manifest.
+    /// Checks the parameter: Box-Cox `lambda` in [1e-6, 10], Yeo-Johnson `lambda` in
+    /// [-10, 10]. Beyond these the transformed samples' cubes overflow f64 for ordinary
+    /// radiance (Box-Cox maps 0 to -1/lambda: lambda = 1e-200 put +inf into X2), and
+    /// transforms in use stay within [-2, 2]. [`FromStr`] always validates; use this on
+    /// values deserialised from a manifest.
     pub fn validate(&self) -> Result<(), String> {
+        const MAX: f64 = 10.0;
+        const BOX_COX_MIN: f64 = 1e-6;
         match *self {
             Transform::Identity => Ok(()),
             Transform::BoxCox { lambda } => {
@@ -102,15 +107,23 @@ impl Transform {
                     Err(format!(
                         "box-cox lambda must be > 0, got {lambda} (use yeo-johnson:0 for a log transform)"
                     ))
+                } else if !(BOX_COX_MIN..=MAX).contains(&lambda) {
+                    Err(format!(
+                        "box-cox lambda must be in [{BOX_COX_MIN:e}, {MAX}], got {lambda:e} (for a log transform use yeo-johnson:0)"
+                    ))
                 } else {
                     Ok(())
                 }
             }
             Transform::YeoJohnson { lambda } => {
-                if lambda.is_finite() {
-                    Ok(())
-                } else {
+                if !lambda.is_finite() {
                     Err(format!("yeo-johnson lambda must be finite, got {lambda}"))
+                } else if lambda.abs() > MAX {
+                    Err(format!(
+                        "yeo-johnson lambda must be in [-{MAX}, {MAX}], got {lambda:e}"
+                    ))
+                } else {
+                    Ok(())
                 }
             }
         }
@@ -319,12 +332,12 @@ mod tests {
             bc(0.1),
             bc(1.0 / 3.0),
             bc(2.0),
-            bc(1e-7),
+            bc(1e-6),
             yj(0.0),
             yj(0.5),
             yj(-0.7),
             yj(1.0 / 3.0),
-            yj(123.456),
+            yj(9.876),
         ];
         for t in cases {
             let s = t.to_string();
@@ -412,5 +425,31 @@ mod tests {
         }
         assert!(serde_json::from_str::<Transform>(r#"{"kind":"box-cox"}"#).is_err());
         assert!(serde_json::from_str::<Transform>(r#"{"kind":"log"}"#).is_err());
+    }
+
+    #[test]
+    fn lambdas_whose_moments_overflow_are_refused() {
+        for bad in [
+            "box-cox:1e-200",
+            "box-cox:1e-7",
+            "box-cox:11",
+            "yeo-johnson:1e10",
+            "yeo-johnson:-11",
+        ] {
+            let e = bad.parse::<Transform>().unwrap_err();
+            assert!(e.contains("must be in"), "{bad}: {e}");
+        }
+        for good in [
+            "box-cox:1e-6",
+            "box-cox:10",
+            "yeo-johnson:-10",
+            "yeo-johnson:0",
+        ] {
+            let t: Transform = good.parse().unwrap();
+            // The moments of z(0) and z(1e6) stay finite up to the cube.
+            for x in [0.0, 1e6] {
+                assert!(t.apply(x).powi(3).is_finite(), "{good} at {x}");
+            }
+        }
     }
 }
