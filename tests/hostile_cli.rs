@@ -442,3 +442,24 @@ fn an_empty_time_window_is_a_warning() {
         "{err}"
     );
 }
+
+/// `run` without a scene records the bundled scene where it ends up (DIR/cbox.xml), not
+/// under the temporary directory's name.
+#[test]
+fn run_records_the_bundled_scene_at_its_final_path() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = Command::new(bin())
+        .current_dir(dir.path())
+        .args([
+            "run", "--out", "r", "--width", "4", "--spp", "2", "--bins", "2",
+        ])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(err.contains("r/cbox.xml: 4x4 px"), "{err}");
+    let manifest =
+        std::fs::read_to_string(dir.path().join("r/scene.tstats/manifest.json")).unwrap();
+    assert!(manifest.contains("\"path\": \"r/cbox.xml\""), "{manifest}");
+    assert!(dir.path().join("r/cbox.xml").is_file());
+}

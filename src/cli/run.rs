@@ -130,7 +130,7 @@ fn job(
     super::util::check_memory(need, None)?;
     eprintln!(
         "{}: {}x{} px, {} bins, {} spp ({}); accumulators {}",
-        scene_path.display(),
+        scene_record(a).display(),
         film.width,
         film.height,
         film.bins,
@@ -158,6 +158,12 @@ fn job(
         unit_m: 1.0,
         pixel_sampling: settings.pixel_sampling,
     };
+    // The bundled scene sits in the temporary directory until that is renamed: the
+    // manifest records where it will be.
+    let scene = Scene {
+        file: scene_record(a),
+        ..scene
+    };
     write_bundle(&bundle_path, false, &scene, &meta, out).context("writing the bundle")?;
     let bundle = Bundle::open(&bundle_path)?;
     let noisy = bundle.noisy_mean()?;
@@ -182,4 +188,13 @@ fn job(
     };
     write_all(dir, both.view(), &req).map_err(|e| anyhow!(e))?;
     Ok(())
+}
+
+/// The scene's path as the user will find it: the given scene, or the bundled Cornell
+/// box at `DIR/cbox.xml` (not the temporary directory it is first written to).
+fn scene_record(a: &RunArgs) -> PathBuf {
+    match &a.scene {
+        Some(p) => p.clone(),
+        None => a.out.join("cbox.xml"),
+    }
 }
