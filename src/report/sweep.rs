@@ -3,6 +3,7 @@
 //! temporal radius on one or more bundles, over all voxels, the pixels that see a
 //! light and the rest, so the defaults are chosen by measurement.
 
+use super::metrics::Metrics;
 use super::region::{compare_regions, RegionMetrics};
 use crate::bundle::{Bundle, BundleError};
 use crate::denoise::{DenoiseParams, LoadedSums, Method};
@@ -70,16 +71,17 @@ pub fn run_sweep(
                     };
                     let d = sums.denoise(&params, &|_| {});
                     let error = region_metrics(&d.volume, reference, &rest);
-                    let rest_ratio = match (error.rest, noisy.rest) {
-                        (Some(e), Some(n)) => format!("{:.3}", e.rmse / n.rmse),
+                    let ratio = |e: Option<Metrics>, n: Option<Metrics>| match (e, n) {
+                        (Some(e), Some(n)) if n.rmse > 0.0 => format!("{:.3}", e.rmse / n.rmse),
                         _ => "n/a".into(),
                     };
                     log(&format!(
-                        "{}: {}, r {radius}, r_t {temporal_radius}: RMSE {:.4e} ({:.3} of noisy; rest {rest_ratio})",
+                        "{}: {}, r {radius}, r_t {temporal_radius}: RMSE {:.4e} ({} of noisy; rest {})",
                         path.display(),
                         method.describe(),
                         error.all.rmse,
-                        error.all.rmse / noisy.all.rmse,
+                        ratio(Some(error.all), Some(noisy.all)),
+                        ratio(error.rest, noisy.rest),
                     ));
                     points.push(SweepPoint {
                         bundle: path.display().to_string(),
