@@ -76,6 +76,22 @@ impl Film {
         if !self.start_opl.is_finite() {
             return Err(format!("start_opl must be finite, got {}", self.start_opl));
         }
+        // The window's end must be a number, and a bin must be wider than the f64
+        // spacing of the OPLs it holds (else bins merge: k = floor((opl - t0) / h)).
+        let end = self.start_opl + self.bins as f64 * self.bin_width_opl;
+        if !end.is_finite() {
+            return Err(format!(
+                "the time window ends beyond the floating-point range: start_opl {} + {} bins x {}",
+                self.start_opl, self.bins, self.bin_width_opl
+            ));
+        }
+        let scale = self.start_opl.abs().max(end.abs());
+        if self.bin_width_opl < scale * 1e-12 {
+            return Err(format!(
+                "bin_width_opl {} is too narrow to resolve OPLs near {scale:e} in double precision",
+                self.bin_width_opl
+            ));
+        }
         Ok(())
     }
 
@@ -153,5 +169,22 @@ mod tests {
         assert_eq!(f.bin(6.99), Some(9));
         assert_eq!(f.bin(7.0), None);
         assert_eq!(f.bin(f64::NAN), None);
+    }
+
+    #[test]
+    fn time_windows_beyond_double_precision_are_errors() {
+        let film = |start_opl: f64, bin_width_opl: f64| Film {
+            width: 2,
+            height: 2,
+            bins: 10,
+            start_opl,
+            bin_width_opl,
+        };
+        assert!(film(3.5, 0.04).validate().is_ok());
+        assert!(film(-1e6, 1e-3).validate().is_ok());
+        let e = film(1e308, 1e308).validate().unwrap_err();
+        assert!(e.contains("beyond the floating-point range"), "{e}");
+        let e = film(1e10, 1e-10).validate().unwrap_err();
+        assert!(e.contains("too narrow"), "{e}");
     }
 }
