@@ -81,14 +81,14 @@ impl Film {
         let end = self.start_opl + self.bins as f64 * self.bin_width_opl;
         if !end.is_finite() {
             return Err(format!(
-                "the time window ends beyond the floating-point range: start_opl {} + {} bins x {}",
+                "the time window ends beyond the floating-point range: start_opl {:e} + {} bins x {:e}",
                 self.start_opl, self.bins, self.bin_width_opl
             ));
         }
         let scale = self.start_opl.abs().max(end.abs());
         if self.bin_width_opl < scale * 1e-12 {
             return Err(format!(
-                "bin_width_opl {} is too narrow to resolve OPLs near {scale:e} in double precision",
+                "bin_width_opl {:e} is too narrow to resolve OPLs near {scale:e} in double precision",
                 self.bin_width_opl
             ));
         }
