@@ -520,3 +520,46 @@ fn merge_adds_sums_and_counts_exactly_and_refuses_mismatches() {
     assert!(String::from_utf8_lossy(&r.stderr).contains("d.tstats"));
     assert!(!c.dir.path().join("x.tstats").exists());
 }
+
+#[test]
+fn outputs_never_replace_a_mesh_the_scene_reads() {
+    let dir = tempfile::tempdir().unwrap();
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+    std::fs::create_dir(dir.path().join("meshes")).unwrap();
+    std::fs::copy(
+        root.join("meshes/bunny.ply"),
+        dir.path().join("meshes/bunny.ply"),
+    )
+    .unwrap();
+    std::fs::copy(root.join("bunny.xml"), dir.path().join("bunny.xml")).unwrap();
+    let scene = dir.path().join("bunny.xml");
+    let before = std::fs::read(dir.path().join("meshes/bunny.ply")).unwrap();
+    for cmd in ["render", "run"] {
+        let r = tstat(&[
+            cmd,
+            scene.to_str().unwrap(),
+            "--out",
+            dir.path().join("meshes").to_str().unwrap(),
+            "--force",
+            "--width",
+            "4",
+            "--spp",
+            "2",
+            "--bins",
+            "2",
+        ]);
+        let err = String::from_utf8_lossy(&r.stderr);
+        assert_eq!(r.status.code(), Some(1), "{cmd}: {err}");
+        assert!(err.contains("contains the input mesh"), "{cmd}: {err}");
+        assert_eq!(
+            std::fs::read(dir.path().join("meshes/bunny.ply")).unwrap(),
+            before
+        );
+        let mut left: Vec<String> = std::fs::read_dir(dir.path())
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        left.sort();
+        assert_eq!(left, ["bunny.xml", "meshes"], "{cmd}");
+    }
+}

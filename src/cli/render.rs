@@ -136,6 +136,7 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
         a.force,
     )?;
     let scene = Scene::load(&a.scene, &overrides)?;
+    super::util::check_mesh_inputs(&scene, &[arg("--out", &a.out)])?;
     super::util::print_scene_warnings(&scene);
     let film = &scene.film;
 

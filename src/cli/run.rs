@@ -124,6 +124,7 @@ fn job(
     overrides: &crate::scene::Overrides,
 ) -> anyhow::Result<()> {
     let scene = Scene::load(scene_path, overrides)?;
+    super::util::check_mesh_inputs(&scene, &[arg("--out", &a.out)])?;
     super::util::print_scene_warnings(&scene);
     let film = &scene.film;
     let need = Accumulators::bytes(film.height, film.width, film.bins, &transform);

@@ -540,6 +540,13 @@ pub fn disk_size(path: &std::path::Path) -> u64 {
     }
 }
 
+/// Refuses an output that is, holds or lies inside a mesh file the scene read (known
+/// only once the scene is loaded, so checked after [`check_outputs`]).
+pub fn check_mesh_inputs(scene: &crate::scene::Scene, outputs: &[Arg]) -> anyhow::Result<()> {
+    let meshes: Vec<Arg> = scene.mesh_files.iter().map(|p| arg("mesh", p)).collect();
+    check_collisions(&meshes, outputs)
+}
+
 /// Prints a loaded scene's warnings (legal but suspicious input), one line each.
 pub fn print_scene_warnings(scene: &crate::scene::Scene) {
     for w in &scene.warnings {

@@ -82,6 +82,8 @@ pub struct Scene {
     /// area), one line each as `file:line: <element>: message`. The caller prints them
     /// (as `warning: ...` on stderr); loading goes on.
     pub warnings: Vec<String>,
+    /// The mesh files (PLY, OBJ) the scene read: inputs that no output may replace.
+    pub mesh_files: Vec<PathBuf>,
 }
 
 impl Scene {

@@ -22,6 +22,8 @@ pub struct Ctx<'a> {
     expanded: Cell<usize>,
     /// Warnings recorded, including those beyond [`MAX_WARNINGS`].
     warning_count: Cell<usize>,
+    /// Mesh files read, in document order.
+    mesh_files: RefCell<Vec<std::path::PathBuf>>,
 }
 
 /// Warnings kept with their location; the rest are counted.
@@ -65,6 +67,7 @@ impl<'a> Ctx<'a> {
             warnings: RefCell::new(Vec::new()),
             expanded: Cell::new(0),
             warning_count: Cell::new(0),
+            mesh_files: RefCell::new(Vec::new()),
         }
     }
 
@@ -81,6 +84,16 @@ impl<'a> Ctx<'a> {
     }
 
     /// The warnings, with a last line counting those not shown.
+    /// Records a mesh file the scene reads.
+    pub fn read_mesh_file(&self, path: &Path) {
+        self.mesh_files.borrow_mut().push(path.to_path_buf());
+    }
+
+    /// The mesh files read, moved out.
+    pub fn take_mesh_files(&self) -> Vec<std::path::PathBuf> {
+        self.mesh_files.take()
+    }
+
     pub fn take_warnings(&self) -> Vec<String> {
         let mut w = self.warnings.take();
         let more = self.warning_count.get().saturating_sub(w.len());

@@ -193,6 +193,7 @@ pub fn parse_geometry(kind: &str, props: &mut Props) -> Result<ShapeGeom, SceneE
                 .parent()
                 .unwrap_or(std::path::Path::new("."))
                 .join(&name);
+            props.ctx.read_mesh_file(&path);
             let loaded = if kind == "ply" {
                 load_ply(&path)
             } else {

@@ -266,6 +266,7 @@ pub fn load(path: &Path, overrides: &Overrides) -> Result<Scene, SceneError> {
         emitters,
         accel,
         warnings: ctx.take_warnings(),
+        mesh_files: ctx.take_mesh_files(),
     })
 }
 
