@@ -12,7 +12,7 @@ use crate::report::convergence::{
 };
 use crate::report::metrics::{Metrics, REL_EPS};
 use crate::report::plot::{line_chart, Scale, Series};
-use crate::report::region::{compare_regions, Region, RegionMetrics};
+use crate::report::region::{compare_regions, rmse_ratio, Region, RegionMetrics};
 use crate::report::speedup::Speedup;
 
 /// Draws a chart, noting on stderr when there is nothing to draw (all errors 0).
@@ -552,9 +552,9 @@ fn convergence_markdown(
             .iter()
             .find(|x| x.method == "noisy" && x.spp == row.spp)
             .expect("every spp has a noisy row");
-        let ratio = |g: Region| match (row.error.get(g), noisy.error.get(g)) {
-            (Some(m), Some(n)) if n.rmse > 0.0 => format!("{:.3}", m.rmse / n.rmse),
-            _ => "-".into(),
+        let ratio = |g: Region| {
+            rmse_ratio(row.error.get(g), noisy.error.get(g))
+                .map_or("-".into(), |v| format!("{v:.3}"))
         };
         let mut cells = vec![row.spp.to_string(), row.method.into()];
         cells.extend(Region::ALL.map(ratio));
@@ -636,10 +636,7 @@ fn sweep_methods(a: &SweepArgs) -> anyhow::Result<(Vec<(Method, f64)>, &'static 
 }
 
 fn ratio(m: Option<Metrics>, noisy: Option<Metrics>) -> String {
-    match (m, noisy) {
-        (Some(m), Some(n)) if n.rmse > 0.0 => format!("{:.3}", m.rmse / n.rmse),
-        _ => "n/a".into(),
-    }
+    rmse_ratio(m, noisy).map_or("n/a".into(), |v| format!("{v:.3}"))
 }
 
 fn run_sweep_cmd(a: SweepArgs) -> anyhow::Result<()> {

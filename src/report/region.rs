@@ -62,6 +62,15 @@ impl RegionMetrics {
     }
 }
 
+/// `m.rmse / noisy.rmse`, or `None` where either region is absent or the noisy error
+/// is 0 (a ratio to nothing).
+pub fn rmse_ratio(m: Option<Metrics>, noisy: Option<Metrics>) -> Option<f64> {
+    match (m, noisy) {
+        (Some(m), Some(n)) if n.rmse > 0.0 => Some(m.rmse / n.rmse),
+        _ => None,
+    }
+}
+
 /// Metrics of `x` against `reference` (both (H, W, T, C)) over the three regions, in
 /// one pass, and per bin over all voxels. `no_light` (H x W, row-major) is true for
 /// the pixels of "rest"; the PSNR peak is the whole reference's maximum in every region.

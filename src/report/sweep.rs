@@ -3,8 +3,7 @@
 //! temporal radius on one or more bundles, over all voxels, the pixels that see a
 //! light and the rest, so the defaults are chosen by measurement.
 
-use super::metrics::Metrics;
-use super::region::{compare_regions, RegionMetrics};
+use super::region::{compare_regions, rmse_ratio, RegionMetrics};
 use crate::bundle::{Bundle, BundleError};
 use crate::denoise::{DenoiseParams, LoadedSums, Method};
 use ndarray::Array4;
@@ -71,10 +70,7 @@ pub fn run_sweep(
                     };
                     let d = sums.denoise(&params, &|_| {});
                     let error = region_metrics(&d.volume, reference, &rest);
-                    let ratio = |e: Option<Metrics>, n: Option<Metrics>| match (e, n) {
-                        (Some(e), Some(n)) if n.rmse > 0.0 => format!("{:.3}", e.rmse / n.rmse),
-                        _ => "n/a".into(),
-                    };
+                    let ratio = |e, n| rmse_ratio(e, n).map_or("n/a".into(), |v| format!("{v:.3}"));
                     log(&format!(
                         "{}: {}, r {radius}, r_t {temporal_radius}: RMSE {:.4e} ({} of noisy; rest {})",
                         path.display(),
