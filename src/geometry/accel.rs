@@ -6,7 +6,8 @@ use super::flat::{FlatTriangles, FLAT_MAX};
 use super::shape::{Shape, ShapeGeom, SurfacePoint};
 use super::sphere::SphereGeom;
 use super::triangle::TriangleGeom;
-use glam::{Vec3, Vec3A};
+use crate::render::cpu::ISA_BASELINE;
+use glam::{UVec2, Vec3, Vec3A};
 use obvhs::aabb::Aabb;
 use obvhs::cwbvh::CwBvh;
 use obvhs::ray::{Ray, RayHit};
@@ -112,8 +113,9 @@ impl Accel {
                     PrimGeom::Sphere(_) => unreachable!("partitioned"),
                 })
                 .collect();
+            let groups: Vec<u32> = tri_prims.iter().map(|&i| prims[i].shape).collect();
             let flat = Flat {
-                tris: FlatTriangles::new(&tris),
+                tris: FlatTriangles::with_groups(&tris, &groups),
                 tri_prims,
                 sphere_prims,
             };
@@ -141,7 +143,7 @@ impl Accel {
         }
     }
 
-    #[inline]
+    #[inline(always)]
     fn prim_t(&self, id: usize, o: Vec3, d: Vec3, tmin: f32) -> f32 {
         let p = &self.prims[id];
         let t = match &p.geom {
@@ -152,29 +154,65 @@ impl Accel {
     }
 
     /// The closest surface along the ray (unit direction `d`) with t in (0, tmax).
-    #[inline]
+    #[inline(always)]
     pub fn intersect(&self, shapes: &[Shape], o: Vec3, d: Vec3, tmax: f32) -> Option<Hit> {
+        // SAFETY: the baseline runs everywhere.
+        unsafe { self.intersect_with::<ISA_BASELINE>(shapes, o, d, tmax) }
+    }
+
+    /// [`Self::intersect`] with the kernels for `ISA` (`render::cpu` codes).
+    ///
+    /// # Safety
+    /// The CPU must support `ISA`.
+    #[inline(always)]
+    pub unsafe fn intersect_with<const ISA: u8>(
+        &self,
+        shapes: &[Shape],
+        o: Vec3,
+        d: Vec3,
+        tmax: f32,
+    ) -> Option<Hit> {
         if let Some(flat) = &self.flat {
-            return self.intersect_flat(flat, shapes, o, d, tmax);
+            // SAFETY: passed on from the caller.
+            return unsafe { self.intersect_flat::<ISA>(flat, shapes, o, d, tmax) };
         }
         let bvh = self.bvh.as_ref()?;
+        // obvhs's `ray_traverse`, written out with its `traverse!` macro so that the
+        // walk is inlined into (and compiled for the instruction set of) the tracer.
         let ray = Ray::new(Vec3A::from(o), Vec3A::from(d), 0.0, tmax);
         let mut hit = RayHit::none();
-        // The closure sees candidates in any order; keep the barycentrics of the nearest.
         let (mut best_t, mut best_b) = (f32::INFINITY, (0.0f32, 0.0f32));
-        let found = bvh.ray_traverse(ray, &mut hit, |_, id| match &self.prims[id].geom {
-            PrimGeom::Triangle(tri) => match tri.intersect(o, d, 0.0) {
-                Some((t, b1, b2)) => {
-                    if t < best_t {
-                        best_t = t;
-                        best_b = (b1, b2);
-                    }
-                    t
+        let mut traverse_ray = ray;
+        let mut state = bvh.new_traversal(ray.direction);
+        let mut node;
+        obvhs::traverse!(
+            bvh,
+            node,
+            state,
+            node.intersect_ray(&traverse_ray, state.oct_inv4),
+            {
+                let id = state.primitive_id as usize;
+                let t = match &self.prims[id].geom {
+                    PrimGeom::Triangle(tri) => match tri.intersect(o, d, 0.0) {
+                        Some((t, b1, b2)) => {
+                            if t < best_t {
+                                best_t = t;
+                                best_b = (b1, b2);
+                            }
+                            t
+                        }
+                        None => f32::INFINITY,
+                    },
+                    PrimGeom::Sphere(s) => s.intersect(o, d, 0.0).unwrap_or(f32::INFINITY),
+                };
+                if t < traverse_ray.tmax {
+                    hit.primitive_id = state.primitive_id;
+                    hit.t = t;
+                    traverse_ray.tmax = t;
                 }
-                None => f32::INFINITY,
-            },
-            PrimGeom::Sphere(s) => s.intersect(o, d, 0.0).unwrap_or(f32::INFINITY),
-        });
+            }
+        );
+        let found = hit.t < ray.tmax;
         if !found {
             return None;
         }
@@ -192,10 +230,21 @@ impl Accel {
     }
 
     /// True when something blocks the segment from `o` along unit `d` before `tmax`.
-    #[inline]
+    #[inline(always)]
     pub fn occluded(&self, o: Vec3, d: Vec3, tmax: f32) -> bool {
+        // SAFETY: the baseline runs everywhere.
+        unsafe { self.occluded_with::<ISA_BASELINE>(o, d, tmax) }
+    }
+
+    /// [`Self::occluded`] with the kernels for `ISA` (`render::cpu` codes).
+    ///
+    /// # Safety
+    /// The CPU must support `ISA`.
+    #[inline(always)]
+    pub unsafe fn occluded_with<const ISA: u8>(&self, o: Vec3, d: Vec3, tmax: f32) -> bool {
         if let Some(flat) = &self.flat {
-            return flat.tris.occluded(o, d, tmax)
+            // SAFETY: passed on from the caller.
+            return unsafe { flat.tris.occluded_with::<ISA>(o, d, tmax) }
                 || flat
                     .sphere_prims
                     .iter()
@@ -205,12 +254,30 @@ impl Accel {
             return false;
         };
         let ray = Ray::new(Vec3A::from(o), Vec3A::from(d), 0.0, tmax);
-        !bvh.ray_traverse_miss(ray, |r, id| {
-            self.prim_t(id, Vec3::from(r.origin), Vec3::from(r.direction), 0.0)
-        })
+        let mut state = bvh.new_traversal(ray.direction);
+        let mut node;
+        let mut blocked = false;
+        'walk: {
+            obvhs::traverse!(
+                bvh,
+                node,
+                state,
+                node.intersect_ray(&ray, state.oct_inv4),
+                {
+                    if self.prim_t(state.primitive_id as usize, o, d, 0.0) < tmax {
+                        blocked = true;
+                        break 'walk;
+                    }
+                }
+            );
+        }
+        blocked
     }
 
-    fn intersect_flat(
+    /// # Safety
+    /// The CPU must support `ISA`.
+    #[inline(always)]
+    unsafe fn intersect_flat<const ISA: u8>(
         &self,
         flat: &Flat,
         shapes: &[Shape],
@@ -218,9 +285,8 @@ impl Accel {
         d: Vec3,
         tmax: f32,
     ) -> Option<Hit> {
-        let mut best = flat
-            .tris
-            .intersect(o, d, tmax)
+        // SAFETY: passed on from the caller.
+        let mut best = unsafe { flat.tris.intersect_with::<ISA>(o, d, tmax) }
             .map(|(k, t, b1, b2)| (flat.tri_prims[k], t, b1, b2));
         for &i in &flat.sphere_prims {
             let t = self.prim_t(i, o, d, 0.0);

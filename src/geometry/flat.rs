@@ -1,21 +1,66 @@
-//! Tiny scenes (a Cornell box has 36 triangles) are intersected without a tree: every
-//! triangle is tested, eight at a time in structure-of-arrays packets that the compiler
-//! vectorises. For such scenes this beats walking the BVH; bigger scenes use the BVH.
+//! Tiny scenes (a Cornell box has 36 triangles) are intersected without a tree: the
+//! triangles are tested sixteen at a time in structure-of-arrays packets that the
+//! compiler vectorises (one AVX-512 register per component, two AVX2 or four SSE ones;
+//! `render::cpu` compiles the tracer once per instruction set). For such scenes this
+//! beats walking the BVH; bigger scenes use the BVH.
+//!
+//! Packets hold whole groups (shapes) where they fit, and each packet has a bounding box:
+//! a ray skips a packet whose box it misses or enters beyond the nearest hit so far
+//! (packets are tested largest box first, so the walls of a room come before the
+//! objects in it). The box is padded, so the skip is conservative.
+//!
+//! The nearest hit is kept per lane across packets and reduced across lanes once at the
+//! end; among equal distances the lowest triangle index wins, so the result is the same
+//! as testing the triangles one by one in order with a strict `<`.
 
+#[cfg(target_arch = "x86_64")]
+use super::flat_simd;
 use super::triangle::TriangleGeom;
 use glam::Vec3;
+
+/// Per-lane nearest hits: distance, triangle index (`u32::MAX`: none), barycentrics.
+pub(super) struct LaneBest {
+    pub(super) t: [f32; LANES],
+    pub(super) index: [u32; LANES],
+    pub(super) b1: [f32; LANES],
+    pub(super) b2: [f32; LANES],
+}
+
+/// A hit: (triangle index, t, b1, b2).
+pub type Nearest = (usize, f32, f32, f32);
+
+impl LaneBest {
+    /// Among the lanes in `mask` (all at the nearest distance), the lowest index.
+    #[inline(always)]
+    pub(super) fn pick(&self, mut mask: u32) -> Option<Nearest> {
+        let mut best: Option<Nearest> = None;
+        while mask != 0 {
+            let k = mask.trailing_zeros() as usize;
+            mask &= mask - 1;
+            let index = self.index[k] as usize;
+            if best.is_none_or(|b| index < b.0) {
+                best = Some((index, self.t[k], self.b1[k], self.b2[k]));
+            }
+        }
+        best
+    }
+}
 
 /// Scenes with at most this many triangles (and spheres) skip the BVH.
 pub const FLAT_MAX: usize = 64;
 
-const LANES: usize = 8;
+pub(super) const LANES: usize = 16;
 
-/// Eight triangles, one component per array.
+/// Sixteen triangles, one component per array, with their padded bounding box.
 #[derive(Clone, Copy, Debug)]
-struct Packet {
-    v0: [[f32; LANES]; 3],
-    e1: [[f32; LANES]; 3],
-    e2: [[f32; LANES]; 3],
+pub(super) struct Packet {
+    pub(super) v0: [[f32; LANES]; 3],
+    pub(super) e1: [[f32; LANES]; 3],
+    pub(super) e2: [[f32; LANES]; 3],
+    /// The caller's index of the triangle in each lane (`u32::MAX`: empty lane).
+    pub(super) index: [u32; LANES],
+    lo: Vec3,
+    hi: Vec3,
 }
 
 #[derive(Clone, Debug)]
@@ -24,27 +69,94 @@ pub struct FlatTriangles {
 }
 
 impl FlatTriangles {
-    /// Packs `tris`; unused lanes hold degenerate triangles that never hit.
+    /// Packs `tris` in order, sixteen per packet; index `i` is `tris[i]`.
     pub fn new(tris: &[TriangleGeom]) -> Self {
-        let packets = tris
-            .chunks(LANES)
-            .map(|chunk| {
-                let mut p = Packet {
-                    v0: [[0.0; LANES]; 3],
-                    e1: [[0.0; LANES]; 3],
-                    e2: [[0.0; LANES]; 3],
-                };
-                for (k, t) in chunk.iter().enumerate() {
-                    for a in 0..3 {
-                        p.v0[a][k] = t.v0[a];
-                        p.e1[a][k] = t.e1[a];
-                        p.e2[a][k] = t.e2[a];
-                    }
-                }
-                p
-            })
-            .collect();
+        let groups: Vec<u32> = (0..tris.len() as u32).map(|i| i / LANES as u32).collect();
+        Self::with_groups(tris, &groups)
+    }
+
+    /// Packs `tris`, keeping each run of equal `groups` (a shape) in one packet where it
+    /// fits: groups go first-fit into packets, a group larger than a packet fills its
+    /// own. Unused lanes hold degenerate triangles that never hit.
+    pub fn with_groups(tris: &[TriangleGeom], groups: &[u32]) -> Self {
+        assert_eq!(tris.len(), groups.len());
+        // Runs of equal group ids, split into packet-sized pieces.
+        let mut pieces: Vec<Vec<usize>> = Vec::new();
+        let mut start = 0;
+        while start < tris.len() {
+            let mut end = start + 1;
+            while end < tris.len() && groups[end] == groups[start] {
+                end += 1;
+            }
+            let run: Vec<usize> = (start..end).collect();
+            pieces.extend(run.chunks(LANES).map(|c| c.to_vec()));
+            start = end;
+        }
+        // First fit.
+        let mut bins: Vec<Vec<usize>> = Vec::new();
+        for piece in pieces {
+            match bins.iter_mut().find(|b| b.len() + piece.len() <= LANES) {
+                Some(b) => b.extend(piece),
+                None => bins.push(piece),
+            }
+        }
+        let mut packets: Vec<Packet> = bins.iter().map(|b| Self::pack(tris, b)).collect();
+        // Largest box first: the enclosing walls before the objects they enclose.
+        let area = |p: &Packet| {
+            let e = p.hi - p.lo;
+            e.x * e.y + e.y * e.z + e.z * e.x
+        };
+        packets.sort_by(|a, b| area(b).total_cmp(&area(a)));
         FlatTriangles { packets }
+    }
+
+    pub(super) fn packets(&self) -> &[Packet] {
+        &self.packets
+    }
+
+    fn pack(tris: &[TriangleGeom], members: &[usize]) -> Packet {
+        let mut p = Packet {
+            v0: [[0.0; LANES]; 3],
+            e1: [[0.0; LANES]; 3],
+            e2: [[0.0; LANES]; 3],
+            index: [u32::MAX; LANES],
+            lo: Vec3::splat(f32::INFINITY),
+            hi: Vec3::splat(f32::NEG_INFINITY),
+        };
+        for (k, &i) in members.iter().enumerate() {
+            let t = &tris[i];
+            for a in 0..3 {
+                p.v0[a][k] = t.v0[a];
+                p.e1[a][k] = t.e1[a];
+                p.e2[a][k] = t.e2[a];
+            }
+            p.index[k] = i as u32;
+            for v in [t.v0, t.v0 + t.e1, t.v0 + t.e2] {
+                p.lo = p.lo.min(v);
+                p.hi = p.hi.max(v);
+            }
+        }
+        // Pad by a relative margin so rounding in the box test never skips a hit.
+        let pad = (p.hi - p.lo).max_element() * 1e-3
+            + 1e-4 * p.lo.abs().max(p.hi.abs()).max_element()
+            + 1e-6;
+        p.lo -= Vec3::splat(pad);
+        p.hi += Vec3::splat(pad);
+        p
+    }
+
+    /// Whether the ray `o + t d` (with `inv_d = 1 / d`) meets the packet's box at some
+    /// `t` in `[0, tmax)`. Conservative: a NaN slab (origin on a face, zero direction
+    /// component) constrains nothing.
+    #[inline(always)]
+    pub(super) fn box_hit(p: &Packet, o: Vec3, inv_d: Vec3, tmax: f32) -> bool {
+        let t0 = (p.lo - o) * inv_d;
+        let t1 = (p.hi - o) * inv_d;
+        let near = t0.min(t1);
+        let far = t0.max(t1);
+        let enter = 0.0f32.max(near.x).max(near.y).max(near.z);
+        let exit = tmax.min(far.x).min(far.y).min(far.z);
+        enter <= exit
     }
 
     /// Moller-Trumbore on one packet: t per lane (infinity on a miss) and barycentrics.
@@ -72,12 +184,13 @@ impl FlatTriangles {
             );
             let v = (d.x * qx + d.y * qy + d.z * qz) * inv;
             let dist = (e2x * qx + e2y * qy + e2z * qz) * inv;
-            let hit = det != 0.0
-                && det.is_finite()
-                && (0.0..=1.0).contains(&u)
-                && v >= 0.0
-                && u + v <= 1.0
-                && dist > 0.0;
+            // Non-short-circuit `&` keeps the lanes branch-free (vectorisable).
+            let hit = (det != 0.0)
+                & det.is_finite()
+                & (0.0..=1.0).contains(&u)
+                & (v >= 0.0)
+                & (u + v <= 1.0)
+                & (dist > 0.0);
             t[k] = if hit { dist } else { f32::INFINITY };
             b1[k] = u;
             b2[k] = v;
@@ -86,28 +199,126 @@ impl FlatTriangles {
     }
 
     /// The nearest triangle hit before `tmax`: (index, t, b1, b2).
-    #[inline]
+    #[inline(always)]
     pub fn intersect(&self, o: Vec3, d: Vec3, tmax: f32) -> Option<(usize, f32, f32, f32)> {
-        let mut best: Option<(usize, f32, f32, f32)> = None;
-        let mut best_t = tmax;
-        for (pi, p) in self.packets.iter().enumerate() {
+        Self::reduce(self.lanes(o, d, tmax), tmax)
+    }
+
+    /// [`Self::intersect`] with the kernel for `ISA` (`render::cpu` codes); the same
+    /// answer, bit for bit, at every level.
+    ///
+    /// # Safety
+    /// The CPU must support `ISA`.
+    #[inline(always)]
+    pub unsafe fn intersect_with<const ISA: u8>(
+        &self,
+        o: Vec3,
+        d: Vec3,
+        tmax: f32,
+    ) -> Option<(usize, f32, f32, f32)> {
+        #[cfg(target_arch = "x86_64")]
+        {
+            use crate::render::cpu::{ISA_AVX2, ISA_AVX512};
+            if ISA == ISA_AVX512 {
+                // SAFETY: the caller guarantees AVX-512.
+                return unsafe { flat_simd::intersect_avx512(self, o, d, tmax) };
+            }
+            if ISA == ISA_AVX2 {
+                // SAFETY: the caller guarantees AVX2.
+                return unsafe { flat_simd::intersect_avx2(self, o, d, tmax) };
+            }
+        }
+        self.intersect(o, d, tmax)
+    }
+
+    /// [`Self::occluded`] with the kernel for `ISA`.
+    ///
+    /// # Safety
+    /// The CPU must support `ISA`.
+    #[inline(always)]
+    pub unsafe fn occluded_with<const ISA: u8>(&self, o: Vec3, d: Vec3, tmax: f32) -> bool {
+        #[cfg(target_arch = "x86_64")]
+        {
+            use crate::render::cpu::{ISA_AVX2, ISA_AVX512};
+            if ISA == ISA_AVX512 {
+                // SAFETY: the caller guarantees AVX-512.
+                return unsafe { flat_simd::occluded_avx512(self, o, d, tmax) };
+            }
+            if ISA == ISA_AVX2 {
+                // SAFETY: the caller guarantees AVX2.
+                return unsafe { flat_simd::occluded_avx2(self, o, d, tmax) };
+            }
+        }
+        self.occluded(o, d, tmax)
+    }
+
+    /// Per-lane nearest hits (portable kernel).
+    #[inline(always)]
+    fn lanes(&self, o: Vec3, d: Vec3, tmax: f32) -> LaneBest {
+        let inv_d = d.recip();
+        let mut best = LaneBest {
+            t: [tmax; LANES],
+            index: [u32::MAX; LANES],
+            b1: [0.0; LANES],
+            b2: [0.0; LANES],
+        };
+        let mut nearest = tmax;
+        for p in &self.packets {
+            if !Self::box_hit(p, o, inv_d, nearest) {
+                continue;
+            }
             let (t, b1, b2) = Self::packet(p, o, d);
             for k in 0..LANES {
-                if t[k] < best_t {
-                    best_t = t[k];
-                    best = Some((pi * LANES + k, t[k], b1[k], b2[k]));
+                let closer = t[k] < best.t[k] || (t[k] == best.t[k] && p.index[k] < best.index[k]);
+                if closer {
+                    best.t[k] = t[k];
+                    best.index[k] = p.index[k];
+                    best.b1[k] = b1[k];
+                    best.b2[k] = b2[k];
                 }
+            }
+            nearest = best.t.iter().fold(nearest, |m, &t| m.min(t));
+        }
+        best
+    }
+
+    /// The nearest of the per-lane hits before `tmax`; among equal distances, the
+    /// lowest index.
+    #[inline(always)]
+    fn reduce(lanes: LaneBest, tmax: f32) -> Option<(usize, f32, f32, f32)> {
+        let mut best: Option<(usize, f32, f32, f32)> = None;
+        for k in 0..LANES {
+            let t = lanes.t[k];
+            // t is never NaN: a lane's t is a hit distance (> 0) or tmax/infinity.
+            if lanes.index[k] == u32::MAX || t >= tmax {
+                continue;
+            }
+            let index = lanes.index[k] as usize;
+            let better = match best {
+                None => true,
+                Some((i, bt, _, _)) => t < bt || (t == bt && index < i),
+            };
+            if better {
+                best = Some((index, t, lanes.b1[k], lanes.b2[k]));
             }
         }
         best
     }
 
     /// True when any triangle is hit before `tmax`.
-    #[inline]
+    #[inline(always)]
     pub fn occluded(&self, o: Vec3, d: Vec3, tmax: f32) -> bool {
-        self.packets
-            .iter()
-            .any(|p| Self::packet(p, o, d).0.iter().any(|&t| t < tmax))
+        let inv_d = d.recip();
+        for p in &self.packets {
+            if !Self::box_hit(p, o, inv_d, tmax) {
+                continue;
+            }
+            let t = Self::packet(p, o, d).0;
+            if t.iter().fold(false, |any, &t| any | (t < tmax)) {
+                return true;
+            }
+        }
+        false
     }
 }
 
@@ -115,17 +326,45 @@ impl FlatTriangles {
 mod tests {
     use super::*;
     use crate::math::rng::Pcg32;
+    use crate::render::cpu::{Isa, ISA_AVX2, ISA_AVX512};
 
     #[test]
     fn matches_the_scalar_test_on_random_rays() {
         let mut rng = Pcg32::new(1, 2);
         let mut r = || Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 2.0 - Vec3::ONE;
-        let tris: Vec<TriangleGeom> = (0..21).map(|_| TriangleGeom::new(r(), r(), r())).collect();
-        let flat = FlatTriangles::new(&tris);
+        // In order, and grouped in runs (first fit, boxes sorted): same answers.
+        let groups: Vec<u32> = [
+            2, 3, 5, 1, 7, 3, 2, 4, 2, 6, 1, 9, 8, 3, 2, 5, 9, 6, 1, 4, 3,
+        ]
+        .iter()
+        .enumerate()
+        .flat_map(|(g, &n)| std::iter::repeat_n(g as u32, n))
+        .collect();
+        // Each group clustered around its own centre, so that box tests skip packets.
+        let centres: Vec<Vec3> = (0..21).map(|_| r()).collect();
+        let tris: Vec<TriangleGeom> = groups
+            .iter()
+            .map(|&g| {
+                let c = centres[g as usize];
+                TriangleGeom::new(c + r() * 0.3, c + r() * 0.3, c + r() * 0.3)
+            })
+            .collect();
+        let flats = [
+            FlatTriangles::new(&tris),
+            FlatTriangles::with_groups(&tris, &groups),
+        ];
+        for flat in &flats {
+            check(&tris, flat);
+        }
+    }
+
+    fn check(tris: &[TriangleGeom], flat: &FlatTriangles) {
+        let mut rng = Pcg32::new(3, 4);
+        let mut r = || Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 2.0 - Vec3::ONE;
         let mut hits = 0;
-        for _ in 0..2000 {
-            // From outside, towards the cluster of triangles.
-            let o = r() * 3.0;
+        for i in 0..4000 {
+            // From outside towards the cluster, and from inside it.
+            let o = r() * if i % 2 == 0 { 3.0 } else { 0.8 };
             let d = (r() * 0.5 - o).normalize();
             let scalar = tris
                 .iter()
@@ -134,6 +373,33 @@ mod tests {
                 .min_by(|a, b| a.1.total_cmp(&b.1));
             let got = flat.intersect(o, d, f32::INFINITY);
             assert_eq!(got.map(|g| g.0), scalar.map(|s| s.0));
+            // The SIMD kernels give the same bits (where this CPU has them).
+            for isa in [Isa::Avx2, Isa::Avx512] {
+                if !isa.supported() {
+                    continue;
+                }
+                for tmax in [f32::INFINITY, got.map_or(1.0, |g| g.1 * 1.5)] {
+                    // SAFETY: checked just above.
+                    let (simd, blocked) = unsafe {
+                        match isa {
+                            Isa::Avx2 => (
+                                flat.intersect_with::<ISA_AVX2>(o, d, tmax),
+                                flat.occluded_with::<ISA_AVX2>(o, d, tmax),
+                            ),
+                            _ => (
+                                flat.intersect_with::<ISA_AVX512>(o, d, tmax),
+                                flat.occluded_with::<ISA_AVX512>(o, d, tmax),
+                            ),
+                        }
+                    };
+                    let portable = flat.intersect(o, d, tmax);
+                    let bits = |h: Option<Nearest>| {
+                        h.map(|(i, t, b1, b2)| (i, t.to_bits(), b1.to_bits(), b2.to_bits()))
+                    };
+                    assert_eq!(bits(simd), bits(portable), "{isa:?}");
+                    assert_eq!(blocked, flat.occluded(o, d, tmax), "{isa:?}");
+                }
+            }
             if let (Some(g), Some(s)) = (got, scalar) {
                 assert!((g.1 - s.1).abs() <= 1e-5 * s.1.max(1.0));
                 hits += 1;

@@ -2,6 +2,7 @@
 
 pub mod accel;
 pub mod flat;
+mod flat_simd;
 pub mod shape;
 pub mod sphere;
 pub mod triangle;

@@ -79,7 +79,7 @@ impl Shape {
     }
 
     /// The surface point on triangle `face` whose geometry `tri` the caller already has.
-    #[inline]
+    #[inline(always)]
     pub fn surface_of(&self, tri: &TriangleGeom, face: u32, b1: f32, b2: f32) -> SurfacePoint {
         let sign = if self.flip_normals { -1.0 } else { 1.0 };
         let ng = tri.cross().normalize_or_zero() * sign;
@@ -153,6 +153,7 @@ impl AreaSampler {
     }
 
     /// A point uniformly distributed by area; pdf (per unit area) = 1 / total_area.
+    #[inline(always)]
     pub fn sample(&self, shape: &Shape, u1: f32, u2: [f32; 2]) -> SurfacePoint {
         match &shape.geom {
             ShapeGeom::Mesh { .. } => {

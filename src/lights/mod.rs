@@ -44,7 +44,7 @@ pub struct LightSample {
 impl Emitter {
     /// Samples a connection from `x` to this light; `select_pdf` is the probability of
     /// having chosen this light.
-    #[inline]
+    #[inline(always)]
     pub fn sample(
         &self,
         shapes: &[Shape],
@@ -106,7 +106,7 @@ impl Emitter {
 
     /// Solid-angle density with which `sample` would have produced a point at distance
     /// `dist` whose normal makes cosine `cos_l` with the direction back to the reference.
-    #[inline]
+    #[inline(always)]
     pub fn pdf_area_hit(&self, select_pdf: f32, dist: f32, cos_l: f32) -> f32 {
         match self {
             Emitter::Area { sampler, .. } if cos_l > 0.0 => {

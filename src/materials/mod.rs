@@ -78,7 +78,7 @@ impl Bsdf {
         }
     }
 
-    #[inline]
+    #[inline(always)]
     pub fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
         let (b, flip) = self.side(wo);
         let (wo, wi) = if flip {
@@ -93,7 +93,7 @@ impl Bsdf {
         }
     }
 
-    #[inline]
+    #[inline(always)]
     pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         let (b, flip) = self.side(wo);
         let (wo, wi) = if flip {
@@ -109,7 +109,7 @@ impl Bsdf {
     }
 
     /// Samples `wi` with two uniform numbers in [0, 1) (`u1` picks a lobe).
-    #[inline]
+    #[inline(always)]
     pub fn sample(&self, wo: Vec3, u1: f32, u2: [f32; 2]) -> Option<BsdfSample> {
         let (b, flip) = self.side(wo);
         let wo = if flip { flip_z(wo) } else { wo };

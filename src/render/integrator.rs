@@ -2,6 +2,7 @@
 //! (power heuristic), Russian roulette and Mitsuba's `max_depth`, keeping each path's
 //! optical path length (OPL) so every contribution lands in its time bin (SPEC 4).
 
+use super::cpu::{Isa, ISA_AVX2, ISA_AVX512, ISA_BASELINE};
 use super::deposits::PathDeposits;
 use super::gbuffer::GSample;
 use crate::geometry::accel::{offset_origin, ray_epsilon};
@@ -24,7 +25,7 @@ pub struct PathTally {
 }
 
 /// Adds a contribution `c` arriving at OPL `opl` to the path's deposits.
-#[inline]
+#[inline(always)]
 fn contribute(scene: &Scene, deposits: &mut PathDeposits, tally: &mut PathTally, opl: f64, c: Rgb) {
     if !c.is_finite() {
         tally.dropped_nonfinite += 1;
@@ -42,8 +43,71 @@ fn contribute(scene: &Scene, deposits: &mut PathDeposits, tally: &mut PathTally,
     }
 }
 
-/// Traces one camera path from the pinhole along unit direction `d`.
+/// Traces one camera path from the pinhole along unit direction `d`, with the tracer
+/// compiled for the instruction set `cpu::current()` chose (same bits at every level).
+#[inline]
 pub fn trace_path(
+    scene: &Scene,
+    d: Vec3,
+    rng: &mut Pcg32,
+    deposits: &mut PathDeposits,
+    tally: &mut PathTally,
+) -> GSample {
+    match super::cpu::current() {
+        // SAFETY: `cpu::current` returns a level only when the CPU supports it.
+        #[cfg(target_arch = "x86_64")]
+        Isa::Avx512 => unsafe { trace_path_avx512(scene, d, rng, deposits, tally) },
+        #[cfg(target_arch = "x86_64")]
+        Isa::Avx2 => unsafe { trace_path_avx2(scene, d, rng, deposits, tally) },
+        _ => trace_path_baseline(scene, d, rng, deposits, tally),
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx512cd")]
+#[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
+fn trace_path_avx512(
+    scene: &Scene,
+    d: Vec3,
+    rng: &mut Pcg32,
+    deposits: &mut PathDeposits,
+    tally: &mut PathTally,
+) -> GSample {
+    // SAFETY: this wrapper is compiled for (and only called on CPUs with) ISA_AVX512.
+    unsafe { trace_path_body::<ISA_AVX512>(scene, d, rng, deposits, tally) }
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
+fn trace_path_avx2(
+    scene: &Scene,
+    d: Vec3,
+    rng: &mut Pcg32,
+    deposits: &mut PathDeposits,
+    tally: &mut PathTally,
+) -> GSample {
+    // SAFETY: this wrapper is compiled for (and only called on CPUs with) ISA_AVX2.
+    unsafe { trace_path_body::<ISA_AVX2>(scene, d, rng, deposits, tally) }
+}
+
+fn trace_path_baseline(
+    scene: &Scene,
+    d: Vec3,
+    rng: &mut Pcg32,
+    deposits: &mut PathDeposits,
+    tally: &mut PathTally,
+) -> GSample {
+    // SAFETY: this wrapper is compiled for (and only called on CPUs with) ISA_BASELINE.
+    unsafe { trace_path_body::<ISA_BASELINE>(scene, d, rng, deposits, tally) }
+}
+
+/// The path tracer itself, inlined into one wrapper per instruction set; `ISA` picks
+/// the intersection kernels.
+///
+/// # Safety
+/// The CPU must support `ISA`.
+#[inline(always)]
+unsafe fn trace_path_body<const ISA: u8>(
     scene: &Scene,
     d: Vec3,
     rng: &mut Pcg32,
@@ -74,7 +138,13 @@ pub fn trace_path(
 
     loop {
         tally.rays += 1;
-        let Some(hit) = scene.accel.intersect(&scene.shapes, o, d, f32::INFINITY) else {
+        // SAFETY: the caller guarantees ISA.
+        let hit = unsafe {
+            scene
+                .accel
+                .intersect_with::<ISA>(&scene.shapes, o, d, f32::INFINITY)
+        };
+        let Some(hit) = hit else {
             break;
         };
         let segment = if depth == 0 && settings.camera_unwarp {
@@ -146,7 +216,10 @@ pub fn trace_path(
                     let target_eps = if ls.delta { 0.0 } else { ray_epsilon(ls.p) };
                     let tmax = (ls.p - origin).length() - target_eps;
                     tally.rays += 1;
-                    if tmax > 0.0 && !scene.accel.occluded(origin, ls.wi, tmax) {
+                    // SAFETY: the caller guarantees ISA.
+                    let blocked = tmax > 0.0
+                        && unsafe { scene.accel.occluded_with::<ISA>(origin, ls.wi, tmax) };
+                    if tmax > 0.0 && !blocked {
                         let w = if ls.delta {
                             1.0
                         } else {

@@ -11,6 +11,7 @@
 //! two numbers are drawn for the position, so everything after the primary ray uses
 //! the same random numbers in both modes, and independent renders are unchanged.
 
+pub mod cpu;
 pub mod deposits;
 pub mod gbuffer;
 pub mod integrator;
