@@ -158,6 +158,28 @@ fn stratified(m: &Manifest) -> bool {
     m.pixel_sampling != crate::bundle::manifest::SamplingRecord::Independent
 }
 
+/// The sums of the rows read, as the estimates take them.
+fn sums_view<'a>(m: &Manifest, s: &'a RowSums) -> SumsView<'a> {
+    SumsView {
+        height: s.rows.len(),
+        width: m.width,
+        bins: m.bins,
+        bin_width: m.bin_width_opl,
+        spp: m.spp,
+        stratified: stratified(m),
+        z0: m.transform.at_zero(),
+        x1: &s.x1,
+        x2: &s.x2,
+        x3: &s.x3,
+        sum: if m.transform.is_identity() {
+            &s.x1
+        } else {
+            &s.sum
+        },
+        nonzero: &s.nonzero,
+    }
+}
+
 /// What a slabbed run did.
 #[derive(Clone, Copy, Debug)]
 pub struct SlabStats {
@@ -186,7 +208,7 @@ pub fn denoise_slabs(
 ) -> Result<SlabStats, BundleError> {
     let start = std::time::Instant::now();
     let m = &bundle.manifest;
-    let (h, w, t) = (m.height, m.width, m.bins);
+    let h = m.height;
     let rows = plan.rows.max(1);
     let gbuffers = GBuffers::read(bundle)?;
     let features = gbuffers.features();
@@ -199,21 +221,7 @@ pub fn denoise_slabs(
     );
     let reader = bundle.row_reader()?;
     let mut sums = RowSums::default();
-    let view = |s: &RowSums| SumsView {
-        height: s.rows.len(),
-        width: w,
-        bins: t,
-        bin_width: m.bin_width_opl,
-        spp: m.spp,
-        stratified: stratified(m),
-        z0: m.transform.at_zero(),
-        x1: &[],
-        x2: &[],
-        x3: &[],
-        sum: &[],
-        nonzero: &[],
-    };
-    let mut est = Estimates::empty(h, &view(&sums));
+    let mut est = Estimates::empty(h, &sums_view(m, &sums));
     est.reserve_rows((rows + 2 * halo).min(h));
     let mut out = vec![0.0f32; rows.min(h) * est.row_len()];
     // Enough bands for every thread: the output does not depend on the tiling.
@@ -230,19 +238,7 @@ pub fn denoise_slabs(
         while est.rows.end < need.end {
             let next = est.rows.end..(est.rows.end + plan.chunk.max(1)).min(need.end);
             reader.read(next, &mut sums)?;
-            let s = &sums;
-            est.push_rows(&SumsView {
-                x1: &s.x1,
-                x2: &s.x2,
-                x3: &s.x3,
-                sum: if m.transform.is_identity() {
-                    &s.x1
-                } else {
-                    &s.sum
-                },
-                nonzero: &s.nonzero,
-                ..view(s)
-            });
+            est.push_rows(&sums_view(m, &sums));
         }
         let slab = &mut out[..(y1 - y0) * est.row_len()];
         let f0 = std::time::Instant::now();
