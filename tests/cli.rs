@@ -435,6 +435,111 @@ fn fortran_order_arrays_and_missing_output_directories() {
     assert_eq!(std::fs::read(&a).unwrap(), std::fs::read(&b).unwrap());
 }
 
+/// `--max-memory` cuts the image into slabs: the volume and the EXR bins are the same
+/// bytes as with one slab, whatever the threads; a budget below one row and its halo is
+/// refused before anything is written.
+#[test]
+fn denoise_in_slabs_writes_the_same_bytes() {
+    let dir = tempfile::tempdir().unwrap();
+    let b = dir.path().join("cbox.tstats");
+    let r = tstat(&[
+        "render",
+        &scene("cbox.xml"),
+        "--width",
+        "16",
+        "--height",
+        "40",
+        "--bins",
+        "30",
+        "--spp",
+        "4",
+        "--pixel-sampling",
+        "independent",
+        "--out",
+        &s(&b),
+    ]);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let run = |name: &str, extra: &[&str]| {
+        let (out, exr) = (
+            dir.path().join(name),
+            dir.path().join(format!("{name}.bins")),
+        );
+        let mut args = vec!["denoise".to_string(), s(&b), "--out".into(), s(&out)];
+        args.extend(["--exr".into(), s(&exr)]);
+        args.extend(extra.iter().map(|a| a.to_string()));
+        let args: Vec<&str> = args.iter().map(|a| a.as_str()).collect();
+        let r = tstat(&args);
+        let err = String::from_utf8_lossy(&r.stderr).into_owned();
+        assert!(r.status.success(), "{extra:?}: {err}");
+        (out, exr, err)
+    };
+    let (one, one_exr, err) = run("one.npy", &[]);
+    assert!(
+        err.contains("denoiser memory") && err.contains("1 slab of 40 rows"),
+        "{err}"
+    );
+    let volume: ndarray::Array4<f32> = ndarray_npy::read_npy(&one).unwrap();
+    for (name, extra) in [
+        ("a.npy", &["--max-memory", "800k"][..]),
+        ("b.npy", &["--max-memory", "600k", "--threads", "1"]),
+        ("c.npy", &["--max-memory", "700k", "--threads", "3"]),
+    ] {
+        let (out, exr, err) = run(name, extra);
+        let slabs: usize = err
+            .split(" slabs of ")
+            .next()
+            .and_then(|l| l.rsplit('(').next())
+            .and_then(|n| n.parse().ok())
+            .unwrap_or_else(|| panic!("{err}"));
+        assert!(slabs >= 3, "{extra:?}: {err}");
+        assert_eq!(
+            std::fs::read(&one).unwrap(),
+            std::fs::read(&out).unwrap(),
+            "{extra:?}"
+        );
+        for k in 0..30 {
+            let f = format!("bin_{k:04}.exr");
+            assert_eq!(
+                std::fs::read(one_exr.join(&f)).unwrap(),
+                std::fs::read(exr.join(&f)).unwrap(),
+                "{extra:?} {f}"
+            );
+        }
+    }
+    // An EXR bin holds that bin of the volume.
+    let k = 12;
+    let img = exr::prelude::read_first_rgba_layer_from_file(
+        one_exr.join(format!("bin_{k:04}.exr")),
+        |size, _| vec![[0f32; 3]; size.width() * size.height()],
+        |px: &mut Vec<[f32; 3]>, at, (r, g, b, _a): (f32, f32, f32, f32)| {
+            px[at.y() * 16 + at.x()] = [r, g, b]
+        },
+    )
+    .unwrap();
+    let px = &img.layer_data.channel_data.pixels;
+    assert!(px.iter().any(|p| p[0] > 0.0));
+    for y in 0..40 {
+        for x in 0..16 {
+            for c in 0..3 {
+                assert_eq!(px[y * 16 + x][c], volume[[y, x, k, c]], "({y}, {x}, {c})");
+            }
+        }
+    }
+    // Too small a budget: one error line naming the flag and what is needed.
+    let bad = dir.path().join("bad.npy");
+    let r = tstat(&["denoise", &s(&b), "--out", &s(&bad), "--max-memory", "400k"]);
+    let err = String::from_utf8_lossy(&r.stderr);
+    assert_eq!(r.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("--max-memory 400.0 kB") && err.contains("needs at least"),
+        "{err}"
+    );
+    assert!(!bad.exists());
+    let r = tstat(&["denoise", &s(&b), "--out", &s(&bad), "--max-memory", "lots"]);
+    assert!(String::from_utf8_lossy(&r.stderr).contains("--max-memory"));
+    assert!(!bad.exists());
+}
+
 #[test]
 fn merge_adds_sums_and_counts_exactly_and_refuses_mismatches() {
     let c = case(VALID);

@@ -18,13 +18,15 @@
 #![allow(clippy::needless_range_loop)]
 
 use std::sync::atomic::{AtomicU64, Ordering};
+use tstat::bundle::manifest::{Manifest, Program, SamplingRecord, SceneRef};
 use tstat::denoise::base_filter::{BaseFilter, BaseKind, Features, Sigmas};
 use tstat::denoise::critical::Threshold;
 use tstat::denoise::estimates::{Estimates, SumsView};
 use tstat::denoise::filter::{filter, FilterParams, Membership, Tiling};
 use tstat::denoise::gbuffers::GBuffers;
 use tstat::denoise::membership::passes;
-use tstat::denoise::{denoise_sums, DenoiseParams, Method};
+use tstat::denoise::slab::{self, denoise_bundle_to_npy, denoise_slabs, Dims, SlabPlan};
+use tstat::denoise::{denoise_sums, DenoiseParams, LoadedSums, Method};
 use tstat::math::rng::Pcg32;
 use tstat::stats::Transform;
 
@@ -1536,4 +1538,408 @@ fn end_to_end_cbox_denoising_beats_the_noisy_render() {
         den_unlit < noisy_unlit,
         "without lights: denoised {den_unlit} vs noisy {noisy_unlit}"
     );
+}
+
+// ---- 6. slabs: bounded memory, the same bits ---------------------------------------------
+
+/// Writes `b` as a bundle directory `dir` (what the renderer would have written).
+fn write_bundle(
+    b: &Bundle,
+    dir: &std::path::Path,
+    sampling: SamplingRecord,
+) -> tstat::bundle::Bundle {
+    use ndarray::{Array2, Array3, Array4};
+    use ndarray_npy::write_npy;
+    std::fs::create_dir_all(dir).unwrap();
+    let (h, w, t) = (b.h, b.w, b.t);
+    let mut arrays = Vec::new();
+    let mut put = |name: &str, dtype: &str, shape: Vec<usize>| {
+        arrays.push(tstat::bundle::manifest::ArrayInfo {
+            name: name.into(),
+            file: format!("{name}.npy"),
+            dtype: dtype.into(),
+            shape,
+        });
+        dir.join(format!("{name}.npy"))
+    };
+    let v4 = |v: &[f64]| Array4::from_shape_vec((h, w, t, C), v.to_vec()).unwrap();
+    write_npy(put("x1", "<f8", vec![h, w, t, C]), &v4(&b.x1)).unwrap();
+    write_npy(put("x2", "<f8", vec![h, w, t, C]), &v4(&b.x2)).unwrap();
+    write_npy(put("x3", "<f8", vec![h, w, t, C]), &v4(&b.x3)).unwrap();
+    if !b.transform.is_identity() {
+        write_npy(put("sum", "<f8", vec![h, w, t, C]), &v4(&b.sum)).unwrap();
+    }
+    let nz = Array3::from_shape_vec((h, w, t), b.nonzero.clone()).unwrap();
+    write_npy(put("nonzero", "<u4", vec![h, w, t]), &nz).unwrap();
+    let px3 = |v: &[f32]| Array3::from_shape_vec((h, w, 3), v.to_vec()).unwrap();
+    write_npy(put("albedo", "<f4", vec![h, w, 3]), &px3(&b.albedo)).unwrap();
+    write_npy(put("normal", "<f4", vec![h, w, 3]), &px3(&b.normal)).unwrap();
+    let px = |v: &[f32]| Array2::from_shape_vec((h, w), v.to_vec()).unwrap();
+    write_npy(put("depth", "<f4", vec![h, w]), &px(&b.depth)).unwrap();
+    write_npy(put("emitter", "<f4", vec![h, w]), &px(&b.emitter)).unwrap();
+    let steady = Array3::from_shape_fn((h, w, C), |(y, x, c)| {
+        (0..t)
+            .map(|k| b.sum[((y * w + x) * t + k) * C + c])
+            .sum::<f64>()
+            / b.spp as f64
+    });
+    write_npy(put("steady", "<f8", vec![h, w, C]), &steady).unwrap();
+    let c = 299_792_458.0;
+    let m = Manifest {
+        format: "tstats".into(),
+        version: 1,
+        width: w,
+        height: h,
+        bins: t,
+        channels: vec!["R".into(), "G".into(), "B".into()],
+        spp: b.spp,
+        start_opl: 2.0,
+        bin_width_opl: b.bin_width,
+        unit_m: 1.0,
+        start_seconds: 2.0 / c,
+        bin_width_seconds: b.bin_width / c,
+        transform: b.transform,
+        pixel_sampling: sampling,
+        seed: 1,
+        merged_seeds: Vec::new(),
+        scene: SceneRef {
+            path: "synthetic".into(),
+            sha256: "0".repeat(64),
+        },
+        max_depth: -1,
+        render_seconds: 0.0,
+        dropped_nonfinite: 0,
+        program: Program {
+            name: "tstat".into(),
+            version: "test".into(),
+        },
+        arrays,
+    };
+    std::fs::write(
+        dir.join("manifest.json"),
+        serde_json::to_string(&m).unwrap(),
+    )
+    .unwrap();
+    tstat::bundle::Bundle::open(dir).unwrap()
+}
+
+/// A random bundle with what reaches across rows in tstat: a patch of pixels that see
+/// a light (fractions 1 or partial), and camera depths that shift neighbours' bins.
+fn random_bundle_with_lights(
+    h: usize,
+    w: usize,
+    t: usize,
+    transform: Transform,
+    seed: u64,
+) -> Bundle {
+    let mut b = random_bundle(h, w, t, 16, transform, seed);
+    b.bin_width = 0.1;
+    let mut rng = Rng::new(seed + 1000);
+    for y in 0..h {
+        for x in 0..w {
+            let p = y * w + x;
+            if b.albedo[p * 3] == 0.0 {
+                continue; // sees nothing
+            }
+            b.depth[p] = (2.0 + 0.05 * x as f64 + 0.1 * rng.uniform()) as f32;
+            if (h / 3..h / 3 + 4).contains(&y) && (2..w / 2).contains(&x) {
+                b.emitter[p] = if rng.uniform() < 0.6 {
+                    1.0
+                } else {
+                    0.25 + 0.5 * rng.uniform() as f32
+                };
+            }
+        }
+    }
+    b
+}
+
+fn methods() -> Vec<DenoiseParams> {
+    let d = DenoiseParams::default();
+    let mut v = vec![d];
+    for method in [Method::Published(Threshold::Auto), Method::BaseOnly] {
+        v.push(DenoiseParams {
+            radius: method.default_radius(),
+            method,
+            ..d
+        });
+    }
+    v
+}
+
+fn bits32(v: &[f32]) -> Vec<u32> {
+    v.iter().map(|x| x.to_bits()).collect()
+}
+
+/// Every slab height (1, r, heights that do not divide H, H and more), chunk size and
+/// thread count gives the whole-volume denoiser's output bit for bit, on disk and in
+/// memory, for tstat (its halo is the emitter radius 4r on independent bundles, r on
+/// stratified ones), the published test and the base filter.
+#[test]
+fn slabs_give_the_whole_volume_output_bit_for_bit() {
+    let dir = tempfile::tempdir().unwrap();
+    let (h, w, t) = (29, 13, 17);
+    let cases = [
+        (
+            "identity-independent",
+            Transform::Identity,
+            SamplingRecord::Independent,
+        ),
+        (
+            "identity-stratified",
+            Transform::Identity,
+            SamplingRecord::Stratified,
+        ),
+        (
+            "boxcox-independent",
+            Transform::BoxCox { lambda: 0.5 },
+            SamplingRecord::Independent,
+        ),
+    ];
+    let mut runs = 0;
+    for (k, (name, transform, sampling)) in cases.into_iter().enumerate() {
+        let synthetic = random_bundle_with_lights(h, w, t, transform, 40 + k as u64);
+        let bundle = write_bundle(
+            &synthetic,
+            &dir.path().join(format!("{name}.tstats")),
+            sampling,
+        );
+        let loaded = LoadedSums::read(&bundle).unwrap();
+        for params in methods() {
+            let whole = loaded.denoise(&params, &|_| {});
+            let want = bits32(whole.volume.as_slice().unwrap());
+            assert!(whole.volume.iter().any(|&v| v != 0.0));
+            let halo = slab::halo(&bundle, &params).unwrap();
+            let expected_halo = match (params.method, sampling) {
+                (Method::Tstat(_), SamplingRecord::Independent) => 4 * params.radius,
+                _ => params.radius,
+            };
+            assert_eq!(halo, expected_halo, "{name} {}", params.method.name());
+            let r = params.radius;
+            for rows in [1, r, 4, 7, h - 1, h, h + 5] {
+                for chunk in [1, 100] {
+                    for threads in [1, 3] {
+                        let plan = SlabPlan { rows, halo, chunk };
+                        let what =
+                            format!("{name} {} {plan:?} {threads} threads", params.method.name());
+                        let pool = rayon::ThreadPoolBuilder::new()
+                            .num_threads(threads)
+                            .build()
+                            .unwrap();
+                        let out = dir.path().join("out.npy");
+                        let stats = pool
+                            .install(|| {
+                                denoise_bundle_to_npy(&bundle, &params, &plan, &out, &out, &|_| {})
+                            })
+                            .unwrap();
+                        assert_eq!(stats.slabs, h.div_ceil(rows), "{what}");
+                        assert_eq!(stats.evaluations, whole.evaluations, "{what}");
+                        let got: ndarray::Array4<f32> = ndarray_npy::read_npy(&out).unwrap();
+                        assert_eq!(got.shape(), whole.volume.shape());
+                        assert!(bits32(got.as_slice().unwrap()) == want, "{what}");
+                        runs += 1;
+                    }
+                }
+            }
+            // In memory (what `tstat run` uses), and the file's bytes are write_npy's.
+            let mem = tstat::denoise::denoise_bundle(&bundle, &params, &|_| {}).unwrap();
+            assert!(
+                bits32(mem.volume.as_slice().unwrap()) == want,
+                "{name} in memory"
+            );
+            let reference = dir.path().join("ref.npy");
+            ndarray_npy::write_npy(&reference, &whole.volume).unwrap();
+            assert_eq!(
+                std::fs::read(&reference).unwrap(),
+                std::fs::read(dir.path().join("out.npy")).unwrap()
+            );
+        }
+    }
+    eprintln!("{runs} slabbed runs, all bit-identical");
+}
+
+/// A plan shorter than the filter's reach is a programming error caught before any
+/// output is made up from missing rows.
+#[test]
+#[should_panic(expected = "halo")]
+fn a_plan_without_the_filters_halo_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let b = random_bundle_with_lights(12, 6, 5, Transform::Identity, 3);
+    let bundle = write_bundle(&b, dir.path(), SamplingRecord::Independent);
+    let plan = SlabPlan {
+        rows: 4,
+        halo: 2,
+        chunk: 1,
+    };
+    let _ = denoise_slabs(
+        &bundle,
+        &DenoiseParams::default(),
+        &plan,
+        &mut |_, _| Ok(()),
+        &|_| {},
+    );
+}
+
+/// A bad value in any slab ends the run with the message of a whole read: the file and
+/// the voxel by its place in the whole volume, whichever slab (or halo) meets it.
+#[test]
+fn bad_values_in_a_slab_are_the_same_clear_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let (h, w, t) = (23, 7, 9);
+    let b = random_bundle_with_lights(h, w, t, Transform::Identity, 8);
+    // A voxel with samples, in a row in the middle of the image.
+    let (y, x, k) = (
+        14usize,
+        3usize,
+        (0..t)
+            .find(|&k| b.nonzero[(14 * w + 3) * t + k] > 0)
+            .unwrap(),
+    );
+    let empty = (0..h * w * t)
+        .find(|&v| b.nonzero[v] == 0 && v / (w * t) > 10)
+        .unwrap();
+    let (ey, ex, ek) = (empty / (w * t), empty / t % w, empty % t);
+    type Poke = Box<dyn Fn(&mut Bundle)>;
+    let cases: Vec<(Poke, String)> = vec![
+        (
+            Box::new(move |b: &mut Bundle| b.x2[((y * w + x) * t + k) * C + 1] = f64::NAN),
+            format!("x2.npy: invalid bundle: voxel (y {y}, x {x}, t {k}, c 1) is NaN"),
+        ),
+        (
+            Box::new(move |b: &mut Bundle| b.nonzero[(y * w + x) * t + k] = 17),
+            format!("nonzero.npy: invalid bundle: voxel (y {y}, x {x}, t {k}) counts 17 samples, more than spp = 16"),
+        ),
+        (
+            Box::new(move |b: &mut Bundle| b.x3[((ey * w + ex) * t + ek) * C] = 0.5),
+            format!("x3.npy: invalid bundle: voxel (y {ey}, x {ex}, t {ek}, c 0) is 0.5 where nonzero.npy counts no samples (a sum without samples)"),
+        ),
+        (
+            Box::new(move |b: &mut Bundle| b.x1[((y * w + x) * t + k) * C + 2] = -1.0),
+            format!("x1.npy: invalid bundle: voxel (y {y}, x {x}, t {k}, c 2) is -1, but radiance is never negative"),
+        ),
+    ];
+    for (n, (poke, want)) in cases.iter().enumerate() {
+        let mut bad = b.clone();
+        poke(&mut bad);
+        let bundle = write_bundle(
+            &bad,
+            &dir.path().join(format!("bad{n}.tstats")),
+            SamplingRecord::Independent,
+        );
+        let whole = LoadedSums::read(&bundle).err().unwrap().to_string();
+        assert!(
+            whole.ends_with(want.as_str()),
+            "whole: {whole:?} vs {want:?}"
+        );
+        let params = DenoiseParams::default();
+        let halo = slab::halo(&bundle, &params).unwrap();
+        for rows in [1, 4, 14, 15, h] {
+            let plan = SlabPlan {
+                rows,
+                halo,
+                chunk: 2,
+            };
+            let out = dir.path().join("out.npy");
+            let e = denoise_bundle_to_npy(&bundle, &params, &plan, &out, &out, &|_| {})
+                .err()
+                .unwrap()
+                .to_string();
+            assert_eq!(e, whole, "{rows} rows a slab");
+        }
+    }
+}
+
+/// The plan: the tallest slabs that fit the budget, one slab when all fits, and a
+/// footprint that follows the documented formula.
+#[test]
+fn slab_plans_fit_their_budget() {
+    let d = Dims {
+        height: 512,
+        width: 512,
+        bins: 1000,
+        sum_arrays: 3,
+    };
+    let v = 512u64 * 1000 * 3;
+    let plan = SlabPlan::for_budget(d, 3, 1_000_000_000);
+    assert!(plan.bytes(d) <= 1_000_000_000);
+    assert!(
+        SlabPlan {
+            rows: plan.rows + 1,
+            ..plan
+        }
+        .bytes(d)
+            > 1_000_000_000
+    );
+    assert!(plan.rows > 16 && plan.rows < 64, "{plan:?}");
+    assert_eq!(plan.halo, 3);
+    let held = (plan.rows + 6) as u64;
+    assert_eq!(
+        plan.bytes(d),
+        32 * 512 * 512
+            + 12 * v * held
+            + 16 * 512 * held
+            + 4 * v * plan.rows as u64
+            + 4 * v
+            + plan.chunk as u64 * (8 * v * 3 + 4 * 512 * 1000)
+            + 8 * (3 << 15)
+    );
+    let whole = SlabPlan::for_budget(d, 3, u64::MAX);
+    assert_eq!((whole.rows, whole.slabs(d)), (512, 1));
+    // Too small a budget still plans one row; its footprint tells the caller it does
+    // not fit.
+    let tiny = SlabPlan::for_budget(d, 3, 1000);
+    assert_eq!(tiny.rows, 1);
+    assert!(tiny.bytes(d) > 1000);
+    assert_eq!(tiny.slabs(d), 512);
+}
+
+/// The same on real renders of the Cornell box (its light seen directly), stratified
+/// and independent: slabbed output is the whole-volume output, bit for bit.
+#[test]
+fn slabs_give_the_whole_volume_output_on_real_renders() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cbox.xml");
+    for sampling in ["independent", "stratified"] {
+        let path = dir.path().join(format!("{sampling}.tstats"));
+        let r = std::process::Command::new(env!("CARGO_BIN_EXE_tstat"))
+            .args([
+                "render", scene, "--width", "24", "--height", "21", "--bins", "40",
+            ])
+            .args([
+                "--bin-width-opl",
+                "0.1",
+                "--spp",
+                "8",
+                "--pixel-sampling",
+                sampling,
+            ])
+            .arg("--out")
+            .arg(&path)
+            .output()
+            .unwrap();
+        assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+        let bundle = tstat::bundle::Bundle::open(&path).unwrap();
+        assert!(bundle.emitter().unwrap().iter().any(|&f| f > 0.0));
+        let loaded = LoadedSums::read(&bundle).unwrap();
+        for params in methods() {
+            let whole = loaded.denoise(&params, &|_| {});
+            let want = bits32(whole.volume.as_slice().unwrap());
+            let halo = slab::halo(&bundle, &params).unwrap();
+            for rows in [1, params.radius, 5, 21] {
+                let plan = SlabPlan {
+                    rows,
+                    halo,
+                    chunk: 2,
+                };
+                let out = dir.path().join("out.npy");
+                denoise_bundle_to_npy(&bundle, &params, &plan, &out, &out, &|_| {}).unwrap();
+                let got: ndarray::Array4<f32> = ndarray_npy::read_npy(&out).unwrap();
+                assert!(
+                    bits32(got.as_slice().unwrap()) == want,
+                    "{sampling} {} {plan:?}",
+                    params.method.name()
+                );
+            }
+        }
+    }
 }

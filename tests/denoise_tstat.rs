@@ -45,6 +45,7 @@ impl Volume {
                 bin_width,
                 spp: 16,
                 stratified: false,
+                rows: 0..h,
                 mean: vec![0.0; n],
                 theta: vec![0.0; n],
                 v: vec![0.0; n],

@@ -8,7 +8,7 @@ pub mod read;
 pub mod write;
 
 pub use manifest::Manifest;
-pub use read::{Bundle, SumArray};
+pub use read::{Bundle, RowReader, RowSums, SumArray};
 use std::path::PathBuf;
 
 #[derive(Debug, thiserror::Error)]

@@ -447,7 +447,7 @@ pub fn describe_index(axes: &[&str], idx: &[usize]) -> String {
 
 /// Block size for reading: a multiple of 3 channels, so that blocks of (H, W, T, C)
 /// sums start at a voxel's first channel.
-const BLOCK_ELEMS: usize = 3 << 15;
+pub const BLOCK_ELEMS: usize = 3 << 15;
 
 /// The outcome of a block check: the C-order flat index and reason of the first bad
 /// value.
@@ -512,6 +512,89 @@ impl NpyFile {
 
     fn fortran(&self) -> bool {
         self.header.fortran_order && self.header.shape.len() > 1
+    }
+
+    /// Elements per index of the first axis: one image row of a (H, W, ...) array.
+    pub fn row_len(&self) -> usize {
+        self.header.shape.iter().skip(1).product()
+    }
+
+    /// Reads rows `rows` of the first axis as `T` (which the header must declare) into
+    /// `out` (cleared first; its capacity is reused), in C order, checking the values
+    /// as [`NpyFile::read`] does: `check(start, block)` sees each block with `start`
+    /// counted from the first element of the first row read (so a check can index
+    /// per-row data of the same rows), and an error names the first bad element by its
+    /// index in the whole array. Reads at offsets (the file is not consumed), so a
+    /// caller keeps the file open and reads band after band. Fortran-order files are
+    /// gathered run by run (one contiguous run of the first axis per element of a row)
+    /// and checked whole: correct in the same memory, slow for large arrays (tstat
+    /// never writes them).
+    pub fn read_rows<T: Element>(
+        &self,
+        rows: std::ops::Range<usize>,
+        out: &mut Vec<T>,
+        mut check: impl FnMut(usize, &[T]) -> Bad,
+        axes: &[&str],
+    ) -> Result<(), String> {
+        use std::os::unix::fs::FileExt;
+        let h = &self.header;
+        if h.dtype != T::DTYPE {
+            return Err(format!("dtype {:?} is not {:?}", h.dtype, T::DTYPE));
+        }
+        let rows_total = h.shape.first().copied().unwrap_or(1);
+        assert!(
+            rows.start <= rows.end && rows.end <= rows_total,
+            "rows {rows:?} of an array of {rows_total}"
+        );
+        let row_len = self.row_len();
+        let first = rows.start * row_len;
+        let len = (rows.end - rows.start) * row_len;
+        let fail = |e: Failure| e.describe(axes, &h.shape);
+        let io = |e: std::io::Error| Failure::Io(format!("truncated while reading the data: {e}"));
+        out.clear();
+        out.reserve(len);
+        if !self.fortran() {
+            let mut bytes = vec![0u8; BLOCK_ELEMS.min(len) * T::SIZE];
+            let mut done = 0;
+            while done < len {
+                let n = BLOCK_ELEMS.min(len - done);
+                let buf = &mut bytes[..n * T::SIZE];
+                let at = h.data_offset + ((first + done) * T::SIZE) as u64;
+                self.file.read_exact_at(buf, at).map_err(|e| fail(io(e)))?;
+                out.extend(buf.chunks_exact(T::SIZE).map(T::from_le));
+                if let Some((i, why)) = check(done, &out[done..]) {
+                    return Err(fail(Failure::Bad((first + i, why))));
+                }
+                done += n;
+            }
+            return Ok(());
+        }
+        // Fortran order: element (i, j) (i on the first axis, j the C-order index
+        // within a row) lies at i + d0 * f(j), f(j) the Fortran-order index of j's
+        // multi-index over the other axes. Gather each j's run over `rows`, then
+        // transpose into C order.
+        let (d0, rest) = (rows_total, &h.shape[1..]);
+        let n = rows.end - rows.start;
+        let mut runs: Vec<T> = Vec::with_capacity(len);
+        let mut bytes = vec![0u8; n * T::SIZE];
+        for j in 0..row_len {
+            let f = unravel(j, rest)
+                .iter()
+                .zip(rest)
+                .rev()
+                .fold(0usize, |acc, (&i, &d)| acc * d + i);
+            let at = h.data_offset + ((rows.start + d0 * f) * T::SIZE) as u64;
+            self.file
+                .read_exact_at(&mut bytes, at)
+                .map_err(|e| fail(io(e)))?;
+            runs.extend(bytes.chunks_exact(T::SIZE).map(T::from_le));
+        }
+        out.extend((0..len).map(|k| runs[(k % row_len) * n + k / row_len]));
+        drop(runs);
+        match check(0, out) {
+            Some((i, why)) => Err(fail(Failure::Bad((first + i, why)))),
+            None => Ok(()),
+        }
     }
 
     /// Feeds the data to `f` in blocks of raw bytes, with the element index of each
@@ -778,6 +861,62 @@ mod tests {
         let e = f.header.expect::<f32>(Some(&[2, 2])).unwrap_err();
         assert!(e.contains("[4]") && e.contains("[2, 2]"), "{e}");
         let e = f.read::<f64>(|_, _| None, &[]).unwrap_err();
+        one_line(&e);
+    }
+
+    #[test]
+    fn row_ranges_read_what_a_whole_read_holds_in_either_order() {
+        let dir = tempfile::tempdir().unwrap();
+        let (c, f) = (dir.path().join("c.npy"), dir.path().join("f.npy"));
+        let a = ndarray::Array4::from_shape_fn((7, 3, 4, 3), |(y, x, t, c)| {
+            (((y * 3 + x) * 4 + t) * 3 + c) as f64 * 0.5
+        });
+        ndarray_npy::write_npy(&c, &a).unwrap();
+        let mut fa = ndarray::Array4::<f64>::zeros(ndarray::ShapeBuilder::f(a.raw_dim()));
+        fa.assign(&a);
+        ndarray_npy::write_npy(&f, &fa).unwrap();
+        let whole: Vec<f64> = a.iter().copied().collect();
+        let row = 3 * 4 * 3;
+        for path in [&c, &f] {
+            let file = open(path).unwrap();
+            assert_eq!(file.row_len(), row);
+            let mut out = Vec::new();
+            for (y0, y1) in [(0, 7), (0, 1), (2, 5), (6, 7), (3, 3)] {
+                let mut starts = Vec::new();
+                file.read_rows::<f64>(
+                    y0..y1,
+                    &mut out,
+                    |s, b| {
+                        starts.push((s, b.len()));
+                        None
+                    },
+                    &[],
+                )
+                .unwrap();
+                assert_eq!(out, whole[y0 * row..y1 * row], "{path:?} rows {y0}..{y1}");
+                // The check sees every value once, counted from the first row read.
+                let seen: usize = starts.iter().map(|&(_, n)| n).sum();
+                assert_eq!(seen, (y1 - y0) * row);
+                assert!(starts.iter().all(|&(s, _)| s % 3 == 0 && s < seen.max(1)));
+            }
+        }
+        // A bad value is named by its place in the whole array.
+        let axes = ["y", "x", "t", "c"];
+        for path in [&c, &f] {
+            let file = open(path).unwrap();
+            let check = |s: usize, b: &[f64]| {
+                first_bad(s, b, |i, _| i != row + 5, |_, x| format!("is {}", show(x)))
+            };
+            let e = file
+                .read_rows::<f64>(4..6, &mut Vec::new(), check, &axes)
+                .unwrap_err();
+            assert_eq!(e, "voxel (y 5, x 0, t 1, c 2) is 92.5", "{path:?}");
+        }
+        // A wrong type is refused, not reinterpreted.
+        let e = open(&c)
+            .unwrap()
+            .read_rows::<f32>(0..1, &mut Vec::new(), |_, _| None, &[])
+            .unwrap_err();
         one_line(&e);
     }
 

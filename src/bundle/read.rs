@@ -12,7 +12,9 @@
 //!    at most H x W x 3 values) are read and checked whole.
 //! 2. Each array read checks its header again (the file may have changed), then its
 //!    values, in the same pass that reads them (see [`Bundle::sum_array`] and the
-//!    G-buffer readers); the first bad value is named by its voxel.
+//!    G-buffer readers); the first bad value is named by its voxel. The counts and
+//!    sums can also be read a band of image rows at a time ([`Bundle::row_reader`],
+//!    for denoising in bounded memory), with the same checks and messages.
 //! 3. Cross-array rules that need the counts (a sum where no sample landed) are
 //!    checked against `nonzero.npy`, which the readers of sums take as an argument.
 //!
@@ -348,20 +350,39 @@ impl Bundle {
     /// The per-voxel counts of samples that deposited something; each at most spp.
     pub fn nonzero(&self) -> Result<Array3<u32>, BundleError> {
         let m = &self.manifest;
-        let spp = m.spp;
         self.read_checked(
             "nonzero",
             [m.height, m.width, m.bins].into_dimension(),
             &AXES3T,
-            |s, b: &[u32]| {
-                first_bad(
-                    s,
-                    b,
-                    |_, v| u64::from(v) <= spp,
-                    |_, v| format!("counts {v} samples, more than spp = {spp}"),
-                )
-            },
+            self.count_check(),
         )
+    }
+
+    /// A reader of the counts and sums a band of image rows at a time (for denoising
+    /// in bounded memory): every array the denoiser needs is opened once and its
+    /// header checked again.
+    pub fn row_reader(&self) -> Result<RowReader<'_>, BundleError> {
+        let m = &self.manifest;
+        let open = |name: &str, dtype: &str, shape: &[usize]| {
+            let (path, f) = self.open_npy(name)?;
+            check_header(&path, &f.header, dtype, shape)?;
+            Ok::<_, BundleError>((path, f))
+        };
+        let s4 = self.shape4();
+        let sum = |which: SumArray| {
+            let (path, file) = open(self.sum_name(which), f64::DTYPE, &s4)?;
+            Ok::<_, BundleError>(SumFile { which, path, file })
+        };
+        Ok(RowReader {
+            bundle: self,
+            nonzero: open("nonzero", u32::DTYPE, &[m.height, m.width, m.bins])?,
+            sums: [sum(SumArray::X1)?, sum(SumArray::X2)?, sum(SumArray::X3)?],
+            radiance: if m.transform.is_identity() {
+                None
+            } else {
+                Some(sum(SumArray::Radiance)?)
+            },
+        })
     }
 
     /// One of the sum arrays, checked against the module's rules and against the
@@ -371,22 +392,48 @@ impl Bundle {
         which: SumArray,
         counts: &Array3<u32>,
     ) -> Result<Array4<f64>, BundleError> {
+        let counts = counts.as_slice().expect("counts in standard layout");
         let (name, check) = self.sum_check(which, counts);
         self.read_checked(name, self.shape4().into_dimension(), &AXES4, check)
     }
 
-    /// The file and value check of a sum array.
+    /// The rule that a count is at most spp, as a block check.
+    fn count_check(&self) -> impl Fn(usize, &[u32]) -> npy::Bad {
+        let spp = self.manifest.spp;
+        move |s, b: &[u32]| {
+            first_bad(
+                s,
+                b,
+                |_, v| u64::from(v) <= spp,
+                |_, v| format!("counts {v} samples, more than spp = {spp}"),
+            )
+        }
+    }
+
+    /// The array holding a sum: S is X1 itself under the identity transform.
+    fn sum_name(&self, which: SumArray) -> &'static str {
+        match which {
+            SumArray::X1 => "x1",
+            SumArray::X2 => "x2",
+            SumArray::X3 => "x3",
+            SumArray::Radiance if self.manifest.transform.is_identity() => "x1",
+            SumArray::Radiance => "sum",
+        }
+    }
+
+    /// The file and value check of a sum array; `counts` are the counts of the voxels
+    /// the check will see, in the same order (the whole array, or the rows read).
     fn sum_check<'a>(
         &self,
         which: SumArray,
-        counts: &'a Array3<u32>,
+        counts: &'a [u32],
     ) -> (&'static str, impl FnMut(usize, &[f64]) -> npy::Bad + 'a) {
         let m = &self.manifest;
         let radiance = "radiance is never negative".to_string();
-        let (name, rule) = match which {
-            SumArray::X2 => ("x2", Some("a sum of squares cannot be negative".into())),
-            SumArray::X1 | SumArray::X3 if m.transform.at_zero() == 0.0 => (
-                if which == SumArray::X1 { "x1" } else { "x3" },
+        let name = self.sum_name(which);
+        let rule = match which {
+            SumArray::X2 => Some("a sum of squares cannot be negative".into()),
+            SumArray::X1 | SumArray::X3 if m.transform.at_zero() == 0.0 => {
                 Some(if m.transform.is_identity() {
                     radiance
                 } else {
@@ -394,14 +441,11 @@ impl Bundle {
                         "the {} transform of radiance is never negative",
                         m.transform
                     )
-                }),
-            ),
-            SumArray::X1 => ("x1", None),
-            SumArray::X3 => ("x3", None),
-            SumArray::Radiance if m.transform.is_identity() => ("x1", Some(radiance)),
-            SumArray::Radiance => ("sum", Some(radiance)),
+                })
+            }
+            SumArray::X1 | SumArray::X3 => None,
+            SumArray::Radiance => Some(radiance),
         };
-        let counts = counts.as_slice().expect("counts in standard layout");
         let nonneg = rule.is_some();
         // Radiance sums (S, which is X1 under the identity) become the f32 mean S / n
         // of every volume: a sum whose mean overflows f32 is refused here rather
@@ -540,7 +584,8 @@ impl Bundle {
     pub fn noisy_mean(&self) -> Result<Array4<f32>, BundleError> {
         let n = self.manifest.spp as f64;
         let counts = self.nonzero()?;
-        let (name, check) = self.sum_check(SumArray::Radiance, &counts);
+        let counts = counts.as_slice().expect("counts in standard layout");
+        let (name, check) = self.sum_check(SumArray::Radiance, counts);
         let (path, f) = self.open_npy(name)?;
         let shape = self.shape4();
         check_header(&path, &f.header, f64::DTYPE, &shape)?;
@@ -548,6 +593,78 @@ impl Bundle {
             .read_mapped(|s: f64| (s / n) as f32, check, &AXES4)
             .map_err(|e| BundleError::Invalid(path.clone(), e))?;
         Array::from_shape_vec(shape, data).map_err(|e| BundleError::Invalid(path, e.to_string()))
+    }
+}
+
+/// Reads a bundle's counts and sums band by band; see [`Bundle::row_reader`].
+pub struct RowReader<'a> {
+    bundle: &'a Bundle,
+    nonzero: (PathBuf, npy::NpyFile),
+    sums: [SumFile; 3],
+    radiance: Option<SumFile>,
+}
+
+/// An open sum array.
+struct SumFile {
+    which: SumArray,
+    path: PathBuf,
+    file: npy::NpyFile,
+}
+
+/// The counts and sums of a band of image rows, (rows, W, T) and (rows, W, T, C)
+/// row-major like the files; the vectors are reused from band to band.
+#[derive(Default)]
+pub struct RowSums {
+    /// The image rows held.
+    pub rows: std::ops::Range<usize>,
+    pub x1: Vec<f64>,
+    pub x2: Vec<f64>,
+    pub x3: Vec<f64>,
+    /// Raw radiance sums, only for transforms other than the identity (else X1).
+    pub sum: Vec<f64>,
+    pub nonzero: Vec<u32>,
+}
+
+impl RowReader<'_> {
+    /// Reads rows `rows` of every array into `into`, with the checks of
+    /// [`Bundle::nonzero`] and [`Bundle::sum_array`]: the counts first, then each sum
+    /// against them. An error names the file and the voxel by its place in the whole
+    /// volume.
+    pub fn read(
+        &self,
+        rows: std::ops::Range<usize>,
+        into: &mut RowSums,
+    ) -> Result<(), BundleError> {
+        let b = self.bundle;
+        let RowSums {
+            rows: held,
+            x1,
+            x2,
+            x3,
+            sum,
+            nonzero,
+        } = into;
+        *held = rows.start..rows.start;
+        let (path, f) = &self.nonzero;
+        f.read_rows(rows.clone(), nonzero, b.count_check(), &AXES3T)
+            .map_err(|e| BundleError::Invalid(path.clone(), e))?;
+        let mut arrays = vec![
+            (&self.sums[0], x1),
+            (&self.sums[1], x2),
+            (&self.sums[2], x3),
+        ];
+        match &self.radiance {
+            Some(r) => arrays.push((r, sum)),
+            None => sum.clear(),
+        }
+        for (a, out) in arrays {
+            let (_, check) = b.sum_check(a.which, nonzero);
+            a.file
+                .read_rows(rows.clone(), out, check, &AXES4)
+                .map_err(|e| BundleError::Invalid(a.path.clone(), e))?;
+        }
+        *held = rows;
+        Ok(())
     }
 }
 

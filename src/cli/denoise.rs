@@ -1,14 +1,16 @@
 //! `tstat denoise NAME.tstats --out denoised.npy`: the statistical spatio-temporal filter.
 
 use super::export::write_exr_rgb;
-use super::util::{arg, check_outputs, human_bytes, threads, with_threads, Kind};
+use super::util::{arg, check_outputs, human_bytes, parse_bytes, threads, with_threads, Kind};
 use crate::bundle::write::{stage, Staged};
 use crate::bundle::{Bundle, BundleError};
 use crate::denoise::base_filter::{BaseKind, Sigmas};
 use crate::denoise::critical::Threshold;
+use crate::denoise::slab::{denoise_bundle_to_npy, halo, Dims, SlabPlan, DEFAULT_BUDGET};
 use crate::denoise::tstat::TstatParams;
-use crate::denoise::{denoise_bundle, memory_bytes, DenoiseParams, Method};
-use anyhow::{bail, ensure};
+use crate::denoise::{memory_bytes, DenoiseParams, Method};
+use crate::stats::accumulators::CHANNELS;
+use anyhow::{anyhow, bail, ensure};
 use clap::{Args, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
 use ndarray::{s, Array3, Array4};
@@ -190,24 +192,56 @@ pub struct DenoiseArgs {
     /// Worker threads (default: all cores). The output does not depend on it.
     #[arg(long, allow_negative_numbers = true)]
     pub threads: Option<i64>,
+    /// Memory budget (e.g. 4G): the image is denoised in slabs of rows that fit it
+    /// (default 1G); refused when one row and its halo do not fit. The output does not
+    /// depend on it.
+    #[arg(long, allow_hyphen_values = true)]
+    pub max_memory: Option<String>,
     /// Replace existing outputs.
     #[arg(long)]
     pub force: bool,
 }
 
-/// Writes every bin of an (H, W, T, C) volume as `DIR/bin_NNNN.exr` under a temporary
-/// name; the caller commits it.
+/// Writes every bin of the f32 (H, W, T, C) `.npy` volume at `npy` (written by
+/// [`crate::denoise::slab::NpyVolumeWriter`]) as `DIR/bin_NNNN.exr` under a temporary name; the caller
+/// commits it. Reads as many bins at a time as `budget` holds.
 pub fn stage_exr_bins(
     dir: &Path,
-    volume: &Array4<f32>,
+    npy: &Path,
+    (h, w, t): (usize, usize, usize),
+    budget: u64,
     force: bool,
 ) -> Result<Staged, BundleError> {
+    use std::os::unix::fs::FileExt;
     stage(dir, force, |tmp| {
-        std::fs::create_dir(tmp).map_err(|e| BundleError::Io(tmp.to_path_buf(), e.to_string()))?;
-        let digits = volume.shape()[2].to_string().len().max(4);
-        for k in 0..volume.shape()[2] {
-            let img: Array3<f32> = volume.slice(s![.., .., k, ..]).to_owned();
-            write_exr_rgb(&tmp.join(format!("bin_{k:0digits$}.exr")), &img)?;
+        let io = |e: String| BundleError::Io(dir.to_path_buf(), e);
+        std::fs::create_dir(tmp).map_err(|e| io(e.to_string()))?;
+        let file = std::fs::File::open(npy).map_err(|e| io(e.to_string()))?;
+        let data_offset = file.metadata().map_err(|e| io(e.to_string()))?.len()
+            - (h * w * t * CHANNELS * 4) as u64;
+        let per_bin = (h * w * CHANNELS * 4) as u64;
+        let step = ((budget / per_bin.max(1)) as usize).clamp(1, t);
+        let digits = t.to_string().len().max(4);
+        let mut run = Vec::new();
+        for k0 in (0..t).step_by(step) {
+            let k1 = (k0 + step).min(t);
+            let n = k1 - k0;
+            // (H, W, n, C): each pixel's bins k0..k1 are one run in the file.
+            let mut bins = Array4::<f32>::zeros((h, w, n, CHANNELS));
+            let flat = bins.as_slice_mut().expect("standard layout");
+            run.resize(n * CHANNELS * 4, 0u8);
+            for (p, px) in flat.chunks_exact_mut(n * CHANNELS).enumerate() {
+                let at = data_offset + ((p * t + k0) * CHANNELS * 4) as u64;
+                file.read_exact_at(&mut run, at)
+                    .map_err(|e| io(e.to_string()))?;
+                for (v, b) in px.iter_mut().zip(run.chunks_exact(4)) {
+                    *v = f32::from_le_bytes(b.try_into().expect("4 bytes"));
+                }
+            }
+            for k in 0..n {
+                let img: Array3<f32> = bins.slice(s![.., .., k, ..]).to_owned();
+                write_exr_rgb(&tmp.join(format!("bin_{:0digits$}.exr", k0 + k)), &img)?;
+            }
         }
         Ok(())
     })
@@ -219,6 +253,10 @@ pub fn run(a: DenoiseArgs) -> anyhow::Result<()> {
         bail!("--out {}: the volume is written as .npy", a.out.display());
     }
     let threads = threads(a.threads)?;
+    let budget = match &a.max_memory {
+        Some(s) => parse_bytes(s).map_err(|e| anyhow!("--max-memory: {e}"))?,
+        None => DEFAULT_BUDGET,
+    };
     let mut outputs = vec![(arg("--out", &a.out), Kind::File)];
     if let Some(d) = &a.exr {
         outputs.push((arg("--exr", d), Kind::Dir));
@@ -226,36 +264,58 @@ pub fn run(a: DenoiseArgs) -> anyhow::Result<()> {
     check_outputs(&[arg("bundle", &a.bundle)], &outputs, a.force)?;
     let bundle = Bundle::open(&a.bundle)?;
     let m = &bundle.manifest;
+    let dims = Dims::of(m);
+    let halo = halo(&bundle, &params)?;
+    let plan = SlabPlan::for_budget(dims, halo, budget);
+    let need = memory_bytes(dims, &plan);
+    ensure!(
+        need <= budget,
+        "--max-memory {}: denoising {}x{} px x {} bins needs at least {} (one row and its halo of {halo} rows on each side)",
+        human_bytes(budget),
+        m.width,
+        m.height,
+        m.bins,
+        human_bytes(need)
+    );
     eprintln!(
-        "{}: {}x{} px, {} bins, {} spp; denoiser memory ~{} (plus the f64 sums while reading)",
+        "{}: {}x{} px, {} bins, {} spp; denoiser memory ~{} ({} of {} rows, halo {halo})",
         a.bundle.display(),
         m.width,
         m.height,
         m.bins,
         m.spp,
-        human_bytes(memory_bytes(m.height, m.width, m.bins))
+        human_bytes(need),
+        match plan.slabs(dims) {
+            1 => "1 slab".to_string(),
+            n => format!("{n} slabs"),
+        },
+        plan.rows.min(m.height),
     );
     let bar = ProgressBar::new((m.width * m.height) as u64).with_style(
         ProgressStyle::with_template("{bar:40} {percent:>3}% pixels, ETA {eta}")
             .expect("valid template"),
     );
-    let result = with_threads(threads, || {
-        denoise_bundle(&bundle, &params, &|n| bar.inc(n))
-    })??;
-    bar.finish_and_clear();
     // Both outputs are written completely before either is put in place.
-    let volume = stage(&a.out, a.force, |tmp| {
-        ndarray_npy::write_npy(tmp, &result.volume)
-            .map_err(|e| BundleError::Io(a.out.clone(), e.to_string()))
-    })?;
-    let exr = match &a.exr {
-        Some(d) => Some(stage_exr_bins(d, &result.volume, a.force)?),
-        None => None,
-    };
+    let (mut stats, mut exr) = (None, None);
+    let volume = with_threads(threads, || {
+        stage(&a.out, a.force, |tmp| {
+            let progress = |n| bar.inc(n);
+            stats = Some(denoise_bundle_to_npy(
+                &bundle, &params, &plan, tmp, &a.out, &progress,
+            )?);
+            bar.finish_and_clear();
+            if let Some(d) = &a.exr {
+                let size = (m.height, m.width, m.bins);
+                exr = Some(stage_exr_bins(d, tmp, size, budget, a.force)?);
+            }
+            Ok(())
+        })
+    })??;
     volume.commit()?;
     if let Some(e) = exr {
         e.commit()?;
     }
+    let result = stats.expect("denoised");
     say!(
         "denoised {} -> {} in {:.2} s (filter {:.2} s: {:.0} M voxel-neighbour evaluations/s){}",
         a.bundle.display(),

@@ -8,13 +8,17 @@
 //!   overflow for tiny lambda);
 //! - `v = sigma^2 / n`, the variance of theta's estimate.
 //!
-//! Memory: 3 x H x W x T x 3 x 4 bytes (177 MB for 128 x 128 x 300).
+//! Memory: 3 x H x W x T x 3 x 4 bytes for a whole volume (177 MB for 128 x 128 x
+//! 300). A slab of the image holds only its rows (see `slab.rs`): [`Estimates::rows`]
+//! says which, and pixel indices stay those of the whole image.
 
 use crate::stats::accumulators::CHANNELS;
 use crate::stats::estimators::{estimate, Sums};
 use rayon::prelude::*;
+use std::ops::Range;
 
 pub struct Estimates {
+    /// Image height H (the rows held are `rows`).
     pub height: usize,
     pub width: usize,
     pub bins: usize,
@@ -25,12 +29,15 @@ pub struct Estimates {
     /// Sub-pixel positions were stratified: `v` over-estimates the variance of the
     /// mean (most at edges, where coverage noise dominates).
     pub stratified: bool,
+    /// The image rows held, `0..height` for a whole volume.
+    pub rows: Range<usize>,
     pub mean: Vec<f32>,
     pub theta: Vec<f32>,
     pub v: Vec<f32>,
 }
 
-/// The raw sums of a bundle, (H, W, T, C) row-major, as stored on disk.
+/// The raw sums of a bundle, (H, W, T, C) row-major, as stored on disk; or of a band
+/// of its rows (then `height` is the band's).
 pub struct SumsView<'a> {
     pub height: usize,
     pub width: usize,
@@ -51,22 +58,79 @@ pub struct SumsView<'a> {
 }
 
 impl Estimates {
-    /// Index of (pixel, channel, bin) in the planar layout.
+    /// Index of (pixel, channel, bin) in the planar layout; `pixel` is the image's
+    /// row-major pixel index, which must lie in a row held.
     #[inline]
     pub fn idx(&self, pixel: usize, c: usize, t: usize) -> usize {
-        (pixel * CHANNELS + c) * self.bins + t
+        ((pixel - self.rows.start * self.width) * CHANNELS + c) * self.bins + t
     }
 
+    /// Values per image row in each of `mean`, `theta` and `v`.
+    pub fn row_len(&self) -> usize {
+        self.width * CHANNELS * self.bins
+    }
+
+    /// The estimates of a whole volume.
     pub fn from_sums(s: &SumsView) -> Estimates {
+        let mut e = Estimates::empty(s.height, s);
+        e.push_rows(s);
+        e
+    }
+
+    /// No rows yet of an image `height` rows high with the sizes and sampling of `s`.
+    pub fn empty(height: usize, s: &SumsView) -> Estimates {
+        Estimates {
+            height,
+            width: s.width,
+            bins: s.bins,
+            bin_width: s.bin_width,
+            spp: s.spp,
+            stratified: s.stratified,
+            rows: 0..0,
+            mean: Vec::new(),
+            theta: Vec::new(),
+            v: Vec::new(),
+        }
+    }
+
+    /// Room for `rows` rows without reallocating (a slab and its halo).
+    pub fn reserve_rows(&mut self, rows: usize) {
+        let n = rows * self.row_len();
+        for a in [&mut self.mean, &mut self.theta, &mut self.v] {
+            a.reserve_exact(n.saturating_sub(a.len()));
+        }
+    }
+
+    /// Forgets the rows above row `y`; with `y` past the rows held, forgets them all
+    /// and the next rows pushed are `y` on.
+    pub fn drop_rows_before(&mut self, y: usize) {
+        let keep = y.clamp(self.rows.start, self.rows.end);
+        let n = (keep - self.rows.start) * self.row_len();
+        for a in [&mut self.mean, &mut self.theta, &mut self.v] {
+            a.drain(..n);
+        }
+        self.rows = if y >= self.rows.end {
+            y..y
+        } else {
+            keep..self.rows.end
+        };
+    }
+
+    /// Appends the estimates of `s`, the sums of the `s.height` rows that follow the
+    /// rows held. Each voxel's estimate depends on its own sums alone, so the values
+    /// are those of a whole-volume [`Estimates::from_sums`], bit for bit.
+    pub fn push_rows(&mut self, s: &SumsView) {
         let (t_bins, n) = (s.bins, s.spp);
         let per_pixel = CHANNELS * t_bins;
+        let start = self.mean.len();
         let len = s.height * s.width * per_pixel;
-        let mut mean = vec![0.0f32; len];
-        let mut theta = vec![0.0f32; len];
-        let mut v = vec![0.0f32; len];
-        mean.par_chunks_mut(per_pixel)
-            .zip(theta.par_chunks_mut(per_pixel))
-            .zip(v.par_chunks_mut(per_pixel))
+        for a in [&mut self.mean, &mut self.theta, &mut self.v] {
+            a.resize(start + len, 0.0);
+        }
+        self.mean[start..]
+            .par_chunks_mut(per_pixel)
+            .zip(self.theta[start..].par_chunks_mut(per_pixel))
+            .zip(self.v[start..].par_chunks_mut(per_pixel))
             .enumerate()
             .for_each(|(p, ((mean, theta), v))| {
                 for t in 0..t_bins {
@@ -91,16 +155,6 @@ impl Estimates {
                     }
                 }
             });
-        Estimates {
-            height: s.height,
-            width: s.width,
-            bins: s.bins,
-            bin_width: s.bin_width,
-            spp: s.spp,
-            stratified: s.stratified,
-            mean,
-            theta,
-            v,
-        }
+        self.rows.end += s.height;
     }
 }

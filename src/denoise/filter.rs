@@ -64,10 +64,27 @@ impl Default for Tiling {
     }
 }
 
-/// Per pixel, the first and one-past-last bin holding any non-zero estimate.
+impl FilterParams {
+    /// How many image rows away a neighbour can lie (the halo a band of output rows
+    /// needs): r, or under tstat r_e when some pixel sees an emitter. Nothing else
+    /// reaches across rows: depth alignment and the patch test move along the bins of
+    /// one neighbour pixel, and everything global (spp, g^2, the time weights, the
+    /// emitter pixels' sigma) is a scalar.
+    pub fn reach(&self, stratified: bool, emitter: &[f32]) -> usize {
+        match &self.membership {
+            Membership::Tstat(tp) if emitter.iter().any(|&f| sees_emitter(f)) => {
+                self.radius.max(tp.emitter_radius(self.radius, stratified))
+            }
+            _ => self.radius,
+        }
+    }
+}
+
+/// Per pixel held, the first and one-past-last bin holding any non-zero estimate.
 fn active_ranges(e: &Estimates) -> Vec<(usize, usize)> {
     let t = e.bins;
-    (0..e.height * e.width)
+    let first = e.rows.start * e.width;
+    (first..e.rows.end * e.width)
         .into_par_iter()
         .map(|p| {
             let nz = |k: usize| {
@@ -201,7 +218,8 @@ struct Shared<'a> {
     tstat: Option<TstatParams>,
     /// The base filter of emitter pixels under tstat (spatial sigma scaled by r_e / r).
     base_emitter: BaseFilter,
-    /// Per pixel, the bins holding anything non-zero.
+    /// Per pixel held (from the first pixel of `e.rows`), the bins holding anything
+    /// non-zero.
     active: Vec<(usize, usize)>,
     /// The bin-offset part of p, index dt + r_t.
     pt: Vec<f64>,
@@ -300,7 +318,7 @@ fn filter_pixel(
     // Bins of j whose neighbourhood holds anything non-zero; the rest stay zero.
     let (mut a, mut b) = (i64::MAX, i64::MIN);
     for nb in neighbours.iter() {
-        let (lo, hi) = s.active[nb.i];
+        let (lo, hi) = s.active[nb.i - e.rows.start * e.width];
         if hi > lo {
             a = a.min(lo as i64 - rt - nb.shift);
             b = b.max(hi as i64 + rt - nb.shift);
@@ -396,8 +414,9 @@ fn filter_pixel(
     evals
 }
 
-/// Filters `e`; returns the output in the planar layout (H, W, C, T) and the number of
-/// voxel-neighbour evaluations. `progress` is called with pixels finished.
+/// Filters `e`, which must hold the whole image; returns the output in the planar
+/// layout (H, W, C, T) and the number of voxel-neighbour evaluations. `progress` is
+/// called with pixels finished.
 pub fn filter(
     e: &Estimates,
     features: &Features,
@@ -405,9 +424,36 @@ pub fn filter(
     tiling: Tiling,
     progress: &(dyn Fn(u64) + Sync),
 ) -> (Vec<f32>, u64) {
+    let mut out = vec![0.0f32; e.height * e.row_len()];
+    let evaluations = filter_rows(e, features, params, tiling, 0..e.height, &mut out, progress);
+    (out, evaluations)
+}
+
+/// Filters the image rows `rows` into `out`, planar (rows, W, C, T); returns the
+/// voxel-neighbour evaluations. `e` must hold those rows and the
+/// [`FilterParams::reach`] rows on either side (as far as the image goes); each
+/// voxel's output is the one [`filter`] gives on the whole image, bit for bit.
+pub fn filter_rows(
+    e: &Estimates,
+    features: &Features,
+    params: &FilterParams,
+    tiling: Tiling,
+    rows: std::ops::Range<usize>,
+    out: &mut [f32],
+    progress: &(dyn Fn(u64) + Sync),
+) -> u64 {
     let (h, w, t_bins) = (e.height, e.width, e.bins);
     let per_pixel = CHANNELS * t_bins;
-    let mut out = vec![0.0f32; h * w * per_pixel];
+    let reach = params.reach(e.stratified, features.emitter);
+    assert!(
+        e.rows.start <= rows.start.saturating_sub(reach)
+            && (rows.end + reach).min(h) <= e.rows.end
+            && rows.start <= rows.end,
+        "rows {rows:?} with a halo of {reach} need estimates of more than rows {:?}",
+        e.rows
+    );
+    assert_eq!(out.len(), rows.len() * w * per_pixel);
+    out.fill(0.0);
     let tstat = match params.membership {
         Membership::Tstat(tp) => Some(tp),
         _ => None,
@@ -434,12 +480,12 @@ pub fn filter(
             _ => accumulate::<false>,
         },
     };
-    let (rows, cols, bins) = (tiling.rows.max(1), tiling.cols.max(1), tiling.bins.max(1));
-    let evaluations: u64 = out
-        .par_chunks_mut(rows * w * per_pixel)
+    let (band_rows, cols, bins) = (tiling.rows.max(1), tiling.cols.max(1), tiling.bins.max(1));
+    out.par_chunks_mut(band_rows * w * per_pixel)
         .enumerate()
         .map(|(band, out_band)| {
-            let (y0, y1) = (band * rows, ((band + 1) * rows).min(h));
+            let y0 = rows.start + band * band_rows;
+            let y1 = (y0 + band_rows).min(rows.end);
             let mut scratch = Scratch {
                 num: std::array::from_fn(|_| vec![0.0; bins]),
                 den: vec![0.0; bins],
@@ -469,6 +515,5 @@ pub fn filter(
             progress(((y1 - y0) * w) as u64);
             evals
         })
-        .sum();
-    (out, evaluations)
+        .sum()
 }

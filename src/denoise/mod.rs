@@ -8,6 +8,7 @@ pub mod estimates;
 pub mod filter;
 pub mod gbuffers;
 pub mod membership;
+pub mod slab;
 pub mod tstat;
 
 use crate::bundle::{Bundle, BundleError, SumArray};
@@ -136,11 +137,10 @@ pub struct Denoised {
     pub filter_seconds: f64,
 }
 
-/// Bytes the denoiser holds at its peak for a volume of this size: the three estimate
-/// volumes and the output (f32), on top of the f64 sums while estimates are made.
-pub fn memory_bytes(height: usize, width: usize, bins: usize) -> u64 {
-    let b = height as u128 * width as u128 * bins as u128 * CHANNELS as u128 * 16;
-    u64::try_from(b).unwrap_or(u64::MAX)
+/// Bytes the denoiser holds at its peak on a bundle of these sizes cut into slabs by
+/// `plan` (see [`slab::SlabPlan::bytes`]; a volume kept in memory adds `H W T C 4`).
+pub fn memory_bytes(dims: slab::Dims, plan: &slab::SlabPlan) -> u64 {
+    plan.bytes(dims)
 }
 
 /// Denoises from sums and G-buffers already in memory.
@@ -233,29 +233,45 @@ impl LoadedSums {
         }
     }
 
-    /// Keeps the manifest and G-buffers, freeing the sums.
-    pub fn into_gbuffers(self) -> (crate::bundle::Manifest, GBuffers) {
-        (self.manifest, self.gbuffers)
-    }
-
     pub fn denoise(&self, params: &DenoiseParams, progress: &(dyn Fn(u64) + Sync)) -> Denoised {
         denoise_sums(&self.view(), &self.gbuffers.features(), params, progress)
     }
 }
 
-/// Reads a bundle and denoises it; the f64 sums are freed once the estimates are made.
+/// Reads a bundle and denoises it into a volume in memory, in slabs that keep
+/// everything but the volume within [`slab::DEFAULT_BUDGET`] (the sums are read a few
+/// rows at a time).
 pub fn denoise_bundle(
     bundle: &Bundle,
     params: &DenoiseParams,
     progress: &(dyn Fn(u64) + Sync),
 ) -> Result<Denoised, BundleError> {
-    let start = std::time::Instant::now();
-    let sums = LoadedSums::read(bundle)?;
-    let est = Estimates::from_sums(&sums.view());
-    let (manifest, gbuffers) = sums.into_gbuffers();
-    let mut d = denoise_estimates(est, manifest.spp, &gbuffers.features(), params, progress);
-    d.seconds = start.elapsed().as_secs_f64();
-    Ok(d)
+    let m = &bundle.manifest;
+    let dims = slab::Dims::of(m);
+    let plan = slab::SlabPlan::for_budget(dims, slab::halo(bundle, params)?, slab::DEFAULT_BUDGET);
+    let (w, t) = (m.width, m.bins);
+    let mut volume = Array4::zeros((m.height, w, t, CHANNELS));
+    let per_row = w * t * CHANNELS;
+    let stats = slab::denoise_slabs(
+        bundle,
+        params,
+        &plan,
+        &mut |y0, planar| {
+            let rows = planar.len() / per_row;
+            let mut part = volume.slice_mut(ndarray::s![y0..y0 + rows, .., .., ..]);
+            part.indexed_iter_mut().for_each(|((y, x, k, c), v)| {
+                *v = planar[((y * w + x) * CHANNELS + c) * t + k];
+            });
+            Ok(())
+        },
+        progress,
+    )?;
+    Ok(Denoised {
+        volume,
+        evaluations: stats.evaluations,
+        seconds: stats.seconds,
+        filter_seconds: stats.filter_seconds,
+    })
 }
 
 /// Arrays read from a bundle are in standard (C) layout.
