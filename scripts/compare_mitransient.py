@@ -14,11 +14,13 @@ spp and thread count:
 - threads: `tstat render --threads`, `drjit.set_thread_count`.
 
 Times. tstat: `render_seconds` from the bundle's manifest (the render loop: scene load,
-BVH build and writing the bundle excluded); the process wall time is reported too.
+BVH build and writing the bundle excluded).
 mitransient: each repetition is a fresh Python process; the render time runs from
 `integrator.render` until the steady and transient images are evaluated (Dr.Jit
 tracing, kernel compilation or its cache look-up, and the kernel itself); import and
-`load_file` are timed separately. A warm-up run of each renderer per scene (untimed in
+`load_file` are timed separately. For both, the whole process's wall and CPU seconds
+(user + system, all threads: less sensitive to other work on a shared machine) are
+reported in a second table. A warm-up run of each renderer per scene (untimed in
 the table, reported beside it) fills Dr.Jit's on-disk kernel cache and the page cache.
 
 Not part of CI. Needs Python >= 3.11 and the Rust toolchain; mitransient is optional:
@@ -43,6 +45,7 @@ import importlib.util
 import json
 import os
 import platform
+import resource
 import shutil
 import statistics
 import subprocess
@@ -123,6 +126,7 @@ def worker(a: argparse.Namespace) -> None:
 class Times:
     render: list[float] = field(default_factory=list)
     other: list[float] = field(default_factory=list)  # tstat: process wall; mi: load
+    cpu: list[float] = field(default_factory=list)  # whole process, user + system
     warmup: float | None = None
     film: str = "?"
     error: str | None = None
@@ -168,6 +172,14 @@ def run(cmd: list[str], **kw) -> subprocess.CompletedProcess:
     return subprocess.run(cmd, text=True, capture_output=True, **kw)
 
 
+def run_cpu(cmd: list[str]) -> tuple[subprocess.CompletedProcess, float]:
+    """Runs cmd; also returns its CPU seconds (user + system, all threads)."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    r = run(cmd)
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return r, (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+
+
 def build_tstat(a: argparse.Namespace) -> Path:
     if a.tstat:
         return Path(a.tstat)
@@ -196,7 +208,10 @@ def dense_scene(a: argparse.Namespace) -> Path:
     return xml
 
 
-def time_tstat(tstat: Path, xml: Path, params: dict, a: argparse.Namespace, seed: int) -> tuple[float, float, str]:
+def time_tstat(
+    tstat: Path, xml: Path, params: dict, a: argparse.Namespace, seed: int
+) -> tuple[float, float, float, str]:
+    """Render seconds (manifest), process wall and CPU seconds, film."""
     with tempfile.TemporaryDirectory(prefix="tstat-compare-", dir=a.work_dir) as tmp:
         out = Path(tmp) / "run.tstats"
         cmd = [str(tstat), "render", str(xml), "--out", str(out), "--spp", str(a.spp),
@@ -204,26 +219,26 @@ def time_tstat(tstat: Path, xml: Path, params: dict, a: argparse.Namespace, seed
         for k, v in params.items():
             cmd += ["-D", f"{k}={v}"]
         t = time.perf_counter()
-        r = run(cmd)
+        r, cpu = run_cpu(cmd)
         wall = time.perf_counter() - t
         if r.returncode != 0:
             raise RuntimeError(f"tstat render failed: {r.stderr.strip()}")
         m = json.loads((out / "manifest.json").read_text())
         film = f"{m['width']}x{m['height']}x{m['bins']}"
-        return m["render_seconds"], wall, film
+        return m["render_seconds"], wall, cpu, film
 
 
 def time_mitransient(xml: Path, params: dict, a: argparse.Namespace, seed: int) -> dict:
     cmd = [sys.executable, __file__, "--worker", "--variant", a.variant, "--threads",
            str(a.threads), "--spp", str(a.spp), "--seed", str(seed), "--params",
            json.dumps(params), str(xml)]
-    r = run(cmd)
+    r, cpu = run_cpu(cmd)
     # Mitsuba logs to stdout too (with colour codes): find the result by its marker.
     found = [l.split(RESULT, 1)[1] for l in r.stdout.splitlines() if RESULT in l]
     if r.returncode != 0 or not found:
         tail = (r.stderr.strip().splitlines() or r.stdout.strip().splitlines() or ["(no output)"])[-1]
         raise RuntimeError(f"mitransient failed (exit {r.returncode}): {tail}")
-    return json.loads(found[-1])
+    return json.loads(found[-1]) | {"cpu_s": cpu}
 
 
 def secs(x: float) -> str:
@@ -301,13 +316,14 @@ def main() -> None:
             label = "warm-up" if rep < 0 else f"run {rep + 1}/{a.repeats}"
             if ts.error is None:
                 try:
-                    render_s, wall, ts.film = time_tstat(tstat, xml, params, a, seed)
+                    render_s, wall, cpu, ts.film = time_tstat(tstat, xml, params, a, seed)
                     log(f"{name} {label}: tstat {render_s:.2f} s render, {wall:.2f} s process")
                     if rep < 0:
                         ts.warmup = render_s
                     else:
                         ts.render.append(render_s)
                         ts.other.append(wall)
+                        ts.cpu.append(cpu)
                 except RuntimeError as e:
                     ts.error = str(e)
                     log(f"{name}: {e}")
@@ -324,6 +340,7 @@ def main() -> None:
                     else:
                         mt.render.append(r["render_s"])
                         mt.other.append(r["load_s"])
+                        mt.cpu.append(r["cpu_s"])
                 except RuntimeError as e:
                     mt.error = str(e)
                     log(f"{name}: {e}")
@@ -347,12 +364,19 @@ def main() -> None:
         print(f"| {name} | {ts.film} | {a.spp} | {ts.error and 'failed' or fmt(ts.render)} | "
               f"{mt.error and 'failed' or fmt(mt.render)} | {ratio} |")
     print()
-    print("| scene | tstat warm-up render s | tstat process wall s (load, render, write bundle) "
-          "| mitransient warm-up render s | mitransient load_file s |")
-    print("|---|---:|---|---:|---|")
+    print("Whole processes (tstat: load, render, write the bundle; mitransient: import, "
+          "load_file, render); CPU seconds are user + system over all threads, less "
+          "sensitive to other work on the machine than wall seconds.\n")
+    print("| scene | tstat warm-up render s | tstat wall s | tstat CPU s "
+          "| mitransient warm-up render s | mitransient load_file s | mitransient CPU s "
+          "| CPU tstat / mitransient |")
+    print("|---|---:|---|---|---:|---|---|---:|")
     for name, (ts, mt) in results.items():
         w = lambda x: "-" if x is None else secs(x)  # noqa: E731
-        print(f"| {name} | {w(ts.warmup)} | {fmt(ts.other)} | {w(mt.warmup)} | {fmt(mt.other)} |")
+        cpu_ratio = (f"{statistics.median(ts.cpu) / statistics.median(mt.cpu):.2f}"
+                     if ts.cpu and mt.cpu else "-")
+        print(f"| {name} | {w(ts.warmup)} | {fmt(ts.other)} | {fmt(ts.cpu)} | {w(mt.warmup)} "
+              f"| {fmt(mt.other)} | {fmt(mt.cpu)} | {cpu_ratio} |")
     if not with_mi:
         print(f"\n{why}")
     for name, (ts, mt) in results.items():
