@@ -1,12 +1,12 @@
 //! Render benchmarks, statistics on, 300 bins:
 //!
 //! - `render_cbox_64x64_16spp_300bins`: cbox with the identity and Box-Cox transforms;
-//! - `render_scenes_64x64_8spp_300bins`: one bench per scene, cbox, cbox_spheres, bunny
+//! - `render_scenes_32x32_32spp_300bins`: one bench per scene, cbox, cbox_spheres, bunny
 //!   and the dense displaced sphere (>= 1M triangles, generated into a temporary
 //!   directory by `common/dense_scene.rs`), throughput in paths.
 //!
 //! Scene loading and the dense scene's generation are outside the timed loop.
-//! `cargo bench --bench render` takes about 2 minutes on 2 cores. Run as a test
+//! `cargo bench --bench render` takes about a minute on 2 cores. Run as a test
 //! (`cargo test --benches`, criterion runs each bench once) the dense mesh has about
 //! 20k triangles instead, so that is quick.
 
@@ -68,12 +68,13 @@ fn bench_scenes(c: &mut Criterion) {
         ("bunny".to_string(), scene_path("bunny.xml")),
         (format!("dense_{}tris", dense.triangles), dense.xml),
     ];
+    // Small film, more samples: tracing dominates, not zeroing the accumulators.
     let overrides = Overrides {
-        width: Some(64),
-        spp: Some(8),
+        width: Some(32),
+        spp: Some(32),
         ..Default::default()
     };
-    let mut group = c.benchmark_group("render_scenes_64x64_8spp_300bins");
+    let mut group = c.benchmark_group("render_scenes_32x32_32spp_300bins");
     group
         .sample_size(10)
         .warm_up_time(Duration::from_secs(1))
