@@ -582,3 +582,42 @@ impl RowSink for BundleWriter {
         Ok(())
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::render::{render_into, PixelSampling, RenderSettings};
+    use crate::scene::Overrides;
+
+    /// A positioned write that fails in the middle of a render (here: a file handle
+    /// that cannot write) stops the render with an error naming the file, and the
+    /// temporary bundle goes away with the writer.
+    #[test]
+    fn a_write_error_mid_render_leaves_nothing() {
+        let dir = tempfile::tempdir().unwrap();
+        let cbox = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cbox.xml");
+        let overrides = Overrides {
+            width: Some(12),
+            bins: Some(20),
+            spp: Some(2),
+            ..Overrides::default()
+        };
+        let scene = Scene::load(&cbox, &overrides).unwrap();
+        let settings = RenderSettings {
+            spp: scene.spp,
+            seed: 1,
+            transform: Transform::Identity,
+            pixel_sampling: PixelSampling::Stratified,
+        };
+        let out = dir.path().join("b.tstats");
+        let mut writer =
+            BundleWriter::create(&out, false, &scene.film, &settings.transform).unwrap();
+        let x2 = &mut writer.arrays[1];
+        x2.file = File::open(&x2.path).unwrap();
+        let e = render_into(&scene, &settings, &writer, &|_| {}).unwrap_err();
+        assert!(e.to_string().contains("x2.npy: Bad file descriptor"), "{e}");
+        assert!(writer.staged.path().join("x1.npy").is_file());
+        drop(writer);
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+    }
+}
