@@ -146,23 +146,55 @@ impl PixelSums {
     /// there, and leaves the records zero for the next pixel.
     pub fn flush_into(&mut self, row: &mut Accumulators, px: usize) {
         debug_assert!(row.height == 1 && row.bins == self.bins);
-        let (t, c3) = (self.bins, CHANNELS);
-        let planar = px * t * c3..(px + 1) * t * c3;
-        let x1 = &mut row.x1[planar.clone()];
-        let x2 = &mut row.x2[planar.clone()];
-        let x3 = &mut row.x3[planar.clone()];
-        let mut sum = row.sum.as_mut().map(|s| &mut s[planar]);
-        let nonzero = &mut row.nonzero[px * t..(px + 1) * t];
-        for (k, r) in self.records.chunks_exact_mut(self.stride).enumerate() {
-            let v = k * c3..(k + 1) * c3;
-            x1[v.clone()].copy_from_slice(&r[0..c3]);
-            x2[v.clone()].copy_from_slice(&r[c3..2 * c3]);
-            x3[v.clone()].copy_from_slice(&r[2 * c3..3 * c3]);
-            if let Some(s) = sum.as_deref_mut() {
-                s[v].copy_from_slice(&r[3 * c3..4 * c3]);
-            }
-            nonzero[k] = r[self.stride - 1] as u32;
-            r.fill(0.0);
+        let t = self.bins;
+        let planar = px * t * CHANNELS..(px + 1) * t * CHANNELS;
+        let out = Planar {
+            x1: &mut row.x1[planar.clone()],
+            x2: &mut row.x2[planar.clone()],
+            x3: &mut row.x3[planar.clone()],
+            sum: row.sum.as_mut().map(|s| &mut s[planar]),
+            nonzero: &mut row.nonzero[px * t..(px + 1) * t],
+        };
+        // A record length known at compile time: the copies become plain moves.
+        if self.raw {
+            deinterleave::<13>(&self.records, out);
+        } else {
+            deinterleave::<10>(&self.records, out);
+        }
+        self.records.fill(0.0);
+    }
+}
+
+/// One pixel's planar slices of a row, (T, C) and (T).
+struct Planar<'a> {
+    x1: &'a mut [f64],
+    x2: &'a mut [f64],
+    x3: &'a mut [f64],
+    sum: Option<&'a mut [f64]>,
+    nonzero: &'a mut [u32],
+}
+
+/// Copies records of `N` f64s (`[X1 rgb, X2 rgb, X3 rgb, (S rgb,) count]`) into `out`.
+fn deinterleave<const N: usize>(records: &[f64], out: Planar<'_>) {
+    const C: usize = CHANNELS;
+    let (records, _) = records.as_chunks::<N>();
+    let planar = out
+        .x1
+        .as_chunks_mut::<C>()
+        .0
+        .iter_mut()
+        .zip(out.x2.as_chunks_mut::<C>().0)
+        .zip(out.x3.as_chunks_mut::<C>().0)
+        .zip(out.nonzero.iter_mut());
+    for (r, (((x1, x2), x3), nonzero)) in records.iter().zip(planar) {
+        x1.copy_from_slice(&r[0..C]);
+        x2.copy_from_slice(&r[C..2 * C]);
+        x3.copy_from_slice(&r[2 * C..3 * C]);
+        *nonzero = r[N - 1] as u32;
+    }
+    if let Some(sum) = out.sum {
+        for (r, s) in records.iter().zip(sum.as_chunks_mut::<C>().0) {
+            s.copy_from_slice(&r[3 * C..4 * C]);
         }
     }
 }
