@@ -140,11 +140,7 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
     super::util::print_scene_warnings(&scene);
     let film = &scene.film;
 
-    let memory = StreamingMemory::new(
-        film,
-        &transform,
-        threads.unwrap_or_else(rayon::current_num_threads),
-    );
+    let memory = StreamingMemory::new(film, &transform, pool_size(threads));
     check_memory(&memory, limit)?;
     let disk = bundle_bytes(film, &transform);
     check_disk(&a.out, disk, "the bundle")?;
@@ -212,6 +208,19 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
         }
     );
     Ok(())
+}
+
+/// The number of worker threads [`with_threads`] will start for `threads`: rayon's
+/// default (`RAYON_NUM_THREADS`, else the available cores) when `None`. Asking rayon
+/// itself would start its global pool just to count it.
+pub fn pool_size(threads: Option<usize>) -> usize {
+    threads.unwrap_or_else(|| {
+        std::env::var("RAYON_NUM_THREADS")
+            .ok()
+            .and_then(|v| v.parse::<usize>().ok())
+            .filter(|&n| n > 0)
+            .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
+    })
 }
 
 /// "1.2 GB (2 threads x 600 MB per row + 5 MB of per-pixel images)".

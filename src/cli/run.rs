@@ -127,11 +127,7 @@ fn job(
     super::util::check_mesh_inputs(&scene, &[arg("--out", &a.out)])?;
     super::util::print_scene_warnings(&scene);
     let film = &scene.film;
-    let memory = StreamingMemory::new(
-        film,
-        &transform,
-        o.threads.unwrap_or_else(rayon::current_num_threads),
-    );
+    let memory = StreamingMemory::new(film, &transform, super::render::pool_size(o.threads));
     super::render::check_memory(&memory, None)?;
     // The bundle, then the noisy and the denoised f32 volumes (the frames are small).
     let volume = (film.pixels() as u64)
