@@ -184,7 +184,11 @@ const CASES: &[Case] = &[
     (&[R, "s.xml", "--out", "n.tstats", "--bin-width-opl", "-1"], Ours, "--bin-width-opl must be positive"),
     (&[R, "s.xml", "--out", "n.tstats", "--max-memory", "-1G"], Ours, "--max-memory"),
     // The memory check comes before any allocation (here under a 2 GB address space).
-    (&[R, "s.xml", "--out", "n.tstats", "--width", "1000000", "--height", "1000000"], Ours, "the accumulators need"),
+    (&[R, "s.xml", "--out", "n.tstats", "--width", "1000000", "--height", "1000000"], Ours, "the render needs"),
+    // Rows stream to disk: a film that fits in memory row by row but not on the disk is
+    // refused before any work.
+    (&[R, "s.xml", "--out", "n.tstats", "--width", "1", "--height", "1000000", "--bins", "1000000"], Ours, "the bundle needs 76000.06 GB on disk but only"),
+    (&["run", "s.xml", "--out", "r", "--width", "1", "--height", "1000000", "--bins", "1000000"], Ours, "the run's output needs"),
     (&[R, "s.xml", "--out", "n.tstats", "-D", "a"], Ours, "-D a: expected name=value"),
     (&[R, "s.xml", "--out", "n.tstats", "-D", "=b"], Ours, "-D =b: the name is empty"),
     (&[R, "s.xml", "--out", "n.tstats", "--transform", "box-cox:nan"], Ours, "--transform"),

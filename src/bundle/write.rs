@@ -1,15 +1,31 @@
 //! Writing a bundle: every array into a temporary directory beside the target, the
 //! manifest last, then one rename. An interrupted write never looks complete.
+//!
+//! Two writers give byte-identical files: [`write_bundle`] writes a render held in
+//! memory; [`BundleWriter`] is a [`RowSink`] that writes each finished row of a running
+//! render straight into its place in the preallocated `.npy` files (positioned writes;
+//! Linux/Unix), so a film larger than memory streams to disk.
 
 use super::manifest::{ArrayInfo, Manifest, Program, SceneRef, FORMAT, VERSION};
 use super::BundleError;
-use crate::render::RenderOutput;
+use crate::render::gbuffer::GPixel;
+use crate::render::sink::{PixelImages, Row, RowSink};
+use crate::render::{RenderOutput, RenderSummary};
+use crate::scene::film::Film;
 use crate::scene::Scene;
 use crate::stats::accumulators::CHANNELS;
 use crate::stats::Transform;
 use ndarray::{Array2, Array3, Array4};
+use ndarray_npy::npy::header::{Header, Layout};
 use ndarray_npy::{write_npy, WritableElement};
+use std::fs::File;
+use std::os::unix::fs::FileExt;
 use std::path::{Path, PathBuf};
+use std::sync::{Mutex, PoisonError};
+
+// The streamed rows are written as the machine's bytes into little-endian .npy arrays.
+#[cfg(not(target_endian = "little"))]
+compile_error!("bundle::write::BundleWriter assumes a little-endian machine");
 
 /// Metadata of the render that is not in the scene.
 pub struct BundleMeta {
@@ -97,6 +113,11 @@ pub fn stage(
 }
 
 impl Staged {
+    /// The temporary path the output is written under.
+    pub fn path(&self) -> &Path {
+        &self.tmp
+    }
+
     /// Puts the output in place (replacing an older one only with `force`).
     pub fn commit(mut self) -> Result<(), BundleError> {
         self.done = true;
@@ -175,23 +196,15 @@ pub(crate) fn npy<A: WritableElement, D: ndarray::Dimension>(
     Ok(())
 }
 
-/// Writes the bundle of a finished render to `out` (a directory, e.g. `NAME.tstats`).
-pub fn write_bundle(
-    out: &Path,
-    force: bool,
-    scene: &Scene,
-    meta: &BundleMeta,
-    output: RenderOutput,
-) -> Result<Manifest, BundleError> {
+/// The manifest of a render of `scene`, without its array list.
+fn manifest(scene: &Scene, meta: &BundleMeta, seconds: f64, dropped_nonfinite: u64) -> Manifest {
     let film = &scene.film;
-    let (h, w, t) = (film.height, film.width, film.bins);
-    let shape4 = (h, w, t, CHANNELS);
-    let mut manifest = Manifest {
+    Manifest {
         format: FORMAT.into(),
         version: VERSION,
-        width: w,
-        height: h,
-        bins: t,
+        width: film.width,
+        height: film.height,
+        bins: film.bins,
         channels: vec!["R".into(), "G".into(), "B".into()],
         spp: scene.spp as u64,
         start_opl: film.start_opl,
@@ -208,17 +221,87 @@ pub fn write_bundle(
             sha256: scene.sha256.clone(),
         },
         max_depth: scene.integrator.max_depth,
-        render_seconds: output.seconds,
-        dropped_nonfinite: output.dropped_nonfinite,
+        render_seconds: seconds,
+        dropped_nonfinite,
         program: Program {
             name: "tstat".into(),
             version: env!("CARGO_PKG_VERSION").into(),
         },
         arrays: Vec::new(),
-    };
+    }
+}
+
+/// Writes the per-pixel arrays (G-buffers, steady image) of an (H, W) render into `dir`.
+fn write_pixel_arrays(
+    dir: &Path,
+    (h, w): (usize, usize),
+    g: &[GPixel],
+    steady: Vec<f64>,
+    arrays: &mut Vec<ArrayInfo>,
+) -> Result<(), BundleError> {
+    let shape_err = |e: ndarray::ShapeError| BundleError::Io(dir.to_path_buf(), e.to_string());
+    let albedo: Vec<f32> = g.iter().flat_map(|p| p.albedo).collect();
+    let normal: Vec<f32> = g.iter().flat_map(|p| p.normal).collect();
+    let depth: Vec<f32> = g.iter().map(|p| p.depth).collect();
+    let emitter: Vec<f32> = g.iter().map(|p| p.emitter).collect();
+    npy(
+        dir,
+        "albedo",
+        "<f4",
+        &Array3::from_shape_vec((h, w, 3), albedo).map_err(shape_err)?,
+        arrays,
+    )?;
+    npy(
+        dir,
+        "normal",
+        "<f4",
+        &Array3::from_shape_vec((h, w, 3), normal).map_err(shape_err)?,
+        arrays,
+    )?;
+    npy(
+        dir,
+        "depth",
+        "<f4",
+        &Array2::from_shape_vec((h, w), depth).map_err(shape_err)?,
+        arrays,
+    )?;
+    npy(
+        dir,
+        "emitter",
+        "<f4",
+        &Array2::from_shape_vec((h, w), emitter).map_err(shape_err)?,
+        arrays,
+    )?;
+    npy(
+        dir,
+        "steady",
+        "<f8",
+        &Array3::from_shape_vec((h, w, CHANNELS), steady).map_err(shape_err)?,
+        arrays,
+    )
+}
+
+/// Writes the manifest, last: a bundle directory without one is not a bundle.
+fn write_manifest(dir: &Path, manifest: &Manifest) -> Result<(), BundleError> {
+    let json = serde_json::to_string_pretty(manifest).expect("manifest serialises");
+    let mpath = dir.join("manifest.json");
+    std::fs::write(&mpath, json).map_err(|e| BundleError::Io(mpath, e.to_string()))
+}
+
+/// Writes the bundle of a finished render to `out` (a directory, e.g. `NAME.tstats`).
+pub fn write_bundle(
+    out: &Path,
+    force: bool,
+    scene: &Scene,
+    meta: &BundleMeta,
+    output: RenderOutput,
+) -> Result<Manifest, BundleError> {
+    let film = &scene.film;
+    let (h, w, t) = (film.height, film.width, film.bins);
+    let shape4 = (h, w, t, CHANNELS);
+    let mut manifest = manifest(scene, meta, output.seconds, output.dropped_nonfinite);
     let shape_err = |e: ndarray::ShapeError| BundleError::Io(out.to_path_buf(), e.to_string());
     let acc = output.accum;
-    let g = &output.gbuffer;
     let written = &mut manifest;
     write_atomically(out, force, |dir| {
         std::fs::create_dir(dir).map_err(|e| BundleError::Io(dir.to_path_buf(), e.to_string()))?;
@@ -260,48 +343,281 @@ pub fn write_bundle(
             &Array3::from_shape_vec((h, w, t), acc.nonzero).map_err(shape_err)?,
             arrays,
         )?;
-        let albedo: Vec<f32> = g.iter().flat_map(|p| p.albedo).collect();
-        let normal: Vec<f32> = g.iter().flat_map(|p| p.normal).collect();
-        let depth: Vec<f32> = g.iter().map(|p| p.depth).collect();
-        let emitter: Vec<f32> = g.iter().map(|p| p.emitter).collect();
-        npy(
-            dir,
-            "albedo",
-            "<f4",
-            &Array3::from_shape_vec((h, w, 3), albedo).map_err(shape_err)?,
-            arrays,
-        )?;
-        npy(
-            dir,
-            "normal",
-            "<f4",
-            &Array3::from_shape_vec((h, w, 3), normal).map_err(shape_err)?,
-            arrays,
-        )?;
-        npy(
-            dir,
-            "depth",
-            "<f4",
-            &Array2::from_shape_vec((h, w), depth).map_err(shape_err)?,
-            arrays,
-        )?;
-        npy(
-            dir,
-            "emitter",
-            "<f4",
-            &Array2::from_shape_vec((h, w), emitter).map_err(shape_err)?,
-            arrays,
-        )?;
-        npy(
-            dir,
-            "steady",
-            "<f8",
-            &Array3::from_shape_vec((h, w, CHANNELS), output.steady).map_err(shape_err)?,
-            arrays,
-        )?;
-        let json = serde_json::to_string_pretty(&*written).expect("manifest serialises");
-        let mpath = dir.join("manifest.json");
-        std::fs::write(&mpath, json).map_err(|e| BundleError::Io(mpath, e.to_string()))
+        write_pixel_arrays(dir, (h, w), &output.gbuffer, output.steady, arrays)?;
+        write_manifest(dir, written)
     })?;
     Ok(manifest)
+}
+
+/// The volume arrays of a bundle, in manifest order: name, dtype, whether it has the
+/// channel axis, and its element size.
+fn volume_arrays(transform: &Transform) -> Vec<(&'static str, &'static str, bool, usize)> {
+    let mut v = vec![
+        ("x1", "<f8", true, 8),
+        ("x2", "<f8", true, 8),
+        ("x3", "<f8", true, 8),
+    ];
+    if !transform.is_identity() {
+        v.push(("sum", "<f8", true, 8));
+    }
+    v.push(("nonzero", "<u4", false, 4));
+    v
+}
+
+/// The `.npy` header of a C-order array of `shape` with element type `A`.
+fn npy_header<A: WritableElement>(shape: &[usize]) -> Result<Vec<u8>, String> {
+    Header {
+        type_descriptor: A::type_descriptor(),
+        layout: Layout::Standard,
+        shape: shape.to_vec(),
+    }
+    .to_bytes()
+    .map_err(|e| e.to_string())
+}
+
+/// Bytes on disk of the bundle of a film rendered with `transform` (saturating): the
+/// `.npy` files exactly, plus 64 KiB for the manifest.
+pub fn bundle_bytes(film: &Film, transform: &Transform) -> u64 {
+    let (h, w, t) = (film.height, film.width, film.bins);
+    let mut files: Vec<(Vec<usize>, usize)> = volume_arrays(transform)
+        .into_iter()
+        .map(|(_, _, rgb, size)| {
+            let shape = if rgb {
+                vec![h, w, t, CHANNELS]
+            } else {
+                vec![h, w, t]
+            };
+            (shape, size)
+        })
+        .collect();
+    files.extend([
+        (vec![h, w, 3], 4),        // albedo
+        (vec![h, w, 3], 4),        // normal
+        (vec![h, w], 4),           // depth
+        (vec![h, w], 4),           // emitter
+        (vec![h, w, CHANNELS], 8), // steady
+    ]);
+    let total: u128 = files
+        .iter()
+        .map(|(shape, size)| {
+            // Every dtype of a bundle ('<f8', '<f4', '<u4') has a header of this length.
+            let header = npy_header::<f64>(shape).map_or(256, |b| b.len()) as u128;
+            header + shape.iter().map(|&n| n as u128).product::<u128>() * *size as u128
+        })
+        .sum();
+    u64::try_from(total + 65536).unwrap_or(u64::MAX)
+}
+
+/// One (H, W, T, C) or (H, W, T) array of a bundle being streamed: preallocated on
+/// disk with its header, filled one row at a time.
+struct StreamedArray {
+    info: ArrayInfo,
+    path: PathBuf,
+    file: File,
+    /// Bytes of the header: row y starts at `header + y * row_bytes`.
+    header: u64,
+    row_bytes: u64,
+}
+
+impl StreamedArray {
+    fn create(
+        dir: &Path,
+        film: &Film,
+        spec: (&str, &str, bool, usize),
+    ) -> Result<Self, BundleError> {
+        let (name, dtype, rgb, size) = spec;
+        let mut shape = vec![film.height, film.width, film.bins];
+        if rgb {
+            shape.push(CHANNELS);
+        }
+        let file_name = format!("{name}.npy");
+        let path = dir.join(&file_name);
+        let io = |e: String| BundleError::Io(path.clone(), e);
+        let header = if size == 8 {
+            npy_header::<f64>(&shape)
+        } else {
+            npy_header::<u32>(&shape)
+        }
+        .map_err(io)?;
+        let row_bytes = (shape[1..].iter().product::<usize>() * size) as u64;
+        let file = File::create_new(&path).map_err(|e| io(e.to_string()))?;
+        file.write_all_at(&header, 0)
+            .and_then(|()| file.set_len(header.len() as u64 + film.height as u64 * row_bytes))
+            .map_err(|e| io(e.to_string()))?;
+        Ok(StreamedArray {
+            info: ArrayInfo {
+                name: name.into(),
+                file: file_name,
+                dtype: dtype.into(),
+                shape,
+            },
+            path,
+            file,
+            header: header.len() as u64,
+            row_bytes,
+        })
+    }
+
+    /// Writes row `y`'s values (`bytes` long: one row).
+    fn put(&self, y: usize, bytes: &[u8]) -> Result<(), BundleError> {
+        if bytes.len() as u64 != self.row_bytes {
+            return Err(BundleError::Io(
+                self.path.clone(),
+                format!(
+                    "a row of {} bytes, expected {}",
+                    bytes.len(),
+                    self.row_bytes
+                ),
+            ));
+        }
+        self.file
+            .write_all_at(bytes, self.header + y as u64 * self.row_bytes)
+            .map_err(|e| BundleError::Io(self.path.clone(), e.to_string()))
+    }
+}
+
+/// A bundle written while its scene renders: a [`RowSink`] that puts every finished row
+/// of the volume arrays at its offset in the `.npy` files, which [`BundleWriter::create`]
+/// preallocates (header, then `set_len`) in the temporary directory of [`stage`].
+/// [`BundleWriter::finish`] writes the per-pixel arrays and the manifest, last, and
+/// renames the directory into place. Dropped unfinished (an error, a failed render), it
+/// deletes the temporary directory: nothing that looks like a bundle is left behind.
+///
+/// Memory: the per-pixel images (G-buffers, steady), `H * W * 56` bytes; the volume
+/// arrays never are in memory beyond the rows being written.
+pub struct BundleWriter {
+    staged: Staged,
+    film: Film,
+    arrays: Vec<StreamedArray>,
+    images: Mutex<PixelImages>,
+}
+
+impl BundleWriter {
+    /// Starts the bundle `out` of a render of `film` with `transform`; refuses an
+    /// existing `out` unless `force` (which replaces it only at [`BundleWriter::finish`]).
+    pub fn create(
+        out: &Path,
+        force: bool,
+        film: &Film,
+        transform: &Transform,
+    ) -> Result<Self, BundleError> {
+        let staged = stage(out, force, |dir| {
+            std::fs::create_dir(dir).map_err(|e| BundleError::Io(dir.to_path_buf(), e.to_string()))
+        })?;
+        let arrays = volume_arrays(transform)
+            .into_iter()
+            .map(|spec| StreamedArray::create(staged.path(), film, spec))
+            .collect::<Result<_, _>>()?;
+        Ok(BundleWriter {
+            staged,
+            film: film.clone(),
+            arrays,
+            images: Mutex::new(PixelImages::new(film.height, film.width)),
+        })
+    }
+
+    /// Completes the bundle of the render `summary` describes (every row must have
+    /// arrived): the per-pixel arrays, the manifest, then the rename into place.
+    pub fn finish(
+        self,
+        scene: &Scene,
+        meta: &BundleMeta,
+        summary: &RenderSummary,
+    ) -> Result<Manifest, BundleError> {
+        let dir = self.staged.path().to_path_buf();
+        let images = self
+            .images
+            .into_inner()
+            .unwrap_or_else(PoisonError::into_inner);
+        if !images.complete() || scene.film != self.film {
+            return Err(BundleError::Io(
+                dir,
+                "the render did not deliver every row of this film".into(),
+            ));
+        }
+        let mut manifest = manifest(scene, meta, summary.seconds, summary.dropped_nonfinite);
+        manifest.arrays = self.arrays.iter().map(|a| a.info.clone()).collect();
+        drop(self.arrays);
+        let hw = (self.film.height, self.film.width);
+        write_pixel_arrays(
+            &dir,
+            hw,
+            &images.gbuffer,
+            images.steady,
+            &mut manifest.arrays,
+        )?;
+        write_manifest(&dir, &manifest)?;
+        self.staged.commit()?;
+        Ok(manifest)
+    }
+}
+
+impl RowSink for BundleWriter {
+    type Error = BundleError;
+
+    fn put_row(&self, row: &Row<'_>) -> Result<(), BundleError> {
+        let s = row.sums;
+        let mut volumes: Vec<&[u8]> = vec![
+            bytemuck::cast_slice(&s.x1),
+            bytemuck::cast_slice(&s.x2),
+            bytemuck::cast_slice(&s.x3),
+        ];
+        if let Some(sum) = &s.sum {
+            volumes.push(bytemuck::cast_slice(sum));
+        }
+        volumes.push(bytemuck::cast_slice(&s.nonzero));
+        if volumes.len() != self.arrays.len() {
+            return Err(BundleError::Io(
+                self.staged.path().to_path_buf(),
+                "a row's arrays do not match the bundle's (transform)".into(),
+            ));
+        }
+        for (array, bytes) in self.arrays.iter().zip(volumes) {
+            array.put(row.y, bytes)?;
+        }
+        self.images
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .put(row);
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::render::{render_into, PixelSampling, RenderSettings};
+    use crate::scene::Overrides;
+
+    /// A positioned write that fails in the middle of a render (here: a file handle
+    /// that cannot write) stops the render with an error naming the file, and the
+    /// temporary bundle goes away with the writer.
+    #[test]
+    fn a_write_error_mid_render_leaves_nothing() {
+        let dir = tempfile::tempdir().unwrap();
+        let cbox = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cbox.xml");
+        let overrides = Overrides {
+            width: Some(12),
+            bins: Some(20),
+            spp: Some(2),
+            ..Overrides::default()
+        };
+        let scene = Scene::load(&cbox, &overrides).unwrap();
+        let settings = RenderSettings {
+            spp: scene.spp,
+            seed: 1,
+            transform: Transform::Identity,
+            pixel_sampling: PixelSampling::Stratified,
+        };
+        let out = dir.path().join("b.tstats");
+        let mut writer =
+            BundleWriter::create(&out, false, &scene.film, &settings.transform).unwrap();
+        let x2 = &mut writer.arrays[1];
+        x2.file = File::open(&x2.path).unwrap();
+        let e = render_into(&scene, &settings, &writer, &|_| {}).unwrap_err();
+        assert!(e.to_string().contains("x2.npy: Bad file descriptor"), "{e}");
+        assert!(writer.staged.path().join("x1.npy").is_file());
+        drop(writer);
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+    }
 }

@@ -1,18 +1,17 @@
 //! `tstat render SCENE.xml --out NAME.tstats`: render and write a statistics bundle.
 
 use super::util::{
-    arg, check_memory, check_outputs, disk_size, finite, human_bytes, opt_int, parse_bytes,
+    arg, check_outputs, disk_size, finite, human_bytes, opt_int, parse_bytes, physical_memory,
     positive, seed, threads, with_threads, Kind, MAX_FILM_SIDE,
 };
-use crate::bundle::write::{write_bundle, BundleMeta};
-use crate::render::{render, PixelSampling, RenderSettings};
+use crate::bundle::write::{bundle_bytes, BundleMeta, BundleWriter};
+use crate::render::{render_into, PixelSampling, RenderSettings, StreamingMemory};
 use crate::scene::{Overrides, Scene};
-use crate::stats::accumulators::Accumulators;
 use crate::stats::Transform;
 use anyhow::{bail, Context};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// The scene's film, time axis, path depth, `<default>`s and sub-pixel sampling (the
 /// spp is each command's own flag: `report convergence` takes a list).
@@ -109,7 +108,8 @@ pub struct RenderArgs {
     /// Metres per scene unit (for the seconds in the manifest).
     #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
     pub unit_m: f64,
-    /// Refuse to render when the accumulators need more than this (e.g. 8G; default 75% of RAM).
+    /// Refuse to render when it needs more memory than this (e.g. 8G; default 75% of RAM).
+    /// Rows stream to disk: the need is threads x one row's buffers, plus the G-buffers.
     #[arg(long, allow_hyphen_values = true)]
     pub max_memory: Option<String>,
     /// Replace an existing output.
@@ -140,10 +140,12 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
     super::util::print_scene_warnings(&scene);
     let film = &scene.film;
 
-    let need = Accumulators::bytes(film.height, film.width, film.bins, &transform);
-    check_memory(need, limit)?;
+    let memory = StreamingMemory::new(film, &transform, pool_size(threads));
+    check_memory(&memory, limit)?;
+    let disk = bundle_bytes(film, &transform);
+    check_disk(&a.out, disk, "the bundle")?;
     eprintln!(
-        "{}: {}x{} px, {} bins, {} spp ({}), {} primitives; accumulators need {}",
+        "{}: {}x{} px, {} bins, {} spp ({}), {} primitives; memory {}, bundle {} on disk",
         a.scene.display(),
         film.width,
         film.height,
@@ -151,7 +153,8 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
         scene.spp,
         a.scene_args.pixel_sampling,
         scene.accel.primitive_count(),
-        human_bytes(need)
+        describe_memory(&memory),
+        human_bytes(disk)
     );
 
     let settings = RenderSettings {
@@ -167,32 +170,39 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
         )
         .expect("valid template"),
     );
-    let output = with_threads(threads, || render(&scene, &settings, &|n| bar.inc(n)))?;
+    // Rows go straight into the bundle's files in a temporary directory; an error (or
+    // an interrupted render) leaves nothing that looks like a bundle.
+    let writer =
+        BundleWriter::create(&a.out, a.force, film, &transform).context("writing the bundle")?;
+    let summary = with_threads(threads, || {
+        render_into(&scene, &settings, &writer, &|n| bar.inc(n))
+    })?
+    .context("writing the bundle")?;
     bar.finish_and_clear();
-    let (seconds, paths, rays, dropped) = (
-        output.seconds,
-        output.paths,
-        output.rays,
-        output.dropped_nonfinite,
-    );
-    warn_if_empty(&output, film);
+    warn_if_empty(summary.voxel_samples, film);
     let meta = BundleMeta {
         seed: settings.seed,
         transform,
         unit_m: a.unit_m,
         pixel_sampling: settings.pixel_sampling,
     };
-    write_bundle(&a.out, a.force, &scene, &meta, output).context("writing the bundle")?;
+    writer
+        .finish(&scene, &meta, &summary)
+        .context("writing the bundle")?;
+    let seconds = summary.seconds;
     say!(
         "rendered {} in {:.2} s: {:.2} M paths/s, {:.2} M rays/s; bundle {} ({}){}",
         a.out.display(),
         seconds,
-        paths as f64 / seconds / 1e6,
-        rays as f64 / seconds / 1e6,
+        summary.paths as f64 / seconds / 1e6,
+        summary.rays as f64 / seconds / 1e6,
         human_bytes(disk_size(&a.out)),
         transform,
-        if dropped > 0 {
-            format!("; {dropped} non-finite contributions dropped")
+        if summary.dropped_nonfinite > 0 {
+            format!(
+                "; {} non-finite contributions dropped",
+                summary.dropped_nonfinite
+            )
         } else {
             String::new()
         }
@@ -200,10 +210,70 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// The number of worker threads [`with_threads`] will start for `threads`: rayon's
+/// default (`RAYON_NUM_THREADS`, else the available cores) when `None`. Asking rayon
+/// itself would start its global pool just to count it.
+pub fn pool_size(threads: Option<usize>) -> usize {
+    threads.unwrap_or_else(|| {
+        std::env::var("RAYON_NUM_THREADS")
+            .ok()
+            .and_then(|v| v.parse::<usize>().ok())
+            .filter(|&n| n > 0)
+            .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
+    })
+}
+
+/// "1.2 GB (2 threads x 600 MB per row + 5 MB of per-pixel images)".
+pub fn describe_memory(m: &StreamingMemory) -> String {
+    format!(
+        "{} ({} thread{} x {} per row + {} of per-pixel images)",
+        human_bytes(m.bytes()),
+        m.threads,
+        if m.threads == 1 { "" } else { "s" },
+        human_bytes(m.per_row),
+        human_bytes(m.images)
+    )
+}
+
+/// Refuses a render that needs more than `limit` bytes of memory (default: 75% of
+/// physical RAM; a saturated need is always refused). Checked before any allocation.
+pub fn check_memory(m: &StreamingMemory, limit: Option<u64>) -> anyhow::Result<()> {
+    let limit = limit.unwrap_or_else(|| physical_memory().map_or(u64::MAX, |m| m / 4 * 3));
+    let need = m.bytes();
+    anyhow::ensure!(
+        need <= limit && need != u64::MAX,
+        "the render needs {} of memory but the limit is {} (--max-memory, default 75% of RAM); lower --width, --bins or --threads",
+        describe_memory(m),
+        human_bytes(limit)
+    );
+    Ok(())
+}
+
+/// Refuses an output `out` when `what` (`need` bytes) would not fit in the free space of
+/// its filesystem (as an unprivileged user sees it). Where the free space cannot be
+/// known (`statvfs` fails), it is not checked.
+pub fn check_disk(out: &Path, need: u64, what: &str) -> anyhow::Result<()> {
+    let parent = out
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    if let Ok(fs) = rustix::fs::statvfs(parent) {
+        let free = fs.f_bavail.saturating_mul(fs.f_frsize);
+        anyhow::ensure!(
+            need <= free && need != u64::MAX,
+            "--out {}: {what} needs {} on disk but only {} are free there; lower --width, --height or --bins, or write elsewhere",
+            out.display(),
+            human_bytes(need),
+            human_bytes(free)
+        );
+    }
+    Ok(())
+}
+
 /// Warns when no path deposited anything in the time window: legal (e.g. --max-depth 0,
 /// or a window placed before or after the light arrives) but an all-zero bundle.
-pub fn warn_if_empty(output: &crate::render::RenderOutput, film: &crate::scene::film::Film) {
-    if output.accum.nonzero.iter().all(|&c| c == 0) {
+pub fn warn_if_empty(voxel_samples: u64, film: &crate::scene::film::Film) {
+    if voxel_samples == 0 {
         eprintln!(
             "warning: nothing landed in the time window (OPL {} to {}, {} bins): the transient volume is all zero; check --start-opl, --bin-width-opl, --bins and max_depth",
             film.start_opl,

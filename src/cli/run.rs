@@ -7,12 +7,12 @@ use super::denoise::FilterArgs;
 use super::frames::axis_of;
 use super::render::SceneArgs;
 use super::util::{arg, check_outputs, human_bytes, int_flag, seed, threads, with_threads, Kind};
-use crate::bundle::write::{write_atomically, write_bundle, BundleMeta};
+use crate::bundle::write::{bundle_bytes, write_atomically, BundleMeta, BundleWriter};
 use crate::bundle::{Bundle, BundleError};
 use crate::denoise::denoise_bundle;
-use crate::render::{render, RenderSettings};
+use crate::render::{render_into, RenderSettings, StreamingMemory};
 use crate::scene::Scene;
-use crate::stats::accumulators::Accumulators;
+use crate::stats::accumulators::CHANNELS;
 use crate::stats::Transform;
 use crate::viz::frames::{side_by_side, write_all, FramesRequest};
 use crate::viz::tonemap::global_exposure;
@@ -127,17 +127,25 @@ fn job(
     super::util::check_mesh_inputs(&scene, &[arg("--out", &a.out)])?;
     super::util::print_scene_warnings(&scene);
     let film = &scene.film;
-    let need = Accumulators::bytes(film.height, film.width, film.bins, &transform);
-    super::util::check_memory(need, None)?;
+    let memory = StreamingMemory::new(film, &transform, super::render::pool_size(o.threads));
+    super::render::check_memory(&memory, None)?;
+    // The bundle, then the noisy and the denoised f32 volumes (the frames are small).
+    let volume = (film.pixels() as u64)
+        .saturating_mul(film.bins as u64)
+        .saturating_mul(CHANNELS as u64 * 4)
+        .saturating_add(4096);
+    let disk = bundle_bytes(film, &transform).saturating_add(volume.saturating_mul(2));
+    super::render::check_disk(&a.out, disk, "the run's output")?;
     eprintln!(
-        "{}: {}x{} px, {} bins, {} spp ({}); accumulators {}",
+        "{}: {}x{} px, {} bins, {} spp ({}); memory {}, {} on disk",
         scene_record(a).display(),
         film.width,
         film.height,
         film.bins,
         scene.spp,
         a.scene_args.pixel_sampling,
-        human_bytes(need)
+        super::render::describe_memory(&memory),
+        human_bytes(disk)
     );
     let settings = RenderSettings {
         spp: scene.spp,
@@ -145,14 +153,19 @@ fn job(
         transform,
         pixel_sampling: a.scene_args.pixel_sampling,
     };
-    let out = with_threads(o.threads, || render(&scene, &settings, &|_| {}))?;
-    super::render::warn_if_empty(&out, film);
+    let bundle_path = dir.join("scene.tstats");
+    let writer = BundleWriter::create(&bundle_path, false, film, &transform)
+        .context("writing the bundle")?;
+    let summary = with_threads(o.threads, || {
+        render_into(&scene, &settings, &writer, &|_| {})
+    })?
+    .context("writing the bundle")?;
+    super::render::warn_if_empty(summary.voxel_samples, film);
     eprintln!(
         "rendered in {:.2} s ({:.2} M paths/s)",
-        out.seconds,
-        out.paths as f64 / out.seconds / 1e6
+        summary.seconds,
+        summary.paths as f64 / summary.seconds / 1e6
     );
-    let bundle_path = dir.join("scene.tstats");
     let meta = BundleMeta {
         seed: settings.seed,
         transform,
@@ -165,7 +178,9 @@ fn job(
         file: scene_record(a),
         ..scene
     };
-    write_bundle(&bundle_path, false, &scene, &meta, out).context("writing the bundle")?;
+    writer
+        .finish(&scene, &meta, &summary)
+        .context("writing the bundle")?;
     let bundle = Bundle::open(&bundle_path)?;
     let noisy = bundle.noisy_mean()?;
     let den = with_threads(o.threads, || denoise_bundle(&bundle, params, &|_| {}))??;

@@ -1,9 +1,15 @@
 //! Rendering: every pixel's paths traced in parallel (rayon over image rows), each
-//! path's per-bin totals flushed into the statistics accumulators as one sample.
+//! path's per-bin totals flushed into the pixel's sums as one sample; a finished row's
+//! sums go to a [`sink::RowSink`] (memory, or straight into a bundle on disk).
 //!
 //! Determinism: a path's random stream is hashed from (seed, pixel, sample index), and
 //! a pixel's samples are traced and summed in order by one task, so the result is
 //! bit-identical whatever the number of threads.
+//!
+//! Memory: each running task owns one row's scratch ([`RowScratch`]: the row's planar
+//! sums, its pixel's interleaved records, its G-buffer and steady values), reused from
+//! row to row; at most one per thread exists. Nothing else grows with the film's height
+//! except what the sink keeps.
 //!
 //! Sub-pixel positions: [`PixelSampling::Stratified`] (the default) spreads a pixel's
 //! samples as a randomised low-discrepancy set ([`pixel_sampling`]); `Independent` takes
@@ -16,16 +22,21 @@ pub mod deposits;
 pub mod gbuffer;
 pub mod integrator;
 pub mod pixel_sampling;
+pub mod sink;
 
 use crate::math::rng::Pcg32;
+use crate::scene::film::Film;
 use crate::scene::Scene;
-use crate::stats::accumulators::{Accumulators, RowAccum};
+use crate::stats::accumulators::{Accumulators, PixelSums, CHANNELS};
 use crate::stats::Transform;
 use deposits::PathDeposits;
 use gbuffer::{GAccum, GPixel};
 use integrator::{trace_path, PathTally};
 pub use pixel_sampling::{PixelPattern, PixelSampling};
 use rayon::prelude::*;
+use sink::{MemorySink, Row, RowSink};
+use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
+use std::sync::{Mutex, PoisonError};
 
 #[derive(Clone, Debug)]
 pub struct RenderSettings {
@@ -90,29 +101,97 @@ pub struct RenderOutput {
     pub seconds: f64,
 }
 
-struct RowResult {
-    steady: Vec<f64>,
+/// The counts and timing of a render (whatever sink took its rows).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct RenderSummary {
+    pub dropped_nonfinite: u64,
+    pub rays: u64,
+    pub paths: u64,
+    /// Samples flushed into voxels: the sum of the non-zero counts (0 when nothing
+    /// landed in the time window).
+    pub voxel_samples: u64,
+    /// Row scratches allocated (at most one per thread).
+    pub row_scratches: usize,
+    pub seconds: f64,
+}
+
+/// One render task's buffers for the row it is rendering, reused from row to row.
+struct RowScratch {
+    /// The row's sums in the bundle's planar layout (height 1).
+    sums: Accumulators,
+    /// The sums of the pixel being traced, interleaved per bin.
+    pixel: PixelSums,
     gbuffer: Vec<GPixel>,
+    steady: Vec<f64>,
+}
+
+impl RowScratch {
+    fn new(film: &Film, transform: &Transform) -> Self {
+        RowScratch {
+            sums: Accumulators::new(1, film.width, film.bins, transform),
+            pixel: PixelSums::new(film.bins, transform),
+            gbuffer: vec![GPixel::default(); film.width],
+            steady: vec![0.0; film.width * CHANNELS],
+        }
+    }
+
+    /// Bytes of one scratch (saturating).
+    fn bytes(film: &Film, transform: &Transform) -> u64 {
+        let per_pixel = (std::mem::size_of::<GPixel>() + CHANNELS * 8) as u64;
+        Accumulators::bytes(1, film.width, film.bins, transform)
+            .saturating_add(PixelSums::bytes(film.bins, transform))
+            .saturating_add((film.width as u64).saturating_mul(per_pixel))
+    }
+}
+
+/// What rendering a film needs in memory besides the scene, when its rows go to a
+/// streaming sink: one row scratch per thread, and the per-pixel images the sink keeps.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StreamingMemory {
+    pub threads: usize,
+    /// Bytes of one thread's row scratch.
+    pub per_row: u64,
+    /// Bytes of the (H, W) G-buffers and steady image, held once in the sink and once
+    /// more while they are written out.
+    pub images: u64,
+}
+
+impl StreamingMemory {
+    pub fn new(film: &Film, transform: &Transform, threads: usize) -> Self {
+        StreamingMemory {
+            threads,
+            per_row: RowScratch::bytes(film, transform),
+            images: sink::PixelImages::bytes(film.height, film.width).saturating_mul(2),
+        }
+    }
+
+    /// The total (saturating).
+    pub fn bytes(&self) -> u64 {
+        (self.threads as u64)
+            .saturating_mul(self.per_row)
+            .saturating_add(self.images)
+    }
+}
+
+/// Counts of one row.
+#[derive(Default)]
+struct RowTally {
     dropped: u64,
     rays: u64,
+    voxel_samples: u64,
 }
 
 fn render_row(
     scene: &Scene,
     settings: &RenderSettings,
     y: usize,
-    row: &mut RowAccum,
+    row: &mut RowScratch,
     z: &(impl Fn(f64) -> f64 + Sync),
-) -> RowResult {
+) -> RowTally {
     let width = scene.film.width;
     let n = settings.spp as f64;
     let mut deposits = PathDeposits::default();
-    let mut result = RowResult {
-        steady: vec![0.0; width * 3],
-        gbuffer: Vec::with_capacity(width),
-        dropped: 0,
-        rays: 0,
-    };
+    let mut result = RowTally::default();
     for x in 0..width {
         let pixel = (y * width + x) as u64;
         let mut g = GAccum::default();
@@ -123,73 +202,135 @@ fn render_row(
             let [u, v] = positions.position(s, &mut rng);
             let d = scene.camera.direction(x as f32 + u, y as f32 + v);
             g.add(&trace_path(scene, d, &mut rng, &mut deposits, &mut tally));
+            result.voxel_samples += deposits.len() as u64;
             for (bin, c) in deposits.drain() {
-                row.add_sample(z, x, bin as usize, c);
+                row.pixel.add_sample(z, bin as usize, c);
             }
         }
-        for c in 0..3 {
-            result.steady[x * 3 + c] = tally.steady[c] / n;
+        row.pixel.flush_into(&mut row.sums, x);
+        for c in 0..CHANNELS {
+            row.steady[x * CHANNELS + c] = tally.steady[c] / n;
         }
-        result.gbuffer.push(g.finish());
+        row.gbuffer[x] = g.finish();
         result.dropped += tally.dropped_nonfinite;
         result.rays += tally.rays;
     }
     result
 }
 
-/// Renders `scene` with the statistics of `settings`. `progress` is called with the
-/// number of paths finished, from worker threads. Runs on the current rayon pool.
+/// Renders `scene` with the statistics of `settings`, handing every finished row to
+/// `sink`. `progress` is called with the number of paths finished, from worker threads.
+/// Runs on the current rayon pool. The first sink error stops the render and is returned.
+pub fn render_into<S: RowSink>(
+    scene: &Scene,
+    settings: &RenderSettings,
+    sink: &S,
+    progress: &(dyn Fn(u64) + Sync),
+) -> Result<RenderSummary, S::Error> {
+    let start = std::time::Instant::now();
+    let film = &scene.film;
+    let per_row = film.width as u64 * settings.spp as u64;
+    let driver = Driver {
+        scene,
+        settings,
+        sink,
+        progress,
+        per_row,
+        counts: Default::default(),
+        allocated: AtomicUsize::new(0),
+        idle: Mutex::new(Vec::new()),
+    };
+    // Monomorphised per transform: the identity costs nothing per sample.
+    let t = settings.transform;
+    match t {
+        Transform::Identity => driver.run(|x| x),
+        _ => driver.run(move |x| t.apply(x)),
+    }?;
+    let [dropped, rays, voxel_samples] = driver.counts.map(AtomicU64::into_inner);
+    Ok(RenderSummary {
+        dropped_nonfinite: dropped,
+        rays,
+        paths: per_row * film.height as u64,
+        voxel_samples,
+        row_scratches: driver.allocated.into_inner(),
+        seconds: start.elapsed().as_secs_f64(),
+    })
+}
+
+/// The state the row tasks of one render share.
+struct Driver<'a, S> {
+    scene: &'a Scene,
+    settings: &'a RenderSettings,
+    sink: &'a S,
+    progress: &'a (dyn Fn(u64) + Sync),
+    per_row: u64,
+    /// Dropped contributions, rays, voxel samples.
+    counts: [AtomicU64; 3],
+    allocated: AtomicUsize,
+    /// Idle row scratches: a task takes one (or makes one when none is idle) and puts it
+    /// back when its row is in the sink, so at most one per thread ever exists.
+    idle: Mutex<Vec<RowScratch>>,
+}
+
+impl<S: RowSink> Driver<'_, S> {
+    fn run<Z: Fn(f64) -> f64 + Sync>(&self, z: Z) -> Result<(), S::Error> {
+        (0..self.scene.film.height)
+            .into_par_iter()
+            .try_for_each(|y| self.row(y, &z))
+    }
+
+    fn row(&self, y: usize, z: &(impl Fn(f64) -> f64 + Sync)) -> Result<(), S::Error> {
+        let taken = self
+            .idle
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .pop();
+        let mut row = taken.unwrap_or_else(|| {
+            self.allocated.fetch_add(1, Ordering::Relaxed);
+            RowScratch::new(&self.scene.film, &self.settings.transform)
+        });
+        let tally = render_row(self.scene, self.settings, y, &mut row, z);
+        self.sink.put_row(&Row {
+            y,
+            sums: &row.sums,
+            gbuffer: &row.gbuffer,
+            steady: &row.steady,
+        })?;
+        let values = [tally.dropped, tally.rays, tally.voxel_samples];
+        for (count, v) in self.counts.iter().zip(values) {
+            count.fetch_add(v, Ordering::Relaxed);
+        }
+        self.idle
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .push(row);
+        (self.progress)(self.per_row);
+        Ok(())
+    }
+}
+
+/// Renders `scene` with the statistics of `settings` into memory. `progress` is called
+/// with the number of paths finished, from worker threads. Runs on the current rayon
+/// pool.
 pub fn render(
     scene: &Scene,
     settings: &RenderSettings,
     progress: &(dyn Fn(u64) + Sync),
 ) -> RenderOutput {
-    let start = std::time::Instant::now();
     let film = &scene.film;
-    let mut accum = Accumulators::new(film.height, film.width, film.bins, &settings.transform);
-    let per_row = film.width as u64 * settings.spp as u64;
-    let rows = accum.rows_mut();
-    // Monomorphised per transform: the identity costs nothing per sample.
-    fn run<Z: Fn(f64) -> f64 + Sync>(
-        rows: Vec<RowAccum>,
-        scene: &Scene,
-        settings: &RenderSettings,
-        progress: &(dyn Fn(u64) + Sync),
-        per_row: u64,
-        z: Z,
-    ) -> Vec<RowResult> {
-        rows.into_par_iter()
-            .enumerate()
-            .map(|(y, mut row)| {
-                let r = render_row(scene, settings, y, &mut row, &z);
-                progress(per_row);
-                r
-            })
-            .collect()
-    }
-    let t = settings.transform;
-    let results = match t {
-        Transform::Identity => run(rows, scene, settings, progress, per_row, |x| x),
-        _ => run(rows, scene, settings, progress, per_row, move |x| {
-            t.apply(x)
-        }),
+    let sink = MemorySink::new(film.height, film.width, film.bins, &settings.transform);
+    let summary = match render_into(scene, settings, &sink, progress) {
+        Ok(s) => s,
+        Err(never) => match never {},
     };
-    let mut out = RenderOutput {
-        gbuffer: Vec::with_capacity(film.pixels()),
-        steady: Vec::with_capacity(film.pixels() * 3),
-        dropped_nonfinite: 0,
-        rays: 0,
-        paths: per_row * film.height as u64,
-        seconds: 0.0,
-        accum: Accumulators::new(0, 0, 0, &Transform::Identity),
-    };
-    for r in results {
-        out.steady.extend_from_slice(&r.steady);
-        out.gbuffer.extend_from_slice(&r.gbuffer);
-        out.dropped_nonfinite += r.dropped;
-        out.rays += r.rays;
+    let (accum, images) = sink.into_parts();
+    RenderOutput {
+        accum,
+        gbuffer: images.gbuffer,
+        steady: images.steady,
+        dropped_nonfinite: summary.dropped_nonfinite,
+        rays: summary.rays,
+        paths: summary.paths,
+        seconds: summary.seconds,
     }
-    out.accum = accum;
-    out.seconds = start.elapsed().as_secs_f64();
-    out
 }

@@ -6,14 +6,23 @@
 //! those paths (`nonzero`). Paths that deposited nothing are the implicit zero samples
 //! the estimators add back (zero-fill).
 //!
+//! Two shapes of the same sums:
+//! - [`Accumulators`]: planar arrays laid out (H, W, T, C) like the bundle's `.npy`
+//!   files; a whole film (kept in memory by `render::render`) or one image row (height
+//!   1, the row a render task hands to its sink).
+//! - [`PixelSums`]: the pixel being rendered, one interleaved record per time bin, so
+//!   that one flushed sample touches one 80-byte region (104 with S) instead of four
+//!   (five) separate arrays; [`PixelSums::flush_into`] de-interleaves it into its row.
+//!
 //! Memory: `H * W * T * C * 8` bytes per f64 array (3 arrays, 4 with S) plus
-//! `H * W * T * 4` for the counts. A 128 x 128 x 300 x 3 film needs 354 MB (identity).
+//! `H * W * T * 4` for the counts: 76 bytes per voxel (identity), 100 with S. A
+//! 128 x 128 x 300 x 3 film needs 374 MB (identity); one of its rows 2.9 MB.
 
 use super::transform::Transform;
 
 pub const CHANNELS: usize = 3;
 
-/// The volume-sized sums of one render, laid out (H, W, T, C) row-major.
+/// Planar sums laid out (H, W, T, C) row-major.
 pub struct Accumulators {
     pub height: usize,
     pub width: usize,
@@ -26,11 +35,20 @@ pub struct Accumulators {
     pub nonzero: Vec<u32>,
 }
 
+/// The f64 sum arrays a transform needs: X1, X2, X3, and S unless it is the identity.
+fn sum_arrays(transform: &Transform) -> usize {
+    if transform.is_identity() {
+        3
+    } else {
+        4
+    }
+}
+
 impl Accumulators {
     /// Bytes needed for a film of this size with this transform (saturating, so absurd
     /// sizes compare as too large instead of wrapping).
     pub fn bytes(height: usize, width: usize, bins: usize, transform: &Transform) -> u64 {
-        let arrays: u128 = if transform.is_identity() { 3 } else { 4 };
+        let arrays = sum_arrays(transform) as u128;
         let voxels = height as u128 * width as u128 * bins as u128;
         let b = voxels * CHANNELS as u128 * 8 * arrays + voxels * 4;
         u64::try_from(b).unwrap_or(u64::MAX)
@@ -50,70 +68,210 @@ impl Accumulators {
         }
     }
 
-    /// Disjoint mutable views of each image row, for parallel rendering.
-    pub fn rows_mut(&mut self) -> Vec<RowAccum<'_>> {
-        let row = self.width * self.bins * CHANNELS;
-        let row_counts = self.width * self.bins;
-        let width = self.width;
-        let bins = self.bins;
-        let mut sums: Vec<Option<&mut [f64]>> = match self.sum.as_mut() {
-            Some(s) => s.chunks_mut(row).map(Some).collect(),
-            None => (0..self.height).map(|_| None).collect(),
-        };
-        self.x1
-            .chunks_mut(row)
-            .zip(self.x2.chunks_mut(row))
-            .zip(self.x3.chunks_mut(row))
-            .zip(self.nonzero.chunks_mut(row_counts))
-            .zip(sums.iter_mut())
-            .map(|((((x1, x2), x3), nonzero), sum)| RowAccum {
-                width,
-                bins,
-                x1,
-                x2,
-                x3,
-                sum: sum.take(),
-                nonzero,
-            })
-            .collect()
+    /// Copies `row` (the sums of one image row: height 1, same width, bins and arrays)
+    /// into row `y`.
+    pub fn put_row(&mut self, y: usize, row: &Accumulators) {
+        assert!(
+            row.height == 1 && row.width == self.width && row.bins == self.bins,
+            "a row of {}x{}x{} does not fit a film of width {} and {} bins",
+            row.height,
+            row.width,
+            row.bins,
+            self.width,
+            self.bins
+        );
+        let n = self.width * self.bins * CHANNELS;
+        let sums = |dst: &mut [f64], src: &[f64]| dst[y * n..(y + 1) * n].copy_from_slice(src);
+        sums(&mut self.x1, &row.x1);
+        sums(&mut self.x2, &row.x2);
+        sums(&mut self.x3, &row.x3);
+        match (self.sum.as_mut(), row.sum.as_ref()) {
+            (Some(dst), Some(src)) => sums(dst, src),
+            (None, None) => {}
+            _ => panic!("a row with and a film without S (or the reverse)"),
+        }
+        let m = self.width * self.bins;
+        self.nonzero[y * m..(y + 1) * m].copy_from_slice(&row.nonzero);
     }
 }
 
-/// The sums of one image row.
-pub struct RowAccum<'a> {
-    pub width: usize,
-    pub bins: usize,
-    pub x1: &'a mut [f64],
-    pub x2: &'a mut [f64],
-    pub x3: &'a mut [f64],
-    pub sum: Option<&'a mut [f64]>,
-    pub nonzero: &'a mut [u32],
+/// The sums of the pixel being rendered: per time bin one record
+/// `[X1 rgb, X2 rgb, X3 rgb, (S rgb,) count]` of f64 (the count is exact: at most
+/// spp < 2^32 < 2^53). A flushed sample touches only its bin's record.
+pub struct PixelSums {
+    bins: usize,
+    /// f64s per record: 10, or 13 with S.
+    stride: usize,
+    raw: bool,
+    records: Vec<f64>,
 }
 
-impl RowAccum<'_> {
-    /// Adds one path's total deposit `x` (rgb radiance) in voxel (x, bin) as one sample.
+impl PixelSums {
+    pub fn new(bins: usize, transform: &Transform) -> Self {
+        let stride = sum_arrays(transform) * CHANNELS + 1;
+        PixelSums {
+            bins,
+            stride,
+            raw: !transform.is_identity(),
+            records: vec![0.0; bins * stride],
+        }
+    }
+
+    /// Bytes of the records for `bins` bins (saturating).
+    pub fn bytes(bins: usize, transform: &Transform) -> u64 {
+        let stride = (sum_arrays(transform) * CHANNELS + 1) as u128;
+        u64::try_from(bins as u128 * stride * 8).unwrap_or(u64::MAX)
+    }
+
+    /// Adds one path's total deposit `x` (rgb radiance) in time bin `bin` as one sample.
     #[inline]
-    pub fn add_sample(
-        &mut self,
-        z: impl Fn(f64) -> f64,
-        px: usize,
-        bin: usize,
-        x: [f64; CHANNELS],
-    ) {
-        let v = px * self.bins + bin;
-        self.nonzero[v] += 1;
-        let base = v * CHANNELS;
+    pub fn add_sample(&mut self, z: impl Fn(f64) -> f64, bin: usize, x: [f64; CHANNELS]) {
+        let r = &mut self.records[bin * self.stride..(bin + 1) * self.stride];
         for (c, &xc) in x.iter().enumerate() {
             let zc = z(xc);
             let z2 = zc * zc;
-            self.x1[base + c] += zc;
-            self.x2[base + c] += z2;
-            self.x3[base + c] += z2 * zc;
+            r[c] += zc;
+            r[CHANNELS + c] += z2;
+            r[2 * CHANNELS + c] += z2 * zc;
         }
-        if let Some(s) = self.sum.as_deref_mut() {
+        if self.raw {
             for (c, &xc) in x.iter().enumerate() {
-                s[base + c] += xc;
+                r[3 * CHANNELS + c] += xc;
             }
         }
+        r[self.stride - 1] += 1.0;
+    }
+
+    /// Moves the pixel's sums into pixel `px` of `row` (height 1), overwriting what was
+    /// there, and leaves the records zero for the next pixel.
+    pub fn flush_into(&mut self, row: &mut Accumulators, px: usize) {
+        debug_assert!(row.height == 1 && row.bins == self.bins);
+        let t = self.bins;
+        let planar = px * t * CHANNELS..(px + 1) * t * CHANNELS;
+        let out = Planar {
+            x1: &mut row.x1[planar.clone()],
+            x2: &mut row.x2[planar.clone()],
+            x3: &mut row.x3[planar.clone()],
+            sum: row.sum.as_mut().map(|s| &mut s[planar]),
+            nonzero: &mut row.nonzero[px * t..(px + 1) * t],
+        };
+        // A record length known at compile time: the copies become plain moves.
+        if self.raw {
+            deinterleave::<13>(&self.records, out);
+        } else {
+            deinterleave::<10>(&self.records, out);
+        }
+        self.records.fill(0.0);
+    }
+}
+
+/// One pixel's planar slices of a row, (T, C) and (T).
+struct Planar<'a> {
+    x1: &'a mut [f64],
+    x2: &'a mut [f64],
+    x3: &'a mut [f64],
+    sum: Option<&'a mut [f64]>,
+    nonzero: &'a mut [u32],
+}
+
+/// Copies records of `N` f64s (`[X1 rgb, X2 rgb, X3 rgb, (S rgb,) count]`) into `out`.
+fn deinterleave<const N: usize>(records: &[f64], out: Planar<'_>) {
+    const C: usize = CHANNELS;
+    let (records, _) = records.as_chunks::<N>();
+    let planar = out
+        .x1
+        .as_chunks_mut::<C>()
+        .0
+        .iter_mut()
+        .zip(out.x2.as_chunks_mut::<C>().0)
+        .zip(out.x3.as_chunks_mut::<C>().0)
+        .zip(out.nonzero.iter_mut());
+    for (r, (((x1, x2), x3), nonzero)) in records.iter().zip(planar) {
+        x1.copy_from_slice(&r[0..C]);
+        x2.copy_from_slice(&r[C..2 * C]);
+        x3.copy_from_slice(&r[2 * C..3 * C]);
+        *nonzero = r[N - 1] as u32;
+    }
+    if let Some(sum) = out.sum {
+        for (r, s) in records.iter().zip(sum.as_chunks_mut::<C>().0) {
+            s.copy_from_slice(&r[3 * C..4 * C]);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The plain planar form: what the interleaved records must reproduce bit for bit.
+    fn planar_add(
+        a: &mut Accumulators,
+        z: impl Fn(f64) -> f64,
+        px: usize,
+        bin: usize,
+        x: [f64; 3],
+    ) {
+        let v = px * a.bins + bin;
+        a.nonzero[v] += 1;
+        for (c, &xc) in x.iter().enumerate() {
+            let zc = z(xc);
+            a.x1[v * 3 + c] += zc;
+            a.x2[v * 3 + c] += zc * zc;
+            a.x3[v * 3 + c] += zc * zc * zc;
+            if let Some(s) = a.sum.as_mut() {
+                s[v * 3 + c] += xc;
+            }
+        }
+    }
+
+    #[test]
+    fn interleaved_records_give_the_planar_sums_bit_for_bit() {
+        for t in [Transform::Identity, Transform::BoxCox { lambda: 0.5 }] {
+            let (w, bins) = (3, 5);
+            let mut want = Accumulators::new(1, w, bins, &t);
+            let mut row = Accumulators::new(1, w, bins, &t);
+            // Garbage in the row: flushing overwrites every value.
+            row.x2.fill(7.0);
+            row.nonzero.fill(9);
+            let mut p = PixelSums::new(bins, &t);
+            let z = |x: f64| t.apply(x);
+            for px in 0..w {
+                for s in 0..40u32 {
+                    let bin = (s as usize * 7 + px) % bins;
+                    if bin == 3 {
+                        continue; // an empty bin stays zero
+                    }
+                    let x = [0.1 * s as f64, 1.0 / (1.0 + s as f64), (s % 3) as f64];
+                    p.add_sample(z, bin, x);
+                    planar_add(&mut want, z, px, bin, x);
+                }
+                p.flush_into(&mut row, px);
+            }
+            assert!(row.x1 == want.x1 && row.x2 == want.x2 && row.x3 == want.x3);
+            assert!(row.sum == want.sum && row.nonzero == want.nonzero);
+            assert!(p.records.iter().all(|&v| v == 0.0));
+        }
+    }
+
+    #[test]
+    fn rows_land_at_their_offset() {
+        let t = Transform::BoxCox { lambda: 0.5 };
+        let mut film = Accumulators::new(3, 2, 4, &t);
+        let mut row = Accumulators::new(1, 2, 4, &t);
+        row.x3.fill(3.0);
+        row.sum.as_mut().unwrap().fill(4.0);
+        row.nonzero.fill(5);
+        film.put_row(1, &row);
+        let n = 2 * 4 * 3;
+        assert!(film.x3[..n].iter().all(|&v| v == 0.0));
+        assert!(film.x3[n..2 * n].iter().all(|&v| v == 3.0));
+        assert!(film.x3[2 * n..].iter().all(|&v| v == 0.0));
+        assert!(film.sum.as_ref().unwrap()[n..2 * n]
+            .iter()
+            .all(|&v| v == 4.0));
+        assert_eq!(
+            film.nonzero,
+            [0, 0, 0, 0, 0, 0, 0, 0, 5, 5, 5, 5, 5, 5, 5, 5, 0, 0, 0, 0, 0, 0, 0, 0]
+        );
     }
 }
