@@ -46,19 +46,6 @@ pub fn physical_memory() -> Option<u64> {
     Some(kb * 1024)
 }
 
-/// Refuses accumulators of `need` bytes above `limit` (default: 75% of physical RAM;
-/// a saturated `need` is always refused).
-pub fn check_memory(need: u64, limit: Option<u64>) -> anyhow::Result<()> {
-    let limit = limit.unwrap_or_else(|| physical_memory().map_or(u64::MAX, |m| m / 4 * 3));
-    anyhow::ensure!(
-        need <= limit && need != u64::MAX,
-        "the accumulators need {} but the limit is {} (--max-memory, default 75% of RAM); lower --width/--height/--bins",
-        human_bytes(need),
-        human_bytes(limit)
-    );
-    Ok(())
-}
-
 /// Runs `f` on a rayon pool of `threads` threads (all cores when `None`); check the
 /// flag first with [`threads`].
 pub fn with_threads<T: Send>(
