@@ -3,7 +3,9 @@
 //! - `render_cbox_64x64_16spp_300bins`: cbox with the identity and Box-Cox transforms;
 //! - `render_scenes_32x32_32spp_300bins`: one bench per scene, cbox, cbox_spheres, bunny
 //!   and the dense displaced sphere (>= 1M triangles, generated into a temporary
-//!   directory by `common/dense_scene.rs`), throughput in paths.
+//!   directory by `common/dense_scene.rs`), throughput in paths;
+//! - `render_isa_32x32_32spp_300bins`: cbox and bunny with the tracer forced to each
+//!   instruction set the CPU has (baseline, AVX2, AVX-512).
 //!
 //! Scene loading and the dense scene's generation are outside the timed loop.
 //! `cargo bench --bench render` takes about a minute on 2 cores. Run as a test
@@ -16,6 +18,7 @@ mod dense_scene;
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use std::path::{Path, PathBuf};
 use std::time::Duration;
+use tstat::render::cpu::{self, Isa};
 use tstat::render::{render, PixelSampling, RenderSettings};
 use tstat::scene::{Overrides, Scene};
 use tstat::stats::Transform;
@@ -90,5 +93,37 @@ fn bench_scenes(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, bench_transforms, bench_scenes);
+/// The same render at each instruction-set level this CPU has (`render::cpu`): what the
+/// run-time dispatch buys. Every level computes the same bits (tests/isa.rs).
+fn bench_isa(c: &mut Criterion) {
+    let overrides = Overrides {
+        width: Some(32),
+        spp: Some(32),
+        ..Default::default()
+    };
+    let mut group = c.benchmark_group("render_isa_32x32_32spp_300bins");
+    group
+        .sample_size(10)
+        .warm_up_time(Duration::from_secs(1))
+        .measurement_time(Duration::from_secs(4));
+    for name in ["cbox.xml", "bunny.xml"] {
+        let scene = Scene::load(&scene_path(name), &overrides).expect("scene loads");
+        let settings = settings(&scene, Transform::Identity);
+        group.throughput(Throughput::Elements(
+            scene.film.pixels() as u64 * scene.spp as u64,
+        ));
+        for isa in [Isa::Baseline, Isa::Avx2, Isa::Avx512] {
+            if !isa.supported() {
+                continue;
+            }
+            cpu::force(isa).expect("supported");
+            let id = format!("{}/{}", name.trim_end_matches(".xml"), isa.name());
+            group.bench_function(id, |b| b.iter(|| render(&scene, &settings, &|_| {})));
+        }
+    }
+    cpu::force(Isa::best()).expect("supported");
+    group.finish();
+}
+
+criterion_group!(benches, bench_transforms, bench_scenes, bench_isa);
 criterion_main!(benches);
