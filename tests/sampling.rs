@@ -41,7 +41,7 @@ const LEVEL: f64 = ALPHA / FAMILY as f64;
 
 const THETA_CELLS: usize = 16;
 const PHI_CELLS: usize = 32;
-const CHI2_SAMPLES: usize = 100_000;
+const CHI2_SAMPLES: usize = 1_000_000;
 /// Cells expecting fewer samples are pooled (the chi-square approximation needs ~5).
 const MIN_EXPECTED: f64 = 5.0;
 
@@ -323,7 +323,7 @@ fn all_models() -> Vec<(&'static str, Box<dyn BsdfModel>)> {
             Box::new(two_sided(d(0.8), OneSided::Conductor(gold()))),
         ),
         (
-            "twosided Bsdf::Conductor",
+            "twosided mirror/white diffuse",
             Box::new(two_sided(OneSided::Conductor(mirror()), d(1.0))),
         ),
     ]
