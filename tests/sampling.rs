@@ -874,7 +874,13 @@ fn light_sample_pdf_matches_the_pdf_mis_uses_on_a_hit() {
 /// Chi-square p-value of points sampled on an area light against uniform density by
 /// area: spheres in equal-area cells of (z, phi) about the centre, meshes in cells
 /// (triangle, equal-area band of b0, equal slice of b1 / (b1 + b2)).
-fn area_uniformity_p_value(scene: &tstat::scene::Scene, emitter: &Emitter, seed: u64) -> f64 {
+/// `skew` maps the sampler's 2D numbers (the identity for the real sampler).
+fn area_uniformity_p_value(
+    scene: &tstat::scene::Scene,
+    emitter: &Emitter,
+    seed: u64,
+    skew: fn([f32; 2]) -> [f32; 2],
+) -> f64 {
     const N: usize = 60_000;
     const K: usize = 4;
     let Emitter::Area { shape, sampler, .. } = emitter else {
@@ -886,7 +892,9 @@ fn area_uniformity_p_value(scene: &tstat::scene::Scene, emitter: &Emitter, seed:
         ShapeGeom::Sphere(s) => {
             let mut counts = vec![0u64; K * 2 * K];
             for _ in 0..N {
-                let p = sampler.sample(shape_ref, rng.next_f32(), rng.next_2d()).p;
+                let p = sampler
+                    .sample(shape_ref, rng.next_f32(), skew(rng.next_2d()))
+                    .p;
                 let d = ((p - s.center) / s.radius).as_dvec3();
                 assert!((d.length() - 1.0).abs() < 1e-4, "point off the sphere");
                 let zb = (((d.z + 1.0) / 2.0 * K as f64) as usize).min(K - 1);
@@ -905,7 +913,9 @@ fn area_uniformity_p_value(scene: &tstat::scene::Scene, emitter: &Emitter, seed:
             let total: f64 = areas.iter().sum();
             let mut counts = vec![0u64; tris.len() * K * K];
             for _ in 0..N {
-                let p = sampler.sample(shape_ref, rng.next_f32(), rng.next_2d()).p;
+                let p = sampler
+                    .sample(shape_ref, rng.next_f32(), skew(rng.next_2d()))
+                    .p;
                 // The triangle holding p: barycentrics in [0, 1] and p in its plane.
                 let (face, b1, b2) = tris
                     .iter()
@@ -954,11 +964,22 @@ fn area_lights_sample_uniformly_by_area() {
     let mut ps = Vec::new();
     for (i, emitter) in scene.emitters.iter().enumerate() {
         if let Emitter::Area { .. } = emitter {
-            let p = area_uniformity_p_value(&scene, emitter, 300 + i as u64);
+            let p = area_uniformity_p_value(&scene, emitter, 300 + i as u64, |u| u);
             assert!(p > LEVEL, "emitter {i}: area chi-square p = {p:.3e}");
             ps.push(p);
         }
     }
     assert_eq!(ps.len(), LIGHT_CASES);
     eprintln!("area-uniformity p-values {ps:.3?}");
+    // Squaring one number crowds the points towards one edge of each triangle (and
+    // one pole of a sphere): every light must fail.
+    for (i, emitter) in scene.emitters.iter().enumerate() {
+        if let Emitter::Area { .. } = emitter {
+            let p = area_uniformity_p_value(&scene, emitter, 400 + i as u64, |[a, b]| [a * a, b]);
+            assert!(
+                p < LEVEL,
+                "emitter {i}: skewed sampling passed, p = {p:.3e}"
+            );
+        }
+    }
 }
