@@ -9,7 +9,7 @@
 //! One-sided: light arriving at the back is absorbed.
 
 use super::fresnel::fresnel_conductor;
-use super::BsdfSample;
+use super::{BsdfFlags, BsdfModel, BsdfSample};
 use crate::math::Rgb;
 use glam::Vec3;
 
@@ -20,9 +20,24 @@ pub struct Conductor {
     pub specular_reflectance: Rgb,
 }
 
-impl Conductor {
-    #[inline]
-    pub fn sample(&self, wo: Vec3) -> Option<BsdfSample> {
+impl BsdfModel for Conductor {
+    #[inline(always)]
+    fn flags(&self, _wo: Vec3) -> BsdfFlags {
+        BsdfFlags::DELTA_REFLECTION
+    }
+
+    #[inline(always)]
+    fn eval(&self, _wo: Vec3, _wi: Vec3) -> Rgb {
+        Rgb::ZERO
+    }
+
+    #[inline(always)]
+    fn pdf(&self, _wo: Vec3, _wi: Vec3) -> f32 {
+        0.0
+    }
+
+    #[inline(always)]
+    fn sample(&self, wo: Vec3, _u1: f32, _u2: [f32; 2]) -> Option<BsdfSample> {
         if wo.z <= 0.0 {
             return None;
         }
@@ -30,8 +45,20 @@ impl Conductor {
             wi: Vec3::new(-wo.x, -wo.y, wo.z),
             weight: fresnel_conductor(wo.z, self.eta, self.k) * self.specular_reflectance,
             pdf: 1.0,
-            delta: true,
+            lobe: BsdfFlags::DELTA_REFLECTION,
             eta: 1.0,
         })
+    }
+
+    /// The Fresnel reflectance at `wo` (times `specular_reflectance`), the weight every
+    /// sample from `wo` carries. Not the value at normal incidence: the guide then
+    /// agrees with what the surface does at this pixel (metals brighten towards grazing),
+    /// and one definition (the expected sample weight) serves every model.
+    fn albedo(&self, wo: Vec3) -> Rgb {
+        if wo.z > 0.0 {
+            fresnel_conductor(wo.z, self.eta, self.k) * self.specular_reflectance
+        } else {
+            Rgb::ZERO
+        }
     }
 }

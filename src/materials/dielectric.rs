@@ -13,7 +13,7 @@
 //! current IOR for the optical path length and Russian roulette.
 
 use super::fresnel::fresnel_dielectric;
-use super::BsdfSample;
+use super::{BsdfFlags, BsdfModel, BsdfSample};
 use crate::math::Rgb;
 use glam::Vec3;
 
@@ -25,16 +25,32 @@ pub struct Dielectric {
     pub specular_transmittance: Rgb,
 }
 
-impl Dielectric {
-    #[inline]
-    pub fn sample(&self, wo: Vec3, u: f32) -> Option<BsdfSample> {
+impl BsdfModel for Dielectric {
+    #[inline(always)]
+    fn flags(&self, _wo: Vec3) -> BsdfFlags {
+        BsdfFlags::DELTA_REFLECTION | BsdfFlags::DELTA_TRANSMISSION
+    }
+
+    #[inline(always)]
+    fn eval(&self, _wo: Vec3, _wi: Vec3) -> Rgb {
+        Rgb::ZERO
+    }
+
+    #[inline(always)]
+    fn pdf(&self, _wo: Vec3, _wi: Vec3) -> f32 {
+        0.0
+    }
+
+    /// `u` chooses reflection with the Fresnel probability R; `u2` is unused.
+    #[inline(always)]
+    fn sample(&self, wo: Vec3, u: f32, _u2: [f32; 2]) -> Option<BsdfSample> {
         let (r, cos_theta_t, eta_it, eta_ti) = fresnel_dielectric(wo.z, self.eta);
         if u < r {
             Some(BsdfSample {
                 wi: Vec3::new(-wo.x, -wo.y, wo.z),
                 weight: self.specular_reflectance,
                 pdf: 1.0,
-                delta: true,
+                lobe: BsdfFlags::DELTA_REFLECTION,
                 eta: 1.0,
             })
         } else {
@@ -42,10 +58,20 @@ impl Dielectric {
                 wi: Vec3::new(-eta_ti * wo.x, -eta_ti * wo.y, cos_theta_t),
                 weight: self.specular_transmittance * (eta_ti * eta_ti),
                 pdf: 1.0,
-                delta: true,
+                lobe: BsdfFlags::DELTA_TRANSMISSION,
                 eta: eta_it,
             })
         }
+    }
+
+    /// R * specular_reflectance + (1 - R) * specular_transmittance with R the Fresnel
+    /// reflectance at `wo`: the energy that leaves, reflected or refracted. A clear
+    /// glass is white (1) from either side and at every angle, what a user expects of
+    /// a lossless material; the radiance weight `eta_ti^2` of refraction is a change of
+    /// solid-angle measure, not a loss, so it is not part of the guide.
+    fn albedo(&self, wo: Vec3) -> Rgb {
+        let r = fresnel_dielectric(wo.z, self.eta).0;
+        self.specular_reflectance * r + self.specular_transmittance * (1.0 - r)
     }
 }
 
@@ -62,7 +88,7 @@ mod tests {
         };
         let wo = Vec3::new(0.6, 0.0, 0.8);
         // u = 0.999 > R: transmission.
-        let s = d.sample(wo, 0.999).unwrap();
+        let s = d.sample(wo, 0.999, [0.5; 2]).unwrap();
         assert!(s.wi.z < 0.0);
         assert!((s.wi.length() - 1.0).abs() < 1e-5);
         // sin_t = sin_i / 1.5
@@ -70,7 +96,7 @@ mod tests {
         assert!((s.weight.x - 1.0 / 2.25).abs() < 1e-6);
         assert_eq!(s.eta, 1.5);
         // u = 0 < R: mirror reflection.
-        let s = d.sample(wo, 0.0).unwrap();
+        let s = d.sample(wo, 0.0, [0.5; 2]).unwrap();
         assert_eq!(s.wi, Vec3::new(-0.6, 0.0, 0.8));
         assert_eq!(s.eta, 1.0);
     }

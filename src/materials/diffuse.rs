@@ -4,7 +4,7 @@
 //! |-------------|----------------|---------|--------------------------|
 //! | reflectance | rgb/spectrum/float | 0.5 | albedo in [0, 1] per channel |
 
-use super::BsdfSample;
+use super::{BsdfFlags, BsdfModel, BsdfSample};
 use crate::math::sampling::{cosine_hemisphere, cosine_hemisphere_pdf};
 use crate::math::Rgb;
 use glam::Vec3;
@@ -15,25 +15,30 @@ pub struct Diffuse {
     pub reflectance: Rgb,
 }
 
-impl Diffuse {
-    #[inline]
-    pub fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
+impl BsdfModel for Diffuse {
+    #[inline(always)]
+    fn flags(&self, _wo: Vec3) -> BsdfFlags {
+        BsdfFlags::DIFFUSE_REFLECTION
+    }
+
+    #[inline(always)]
+    fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
         if wo.z <= 0.0 || wi.z <= 0.0 {
             return Rgb::ZERO;
         }
         self.reflectance * (FRAC_1_PI * wi.z)
     }
 
-    #[inline]
-    pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+    #[inline(always)]
+    fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         if wo.z <= 0.0 || wi.z <= 0.0 {
             return 0.0;
         }
         cosine_hemisphere_pdf(wi.z)
     }
 
-    #[inline]
-    pub fn sample(&self, wo: Vec3, u: [f32; 2]) -> Option<BsdfSample> {
+    #[inline(always)]
+    fn sample(&self, wo: Vec3, _u1: f32, u: [f32; 2]) -> Option<BsdfSample> {
         if wo.z <= 0.0 {
             return None;
         }
@@ -46,8 +51,17 @@ impl Diffuse {
             wi,
             weight: self.reflectance,
             pdf,
-            delta: false,
+            lobe: BsdfFlags::DIFFUSE_REFLECTION,
             eta: 1.0,
         })
+    }
+
+    /// The reflectance: cosine-weighted sampling makes every sample's weight equal to it.
+    fn albedo(&self, wo: Vec3) -> Rgb {
+        if wo.z > 0.0 {
+            self.reflectance
+        } else {
+            Rgb::ZERO
+        }
     }
 }

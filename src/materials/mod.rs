@@ -1,19 +1,26 @@
 //! BSDFs: the closed set of surface scattering models, dispatched with `match`.
 //!
+//! Every model implements [`BsdfModel`]: `eval`, `pdf`, `sample`, `flags` and `albedo`.
 //! Conventions (as in Mitsuba 3): directions are in the local shading frame (normal +z);
 //! `wo` points back along the incoming ray (towards the camera side of the path), `wi`
-//! is the sampled or queried direction towards the light. `eval` returns f * |cos(wi)|.
-//! BSDFs are one-sided: `wo.z <= 0` is black, except for dielectrics and `twosided`.
+//! is the sampled or queried direction towards the light, both pointing away from the
+//! surface. `eval` returns f * |cos(wi)|. BSDFs are one-sided: `wo.z <= 0` is black,
+//! except for dielectrics and `twosided`.
+//!
+//! `twosided` holds two [`OneSided`] models, a type that has no dielectric and no
+//! `twosided`: resolving the side ([`TwoSided::side`]) always ends at a plain model.
 
 mod conductor;
 mod dielectric;
 mod diffuse;
+mod flags;
 pub mod fresnel;
 pub mod parse;
 
 pub use conductor::Conductor;
 pub use dielectric::Dielectric;
 pub use diffuse::Diffuse;
+pub use flags::BsdfFlags;
 
 use crate::math::Rgb;
 use glam::Vec3;
@@ -26,9 +33,48 @@ pub struct BsdfSample {
     pub weight: Rgb,
     /// Solid-angle density (meaningless for delta lobes, kept 1 there).
     pub pdf: f32,
-    pub delta: bool,
+    /// The one lobe that produced `wi`.
+    pub lobe: BsdfFlags,
     /// Relative IOR crossed (1 unless transmitted through a dielectric interface).
     pub eta: f32,
+}
+
+/// The interface every BSDF implements (pbrt's BxDF: `f`, `Sample_f`, `PDF`, flags).
+pub trait BsdfModel {
+    /// The lobes seen from `wo` (`twosided` picks a side by `wo.z`). A one-sided model
+    /// seen from the back keeps its lobes; `eval` and `sample` are black there.
+    fn flags(&self, wo: Vec3) -> BsdfFlags;
+
+    /// f(wo, wi) * |cos(wi)| of the non-delta lobes (deltas are zero here).
+    fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb;
+
+    /// Solid-angle density with which `sample` picks `wi` through a non-delta lobe.
+    fn pdf(&self, wo: Vec3, wi: Vec3) -> f32;
+
+    /// Samples `wi` with three uniform numbers in [0, 1): `u1` picks a lobe, `u2` the
+    /// direction within it.
+    fn sample(&self, wo: Vec3, u1: f32, u2: [f32; 2]) -> Option<BsdfSample>;
+
+    /// Directional albedo seen from `wo`, for the G-buffer: the fraction of the energy
+    /// arriving along `wo` that is scattered, per channel, i.e. the expected sample
+    /// weight with transmitted weights counted as energy (times `eta^2`, undoing the
+    /// radiance compression across an interface). 1 for a lossless model.
+    fn albedo(&self, wo: Vec3) -> Rgb;
+}
+
+/// A model that `twosided` can wrap: one-sided, never a dielectric or `twosided`.
+#[derive(Clone, Debug, PartialEq)]
+pub enum OneSided {
+    Diffuse(Diffuse),
+    Conductor(Conductor),
+}
+
+/// Mitsuba's `twosided`: the front model for `wo.z >= 0`, the back model seen with the
+/// frame flipped (z -> -z) otherwise.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TwoSided {
+    pub front: OneSided,
+    pub back: OneSided,
 }
 
 #[derive(Clone, Debug, PartialEq)]
@@ -36,101 +82,135 @@ pub enum Bsdf {
     Diffuse(Diffuse),
     Dielectric(Dielectric),
     Conductor(Conductor),
-    /// Front and back BSDFs (Mitsuba's `twosided`): the back is seen with the frame flipped.
-    TwoSided(Box<Bsdf>, Box<Bsdf>),
+    TwoSided(TwoSided),
 }
 
-impl Bsdf {
-    /// Resolves `twosided` for this `wo`: the BSDF to use and whether to flip z.
-    #[inline]
-    fn side(&self, wo: Vec3) -> (&Bsdf, bool) {
-        match self {
-            Bsdf::TwoSided(front, back) => {
-                if wo.z >= 0.0 {
-                    (front.side(wo).0, false)
-                } else {
-                    (back.side(-wo).0, true)
-                }
-            }
-            other => (other, false),
-        }
-    }
-
-    /// True when every lobe seen from `wo` is a delta (no NEE possible).
-    #[inline]
-    pub fn is_delta(&self, wo: Vec3) -> bool {
-        match self.side(wo).0 {
-            Bsdf::Diffuse(_) => false,
-            Bsdf::Dielectric(_) | Bsdf::Conductor(_) => true,
-            Bsdf::TwoSided(..) => unreachable!("side() resolves twosided"),
-        }
-    }
-
-    /// Diffuse albedo seen from `wo` (for the G-buffer); delta BSDFs report their
-    /// reflectance at normal incidence only through the chain they start.
-    pub fn albedo(&self, wo: Vec3) -> Rgb {
-        let (b, flip) = self.side(wo);
-        let wo = if flip { flip_z(wo) } else { wo };
+impl TryFrom<Bsdf> for OneSided {
+    /// Returns the BSDF back when it cannot be wrapped.
+    type Error = Bsdf;
+    fn try_from(b: Bsdf) -> Result<Self, Bsdf> {
         match b {
-            // The back of a one-sided surface renders black: its albedo is 0.
-            Bsdf::Diffuse(d) if wo.z > 0.0 => d.reflectance,
-            _ => Rgb::ZERO,
+            Bsdf::Diffuse(d) => Ok(OneSided::Diffuse(d)),
+            Bsdf::Conductor(c) => Ok(OneSided::Conductor(c)),
+            other @ (Bsdf::Dielectric(_) | Bsdf::TwoSided(_)) => Err(other),
         }
-    }
-
-    #[inline(always)]
-    pub fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
-        let (b, flip) = self.side(wo);
-        let (wo, wi) = if flip {
-            (flip_z(wo), flip_z(wi))
-        } else {
-            (wo, wi)
-        };
-        match b {
-            Bsdf::Diffuse(d) => d.eval(wo, wi),
-            Bsdf::Dielectric(_) | Bsdf::Conductor(_) => Rgb::ZERO,
-            Bsdf::TwoSided(..) => unreachable!("side() resolves twosided"),
-        }
-    }
-
-    #[inline(always)]
-    pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
-        let (b, flip) = self.side(wo);
-        let (wo, wi) = if flip {
-            (flip_z(wo), flip_z(wi))
-        } else {
-            (wo, wi)
-        };
-        match b {
-            Bsdf::Diffuse(d) => d.pdf(wo, wi),
-            Bsdf::Dielectric(_) | Bsdf::Conductor(_) => 0.0,
-            Bsdf::TwoSided(..) => unreachable!("side() resolves twosided"),
-        }
-    }
-
-    /// Samples `wi` with two uniform numbers in [0, 1) (`u1` picks a lobe).
-    #[inline(always)]
-    pub fn sample(&self, wo: Vec3, u1: f32, u2: [f32; 2]) -> Option<BsdfSample> {
-        let (b, flip) = self.side(wo);
-        let wo = if flip { flip_z(wo) } else { wo };
-        let s = match b {
-            Bsdf::Diffuse(d) => d.sample(wo, u2),
-            Bsdf::Dielectric(d) => d.sample(wo, u1),
-            Bsdf::Conductor(c) => c.sample(wo),
-            Bsdf::TwoSided(..) => unreachable!("side() resolves twosided"),
-        }?;
-        Some(if flip {
-            BsdfSample {
-                wi: flip_z(s.wi),
-                ..s
-            }
-        } else {
-            s
-        })
     }
 }
 
-#[inline]
+impl TwoSided {
+    /// The model seen from `wo` and whether the frame is flipped for it.
+    #[inline(always)]
+    pub fn side(&self, wo: Vec3) -> (&OneSided, bool) {
+        if wo.z >= 0.0 {
+            (&self.front, false)
+        } else {
+            (&self.back, true)
+        }
+    }
+}
+
+#[inline(always)]
 fn flip_z(v: Vec3) -> Vec3 {
     Vec3::new(v.x, v.y, -v.z)
+}
+
+impl BsdfModel for TwoSided {
+    #[inline(always)]
+    fn flags(&self, wo: Vec3) -> BsdfFlags {
+        let (b, flip) = self.side(wo);
+        b.flags(if flip { flip_z(wo) } else { wo })
+    }
+
+    #[inline(always)]
+    fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
+        match self.side(wo) {
+            (b, false) => b.eval(wo, wi),
+            (b, true) => b.eval(flip_z(wo), flip_z(wi)),
+        }
+    }
+
+    #[inline(always)]
+    fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        match self.side(wo) {
+            (b, false) => b.pdf(wo, wi),
+            (b, true) => b.pdf(flip_z(wo), flip_z(wi)),
+        }
+    }
+
+    #[inline(always)]
+    fn sample(&self, wo: Vec3, u1: f32, u2: [f32; 2]) -> Option<BsdfSample> {
+        match self.side(wo) {
+            (b, false) => b.sample(wo, u1, u2),
+            (b, true) => {
+                let s = b.sample(flip_z(wo), u1, u2)?;
+                Some(BsdfSample {
+                    wi: flip_z(s.wi),
+                    ..s
+                })
+            }
+        }
+    }
+
+    fn albedo(&self, wo: Vec3) -> Rgb {
+        let (b, flip) = self.side(wo);
+        b.albedo(if flip { flip_z(wo) } else { wo })
+    }
+}
+
+/// Forwards every [`BsdfModel`] method to the variant's model.
+macro_rules! dispatch {
+    ($self:ident, $b:ident => $call:expr, $($variant:path),+) => {
+        match $self {
+            $($variant($b) => $call,)+
+        }
+    };
+}
+
+impl BsdfModel for OneSided {
+    #[inline(always)]
+    fn flags(&self, wo: Vec3) -> BsdfFlags {
+        dispatch!(self, b => b.flags(wo), OneSided::Diffuse, OneSided::Conductor)
+    }
+    #[inline(always)]
+    fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
+        dispatch!(self, b => b.eval(wo, wi), OneSided::Diffuse, OneSided::Conductor)
+    }
+    #[inline(always)]
+    fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        dispatch!(self, b => b.pdf(wo, wi), OneSided::Diffuse, OneSided::Conductor)
+    }
+    #[inline(always)]
+    fn sample(&self, wo: Vec3, u1: f32, u2: [f32; 2]) -> Option<BsdfSample> {
+        dispatch!(self, b => b.sample(wo, u1, u2), OneSided::Diffuse, OneSided::Conductor)
+    }
+    fn albedo(&self, wo: Vec3) -> Rgb {
+        dispatch!(self, b => b.albedo(wo), OneSided::Diffuse, OneSided::Conductor)
+    }
+}
+
+impl BsdfModel for Bsdf {
+    #[inline(always)]
+    fn flags(&self, wo: Vec3) -> BsdfFlags {
+        dispatch!(self, b => b.flags(wo),
+            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::TwoSided)
+    }
+    #[inline(always)]
+    fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
+        dispatch!(self, b => b.eval(wo, wi),
+            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::TwoSided)
+    }
+    #[inline(always)]
+    fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        dispatch!(self, b => b.pdf(wo, wi),
+            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::TwoSided)
+    }
+    #[inline(always)]
+    fn sample(&self, wo: Vec3, u1: f32, u2: [f32; 2]) -> Option<BsdfSample> {
+        dispatch!(self, b => b.sample(wo, u1, u2),
+            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::TwoSided)
+    }
+    fn albedo(&self, wo: Vec3) -> Rgb {
+        dispatch!(self, b => b.albedo(wo),
+            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::TwoSided)
+    }
 }

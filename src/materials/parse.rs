@@ -1,6 +1,6 @@
 //! Reading `<bsdf>` elements (and `<ref>`s to them) into [`Bsdf`] values.
 
-use super::{Bsdf, Conductor, Dielectric, Diffuse};
+use super::{Bsdf, Conductor, Dielectric, Diffuse, OneSided, TwoSided};
 use crate::math::Rgb;
 use crate::scene::error::SceneError;
 use crate::scene::props::{Ctx, Props, Value};
@@ -180,13 +180,13 @@ pub fn parse_bsdf(
                 [f, b] => (f.clone(), b.clone()),
                 _ => return Err(props.err("twosided needs one or two nested BSDFs")),
             };
-            for b in [&front, &back] {
-                if matches!(b, Bsdf::Dielectric(_) | Bsdf::TwoSided(..)) {
-                    return Err(props.err("twosided cannot wrap a dielectric or another twosided"));
-                }
-            }
+            let one_sided = |b: Bsdf| {
+                OneSided::try_from(b)
+                    .map_err(|_| props.err("twosided cannot wrap a dielectric or another twosided"))
+            };
+            let (front, back) = (one_sided(front)?, one_sided(back)?);
             props.objects.clear();
-            Bsdf::TwoSided(Box::new(front), Box::new(back))
+            Bsdf::TwoSided(TwoSided { front, back })
         }
         other => {
             return Err(props.err(format!(

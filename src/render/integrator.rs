@@ -6,6 +6,7 @@ use super::cpu::{Isa, ISA_AVX2, ISA_AVX512, ISA_BASELINE};
 use super::deposits::PathDeposits;
 use super::gbuffer::GSample;
 use crate::geometry::accel::{offset_origin, ray_epsilon};
+use crate::materials::BsdfModel;
 use crate::math::frame::Frame;
 use crate::math::rng::Pcg32;
 use crate::math::sampling::power_heuristic;
@@ -184,7 +185,8 @@ unsafe fn trace_path_body<const ISA: u8>(
             }
         }
 
-        let delta = bsdf.is_delta(wo);
+        // Next-event estimation and MIS need a lobe with a density; the flags say so.
+        let delta = !bsdf.flags(wo).has_non_delta();
         if g_pending && (!delta || seen_emitter) {
             g_pending = false;
             g.albedo = bsdf.albedo(wo);
@@ -247,7 +249,7 @@ unsafe fn trace_path_body<const ISA: u8>(
         let wi_world = frame.to_world(bs.wi);
         beta *= bs.weight;
         eta *= bs.eta;
-        prev_delta = bs.delta;
+        prev_delta = bs.lobe.is_delta();
         prev_pdf = bs.pdf;
         o = offset_origin(sp.p, sp.ng, wi_world);
         d = wi_world.normalize();

@@ -1,0 +1,985 @@
+//! The sampling harness every BSDF and emitter goes through (after pbrt-v4's `Chi2Test`
+//! and Mitsuba 3's chi2 tests; written from their descriptions):
+//!
+//! - chi-square of sampled directions against the pdf integrated over a theta x phi
+//!   grid on the sphere (adaptive Simpson per cell, cells with a small expected count
+//!   pooled, fixed seeds), for the non-delta lobes;
+//! - for delta lobes: every direction equals the analytic reflection or refraction,
+//!   and the reflect/refract choice frequency matches the Fresnel reflectance
+//!   (two-sided binomial test), Fresnel and Snell computed here in f64, independently;
+//! - sample weight == eval / pdf and sample pdf == pdf (eval includes |cos|);
+//! - the pdf integrates to 1 over the sphere;
+//! - white furnace: the mean energy weight equals `albedo(wo)`, is <= 1, and is 1 for
+//!   lossless models;
+//! - reciprocity of f = eval / |cos wi| for reflection;
+//! - emitters: the solid-angle pdf of a light sample equals the pdf the integrator's
+//!   MIS computes when it hits the same point, and samples are uniform by area.
+//!
+//! All statistical tests of this file form one family: each is held to
+//! `ALPHA / FAMILY` (Bonferroni), so the whole file fails by chance with probability
+//! below `ALPHA`. Broken BSDFs defined here must be rejected, so the harness is not
+//! vacuous.
+
+use glam::Vec3;
+use statrs::distribution::{Binomial, ChiSquared, ContinuousCDF, DiscreteCDF};
+use std::f64::consts::PI;
+use tstat::geometry::shape::ShapeGeom;
+use tstat::lights::Emitter;
+use tstat::materials::{
+    Bsdf, BsdfFlags, BsdfModel, BsdfSample, Conductor, Dielectric, Diffuse, OneSided, TwoSided,
+};
+use tstat::math::rng::Pcg32;
+use tstat::math::sampling::{cosine_hemisphere, cosine_hemisphere_pdf};
+use tstat::math::Rgb;
+
+/// Overall significance of the file's statistical tests.
+const ALPHA: f64 = 0.01;
+/// Chi-square BSDF cases + delta cases + light cases (checked in each test).
+const FAMILY: usize = 32;
+/// The Bonferroni-corrected level of one test.
+const LEVEL: f64 = ALPHA / FAMILY as f64;
+
+const THETA_CELLS: usize = 16;
+const PHI_CELLS: usize = 32;
+const CHI2_SAMPLES: usize = 1_000_000;
+/// Cells expecting fewer samples are pooled (the chi-square approximation needs ~5).
+const MIN_EXPECTED: f64 = 5.0;
+
+fn rgb(v: f32) -> Rgb {
+    Rgb::splat(v)
+}
+
+fn diffuse(r: f32) -> Diffuse {
+    Diffuse {
+        reflectance: rgb(r),
+    }
+}
+
+fn glass(eta: f32) -> Dielectric {
+    Dielectric {
+        eta,
+        specular_reflectance: Rgb::ONE,
+        specular_transmittance: Rgb::ONE,
+    }
+}
+
+fn gold() -> Conductor {
+    Conductor {
+        eta: Rgb::new(0.143119, 0.374957, 1.44248),
+        k: Rgb::new(3.98316, 2.38572, 1.60322),
+        specular_reflectance: Rgb::ONE,
+    }
+}
+
+fn mirror() -> Conductor {
+    Conductor {
+        eta: Rgb::ZERO,
+        k: Rgb::ONE,
+        specular_reflectance: Rgb::ONE,
+    }
+}
+
+fn two_sided(front: OneSided, back: OneSided) -> Bsdf {
+    Bsdf::TwoSided(TwoSided { front, back })
+}
+
+/// Unit direction at polar angle `theta_deg` from +z, azimuth `phi_deg`.
+fn dir(theta_deg: f64, phi_deg: f64) -> Vec3 {
+    let (t, p) = (theta_deg.to_radians(), phi_deg.to_radians());
+    Vec3::new(
+        (t.sin() * p.cos()) as f32,
+        (t.sin() * p.sin()) as f32,
+        t.cos() as f32,
+    )
+}
+
+// ---------------------------------------------------------------- broken BSDFs
+
+/// A Lambertian whose `pdf` reports twice the density `sample` uses.
+struct PdfOffByTwo(Diffuse);
+
+impl BsdfModel for PdfOffByTwo {
+    fn flags(&self, wo: Vec3) -> BsdfFlags {
+        self.0.flags(wo)
+    }
+    fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
+        self.0.eval(wo, wi)
+    }
+    fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        2.0 * self.0.pdf(wo, wi)
+    }
+    fn sample(&self, wo: Vec3, u1: f32, u2: [f32; 2]) -> Option<BsdfSample> {
+        self.0.sample(wo, u1, u2)
+    }
+    fn albedo(&self, wo: Vec3) -> Rgb {
+        self.0.albedo(wo)
+    }
+}
+
+/// A Lambertian that samples the hemisphere uniformly but reports the cosine density.
+struct SkewedSampling(Diffuse);
+
+impl BsdfModel for SkewedSampling {
+    fn flags(&self, wo: Vec3) -> BsdfFlags {
+        self.0.flags(wo)
+    }
+    fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
+        self.0.eval(wo, wi)
+    }
+    fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        self.0.pdf(wo, wi)
+    }
+    fn sample(&self, wo: Vec3, _u1: f32, u2: [f32; 2]) -> Option<BsdfSample> {
+        if wo.z <= 0.0 {
+            return None;
+        }
+        let z = u2[0];
+        let r = (1.0 - z * z).max(0.0).sqrt();
+        let phi = 2.0 * std::f32::consts::PI * u2[1];
+        let wi = Vec3::new(r * phi.cos(), r * phi.sin(), z);
+        let pdf = cosine_hemisphere_pdf(wi.z);
+        (pdf > 0.0).then_some(BsdfSample {
+            wi,
+            weight: self.0.reflectance,
+            pdf,
+            lobe: BsdfFlags::DIFFUSE_REFLECTION,
+            eta: 1.0,
+        })
+    }
+    fn albedo(&self, wo: Vec3) -> Rgb {
+        self.0.albedo(wo)
+    }
+}
+
+/// A glass that reflects with the normal-incidence reflectance at every angle.
+struct FresnelAtNormal(Dielectric);
+
+impl BsdfModel for FresnelAtNormal {
+    fn flags(&self, wo: Vec3) -> BsdfFlags {
+        self.0.flags(wo)
+    }
+    fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
+        self.0.eval(wo, wi)
+    }
+    fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        self.0.pdf(wo, wi)
+    }
+    fn sample(&self, wo: Vec3, u1: f32, u2: [f32; 2]) -> Option<BsdfSample> {
+        let r0 = ((self.0.eta - 1.0) / (self.0.eta + 1.0)).powi(2);
+        self.0
+            .sample(wo, if u1 < r0 { 0.0 } else { 1.0 - 1e-7 }, u2)
+    }
+    fn albedo(&self, wo: Vec3) -> Rgb {
+        self.0.albedo(wo)
+    }
+}
+
+/// A glass that forgets the eta^2 radiance scaling of refraction.
+struct NoRadianceScaling(Dielectric);
+
+impl BsdfModel for NoRadianceScaling {
+    fn flags(&self, wo: Vec3) -> BsdfFlags {
+        self.0.flags(wo)
+    }
+    fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
+        self.0.eval(wo, wi)
+    }
+    fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        self.0.pdf(wo, wi)
+    }
+    fn sample(&self, wo: Vec3, u1: f32, u2: [f32; 2]) -> Option<BsdfSample> {
+        let s = self.0.sample(wo, u1, u2)?;
+        Some(BsdfSample {
+            weight: self.0.specular_transmittance,
+            ..s
+        })
+    }
+    fn albedo(&self, wo: Vec3) -> Rgb {
+        self.0.albedo(wo)
+    }
+}
+
+/// f = 2 R cos(wo) / pi: integrates to R over wi for normal incidence, but is not
+/// symmetric in wo and wi.
+struct NonReciprocal(Diffuse);
+
+impl BsdfModel for NonReciprocal {
+    fn flags(&self, wo: Vec3) -> BsdfFlags {
+        self.0.flags(wo)
+    }
+    fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
+        self.0.eval(wo, wi) * (2.0 * wo.z)
+    }
+    fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        self.0.pdf(wo, wi)
+    }
+    fn sample(&self, wo: Vec3, u1: f32, u2: [f32; 2]) -> Option<BsdfSample> {
+        let s = self.0.sample(wo, u1, u2)?;
+        Some(BsdfSample {
+            weight: s.weight * (2.0 * wo.z),
+            ..s
+        })
+    }
+    fn albedo(&self, wo: Vec3) -> Rgb {
+        self.0.albedo(wo) * (2.0 * wo.z).max(0.0)
+    }
+}
+
+// ---------------------------------------------------------------- the cases
+
+type Case = (String, Box<dyn BsdfModel>, Vec3);
+
+/// A delta case and, for a dielectric, its relative IOR (a conductor always reflects).
+type DeltaCase = (String, Box<dyn BsdfModel>, Vec3, Option<f64>);
+
+/// Models with non-delta lobes, each with a `wo` from which they scatter.
+fn non_delta_cases() -> Vec<Case> {
+    let d = || OneSided::Diffuse(diffuse(0.7));
+    let cases: Vec<(&str, Box<dyn BsdfModel>, Vec3)> = vec![
+        (
+            "diffuse, normal incidence",
+            Box::new(diffuse(0.7)),
+            dir(0.0, 0.0),
+        ),
+        ("diffuse, 45 deg", Box::new(diffuse(0.7)), dir(45.0, 30.0)),
+        ("diffuse, 85 deg", Box::new(diffuse(1.0)), dir(85.0, 200.0)),
+        (
+            "twosided diffuse, front",
+            Box::new(two_sided(d(), d())),
+            dir(30.0, 10.0),
+        ),
+        (
+            "twosided diffuse, back",
+            Box::new(two_sided(d(), d())),
+            dir(120.0, 10.0),
+        ),
+        (
+            "twosided conductor/diffuse, back",
+            Box::new(two_sided(OneSided::Conductor(gold()), d())),
+            dir(160.0, 300.0),
+        ),
+    ];
+    cases
+        .into_iter()
+        .map(|(n, b, wo)| (n.to_string(), b, wo))
+        .collect()
+}
+
+/// Delta-only models and a `wo`.
+fn delta_cases() -> Vec<DeltaCase> {
+    let mut cases: Vec<DeltaCase> = Vec::new();
+    for (name, eta) in [
+        ("glass 1.5", 1.5f32),
+        ("water 1.333", 1.333),
+        ("diamond 2.419", 2.419),
+        ("eta 0.7 (< 1)", 0.7),
+    ] {
+        for theta in [0.0, 40.0, 75.0, 150.0, 125.0] {
+            // 150 and 125 deg: from inside; 125 deg is past the critical angle for
+            // eta >= 1.333 (total internal reflection), not for eta 0.7.
+            cases.push((
+                format!("{name}, {theta} deg"),
+                Box::new(glass(eta)),
+                dir(theta, 77.0),
+                Some(eta as f64),
+            ));
+        }
+    }
+    cases.push(("gold".into(), Box::new(gold()), dir(60.0, 10.0), None));
+    cases.push(("mirror".into(), Box::new(mirror()), dir(20.0, 100.0), None));
+    cases.push((
+        "twosided gold, back".into(),
+        Box::new(two_sided(
+            OneSided::Diffuse(diffuse(0.5)),
+            OneSided::Conductor(gold()),
+        )),
+        dir(110.0, 45.0),
+        None,
+    ));
+    cases
+}
+
+/// Every model, for the checks that apply to all (furnace, reciprocity, weights).
+fn all_models() -> Vec<(&'static str, Box<dyn BsdfModel>)> {
+    let d = |r| OneSided::Diffuse(diffuse(r));
+    vec![
+        ("white diffuse", Box::new(diffuse(1.0))),
+        ("grey diffuse", Box::new(diffuse(0.4))),
+        ("glass 1.5", Box::new(glass(1.5))),
+        ("glass 0.7", Box::new(glass(0.7))),
+        (
+            "tinted glass",
+            Box::new(Dielectric {
+                eta: 1.33,
+                specular_reflectance: Rgb::new(1.0, 0.5, 0.2),
+                specular_transmittance: Rgb::new(0.3, 0.9, 1.0),
+            }),
+        ),
+        ("gold", Box::new(gold())),
+        ("mirror", Box::new(mirror())),
+        ("twosided diffuse", Box::new(two_sided(d(1.0), d(0.3)))),
+        (
+            "twosided diffuse/gold",
+            Box::new(two_sided(d(0.8), OneSided::Conductor(gold()))),
+        ),
+        (
+            "twosided mirror/white diffuse",
+            Box::new(two_sided(OneSided::Conductor(mirror()), d(1.0))),
+        ),
+    ]
+}
+
+#[test]
+fn the_family_size_is_the_number_of_tests() {
+    assert_eq!(
+        non_delta_cases().len() + delta_cases().len() + LIGHT_CASES,
+        FAMILY
+    );
+}
+
+// ---------------------------------------------------------------- the spherical grid
+
+fn cell_of(w: Vec3) -> usize {
+    let w = w.as_dvec3().normalize();
+    let theta = w.z.clamp(-1.0, 1.0).acos();
+    let phi = w.y.atan2(w.x).rem_euclid(2.0 * PI);
+    let t = ((theta / PI * THETA_CELLS as f64) as usize).min(THETA_CELLS - 1);
+    let p = ((phi / (2.0 * PI) * PHI_CELLS as f64) as usize).min(PHI_CELLS - 1);
+    t * PHI_CELLS + p
+}
+
+/// Adaptive Simpson on [a, b] to absolute tolerance `eps`.
+fn simpson(f: &mut dyn FnMut(f64) -> f64, a: f64, b: f64, eps: f64) -> f64 {
+    fn rec(
+        f: &mut dyn FnMut(f64) -> f64,
+        (a, fa): (f64, f64),
+        (m, fm): (f64, f64),
+        (b, fb): (f64, f64),
+        whole: f64,
+        eps: f64,
+        depth: u32,
+    ) -> f64 {
+        let (lm, rm) = (0.5 * (a + m), 0.5 * (m + b));
+        let (flm, frm) = (f(lm), f(rm));
+        let left = (m - a) / 6.0 * (fa + 4.0 * flm + fm);
+        let right = (b - m) / 6.0 * (fm + 4.0 * frm + fb);
+        let delta = left + right - whole;
+        if depth == 0 || delta.abs() <= 15.0 * eps {
+            return left + right + delta / 15.0;
+        }
+        rec(f, (a, fa), (lm, flm), (m, fm), left, eps / 2.0, depth - 1)
+            + rec(f, (m, fm), (rm, frm), (b, fb), right, eps / 2.0, depth - 1)
+    }
+    let m = 0.5 * (a + b);
+    let (fa, fm, fb) = (f(a), f(m), f(b));
+    let whole = (b - a) / 6.0 * (fa + 4.0 * fm + fb);
+    rec(f, (a, fa), (m, fm), (b, fb), whole, eps, 12)
+}
+
+/// The pdf integrated over every grid cell (solid angle: sin(theta) dtheta dphi).
+fn cell_integrals(b: &dyn BsdfModel, wo: Vec3) -> Vec<f64> {
+    let (dt, dp) = (PI / THETA_CELLS as f64, 2.0 * PI / PHI_CELLS as f64);
+    let mut out = Vec::with_capacity(THETA_CELLS * PHI_CELLS);
+    for t in 0..THETA_CELLS {
+        for p in 0..PHI_CELLS {
+            let (t0, p0) = (t as f64 * dt, p as f64 * dp);
+            let mut outer = |theta: f64| {
+                let mut inner = |phi: f64| {
+                    let w = Vec3::new(
+                        (theta.sin() * phi.cos()) as f32,
+                        (theta.sin() * phi.sin()) as f32,
+                        theta.cos() as f32,
+                    );
+                    b.pdf(wo, w) as f64 * theta.sin()
+                };
+                simpson(&mut inner, p0, p0 + dp, 1e-8)
+            };
+            out.push(simpson(&mut outer, t0, t0 + dt, 1e-8));
+        }
+    }
+    out
+}
+
+/// Chi-square p-value of `CHI2_SAMPLES` non-delta samples against the integrated pdf.
+/// A sample in a cell whose expected count is zero gives p = 0 (pbrt's rule).
+fn chi2_p_value(b: &dyn BsdfModel, wo: Vec3, seed: u64) -> f64 {
+    let expected: Vec<f64> = cell_integrals(b, wo)
+        .into_iter()
+        .map(|v| v * CHI2_SAMPLES as f64)
+        .collect();
+    let mut observed = vec![0u64; expected.len()];
+    let mut rng = Pcg32::new(seed, 0xb5df);
+    for _ in 0..CHI2_SAMPLES {
+        let (u1, u2) = (rng.next_f32(), rng.next_2d());
+        if let Some(s) = b.sample(wo, u1, u2) {
+            if !s.lobe.is_delta() {
+                observed[cell_of(s.wi)] += 1;
+            }
+        }
+    }
+    let mut order: Vec<usize> = (0..expected.len()).collect();
+    order.sort_by(|&i, &j| expected[i].total_cmp(&expected[j]));
+    let (mut stat, mut cells) = (0.0, 0usize);
+    let (mut pool_e, mut pool_o) = (0.0, 0.0);
+    for i in order {
+        let (e, o) = (expected[i], observed[i] as f64);
+        if e == 0.0 && o > 0.0 {
+            return 0.0;
+        }
+        if e < MIN_EXPECTED {
+            pool_e += e;
+            pool_o += o;
+            continue;
+        }
+        stat += (o - e) * (o - e) / e;
+        cells += 1;
+    }
+    // The pooled cells; a remainder still below MIN_EXPECTED joins nothing (dropped
+    // along with its observations, as pbrt does).
+    if pool_e >= MIN_EXPECTED {
+        stat += (pool_o - pool_e) * (pool_o - pool_e) / pool_e;
+        cells += 1;
+    }
+    assert!(cells >= 2, "too few cells for a chi-square test");
+    ChiSquared::new((cells - 1) as f64).unwrap().sf(stat)
+}
+
+// ---------------------------------------------------------------- (a) distributions
+
+#[test]
+fn sampled_directions_follow_the_pdf() {
+    let mut ps = Vec::new();
+    for (i, (name, b, wo)) in non_delta_cases().into_iter().enumerate() {
+        let p = chi2_p_value(b.as_ref(), wo, 1000 + i as u64);
+        assert!(p > LEVEL, "{name}: chi-square p = {p:.3e} <= {LEVEL:.1e}");
+        ps.push(p);
+    }
+    let (lo, hi) = ps
+        .iter()
+        .fold((1.0f64, 0.0f64), |(a, b), &p| (a.min(p), b.max(p)));
+    eprintln!(
+        "chi-square p-values of {} cases in [{lo:.3}, {hi:.3}]",
+        ps.len()
+    );
+}
+
+#[test]
+fn chi_square_rejects_broken_sampling() {
+    let wo = dir(30.0, 0.0);
+    let p = chi2_p_value(&PdfOffByTwo(diffuse(0.5)), wo, 1);
+    assert!(p < LEVEL, "pdf off by two passed: p = {p}");
+    let p = chi2_p_value(&SkewedSampling(diffuse(0.5)), wo, 2);
+    assert!(
+        p < LEVEL,
+        "uniform sampling against a cosine pdf passed: p = {p}"
+    );
+}
+
+/// Fresnel reflectance and refracted direction in f64, from Snell's law directly.
+fn reference_fresnel(wo: Vec3, eta: f64) -> (f64, Option<[f64; 3]>) {
+    let wo = wo.as_dvec3();
+    let (n1, n2) = if wo.z > 0.0 { (1.0, eta) } else { (eta, 1.0) };
+    let ci = wo.z.abs();
+    let si = (1.0 - ci * ci).max(0.0).sqrt();
+    let st = n1 / n2 * si;
+    if st >= 1.0 {
+        return (1.0, None);
+    }
+    let ct = (1.0 - st * st).sqrt();
+    let rs = ((n1 * ci - n2 * ct) / (n1 * ci + n2 * ct)).powi(2);
+    let rp = ((n1 * ct - n2 * ci) / (n1 * ct + n2 * ci)).powi(2);
+    let scale = n1 / n2;
+    let t = [-scale * wo.x, -scale * wo.y, -wo.z.signum() * ct];
+    (0.5 * (rs + rp), Some(t))
+}
+
+fn close(a: Vec3, b: [f64; 3], tol: f64) -> bool {
+    (0..3).all(|i| (a[i] as f64 - b[i]).abs() <= tol)
+}
+
+/// Two-sided binomial p-value of `k` successes in `n` trials with probability `p`.
+fn binomial_p_value(k: u64, n: u64, p: f64) -> f64 {
+    if p <= 0.0 || p >= 1.0 {
+        let certain = if p <= 0.0 { 0 } else { n };
+        return if k == certain { 1.0 } else { 0.0 };
+    }
+    let d = Binomial::new(p, n).unwrap();
+    let lower = d.cdf(k);
+    let upper = if k == 0 { 1.0 } else { d.sf(k - 1) };
+    (2.0 * lower.min(upper)).min(1.0)
+}
+
+/// Checks the delta lobes of `b` from `wo` against Fresnel (`eta`: `None` for a
+/// conductor, which always reflects); returns the binomial p-value of the choice.
+fn delta_p_value(b: &dyn BsdfModel, wo: Vec3, eta: Option<f64>, seed: u64) -> f64 {
+    const N: u64 = 20_000;
+    let reflected = [-wo.x as f64, -wo.y as f64, wo.z as f64];
+    let (r, refracted) = match eta {
+        Some(e) => reference_fresnel(wo, e),
+        None => (1.0, None),
+    };
+    let mut rng = Pcg32::new(seed, 0xde17a);
+    let mut n_reflect = 0;
+    for _ in 0..N {
+        let s = b
+            .sample(wo, rng.next_f32(), rng.next_2d())
+            .expect("a delta BSDF always scatters");
+        assert!(s.lobe.is_delta(), "a delta model sampled {:?}", s.lobe);
+        if s.lobe == BsdfFlags::DELTA_REFLECTION {
+            assert!(
+                close(s.wi, reflected, 1e-6),
+                "reflection {} from {wo}",
+                s.wi
+            );
+            n_reflect += 1;
+        } else {
+            assert_eq!(s.lobe, BsdfFlags::DELTA_TRANSMISSION);
+            let t = refracted.expect("refraction past the critical angle");
+            assert!(close(s.wi, t, 1e-5), "refraction {} from {wo}", s.wi);
+            let e = eta.expect("only dielectrics refract");
+            let eta_it = if wo.z > 0.0 { e } else { 1.0 / e };
+            assert!(
+                (s.eta as f64 - eta_it).abs() < 1e-6,
+                "eta {} from {wo}",
+                s.eta
+            );
+        }
+    }
+    binomial_p_value(n_reflect, N, r)
+}
+
+#[test]
+fn delta_lobes_are_exact_and_chosen_with_fresnel_probability() {
+    let mut ps = Vec::new();
+    for (i, (name, b, wo, eta)) in delta_cases().into_iter().enumerate() {
+        assert!(b.flags(wo).is_delta(), "{name}");
+        assert_eq!(b.eval(wo, -wo), Rgb::ZERO, "{name}");
+        assert_eq!(b.pdf(wo, Vec3::new(-wo.x, -wo.y, wo.z)), 0.0, "{name}");
+        let p = delta_p_value(b.as_ref(), wo, eta, 2000 + i as u64);
+        assert!(p > LEVEL, "{name}: binomial p = {p:.3e} <= {LEVEL:.1e}");
+        ps.push(p);
+    }
+    let (lo, hi) = ps
+        .iter()
+        .fold((1.0f64, 0.0f64), |(a, b), &p| (a.min(p), b.max(p)));
+    eprintln!(
+        "binomial p-values of {} delta cases in [{lo:.3}, {hi:.3}]",
+        ps.len()
+    );
+}
+
+#[test]
+fn binomial_test_rejects_a_wrong_fresnel_choice() {
+    // At 75 deg R = 0.15 while R0 = 0.04.
+    let p = delta_p_value(&FresnelAtNormal(glass(1.5)), dir(75.0, 0.0), Some(1.5), 3);
+    assert!(p < LEVEL, "reflection with R0 at 75 deg passed: p = {p}");
+}
+
+// ---------------------------------------------------------------- (b) weights, (c) pdf
+
+/// Largest relative mismatch of weight vs eval / pdf and of sample pdf vs pdf over
+/// `n` samples of `b` from `wo` (non-delta samples only).
+fn weight_mismatch(b: &dyn BsdfModel, wo: Vec3, n: usize, seed: u64) -> f32 {
+    let mut rng = Pcg32::new(seed, 0x3e16);
+    let mut worst = 0.0f32;
+    for _ in 0..n {
+        let Some(s) = b.sample(wo, rng.next_f32(), rng.next_2d()) else {
+            continue;
+        };
+        if s.lobe.is_delta() {
+            continue;
+        }
+        let pdf = b.pdf(wo, s.wi);
+        let want = b.eval(wo, s.wi) / pdf;
+        let rel = |a: f32, b: f32| (a - b).abs() / b.abs().max(1e-6);
+        worst = worst.max(rel(s.pdf, pdf));
+        for c in 0..3 {
+            worst = worst.max(rel(s.weight[c], want[c]));
+        }
+    }
+    worst
+}
+
+#[test]
+fn sample_weight_is_eval_over_pdf() {
+    let mut rng = Pcg32::new(11, 1);
+    for (name, b) in all_models() {
+        for i in 0..32 {
+            let wo = tstat::math::sampling::uniform_sphere(rng.next_2d());
+            let m = weight_mismatch(b.as_ref(), wo, 256, i);
+            assert!(m < 1e-5, "{name} from {wo}: relative mismatch {m}");
+        }
+    }
+    let m = weight_mismatch(&PdfOffByTwo(diffuse(0.5)), dir(10.0, 0.0), 256, 0);
+    assert!(m > 0.4, "pdf off by two passed the weight check: {m}");
+}
+
+/// Tolerance on the integral of the pdf: each of the 512 cells is integrated to an
+/// absolute 1e-8 (Simpson's error estimate), so quadrature contributes < 1e-5; the f32
+/// pdf and direction carry relative errors ~1e-7. 1e-4 leaves room for the kink of a
+/// one-sided lobe at the horizon, which lies on a cell edge, and still rejects any pdf
+/// wrong by more than 0.01 %.
+const PDF_INTEGRAL_TOL: f64 = 1e-4;
+
+#[test]
+fn pdf_integrates_to_one() {
+    let mut worst = 0.0f64;
+    for (name, b, wo) in non_delta_cases() {
+        let total: f64 = cell_integrals(b.as_ref(), wo).iter().sum();
+        assert!((total - 1.0).abs() < PDF_INTEGRAL_TOL, "{name}: {total}");
+        worst = worst.max((total - 1.0).abs());
+    }
+    eprintln!("largest |integral of pdf - 1| = {worst:.2e}");
+    // The back of a one-sided model: no density and no samples.
+    let back = dir(120.0, 0.0);
+    let total: f64 = cell_integrals(&diffuse(0.5), back).iter().sum();
+    assert_eq!(total, 0.0);
+    assert!(diffuse(0.5).sample(back, 0.5, [0.5; 2]).is_none());
+    let total: f64 = cell_integrals(&PdfOffByTwo(diffuse(0.5)), dir(20.0, 0.0))
+        .iter()
+        .sum();
+    assert!(
+        (total - 1.0).abs() > PDF_INTEGRAL_TOL,
+        "pdf off by two integrated to {total}"
+    );
+}
+
+// ---------------------------------------------------------------- (d) furnace
+
+/// Mean energy weight (transmission times eta^2, undoing the radiance compression)
+/// and its standard error, per channel.
+fn furnace(b: &dyn BsdfModel, wo: Vec3, n: usize, seed: u64) -> (Rgb, Rgb) {
+    let mut rng = Pcg32::new(seed, 0xf0);
+    let (mut sum, mut sum2) = (glam::DVec3::ZERO, glam::DVec3::ZERO);
+    for _ in 0..n {
+        if let Some(s) = b.sample(wo, rng.next_f32(), rng.next_2d()) {
+            let e = if s.lobe.intersects(BsdfFlags::TRANSMISSION) {
+                s.weight * (s.eta * s.eta)
+            } else {
+                s.weight
+            };
+            let e = e.as_dvec3();
+            sum += e;
+            sum2 += e * e;
+        }
+    }
+    let mean = sum / n as f64;
+    let var = (sum2 / n as f64 - mean * mean).max(glam::DVec3::ZERO);
+    (mean.as_vec3(), (var / n as f64).sqrt().as_vec3())
+}
+
+/// Five standard errors (two-sided normal p ~ 6e-7, far below `LEVEL`), plus f32
+/// rounding.
+fn within(a: Rgb, b: Rgb, se: Rgb) -> bool {
+    (0..3).all(|c| (a[c] - b[c]).abs() <= 5.0 * se[c] + 1e-5)
+}
+
+#[test]
+fn white_furnace() {
+    let mut rng = Pcg32::new(5, 5);
+    for (name, b) in all_models() {
+        for i in 0..48 {
+            let wo = tstat::math::sampling::uniform_sphere(rng.next_2d());
+            let (mean, se) = furnace(b.as_ref(), wo, 2048, i);
+            let albedo = b.albedo(wo);
+            assert!(
+                within(mean, albedo, se),
+                "{name} from {wo}: mean {mean}, albedo {albedo}"
+            );
+            assert!(
+                albedo.max_element() <= 1.0 + 1e-6,
+                "{name} from {wo}: albedo {albedo}"
+            );
+        }
+    }
+    // Lossless: white diffuse from the front, clear glass from anywhere, a perfect
+    // mirror, a white twosided diffuse from either side.
+    let lossless: Vec<(&str, Box<dyn BsdfModel>, bool)> = vec![
+        ("white diffuse", Box::new(diffuse(1.0)), true),
+        ("glass 1.5", Box::new(glass(1.5)), false),
+        ("glass 0.7", Box::new(glass(0.7)), false),
+        ("mirror", Box::new(mirror()), true),
+        (
+            "white twosided",
+            Box::new(two_sided(
+                OneSided::Diffuse(diffuse(1.0)),
+                OneSided::Diffuse(diffuse(1.0)),
+            )),
+            false,
+        ),
+    ];
+    for (name, b, front_only) in lossless {
+        for i in 0..48 {
+            let mut wo = tstat::math::sampling::uniform_sphere(rng.next_2d());
+            if front_only {
+                wo.z = wo.z.abs();
+            }
+            let (mean, se) = furnace(b.as_ref(), wo, 2048, 100 + i);
+            assert!(within(mean, Rgb::ONE, se), "{name} from {wo}: {mean}");
+            assert!(within(b.albedo(wo), Rgb::ONE, Rgb::ZERO), "{name}: albedo");
+        }
+    }
+    let (mean, _) = furnace(&NoRadianceScaling(glass(1.5)), dir(10.0, 0.0), 2048, 0);
+    assert!(
+        mean.max_element() > 1.5,
+        "glass without eta^2 passed the furnace: {mean}"
+    );
+}
+
+// ---------------------------------------------------------------- (e) reciprocity
+
+/// Largest relative asymmetry of f = eval / |cos wi| over same-side direction pairs.
+fn asymmetry(b: &dyn BsdfModel, seed: u64) -> f32 {
+    let mut rng = Pcg32::new(seed, 0x5e);
+    let mut worst = 0.0f32;
+    for _ in 0..2000 {
+        let wo = tstat::math::sampling::uniform_sphere(rng.next_2d());
+        let mut wi = cosine_hemisphere(rng.next_2d());
+        wi.z *= wo.z.signum();
+        let f = b.eval(wo, wi) / wi.z.abs();
+        let g = b.eval(wi, wo) / wo.z.abs();
+        for c in 0..3 {
+            let scale = f[c].abs().max(g[c].abs());
+            if scale > 0.0 {
+                worst = worst.max((f[c] - g[c]).abs() / scale);
+            }
+        }
+    }
+    worst
+}
+
+#[test]
+fn reflection_is_reciprocal() {
+    for (i, (name, b)) in all_models().into_iter().enumerate() {
+        let a = asymmetry(b.as_ref(), i as u64);
+        assert!(
+            a < 1e-5,
+            "{name}: eval(wo, wi) != eval(wi, wo), relative {a}"
+        );
+    }
+    let a = asymmetry(&NonReciprocal(diffuse(0.5)), 0);
+    assert!(a > 0.1, "a non-reciprocal model passed: {a}");
+}
+
+// ---------------------------------------------------------------- emitters
+
+/// Light cases in the family: per area emitter, the area-uniformity chi-square test.
+const LIGHT_CASES: usize = 3;
+
+const LIGHT_SCENE: &str = r#"<scene version="3.0.0">
+    <integrator type="transient_path"><integer name="max_depth" value="4"/></integrator>
+    <sensor type="perspective">
+        <float name="fov" value="40"/>
+        <transform name="to_world"><lookat origin="0, 0, 3" target="0, 0, 0" up="0, 1, 0"/></transform>
+        <film type="transient_hdr_film">
+            <integer name="width" value="8"/><integer name="height" value="8"/>
+            <integer name="temporal_bins" value="4"/>
+            <float name="start_opl" value="0"/><float name="bin_width_opl" value="1"/>
+        </film>
+    </sensor>
+    <shape type="rectangle">
+        <transform name="to_world">
+            <scale x="0.5" y="0.3" z="1"/><rotate x="1" angle="90"/><translate x="0" y="0.9" z="0"/>
+        </transform>
+        <emitter type="area"><rgb name="radiance" value="1"/></emitter>
+    </shape>
+    <shape type="sphere">
+        <point name="center" x="0.6" y="0" z="-0.6"/><float name="radius" value="0.2"/>
+        <emitter type="area"><rgb name="radiance" value="2"/></emitter>
+    </shape>
+    <shape type="cube">
+        <transform name="to_world">
+            <scale x="0.1" y="0.2" z="0.3"/><rotate y="1" angle="30"/><translate x="-0.6" y="0" z="-0.6"/>
+        </transform>
+        <emitter type="area"><rgb name="radiance" value="3"/></emitter>
+    </shape>
+    <emitter type="point"><point name="position" x="0" y="0.5" z="0.5"/><rgb name="intensity" value="1"/></emitter>
+</scene>"#;
+
+fn light_scene() -> tstat::scene::Scene {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("lights.xml");
+    std::fs::write(&path, LIGHT_SCENE).unwrap();
+    tstat::scene::Scene::load(&path, &Default::default()).unwrap()
+}
+
+#[test]
+fn light_sample_pdf_matches_the_pdf_mis_uses_on_a_hit() {
+    let scene = light_scene();
+    let select_pdf = 1.0 / scene.emitters.len() as f32;
+    let refs = [
+        Vec3::new(0.0, -0.5, 0.0),
+        Vec3::new(0.2, -0.3, 0.4),
+        Vec3::new(-0.1, 0.2, 0.3),
+    ];
+    let mut rng = Pcg32::new(21, 0);
+    let (mut matched, mut area_lights, mut points) = (0, 0, 0);
+    for emitter in &scene.emitters {
+        for x in refs {
+            let mut hits = 0;
+            for _ in 0..2000 {
+                let Some(ls) =
+                    emitter.sample(&scene.shapes, x, select_pdf, rng.next_f32(), rng.next_2d())
+                else {
+                    continue;
+                };
+                match emitter {
+                    Emitter::Point { .. } => {
+                        assert!(ls.delta && ls.pdf == select_pdf);
+                        assert_eq!(emitter.pdf_area_hit(select_pdf, ls.dist, 1.0), 0.0);
+                        points += 1;
+                    }
+                    Emitter::Area { shape, .. } => {
+                        assert!(!ls.delta);
+                        let Some(hit) =
+                            scene
+                                .accel
+                                .intersect(&scene.shapes, x, ls.wi, f32::INFINITY)
+                        else {
+                            continue;
+                        };
+                        if hit.shape != *shape || (hit.t - ls.dist).abs() > 1e-3 * ls.dist {
+                            continue; // another light is in the way, or the far side
+                        }
+                        let cos_l = hit.surface.ns.dot(-ls.wi);
+                        if cos_l < 0.05 {
+                            // Grazing: an f32 ray-sphere hit is ill-conditioned there
+                            // (its cosine is off by ~2e-5 absolute, 1 % of the pdf at
+                            // cos 0.002), which says nothing about the two pdfs.
+                            continue;
+                        }
+                        let mis = emitter.pdf_area_hit(select_pdf, hit.t, cos_l);
+                        assert!(
+                            (mis - ls.pdf).abs() <= 1e-3 * ls.pdf,
+                            "sampled pdf {} vs MIS pdf {mis} (cos {cos_l}, t {}, dist {})",
+                            ls.pdf,
+                            hit.t,
+                            ls.dist
+                        );
+                        hits += 1;
+                    }
+                }
+            }
+            if matches!(emitter, Emitter::Area { .. }) {
+                assert!(hits > 100, "too few visible light samples from {x}: {hits}");
+                matched += hits;
+                area_lights += 1;
+            }
+        }
+    }
+    assert_eq!(area_lights, 3 * refs.len());
+    assert!(matched > 0 && points > 0);
+}
+
+/// Chi-square p-value of points sampled on an area light against uniform density by
+/// area: spheres in equal-area cells of (z, phi) about the centre, meshes in cells
+/// (triangle, equal-area band of b0, equal slice of b1 / (b1 + b2)).
+/// `skew` maps the sampler's 2D numbers (the identity for the real sampler).
+fn area_uniformity_p_value(
+    scene: &tstat::scene::Scene,
+    emitter: &Emitter,
+    seed: u64,
+    skew: fn([f32; 2]) -> [f32; 2],
+) -> f64 {
+    const N: usize = 60_000;
+    const K: usize = 4;
+    let Emitter::Area { shape, sampler, .. } = emitter else {
+        unreachable!("area lights only")
+    };
+    let shape_ref = &scene.shapes[*shape as usize];
+    let mut rng = Pcg32::new(seed, 0xa4ea);
+    let (counts, expected): (Vec<u64>, Vec<f64>) = match &shape_ref.geom {
+        ShapeGeom::Sphere(s) => {
+            let mut counts = vec![0u64; K * 2 * K];
+            for _ in 0..N {
+                let p = sampler
+                    .sample(shape_ref, rng.next_f32(), skew(rng.next_2d()))
+                    .p;
+                let d = ((p - s.center) / s.radius).as_dvec3();
+                assert!((d.length() - 1.0).abs() < 1e-4, "point off the sphere");
+                let zb = (((d.z + 1.0) / 2.0 * K as f64) as usize).min(K - 1);
+                let phi = d.y.atan2(d.x).rem_euclid(2.0 * PI);
+                let pb = ((phi / (2.0 * PI) * (2 * K) as f64) as usize).min(2 * K - 1);
+                counts[zb * 2 * K + pb] += 1;
+            }
+            let n = counts.len();
+            (counts, vec![N as f64 / n as f64; n])
+        }
+        ShapeGeom::Mesh { triangles, .. } => {
+            let tris: Vec<_> = (0..triangles.len() as u32)
+                .map(|f| shape_ref.triangle(f))
+                .collect();
+            let areas: Vec<f64> = tris.iter().map(|t| t.area() as f64).collect();
+            let total: f64 = areas.iter().sum();
+            let mut counts = vec![0u64; tris.len() * K * K];
+            for _ in 0..N {
+                let p = sampler
+                    .sample(shape_ref, rng.next_f32(), skew(rng.next_2d()))
+                    .p;
+                // The triangle holding p: barycentrics in [0, 1] and p in its plane.
+                let (face, b1, b2) = tris
+                    .iter()
+                    .enumerate()
+                    .map(|(f, t)| {
+                        let (e1, e2, q) = (t.e1.as_dvec3(), t.e2.as_dvec3(), (p - t.v0).as_dvec3());
+                        let (d11, d12, d22) = (e1.dot(e1), e1.dot(e2), e2.dot(e2));
+                        let (q1, q2) = (q.dot(e1), q.dot(e2));
+                        let det = d11 * d22 - d12 * d12;
+                        let b1 = (d22 * q1 - d12 * q2) / det;
+                        let b2 = (d11 * q2 - d12 * q1) / det;
+                        let off = (q - e1 * b1 - e2 * b2).length()
+                            + (-b1).max(0.0)
+                            + (-b2).max(0.0)
+                            + (b1 + b2 - 1.0).max(0.0);
+                        (off, f, b1, b2)
+                    })
+                    .min_by(|a, b| a.0.total_cmp(&b.0))
+                    .map(|(_, f, b1, b2)| (f, b1, b2))
+                    .unwrap();
+                let b0 = (1.0 - b1 - b2).clamp(0.0, 1.0);
+                // P(b0 < t) = 1 - (1 - t)^2, so 1 - (1 - b0)^2 is uniform.
+                let band = (((1.0 - (1.0 - b0).powi(2)) * K as f64) as usize).min(K - 1);
+                let s = b1 / (b1 + b2).max(1e-12);
+                let slice = ((s.clamp(0.0, 1.0) * K as f64) as usize).min(K - 1);
+                counts[(face * K + band) * K + slice] += 1;
+            }
+            let expected = areas
+                .iter()
+                .flat_map(|a| std::iter::repeat_n(N as f64 * a / total / (K * K) as f64, K * K))
+                .collect();
+            (counts, expected)
+        }
+    };
+    let stat: f64 = counts
+        .iter()
+        .zip(&expected)
+        .map(|(&o, &e)| (o as f64 - e).powi(2) / e)
+        .sum();
+    ChiSquared::new((counts.len() - 1) as f64).unwrap().sf(stat)
+}
+
+#[test]
+fn area_lights_sample_uniformly_by_area() {
+    let scene = light_scene();
+    let mut ps = Vec::new();
+    for (i, emitter) in scene.emitters.iter().enumerate() {
+        if let Emitter::Area { .. } = emitter {
+            let p = area_uniformity_p_value(&scene, emitter, 300 + i as u64, |u| u);
+            assert!(p > LEVEL, "emitter {i}: area chi-square p = {p:.3e}");
+            ps.push(p);
+        }
+    }
+    assert_eq!(ps.len(), LIGHT_CASES);
+    eprintln!("area-uniformity p-values {ps:.3?}");
+    // Squaring one number crowds the points towards one edge of each triangle (and
+    // one pole of a sphere): every light must fail.
+    for (i, emitter) in scene.emitters.iter().enumerate() {
+        if let Emitter::Area { .. } = emitter {
+            let p = area_uniformity_p_value(&scene, emitter, 400 + i as u64, |[a, b]| [a * a, b]);
+            assert!(
+                p < LEVEL,
+                "emitter {i}: skewed sampling passed, p = {p:.3e}"
+            );
+        }
+    }
+}
