@@ -15,12 +15,16 @@ mod dielectric;
 mod diffuse;
 mod flags;
 pub mod fresnel;
+pub mod microfacet;
 pub mod parse;
+mod rough_conductor;
 
 pub use conductor::Conductor;
 pub use dielectric::Dielectric;
 pub use diffuse::Diffuse;
 pub use flags::BsdfFlags;
+pub use microfacet::{Microfacet, MicrofacetKind};
+pub use rough_conductor::RoughConductor;
 
 use crate::math::Rgb;
 use glam::Vec3;
@@ -67,6 +71,7 @@ pub trait BsdfModel {
 pub enum OneSided {
     Diffuse(Diffuse),
     Conductor(Conductor),
+    RoughConductor(RoughConductor),
 }
 
 /// Mitsuba's `twosided`: the front model for `wo.z >= 0`, the back model seen with the
@@ -82,6 +87,7 @@ pub enum Bsdf {
     Diffuse(Diffuse),
     Dielectric(Dielectric),
     Conductor(Conductor),
+    RoughConductor(RoughConductor),
     TwoSided(TwoSided),
 }
 
@@ -92,6 +98,7 @@ impl TryFrom<Bsdf> for OneSided {
         match b {
             Bsdf::Diffuse(d) => Ok(OneSided::Diffuse(d)),
             Bsdf::Conductor(c) => Ok(OneSided::Conductor(c)),
+            Bsdf::RoughConductor(c) => Ok(OneSided::RoughConductor(c)),
             other @ (Bsdf::Dielectric(_) | Bsdf::TwoSided(_)) => Err(other),
         }
     }
@@ -169,22 +176,22 @@ macro_rules! dispatch {
 impl BsdfModel for OneSided {
     #[inline(always)]
     fn flags(&self, wo: Vec3) -> BsdfFlags {
-        dispatch!(self, b => b.flags(wo), OneSided::Diffuse, OneSided::Conductor)
+        dispatch!(self, b => b.flags(wo), OneSided::Diffuse, OneSided::Conductor, OneSided::RoughConductor)
     }
     #[inline(always)]
     fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
-        dispatch!(self, b => b.eval(wo, wi), OneSided::Diffuse, OneSided::Conductor)
+        dispatch!(self, b => b.eval(wo, wi), OneSided::Diffuse, OneSided::Conductor, OneSided::RoughConductor)
     }
     #[inline(always)]
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
-        dispatch!(self, b => b.pdf(wo, wi), OneSided::Diffuse, OneSided::Conductor)
+        dispatch!(self, b => b.pdf(wo, wi), OneSided::Diffuse, OneSided::Conductor, OneSided::RoughConductor)
     }
     #[inline(always)]
     fn sample(&self, wo: Vec3, u1: f32, u2: [f32; 2]) -> Option<BsdfSample> {
-        dispatch!(self, b => b.sample(wo, u1, u2), OneSided::Diffuse, OneSided::Conductor)
+        dispatch!(self, b => b.sample(wo, u1, u2), OneSided::Diffuse, OneSided::Conductor, OneSided::RoughConductor)
     }
     fn albedo(&self, wo: Vec3) -> Rgb {
-        dispatch!(self, b => b.albedo(wo), OneSided::Diffuse, OneSided::Conductor)
+        dispatch!(self, b => b.albedo(wo), OneSided::Diffuse, OneSided::Conductor, OneSided::RoughConductor)
     }
 }
 
@@ -192,25 +199,25 @@ impl BsdfModel for Bsdf {
     #[inline(always)]
     fn flags(&self, wo: Vec3) -> BsdfFlags {
         dispatch!(self, b => b.flags(wo),
-            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::TwoSided)
+            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::TwoSided)
     }
     #[inline(always)]
     fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
         dispatch!(self, b => b.eval(wo, wi),
-            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::TwoSided)
+            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::TwoSided)
     }
     #[inline(always)]
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         dispatch!(self, b => b.pdf(wo, wi),
-            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::TwoSided)
+            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::TwoSided)
     }
     #[inline(always)]
     fn sample(&self, wo: Vec3, u1: f32, u2: [f32; 2]) -> Option<BsdfSample> {
         dispatch!(self, b => b.sample(wo, u1, u2),
-            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::TwoSided)
+            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::TwoSided)
     }
     fn albedo(&self, wo: Vec3) -> Rgb {
         dispatch!(self, b => b.albedo(wo),
-            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::TwoSided)
+            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::TwoSided)
     }
 }

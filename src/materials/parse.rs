@@ -1,6 +1,9 @@
 //! Reading `<bsdf>` elements (and `<ref>`s to them) into [`Bsdf`] values.
 
-use super::{Bsdf, Conductor, Dielectric, Diffuse, OneSided, TwoSided};
+use super::{
+    Bsdf, Conductor, Dielectric, Diffuse, Microfacet, MicrofacetKind, OneSided, RoughConductor,
+    TwoSided,
+};
 use crate::math::Rgb;
 use crate::scene::error::SceneError;
 use crate::scene::props::{Ctx, Props, Value};
@@ -78,6 +81,88 @@ fn check_reflectance(props: &Props, name: &str, c: Rgb) -> Result<Rgb, SceneErro
     Ok(c)
 }
 
+/// A conductor's complex IOR: `eta` and `k` together, or `material="none"` (a perfect
+/// mirror). Named spectral presets are not built in; `default` is the material used when
+/// neither is given (Mitsuba: `none` for `conductor`, copper for `roughconductor`, which
+/// is then an error naming it).
+fn conductor_ior(
+    props: &mut Props,
+    kind: &str,
+    default: Option<&str>,
+) -> Result<(Rgb, Rgb), SceneError> {
+    let material = props.string("material")?;
+    if let Some(m) = &material {
+        if m != "none" {
+            return Err(props.err_at(
+                "material",
+                format!("{kind} material '{m}' is not built in; give <rgb name=\"eta\"> and <rgb name=\"k\"> instead (or material 'none' for a mirror)"),
+            ));
+        }
+    }
+    let eta = props.rgb("eta")?;
+    let k = props.rgb("k")?;
+    let (eta, k) = match (eta, k) {
+        (None, None) if material.is_some() || default == Some("none") => (Rgb::ZERO, Rgb::ONE),
+        (None, None) => {
+            return Err(props.err(format!(
+                "{kind} without eta and k is Mitsuba's default copper ('Cu'), whose spectral data is not built in; give <rgb name=\"eta\"> and <rgb name=\"k\">"
+            )))
+        }
+        (Some(e), Some(k)) if material.is_none() => (e, k),
+        (Some(_), Some(_)) => {
+            return Err(props.err("give either 'material' or 'eta' and 'k', not both"))
+        }
+        _ => return Err(props.err("'eta' and 'k' must be given together")),
+    };
+    if eta.min_element() < 0.0 || k.min_element() < 0.0 {
+        return Err(props.err(format!("{kind} eta and k must be non-negative")));
+    }
+    let limit = MAX_OPTICAL_CONSTANT as f32;
+    for (name, v) in [("eta", eta), ("k", k)] {
+        if v.max_element() > limit {
+            return Err(props.err_at(name, format!("{kind} {name} {v} exceeds {limit:e}")));
+        }
+    }
+    Ok((eta, k))
+}
+
+/// Mitsuba's microfacet parameters: `distribution` (beckmann), `alpha` or `alpha_u` and
+/// `alpha_v` (0.1), `sample_visible` (true).
+fn microfacet(props: &mut Props) -> Result<Microfacet, SceneError> {
+    let kind = match props.string("distribution")?.as_deref() {
+        None | Some("beckmann") => MicrofacetKind::Beckmann,
+        Some("ggx") => MicrofacetKind::Ggx,
+        Some(other) => {
+            return Err(props.err_at(
+                "distribution",
+                format!("unknown microfacet distribution '{other}' (beckmann or ggx)"),
+            ))
+        }
+    };
+    let alpha = props.float("alpha")?;
+    let alpha_u = props.float("alpha_u")?;
+    let alpha_v = props.float("alpha_v")?;
+    let (alpha_u, alpha_v) = match (alpha, alpha_u, alpha_v) {
+        (a, None, None) => (a.unwrap_or(0.1), a.unwrap_or(0.1)),
+        (None, Some(u), Some(v)) => (u, v),
+        (Some(_), _, _) => return Err(props.err("give either 'alpha' or 'alpha_u' and 'alpha_v'")),
+        _ => return Err(props.err("'alpha_u' and 'alpha_v' must be given together")),
+    };
+    // Below 1e-4 the distribution is a delta that f32 cannot resolve; above 10, a
+    // roughness no real surface has.
+    for (name, a) in [("alpha", alpha_u), ("alpha", alpha_v)] {
+        if !(1e-4..=10.0).contains(&a) {
+            return Err(props.err_at(name, format!("roughness {a} is outside [1e-4, 10]")));
+        }
+    }
+    Ok(Microfacet {
+        kind,
+        alpha_u: alpha_u as f32,
+        alpha_v: alpha_v as f32,
+        sample_visible: props.boolean_or("sample_visible", true)?,
+    })
+}
+
 /// A `<bsdf>` element or a `<ref id>` to a named one.
 pub fn resolve_bsdf(
     ctx: &Ctx,
@@ -132,38 +217,20 @@ pub fn parse_bsdf(
             })
         }
         "conductor" => {
-            let material = props.string("material")?;
-            if let Some(m) = &material {
-                if m != "none" {
-                    return Err(props.err_at(
-                        "material",
-                        format!("conductor material '{m}' is not built in; give <rgb name=\"eta\"> and <rgb name=\"k\"> instead (or material 'none' for a mirror)"),
-                    ));
-                }
-            }
-            let eta = props.rgb("eta")?;
-            let k = props.rgb("k")?;
-            let (eta, k) = match (eta, k) {
-                (None, None) => (Rgb::ZERO, Rgb::ONE),
-                (Some(e), Some(k)) if material.is_none() => (e, k),
-                (Some(_), Some(_)) => {
-                    return Err(props.err("give either 'material' or 'eta' and 'k', not both"))
-                }
-                _ => return Err(props.err("'eta' and 'k' must be given together")),
-            };
-            if eta.min_element() < 0.0 || k.min_element() < 0.0 {
-                return Err(props.err("conductor eta and k must be non-negative"));
-            }
-            let limit = MAX_OPTICAL_CONSTANT as f32;
-            for (name, v) in [("eta", eta), ("k", k)] {
-                if v.max_element() > limit {
-                    return Err(
-                        props.err_at(name, format!("conductor {name} {v} exceeds {limit:e}"))
-                    );
-                }
-            }
+            let (eta, k) = conductor_ior(&mut props, "conductor", Some("none"))?;
             let sr = props.rgb("specular_reflectance")?.unwrap_or(Rgb::ONE);
             Bsdf::Conductor(Conductor {
+                eta,
+                k,
+                specular_reflectance: check_reflectance(&props, "specular_reflectance", sr)?,
+            })
+        }
+        "roughconductor" => {
+            let distribution = microfacet(&mut props)?;
+            let (eta, k) = conductor_ior(&mut props, "roughconductor", None)?;
+            let sr = props.rgb("specular_reflectance")?.unwrap_or(Rgb::ONE);
+            Bsdf::RoughConductor(RoughConductor {
+                distribution,
                 eta,
                 k,
                 specular_reflectance: check_reflectance(&props, "specular_reflectance", sr)?,
@@ -190,7 +257,7 @@ pub fn parse_bsdf(
         }
         other => {
             return Err(props.err(format!(
-                "unknown BSDF type '{other}' (supported: diffuse, dielectric, conductor, twosided)"
+                "unknown BSDF type '{other}' (supported: diffuse, dielectric, conductor, roughconductor, twosided)"
             )))
         }
     };
