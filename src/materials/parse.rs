@@ -148,6 +148,13 @@ fn microfacet(props: &mut Props) -> Result<Microfacet, SceneError> {
         (Some(_), _, _) => return Err(props.err("give either 'alpha' or 'alpha_u' and 'alpha_v'")),
         _ => return Err(props.err("'alpha_u' and 'alpha_v' must be given together")),
     };
+    if alpha_u != alpha_v {
+        // Mitsuba orients anisotropic lobes along dp/du of the surface's uv
+        // parameterisation; tstat's shading frames do not carry it yet.
+        return Err(props.err(
+            "anisotropic roughness (alpha_u != alpha_v) is not supported: it needs the surface tangents Mitsuba derives from uv coordinates",
+        ));
+    }
     // Below 1e-4 the distribution is a delta that f32 cannot resolve; above 10, a
     // roughness no real surface has.
     for (name, a) in [("alpha", alpha_u), ("alpha", alpha_v)] {
