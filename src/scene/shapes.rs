@@ -469,4 +469,63 @@ mod tests {
         assert!(close(uv(Vec3::NEG_X), [0.5, 0.5]), "{}", uv(Vec3::NEG_X));
         assert!(close(uv(Vec3::NEG_Z), [0.75, 0.5]), "{}", uv(Vec3::NEG_Z));
     }
+
+    #[test]
+    fn mesh_file_uv_is_interpolated_and_obj_v_flipped() {
+        use crate::scene::props::Ctx;
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::write(
+            dir.path().join("t.ply"),
+            "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n\
+             property float s\nproperty float t\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n\
+             0 0 0 0.1 0.2\n1 0 0 0.9 0.2\n0 1 0 0.1 0.8\n3 0 1 2\n",
+        )
+        .unwrap();
+        std::fs::write(
+            dir.path().join("t.obj"),
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0.1 0.2\nvt 0.9 0.2\nvt 0.1 0.8\nf 1/1 2/2 3/3\n",
+        )
+        .unwrap();
+        std::fs::write(
+            dir.path().join("n.obj"),
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",
+        )
+        .unwrap();
+        let file = dir.path().join("scene.xml");
+        let load = |kind: &str, name: &str, extra: &str| {
+            let xml = format!(
+                r#"<shape type="{kind}"><string name="filename" value="{name}"/>{extra}</shape>"#
+            );
+            let defaults = std::collections::HashMap::new();
+            let ctx = Ctx::new(&file, &xml, &defaults);
+            let doc = roxmltree::Document::parse(&xml).unwrap();
+            let mut props = Props::parse(&ctx, doc.root_element()).unwrap();
+            let s = shape(parse_geometry(kind, &mut props).unwrap());
+            props.finish().unwrap();
+            s
+        };
+        let close = |a: Vec2, b: [f32; 2]| (a - Vec2::from_array(b)).length() < 1e-6;
+        // PLY: as stored; at barycentrics (0.5, 0.25): 0.25 uv0 + 0.5 uv1 + 0.25 uv2.
+        let ply = load("ply", "t.ply", "");
+        assert!(close(ply.uv(0, 0.5, 0.25, Vec3::ZERO), [0.5, 0.35]));
+        let flipped = load(
+            "ply",
+            "t.ply",
+            r#"<boolean name="flip_tex_coords" value="true"/>"#,
+        );
+        assert!(close(flipped.uv(0, 0.5, 0.25, Vec3::ZERO), [0.5, 0.65]));
+        // OBJ: v flipped by default (Mitsuba's obj.cpp), not with flip_tex_coords=false.
+        let obj = load("obj", "t.obj", "");
+        assert!(close(obj.uv(0, 0.0, 0.0, Vec3::ZERO), [0.1, 0.8]));
+        assert!(close(obj.uv(0, 0.5, 0.25, Vec3::ZERO), [0.5, 0.65]));
+        let kept = load(
+            "obj",
+            "t.obj",
+            r#"<boolean name="flip_tex_coords" value="false"/>"#,
+        );
+        assert!(close(kept.uv(0, 0.5, 0.25, Vec3::ZERO), [0.5, 0.35]));
+        // Without texture coordinates: the barycentrics.
+        let none = load("obj", "n.obj", "");
+        assert!(close(none.uv(0, 0.3, 0.6, Vec3::ZERO), [0.3, 0.6]));
+    }
 }
