@@ -16,4 +16,5 @@ pub mod render;
 pub mod report;
 pub mod scene;
 pub mod stats;
+pub mod textures;
 pub mod viz;

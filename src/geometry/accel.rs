@@ -88,7 +88,7 @@ impl Accel {
                         }
                     }
                 }
-                ShapeGeom::Sphere(s) => prims.push(Prim {
+                ShapeGeom::Sphere(s, _) => prims.push(Prim {
                     geom: PrimGeom::Sphere(*s),
                     shape: si as u32,
                     face: 0,

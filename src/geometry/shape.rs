@@ -4,7 +4,7 @@
 use super::sphere::SphereGeom;
 use super::triangle::TriangleGeom;
 use crate::math::sampling::{uniform_sphere, uniform_triangle};
-use glam::Vec3;
+use glam::{Mat3, Vec2, Vec3};
 
 #[derive(Clone, Debug)]
 pub enum ShapeGeom {
@@ -13,8 +13,14 @@ pub enum ShapeGeom {
         /// Per-vertex shading normals (unit length), when the mesh has them.
         normals: Option<Vec<Vec3>>,
         triangles: Vec<[u32; 3]>,
+        /// Per-vertex texture coordinates, when the shape has them (the built-in
+        /// rectangle and cube always; file meshes when the file gives them).
+        uvs: Option<Vec<Vec2>>,
     },
-    Sphere(SphereGeom),
+    /// An analytic sphere and its `to_local` map: the linear part of the inverse of
+    /// Mitsuba's `to_world * translate(center) * scale(radius)`, so that
+    /// `to_local * (p - center)` is the hit on the unit sphere in object space (uv only).
+    Sphere(SphereGeom, Mat3),
 }
 
 /// One shape of the scene.
@@ -56,7 +62,7 @@ impl Shape {
                     positions[c as usize],
                 )
             }
-            ShapeGeom::Sphere(_) => unreachable!("spheres have no faces"),
+            ShapeGeom::Sphere(..) => unreachable!("spheres have no faces"),
         }
     }
 
@@ -65,7 +71,7 @@ impl Shape {
         let sign = if self.flip_normals { -1.0 } else { 1.0 };
         match &self.geom {
             ShapeGeom::Mesh { .. } => self.surface_of(&self.triangle(face), face, b1, b2),
-            ShapeGeom::Sphere(s) => {
+            ShapeGeom::Sphere(s, _) => {
                 let n = (p_hint - s.center).normalize_or_zero();
                 // Project onto the surface to remove the hit's rounding error.
                 let p = s.center + n * s.radius;
@@ -102,12 +108,51 @@ impl Shape {
         }
     }
 
+    /// Texture coordinates at a surface point, with Mitsuba 3's convention for each
+    /// shape: a mesh's per-vertex uv interpolated at the barycentrics (b1, b2) of
+    /// triangle `face` (`src/render/mesh.cpp`), or (b1, b2) themselves when the mesh has
+    /// none; on a sphere, `(phi / 2 pi, theta / pi)` of the object-space point, phi
+    /// measured from +x towards +y in [0, 2 pi) and theta from +z (`src/shapes/sphere.cpp`).
+    /// `p` is the hit point (spheres only). Computed only when a texture asks for it.
+    pub fn uv(&self, face: u32, b1: f32, b2: f32, p: Vec3) -> Vec2 {
+        match &self.geom {
+            ShapeGeom::Mesh {
+                uvs: Some(uv),
+                triangles,
+                ..
+            } => {
+                let [a, b, c] = triangles[face as usize];
+                let uv0 = uv[a as usize];
+                uv0 + (uv[b as usize] - uv0) * b1 + (uv[c as usize] - uv0) * b2
+            }
+            ShapeGeom::Mesh { uvs: None, .. } => Vec2::new(b1, b2),
+            ShapeGeom::Sphere(s, to_local) => {
+                let l = (*to_local * (p - s.center)).normalize_or_zero();
+                // Dr.Jit's unit_angle_z: acos(l.z) computed without its loss of
+                // precision near the poles.
+                let theta = if l.z >= 0.0 {
+                    2.0 * (0.5 * (l - Vec3::Z).length()).min(1.0).asin()
+                } else {
+                    std::f32::consts::PI - 2.0 * (0.5 * (l + Vec3::Z).length()).min(1.0).asin()
+                };
+                let mut phi = l.y.atan2(l.x);
+                if phi < 0.0 {
+                    phi += std::f32::consts::TAU;
+                }
+                Vec2::new(
+                    phi * std::f32::consts::FRAC_1_PI * 0.5,
+                    theta * std::f32::consts::FRAC_1_PI,
+                )
+            }
+        }
+    }
+
     pub fn area(&self) -> f64 {
         match &self.geom {
             ShapeGeom::Mesh { triangles, .. } => (0..triangles.len() as u32)
                 .map(|f| self.triangle(f).area() as f64)
                 .sum(),
-            ShapeGeom::Sphere(s) => s.area() as f64,
+            ShapeGeom::Sphere(s, _) => s.area() as f64,
         }
     }
 }
@@ -144,7 +189,7 @@ impl AreaSampler {
                     total_area: acc as f32,
                 }
             }
-            ShapeGeom::Sphere(s) => AreaSampler {
+            ShapeGeom::Sphere(s, _) => AreaSampler {
                 cdf: Vec::new(),
                 tris: Vec::new(),
                 total_area: s.area(),
@@ -164,7 +209,7 @@ impl AreaSampler {
                 let [b1, b2] = uniform_triangle(u2);
                 shape.surface_of(&self.tris[face], face as u32, b1, b2)
             }
-            ShapeGeom::Sphere(s) => {
+            ShapeGeom::Sphere(s, _) => {
                 let p = s.center + uniform_sphere(u2) * s.radius;
                 shape.surface(0, 0.0, 0.0, p)
             }

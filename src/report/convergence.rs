@@ -450,7 +450,7 @@ fn hash_loaded_scene(h: &mut Sha256, scene: &Scene, overrides: &Overrides) {
                     }
                 }
             }
-            ShapeGeom::Sphere(s) => f32s(h, &[s.center.x, s.center.y, s.center.z, s.radius]),
+            ShapeGeom::Sphere(s, _) => f32s(h, &[s.center.x, s.center.y, s.center.z, s.radius]),
         }
     }
     for e in &scene.emitters {

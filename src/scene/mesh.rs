@@ -31,7 +31,7 @@ use std::borrow::Cow;
 use std::io;
 use std::path::{Path, PathBuf};
 
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 use ply_rs::parser::Parser;
 use ply_rs::ply::{ElementDef, Encoding, Property, PropertyAccess, PropertyType, ScalarType};
 
@@ -43,6 +43,9 @@ pub struct MeshData {
     pub normals: Option<Vec<Vec3>>,
     /// Vertex indices, counter-clockwise as in the file; polygons are fan-triangulated.
     pub triangles: Vec<[u32; 3]>,
+    /// Per-vertex texture coordinates as stored in the file (same length as positions),
+    /// when the file has them for every vertex. The shape applies `flip_tex_coords`.
+    pub uvs: Option<Vec<Vec2>>,
 }
 
 /// Why a mesh file could not be loaded. Every message names the file and fits
@@ -139,6 +142,15 @@ fn parse_ply(bytes: &[u8]) -> Result<MeshData, Problem> {
             Some(PropertyType::Scalar(_))
         )
     });
+    // Texture coordinates, under the first of Mitsuba's names the file has both of.
+    let uv_rank = UV_NAMES.iter().position(|pair| {
+        pair.iter().all(|name| {
+            matches!(
+                vertex_def.properties.get(*name).map(|p| &p.data_type),
+                Some(PropertyType::Scalar(_))
+            )
+        })
+    });
     let face_def = match header.elements.get("face") {
         Some(def) if def.count > 0 => def,
         _ => return Err(Problem::NoFaces),
@@ -207,6 +219,23 @@ fn parse_ply(bytes: &[u8]) -> Result<MeshData, Problem> {
         None
     };
 
+    let uvs = match uv_rank {
+        Some(rank) => Some(
+            vertices
+                .iter()
+                .enumerate()
+                .map(|(i, v)| {
+                    let uv = v.uv[rank];
+                    let f = Vec2::new(uv[0] as f32, uv[1] as f32);
+                    f.is_finite().then_some(f).ok_or_else(|| {
+                        format!("vertex {i}: texture coordinates {uv:?} are not finite")
+                    })
+                })
+                .collect::<Result<Vec<_>, _>>()?,
+        ),
+        None => None,
+    };
+
     let vertex_count = positions.len();
     let mut triangles = Vec::with_capacity(faces.len());
     let mut polygon = Vec::new();
@@ -237,6 +266,7 @@ fn parse_ply(bytes: &[u8]) -> Result<MeshData, Problem> {
         positions,
         normals,
         triangles,
+        uvs,
     })
 }
 
@@ -452,10 +482,16 @@ fn integer_list(p: Property) -> Option<Vec<i64>> {
 }
 
 /// One PLY `vertex` entry; only the properties we use are kept.
+/// The PLY vertex property pairs Mitsuba reads as texture coordinates, in its order
+/// of preference (`src/shapes/ply.cpp`).
+const UV_NAMES: [[&str; 2]; 3] = [["u", "v"], ["texture_u", "texture_v"], ["s", "t"]];
+
 #[derive(Default)]
 struct PlyVertex {
     position: [f64; 3],
     normal: [f64; 3],
+    /// One slot per pair of [`UV_NAMES`]: the header decides which is used.
+    uv: [[f64; 2]; 3],
 }
 
 impl PropertyAccess for PlyVertex {
@@ -471,6 +507,12 @@ impl PropertyAccess for PlyVertex {
             "nx" => &mut self.normal[0],
             "ny" => &mut self.normal[1],
             "nz" => &mut self.normal[2],
+            "u" => &mut self.uv[0][0],
+            "v" => &mut self.uv[0][1],
+            "texture_u" => &mut self.uv[1][0],
+            "texture_v" => &mut self.uv[1][1],
+            "s" => &mut self.uv[2][0],
+            "t" => &mut self.uv[2][1],
             _ => return,
         };
         if let Some(value) = scalar_value(&property) {
@@ -556,8 +598,12 @@ fn parse_obj(bytes: &[u8]) -> Result<MeshData, Problem> {
     let all_have_normals = models
         .iter()
         .all(|m| m.mesh.normals.len() == m.mesh.positions.len());
+    let all_have_uvs = models
+        .iter()
+        .all(|m| 3 * m.mesh.texcoords.len() == 2 * m.mesh.positions.len());
     let mut positions = Vec::new();
     let mut normals = Vec::new();
+    let mut uvs = Vec::new();
     let mut triangles = Vec::new();
     for model in &models {
         let mesh = &model.mesh;
@@ -574,6 +620,15 @@ fn parse_obj(bytes: &[u8]) -> Result<MeshData, Problem> {
                 normals.push(
                     finite_vec3(v).ok_or_else(|| format!("vertex normal {v:?} is not finite"))?,
                 );
+            }
+        }
+        if all_have_uvs {
+            for t in mesh.texcoords.chunks_exact(2) {
+                let uv = Vec2::new(t[0], t[1]);
+                if !uv.is_finite() {
+                    return Err(format!("texture coordinates {uv} are not finite").into());
+                }
+                uvs.push(uv);
             }
         }
         if mesh.indices.len() % 3 != 0 {
@@ -608,6 +663,7 @@ fn parse_obj(bytes: &[u8]) -> Result<MeshData, Problem> {
         positions,
         normals: all_have_normals.then_some(normals),
         triangles,
+        uvs: all_have_uvs.then_some(uvs),
     })
 }
 
@@ -749,6 +805,7 @@ mod tests {
             positions: POSITIONS.iter().map(|p| Vec3::from_array(*p)).collect(),
             normals: with_normals.then(|| NORMALS.iter().map(|n| Vec3::from_array(*n)).collect()),
             triangles: vec![[0, 1, 2], [0, 2, 3], [1, 4, 2]],
+            uvs: None,
         }
     }
 

@@ -5,7 +5,12 @@
 //! | rectangle | `to_world`; [-1, 1]^2 in the z = 0 plane, normal +z |
 //! | cube | `to_world`; [-1, 1]^3, normals outward |
 //! | sphere | `center` (point, 0), `radius` (float, 1), `to_world` (uniform scale only) |
-//! | ply, obj | `filename` (relative to the scene file), `to_world`, `face_normals` (bool, false: smooth normals from the file, or angle-weighted ones computed as Mitsuba does) |
+//! | ply, obj | `filename` (relative to the scene file), `to_world`, `face_normals` (bool, false: smooth normals from the file, or angle-weighted ones computed as Mitsuba does), `flip_tex_coords` (bool: v -> 1 - v of the file's texture coordinates; true for obj, false for ply, as Mitsuba) |
+//!
+//! Texture coordinates (`Shape::uv`) follow Mitsuba: rectangle (p + 1) / 2 in its local
+//! square; cube [0, 1]^2 on every face, oriented as Mitsuba's cube; sphere
+//! (phi / 2 pi, theta / pi) in object space; meshes their per-vertex `u v` (`s t`,
+//! `texture_u texture_v`) or `vt`, else the barycentrics.
 //!
 //! Every shape takes `flip_normals` (bool, false), an optional nested `<bsdf>` or
 //! `<ref>` (default: diffuse 0.5) and an optional nested `<emitter type="area">`.
@@ -15,7 +20,7 @@ use super::mesh::{load_obj, load_ply, MeshData};
 use super::props::Props;
 use crate::geometry::shape::ShapeGeom;
 use crate::geometry::sphere::SphereGeom;
-use glam::{DMat4, DVec3, Vec3};
+use glam::{DMat4, DVec3, Mat3, Vec2, Vec3};
 
 fn rectangle() -> MeshData {
     MeshData {
@@ -27,6 +32,14 @@ fn rectangle() -> MeshData {
         ],
         normals: None,
         triangles: vec![[0, 1, 2], [2, 3, 0]],
+        // Mitsuba's rectangle (`src/shapes/rectangle.cpp`): uv = (p + 1) / 2 in the
+        // local [-1, 1]^2, so uv (0, 0) at local (-1, -1) and (1, 1) at (1, 1).
+        uvs: Some(vec![
+            Vec2::new(0.0, 0.0),
+            Vec2::new(1.0, 0.0),
+            Vec2::new(1.0, 1.0),
+            Vec2::new(0.0, 1.0),
+        ]),
     }
 }
 
@@ -49,11 +62,61 @@ fn cube() -> MeshData {
             triangles.push([base + 2, base + 3, base]);
         }
     }
+    let uvs = positions
+        .chunks_exact(4)
+        .flat_map(|face| {
+            let n = (face[1] - face[0]).cross(face[2] - face[0]).normalize();
+            face.iter()
+                .map(move |&p| mitsuba_cube_uv(n, p))
+                .collect::<Vec<_>>()
+        })
+        .collect();
     MeshData {
         positions,
         normals: None,
         triangles,
+        uvs: Some(uvs),
     }
+}
+
+/// The uv Mitsuba's cube (`src/shapes/cube.cpp`) gives corner `p` of its face with
+/// outward normal `n`: its faces, in its order, by normal; each face's four vertices
+/// as corner indices (bit k of a corner is the sign of axis k); and the uv of the
+/// k-th vertex of every face.
+fn mitsuba_cube_uv(n: Vec3, p: Vec3) -> Vec2 {
+    const NORMALS: [[f32; 3]; 6] = [
+        [0.0, -1.0, 0.0],
+        [0.0, 1.0, 0.0],
+        [1.0, 0.0, 0.0],
+        [0.0, 0.0, 1.0],
+        [-1.0, 0.0, 0.0],
+        [0.0, 0.0, -1.0],
+    ];
+    const CORNERS: [[u32; 4]; 6] = [
+        [1, 5, 4, 0],
+        [3, 2, 6, 7],
+        [1, 3, 7, 5],
+        [5, 7, 6, 4],
+        [4, 6, 2, 0],
+        [3, 1, 0, 2],
+    ];
+    const UV: [[f32; 2]; 4] = [[0.0, 1.0], [1.0, 1.0], [1.0, 0.0], [0.0, 0.0]];
+    let corner = |c: u32| {
+        Vec3::new(
+            if c & 1 != 0 { 1.0 } else { -1.0 },
+            if c & 2 != 0 { 1.0 } else { -1.0 },
+            if c & 4 != 0 { 1.0 } else { -1.0 },
+        )
+    };
+    let s = NORMALS
+        .iter()
+        .position(|m| Vec3::from_array(*m) == n)
+        .expect("cube faces are axis-aligned");
+    let k = CORNERS[s]
+        .iter()
+        .position(|&c| corner(c) == p)
+        .expect("cube vertices are corners");
+    Vec2::from_array(UV[k])
 }
 
 /// The largest world-space coordinate accepted. Geometry is single precision and its
@@ -114,6 +177,7 @@ fn transform_mesh(
         positions: m.positions,
         normals: m.normals,
         triangles: m.triangles,
+        uvs: m.uvs,
     })
 }
 
@@ -175,10 +239,17 @@ pub fn parse_geometry(kind: &str, props: &mut Props) -> Result<ShapeGeom, SceneE
                     format!("the world-space radius {radius:e} is outside [{:e}, {MAX_COORDINATE:e}] (single-precision geometry)", f32::MIN_POSITIVE),
                 ));
             }
-            Ok(ShapeGeom::Sphere(SphereGeom {
-                center: center.as_vec3(),
-                radius: radius as f32,
-            }))
+            // World to the unit sphere's object space (uv only): the linear part of
+            // the inverse of to_world * translate(center) * scale(radius).
+            let to_local = (to_world * DMat4::from_scale(DVec3::splat(r))).inverse();
+            let to_local = Mat3::from_mat4(to_local.as_mat4());
+            Ok(ShapeGeom::Sphere(
+                SphereGeom {
+                    center: center.as_vec3(),
+                    radius: radius as f32,
+                },
+                to_local,
+            ))
         }
         "ply" | "obj" => {
             let name = props
@@ -200,6 +271,12 @@ pub fn parse_geometry(kind: &str, props: &mut Props) -> Result<ShapeGeom, SceneE
                 load_obj(&path)
             };
             let mut mesh = loaded.map_err(|e| props.err_at("filename", e.to_string()))?;
+            // Mitsuba flips v of OBJ texture coordinates by default, not of PLY ones.
+            if props.boolean_or("flip_tex_coords", kind == "obj")? {
+                for uv in mesh.uvs.iter_mut().flatten() {
+                    uv.y = 1.0 - uv.y;
+                }
+            }
             if props.boolean_or("face_normals", false)? {
                 mesh.normals = None;
             } else if mesh.normals.is_none() {
@@ -246,6 +323,7 @@ mod tests {
             positions: vec![Vec3::ZERO, Vec3::X, Vec3::new(1.0, 1.0, 0.0), Vec3::Y],
             normals: None,
             triangles: vec![[0, 1, 2], [0, 2, 3]],
+            uvs: None,
         };
         for n in vertex_normals(&m) {
             assert!((n - Vec3::Z).length() < 1e-6);
@@ -255,6 +333,7 @@ mod tests {
             positions: vec![Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::Z],
             normals: None,
             triangles: vec![[0, 1, 2], [0, 3, 1]],
+            uvs: None,
         };
         let n0 = vertex_normals(&m)[0];
         assert!(
@@ -276,5 +355,177 @@ mod tests {
         };
         let n = shape.surface(0, 0.2, 0.2, Vec3::ZERO).ng;
         assert!((n - Vec3::new(0.0, 0.0, -1.0)).length() < 1e-6);
+    }
+
+    fn shape(geom: ShapeGeom) -> Shape {
+        Shape {
+            name: "s".into(),
+            geom,
+            flip_normals: false,
+            bsdf: 0,
+            emitter: None,
+        }
+    }
+
+    /// The uv at world point `p` of a mesh shape, found through its barycentrics.
+    fn mesh_uv_at(s: &Shape, p: Vec3) -> Option<Vec2> {
+        let ShapeGeom::Mesh { triangles, .. } = &s.geom else {
+            unreachable!()
+        };
+        (0..triangles.len() as u32).find_map(|f| {
+            let t = s.triangle(f);
+            // Solve p = v0 + b1 e1 + b2 e2 by least squares on the triangle's plane.
+            let (d, e1, e2) = (p - t.v0, t.e1, t.e2);
+            let (a, b, c) = (e1.dot(e1), e1.dot(e2), e2.dot(e2));
+            let (r1, r2) = (d.dot(e1), d.dot(e2));
+            let det = a * c - b * b;
+            let b1 = (c * r1 - b * r2) / det;
+            let b2 = (a * r2 - b * r1) / det;
+            let inside = b1 >= -1e-5 && b2 >= -1e-5 && b1 + b2 <= 1.0 + 1e-5;
+            (inside && (t.point(b1, b2) - p).length() < 1e-4).then(|| s.uv(f, b1, b2, p))
+        })
+    }
+
+    #[test]
+    fn rectangle_uv_at_its_corners_after_to_world() {
+        let m = DMat4::from_translation(DVec3::new(3.0, 0.0, 1.0))
+            * DMat4::from_rotation_x(0.7)
+            * DMat4::from_scale(DVec3::new(2.0, 0.5, 1.0));
+        let s = shape(transform_mesh(rectangle(), &m, true).unwrap());
+        for (local, want) in [
+            ((-1.0, -1.0), (0.0, 0.0)),
+            ((1.0, -1.0), (1.0, 0.0)),
+            ((1.0, 1.0), (1.0, 1.0)),
+            ((-1.0, 1.0), (0.0, 1.0)),
+            ((0.0, 0.5), (0.5, 0.75)),
+        ] {
+            let p = m
+                .transform_point3(DVec3::new(local.0, local.1, 0.0))
+                .as_vec3();
+            let uv = mesh_uv_at(&s, p).unwrap();
+            assert!(
+                (uv - Vec2::new(want.0, want.1)).length() < 1e-5,
+                "{local:?}: {uv}"
+            );
+        }
+        // A mirroring to_world swaps the winding but not the uv of a point.
+        let mirror = DMat4::from_scale(DVec3::new(-1.0, 1.0, 1.0));
+        let s = shape(transform_mesh(rectangle(), &mirror, true).unwrap());
+        let uv = mesh_uv_at(&s, Vec3::new(-0.5, 0.0, 0.0)).unwrap();
+        assert!((uv - Vec2::new(0.75, 0.5)).length() < 1e-5, "{uv}");
+    }
+
+    #[test]
+    fn cube_uv_follows_mitsubas_faces() {
+        let s = shape(transform_mesh(cube(), &DMat4::IDENTITY, true).unwrap());
+        // Mitsuba's cube.cpp: on +z, corner 4 (-1,-1,+1) has uv (0, 0), corner 5
+        // (+1,-1,+1) (0, 1), corner 6 (-1,+1,+1) (1, 0); on -y, corner 1 (+1,-1,-1)
+        // has (0, 1) and corner 4 (1, 0).
+        // A point of the face just inside the corner (the face's centre is n).
+        let near = |p: Vec3, n: Vec3| p + (n - p) * 1e-3;
+        let at = |p: [f32; 3], n: Vec3| mesh_uv_at(&s, near(Vec3::from_array(p), n)).unwrap();
+        let close = |a: Vec2, b: [f32; 2]| (a - Vec2::from_array(b)).length() < 1e-2;
+        assert!(close(at([-1.0, -1.0, 1.0], Vec3::Z), [0.0, 0.0]));
+        assert!(close(at([1.0, -1.0, 1.0], Vec3::Z), [0.0, 1.0]));
+        assert!(close(at([-1.0, 1.0, 1.0], Vec3::Z), [1.0, 0.0]));
+        assert!(close(at([1.0, -1.0, -1.0], Vec3::NEG_Y), [0.0, 1.0]));
+        assert!(close(at([-1.0, -1.0, 1.0], Vec3::NEG_Y), [1.0, 0.0]));
+        // Every face covers the unit square once: its 4 vertices hold its 4 corners.
+        let ShapeGeom::Mesh { uvs: Some(uvs), .. } = &s.geom else {
+            unreachable!()
+        };
+        for face in uvs.chunks_exact(4) {
+            let mut f: Vec<[u32; 2]> = face.iter().map(|u| [u.x as u32, u.y as u32]).collect();
+            f.sort();
+            assert_eq!(f, vec![[0, 0], [0, 1], [1, 0], [1, 1]]);
+        }
+    }
+
+    #[test]
+    fn sphere_uv_at_poles_and_equator_in_object_space() {
+        use crate::scene::props::Ctx;
+        let xml = r#"<shape type="sphere"><point name="center" x="1" y="2" z="3"/><float name="radius" value="2"/>
+            <transform name="to_world"><rotate x="1" angle="90"/><scale value="0.5"/></transform></shape>"#;
+        let defaults = std::collections::HashMap::new();
+        let ctx = Ctx::new(std::path::Path::new("s.xml"), xml, &defaults);
+        let doc = roxmltree::Document::parse(xml).unwrap();
+        let mut props = Props::parse(&ctx, doc.root_element()).unwrap();
+        let s = shape(parse_geometry("sphere", &mut props).unwrap());
+        let ShapeGeom::Sphere(g, _) = &s.geom else {
+            unreachable!()
+        };
+        // to_world = R_x(90) S(0.5): the centre (1, 2, 3) lands at (0.5, -1.5, 1), the
+        // radius is 1, and object +z points along world -y, object +y along world +z.
+        assert!((g.center - Vec3::new(0.5, -1.5, 1.0)).length() < 1e-5);
+        assert!((g.radius - 1.0).abs() < 1e-6);
+        let uv = |d: Vec3| s.uv(0, 0.0, 0.0, g.center + d);
+        let close = |a: Vec2, b: [f32; 2]| (a - Vec2::from_array(b)).length() < 1e-5;
+        assert!(uv(Vec3::NEG_Y).y.abs() < 1e-5, "north pole v = 0");
+        assert!((uv(Vec3::Y).y - 1.0).abs() < 1e-5, "south pole v = 1");
+        // Equator: object +x (world +x) is phi = 0, object +y (world +z) phi = pi / 2,
+        // object -x phi = pi, object -y (world -z) phi = 3 pi / 2.
+        assert!(close(uv(Vec3::X), [0.0, 0.5]), "{}", uv(Vec3::X));
+        assert!(close(uv(Vec3::Z), [0.25, 0.5]), "{}", uv(Vec3::Z));
+        assert!(close(uv(Vec3::NEG_X), [0.5, 0.5]), "{}", uv(Vec3::NEG_X));
+        assert!(close(uv(Vec3::NEG_Z), [0.75, 0.5]), "{}", uv(Vec3::NEG_Z));
+    }
+
+    #[test]
+    fn mesh_file_uv_is_interpolated_and_obj_v_flipped() {
+        use crate::scene::props::Ctx;
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::write(
+            dir.path().join("t.ply"),
+            "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n\
+             property float s\nproperty float t\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n\
+             0 0 0 0.1 0.2\n1 0 0 0.9 0.2\n0 1 0 0.1 0.8\n3 0 1 2\n",
+        )
+        .unwrap();
+        std::fs::write(
+            dir.path().join("t.obj"),
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0.1 0.2\nvt 0.9 0.2\nvt 0.1 0.8\nf 1/1 2/2 3/3\n",
+        )
+        .unwrap();
+        std::fs::write(
+            dir.path().join("n.obj"),
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",
+        )
+        .unwrap();
+        let file = dir.path().join("scene.xml");
+        let load = |kind: &str, name: &str, extra: &str| {
+            let xml = format!(
+                r#"<shape type="{kind}"><string name="filename" value="{name}"/>{extra}</shape>"#
+            );
+            let defaults = std::collections::HashMap::new();
+            let ctx = Ctx::new(&file, &xml, &defaults);
+            let doc = roxmltree::Document::parse(&xml).unwrap();
+            let mut props = Props::parse(&ctx, doc.root_element()).unwrap();
+            let s = shape(parse_geometry(kind, &mut props).unwrap());
+            props.finish().unwrap();
+            s
+        };
+        let close = |a: Vec2, b: [f32; 2]| (a - Vec2::from_array(b)).length() < 1e-6;
+        // PLY: as stored; at barycentrics (0.5, 0.25): 0.25 uv0 + 0.5 uv1 + 0.25 uv2.
+        let ply = load("ply", "t.ply", "");
+        assert!(close(ply.uv(0, 0.5, 0.25, Vec3::ZERO), [0.5, 0.35]));
+        let flipped = load(
+            "ply",
+            "t.ply",
+            r#"<boolean name="flip_tex_coords" value="true"/>"#,
+        );
+        assert!(close(flipped.uv(0, 0.5, 0.25, Vec3::ZERO), [0.5, 0.65]));
+        // OBJ: v flipped by default (Mitsuba's obj.cpp), not with flip_tex_coords=false.
+        let obj = load("obj", "t.obj", "");
+        assert!(close(obj.uv(0, 0.0, 0.0, Vec3::ZERO), [0.1, 0.8]));
+        assert!(close(obj.uv(0, 0.5, 0.25, Vec3::ZERO), [0.5, 0.65]));
+        let kept = load(
+            "obj",
+            "t.obj",
+            r#"<boolean name="flip_tex_coords" value="false"/>"#,
+        );
+        assert!(close(kept.uv(0, 0.5, 0.25, Vec3::ZERO), [0.5, 0.35]));
+        // Without texture coordinates: the barycentrics.
+        let none = load("obj", "n.obj", "");
+        assert!(close(none.uv(0, 0.3, 0.6, Vec3::ZERO), [0.3, 0.6]));
     }
 }

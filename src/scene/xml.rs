@@ -403,7 +403,7 @@ fn extent(shapes: &[Shape]) -> Option<f32> {
                     (lo, hi) = (lo.min(p), hi.max(p));
                 }
             }
-            ShapeGeom::Sphere(s) => {
+            ShapeGeom::Sphere(s, _) => {
                 lo = lo.min(s.center - Vec3::splat(s.radius));
                 hi = hi.max(s.center + Vec3::splat(s.radius));
             }

@@ -1,0 +1,220 @@
+//! `bitmap`: an image looked up at uv, with Mitsuba 3's conventions
+//! (`src/textures/bitmap.cpp`, and Dr.Jit's `include/drjit/texture_impl.h` for the
+//! lookup itself).
+//!
+//! | parameter | type | default | meaning |
+//! |-----------|------|---------|---------|
+//! | filename | string | (required) | PNG, JPEG, Radiance HDR (`.hdr`) or OpenEXR, relative to the scene file |
+//! | filter_type | string | `bilinear` | `bilinear` or `nearest` |
+//! | wrap_mode | string | `repeat` | `repeat`, `mirror` or `clamp`: lookups outside [0, 1] |
+//! | raw | boolean | false | keep the stored values: no sRGB decoding of 8/16-bit images (normal maps, roughness) |
+//! | to_uv | transform | identity | applied to uv before the lookup |
+//!
+//! Conventions:
+//! - u runs along the image's width, v along its height, and v = 0 is the image's
+//!   first stored row (the top of a PNG): Mitsuba does not flip images; its OBJ
+//!   loader flips the texture coordinates instead.
+//! - Texel (x, y) covers [x / W, (x + 1) / W) x [y / H, (y + 1) / H). `nearest` returns
+//!   texel (floor(u W), floor(v H)); `bilinear` interpolates the four texels around
+//!   (u W - 1/2, v H - 1/2), texel centres at half-integers, each corner wrapped alone.
+//! - Wrapping acts on integer texel indices: `repeat` is the Euclidean remainder,
+//!   `mirror` reflects every other period (…, 1, 0, 0, 1, …, W-1, W-1, W-2, …),
+//!   `clamp` clips to [0, W - 1].
+//! - Channels: grey (with or without alpha) is one channel, returned as a grey colour;
+//!   RGB(A) is three, alpha dropped. The scalar lookup is the one channel, or the
+//!   luminance of the interpolated colour.
+//! - 8- and 16-bit images are sRGB-encoded and decoded to linear on load unless `raw`;
+//!   HDR and EXR values are linear and kept. Interpolation runs on linear values.
+//! - Mitsuba pads images smaller than 2 x 2 by repeating the last row/column; every
+//!   lookup of such a padded image equals the lookup of the original, so we keep it.
+
+use super::{luminance, UvTransform};
+use glam::{Vec2, Vec3};
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FilterType {
+    Nearest,
+    Bilinear,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum WrapMode {
+    Repeat,
+    Mirror,
+    Clamp,
+}
+
+impl WrapMode {
+    /// The texel index used for integer position `i` along an axis of `n` texels.
+    #[inline]
+    pub fn wrap(self, i: i64, n: i64) -> usize {
+        (match self {
+            WrapMode::Clamp => i.clamp(0, n - 1),
+            WrapMode::Repeat => i.rem_euclid(n),
+            WrapMode::Mirror => {
+                let m = i.rem_euclid(2 * n);
+                if m < n {
+                    m
+                } else {
+                    2 * n - 1 - m
+                }
+            }
+        }) as usize
+    }
+}
+
+/// Linear texel values, row-major from the image's first stored row.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Bitmap {
+    pub width: usize,
+    pub height: usize,
+    /// 1 (grey) or 3 (RGB).
+    pub channels: usize,
+    pub data: Vec<f32>,
+    pub filter: FilterType,
+    pub wrap: WrapMode,
+    pub to_uv: UvTransform,
+}
+
+impl Bitmap {
+    /// The texel at wrapped indices, as a colour (grey splatted).
+    #[inline]
+    fn texel(&self, x: usize, y: usize) -> Vec3 {
+        let i = (y * self.width + x) * self.channels;
+        if self.channels == 1 {
+            Vec3::splat(self.data[i])
+        } else {
+            Vec3::new(self.data[i], self.data[i + 1], self.data[i + 2])
+        }
+    }
+
+    /// Integer texel position, saturating for uv far outside any image (and 0 for NaN).
+    #[inline]
+    fn floor_i(x: f32) -> i64 {
+        x.floor() as i64
+    }
+
+    #[inline]
+    pub fn eval_rgb(&self, uv: Vec2) -> Vec3 {
+        let uv = self.to_uv.apply(uv);
+        let (w, h) = (self.width as i64, self.height as i64);
+        let (wf, hf) = (self.width as f32, self.height as f32);
+        match self.filter {
+            FilterType::Nearest => {
+                let x = self.wrap.wrap(Self::floor_i(uv.x * wf), w);
+                let y = self.wrap.wrap(Self::floor_i(uv.y * hf), h);
+                self.texel(x, y)
+            }
+            FilterType::Bilinear => {
+                let px = uv.x * wf - 0.5;
+                let py = uv.y * hf - 0.5;
+                let (ix, iy) = (Self::floor_i(px), Self::floor_i(py));
+                let (w1x, w1y) = (px - ix as f32, py - iy as f32);
+                let (w0x, w0y) = (1.0 - w1x, 1.0 - w1y);
+                let (x0, x1) = (
+                    self.wrap.wrap(ix, w),
+                    self.wrap.wrap(ix.saturating_add(1), w),
+                );
+                let (y0, y1) = (
+                    self.wrap.wrap(iy, h),
+                    self.wrap.wrap(iy.saturating_add(1), h),
+                );
+                let top = self.texel(x0, y0) * w0x + self.texel(x1, y0) * w1x;
+                let bottom = self.texel(x0, y1) * w0x + self.texel(x1, y1) * w1x;
+                top * w0y + bottom * w1y
+            }
+        }
+    }
+
+    #[inline]
+    pub fn eval_float(&self, uv: Vec2) -> f32 {
+        let c = self.eval_rgb(uv);
+        if self.channels == 1 {
+            c.x
+        } else {
+            luminance(c)
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Dr.Jit's wrap (`tex_wrap` in `include/drjit/texture_impl.h`), transcribed as a
+    /// reference for ours.
+    fn drjit_wrap(mode: WrapMode, pos: i64, res: i64) -> i64 {
+        if mode == WrapMode::Clamp {
+            return pos.clamp(0, res - 1);
+        }
+        let shifted = if pos < 0 { pos + 1 } else { pos };
+        let div = shifted / res; // truncating
+        let mut m = pos - div * res;
+        if m < 0 {
+            m += res;
+        }
+        if mode == WrapMode::Mirror && !(((div & 1) == 0) ^ (pos < 0)) {
+            m = res - 1 - m;
+        }
+        m
+    }
+
+    #[test]
+    fn wrap_matches_drjit() {
+        for mode in [WrapMode::Repeat, WrapMode::Mirror, WrapMode::Clamp] {
+            for res in 1..6 {
+                for pos in -25..25 {
+                    assert_eq!(
+                        mode.wrap(pos, res) as i64,
+                        drjit_wrap(mode, pos, res),
+                        "{mode:?} pos {pos} res {res}"
+                    );
+                }
+            }
+        }
+        assert_eq!(WrapMode::Mirror.wrap(-1, 4), 0);
+        assert_eq!(WrapMode::Mirror.wrap(4, 4), 3);
+        assert_eq!(WrapMode::Repeat.wrap(-1, 4), 3);
+    }
+
+    fn grey_2x1(filter: FilterType, wrap: WrapMode) -> Bitmap {
+        Bitmap {
+            width: 2,
+            height: 1,
+            channels: 1,
+            data: vec![0.0, 1.0],
+            filter,
+            wrap,
+            to_uv: UvTransform::IDENTITY,
+        }
+    }
+
+    #[test]
+    fn texel_centres_and_interpolation() {
+        let b = grey_2x1(FilterType::Bilinear, WrapMode::Clamp);
+        // Centres at u = 1/4 and 3/4.
+        assert_eq!(b.eval_float(Vec2::new(0.25, 0.5)), 0.0);
+        assert_eq!(b.eval_float(Vec2::new(0.75, 0.5)), 1.0);
+        assert!((b.eval_float(Vec2::new(0.5, 0.5)) - 0.5).abs() < 1e-6);
+        assert!((b.eval_float(Vec2::new(0.375, 0.5)) - 0.25).abs() < 1e-6);
+        // Clamp holds the edge texels beyond the centres.
+        assert_eq!(b.eval_float(Vec2::new(0.0, 0.5)), 0.0);
+        assert_eq!(b.eval_float(Vec2::new(1.5, 0.5)), 1.0);
+        // Repeat interpolates across the seam: u = 0 is halfway between texel 1 and 0.
+        let r = grey_2x1(FilterType::Bilinear, WrapMode::Repeat);
+        assert!((r.eval_float(Vec2::new(0.0, 0.5)) - 0.5).abs() < 1e-6);
+        // Nearest: texel floor(u W).
+        let n = grey_2x1(FilterType::Nearest, WrapMode::Repeat);
+        assert_eq!(n.eval_float(Vec2::new(0.49, 0.5)), 0.0);
+        assert_eq!(n.eval_float(Vec2::new(0.5, 0.5)), 1.0);
+        assert_eq!(n.eval_float(Vec2::new(-0.25, 0.5)), 1.0);
+        let m = grey_2x1(FilterType::Nearest, WrapMode::Mirror);
+        assert_eq!(m.eval_float(Vec2::new(-0.25, 0.5)), 0.0);
+        assert_eq!(m.eval_float(Vec2::new(1.25, 0.5)), 1.0);
+        assert_eq!(m.eval_float(Vec2::new(1.75, 0.5)), 0.0);
+        // NaN and huge uv do not panic.
+        let _ = b.eval_rgb(Vec2::new(f32::NAN, 1e30));
+        let _ = r.eval_rgb(Vec2::new(-1e30, f32::INFINITY));
+        let _ = m.eval_rgb(Vec2::new(f32::NEG_INFINITY, 3e38));
+    }
+}

@@ -1,0 +1,359 @@
+//! Decoding image files for `bitmap` textures into linear f32 texels: PNG and JPEG
+//! (8/16-bit, sRGB-encoded), Radiance HDR (linear), through the `image` crate; OpenEXR
+//! (linear) through the `exr` crate.
+//!
+//! Hostile files end in an error, never a panic nor an unbounded allocation: the file
+//! is read through `io::read_regular` (regular files of bounded size), the dimensions
+//! are read from the header and checked against [`MAX_TEXELS`] before any pixel is
+//! decoded, and the decoders run under an allocation limit.
+
+use crate::io::{read_regular, MAX_IMAGE_BYTES};
+use std::io::Cursor;
+use std::path::Path;
+
+/// The most texels an image may have (16k x 16k): 3 GiB of f32 RGB.
+pub const MAX_TEXELS: u64 = 1 << 28;
+/// What a decoder may allocate for one image.
+const MAX_DECODE_ALLOC: u64 = 4 << 30;
+
+/// Decoded texels, row-major from the first stored row, 1 or 3 channels.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ImageData {
+    pub width: usize,
+    pub height: usize,
+    pub channels: usize,
+    pub data: Vec<f32>,
+}
+
+/// The sRGB transfer function's inverse (IEC 61966-2-1), as Dr.Jit's `srgb_to_linear`.
+#[inline]
+pub fn srgb_to_linear(v: f32) -> f32 {
+    if v <= 0.04045 {
+        v / 12.92
+    } else {
+        ((v + 0.055) / 1.055).powf(2.4)
+    }
+}
+
+/// Reads and decodes an image. `raw`: keep 8/16-bit values as stored (scaled to
+/// [0, 1]) instead of decoding sRGB. The error is a short reason without the path.
+pub fn load_image(path: &Path, raw: bool) -> Result<ImageData, String> {
+    let bytes = read_regular(path, MAX_IMAGE_BYTES)?;
+    if bytes.starts_with(&[0x76, 0x2f, 0x31, 0x01]) {
+        decode_exr(&bytes)
+    } else {
+        decode_ldr_or_hdr(&bytes, raw)
+    }
+}
+
+fn check_size(width: u64, height: u64) -> Result<(), String> {
+    if width == 0 || height == 0 {
+        return Err(format!("has no pixels ({width} x {height})"));
+    }
+    if width.saturating_mul(height) > MAX_TEXELS {
+        return Err(format!(
+            "is {width} x {height} pixels, above the limit of {MAX_TEXELS} pixels for a texture"
+        ));
+    }
+    Ok(())
+}
+
+/// A buffer of `n` texel values, or an error when it cannot be allocated.
+fn texel_buffer(n: usize) -> Result<Vec<f32>, String> {
+    let mut v = Vec::new();
+    v.try_reserve_exact(n).map_err(|_| {
+        format!(
+            "needs {} bytes of texels, more than can be allocated",
+            4 * n
+        )
+    })?;
+    Ok(v)
+}
+
+fn decode_ldr_or_hdr(bytes: &[u8], raw: bool) -> Result<ImageData, String> {
+    use image::{DynamicImage, ImageFormat, ImageReader};
+    let reader = || -> Result<ImageReader<Cursor<&[u8]>>, String> {
+        let r = ImageReader::new(Cursor::new(bytes))
+            .with_guessed_format()
+            .map_err(|e| e.to_string())?;
+        match r.format() {
+            Some(ImageFormat::Png | ImageFormat::Jpeg | ImageFormat::Hdr) => Ok(r),
+            Some(f) => Err(format!(
+                "is a {f:?} image (supported: PNG, JPEG, Radiance HDR, OpenEXR)"
+            )),
+            None => Err("is not a PNG, JPEG, Radiance HDR or OpenEXR image".into()),
+        }
+    };
+    let (w, h) = reader()?
+        .into_dimensions()
+        .map_err(|e| format!("has an unreadable image header: {e}"))?;
+    check_size(w as u64, h as u64)?;
+    let mut r = reader()?;
+    let mut limits = image::Limits::default();
+    limits.max_image_width = Some(w);
+    limits.max_image_height = Some(h);
+    limits.max_alloc = Some(MAX_DECODE_ALLOC);
+    r.limits(limits);
+    let img = r
+        .decode()
+        .map_err(|e| format!("could not be decoded: {e}"))?;
+    let (width, height) = (img.width() as usize, img.height() as usize);
+    check_size(width as u64, height as u64)?;
+    let n = width * height;
+    // Grey (with or without alpha) stays one channel; everything else becomes RGB,
+    // alpha dropped, as Mitsuba's bitmap texture does.
+    let grey = matches!(
+        img,
+        DynamicImage::ImageLuma8(_)
+            | DynamicImage::ImageLumaA8(_)
+            | DynamicImage::ImageLuma16(_)
+            | DynamicImage::ImageLumaA16(_)
+    );
+    let channels = if grey { 1 } else { 3 };
+    let mut data = texel_buffer(n * channels)?;
+    let srgb = !raw;
+    let decode8 = |v: u8| {
+        let f = v as f32 / 255.0;
+        if srgb {
+            srgb_to_linear(f)
+        } else {
+            f
+        }
+    };
+    let decode16 = |v: u16| {
+        let f = v as f32 / 65535.0;
+        if srgb {
+            srgb_to_linear(f)
+        } else {
+            f
+        }
+    };
+    match &img {
+        DynamicImage::ImageLuma8(b) => data.extend(b.pixels().map(|p| decode8(p.0[0]))),
+        DynamicImage::ImageLumaA8(b) => data.extend(b.pixels().map(|p| decode8(p.0[0]))),
+        DynamicImage::ImageLuma16(b) => data.extend(b.pixels().map(|p| decode16(p.0[0]))),
+        DynamicImage::ImageLumaA16(b) => data.extend(b.pixels().map(|p| decode16(p.0[0]))),
+        DynamicImage::ImageRgb8(b) => data.extend(b.pixels().flat_map(|p| p.0.map(decode8))),
+        DynamicImage::ImageRgba8(b) => data.extend(
+            b.pixels()
+                .flat_map(|p| [p.0[0], p.0[1], p.0[2]].map(decode8)),
+        ),
+        DynamicImage::ImageRgb16(b) => data.extend(b.pixels().flat_map(|p| p.0.map(decode16))),
+        DynamicImage::ImageRgba16(b) => data.extend(
+            b.pixels()
+                .flat_map(|p| [p.0[0], p.0[1], p.0[2]].map(decode16)),
+        ),
+        // Radiance HDR (and any float image): linear already.
+        DynamicImage::ImageRgb32F(b) => data.extend(b.pixels().flat_map(|p| p.0)),
+        DynamicImage::ImageRgba32F(b) => {
+            data.extend(b.pixels().flat_map(|p| [p.0[0], p.0[1], p.0[2]]))
+        }
+        other => {
+            return Err(format!(
+                "has an unsupported pixel layout {:?}",
+                other.color()
+            ))
+        }
+    }
+    check_values(&data)?;
+    Ok(ImageData {
+        width,
+        height,
+        channels,
+        data,
+    })
+}
+
+/// Texels must be finite: a NaN or infinity would reach every path that reads it.
+fn check_values(data: &[f32]) -> Result<(), String> {
+    match data.iter().position(|v| !v.is_finite()) {
+        Some(i) => Err(format!("has a non-finite value ({}) at value {i}", data[i])),
+        None => Ok(()),
+    }
+}
+
+fn decode_exr(bytes: &[u8]) -> Result<ImageData, String> {
+    use exr::prelude::*;
+    let meta = exr::meta::MetaData::read_from_buffered(Cursor::new(bytes), false)
+        .map_err(|e| format!("has an unreadable OpenEXR header: {e}"))?;
+    let header = meta
+        .headers
+        .first()
+        .ok_or("is an OpenEXR file without layers")?;
+    if header.deep {
+        return Err("is a deep OpenEXR image (not supported for textures)".into());
+    }
+    let size = header.layer_size;
+    check_size(size.width() as u64, size.height() as u64)?;
+    let image = read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .all_channels()
+        .first_valid_layer()
+        .all_attributes()
+        .from_buffered(Cursor::new(bytes))
+        .map_err(|e| format!("could not be decoded as OpenEXR: {e}"))?;
+    let layer = &image.layer_data;
+    let (width, height) = (layer.size.width(), layer.size.height());
+    check_size(width as u64, height as u64)?;
+    let n = width * height;
+    let channels = &layer.channel_data.list;
+    let find = |name: &str| {
+        channels.iter().find(|c| {
+            let s = c.name.to_string();
+            s == name || s.ends_with(&format!(".{name}"))
+        })
+    };
+    let picked: Vec<&AnyChannel<FlatSamples>> = match (find("R"), find("G"), find("B"), find("Y")) {
+        (Some(r), Some(g), Some(b), _) => vec![r, g, b],
+        (_, _, _, Some(y)) => vec![y],
+        _ if channels.len() == 1 => vec![&channels[0]],
+        _ => {
+            let names: Vec<String> = channels.iter().map(|c| c.name.to_string()).collect();
+            return Err(format!(
+                "has OpenEXR channels [{}]: a texture needs R, G, B or Y",
+                names.join(", ")
+            ));
+        }
+    };
+    for c in &picked {
+        if c.sample_data.len() != n {
+            return Err(format!(
+                "has OpenEXR channel {} with {} samples for {width} x {height} pixels (subsampled channels are not supported)",
+                c.name,
+                c.sample_data.len()
+            ));
+        }
+    }
+    let mut data = texel_buffer(n * picked.len())?;
+    for i in 0..n {
+        for c in &picked {
+            data.push(c.sample_data.value_by_flat_index(i).to_f32());
+        }
+    }
+    check_values(&data)?;
+    Ok(ImageData {
+        width,
+        height,
+        channels: picked.len(),
+        data,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::path::PathBuf;
+
+    fn write_png(dir: &Path, name: &str, img: image::DynamicImage) -> PathBuf {
+        let p = dir.join(name);
+        img.save(&p).unwrap();
+        p
+    }
+
+    /// CRC-32 of a PNG chunk (type and data), to forge valid headers.
+    fn crc32(bytes: &[u8]) -> u32 {
+        let mut c = !0u32;
+        for &b in bytes {
+            c ^= b as u32;
+            for _ in 0..8 {
+                c = if c & 1 != 0 {
+                    0xedb8_8320 ^ (c >> 1)
+                } else {
+                    c >> 1
+                };
+            }
+        }
+        !c
+    }
+
+    #[test]
+    fn srgb_bytes_decode_to_linear_unless_raw() {
+        let dir = tempfile::tempdir().unwrap();
+        let rgb = image::RgbImage::from_raw(2, 1, vec![128, 0, 255, 10, 64, 200]).unwrap();
+        let p = write_png(dir.path(), "a.png", rgb.into());
+        let img = load_image(&p, false).unwrap();
+        assert_eq!((img.width, img.height, img.channels), (2, 1, 3));
+        assert!((img.data[0] - 0.215_860_5).abs() < 1e-6, "{}", img.data[0]);
+        assert_eq!(img.data[1], 0.0);
+        assert!((img.data[2] - 1.0).abs() < 1e-6);
+        // 10/255 lies on the linear segment: / 12.92.
+        assert!((img.data[3] - 10.0 / 255.0 / 12.92).abs() < 1e-7);
+        let raw = load_image(&p, true).unwrap();
+        let bytes = [128u8, 0, 255, 10, 64, 200];
+        for (v, b) in raw.data.iter().zip(bytes) {
+            assert_eq!(*v, b as f32 / 255.0);
+        }
+    }
+
+    #[test]
+    fn alpha_is_dropped_and_grey_stays_one_channel() {
+        let dir = tempfile::tempdir().unwrap();
+        let rgba = image::RgbaImage::from_raw(1, 1, vec![255, 0, 51, 7]).unwrap();
+        let img = load_image(&write_png(dir.path(), "rgba.png", rgba.into()), true).unwrap();
+        assert_eq!(img.channels, 3);
+        assert_eq!(img.data, vec![1.0, 0.0, 0.2]);
+        let la = image::GrayAlphaImage::from_raw(2, 1, vec![51, 0, 255, 9]).unwrap();
+        let img = load_image(&write_png(dir.path(), "la.png", la.into()), true).unwrap();
+        assert_eq!((img.channels, img.data.clone()), (1, vec![0.2, 1.0]));
+        let g16 =
+            image::ImageBuffer::<image::Luma<u16>, _>::from_raw(1, 1, vec![65535u16]).unwrap();
+        let img = load_image(&write_png(dir.path(), "g16.png", g16.into()), false).unwrap();
+        assert!((img.data[0] - 1.0).abs() < 1e-6);
+    }
+
+    #[test]
+    fn exr_values_are_linear_and_exact() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("a.exr");
+        exr::prelude::write_rgb_file(&p, 2, 2, |x, y| {
+            (x as f32 + 2.0 * y as f32, 0.5f32, 10.0f32)
+        })
+        .unwrap();
+        let img = load_image(&p, false).unwrap();
+        assert_eq!((img.width, img.height, img.channels), (2, 2, 3));
+        // Row-major from the first row: (0,0), (1,0), (0,1), (1,1).
+        let r: Vec<f32> = img.data.chunks(3).map(|c| c[0]).collect();
+        assert_eq!(r, vec![0.0, 1.0, 2.0, 3.0]);
+        assert_eq!(img.data[1], 0.5);
+        assert_eq!(img.data[2], 10.0);
+    }
+
+    #[test]
+    fn hostile_images_are_one_line_errors() {
+        let dir = tempfile::tempdir().unwrap();
+        let rgb = image::RgbImage::from_raw(4, 4, vec![7; 48]).unwrap();
+        let p = write_png(dir.path(), "ok.png", rgb.into());
+        let good = std::fs::read(&p).unwrap();
+        let check = |name: &str, bytes: &[u8], want: &str| {
+            let f = dir.path().join(name);
+            std::fs::write(&f, bytes).unwrap();
+            let e = load_image(&f, false).unwrap_err();
+            assert!(e.contains(want), "{name}: {e}");
+            assert!(!e.contains('\n'), "{name}: {e}");
+        };
+        check("trunc.png", &good[..good.len() / 2], "decoded");
+        check("empty.png", b"", "not a PNG");
+        check("text.png", b"hello world, not an image", "not a PNG");
+        check("gif.gif", b"GIF89a\x01\x00\x01\x00\x00\x00\x00", "Gif");
+        check("exr.exr", &[0x76, 0x2f, 0x31, 0x01, 2, 0, 0], "OpenEXR");
+        // A valid header that claims 100000 x 100000 pixels: refused before decoding.
+        let mut huge = good.clone();
+        huge[16..20].copy_from_slice(&100_000u32.to_be_bytes());
+        huge[20..24].copy_from_slice(&100_000u32.to_be_bytes());
+        let crc = crc32(&huge[12..29]);
+        huge[29..33].copy_from_slice(&crc.to_be_bytes());
+        check("huge.png", &huge, "above the limit");
+        // Zero width is no image (the decoder refuses it, or we do).
+        let mut zero = good.clone();
+        zero[16..20].copy_from_slice(&0u32.to_be_bytes());
+        let crc = crc32(&zero[12..29]);
+        zero[29..33].copy_from_slice(&crc.to_be_bytes());
+        let f = dir.path().join("zero.png");
+        std::fs::write(&f, &zero).unwrap();
+        assert!(load_image(&f, false).is_err());
+        assert!(load_image(dir.path(), false)
+            .unwrap_err()
+            .contains("directory"));
+    }
+}
