@@ -1021,7 +1021,7 @@ fn area_uniformity_p_value(
     let shape_ref = &scene.shapes[*shape as usize];
     let mut rng = Pcg32::new(seed, 0xa4ea);
     let (counts, expected): (Vec<u64>, Vec<f64>) = match &shape_ref.geom {
-        ShapeGeom::Sphere(s) => {
+        ShapeGeom::Sphere(s, _) => {
             let mut counts = vec![0u64; K * 2 * K];
             for _ in 0..N {
                 let p = sampler
