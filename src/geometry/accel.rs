@@ -48,6 +48,11 @@ pub struct Hit {
     pub t: f32,
     pub shape: u32,
     pub surface: SurfacePoint,
+    /// The triangle of the shape that was hit (0 for spheres) and its barycentrics,
+    /// for `Shape::uv` when a textured material asks.
+    pub face: u32,
+    pub b1: f32,
+    pub b2: f32,
 }
 
 pub struct Accel {
@@ -226,6 +231,9 @@ impl Accel {
             t: hit.t,
             shape: p.shape,
             surface,
+            face: p.face,
+            b1: best_b.0,
+            b2: best_b.1,
         })
     }
 
@@ -305,6 +313,9 @@ impl Accel {
             t,
             shape: p.shape,
             surface,
+            face: p.face,
+            b1,
+            b2,
         })
     }
 

@@ -15,6 +15,7 @@ mod dielectric;
 mod diffuse;
 mod flags;
 pub mod fresnel;
+pub mod material;
 pub mod microfacet;
 pub mod parse;
 mod rough_conductor;
@@ -23,6 +24,7 @@ pub use conductor::Conductor;
 pub use dielectric::Dielectric;
 pub use diffuse::Diffuse;
 pub use flags::BsdfFlags;
+pub use material::Material;
 pub use microfacet::{Microfacet, MicrofacetKind};
 pub use rough_conductor::RoughConductor;
 

@@ -1,12 +1,15 @@
 //! Reading `<bsdf>` elements (and `<ref>`s to them) into [`Bsdf`] values.
 
+use super::material::{Binding, Side};
 use super::{
-    Bsdf, Conductor, Dielectric, Diffuse, Microfacet, MicrofacetKind, OneSided, RoughConductor,
-    TwoSided,
+    Bsdf, Conductor, Dielectric, Diffuse, Material, Microfacet, MicrofacetKind, OneSided,
+    RoughConductor, TwoSided,
 };
 use crate::math::Rgb;
 use crate::scene::error::SceneError;
 use crate::scene::props::{Ctx, Props, Value};
+use crate::scene::textures::{texture_param, NamedTextures};
+use crate::textures::Texture;
 use roxmltree::Node;
 use std::collections::HashMap;
 
@@ -171,15 +174,17 @@ fn microfacet(props: &mut Props) -> Result<Microfacet, SceneError> {
 }
 
 /// A `<bsdf>` element or a `<ref id>` to a named one.
-pub fn resolve_bsdf(
-    ctx: &Ctx,
-    node: Node,
-    named: &HashMap<String, Bsdf>,
-) -> Result<Bsdf, SceneError> {
+/// What a BSDF may refer to: named BSDFs and named textures declared before it.
+pub struct Named<'a> {
+    pub bsdfs: &'a HashMap<String, Material>,
+    pub textures: &'a NamedTextures,
+}
+
+pub fn resolve_bsdf(ctx: &Ctx, node: Node, named: &Named) -> Result<Material, SceneError> {
     match node.tag_name().name() {
         "ref" => {
             let id = ctx.required_attr(node, "id")?;
-            named.get(&id).cloned().ok_or_else(|| {
+            named.bsdfs.get(&id).cloned().ok_or_else(|| {
                 ctx.err(
                     node,
                     format!("no BSDF with id '{id}' defined before this point"),
@@ -191,19 +196,25 @@ pub fn resolve_bsdf(
     }
 }
 
-pub fn parse_bsdf(
-    ctx: &Ctx,
-    node: Node,
-    named: &HashMap<String, Bsdf>,
-) -> Result<Bsdf, SceneError> {
+pub fn parse_bsdf(ctx: &Ctx, node: Node, named: &Named) -> Result<Material, SceneError> {
     let kind = ctx.required_attr(node, "type")?;
     let mut props = Props::parse(ctx, node)?;
+    let mut bindings = Vec::new();
     let bsdf = match kind.as_str() {
         "diffuse" => {
-            let r = props.rgb("reflectance")?.unwrap_or(Rgb::splat(0.5));
-            Bsdf::Diffuse(Diffuse {
-                reflectance: check_reflectance(&props, "reflectance", r)?,
-            })
+            let reflectance = match texture_param(&mut props, "reflectance", named.textures)? {
+                None => Rgb::splat(0.5),
+                Some(Texture::Constant(c)) => check_reflectance(&props, "reflectance", c)?,
+                Some(texture) => {
+                    bindings.push(Binding {
+                        side: Side::Only,
+                        texture,
+                    });
+                    // A placeholder: `Material::at` sets it at every hit.
+                    Rgb::splat(0.5)
+                }
+            };
+            Bsdf::Diffuse(Diffuse { reflectance })
         }
         "dielectric" => {
             let int_ior = ior(&mut props, "int_ior", 1.5046)?;
@@ -244,7 +255,7 @@ pub fn parse_bsdf(
             })
         }
         "twosided" => {
-            let children: Vec<Bsdf> = props
+            let children: Vec<Material> = props
                 .objects
                 .iter()
                 .map(|&c| resolve_bsdf(ctx, c, named))
@@ -258,7 +269,13 @@ pub fn parse_bsdf(
                 OneSided::try_from(b)
                     .map_err(|_| props.err("twosided cannot wrap a dielectric or another twosided"))
             };
-            let (front, back) = (one_sided(front)?, one_sided(back)?);
+            for (side, child) in [(Side::Front, &front), (Side::Back, &back)] {
+                bindings.extend(child.bindings.iter().map(|b| Binding {
+                    side,
+                    texture: b.texture.clone(),
+                }));
+            }
+            let (front, back) = (one_sided(front.bsdf)?, one_sided(back.bsdf)?);
             props.objects.clear();
             Bsdf::TwoSided(TwoSided { front, back })
         }
@@ -272,10 +289,10 @@ pub fn parse_bsdf(
         return Err(ctx.err(
             obj,
             format!(
-                "unexpected nested element in <bsdf type=\"{kind}\"> (textures are not supported)"
+                "unexpected nested element in <bsdf type=\"{kind}\"> (of its parameters only diffuse's reflectance takes a texture)"
             ),
         ));
     }
     props.finish()?;
-    Ok(bsdf)
+    Ok(Material { bsdf, bindings })
 }

@@ -162,7 +162,15 @@ unsafe fn trace_path_body<const ISA: u8>(
         let wo_world = -d;
         let frame = Frame::from_normal(sp.ns);
         let wo = frame.to_local(wo_world);
-        let bsdf = &scene.bsdfs[shape.bsdf as usize];
+        let material = &scene.bsdfs[shape.bsdf as usize];
+        // A textured material becomes a plain BSDF at this hit's uv (computed only then).
+        let textured;
+        let bsdf = if material.is_textured() {
+            textured = material.at(shape.uv(hit.face, hit.b1, hit.b2, sp.p));
+            &textured
+        } else {
+            &material.bsdf
+        };
 
         // Emission (front side only), MIS-weighted against light sampling.
         let mut seen_emitter = false;

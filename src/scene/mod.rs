@@ -16,7 +16,7 @@ mod xml;
 use crate::geometry::accel::Accel;
 use crate::geometry::shape::Shape;
 use crate::lights::Emitter;
-use crate::materials::Bsdf;
+use crate::materials::Material;
 use camera::Camera;
 pub use error::SceneError;
 use film::Film;
@@ -75,7 +75,7 @@ pub struct Scene {
     /// The sampler's `seed` parameter (the CLI's `--seed` overrides it).
     pub seed: u64,
     pub integrator: IntegratorSettings,
-    pub bsdfs: Vec<Bsdf>,
+    pub bsdfs: Vec<Material>,
     pub shapes: Vec<Shape>,
     pub emitters: Vec<Emitter>,
     pub accel: Accel,

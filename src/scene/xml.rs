@@ -10,9 +10,10 @@ use super::{IntegratorSettings, Overrides, Scene};
 use crate::geometry::accel::Accel;
 use crate::geometry::shape::{AreaSampler, Shape, ShapeGeom};
 use crate::lights::Emitter;
-use crate::materials::parse::{parse_bsdf, resolve_bsdf};
-use crate::materials::{Bsdf, Diffuse};
+use crate::materials::parse::{parse_bsdf, resolve_bsdf, Named};
+use crate::materials::{Bsdf, Diffuse, Material};
 use crate::math::Rgb;
+use crate::scene::textures::{parse_texture, NamedTextures};
 use glam::{DMat4, DVec3, Vec3};
 use roxmltree::Node;
 use sha2::{Digest, Sha256};
@@ -117,8 +118,9 @@ pub fn load(path: &Path, overrides: &Overrides) -> Result<Scene, SceneError> {
     }
     check_elements(&ctx, root)?;
 
-    let mut named_bsdfs: HashMap<String, Bsdf> = HashMap::new();
-    let mut bsdfs: Vec<Bsdf> = Vec::new();
+    let mut named_bsdfs: HashMap<String, Material> = HashMap::new();
+    let mut named_textures: NamedTextures = HashMap::new();
+    let mut bsdfs: Vec<Material> = Vec::new();
     let mut bsdf_index: HashMap<String, usize> = HashMap::new();
     let mut shapes: Vec<Shape> = Vec::new();
     let mut emitters: Vec<Emitter> = Vec::new();
@@ -140,8 +142,21 @@ pub fn load(path: &Path, overrides: &Overrides) -> Result<Scene, SceneError> {
                 }
                 sensor = Some(parse_sensor(&ctx, node)?);
             }
+            "texture" => {
+                let t = parse_texture(&ctx, node)?;
+                let Some(id) = ctx.attr(node, "id")? else {
+                    return Err(ctx.err(node, "a top-level <texture> needs an id to be referenced"));
+                };
+                if named_textures.insert(id.clone(), t).is_some() {
+                    return Err(ctx.err(node, format!("id '{id}' is defined twice")));
+                }
+            }
             "bsdf" => {
-                let b = parse_bsdf(&ctx, node, &named_bsdfs)?;
+                let named = Named {
+                    bsdfs: &named_bsdfs,
+                    textures: &named_textures,
+                };
+                let b = parse_bsdf(&ctx, node, &named)?;
                 if let Some(id) = ctx.attr(node, "id")? {
                     if named_bsdfs.insert(id.clone(), b).is_some() {
                         return Err(ctx.err(node, format!("id '{id}' is defined twice")));
@@ -150,13 +165,23 @@ pub fn load(path: &Path, overrides: &Overrides) -> Result<Scene, SceneError> {
             }
             "shape" => {
                 let index = shapes.len() as u32;
-                let (shape, bsdf, emission) = parse_shape(&ctx, node, index, &named_bsdfs)?;
-                // Equal BSDFs share an index; found by their exact Debug text, so
-                // that many distinct BSDFs do not cost a quadratic search.
-                let bsdf_index = *bsdf_index.entry(format!("{bsdf:?}")).or_insert_with(|| {
+                let named = Named {
+                    bsdfs: &named_bsdfs,
+                    textures: &named_textures,
+                };
+                let (shape, bsdf, emission) = parse_shape(&ctx, node, index, &named)?;
+                // Equal untextured BSDFs share an index; found by their exact Debug
+                // text, so that many distinct BSDFs do not cost a quadratic search.
+                // (Textured ones are not compared: an image's Debug text is its texels.)
+                let bsdf_index = if bsdf.is_textured() {
                     bsdfs.push(bsdf);
                     bsdfs.len() - 1
-                });
+                } else {
+                    *bsdf_index.entry(format!("{bsdf:?}")).or_insert_with(|| {
+                        bsdfs.push(bsdf);
+                        bsdfs.len() - 1
+                    })
+                };
                 let mut shape = Shape {
                     bsdf: bsdf_index as u32,
                     ..shape
@@ -175,7 +200,7 @@ pub fn load(path: &Path, overrides: &Overrides) -> Result<Scene, SceneError> {
             other => {
                 return Err(ctx.err(
                     node,
-                    format!("<{other}> is not supported (supported at top level: default, integrator, sensor, bsdf, shape, emitter)"),
+                    format!("<{other}> is not supported (supported at top level: default, integrator, sensor, texture, bsdf, shape, emitter)"),
                 ))
             }
         }
@@ -391,7 +416,7 @@ fn parse_sensor(ctx: &Ctx, node: Node) -> Result<Sensor, SceneError> {
     })
 }
 
-type ParsedShape = (Shape, Bsdf, Option<Rgb>);
+type ParsedShape = (Shape, Material, Option<Rgb>);
 
 /// The diagonal of the box around all shapes, in world units.
 fn extent(shapes: &[Shape]) -> Option<f32> {
@@ -492,7 +517,7 @@ fn parse_shape(
     ctx: &Ctx,
     node: Node,
     index: u32,
-    named: &HashMap<String, Bsdf>,
+    named: &Named,
 ) -> Result<ParsedShape, SceneError> {
     let kind = ctx.required_attr(node, "type")?;
     let mut p = Props::parse(ctx, node)?;
@@ -566,9 +591,9 @@ fn parse_shape(
         None if area == 0.0 => ctx.warn(node, "the shape has zero area: it is invisible"),
         _ => {}
     }
-    let bsdf = bsdf.unwrap_or(Bsdf::Diffuse(Diffuse {
+    let bsdf = bsdf.unwrap_or(Material::plain(Bsdf::Diffuse(Diffuse {
         reflectance: Rgb::splat(0.5),
-    }));
+    })));
     Ok((shape, bsdf, emission.map(|(radiance, _)| radiance)))
 }
 
