@@ -27,7 +27,7 @@ use tstat::geometry::shape::ShapeGeom;
 use tstat::lights::Emitter;
 use tstat::materials::{
     Bsdf, BsdfFlags, BsdfModel, BsdfSample, Conductor, Dielectric, Diffuse, Microfacet,
-    MicrofacetKind, OneSided, RoughConductor, TwoSided,
+    MicrofacetKind, OneSided, RoughConductor, ThinDielectric, TwoSided,
 };
 use tstat::math::rng::Pcg32;
 use tstat::math::sampling::{cosine_hemisphere, cosine_hemisphere_pdf};
@@ -36,7 +36,7 @@ use tstat::math::Rgb;
 /// Overall significance of the file's statistical tests.
 const ALPHA: f64 = 0.01;
 /// Chi-square BSDF cases + delta cases + light cases (checked in each test).
-const FAMILY: usize = 38;
+const FAMILY: usize = 42;
 /// The Bonferroni-corrected level of one test.
 const LEVEL: f64 = ALPHA / FAMILY as f64;
 
@@ -375,7 +375,7 @@ fn all_models() -> Vec<(&'static str, Box<dyn BsdfModel>)> {
 #[test]
 fn the_family_size_is_the_number_of_tests() {
     assert_eq!(
-        non_delta_cases().len() + delta_cases().len() + LIGHT_CASES,
+        non_delta_cases().len() + delta_cases().len() + THIN_CASES.len() + LIGHT_CASES,
         FAMILY
     );
 }
@@ -608,6 +608,68 @@ fn delta_lobes_are_exact_and_chosen_with_fresnel_probability() {
     eprintln!(
         "binomial p-values of {} delta cases in [{lo:.3}, {hi:.3}]",
         ps.len()
+    );
+}
+
+/// Thin dielectric cases (eta, theta of wo in degrees), each a binomial test.
+const THIN_CASES: [(f32, f64); 4] = [(1.5, 0.0), (1.5, 70.0), (1.333, 130.0), (2.419, 85.0)];
+
+/// `thindielectric`: reflection exact, transmission straight through (-wo) with the
+/// current IOR unchanged, the reflect/transmit choice with the slab reflectance
+/// R' = R + T^2 R / (1 - R^2) computed here in f64 from Snell's law, and a clear pane
+/// lossless.
+#[test]
+fn thin_dielectric_reflects_the_slab_series_and_passes_straight_through() {
+    for (i, &(eta, theta)) in THIN_CASES.iter().enumerate() {
+        let b = ThinDielectric {
+            eta,
+            specular_reflectance: Rgb::ONE,
+            specular_transmittance: Rgb::ONE,
+        };
+        let wo = dir(theta, 33.0);
+        // One interface from outside, at the pane's angle.
+        let (r, _) = reference_fresnel(Vec3::new(wo.x, wo.y, wo.z.abs()), eta as f64);
+        let t = 1.0 - r;
+        let r_slab = r + t * t * r / (1.0 - r * r);
+        const N: u64 = 20_000;
+        let mut rng = Pcg32::new(40 + i as u64, 0x7417);
+        let mut n_reflect = 0;
+        for _ in 0..N {
+            let s = b.sample(wo, rng.next_f32(), rng.next_2d()).unwrap();
+            assert_eq!(s.eta, 1.0);
+            assert_eq!(s.weight, Rgb::ONE);
+            if s.lobe == BsdfFlags::DELTA_REFLECTION {
+                assert!(close(s.wi, [-wo.x as f64, -wo.y as f64, wo.z as f64], 1e-6));
+                n_reflect += 1;
+            } else {
+                assert_eq!(s.lobe, BsdfFlags::DELTA_TRANSMISSION);
+                assert_eq!(s.wi, -wo);
+            }
+        }
+        let p = binomial_p_value(n_reflect, N, r_slab);
+        assert!(
+            p > LEVEL,
+            "eta {eta} at {theta} deg: p = {p:.3e}, R' = {r_slab}"
+        );
+        assert!((b.albedo(wo) - Rgb::ONE).abs().max_element() < 1e-6);
+    }
+    // The series matters: a pane reflecting only one interface's R is rejected.
+    let wo = dir(70.0, 0.0);
+    let (r, _) = reference_fresnel(wo, 1.5);
+    let b = ThinDielectric {
+        eta: 1.5,
+        specular_reflectance: Rgb::ONE,
+        specular_transmittance: Rgb::ONE,
+    };
+    let mut rng = Pcg32::new(1, 2);
+    let k = (0..20_000)
+        .filter(|_| {
+            b.sample(wo, rng.next_f32(), rng.next_2d()).unwrap().lobe == BsdfFlags::DELTA_REFLECTION
+        })
+        .count() as u64;
+    assert!(
+        binomial_p_value(k, 20_000, r) < LEVEL,
+        "R' indistinguishable from R"
     );
 }
 

@@ -19,6 +19,7 @@ pub mod material;
 pub mod microfacet;
 pub mod parse;
 mod rough_conductor;
+mod thin_dielectric;
 
 pub use conductor::Conductor;
 pub use dielectric::Dielectric;
@@ -27,6 +28,7 @@ pub use flags::BsdfFlags;
 pub use material::Material;
 pub use microfacet::{Microfacet, MicrofacetKind};
 pub use rough_conductor::RoughConductor;
+pub use thin_dielectric::ThinDielectric;
 
 use crate::math::Rgb;
 use glam::Vec3;
@@ -90,6 +92,7 @@ pub enum Bsdf {
     Dielectric(Dielectric),
     Conductor(Conductor),
     RoughConductor(RoughConductor),
+    ThinDielectric(ThinDielectric),
     TwoSided(TwoSided),
 }
 
@@ -101,7 +104,9 @@ impl TryFrom<Bsdf> for OneSided {
             Bsdf::Diffuse(d) => Ok(OneSided::Diffuse(d)),
             Bsdf::Conductor(c) => Ok(OneSided::Conductor(c)),
             Bsdf::RoughConductor(c) => Ok(OneSided::RoughConductor(c)),
-            other @ (Bsdf::Dielectric(_) | Bsdf::TwoSided(_)) => Err(other),
+            other @ (Bsdf::Dielectric(_) | Bsdf::ThinDielectric(_) | Bsdf::TwoSided(_)) => {
+                Err(other)
+            }
         }
     }
 }
@@ -201,25 +206,25 @@ impl BsdfModel for Bsdf {
     #[inline(always)]
     fn flags(&self, wo: Vec3) -> BsdfFlags {
         dispatch!(self, b => b.flags(wo),
-            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::TwoSided)
+            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::ThinDielectric, Bsdf::TwoSided)
     }
     #[inline(always)]
     fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
         dispatch!(self, b => b.eval(wo, wi),
-            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::TwoSided)
+            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::ThinDielectric, Bsdf::TwoSided)
     }
     #[inline(always)]
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         dispatch!(self, b => b.pdf(wo, wi),
-            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::TwoSided)
+            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::ThinDielectric, Bsdf::TwoSided)
     }
     #[inline(always)]
     fn sample(&self, wo: Vec3, u1: f32, u2: [f32; 2]) -> Option<BsdfSample> {
         dispatch!(self, b => b.sample(wo, u1, u2),
-            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::TwoSided)
+            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::ThinDielectric, Bsdf::TwoSided)
     }
     fn albedo(&self, wo: Vec3) -> Rgb {
         dispatch!(self, b => b.albedo(wo),
-            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::TwoSided)
+            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::ThinDielectric, Bsdf::TwoSided)
     }
 }

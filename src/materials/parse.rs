@@ -3,7 +3,7 @@
 use super::material::{Binding, Side};
 use super::{
     Bsdf, Conductor, Dielectric, Diffuse, Material, Microfacet, MicrofacetKind, OneSided,
-    RoughConductor, TwoSided,
+    RoughConductor, ThinDielectric, TwoSided,
 };
 use crate::math::Rgb;
 use crate::scene::error::SceneError;
@@ -216,7 +216,7 @@ pub fn parse_bsdf(ctx: &Ctx, node: Node, named: &Named) -> Result<Material, Scen
             };
             Bsdf::Diffuse(Diffuse { reflectance })
         }
-        "dielectric" => {
+        "dielectric" | "thindielectric" => {
             let int_ior = ior(&mut props, "int_ior", 1.5046)?;
             let ext_ior = ior(&mut props, "ext_ior", 1.000277)?;
             let eta = int_ior / ext_ior;
@@ -228,11 +228,23 @@ pub fn parse_bsdf(ctx: &Ctx, node: Node, named: &Named) -> Result<Material, Scen
             }
             let sr = props.rgb("specular_reflectance")?.unwrap_or(Rgb::ONE);
             let st = props.rgb("specular_transmittance")?.unwrap_or(Rgb::ONE);
-            Bsdf::Dielectric(Dielectric {
-                eta: eta as f32,
-                specular_reflectance: check_reflectance(&props, "specular_reflectance", sr)?,
-                specular_transmittance: check_reflectance(&props, "specular_transmittance", st)?,
-            })
+            let (sr, st) = (
+                check_reflectance(&props, "specular_reflectance", sr)?,
+                check_reflectance(&props, "specular_transmittance", st)?,
+            );
+            if kind == "thindielectric" {
+                Bsdf::ThinDielectric(ThinDielectric {
+                    eta: eta as f32,
+                    specular_reflectance: sr,
+                    specular_transmittance: st,
+                })
+            } else {
+                Bsdf::Dielectric(Dielectric {
+                    eta: eta as f32,
+                    specular_reflectance: sr,
+                    specular_transmittance: st,
+                })
+            }
         }
         "conductor" => {
             let (eta, k) = conductor_ior(&mut props, "conductor", Some("none"))?;
@@ -281,7 +293,7 @@ pub fn parse_bsdf(ctx: &Ctx, node: Node, named: &Named) -> Result<Material, Scen
         }
         other => {
             return Err(props.err(format!(
-                "unknown BSDF type '{other}' (supported: diffuse, dielectric, conductor, roughconductor, twosided)"
+                "unknown BSDF type '{other}' (supported: diffuse, dielectric, thindielectric, conductor, roughconductor, twosided)"
             )))
         }
     };
