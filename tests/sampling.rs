@@ -27,7 +27,7 @@ use tstat::geometry::shape::ShapeGeom;
 use tstat::lights::Emitter;
 use tstat::materials::{
     Bsdf, BsdfFlags, BsdfModel, BsdfSample, Conductor, Dielectric, Diffuse, Microfacet,
-    MicrofacetKind, OneSided, RoughConductor, ThinDielectric, TwoSided,
+    MicrofacetKind, OneSided, Plastic, RoughConductor, ThinDielectric, TwoSided,
 };
 use tstat::math::rng::Pcg32;
 use tstat::math::sampling::{cosine_hemisphere, cosine_hemisphere_pdf};
@@ -360,6 +360,24 @@ fn all_models() -> Vec<(&'static str, Box<dyn BsdfModel>)> {
         ),
         ("gold", Box::new(gold())),
         ("mirror", Box::new(mirror())),
+        (
+            "plastic",
+            Box::new(Plastic {
+                eta: 1.49,
+                diffuse_reflectance: Rgb::new(0.8, 0.3, 0.1),
+                specular_reflectance: Rgb::ONE,
+                nonlinear: false,
+            }),
+        ),
+        (
+            "plastic, nonlinear, eta 0.8",
+            Box::new(Plastic {
+                eta: 0.8,
+                diffuse_reflectance: Rgb::new(0.2, 0.9, 0.5),
+                specular_reflectance: Rgb::new(0.5, 0.5, 1.0),
+                nonlinear: true,
+            }),
+        ),
         ("twosided diffuse", Box::new(two_sided(d(1.0), d(0.3)))),
         (
             "twosided diffuse/gold",
@@ -671,6 +689,38 @@ fn thin_dielectric_reflects_the_slab_series_and_passes_straight_through() {
         binomial_p_value(k, 20_000, r) < LEVEL,
         "R' indistinguishable from R"
     );
+}
+
+/// `plastic` mixes a delta and a diffuse lobe: its pdf (the diffuse lobe's) integrates
+/// to the fraction of samples that take the diffuse lobe, and those samples carry
+/// weight eval / pdf (checked with every model above).
+#[test]
+fn plastic_pdf_integrates_to_its_diffuse_share() {
+    let b = Plastic {
+        eta: 1.49,
+        diffuse_reflectance: Rgb::new(0.8, 0.3, 0.1),
+        specular_reflectance: Rgb::ONE,
+        nonlinear: false,
+    };
+    for (i, theta) in [10.0, 60.0, 85.0].into_iter().enumerate() {
+        let wo = dir(theta, 15.0);
+        let total: f64 = cell_integrals(&b, wo).iter().sum();
+        let n = 200_000;
+        let mut rng = Pcg32::new(90, i as u64);
+        let diffuse = (0..n)
+            .filter(|_| {
+                b.sample(wo, rng.next_f32(), rng.next_2d())
+                    .is_some_and(|s| s.lobe == BsdfFlags::DIFFUSE_REFLECTION)
+            })
+            .count();
+        let f = diffuse as f64 / n as f64;
+        let tol = PDF_INTEGRAL_TOL + 5.0 * (f * (1.0 - f) / n as f64).sqrt();
+        assert!((total - f).abs() < tol, "{theta} deg: {total} vs {f}");
+        assert!(
+            f > 0.05 && f < 0.999,
+            "{theta} deg: both lobes are sampled ({f})"
+        );
+    }
 }
 
 #[test]

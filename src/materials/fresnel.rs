@@ -53,6 +53,20 @@ pub fn fresnel_conductor(cos_theta_i: f32, eta: Vec3, k: Vec3) -> Vec3 {
     Vec3::new(one(eta.x, k.x), one(eta.y, k.y), one(eta.z, k.z))
 }
 
+/// The diffuse Fresnel reflectance: Fresnel's reflectance averaged over the
+/// cosine-weighted hemisphere for relative IOR `eta`, by the fits Mitsuba 3 uses
+/// (`fresnel_diffuse_reflectance`): Egan and Hilgeman (1973) for eta < 1, d'Eon and
+/// Irving (2011) above (0.1-0.2 % relative error).
+pub fn fresnel_diffuse_reflectance(eta: f32) -> f32 {
+    let inv = 1.0 / eta;
+    if eta < 1.0 {
+        0.0636 * inv + (eta * (eta * -1.4399 + 0.7099) + 0.6681)
+    } else {
+        let c = [0.919317f32, -3.4793, 6.75335, -7.80989, 4.98554, -1.36881];
+        c.iter().rev().fold(0.0, |acc, &k| acc * inv + k)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -18,6 +18,7 @@ pub mod fresnel;
 pub mod material;
 pub mod microfacet;
 pub mod parse;
+mod plastic;
 mod rough_conductor;
 mod thin_dielectric;
 
@@ -27,6 +28,7 @@ pub use diffuse::Diffuse;
 pub use flags::BsdfFlags;
 pub use material::Material;
 pub use microfacet::{Microfacet, MicrofacetKind};
+pub use plastic::Plastic;
 pub use rough_conductor::RoughConductor;
 pub use thin_dielectric::ThinDielectric;
 
@@ -76,6 +78,7 @@ pub enum OneSided {
     Diffuse(Diffuse),
     Conductor(Conductor),
     RoughConductor(RoughConductor),
+    Plastic(Plastic),
 }
 
 /// Mitsuba's `twosided`: the front model for `wo.z >= 0`, the back model seen with the
@@ -93,6 +96,7 @@ pub enum Bsdf {
     Conductor(Conductor),
     RoughConductor(RoughConductor),
     ThinDielectric(ThinDielectric),
+    Plastic(Plastic),
     TwoSided(TwoSided),
 }
 
@@ -104,6 +108,7 @@ impl TryFrom<Bsdf> for OneSided {
             Bsdf::Diffuse(d) => Ok(OneSided::Diffuse(d)),
             Bsdf::Conductor(c) => Ok(OneSided::Conductor(c)),
             Bsdf::RoughConductor(c) => Ok(OneSided::RoughConductor(c)),
+            Bsdf::Plastic(p) => Ok(OneSided::Plastic(p)),
             other @ (Bsdf::Dielectric(_) | Bsdf::ThinDielectric(_) | Bsdf::TwoSided(_)) => {
                 Err(other)
             }
@@ -183,22 +188,22 @@ macro_rules! dispatch {
 impl BsdfModel for OneSided {
     #[inline(always)]
     fn flags(&self, wo: Vec3) -> BsdfFlags {
-        dispatch!(self, b => b.flags(wo), OneSided::Diffuse, OneSided::Conductor, OneSided::RoughConductor)
+        dispatch!(self, b => b.flags(wo), OneSided::Diffuse, OneSided::Conductor, OneSided::RoughConductor, OneSided::Plastic)
     }
     #[inline(always)]
     fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
-        dispatch!(self, b => b.eval(wo, wi), OneSided::Diffuse, OneSided::Conductor, OneSided::RoughConductor)
+        dispatch!(self, b => b.eval(wo, wi), OneSided::Diffuse, OneSided::Conductor, OneSided::RoughConductor, OneSided::Plastic)
     }
     #[inline(always)]
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
-        dispatch!(self, b => b.pdf(wo, wi), OneSided::Diffuse, OneSided::Conductor, OneSided::RoughConductor)
+        dispatch!(self, b => b.pdf(wo, wi), OneSided::Diffuse, OneSided::Conductor, OneSided::RoughConductor, OneSided::Plastic)
     }
     #[inline(always)]
     fn sample(&self, wo: Vec3, u1: f32, u2: [f32; 2]) -> Option<BsdfSample> {
-        dispatch!(self, b => b.sample(wo, u1, u2), OneSided::Diffuse, OneSided::Conductor, OneSided::RoughConductor)
+        dispatch!(self, b => b.sample(wo, u1, u2), OneSided::Diffuse, OneSided::Conductor, OneSided::RoughConductor, OneSided::Plastic)
     }
     fn albedo(&self, wo: Vec3) -> Rgb {
-        dispatch!(self, b => b.albedo(wo), OneSided::Diffuse, OneSided::Conductor, OneSided::RoughConductor)
+        dispatch!(self, b => b.albedo(wo), OneSided::Diffuse, OneSided::Conductor, OneSided::RoughConductor, OneSided::Plastic)
     }
 }
 
@@ -206,25 +211,25 @@ impl BsdfModel for Bsdf {
     #[inline(always)]
     fn flags(&self, wo: Vec3) -> BsdfFlags {
         dispatch!(self, b => b.flags(wo),
-            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::ThinDielectric, Bsdf::TwoSided)
+            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::TwoSided)
     }
     #[inline(always)]
     fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
         dispatch!(self, b => b.eval(wo, wi),
-            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::ThinDielectric, Bsdf::TwoSided)
+            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::TwoSided)
     }
     #[inline(always)]
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         dispatch!(self, b => b.pdf(wo, wi),
-            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::ThinDielectric, Bsdf::TwoSided)
+            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::TwoSided)
     }
     #[inline(always)]
     fn sample(&self, wo: Vec3, u1: f32, u2: [f32; 2]) -> Option<BsdfSample> {
         dispatch!(self, b => b.sample(wo, u1, u2),
-            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::ThinDielectric, Bsdf::TwoSided)
+            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::TwoSided)
     }
     fn albedo(&self, wo: Vec3) -> Rgb {
         dispatch!(self, b => b.albedo(wo),
-            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::ThinDielectric, Bsdf::TwoSided)
+            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::TwoSided)
     }
 }

@@ -2,7 +2,7 @@
 
 use super::material::{Binding, Side};
 use super::{
-    Bsdf, Conductor, Dielectric, Diffuse, Material, Microfacet, MicrofacetKind, OneSided,
+    Bsdf, Conductor, Dielectric, Diffuse, Material, Microfacet, MicrofacetKind, OneSided, Plastic,
     RoughConductor, ThinDielectric, TwoSided,
 };
 use crate::math::Rgb;
@@ -255,6 +255,32 @@ pub fn parse_bsdf(ctx: &Ctx, node: Node, named: &Named) -> Result<Material, Scen
                 specular_reflectance: check_reflectance(&props, "specular_reflectance", sr)?,
             })
         }
+        "plastic" => {
+            let int_ior = ior(&mut props, "int_ior", 1.49)?;
+            let ext_ior = ior(&mut props, "ext_ior", 1.000277)?;
+            let eta = int_ior / ext_ior;
+            if !(1.0 / MAX_OPTICAL_CONSTANT..=MAX_OPTICAL_CONSTANT).contains(&eta) {
+                return Err(props.err(format!(
+                    "the relative IOR int_ior/ext_ior = {eta:e} is outside [{:e}, {MAX_OPTICAL_CONSTANT:e}]",
+                    1.0 / MAX_OPTICAL_CONSTANT
+                )));
+            }
+            let d = props.rgb("diffuse_reflectance")?.unwrap_or(Rgb::splat(0.5));
+            let s = props.rgb("specular_reflectance")?.unwrap_or(Rgb::ONE);
+            let (d, s) = (
+                check_reflectance(&props, "diffuse_reflectance", d)?,
+                check_reflectance(&props, "specular_reflectance", s)?,
+            );
+            if d.element_sum() + s.element_sum() <= 0.0 {
+                return Err(props.err("plastic with zero diffuse and specular reflectance reflects nothing; use a black diffuse"));
+            }
+            Bsdf::Plastic(Plastic {
+                eta: eta as f32,
+                diffuse_reflectance: d,
+                specular_reflectance: s,
+                nonlinear: props.boolean_or("nonlinear", false)?,
+            })
+        }
         "roughconductor" => {
             let distribution = microfacet(&mut props)?;
             let (eta, k) = conductor_ior(&mut props, "roughconductor", None)?;
@@ -293,7 +319,7 @@ pub fn parse_bsdf(ctx: &Ctx, node: Node, named: &Named) -> Result<Material, Scen
         }
         other => {
             return Err(props.err(format!(
-                "unknown BSDF type '{other}' (supported: diffuse, dielectric, thindielectric, conductor, roughconductor, twosided)"
+                "unknown BSDF type '{other}' (supported: diffuse, dielectric, thindielectric, conductor, roughconductor, plastic, twosided)"
             )))
         }
     };
