@@ -2,7 +2,7 @@
 //!
 //! | parameter | type | default | meaning |
 //! |-----------|------|---------|---------|
-//! | material | string | none | only `none` (a perfect mirror, eta = 0, k = 1); spectral presets are not built in: give `eta` and `k` |
+//! | material | string | none | Mitsuba's named conductors (`Au`, `Cu`, `Ag`, `Al`, ... in `conductor_presets.rs`, Mitsuba 3's RGB values), or `none` (a perfect mirror, eta = 0, k = 1) |
 //! | eta, k | rgb/float | 0, 1 | real and imaginary part of the IOR per channel |
 //! | specular_reflectance | rgb/float | 1 | scales the reflectance |
 //!

@@ -11,6 +11,7 @@
 //! `twosided`: resolving the side ([`TwoSided::side`]) always ends at a plain model.
 
 mod conductor;
+pub mod conductor_presets;
 mod dielectric;
 mod diffuse;
 mod flags;

@@ -1,5 +1,6 @@
 //! Reading `<bsdf>` elements (and `<ref>`s to them) into [`Bsdf`] values.
 
+use super::conductor_presets;
 use super::material::{Binding, Side};
 use super::{
     Bsdf, Conductor, Dielectric, Diffuse, Material, Microfacet, MicrofacetKind, OneSided, Plastic,
@@ -84,38 +85,37 @@ fn check_reflectance(props: &Props, name: &str, c: Rgb) -> Result<Rgb, SceneErro
     Ok(c)
 }
 
-/// A conductor's complex IOR: `eta` and `k` together, or `material="none"` (a perfect
-/// mirror). Named spectral presets are not built in; `default` is the material used when
-/// neither is given (Mitsuba: `none` for `conductor`, copper for `roughconductor`, which
-/// is then an error naming it).
-fn conductor_ior(
-    props: &mut Props,
-    kind: &str,
-    default: Option<&str>,
-) -> Result<(Rgb, Rgb), SceneError> {
-    let material = props.string("material")?;
-    if let Some(m) = &material {
-        if m != "none" {
-            return Err(props.err_at(
-                "material",
-                format!("{kind} material '{m}' is not built in; give <rgb name=\"eta\"> and <rgb name=\"k\"> instead (or material 'none' for a mirror)"),
-            ));
-        }
+/// The RGB (eta, k) of Mitsuba's conductor `name` (`none`: a perfect mirror).
+fn conductor_preset(props: &Props, name: &str) -> Result<(Rgb, Rgb), SceneError> {
+    if name == "none" {
+        return Ok((Rgb::ZERO, Rgb::ONE));
     }
+    let (eta, k) = conductor_presets::lookup(name).ok_or_else(|| {
+        props.err_at(
+            "material",
+            format!(
+                "unknown conductor material '{name}' (known: none, {})",
+                conductor_presets::names()
+            ),
+        )
+    })?;
+    Ok((Rgb::from_array(eta), Rgb::from_array(k)))
+}
+
+/// A conductor's complex IOR: `eta` and `k` together, or `material` (Mitsuba's named
+/// conductors, `conductor_presets`, or `none`, a perfect mirror); `default` is the
+/// material when neither is given (`none` for both in Mitsuba 3's code, although its
+/// documentation says copper for `roughconductor`; we follow the renderer).
+fn conductor_ior(props: &mut Props, kind: &str, default: &str) -> Result<(Rgb, Rgb), SceneError> {
+    let material = props.string("material")?;
     let eta = props.rgb("eta")?;
     let k = props.rgb("k")?;
-    let (eta, k) = match (eta, k) {
-        (None, None) if material.is_some() || default == Some("none") => (Rgb::ZERO, Rgb::ONE),
-        (None, None) => {
-            return Err(props.err(format!(
-                "{kind} without eta and k is Mitsuba's default copper ('Cu'), whose spectral data is not built in; give <rgb name=\"eta\"> and <rgb name=\"k\">"
-            )))
-        }
-        (Some(e), Some(k)) if material.is_none() => (e, k),
-        (Some(_), Some(_)) => {
-            return Err(props.err("give either 'material' or 'eta' and 'k', not both"))
-        }
-        _ => return Err(props.err("'eta' and 'k' must be given together")),
+    // As Mitsuba: with `eta` or `k` given (or material `none`), the missing one
+    // defaults to eta 0 / k 1; a named material excludes both.
+    let (eta, k) = match (eta, k, material.as_deref()) {
+        (None, None, m) => conductor_preset(props, m.unwrap_or(default))?,
+        (e, k, None | Some("none")) => (e.unwrap_or(Rgb::ZERO), k.unwrap_or(Rgb::ONE)),
+        _ => return Err(props.err("give either 'material' or 'eta' and 'k', not both")),
     };
     if eta.min_element() < 0.0 || k.min_element() < 0.0 {
         return Err(props.err(format!("{kind} eta and k must be non-negative")));
@@ -247,7 +247,7 @@ pub fn parse_bsdf(ctx: &Ctx, node: Node, named: &Named) -> Result<Material, Scen
             }
         }
         "conductor" => {
-            let (eta, k) = conductor_ior(&mut props, "conductor", Some("none"))?;
+            let (eta, k) = conductor_ior(&mut props, "conductor", "none")?;
             let sr = props.rgb("specular_reflectance")?.unwrap_or(Rgb::ONE);
             Bsdf::Conductor(Conductor {
                 eta,
@@ -283,7 +283,7 @@ pub fn parse_bsdf(ctx: &Ctx, node: Node, named: &Named) -> Result<Material, Scen
         }
         "roughconductor" => {
             let distribution = microfacet(&mut props)?;
-            let (eta, k) = conductor_ior(&mut props, "roughconductor", None)?;
+            let (eta, k) = conductor_ior(&mut props, "roughconductor", "none")?;
             let sr = props.rgb("specular_reflectance")?.unwrap_or(Rgb::ONE);
             Bsdf::RoughConductor(RoughConductor {
                 distribution,

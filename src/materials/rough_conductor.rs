@@ -6,7 +6,8 @@
 //! | distribution | string | beckmann | `beckmann` or `ggx` |
 //! | alpha, or alpha_u and alpha_v | float | 0.1 | roughness (isotropic, or along the tangent and bitangent) |
 //! | sample_visible | boolean | true | GGX samples the visible normals (see `microfacet.rs`) |
-//! | eta, k | rgb/float | (Mitsuba's default is copper) | real and imaginary IOR per channel; `material` presets are not built in |
+//! | material | string | none | Mitsuba's named conductors (`conductor_presets.rs`), `none` a perfect mirror (Mitsuba 3's code default; its docs say copper) |
+//! | eta, k | rgb/float | 0, 1 | real and imaginary IOR per channel (instead of `material`) |
 //! | specular_reflectance | rgb/float | 1 | scales the reflectance |
 //!
 //! f(wo, wi) = F(wi . m) D(m) G(wi, wo, m) / (4 cos(wo) cos(wi)), m = normalize(wo + wi).
