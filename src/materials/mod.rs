@@ -18,6 +18,7 @@ mod flags;
 pub mod fresnel;
 pub mod material;
 pub mod microfacet;
+mod null;
 pub mod parse;
 mod plastic;
 mod rough_conductor;
@@ -29,6 +30,7 @@ pub use diffuse::Diffuse;
 pub use flags::BsdfFlags;
 pub use material::Material;
 pub use microfacet::{Microfacet, MicrofacetKind};
+pub use null::Null;
 pub use plastic::Plastic;
 pub use rough_conductor::RoughConductor;
 pub use thin_dielectric::ThinDielectric;
@@ -98,6 +100,7 @@ pub enum Bsdf {
     RoughConductor(RoughConductor),
     ThinDielectric(ThinDielectric),
     Plastic(Plastic),
+    Null(Null),
     TwoSided(TwoSided),
 }
 
@@ -110,9 +113,10 @@ impl TryFrom<Bsdf> for OneSided {
             Bsdf::Conductor(c) => Ok(OneSided::Conductor(c)),
             Bsdf::RoughConductor(c) => Ok(OneSided::RoughConductor(c)),
             Bsdf::Plastic(p) => Ok(OneSided::Plastic(p)),
-            other @ (Bsdf::Dielectric(_) | Bsdf::ThinDielectric(_) | Bsdf::TwoSided(_)) => {
-                Err(other)
-            }
+            other @ (Bsdf::Dielectric(_)
+            | Bsdf::ThinDielectric(_)
+            | Bsdf::Null(_)
+            | Bsdf::TwoSided(_)) => Err(other),
         }
     }
 }
@@ -212,25 +216,25 @@ impl BsdfModel for Bsdf {
     #[inline(always)]
     fn flags(&self, wo: Vec3) -> BsdfFlags {
         dispatch!(self, b => b.flags(wo),
-            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::TwoSided)
+            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::Null, Bsdf::TwoSided)
     }
     #[inline(always)]
     fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
         dispatch!(self, b => b.eval(wo, wi),
-            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::TwoSided)
+            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::Null, Bsdf::TwoSided)
     }
     #[inline(always)]
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         dispatch!(self, b => b.pdf(wo, wi),
-            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::TwoSided)
+            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::Null, Bsdf::TwoSided)
     }
     #[inline(always)]
     fn sample(&self, wo: Vec3, u1: f32, u2: [f32; 2]) -> Option<BsdfSample> {
         dispatch!(self, b => b.sample(wo, u1, u2),
-            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::TwoSided)
+            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::Null, Bsdf::TwoSided)
     }
     fn albedo(&self, wo: Vec3) -> Rgb {
         dispatch!(self, b => b.albedo(wo),
-            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::TwoSided)
+            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::Null, Bsdf::TwoSided)
     }
 }

@@ -3,8 +3,8 @@
 use super::conductor_presets;
 use super::material::{Binding, Side};
 use super::{
-    Bsdf, Conductor, Dielectric, Diffuse, Material, Microfacet, MicrofacetKind, OneSided, Plastic,
-    RoughConductor, ThinDielectric, TwoSided,
+    Bsdf, Conductor, Dielectric, Diffuse, Material, Microfacet, MicrofacetKind, Null, OneSided,
+    Plastic, RoughConductor, ThinDielectric, TwoSided,
 };
 use crate::math::Rgb;
 use crate::scene::error::SceneError;
@@ -255,6 +255,7 @@ pub fn parse_bsdf(ctx: &Ctx, node: Node, named: &Named) -> Result<Material, Scen
                 specular_reflectance: check_reflectance(&props, "specular_reflectance", sr)?,
             })
         }
+        "null" => Bsdf::Null(Null),
         "plastic" => {
             let int_ior = ior(&mut props, "int_ior", 1.49)?;
             let ext_ior = ior(&mut props, "ext_ior", 1.000277)?;
@@ -305,7 +306,7 @@ pub fn parse_bsdf(ctx: &Ctx, node: Node, named: &Named) -> Result<Material, Scen
             };
             let one_sided = |b: Bsdf| {
                 OneSided::try_from(b)
-                    .map_err(|_| props.err("twosided cannot wrap a dielectric or another twosided"))
+                    .map_err(|_| props.err("twosided cannot wrap a dielectric, thindielectric, null or another twosided"))
             };
             for (side, child) in [(Side::Front, &front), (Side::Back, &back)] {
                 bindings.extend(child.bindings.iter().map(|b| Binding {
@@ -319,7 +320,7 @@ pub fn parse_bsdf(ctx: &Ctx, node: Node, named: &Named) -> Result<Material, Scen
         }
         other => {
             return Err(props.err(format!(
-                "unknown BSDF type '{other}' (supported: diffuse, dielectric, thindielectric, conductor, roughconductor, plastic, twosided)"
+                "unknown BSDF type '{other}' (supported: diffuse, dielectric, thindielectric, conductor, roughconductor, plastic, null, twosided)"
             )))
         }
     };
