@@ -532,6 +532,52 @@ fn cases() -> Vec<Case> {
             ],
             "the emitting shape's area is 0",
         ),
+        // Materials added with the BSDF interface: every bad parameter names itself.
+        scene_case(
+            "unknown_microfacet_distribution",
+            sphere(r#"<bsdf type="roughconductor"><string name="distribution" value="phong"/></bsdf>"#),
+            "unknown microfacet distribution 'phong'",
+        ),
+        scene_case(
+            "roughness_out_of_range",
+            sphere(r#"<bsdf type="roughconductor"><float name="alpha" value="0"/></bsdf>"#),
+            "roughness 0 is outside [1e-4, 10]",
+        ),
+        scene_case(
+            "anisotropic_roughness",
+            sphere(r#"<bsdf type="roughconductor"><float name="alpha_u" value="0.1"/><float name="alpha_v" value="0.3"/></bsdf>"#),
+            "anisotropic roughness (alpha_u != alpha_v) is not supported",
+        ),
+        scene_case(
+            "alpha_and_alpha_u",
+            sphere(r#"<bsdf type="roughconductor"><float name="alpha" value="0.1"/><float name="alpha_u" value="0.3"/></bsdf>"#),
+            "give either 'alpha' or 'alpha_u' and 'alpha_v'",
+        ),
+        scene_case(
+            "unknown_conductor_material",
+            sphere(r#"<bsdf type="conductor"><string name="material" value="Unobtainium"/></bsdf>"#),
+            "unknown conductor material 'Unobtainium'",
+        ),
+        scene_case(
+            "material_and_eta",
+            sphere(r#"<bsdf type="roughconductor"><string name="material" value="Au"/><rgb name="eta" value="1"/></bsdf>"#),
+            "give either 'material' or 'eta' and 'k', not both",
+        ),
+        scene_case(
+            "plastic_reflects_nothing",
+            sphere(r#"<bsdf type="plastic"><rgb name="diffuse_reflectance" value="0"/><rgb name="specular_reflectance" value="0"/></bsdf>"#),
+            "plastic with zero diffuse and specular reflectance",
+        ),
+        scene_case(
+            "twosided_null",
+            sphere(r#"<bsdf type="twosided"><bsdf type="null"/></bsdf>"#),
+            "twosided cannot wrap a dielectric, thindielectric, null or another twosided",
+        ),
+        scene_case(
+            "texture_on_a_parameter_that_takes_none",
+            sphere(r#"<bsdf type="plastic"><texture type="checkerboard" name="diffuse_reflectance"/></bsdf>"#),
+            "unexpected nested element in <bsdf type=\"plastic\">",
+        ),
     ]
 }
 
