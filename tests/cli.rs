@@ -668,3 +668,35 @@ fn outputs_never_replace_a_mesh_the_scene_reads() {
         assert_eq!(left, ["bunny.xml", "meshes"], "{cmd}");
     }
 }
+
+/// `TSTAT_ISA` picks the tracer's instruction set; a value it does not know is a
+/// warning line naming it, and the render goes on at the widest level (same bits).
+#[test]
+fn unknown_tstat_isa_is_a_warning_and_changes_no_bits() {
+    let dir = tempfile::tempdir().unwrap();
+    let render = |isa: &str, out: &str| {
+        let out = s(&dir.path().join(out));
+        let mut args = vec!["render".to_string(), scene("cbox.xml"), "--out".into(), out];
+        args.extend(SMALL.iter().map(|a| a.to_string()));
+        Command::new(env!("CARGO_BIN_EXE_tstat"))
+            .args(&args)
+            .env("TSTAT_ISA", isa)
+            .output()
+            .unwrap()
+    };
+    let bad = render("sse9", "a.tstats");
+    let stderr = String::from_utf8_lossy(&bad.stderr);
+    assert!(bad.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("warning: TSTAT_ISA=\"sse9\" is not baseline, avx2 or avx512"),
+        "{stderr}"
+    );
+    let base = render("baseline", "b.tstats");
+    assert!(base.status.success());
+    assert!(!String::from_utf8_lossy(&base.stderr).contains("TSTAT_ISA"));
+    for f in ["x1.npy", "x3.npy", "nonzero.npy", "steady.npy"] {
+        let a = std::fs::read(dir.path().join("a.tstats").join(f)).unwrap();
+        let b = std::fs::read(dir.path().join("b.tstats").join(f)).unwrap();
+        assert!(a == b, "{f} differs between instruction sets");
+    }
+}

@@ -9,7 +9,8 @@
 //! forcing each level the CPU has.
 //!
 //! The level is detected once; [`force`] overrides it (tests, benchmarks), and so does
-//! the environment variable `TSTAT_ISA` = `baseline` | `avx2` | `avx512`.
+//! the environment variable `TSTAT_ISA` = `baseline` | `avx2` | `avx512` (any other
+//! value, or a level the CPU lacks, is a `warning:` line and the widest level is used).
 
 use std::sync::atomic::{AtomicU8, Ordering};
 
@@ -100,11 +101,28 @@ pub fn current() -> Isa {
         2 => Isa::Avx2,
         3 => Isa::Avx512,
         _ => {
-            let isa = std::env::var("TSTAT_ISA")
-                .ok()
-                .and_then(|s| Isa::parse(s.trim()))
-                .filter(|i| i.supported())
-                .unwrap_or_else(Isa::best);
+            let best = Isa::best();
+            let isa = match std::env::var("TSTAT_ISA") {
+                Err(_) => best,
+                Ok(s) => match Isa::parse(s.trim()) {
+                    Some(i) if i.supported() => i,
+                    Some(i) => {
+                        eprintln!(
+                            "warning: TSTAT_ISA={}: this CPU does not support it; using {}",
+                            i.name(),
+                            best.name()
+                        );
+                        best
+                    }
+                    None => {
+                        eprintln!(
+                            "warning: TSTAT_ISA={s:?} is not baseline, avx2 or avx512; using {}",
+                            best.name()
+                        );
+                        best
+                    }
+                },
+            };
             LEVEL.store(isa.code(), Ordering::Relaxed);
             isa
         }
