@@ -362,21 +362,16 @@ fn all_models() -> Vec<(&'static str, Box<dyn BsdfModel>)> {
         ("mirror", Box::new(mirror())),
         (
             "plastic",
-            Box::new(Plastic {
-                eta: 1.49,
-                diffuse_reflectance: Rgb::new(0.8, 0.3, 0.1),
-                specular_reflectance: Rgb::ONE,
-                nonlinear: false,
-            }),
+            Box::new(Plastic::new(1.49, Rgb::new(0.8, 0.3, 0.1), Rgb::ONE, false)),
         ),
         (
             "plastic, nonlinear, eta 0.8",
-            Box::new(Plastic {
-                eta: 0.8,
-                diffuse_reflectance: Rgb::new(0.2, 0.9, 0.5),
-                specular_reflectance: Rgb::new(0.5, 0.5, 1.0),
-                nonlinear: true,
-            }),
+            Box::new(Plastic::new(
+                0.8,
+                Rgb::new(0.2, 0.9, 0.5),
+                Rgb::new(0.5, 0.5, 1.0),
+                true,
+            )),
         ),
         ("twosided diffuse", Box::new(two_sided(d(1.0), d(0.3)))),
         (
@@ -696,12 +691,7 @@ fn thin_dielectric_reflects_the_slab_series_and_passes_straight_through() {
 /// weight eval / pdf (checked with every model above).
 #[test]
 fn plastic_pdf_integrates_to_its_diffuse_share() {
-    let b = Plastic {
-        eta: 1.49,
-        diffuse_reflectance: Rgb::new(0.8, 0.3, 0.1),
-        specular_reflectance: Rgb::ONE,
-        nonlinear: false,
-    };
+    let b = Plastic::new(1.49, Rgb::new(0.8, 0.3, 0.1), Rgb::ONE, false);
     for (i, theta) in [10.0, 60.0, 85.0].into_iter().enumerate() {
         let wo = dir(theta, 15.0);
         let total: f64 = cell_integrals(&b, wo).iter().sum();

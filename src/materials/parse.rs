@@ -85,6 +85,21 @@ fn check_reflectance(props: &Props, name: &str, c: Rgb) -> Result<Rgb, SceneErro
     Ok(c)
 }
 
+/// `int_ior / ext_ior` (`ext_ior` defaults to air), within the range Fresnel's single
+/// precision handles.
+fn relative_ior(props: &mut Props, int_default: f64) -> Result<f64, SceneError> {
+    let int_ior = ior(props, "int_ior", int_default)?;
+    let ext_ior = ior(props, "ext_ior", 1.000277)?;
+    let eta = int_ior / ext_ior;
+    if !(1.0 / MAX_OPTICAL_CONSTANT..=MAX_OPTICAL_CONSTANT).contains(&eta) {
+        return Err(props.err(format!(
+            "the relative IOR int_ior/ext_ior = {eta:e} is outside [{:e}, {MAX_OPTICAL_CONSTANT:e}]",
+            1.0 / MAX_OPTICAL_CONSTANT
+        )));
+    }
+    Ok(eta)
+}
+
 /// The RGB (eta, k) of Mitsuba's conductor `name` (`none`: a perfect mirror).
 fn conductor_preset(props: &Props, name: &str) -> Result<(Rgb, Rgb), SceneError> {
     if name == "none" {
@@ -217,15 +232,7 @@ pub fn parse_bsdf(ctx: &Ctx, node: Node, named: &Named) -> Result<Material, Scen
             Bsdf::Diffuse(Diffuse { reflectance })
         }
         "dielectric" | "thindielectric" => {
-            let int_ior = ior(&mut props, "int_ior", 1.5046)?;
-            let ext_ior = ior(&mut props, "ext_ior", 1.000277)?;
-            let eta = int_ior / ext_ior;
-            if !(1.0 / MAX_OPTICAL_CONSTANT..=MAX_OPTICAL_CONSTANT).contains(&eta) {
-                return Err(props.err(format!(
-                    "the relative IOR int_ior/ext_ior = {eta:e} is outside [{:e}, {MAX_OPTICAL_CONSTANT:e}]",
-                    1.0 / MAX_OPTICAL_CONSTANT
-                )));
-            }
+            let eta = relative_ior(&mut props, 1.5046)?;
             let sr = props.rgb("specular_reflectance")?.unwrap_or(Rgb::ONE);
             let st = props.rgb("specular_transmittance")?.unwrap_or(Rgb::ONE);
             let (sr, st) = (
@@ -257,15 +264,7 @@ pub fn parse_bsdf(ctx: &Ctx, node: Node, named: &Named) -> Result<Material, Scen
         }
         "null" => Bsdf::Null(Null),
         "plastic" => {
-            let int_ior = ior(&mut props, "int_ior", 1.49)?;
-            let ext_ior = ior(&mut props, "ext_ior", 1.000277)?;
-            let eta = int_ior / ext_ior;
-            if !(1.0 / MAX_OPTICAL_CONSTANT..=MAX_OPTICAL_CONSTANT).contains(&eta) {
-                return Err(props.err(format!(
-                    "the relative IOR int_ior/ext_ior = {eta:e} is outside [{:e}, {MAX_OPTICAL_CONSTANT:e}]",
-                    1.0 / MAX_OPTICAL_CONSTANT
-                )));
-            }
+            let eta = relative_ior(&mut props, 1.49)?;
             let d = props.rgb("diffuse_reflectance")?.unwrap_or(Rgb::splat(0.5));
             let s = props.rgb("specular_reflectance")?.unwrap_or(Rgb::ONE);
             let (d, s) = (
@@ -275,12 +274,12 @@ pub fn parse_bsdf(ctx: &Ctx, node: Node, named: &Named) -> Result<Material, Scen
             if d.element_sum() + s.element_sum() <= 0.0 {
                 return Err(props.err("plastic with zero diffuse and specular reflectance reflects nothing; use a black diffuse"));
             }
-            Bsdf::Plastic(Plastic {
-                eta: eta as f32,
-                diffuse_reflectance: d,
-                specular_reflectance: s,
-                nonlinear: props.boolean_or("nonlinear", false)?,
-            })
+            Bsdf::Plastic(Plastic::new(
+                eta as f32,
+                d,
+                s,
+                props.boolean_or("nonlinear", false)?,
+            ))
         }
         "roughconductor" => {
             let distribution = microfacet(&mut props)?;

@@ -27,33 +27,47 @@ use glam::Vec3;
 #[derive(Clone, Debug, PartialEq)]
 pub struct Plastic {
     /// int_ior / ext_ior.
-    pub eta: f32,
-    pub diffuse_reflectance: Rgb,
-    pub specular_reflectance: Rgb,
-    pub nonlinear: bool,
+    eta: f32,
+    specular_reflectance: Rgb,
+    /// The diffuse reflectance after the coating's internal reflections.
+    base: Rgb,
+    /// The hemispherical Fresnel average of light leaving the coating.
+    fdr_ext: f32,
+    /// s / (mean(d) + s): steers lobe selection towards the brighter lobe.
+    specular_weight: f32,
 }
 
 impl Plastic {
-    /// The diffuse base's reflectance after the coating's internal reflections.
-    #[inline(always)]
-    fn base(&self) -> Rgb {
-        let fdr_int = fresnel_diffuse_reflectance(1.0 / self.eta);
-        let d = self.diffuse_reflectance;
-        if self.nonlinear {
+    /// Precomputes everything that does not depend on the directions.
+    pub fn new(
+        eta: f32,
+        diffuse_reflectance: Rgb,
+        specular_reflectance: Rgb,
+        nonlinear: bool,
+    ) -> Self {
+        let fdr_int = fresnel_diffuse_reflectance(1.0 / eta);
+        let d = diffuse_reflectance;
+        let base = if nonlinear {
             d / (Rgb::ONE - d * fdr_int)
         } else {
             d / (1.0 - fdr_int)
+        };
+        let d_mean = d.element_sum() / 3.0;
+        let s_mean = specular_reflectance.element_sum() / 3.0;
+        Plastic {
+            eta,
+            specular_reflectance,
+            base,
+            fdr_ext: fresnel_diffuse_reflectance(eta),
+            specular_weight: s_mean / (d_mean + s_mean),
         }
     }
 
-    /// The probability of sampling the specular lobe from `cos_wo` (> 0).
+    /// The probability of sampling the specular lobe, given F(cos wo).
     #[inline(always)]
     fn specular_probability(&self, f_i: f32) -> f32 {
-        let d_mean = self.diffuse_reflectance.element_sum() / 3.0;
-        let s_mean = self.specular_reflectance.element_sum() / 3.0;
-        let weight = s_mean / (d_mean + s_mean);
-        let ps = f_i * weight;
-        let pd = (1.0 - f_i) * (1.0 - weight);
+        let ps = f_i * self.specular_weight;
+        let pd = (1.0 - f_i) * (1.0 - self.specular_weight);
         ps / (ps + pd)
     }
 }
@@ -71,7 +85,7 @@ impl BsdfModel for Plastic {
         }
         let f_i = fresnel_dielectric(wo.z, self.eta).0;
         let f_o = fresnel_dielectric(wi.z, self.eta).0;
-        self.base()
+        self.base
             * (cosine_hemisphere_pdf(wi.z) / (self.eta * self.eta) * (1.0 - f_i) * (1.0 - f_o))
     }
 
@@ -108,7 +122,7 @@ impl BsdfModel for Plastic {
         let f_o = fresnel_dielectric(wi.z, self.eta).0;
         Some(BsdfSample {
             wi,
-            weight: self.base() * ((1.0 - f_i) * (1.0 - f_o) / (self.eta * self.eta) / pd),
+            weight: self.base * ((1.0 - f_i) * (1.0 - f_o) / (self.eta * self.eta) / pd),
             pdf: pd * cosine_hemisphere_pdf(wi.z),
             lobe: BsdfFlags::DIFFUSE_REFLECTION,
             eta: 1.0,
@@ -123,8 +137,7 @@ impl BsdfModel for Plastic {
             return Rgb::ZERO;
         }
         let f_i = fresnel_dielectric(wo.z, self.eta).0;
-        let fdr_ext = fresnel_diffuse_reflectance(self.eta);
         self.specular_reflectance * f_i
-            + self.base() * ((1.0 - f_i) * (1.0 - fdr_ext) / (self.eta * self.eta))
+            + self.base * ((1.0 - f_i) * (1.0 - self.fdr_ext) / (self.eta * self.eta))
     }
 }
