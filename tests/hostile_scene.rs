@@ -571,12 +571,37 @@ fn cases() -> Vec<Case> {
         scene_case(
             "twosided_null",
             sphere(r#"<bsdf type="twosided"><bsdf type="null"/></bsdf>"#),
-            "twosided cannot wrap a dielectric, thindielectric, null or another twosided",
+            "twosided cannot wrap a dielectric, thindielectric, null, mask or another twosided",
         ),
         scene_case(
             "texture_on_a_parameter_that_takes_none",
-            sphere(r#"<bsdf type="plastic"><texture type="checkerboard" name="diffuse_reflectance"/></bsdf>"#),
-            "unexpected nested element in <bsdf type=\"plastic\">",
+            sphere(r#"<bsdf type="dielectric"><texture type="checkerboard" name="int_ior"/></bsdf>"#),
+            "unexpected nested element in <bsdf type=\"dielectric\">",
+        ),
+        scene_case(
+            "mask_without_a_nested_bsdf",
+            sphere(r#"<bsdf type="mask"><float name="opacity" value="0.5"/></bsdf>"#),
+            "mask needs exactly one nested BSDF",
+        ),
+        scene_case(
+            "mask_with_two_nested_bsdfs",
+            sphere(r#"<bsdf type="mask"><bsdf type="diffuse"/><bsdf type="diffuse"/></bsdf>"#),
+            "mask needs exactly one nested BSDF",
+        ),
+        scene_case(
+            "twosided_around_a_mask",
+            sphere(r#"<bsdf type="twosided"><bsdf type="mask"><bsdf type="diffuse"/></bsdf></bsdf>"#),
+            "write mask(twosided(...))",
+        ),
+        scene_case(
+            "textured_anisotropic_roughness",
+            sphere(r#"<bsdf type="roughconductor"><texture type="checkerboard" name="alpha_u"/><float name="alpha_v" value="0.1"/></bsdf>"#),
+            "a textured alpha_u (anisotropic roughness) is not supported",
+        ),
+        scene_case(
+            "texture_reference_to_nothing",
+            sphere(r#"<bsdf type="roughconductor"><ref name="alpha" id="missing"/></bsdf>"#),
+            "no <texture id=\"missing\">",
         ),
     ]
 }

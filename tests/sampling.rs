@@ -26,7 +26,7 @@ use std::f64::consts::PI;
 use tstat::geometry::shape::ShapeGeom;
 use tstat::lights::Emitter;
 use tstat::materials::{
-    Bsdf, BsdfFlags, BsdfModel, BsdfSample, Conductor, Dielectric, Diffuse, Microfacet,
+    Bsdf, BsdfFlags, BsdfModel, BsdfSample, Conductor, Dielectric, Diffuse, Mask, Microfacet,
     MicrofacetKind, OneSided, Plastic, RoughConductor, ThinDielectric, TwoSided,
 };
 use tstat::math::rng::Pcg32;
@@ -36,7 +36,7 @@ use tstat::math::Rgb;
 /// Overall significance of the file's statistical tests.
 const ALPHA: f64 = 0.01;
 /// Chi-square BSDF cases + delta cases + light cases (checked in each test).
-const FAMILY: usize = 42;
+const FAMILY: usize = 45;
 /// The Bonferroni-corrected level of one test.
 const LEVEL: f64 = ALPHA / FAMILY as f64;
 
@@ -305,7 +305,41 @@ fn non_delta_cases() -> Vec<Case> {
                     )
                 }),
         )
+        .chain(mask_cases())
         .collect()
+}
+
+/// `mask` over a few models: the nested lobes scaled by the opacity, plus a
+/// straight-through delta lobe that the chi-square test leaves out.
+fn mask(opacity: f32, nested: Bsdf) -> Mask {
+    Mask {
+        opacity,
+        nested: Box::new(nested),
+    }
+}
+
+fn mask_cases() -> Vec<Case> {
+    let d = |r| OneSided::Diffuse(diffuse(r));
+    vec![
+        (
+            "mask 0.3 over diffuse, 40 deg".into(),
+            Box::new(mask(0.3, Bsdf::Diffuse(diffuse(0.8)))),
+            dir(40.0, 70.0),
+        ),
+        (
+            "mask 0.7 over twosided diffuse, back".into(),
+            Box::new(mask(0.7, two_sided(d(0.8), d(0.2)))),
+            dir(130.0, 250.0),
+        ),
+        (
+            "mask 0.5 over roughconductor ggx 0.3, 55 deg".into(),
+            Box::new(mask(
+                0.5,
+                Bsdf::RoughConductor(rough(MicrofacetKind::Ggx, 0.3, 0.3, true)),
+            )),
+            dir(55.0, 20.0),
+        ),
+    ]
 }
 
 /// Delta-only models and a `wo`.
@@ -381,6 +415,18 @@ fn all_models() -> Vec<(&'static str, Box<dyn BsdfModel>)> {
         (
             "twosided mirror/white diffuse",
             Box::new(two_sided(OneSided::Conductor(mirror()), d(1.0))),
+        ),
+        (
+            "mask 0.4 over grey diffuse",
+            Box::new(mask(0.4, Bsdf::Diffuse(diffuse(0.4)))),
+        ),
+        (
+            "mask 0.6 over glass",
+            Box::new(mask(0.6, Bsdf::Dielectric(glass(1.5)))),
+        ),
+        (
+            "mask 0.8 over twosided gold/diffuse",
+            Box::new(mask(0.8, two_sided(OneSided::Conductor(gold()), d(0.5)))),
         ),
     ]
 }
@@ -779,13 +825,17 @@ fn pdf_integrates_to_one() {
     let mut worst = 0.0f64;
     for (i, (name, b, wo)) in non_delta_cases().into_iter().enumerate() {
         let total: f64 = cell_integrals(b.as_ref(), wo).iter().sum();
-        // The pdf integrates to the probability that `sample` returns a direction: 1,
-        // except for microfacet models, whose reflections about a sampled normal can
-        // point below the horizon (those samples are dropped, as in Mitsuba).
+        // The pdf integrates to the probability that `sample` returns a direction
+        // through a non-delta lobe: 1, except for microfacet models, whose reflections
+        // about a sampled normal can point below the horizon (those samples are
+        // dropped, as in Mitsuba), and models that also have a delta lobe (`mask`).
         let n = 200_000;
         let mut rng = Pcg32::new(77, i as u64);
         let kept = (0..n)
-            .filter(|_| b.sample(wo, rng.next_f32(), rng.next_2d()).is_some())
+            .filter(|_| {
+                b.sample(wo, rng.next_f32(), rng.next_2d())
+                    .is_some_and(|s| !s.lobe.is_delta())
+            })
             .count();
         let f = kept as f64 / n as f64;
         let tol = PDF_INTEGRAL_TOL + 5.0 * (f * (1.0 - f) / n as f64).sqrt();
@@ -869,6 +919,11 @@ fn white_furnace() {
                 OneSided::Diffuse(diffuse(1.0)),
             )),
             false,
+        ),
+        (
+            "mask 0.3 over white diffuse",
+            Box::new(mask(0.3, Bsdf::Diffuse(diffuse(1.0)))),
+            true,
         ),
     ];
     for (name, b, front_only) in lossless {

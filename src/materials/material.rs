@@ -3,25 +3,58 @@
 //! BSDF at the hit's uv ([`Material::at`]); untextured materials are used as they are
 //! and never ask for uv.
 //!
-//! Parameters that accept a texture today: `diffuse`'s `reflectance` (also inside
-//! `twosided`).
+//! Every colour or float parameter that Mitsuba 3 reads as a texture accepts one here
+//! (the [`Param`]s below; which model has which is in each model's file and in the
+//! README). A binding names the parameter and the path to the model that owns it
+//! (through `twosided`'s sides and `mask`'s nested BSDF).
+//!
+//! Values read from a texture are kept physical at the hit: colours are clamped to be
+//! non-negative, opacity to [0, 1] (as Mitsuba clips it), roughness to [1e-4, 10] (the
+//! range a constant may take; Mitsuba would produce NaNs at 0).
 
 use super::{Bsdf, OneSided};
 use crate::textures::Texture;
-use glam::Vec2;
+use glam::{Vec2, Vec3};
 
-/// Which diffuse model a texture sets: the material's own, or a side of `twosided`.
+/// A texturable parameter.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Side {
-    Only,
-    Front,
-    Back,
+pub enum Param {
+    /// `diffuse`'s reflectance.
+    Reflectance,
+    /// `plastic`'s (and `roughplastic`'s) base colour.
+    DiffuseReflectance,
+    SpecularReflectance,
+    SpecularTransmittance,
+    /// A conductor's real IOR.
+    Eta,
+    /// A conductor's extinction coefficient.
+    K,
+    /// Microfacet roughness (isotropic).
+    Alpha,
+    /// `mask`'s opacity.
+    Opacity,
 }
 
-/// A textured `reflectance`.
+impl Param {
+    /// Scalar parameters read the texture's one-channel value (Mitsuba's `eval_1`).
+    fn is_scalar(self) -> bool {
+        matches!(self, Param::Alpha | Param::Opacity)
+    }
+}
+
+/// One step from a BSDF to a model inside it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Step {
+    Front,
+    Back,
+    Nested,
+}
+
+/// A textured parameter of the model at `path`.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Binding {
-    pub side: Side,
+    pub path: Vec<Step>,
+    pub param: Param,
     pub texture: Texture,
 }
 
@@ -50,23 +83,156 @@ impl Material {
     pub fn at(&self, uv: Vec2) -> Bsdf {
         let mut b = self.bsdf.clone();
         for binding in &self.bindings {
-            let value = binding.texture.eval_rgb(uv);
-            match (&mut b, binding.side) {
-                (Bsdf::Diffuse(d), Side::Only) => d.reflectance = value,
-                (Bsdf::TwoSided(t), Side::Front) => {
-                    if let OneSided::Diffuse(d) = &mut t.front {
-                        d.reflectance = value;
-                    }
-                }
-                (Bsdf::TwoSided(t), Side::Back) => {
-                    if let OneSided::Diffuse(d) = &mut t.back {
-                        d.reflectance = value;
-                    }
-                }
-                // The parser only binds textures to the diffuse models above.
-                _ => {}
-            }
+            let value = if binding.param.is_scalar() {
+                Vec3::splat(binding.texture.eval_float(uv))
+            } else {
+                binding.texture.eval_rgb(uv)
+            };
+            set(&mut b, &binding.path, binding.param, value);
         }
         b
+    }
+}
+
+/// Sets `param` of the model at `path` inside `b` (paths and parameters come from the
+/// parser, which binds only what the model has).
+fn set(b: &mut Bsdf, path: &[Step], param: Param, v: Vec3) {
+    match (b, path) {
+        (Bsdf::TwoSided(t), [Step::Front]) => set_one_sided(&mut t.front, param, v),
+        (Bsdf::TwoSided(t), [Step::Back]) => set_one_sided(&mut t.back, param, v),
+        (Bsdf::Mask(m), [Step::Nested, rest @ ..]) => set(&mut m.nested, rest, param, v),
+        (b, []) => set_model(b, param, v),
+        _ => debug_assert!(false, "binding path {path:?} does not fit the BSDF"),
+    }
+}
+
+fn set_one_sided(b: &mut OneSided, param: Param, v: Vec3) {
+    let mut whole = Bsdf::from(b.clone());
+    set_model(&mut whole, param, v);
+    if let Ok(one) = OneSided::try_from(whole) {
+        *b = one;
+    }
+}
+
+fn set_model(b: &mut Bsdf, param: Param, v: Vec3) {
+    let colour = v.max(Vec3::ZERO);
+    let alpha = v.x.clamp(1e-4, 10.0);
+    match (b, param) {
+        (Bsdf::Diffuse(d), Param::Reflectance) => d.reflectance = colour,
+        (Bsdf::Dielectric(d), Param::SpecularReflectance) => d.specular_reflectance = colour,
+        (Bsdf::Dielectric(d), Param::SpecularTransmittance) => d.specular_transmittance = colour,
+        (Bsdf::ThinDielectric(d), Param::SpecularReflectance) => d.specular_reflectance = colour,
+        (Bsdf::ThinDielectric(d), Param::SpecularTransmittance) => {
+            d.specular_transmittance = colour
+        }
+        (Bsdf::Conductor(c), Param::SpecularReflectance) => c.specular_reflectance = colour,
+        (Bsdf::Conductor(c), Param::Eta) => c.eta = colour,
+        (Bsdf::Conductor(c), Param::K) => c.k = colour,
+        (Bsdf::RoughConductor(c), Param::SpecularReflectance) => c.specular_reflectance = colour,
+        (Bsdf::RoughConductor(c), Param::Eta) => c.eta = colour,
+        (Bsdf::RoughConductor(c), Param::K) => c.k = colour,
+        (Bsdf::RoughConductor(c), Param::Alpha) => {
+            c.distribution.alpha_u = alpha;
+            c.distribution.alpha_v = alpha;
+        }
+        (Bsdf::Plastic(p), Param::DiffuseReflectance) => *p = p.with_diffuse_reflectance(colour),
+        (Bsdf::Plastic(p), Param::SpecularReflectance) => *p = p.with_specular_reflectance(colour),
+        (Bsdf::Mask(m), Param::Opacity) => m.opacity = v.x.clamp(0.0, 1.0),
+        (_, param) => debug_assert!(false, "{param:?} is not a parameter of this BSDF"),
+    }
+}
+
+impl From<OneSided> for Bsdf {
+    fn from(b: OneSided) -> Self {
+        match b {
+            OneSided::Diffuse(d) => Bsdf::Diffuse(d),
+            OneSided::Conductor(c) => Bsdf::Conductor(c),
+            OneSided::RoughConductor(c) => Bsdf::RoughConductor(c),
+            OneSided::Plastic(p) => Bsdf::Plastic(p),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::materials::{Diffuse, Mask, Plastic, TwoSided};
+    use crate::math::Rgb;
+    use crate::textures::Checkerboard;
+
+    fn checker(a: Vec3, b: Vec3) -> Texture {
+        Texture::Checkerboard(Checkerboard {
+            color0: Box::new(Texture::Constant(a)),
+            color1: Box::new(Texture::Constant(b)),
+            ..Checkerboard::default()
+        })
+    }
+
+    #[test]
+    fn bindings_reach_through_mask_and_twosided() {
+        let diffuse = OneSided::Diffuse(Diffuse {
+            reflectance: Rgb::splat(0.5),
+        });
+        let m = Material {
+            bsdf: Bsdf::Mask(Mask {
+                opacity: 0.5,
+                nested: Box::new(Bsdf::TwoSided(TwoSided {
+                    front: diffuse.clone(),
+                    back: diffuse,
+                })),
+            }),
+            bindings: vec![
+                Binding {
+                    path: vec![Step::Nested, Step::Back],
+                    param: Param::Reflectance,
+                    texture: checker(Vec3::X, Vec3::Y),
+                },
+                Binding {
+                    path: vec![],
+                    param: Param::Opacity,
+                    // Scalar lookups of a checkerboard swap its cells (Mitsuba's
+                    // eval_1): at (0.25, 0.25) this is color1's luminance 0.0 -> 0.
+                    texture: checker(Vec3::splat(1.0), Vec3::splat(-3.0)),
+                },
+            ],
+        };
+        let Bsdf::Mask(at) = m.at(Vec2::new(0.25, 0.25)) else {
+            panic!()
+        };
+        // Opacity: luminance(-3) clamped to 0.
+        assert_eq!(at.opacity, 0.0);
+        let Bsdf::TwoSided(t) = *at.nested else {
+            panic!()
+        };
+        assert_eq!(
+            t.back,
+            OneSided::Diffuse(Diffuse {
+                reflectance: Vec3::X
+            })
+        );
+        // The front side keeps its constant.
+        assert_eq!(
+            t.front,
+            OneSided::Diffuse(Diffuse {
+                reflectance: Rgb::splat(0.5)
+            })
+        );
+    }
+
+    #[test]
+    fn textured_plastic_equals_the_plastic_built_with_that_colour() {
+        let base = Plastic::new(1.49, Rgb::splat(0.5), Rgb::ONE, true);
+        let m = Material {
+            bsdf: Bsdf::Plastic(base),
+            bindings: vec![Binding {
+                path: vec![],
+                param: Param::DiffuseReflectance,
+                texture: checker(Vec3::new(0.8, 0.2, 0.1), Vec3::ZERO),
+            }],
+        };
+        assert_eq!(
+            m.at(Vec2::new(0.1, 0.1)),
+            Bsdf::Plastic(Plastic::new(1.49, Rgb::new(0.8, 0.2, 0.1), Rgb::ONE, true))
+        );
     }
 }

@@ -9,6 +9,7 @@
 //!
 //! `twosided` holds two [`OneSided`] models, a type that has no dielectric and no
 //! `twosided`: resolving the side ([`TwoSided::side`]) always ends at a plain model.
+//! `mask` wraps any BSDF (Mitsuba's scenes write `mask(twosided(diffuse))`).
 
 mod conductor;
 pub mod conductor_presets;
@@ -16,6 +17,7 @@ mod dielectric;
 mod diffuse;
 mod flags;
 pub mod fresnel;
+mod mask;
 pub mod material;
 pub mod microfacet;
 mod null;
@@ -28,6 +30,7 @@ pub use conductor::Conductor;
 pub use dielectric::Dielectric;
 pub use diffuse::Diffuse;
 pub use flags::BsdfFlags;
+pub use mask::Mask;
 pub use material::Material;
 pub use microfacet::{Microfacet, MicrofacetKind};
 pub use null::Null;
@@ -102,6 +105,17 @@ pub enum Bsdf {
     Plastic(Plastic),
     Null(Null),
     TwoSided(TwoSided),
+    Mask(Mask),
+}
+
+impl Bsdf {
+    /// Whether the G-buffer looks through this surface although it has a lobe with a
+    /// density (a mostly transparent `mask`); delta-only surfaces are looked through
+    /// anyway.
+    #[inline(always)]
+    pub fn guide_looks_through(&self) -> bool {
+        matches!(self, Bsdf::Mask(m) if m.mostly_transparent())
+    }
 }
 
 impl TryFrom<Bsdf> for OneSided {
@@ -116,7 +130,8 @@ impl TryFrom<Bsdf> for OneSided {
             other @ (Bsdf::Dielectric(_)
             | Bsdf::ThinDielectric(_)
             | Bsdf::Null(_)
-            | Bsdf::TwoSided(_)) => Err(other),
+            | Bsdf::TwoSided(_)
+            | Bsdf::Mask(_)) => Err(other),
         }
     }
 }
@@ -216,25 +231,25 @@ impl BsdfModel for Bsdf {
     #[inline(always)]
     fn flags(&self, wo: Vec3) -> BsdfFlags {
         dispatch!(self, b => b.flags(wo),
-            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::Null, Bsdf::TwoSided)
+            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::Null, Bsdf::TwoSided, Bsdf::Mask)
     }
     #[inline(always)]
     fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
         dispatch!(self, b => b.eval(wo, wi),
-            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::Null, Bsdf::TwoSided)
+            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::Null, Bsdf::TwoSided, Bsdf::Mask)
     }
     #[inline(always)]
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         dispatch!(self, b => b.pdf(wo, wi),
-            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::Null, Bsdf::TwoSided)
+            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::Null, Bsdf::TwoSided, Bsdf::Mask)
     }
     #[inline(always)]
     fn sample(&self, wo: Vec3, u1: f32, u2: [f32; 2]) -> Option<BsdfSample> {
         dispatch!(self, b => b.sample(wo, u1, u2),
-            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::Null, Bsdf::TwoSided)
+            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::Null, Bsdf::TwoSided, Bsdf::Mask)
     }
     fn albedo(&self, wo: Vec3) -> Rgb {
         dispatch!(self, b => b.albedo(wo),
-            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::Null, Bsdf::TwoSided)
+            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::Null, Bsdf::TwoSided, Bsdf::Mask)
     }
 }

@@ -1,10 +1,10 @@
 //! Reading `<bsdf>` elements (and `<ref>`s to them) into [`Bsdf`] values.
 
 use super::conductor_presets;
-use super::material::{Binding, Side};
+use super::material::{Binding, Param, Step};
 use super::{
-    Bsdf, Conductor, Dielectric, Diffuse, Material, Microfacet, MicrofacetKind, Null, OneSided,
-    Plastic, RoughConductor, ThinDielectric, TwoSided,
+    Bsdf, Conductor, Dielectric, Diffuse, Mask, Material, Microfacet, MicrofacetKind, Null,
+    OneSided, Plastic, RoughConductor, ThinDielectric, TwoSided,
 };
 use crate::math::Rgb;
 use crate::scene::error::SceneError;
@@ -120,46 +120,86 @@ fn conductor_preset(props: &Props, name: &str) -> Result<(Rgb, Rgb), SceneError>
 /// A conductor's complex IOR: `eta` and `k` together, or `material` (Mitsuba's named
 /// conductors, `conductor_presets`, or `none`, a perfect mirror); `default` is the
 /// material when neither is given (`none` for both in Mitsuba 3's code, although its
-/// documentation says copper for `roughconductor`; we follow the renderer).
-fn conductor_ior(props: &mut Props, kind: &str, default: &str) -> Result<(Rgb, Rgb), SceneError> {
-    let material = props.string("material")?;
-    let eta = props.rgb("eta")?;
-    let k = props.rgb("k")?;
+/// documentation says copper for `roughconductor`; we follow the renderer). `eta` and
+/// `k` may be textures.
+fn conductor_ior(p: &mut Params, kind: &str, default: &str) -> Result<(Rgb, Rgb), SceneError> {
+    let material = p.props.string("material")?;
+    let eta = texture_param(&mut p.props, "eta", p.textures)?;
+    let k = texture_param(&mut p.props, "k", p.textures)?;
+    let props = &p.props;
     // As Mitsuba: with `eta` or `k` given (or material `none`), the missing one
     // defaults to eta 0 / k 1; a named material excludes both.
     let (eta, k) = match (eta, k, material.as_deref()) {
-        (None, None, m) => conductor_preset(props, m.unwrap_or(default))?,
-        (e, k, None | Some("none")) => (e.unwrap_or(Rgb::ZERO), k.unwrap_or(Rgb::ONE)),
+        (None, None, m) => {
+            let (e, k) = conductor_preset(props, m.unwrap_or(default))?;
+            (Texture::Constant(e), Texture::Constant(k))
+        }
+        (e, k, None | Some("none")) => (
+            e.unwrap_or(Texture::Constant(Rgb::ZERO)),
+            k.unwrap_or(Texture::Constant(Rgb::ONE)),
+        ),
         _ => return Err(props.err("give either 'material' or 'eta' and 'k', not both")),
     };
-    if eta.min_element() < 0.0 || k.min_element() < 0.0 {
-        return Err(props.err(format!("{kind} eta and k must be non-negative")));
-    }
     let limit = MAX_OPTICAL_CONSTANT as f32;
-    for (name, v) in [("eta", eta), ("k", k)] {
-        if v.max_element() > limit {
-            return Err(props.err_at(name, format!("{kind} {name} {v} exceeds {limit:e}")));
+    let mut constant = |name: &str, param: Param, t: Texture, placeholder: Rgb| match t {
+        Texture::Constant(v) => {
+            if v.min_element() < 0.0 {
+                return Err(p
+                    .props
+                    .err_at(name, format!("{kind} {name} must be non-negative")));
+            }
+            if v.max_element() > limit {
+                return Err(p
+                    .props
+                    .err_at(name, format!("{kind} {name} {v} exceeds {limit:e}")));
+            }
+            Ok(v)
         }
-    }
+        texture => {
+            p.bind(param, texture);
+            Ok(placeholder)
+        }
+    };
+    let eta = constant("eta", Param::Eta, eta, Rgb::ZERO)?;
+    let k = constant("k", Param::K, k, Rgb::ONE)?;
     Ok((eta, k))
 }
 
-/// Mitsuba's microfacet parameters: `distribution` (beckmann), `alpha` or `alpha_u` and
-/// `alpha_v` (0.1), `sample_visible` (true).
-fn microfacet(props: &mut Props) -> Result<Microfacet, SceneError> {
-    let kind = match props.string("distribution")?.as_deref() {
+/// Mitsuba's microfacet parameters: `distribution` (beckmann), `alpha` (a float or a
+/// texture) or `alpha_u` and `alpha_v` (0.1), `sample_visible` (true).
+fn microfacet(p: &mut Params) -> Result<Microfacet, SceneError> {
+    let kind = match p.props.string("distribution")?.as_deref() {
         None | Some("beckmann") => MicrofacetKind::Beckmann,
         Some("ggx") => MicrofacetKind::Ggx,
         Some(other) => {
-            return Err(props.err_at(
+            return Err(p.props.err_at(
                 "distribution",
                 format!("unknown microfacet distribution '{other}' (beckmann or ggx)"),
             ))
         }
     };
-    let alpha = props.float("alpha")?;
-    let alpha_u = props.float("alpha_u")?;
-    let alpha_v = props.float("alpha_v")?;
+    let alpha = match texture_param(&mut p.props, "alpha", p.textures)? {
+        None => None,
+        Some(Texture::Constant(a)) => Some(a.x as f64),
+        Some(texture) => {
+            p.bind(Param::Alpha, texture);
+            // A placeholder: `Material::at` sets it at every hit.
+            Some(0.1)
+        }
+    };
+    let mut axis = |name: &str| {
+        match texture_param(&mut p.props, name, p.textures)? {
+        None => Ok(None),
+        Some(Texture::Constant(a)) => Ok(Some(a.x as f64)),
+        Some(_) => Err(p.props.err_at(
+            name,
+            format!("a textured {name} (anisotropic roughness) is not supported: it needs the surface tangents Mitsuba derives from uv coordinates"),
+        )),
+    }
+    };
+    let alpha_u = axis("alpha_u")?;
+    let alpha_v = axis("alpha_v")?;
+    let props = &mut p.props;
     let (alpha_u, alpha_v) = match (alpha, alpha_u, alpha_v) {
         (a, None, None) => (a.unwrap_or(0.1), a.unwrap_or(0.1)),
         (None, Some(u), Some(v)) => (u, v),
@@ -188,6 +228,49 @@ fn microfacet(props: &mut Props) -> Result<Microfacet, SceneError> {
     })
 }
 
+/// One `<bsdf>`'s parameters and the textures bound so far.
+struct Params<'a, 'i, 'c> {
+    props: Props<'a, 'i, 'c>,
+    textures: &'c NamedTextures,
+    bindings: Vec<Binding>,
+}
+
+impl Params<'_, '_, '_> {
+    fn bind(&mut self, param: Param, texture: Texture) {
+        self.bindings.push(Binding {
+            path: Vec::new(),
+            param,
+            texture,
+        });
+    }
+
+    /// A reflectance-like colour that accepts a texture: a constant is checked
+    /// ([`check_reflectance`]), a texture is bound and `default` stands in for it.
+    fn colour(&mut self, name: &str, param: Param, default: Rgb) -> Result<Rgb, SceneError> {
+        match texture_param(&mut self.props, name, self.textures)? {
+            None => Ok(default),
+            Some(Texture::Constant(c)) => check_reflectance(&self.props, name, c),
+            Some(texture) => {
+                self.bind(param, texture);
+                Ok(default)
+            }
+        }
+    }
+
+    /// Takes a nested material's bindings, reached through `step`.
+    fn adopt(&mut self, step: Step, child: &Material) {
+        self.bindings.extend(child.bindings.iter().map(|b| {
+            Binding {
+                path: std::iter::once(step)
+                    .chain(b.path.iter().copied())
+                    .collect(),
+                param: b.param,
+                texture: b.texture.clone(),
+            }
+        }));
+    }
+}
+
 /// A `<bsdf>` element or a `<ref id>` to a named one.
 /// What a BSDF may refer to: named BSDFs and named textures declared before it.
 pub struct Named<'a> {
@@ -213,87 +296,79 @@ pub fn resolve_bsdf(ctx: &Ctx, node: Node, named: &Named) -> Result<Material, Sc
 
 pub fn parse_bsdf(ctx: &Ctx, node: Node, named: &Named) -> Result<Material, SceneError> {
     let kind = ctx.required_attr(node, "type")?;
-    let mut props = Props::parse(ctx, node)?;
-    let mut bindings = Vec::new();
+    let mut p = Params {
+        props: Props::parse(ctx, node)?,
+        textures: named.textures,
+        bindings: Vec::new(),
+    };
     let bsdf = match kind.as_str() {
-        "diffuse" => {
-            let reflectance = match texture_param(&mut props, "reflectance", named.textures)? {
-                None => Rgb::splat(0.5),
-                Some(Texture::Constant(c)) => check_reflectance(&props, "reflectance", c)?,
-                Some(texture) => {
-                    bindings.push(Binding {
-                        side: Side::Only,
-                        texture,
-                    });
-                    // A placeholder: `Material::at` sets it at every hit.
-                    Rgb::splat(0.5)
-                }
-            };
-            Bsdf::Diffuse(Diffuse { reflectance })
-        }
+        "diffuse" => Bsdf::Diffuse(Diffuse {
+            reflectance: p.colour("reflectance", Param::Reflectance, Rgb::splat(0.5))?,
+        }),
         "dielectric" | "thindielectric" => {
-            let eta = relative_ior(&mut props, 1.5046)?;
-            let sr = props.rgb("specular_reflectance")?.unwrap_or(Rgb::ONE);
-            let st = props.rgb("specular_transmittance")?.unwrap_or(Rgb::ONE);
-            let (sr, st) = (
-                check_reflectance(&props, "specular_reflectance", sr)?,
-                check_reflectance(&props, "specular_transmittance", st)?,
-            );
+            let eta = relative_ior(&mut p.props, 1.5046)? as f32;
+            let specular_reflectance =
+                p.colour("specular_reflectance", Param::SpecularReflectance, Rgb::ONE)?;
+            let specular_transmittance =
+                p.colour("specular_transmittance", Param::SpecularTransmittance, Rgb::ONE)?;
             if kind == "thindielectric" {
                 Bsdf::ThinDielectric(ThinDielectric {
-                    eta: eta as f32,
-                    specular_reflectance: sr,
-                    specular_transmittance: st,
+                    eta,
+                    specular_reflectance,
+                    specular_transmittance,
                 })
             } else {
                 Bsdf::Dielectric(Dielectric {
-                    eta: eta as f32,
-                    specular_reflectance: sr,
-                    specular_transmittance: st,
+                    eta,
+                    specular_reflectance,
+                    specular_transmittance,
                 })
             }
         }
         "conductor" => {
-            let (eta, k) = conductor_ior(&mut props, "conductor", "none")?;
-            let sr = props.rgb("specular_reflectance")?.unwrap_or(Rgb::ONE);
+            let (eta, k) = conductor_ior(&mut p, "conductor", "none")?;
             Bsdf::Conductor(Conductor {
                 eta,
                 k,
-                specular_reflectance: check_reflectance(&props, "specular_reflectance", sr)?,
+                specular_reflectance: p.colour(
+                    "specular_reflectance",
+                    Param::SpecularReflectance,
+                    Rgb::ONE,
+                )?,
             })
         }
         "null" => Bsdf::Null(Null),
         "plastic" => {
-            let eta = relative_ior(&mut props, 1.49)?;
-            let d = props.rgb("diffuse_reflectance")?.unwrap_or(Rgb::splat(0.5));
-            let s = props.rgb("specular_reflectance")?.unwrap_or(Rgb::ONE);
-            let (d, s) = (
-                check_reflectance(&props, "diffuse_reflectance", d)?,
-                check_reflectance(&props, "specular_reflectance", s)?,
-            );
-            if d.element_sum() + s.element_sum() <= 0.0 {
-                return Err(props.err("plastic with zero diffuse and specular reflectance reflects nothing; use a black diffuse"));
+            let eta = relative_ior(&mut p.props, 1.49)?;
+            let d = p.colour("diffuse_reflectance", Param::DiffuseReflectance, Rgb::splat(0.5))?;
+            let s = p.colour("specular_reflectance", Param::SpecularReflectance, Rgb::ONE)?;
+            if p.bindings.is_empty() && d.element_sum() + s.element_sum() <= 0.0 {
+                return Err(p.props.err("plastic with zero diffuse and specular reflectance reflects nothing; use a black diffuse"));
             }
             Bsdf::Plastic(Plastic::new(
                 eta as f32,
                 d,
                 s,
-                props.boolean_or("nonlinear", false)?,
+                p.props.boolean_or("nonlinear", false)?,
             ))
         }
         "roughconductor" => {
-            let distribution = microfacet(&mut props)?;
-            let (eta, k) = conductor_ior(&mut props, "roughconductor", "none")?;
-            let sr = props.rgb("specular_reflectance")?.unwrap_or(Rgb::ONE);
+            let distribution = microfacet(&mut p)?;
+            let (eta, k) = conductor_ior(&mut p, "roughconductor", "none")?;
             Bsdf::RoughConductor(RoughConductor {
                 distribution,
                 eta,
                 k,
-                specular_reflectance: check_reflectance(&props, "specular_reflectance", sr)?,
+                specular_reflectance: p.colour(
+                    "specular_reflectance",
+                    Param::SpecularReflectance,
+                    Rgb::ONE,
+                )?,
             })
         }
         "twosided" => {
-            let children: Vec<Material> = props
+            let children: Vec<Material> = p
+                .props
                 .objects
                 .iter()
                 .map(|&c| resolve_bsdf(ctx, c, named))
@@ -301,36 +376,63 @@ pub fn parse_bsdf(ctx: &Ctx, node: Node, named: &Named) -> Result<Material, Scen
             let (front, back) = match children.as_slice() {
                 [one] => (one.clone(), one.clone()),
                 [f, b] => (f.clone(), b.clone()),
-                _ => return Err(props.err("twosided needs one or two nested BSDFs")),
+                _ => return Err(p.props.err("twosided needs one or two nested BSDFs")),
             };
+            p.adopt(Step::Front, &front);
+            p.adopt(Step::Back, &back);
             let one_sided = |b: Bsdf| {
-                OneSided::try_from(b)
-                    .map_err(|_| props.err("twosided cannot wrap a dielectric, thindielectric, null or another twosided"))
+                OneSided::try_from(b).map_err(|_| {
+                    p.props.err("twosided cannot wrap a dielectric, thindielectric, null, mask or another twosided (write mask(twosided(...)))")
+                })
             };
-            for (side, child) in [(Side::Front, &front), (Side::Back, &back)] {
-                bindings.extend(child.bindings.iter().map(|b| Binding {
-                    side,
-                    texture: b.texture.clone(),
-                }));
-            }
             let (front, back) = (one_sided(front.bsdf)?, one_sided(back.bsdf)?);
-            props.objects.clear();
+            p.props.objects.clear();
             Bsdf::TwoSided(TwoSided { front, back })
         }
+        "mask" => {
+            let opacity = match texture_param(&mut p.props, "opacity", p.textures)? {
+                None => 0.5,
+                Some(Texture::Constant(c)) => {
+                    let o = c.x;
+                    if !(0.0..=1.0).contains(&o) {
+                        p.props.warn_at(
+                            "opacity",
+                            format!("opacity {o} is outside [0, 1]; clamped, as Mitsuba does"),
+                        );
+                    }
+                    o.clamp(0.0, 1.0)
+                }
+                Some(texture) => {
+                    p.bind(Param::Opacity, texture);
+                    0.5
+                }
+            };
+            let nested = match p.props.objects.as_slice() {
+                [one] => resolve_bsdf(ctx, *one, named)?,
+                _ => return Err(p.props.err("mask needs exactly one nested BSDF (and its opacity)")),
+            };
+            p.adopt(Step::Nested, &nested);
+            p.props.objects.clear();
+            Bsdf::Mask(Mask {
+                opacity,
+                nested: Box::new(nested.bsdf),
+            })
+        }
         other => {
-            return Err(props.err(format!(
-                "unknown BSDF type '{other}' (supported: diffuse, dielectric, thindielectric, conductor, roughconductor, plastic, null, twosided)"
+            return Err(p.props.err(format!(
+                "unknown BSDF type '{other}' (supported: diffuse, dielectric, thindielectric, conductor, roughconductor, plastic, null, twosided, mask)"
             )))
         }
     };
-    if let Some(&obj) = props.objects.first() {
+    if let Some(&obj) = p.props.objects.first() {
         return Err(ctx.err(
             obj,
-            format!(
-                "unexpected nested element in <bsdf type=\"{kind}\"> (of its parameters only diffuse's reflectance takes a texture)"
-            ),
+            format!("unexpected nested element in <bsdf type=\"{kind}\">"),
         ));
     }
-    props.finish()?;
-    Ok(Material { bsdf, bindings })
+    p.props.finish()?;
+    Ok(Material {
+        bsdf,
+        bindings: p.bindings,
+    })
 }

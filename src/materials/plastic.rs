@@ -28,6 +28,9 @@ use glam::Vec3;
 pub struct Plastic {
     /// int_ior / ext_ior.
     eta: f32,
+    /// The inputs as given (textures set them per hit through [`Self::new`]).
+    diffuse_reflectance: Rgb,
+    nonlinear: bool,
     specular_reflectance: Rgb,
     /// The diffuse reflectance after the coating's internal reflections.
     base: Rgb,
@@ -56,11 +59,23 @@ impl Plastic {
         let s_mean = specular_reflectance.element_sum() / 3.0;
         Plastic {
             eta,
+            diffuse_reflectance,
+            nonlinear,
             specular_reflectance,
             base,
             fdr_ext: fresnel_diffuse_reflectance(eta),
             specular_weight: s_mean / (d_mean + s_mean),
         }
+    }
+
+    /// The same coating over another base (a texture's value at a hit).
+    pub fn with_diffuse_reflectance(&self, d: Rgb) -> Self {
+        Self::new(self.eta, d, self.specular_reflectance, self.nonlinear)
+    }
+
+    /// The same plastic with another specular scale.
+    pub fn with_specular_reflectance(&self, s: Rgb) -> Self {
+        Self::new(self.eta, self.diffuse_reflectance, s, self.nonlinear)
     }
 
     /// The probability of sampling the specular lobe, given F(cos wo).

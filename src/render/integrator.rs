@@ -195,7 +195,7 @@ unsafe fn trace_path_body<const ISA: u8>(
 
         // Next-event estimation and MIS need a lobe with a density; the flags say so.
         let delta = !bsdf.flags(wo).has_non_delta();
-        if g_pending && (!delta || seen_emitter) {
+        if g_pending && ((!delta && !bsdf.guide_looks_through()) || seen_emitter) {
             g_pending = false;
             g.albedo = bsdf.albedo(wo);
             g.normal = if sp.ns.dot(wo_world) >= 0.0 {

@@ -25,17 +25,21 @@ fn to_uv(props: &mut Props) -> Result<UvTransform, SceneError> {
 }
 
 /// Parses one `<texture type="...">` element.
-pub fn parse_texture(ctx: &Ctx, node: Node) -> Result<Texture, SceneError> {
+/// `named` holds the top-level textures a nested `<ref>` may name.
+pub fn parse_texture(ctx: &Ctx, node: Node, named: &NamedTextures) -> Result<Texture, SceneError> {
     let kind = ctx.required_attr(node, "type")?;
     let mut props = Props::parse(ctx, node)?;
     let texture = match kind.as_str() {
         "checkerboard" => {
             let colour = |props: &mut Props, name: &str, default: f32| {
-                let c = props.rgb(name)?.unwrap_or(Vec3::splat(default));
-                if !c.is_finite() {
-                    return Err(props.err_at(name, format!("{name} must be finite")));
+                let t = texture_param(props, name, named)?
+                    .unwrap_or(Texture::Constant(Vec3::splat(default)));
+                if let Texture::Constant(c) = t {
+                    if !c.is_finite() {
+                        return Err(props.err_at(name, format!("{name} must be finite")));
+                    }
                 }
-                Ok(c)
+                Ok(Box::new(t))
             };
             let color0 = colour(&mut props, "color0", 0.4)?;
             let color1 = colour(&mut props, "color1", 0.2)?;
@@ -56,7 +60,7 @@ pub fn parse_texture(ctx: &Ctx, node: Node) -> Result<Texture, SceneError> {
         return Err(ctx.err(
             obj,
             format!(
-                "unexpected nested element in <texture type=\"{kind}\"> (colours of a checkerboard are <rgb> or <float>)"
+                "unexpected nested element in <texture type=\"{kind}\"> (a checkerboard takes textures only as color0 and color1)"
             ),
         ));
     }
@@ -164,7 +168,7 @@ pub fn texture_param(
                 )
             })?
         } else {
-            parse_texture(ctx, obj)?
+            parse_texture(ctx, obj, named)?
         });
     }
     if found.is_none() {
@@ -195,7 +199,7 @@ mod tests {
     }
 
     fn texture(dir: &Path, xml: &str) -> Result<Texture, SceneError> {
-        with_node(dir, xml, parse_texture)
+        with_node(dir, xml, |c, n| parse_texture(c, n, &NamedTextures::new()))
     }
 
     /// A 2 x 2 PNG: (0, 0) = 0, (1, 0) = 64, (0, 1) = 128, (1, 1) = 255 in every channel.
@@ -348,8 +352,12 @@ mod tests {
                 "filter_type 'cubic'",
             ),
             (
-                r#"<texture type="checkerboard"><texture name="color0" type="checkerboard"/></texture>"#,
+                r#"<texture type="checkerboard"><texture name="color2" type="checkerboard"/></texture>"#,
                 "unexpected nested element",
+            ),
+            (
+                r#"<texture type="checkerboard"><ref name="color0" id="nowhere"/></texture>"#,
+                "no <texture id=\"nowhere\">",
             ),
         ];
         for (xml, want) in cases {

@@ -143,7 +143,7 @@ pub fn load(path: &Path, overrides: &Overrides) -> Result<Scene, SceneError> {
                 sensor = Some(parse_sensor(&ctx, node)?);
             }
             "texture" => {
-                let t = parse_texture(&ctx, node)?;
+                let t = parse_texture(&ctx, node, &named_textures)?;
                 let Some(id) = ctx.attr(node, "id")? else {
                     return Err(ctx.err(node, "a top-level <texture> needs an id to be referenced"));
                 };
