@@ -365,6 +365,9 @@ fn steady_images_agree_with_mitransient() {
         ("cbox_plastic.xml", [0.20211, 0.12971, 0.05896]),
         // Two 2048-spp mitransient renders (seeds 7 and 8), averaged.
         ("cbox_null.xml", [0.23856, 0.14078, 0.05988]),
+        // Two 4096-spp mitransient renders (seeds 7 and 8), averaged: mask with a
+        // checkerboard opacity, textured plastic, roughness and nested checkerboards.
+        ("cbox_masked.xml", [0.19164, 0.12109, 0.05129]),
     ];
     for (name, want) in cases {
         let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))

@@ -12,7 +12,7 @@
 //! non-negative, opacity to [0, 1] (as Mitsuba clips it), roughness to [1e-4, 10] (the
 //! range a constant may take; Mitsuba would produce NaNs at 0).
 
-use super::{Bsdf, OneSided};
+use super::{Bsdf, OneSided, TemporalProfile};
 use crate::textures::Texture;
 use glam::{Vec2, Vec3};
 
@@ -33,12 +33,21 @@ pub enum Param {
     Alpha,
     /// `mask`'s opacity.
     Opacity,
+    /// Temporal profile parameters of `Separable` (`ConstantTP`'s delay,
+    /// `ExponentialTP`'s lambda, `EpanechnikovTP`'s mu and sigma).
+    Delay,
+    Lambda,
+    Mu,
+    Sigma,
 }
 
 impl Param {
     /// Scalar parameters read the texture's one-channel value (Mitsuba's `eval_1`).
     fn is_scalar(self) -> bool {
-        matches!(self, Param::Alpha | Param::Opacity)
+        matches!(
+            self,
+            Param::Alpha | Param::Opacity | Param::Delay | Param::Lambda | Param::Mu | Param::Sigma
+        )
     }
 }
 
@@ -47,7 +56,11 @@ impl Param {
 pub enum Step {
     Front,
     Back,
+    /// `mask`'s or `Separable`'s nested BSDF.
     Nested,
+    /// `Composed`'s children.
+    First,
+    Second,
 }
 
 /// A textured parameter of the model at `path`.
@@ -101,6 +114,9 @@ fn set(b: &mut Bsdf, path: &[Step], param: Param, v: Vec3) {
         (Bsdf::TwoSided(t), [Step::Front]) => set_one_sided(&mut t.front, param, v),
         (Bsdf::TwoSided(t), [Step::Back]) => set_one_sided(&mut t.back, param, v),
         (Bsdf::Mask(m), [Step::Nested, rest @ ..]) => set(&mut m.nested, rest, param, v),
+        (Bsdf::Separable(s), [Step::Nested, rest @ ..]) => set(&mut s.inner, rest, param, v),
+        (Bsdf::Composed(c), [Step::First, rest @ ..]) => set(&mut c.first, rest, param, v),
+        (Bsdf::Composed(c), [Step::Second, rest @ ..]) => set(&mut c.second, rest, param, v),
         (b, []) => set_model(b, param, v),
         _ => debug_assert!(false, "binding path {path:?} does not fit the BSDF"),
     }
@@ -138,6 +154,15 @@ fn set_model(b: &mut Bsdf, param: Param, v: Vec3) {
         (Bsdf::Plastic(p), Param::DiffuseReflectance) => *p = p.with_diffuse_reflectance(colour),
         (Bsdf::Plastic(p), Param::SpecularReflectance) => *p = p.with_specular_reflectance(colour),
         (Bsdf::Mask(m), Param::Opacity) => m.opacity = v.x.clamp(0.0, 1.0),
+        // Profile parameters are kept in their domain when a delay is drawn
+        // (`Separable::sample_delay`).
+        (Bsdf::Separable(s), param) => match (&mut s.profile, param) {
+            (TemporalProfile::Constant { delay }, Param::Delay) => *delay = v.x,
+            (TemporalProfile::Exponential { lambda }, Param::Lambda) => *lambda = v.x,
+            (TemporalProfile::Epanechnikov { mu, .. }, Param::Mu) => *mu = v.x,
+            (TemporalProfile::Epanechnikov { sigma, .. }, Param::Sigma) => *sigma = v.x,
+            _ => debug_assert!(false, "{param:?} is not a parameter of this profile"),
+        },
         (_, param) => debug_assert!(false, "{param:?} is not a parameter of this BSDF"),
     }
 }

@@ -11,6 +11,7 @@
 //! `twosided`: resolving the side ([`TwoSided::side`]) always ends at a plain model.
 //! `mask` wraps any BSDF (Mitsuba's scenes write `mask(twosided(diffuse))`).
 
+mod composed;
 mod conductor;
 pub mod conductor_presets;
 mod dielectric;
@@ -24,8 +25,11 @@ mod null;
 pub mod parse;
 mod plastic;
 mod rough_conductor;
+mod separable;
+pub mod temporal_profile;
 mod thin_dielectric;
 
+pub use composed::Composed;
 pub use conductor::Conductor;
 pub use dielectric::Dielectric;
 pub use diffuse::Diffuse;
@@ -36,6 +40,8 @@ pub use microfacet::{Microfacet, MicrofacetKind};
 pub use null::Null;
 pub use plastic::Plastic;
 pub use rough_conductor::RoughConductor;
+pub use separable::Separable;
+pub use temporal_profile::TemporalProfile;
 pub use thin_dielectric::ThinDielectric;
 
 use crate::math::Rgb;
@@ -106,6 +112,10 @@ pub enum Bsdf {
     Null(Null),
     TwoSided(TwoSided),
     Mask(Mask),
+    /// Delays its re-emission (SPEC section 6).
+    Separable(Separable),
+    /// A mixture of two BSDFs, resolved per vertex by the integrator.
+    Composed(Composed),
 }
 
 impl Bsdf {
@@ -115,6 +125,16 @@ impl Bsdf {
     #[inline(always)]
     pub fn guide_looks_through(&self) -> bool {
         matches!(self, Bsdf::Mask(m) if m.mostly_transparent())
+    }
+
+    /// Whether the model or a model inside it delays its re-emission.
+    pub fn delays(&self) -> bool {
+        match self {
+            Bsdf::Separable(_) => true,
+            Bsdf::Composed(c) => c.first.delays() || c.second.delays(),
+            Bsdf::Mask(m) => m.nested.delays(),
+            _ => false,
+        }
     }
 }
 
@@ -131,7 +151,9 @@ impl TryFrom<Bsdf> for OneSided {
             | Bsdf::ThinDielectric(_)
             | Bsdf::Null(_)
             | Bsdf::TwoSided(_)
-            | Bsdf::Mask(_)) => Err(other),
+            | Bsdf::Mask(_)
+            | Bsdf::Separable(_)
+            | Bsdf::Composed(_)) => Err(other),
         }
     }
 }
@@ -231,25 +253,25 @@ impl BsdfModel for Bsdf {
     #[inline(always)]
     fn flags(&self, wo: Vec3) -> BsdfFlags {
         dispatch!(self, b => b.flags(wo),
-            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::Null, Bsdf::TwoSided, Bsdf::Mask)
+            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::Null, Bsdf::TwoSided, Bsdf::Mask, Bsdf::Separable, Bsdf::Composed)
     }
     #[inline(always)]
     fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
         dispatch!(self, b => b.eval(wo, wi),
-            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::Null, Bsdf::TwoSided, Bsdf::Mask)
+            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::Null, Bsdf::TwoSided, Bsdf::Mask, Bsdf::Separable, Bsdf::Composed)
     }
     #[inline(always)]
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         dispatch!(self, b => b.pdf(wo, wi),
-            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::Null, Bsdf::TwoSided, Bsdf::Mask)
+            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::Null, Bsdf::TwoSided, Bsdf::Mask, Bsdf::Separable, Bsdf::Composed)
     }
     #[inline(always)]
     fn sample(&self, wo: Vec3, u1: f32, u2: [f32; 2]) -> Option<BsdfSample> {
         dispatch!(self, b => b.sample(wo, u1, u2),
-            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::Null, Bsdf::TwoSided, Bsdf::Mask)
+            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::Null, Bsdf::TwoSided, Bsdf::Mask, Bsdf::Separable, Bsdf::Composed)
     }
     fn albedo(&self, wo: Vec3) -> Rgb {
         dispatch!(self, b => b.albedo(wo),
-            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::Null, Bsdf::TwoSided, Bsdf::Mask)
+            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::Null, Bsdf::TwoSided, Bsdf::Mask, Bsdf::Separable, Bsdf::Composed)
     }
 }

@@ -6,6 +6,7 @@ use super::{
     Bsdf, Conductor, Dielectric, Diffuse, Mask, Material, Microfacet, MicrofacetKind, Null,
     OneSided, Plastic, RoughConductor, ThinDielectric, TwoSided,
 };
+use super::{Composed, Separable, TemporalProfile};
 use crate::math::Rgb;
 use crate::scene::error::SceneError;
 use crate::scene::props::{Ctx, Props, Value};
@@ -411,6 +412,9 @@ pub fn parse_bsdf(ctx: &Ctx, node: Node, named: &Named) -> Result<Material, Scen
                 [one] => resolve_bsdf(ctx, *one, named)?,
                 _ => return Err(p.props.err("mask needs exactly one nested BSDF (and its opacity)")),
             };
+            if nested.bsdf.delays() {
+                return Err(p.props.err("mask cannot wrap a delaying BSDF (Separable or Composed): the light passing through the holes would be delayed too"));
+            }
             p.adopt(Step::Nested, &nested);
             p.props.objects.clear();
             Bsdf::Mask(Mask {
@@ -418,9 +422,59 @@ pub fn parse_bsdf(ctx: &Ctx, node: Node, named: &Named) -> Result<Material, Scen
                 nested: Box::new(nested.bsdf),
             })
         }
+        "Separable" => {
+            let mut inner = None;
+            let mut profile = None;
+            for obj in std::mem::take(&mut p.props.objects) {
+                if obj.tag_name().name() == "TemporalProfile" {
+                    if profile.is_some() {
+                        return Err(ctx.err(obj, "Separable takes one <TemporalProfile>"));
+                    }
+                    let (tp, bindings) = parse_temporal_profile(ctx, obj, named.textures)?;
+                    p.bindings.extend(bindings);
+                    profile = Some(tp);
+                } else {
+                    if inner.is_some() {
+                        return Err(ctx.err(obj, "Separable takes one nested BSDF"));
+                    }
+                    inner = Some(resolve_bsdf(ctx, obj, named)?);
+                }
+            }
+            let (Some(inner), Some(profile)) = (inner, profile) else {
+                return Err(p.props.err("Separable needs a nested BSDF and a <TemporalProfile type=... name=\"tp\">"));
+            };
+            if inner.bsdf.delays() {
+                return Err(p.props.err("Separable cannot nest another delaying BSDF (Separable or Composed); compose the profiles in a Composed instead"));
+            }
+            p.adopt(Step::Nested, &inner);
+            Bsdf::Separable(Separable {
+                inner: Box::new(inner.bsdf),
+                profile,
+            })
+        }
+        "Composed" => {
+            let w = p.props.float_or("weight", 0.5)?;
+            if !(0.0..=1.0).contains(&w) {
+                return Err(p.props.err_at("weight", format!("weight must be in [0, 1], got {w}")));
+            }
+            let children: Vec<Material> = std::mem::take(&mut p.props.objects)
+                .into_iter()
+                .map(|c| resolve_bsdf(ctx, c, named))
+                .collect::<Result<_, _>>()?;
+            let [first, second] = <[Material; 2]>::try_from(children).map_err(|_| {
+                p.props.err("Composed needs exactly two nested BSDFs")
+            })?;
+            p.adopt(Step::First, &first);
+            p.adopt(Step::Second, &second);
+            Bsdf::Composed(Composed {
+                weight: w as f32,
+                first: Box::new(first.bsdf),
+                second: Box::new(second.bsdf),
+            })
+        }
         other => {
             return Err(p.props.err(format!(
-                "unknown BSDF type '{other}' (supported: diffuse, dielectric, thindielectric, conductor, roughconductor, plastic, null, twosided, mask)"
+                "unknown BSDF type '{other}' (supported: diffuse, dielectric, thindielectric, conductor, roughconductor, plastic, null, twosided, mask, Separable, Composed)"
             )))
         }
     };
@@ -435,4 +489,102 @@ pub fn parse_bsdf(ctx: &Ctx, node: Node, named: &Named) -> Result<Material, Scen
         bsdf,
         bindings: p.bindings,
     })
+}
+
+/// A `<TemporalProfile type=...>` (SPEC section 6) and the textures bound to its
+/// parameters (paths relative to the `Separable` that holds it).
+fn parse_temporal_profile(
+    ctx: &Ctx,
+    node: Node,
+    textures: &NamedTextures,
+) -> Result<(TemporalProfile, Vec<Binding>), SceneError> {
+    let kind = ctx.required_attr(node, "type")?;
+    let mut p = Params {
+        props: Props::parse(ctx, node)?,
+        textures,
+        bindings: Vec::new(),
+    };
+    // A float or a single-channel texture; `None` when absent.
+    let scalar = |p: &mut Params, name: &str, param: Param| -> Result<Option<f64>, SceneError> {
+        match texture_param(&mut p.props, name, p.textures)? {
+            None => Ok(None),
+            Some(Texture::Constant(c)) => {
+                let v = c.x as f64;
+                if !v.is_finite() {
+                    return Err(p.props.err_at(name, format!("{name} must be finite")));
+                }
+                Ok(Some(v))
+            }
+            Some(texture) => {
+                p.bind(param, texture);
+                Ok(Some(f64::NAN))
+            }
+        }
+    };
+    let required = |p: &Params, v: Option<f64>, name: &str| {
+        v.ok_or_else(|| p.props.err(format!("{kind} needs '{name}'")))
+    };
+    let profile = match kind.as_str() {
+        "ConstantTP" => {
+            let c = scalar(&mut p, "delay", Param::Delay)?;
+            let c = required(&p, c, "delay")?;
+            if c < 0.0 {
+                return Err(p.props.err_at("delay", format!("delay must be >= 0, got {c}")));
+            }
+            TemporalProfile::Constant { delay: c as f32 }
+        }
+        "ExponentialTP" => {
+            let l = scalar(&mut p, "lambda", Param::Lambda)?;
+            let l = required(&p, l, "lambda")?;
+            if l <= 0.0 {
+                return Err(p.props.err_at("lambda", format!("lambda must be > 0, got {l}")));
+            }
+            TemporalProfile::Exponential { lambda: l as f32 }
+        }
+        "EpanechnikovTP" | "PosEpanTP" => {
+            let mu = scalar(&mut p, "mu", Param::Mu)?;
+            let sigma = scalar(&mut p, "sigma", Param::Sigma)?;
+            let (mu, sigma) = (required(&p, mu, "mu")?, required(&p, sigma, "sigma")?);
+            // NaN marks a textured parameter: checked per hit instead.
+            if sigma <= 0.0 {
+                return Err(p.props.err_at("sigma", format!("sigma must be > 0, got {sigma}")));
+            }
+            if mu < sigma {
+                return Err(p.props.err_at(
+                    "mu",
+                    format!("mu must be >= sigma (the positive Epanechnikov profile has no negative delays), got mu {mu}, sigma {sigma}"),
+                ));
+            }
+            TemporalProfile::Epanechnikov {
+                mu: mu as f32,
+                sigma: sigma as f32,
+            }
+        }
+        other => {
+            return Err(p.props.err(format!(
+                "unknown temporal profile '{other}' (supported: ConstantTP, ExponentialTP, EpanechnikovTP, PosEpanTP)"
+            )))
+        }
+    };
+    if let Some(&obj) = p.props.objects.first() {
+        return Err(ctx.err(
+            obj,
+            format!("unexpected nested element in <TemporalProfile type=\"{kind}\">"),
+        ));
+    }
+    p.props.finish()?;
+    // Placeholders (NaN) of textured parameters: any valid value; `Material::at` sets them.
+    let profile = match profile {
+        TemporalProfile::Constant { delay } => TemporalProfile::Constant {
+            delay: if delay.is_nan() { 0.0 } else { delay },
+        },
+        TemporalProfile::Exponential { lambda } => TemporalProfile::Exponential {
+            lambda: if lambda.is_nan() { 1.0 } else { lambda },
+        },
+        TemporalProfile::Epanechnikov { mu, sigma } => TemporalProfile::Epanechnikov {
+            mu: if mu.is_nan() { 1.0 } else { mu },
+            sigma: if sigma.is_nan() { 0.5 } else { sigma },
+        },
+    };
+    Ok((profile, p.bindings))
 }

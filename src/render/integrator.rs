@@ -6,7 +6,7 @@ use super::cpu::{Isa, ISA_AVX2, ISA_AVX512, ISA_BASELINE};
 use super::deposits::PathDeposits;
 use super::gbuffer::GSample;
 use crate::geometry::accel::{offset_origin, ray_epsilon};
-use crate::materials::BsdfModel;
+use crate::materials::{Bsdf, BsdfModel};
 use crate::math::frame::Frame;
 use crate::math::rng::Pcg32;
 use crate::math::sampling::power_heuristic;
@@ -165,11 +165,22 @@ unsafe fn trace_path_body<const ISA: u8>(
         let material = &scene.bsdfs[shape.bsdf as usize];
         // A textured material becomes a plain BSDF at this hit's uv (computed only then).
         let textured;
-        let bsdf = if material.is_textured() {
+        let whole = if material.is_textured() {
             textured = material.at(shape.uv(hit.face, hit.b1, hit.b2, sp.p));
             &textured
         } else {
             &material.bsdf
+        };
+        // A `Composed` vertex scatters as one child (the first with probability w),
+        // so each child's delay stays with its own light (`materials/composed.rs`).
+        let mut bsdf = whole;
+        while let Bsdf::Composed(c) = bsdf {
+            bsdf = c.pick(rng.next_f32());
+        }
+        // A delaying vertex adds a sampled delay to each light path through it.
+        let delaying = match bsdf {
+            Bsdf::Separable(s) => Some(s),
+            _ => None,
         };
 
         // Emission (front side only), MIS-weighted against light sampling.
@@ -195,9 +206,15 @@ unsafe fn trace_path_body<const ISA: u8>(
 
         // Next-event estimation and MIS need a lobe with a density; the flags say so.
         let delta = !bsdf.flags(wo).has_non_delta();
-        if g_pending && ((!delta && !bsdf.guide_looks_through()) || seen_emitter) {
+        // The G-buffer sees the whole material (a Composed one as its mixture).
+        let guide_delta = if std::ptr::eq(whole, bsdf) {
+            delta
+        } else {
+            !whole.flags(wo).has_non_delta()
+        };
+        if g_pending && ((!guide_delta && !whole.guide_looks_through()) || seen_emitter) {
             g_pending = false;
-            g.albedo = bsdf.albedo(wo);
+            g.albedo = whole.albedo(wo);
             g.normal = if sp.ns.dot(wo_world) >= 0.0 {
                 sp.ns
             } else {
@@ -235,7 +252,8 @@ unsafe fn trace_path_body<const ISA: u8>(
                         } else {
                             power_heuristic(ls.pdf, bsdf.pdf(wo, wi))
                         };
-                        let arrival = opl + eta as f64 * ls.dist as f64;
+                        let delay = delaying.map_or(0.0, |s| s.sample_delay(rng.next_f32()));
+                        let arrival = opl + delay as f64 + eta as f64 * ls.dist as f64;
                         contribute(
                             scene,
                             deposits,
@@ -255,6 +273,9 @@ unsafe fn trace_path_body<const ISA: u8>(
             break;
         };
         let wi_world = frame.to_world(bs.wi);
+        if let Some(s) = delaying {
+            opl += s.sample_delay(rng.next_f32()) as f64;
+        }
         beta *= bs.weight;
         eta *= bs.eta;
         prev_delta = bs.lobe.is_delta();

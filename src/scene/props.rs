@@ -229,6 +229,7 @@ pub const OBJECT_TAGS: &[&str] = &[
     "medium",
     "phase",
     "profile",
+    "TemporalProfile",
 ];
 
 impl<'a, 'i, 'c> Props<'a, 'i, 'c> {
