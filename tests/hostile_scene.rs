@@ -571,12 +571,77 @@ fn cases() -> Vec<Case> {
         scene_case(
             "twosided_null",
             sphere(r#"<bsdf type="twosided"><bsdf type="null"/></bsdf>"#),
-            "twosided cannot wrap a dielectric, thindielectric, null, mask or another twosided",
+            "twosided wraps only one-sided models (diffuse, conductor, roughconductor, plastic); not a dielectric, thindielectric, null, mask",
         ),
         scene_case(
             "texture_on_a_parameter_that_takes_none",
             sphere(r#"<bsdf type="dielectric"><texture type="checkerboard" name="int_ior"/></bsdf>"#),
             "unexpected nested element in <bsdf type=\"dielectric\">",
+        ),
+        scene_case(
+            "separable_without_a_profile",
+            sphere(r#"<bsdf type="Separable"><bsdf type="diffuse"/></bsdf>"#),
+            "Separable needs a nested BSDF and a <TemporalProfile",
+        ),
+        scene_case(
+            "separable_without_a_bsdf",
+            sphere(r#"<bsdf type="Separable"><TemporalProfile type="ConstantTP" name="tp"><float name="delay" value="1"/></TemporalProfile></bsdf>"#),
+            "Separable needs a nested BSDF and a <TemporalProfile",
+        ),
+        scene_case(
+            "unknown_temporal_profile",
+            sphere(r#"<bsdf type="Separable"><bsdf type="diffuse"/><TemporalProfile type="GammaTP" name="tp"/></bsdf>"#),
+            "unknown temporal profile 'GammaTP'",
+        ),
+        scene_case(
+            "constant_profile_without_delay",
+            sphere(r#"<bsdf type="Separable"><bsdf type="diffuse"/><TemporalProfile type="ConstantTP" name="tp"/></bsdf>"#),
+            "ConstantTP needs 'delay'",
+        ),
+        scene_case(
+            "negative_delay",
+            sphere(r#"<bsdf type="Separable"><bsdf type="diffuse"/><TemporalProfile type="ConstantTP" name="tp"><float name="delay" value="-1"/></TemporalProfile></bsdf>"#),
+            "delay must be >= 0",
+        ),
+        scene_case(
+            "zero_lambda",
+            sphere(r#"<bsdf type="Separable"><bsdf type="diffuse"/><TemporalProfile type="ExponentialTP" name="tp"><float name="lambda" value="0"/></TemporalProfile></bsdf>"#),
+            "lambda must be > 0",
+        ),
+        scene_case(
+            "epanechnikov_mu_below_sigma",
+            sphere(r#"<bsdf type="Separable"><bsdf type="diffuse"/><TemporalProfile type="EpanechnikovTP" name="tp"><float name="mu" value="0.1"/><float name="sigma" value="0.5"/></TemporalProfile></bsdf>"#),
+            "mu must be >= sigma",
+        ),
+        scene_case(
+            "profile_with_a_typo",
+            sphere(r#"<bsdf type="Separable"><bsdf type="diffuse"/><TemporalProfile type="ExponentialTP" name="tp"><float name="lamda" value="1"/><float name="lambda" value="1"/></TemporalProfile></bsdf>"#),
+            "lamda",
+        ),
+        scene_case(
+            "separable_in_separable",
+            sphere(r#"<bsdf type="Separable"><bsdf type="Separable"><bsdf type="diffuse"/><TemporalProfile type="ConstantTP" name="tp"><float name="delay" value="1"/></TemporalProfile></bsdf><TemporalProfile type="ConstantTP" name="tp"><float name="delay" value="1"/></TemporalProfile></bsdf>"#),
+            "Separable cannot nest another delaying BSDF",
+        ),
+        scene_case(
+            "composed_with_one_child",
+            sphere(r#"<bsdf type="Composed"><float name="weight" value="0.5"/><bsdf type="diffuse"/></bsdf>"#),
+            "Composed needs exactly two nested BSDFs",
+        ),
+        scene_case(
+            "composed_weight_out_of_range",
+            sphere(r#"<bsdf type="Composed"><float name="weight" value="1.5"/><bsdf type="diffuse"/><bsdf type="diffuse"/></bsdf>"#),
+            "weight must be in [0, 1]",
+        ),
+        scene_case(
+            "mask_around_a_delay",
+            sphere(r#"<bsdf type="mask"><bsdf type="Separable"><bsdf type="diffuse"/><TemporalProfile type="ConstantTP" name="tp"><float name="delay" value="1"/></TemporalProfile></bsdf></bsdf>"#),
+            "mask cannot wrap a delaying BSDF",
+        ),
+        scene_case(
+            "twosided_around_a_delay",
+            sphere(r#"<bsdf type="twosided"><bsdf type="Separable"><bsdf type="diffuse"/><TemporalProfile type="ConstantTP" name="tp"><float name="delay" value="1"/></TemporalProfile></bsdf></bsdf>"#),
+            "Separable(twosided(...))",
         ),
         scene_case(
             "mask_without_a_nested_bsdf",

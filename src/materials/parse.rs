@@ -383,7 +383,7 @@ pub fn parse_bsdf(ctx: &Ctx, node: Node, named: &Named) -> Result<Material, Scen
             p.adopt(Step::Back, &back);
             let one_sided = |b: Bsdf| {
                 OneSided::try_from(b).map_err(|_| {
-                    p.props.err("twosided cannot wrap a dielectric, thindielectric, null, mask or another twosided (write mask(twosided(...)))")
+                    p.props.err("twosided wraps only one-sided models (diffuse, conductor, roughconductor, plastic); not a dielectric, thindielectric, null, mask, Separable, Composed or another twosided (write mask(twosided(...)) or Separable(twosided(...)))")
                 })
             };
             let (front, back) = (one_sided(front.bsdf)?, one_sided(back.bsdf)?);
