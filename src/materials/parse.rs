@@ -485,10 +485,7 @@ pub fn parse_bsdf(ctx: &Ctx, node: Node, named: &Named) -> Result<Material, Scen
         ));
     }
     p.props.finish()?;
-    Ok(Material {
-        bsdf,
-        bindings: p.bindings,
-    })
+    Ok(Material::new(bsdf, p.bindings))
 }
 
 /// A `<TemporalProfile type=...>` (SPEC section 6) and the textures bound to its

@@ -164,23 +164,29 @@ unsafe fn trace_path_body<const ISA: u8>(
         let wo = frame.to_local(wo_world);
         let material = &scene.bsdfs[shape.bsdf as usize];
         // A textured material becomes a plain BSDF at this hit's uv (computed only then).
+        // The material at this hit: `whole` (textures resolved) for the G-buffer,
+        // `bsdf` the model that scatters (a `Composed` vertex scatters as one child,
+        // the first with probability w, so each child's delay stays with its own
+        // light), `delaying` its profile when it delays (`materials/composed.rs`).
         let textured;
-        let whole = if material.is_textured() {
-            textured = material.at(shape.uv(hit.face, hit.b1, hit.b2, sp.p));
-            &textured
+        let (whole, bsdf, delaying) = if material.is_plain() {
+            (&material.bsdf, &material.bsdf, None)
         } else {
-            &material.bsdf
-        };
-        // A `Composed` vertex scatters as one child (the first with probability w),
-        // so each child's delay stays with its own light (`materials/composed.rs`).
-        let mut bsdf = whole;
-        while let Bsdf::Composed(c) = bsdf {
-            bsdf = c.pick(rng.next_f32());
-        }
-        // A delaying vertex adds a sampled delay to each light path through it.
-        let delaying = match bsdf {
-            Bsdf::Separable(s) => Some(s),
-            _ => None,
+            let whole = if material.is_textured() {
+                textured = material.at(shape.uv(hit.face, hit.b1, hit.b2, sp.p));
+                &textured
+            } else {
+                &material.bsdf
+            };
+            let mut bsdf = whole;
+            while let Bsdf::Composed(c) = bsdf {
+                bsdf = c.pick(rng.next_f32());
+            }
+            let delaying = match bsdf {
+                Bsdf::Separable(s) => Some(s),
+                _ => None,
+            };
+            (whole, bsdf, delaying)
         };
 
         // Emission (front side only), MIS-weighted against light sampling.
