@@ -5,10 +5,10 @@
 //! `wo` points back along the incoming ray (towards the camera side of the path), `wi`
 //! is the sampled or queried direction towards the light, both pointing away from the
 //! surface. `eval` returns f * |cos(wi)|. BSDFs are one-sided: `wo.z <= 0` is black,
-//! except for dielectrics and `twosided`.
+//! except for dielectrics (smooth and rough) and `twosided`.
 //!
-//! `twosided` holds two [`OneSided`] models, a type that has no dielectric and no
-//! `twosided`: resolving the side ([`TwoSided::side`]) always ends at a plain model.
+//! `twosided` holds two [`OneSided`] models, a type that has no dielectric (smooth or
+//! rough) and no `twosided`: resolving the side ([`TwoSided::side`]) always ends at a plain model.
 
 mod conductor;
 pub mod conductor_presets;
@@ -22,6 +22,7 @@ mod null;
 pub mod parse;
 mod plastic;
 mod rough_conductor;
+mod rough_dielectric;
 mod thin_dielectric;
 
 pub use conductor::Conductor;
@@ -33,6 +34,7 @@ pub use microfacet::{Microfacet, MicrofacetKind};
 pub use null::Null;
 pub use plastic::Plastic;
 pub use rough_conductor::RoughConductor;
+pub use rough_dielectric::RoughDielectric;
 pub use thin_dielectric::ThinDielectric;
 
 use crate::math::Rgb;
@@ -75,7 +77,7 @@ pub trait BsdfModel {
     fn albedo(&self, wo: Vec3) -> Rgb;
 }
 
-/// A model that `twosided` can wrap: one-sided, never a dielectric or `twosided`.
+/// A model that `twosided` can wrap: one-sided, never a (rough) dielectric or `twosided`.
 #[derive(Clone, Debug, PartialEq)]
 pub enum OneSided {
     Diffuse(Diffuse),
@@ -98,6 +100,7 @@ pub enum Bsdf {
     Dielectric(Dielectric),
     Conductor(Conductor),
     RoughConductor(RoughConductor),
+    RoughDielectric(RoughDielectric),
     ThinDielectric(ThinDielectric),
     Plastic(Plastic),
     Null(Null),
@@ -114,6 +117,7 @@ impl TryFrom<Bsdf> for OneSided {
             Bsdf::RoughConductor(c) => Ok(OneSided::RoughConductor(c)),
             Bsdf::Plastic(p) => Ok(OneSided::Plastic(p)),
             other @ (Bsdf::Dielectric(_)
+            | Bsdf::RoughDielectric(_)
             | Bsdf::ThinDielectric(_)
             | Bsdf::Null(_)
             | Bsdf::TwoSided(_)) => Err(other),
@@ -216,25 +220,25 @@ impl BsdfModel for Bsdf {
     #[inline(always)]
     fn flags(&self, wo: Vec3) -> BsdfFlags {
         dispatch!(self, b => b.flags(wo),
-            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::Null, Bsdf::TwoSided)
+            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::RoughDielectric, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::Null, Bsdf::TwoSided)
     }
     #[inline(always)]
     fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
         dispatch!(self, b => b.eval(wo, wi),
-            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::Null, Bsdf::TwoSided)
+            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::RoughDielectric, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::Null, Bsdf::TwoSided)
     }
     #[inline(always)]
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         dispatch!(self, b => b.pdf(wo, wi),
-            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::Null, Bsdf::TwoSided)
+            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::RoughDielectric, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::Null, Bsdf::TwoSided)
     }
     #[inline(always)]
     fn sample(&self, wo: Vec3, u1: f32, u2: [f32; 2]) -> Option<BsdfSample> {
         dispatch!(self, b => b.sample(wo, u1, u2),
-            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::Null, Bsdf::TwoSided)
+            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::RoughDielectric, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::Null, Bsdf::TwoSided)
     }
     fn albedo(&self, wo: Vec3) -> Rgb {
         dispatch!(self, b => b.albedo(wo),
-            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::Null, Bsdf::TwoSided)
+            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::RoughDielectric, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::Null, Bsdf::TwoSided)
     }
 }

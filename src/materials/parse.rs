@@ -4,7 +4,7 @@ use super::conductor_presets;
 use super::material::{Binding, Side};
 use super::{
     Bsdf, Conductor, Dielectric, Diffuse, Material, Microfacet, MicrofacetKind, Null, OneSided,
-    Plastic, RoughConductor, ThinDielectric, TwoSided,
+    Plastic, RoughConductor, RoughDielectric, ThinDielectric, TwoSided,
 };
 use crate::math::Rgb;
 use crate::scene::error::SceneError;
@@ -292,6 +292,25 @@ pub fn parse_bsdf(ctx: &Ctx, node: Node, named: &Named) -> Result<Material, Scen
                 specular_reflectance: check_reflectance(&props, "specular_reflectance", sr)?,
             })
         }
+        "roughdielectric" => {
+            let distribution = microfacet(&mut props)?;
+            let eta = relative_ior(&mut props, 1.5046)?;
+            // Mitsuba refuses equal IORs: without an interface the half vector of a
+            // refraction (wo + eta wi) vanishes.
+            if eta as f32 == 1.0 {
+                return Err(props.err(
+                    "roughdielectric needs int_ior and ext_ior to differ (equal IORs are no interface; use null)",
+                ));
+            }
+            let sr = props.rgb("specular_reflectance")?.unwrap_or(Rgb::ONE);
+            let st = props.rgb("specular_transmittance")?.unwrap_or(Rgb::ONE);
+            Bsdf::RoughDielectric(RoughDielectric {
+                distribution,
+                eta: eta as f32,
+                specular_reflectance: check_reflectance(&props, "specular_reflectance", sr)?,
+                specular_transmittance: check_reflectance(&props, "specular_transmittance", st)?,
+            })
+        }
         "twosided" => {
             let children: Vec<Material> = props
                 .objects
@@ -305,7 +324,7 @@ pub fn parse_bsdf(ctx: &Ctx, node: Node, named: &Named) -> Result<Material, Scen
             };
             let one_sided = |b: Bsdf| {
                 OneSided::try_from(b)
-                    .map_err(|_| props.err("twosided cannot wrap a dielectric, thindielectric, null or another twosided"))
+                    .map_err(|_| props.err("twosided cannot wrap a dielectric, roughdielectric, thindielectric, null or another twosided"))
             };
             for (side, child) in [(Side::Front, &front), (Side::Back, &back)] {
                 bindings.extend(child.bindings.iter().map(|b| Binding {
@@ -319,7 +338,7 @@ pub fn parse_bsdf(ctx: &Ctx, node: Node, named: &Named) -> Result<Material, Scen
         }
         other => {
             return Err(props.err(format!(
-                "unknown BSDF type '{other}' (supported: diffuse, dielectric, thindielectric, conductor, roughconductor, plastic, null, twosided)"
+                "unknown BSDF type '{other}' (supported: diffuse, dielectric, roughdielectric, thindielectric, conductor, roughconductor, plastic, null, twosided)"
             )))
         }
     };
