@@ -1258,8 +1258,9 @@ fn rough_dielectrics_conserve_energy() {
 
 /// Rough glass samples: a reflection stays on `wo`'s side and crosses no IOR
 /// (`eta` 1), a refraction crosses to the other side and reports `eta_it` (the IOR of
-/// its side over `wo`'s, what the integrator multiplies into the current IOR), and both
-/// lobes are sampled.
+/// its side over `wo`'s, what the integrator multiplies into the current IOR, and
+/// what `eta(wo, wi)` gives next-event estimation for that direction), and both lobes
+/// are sampled.
 #[test]
 fn rough_glass_samples_report_the_ior_they_cross() {
     for (i, (name, b, _)) in rough_glass_models().into_iter().enumerate() {
@@ -1279,6 +1280,8 @@ fn rough_glass_samples_report_the_ior_they_cross() {
                 } else {
                     assert_eq!(s.lobe, BsdfFlags::GLOSSY_TRANSMISSION, "{name}");
                     assert!(s.wi.z * wo.z < 0.0 && s.eta == eta_it, "{name} from {wo}");
+                    // What next-event estimation uses for a light in that direction.
+                    assert_eq!(b.eta(wo, s.wi), s.eta, "{name} from {wo}");
                     refracted += 1;
                 }
             }

@@ -70,6 +70,17 @@ pub trait BsdfModel {
     /// direction within it.
     fn sample(&self, wo: Vec3, u1: f32, u2: [f32; 2]) -> Option<BsdfSample>;
 
+    /// The relative IOR crossed going from `wo` to `wi` through a non-delta lobe: 1
+    /// unless `wi` is transmitted through an interface, then the IOR of `wi`'s side
+    /// over that of `wo`'s (what `sample` reports as `BsdfSample::eta` for `wi`). Next-
+    /// event estimation scales the segment to a light by it: a light reached through
+    /// rough glass lies in the other medium. Models with a non-delta transmission
+    /// lobe between different media must implement it.
+    #[inline(always)]
+    fn eta(&self, _wo: Vec3, _wi: Vec3) -> f32 {
+        1.0
+    }
+
     /// Directional albedo seen from `wo`, for the G-buffer: the fraction of the energy
     /// arriving along `wo` that is scattered, per channel, i.e. the expected sample
     /// weight with transmitted weights counted as energy (times `eta^2`, undoing the
@@ -236,6 +247,15 @@ impl BsdfModel for Bsdf {
     fn sample(&self, wo: Vec3, u1: f32, u2: [f32; 2]) -> Option<BsdfSample> {
         dispatch!(self, b => b.sample(wo, u1, u2),
             Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::RoughDielectric, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::Null, Bsdf::TwoSided)
+    }
+    /// Only rough dielectrics refract through a non-delta lobe; every other model
+    /// (the default) crosses no interface towards a light.
+    #[inline(always)]
+    fn eta(&self, wo: Vec3, wi: Vec3) -> f32 {
+        match self {
+            Bsdf::RoughDielectric(b) => b.eta(wo, wi),
+            _ => 1.0,
+        }
     }
     fn albedo(&self, wo: Vec3) -> Rgb {
         dispatch!(self, b => b.albedo(wo),

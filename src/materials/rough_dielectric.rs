@@ -129,6 +129,18 @@ impl BsdfModel for RoughDielectric {
         self.eval_pdf(wo, wi).1
     }
 
+    /// `eta_it` when `wi` lies on the other side from `wo`, else 1: `sample`'s `eta`.
+    #[inline(always)]
+    fn eta(&self, wo: Vec3, wi: Vec3) -> f32 {
+        if wo.z * wi.z >= 0.0 {
+            1.0
+        } else if wo.z > 0.0 {
+            self.eta
+        } else {
+            1.0 / self.eta
+        }
+    }
+
     /// `u2` picks the microfacet normal, `u1` reflection (below F(wo . m)) or refraction.
     #[inline(always)]
     fn sample(&self, wo: Vec3, u1: f32, u2: [f32; 2]) -> Option<BsdfSample> {
