@@ -11,7 +11,10 @@
 //! - the pdf integrates to 1 over the sphere;
 //! - white furnace: the mean energy weight equals `albedo(wo)`, is <= 1, and is 1 for
 //!   lossless models;
-//! - reciprocity of f = eval / |cos wi| for reflection;
+//! - reciprocity of f = eval / |cos wi| for reflection, and for refraction up to the
+//!   IORs squared (f(wo, wi) / n(wo)^2 = f(wi, wo) / n(wi)^2);
+//! - rough models: the mean sample energy equals quadrature of `eval` (rough glass over
+//!   the whole sphere, transmission times eta^2), which never exceeds 1;
 //! - emitters: the solid-angle pdf of a light sample equals the pdf the integrator's
 //!   MIS computes when it hits the same point, and samples are uniform by area.
 //!
