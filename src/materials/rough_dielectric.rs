@@ -31,7 +31,9 @@
 //! (wo . m + eta wi . m)^2` for refraction). Without visible-normal sampling the
 //! roughness is widened by `1.2 - 0.2 sqrt(|cos wo|)` for sampling only (Walter et al.'s
 //! trick, as Mitsuba); the weight is always eval / pdf, so this changes noise, not the
-//! mean. Directions whose normal lies on the wrong side of `wo` or `wi` (masked by
+//! mean. (Mitsuba 3.9.1's weight there omits D / D_widened: its weight differs from its
+//! own eval / pdf by -11 % to +12 % for GGX 0.3 seen at 60 deg; with the default
+//! `sample_visible` it is exact, and the two renderers agree.) Directions whose normal lies on the wrong side of `wo` or `wi` (masked by
 //! Smith's G) are never returned and have no density.
 
 use super::fresnel::fresnel_dielectric;
