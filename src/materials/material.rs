@@ -166,6 +166,14 @@ fn set_model(b: &mut Bsdf, param: Param, v: Vec3) {
             c.distribution.alpha_u = alpha;
             c.distribution.alpha_v = alpha;
         }
+        (Bsdf::RoughDielectric(d), Param::SpecularReflectance) => d.specular_reflectance = colour,
+        (Bsdf::RoughDielectric(d), Param::SpecularTransmittance) => {
+            d.specular_transmittance = colour
+        }
+        (Bsdf::RoughDielectric(d), Param::Alpha) => {
+            d.distribution.alpha_u = alpha;
+            d.distribution.alpha_v = alpha;
+        }
         (Bsdf::Plastic(p), Param::DiffuseReflectance) => *p = p.with_diffuse_reflectance(colour),
         (Bsdf::Plastic(p), Param::SpecularReflectance) => *p = p.with_specular_reflectance(colour),
         (Bsdf::Mask(m), Param::Opacity) => m.opacity = v.x.clamp(0.0, 1.0),

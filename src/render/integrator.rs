@@ -259,7 +259,11 @@ unsafe fn trace_path_body<const ISA: u8>(
                             power_heuristic(ls.pdf, bsdf.pdf(wo, wi))
                         };
                         let delay = delaying.map_or(0.0, |s| s.sample_delay(rng.next_f32()));
-                        let arrival = opl + delay as f64 + eta as f64 * ls.dist as f64;
+                        // The segment lies in the medium on the light's side: through
+                        // rough glass that is the current IOR times the one crossed
+                        // (the same f32 product a BSDF-sampled path would carry).
+                        let eta_light = eta * bsdf.eta(wo, wi);
+                        let arrival = opl + delay as f64 + eta_light as f64 * ls.dist as f64;
                         contribute(
                             scene,
                             deposits,
