@@ -28,12 +28,17 @@ const SMALL: &[&str] = &["--width", "12", "--spp", "4", "--bins", "20"];
 #[test]
 fn every_bundled_scene_renders_denoises_exports_and_prints_info() {
     let dir = tempfile::tempdir().unwrap();
-    for name in [
-        "cbox.xml",
-        "cbox_confocal.xml",
-        "cbox_spheres.xml",
-        "bunny.xml",
-    ] {
+    // Every scene in scenes/ (the materials, delay and texture scenes included).
+    let scenes_dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+    let mut names: Vec<String> = std::fs::read_dir(&scenes_dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.ends_with(".xml"))
+        .collect();
+    names.sort();
+    assert!(names.len() >= 15, "{names:?}");
+    for name in &names {
+        let name = name.as_str();
         let out = dir.path().join(format!("{name}.tstats"));
         let mut args = vec!["render".to_string(), scene(name), "--out".into(), s(&out)];
         args.extend(SMALL.iter().map(|a| a.to_string()));
