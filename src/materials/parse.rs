@@ -2,12 +2,12 @@
 
 use super::conductor_presets;
 use super::material::{Binding, Param, Step};
+use super::RoughPlastic;
 use super::{
     Bsdf, Conductor, Dielectric, Diffuse, Mask, Material, Microfacet, MicrofacetKind, Null,
     OneSided, Plastic, RoughConductor, ThinDielectric, TwoSided,
 };
 use super::{Composed, Separable, TemporalProfile};
-use super::RoughPlastic;
 use crate::math::Rgb;
 use crate::scene::error::SceneError;
 use crate::scene::props::{Ctx, Props, Value};
