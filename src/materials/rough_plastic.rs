@@ -569,6 +569,51 @@ mod tests {
         }
     }
 
+    /// A texture's value at a hit gives the model built with that colour, sharing the
+    /// tables (`Material::at` clones a pointer, never recomputes them).
+    #[test]
+    fn textured_reflectances_share_the_tables() {
+        use crate::materials::material::{Binding, Param};
+        use crate::materials::{Bsdf, Material};
+        use crate::textures::{Checkerboard, Texture};
+        let d = distr(Ggx, 0.2);
+        let plain = RoughPlastic::new(d, 1.6, Rgb::splat(0.5), Rgb::ONE, true);
+        let checker = |a: Rgb, b: Rgb| {
+            Texture::Checkerboard(Checkerboard {
+                color0: Box::new(Texture::Constant(a)),
+                color1: Box::new(Texture::Constant(b)),
+                ..Checkerboard::default()
+            })
+        };
+        let m = Material {
+            bsdf: Bsdf::RoughPlastic(plain.clone()),
+            bindings: vec![
+                Binding {
+                    path: vec![],
+                    param: Param::DiffuseReflectance,
+                    texture: checker(Rgb::new(0.8, 0.2, 0.1), Rgb::ZERO),
+                },
+                Binding {
+                    path: vec![],
+                    param: Param::SpecularReflectance,
+                    texture: checker(Rgb::new(0.5, 0.6, 0.7), Rgb::ONE),
+                },
+            ],
+        };
+        let Bsdf::RoughPlastic(at) = m.at(glam::Vec2::new(0.1, 0.1)) else {
+            panic!("not a roughplastic")
+        };
+        let want = RoughPlastic::new(
+            d,
+            1.6,
+            Rgb::new(0.8, 0.2, 0.1),
+            Rgb::new(0.5, 0.6, 0.7),
+            true,
+        );
+        assert_eq!(at, want);
+        assert!(Arc::ptr_eq(&at.tables, &plain.tables));
+    }
+
     /// The extremes the parser accepts (alpha in [1e-4, 10], eta in [1e-6, 1e6] but not
     /// 1) give finite tables, finite values and albedos in [0, 1].
     #[test]
