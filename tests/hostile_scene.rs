@@ -564,6 +564,36 @@ fn cases() -> Vec<Case> {
             "give either 'material' or 'eta' and 'k', not both",
         ),
         scene_case(
+            "roughdielectric_without_an_interface",
+            sphere(r#"<bsdf type="roughdielectric"><float name="int_ior" value="1.2"/><float name="ext_ior" value="1.2"/></bsdf>"#),
+            "roughdielectric needs int_ior and ext_ior to differ",
+        ),
+        scene_case(
+            "roughdielectric_negative_transmittance",
+            sphere(r#"<bsdf type="roughdielectric"><rgb name="specular_transmittance" value="0.5, -0.1, 0.5"/></bsdf>"#),
+            "specular_transmittance must be non-negative",
+        ),
+        scene_case(
+            "roughdielectric_anisotropic",
+            sphere(r#"<bsdf type="roughdielectric"><string name="distribution" value="ggx"/><float name="alpha_u" value="0.2"/><float name="alpha_v" value="0.1"/></bsdf>"#),
+            "anisotropic roughness (alpha_u != alpha_v) is not supported",
+        ),
+        scene_case(
+            "roughdielectric_roughness_out_of_range",
+            sphere(r#"<bsdf type="roughdielectric"><float name="alpha" value="-0.2"/></bsdf>"#),
+            "roughness -0.2 is outside [1e-4, 10]",
+        ),
+        scene_case(
+            "roughdielectric_unknown_ior",
+            sphere(r#"<bsdf type="roughdielectric"><string name="int_ior" value="kryptonite"/></bsdf>"#),
+            "unknown IOR name 'kryptonite'",
+        ),
+        scene_case(
+            "twosided_roughdielectric",
+            sphere(r#"<bsdf type="twosided"><bsdf type="roughdielectric"/></bsdf>"#),
+            "not a dielectric, roughdielectric",
+        ),
+        scene_case(
             "plastic_reflects_nothing",
             sphere(r#"<bsdf type="plastic"><rgb name="diffuse_reflectance" value="0"/><rgb name="specular_reflectance" value="0"/></bsdf>"#),
             "plastic with zero diffuse and specular reflectance",
@@ -571,7 +601,7 @@ fn cases() -> Vec<Case> {
         scene_case(
             "twosided_null",
             sphere(r#"<bsdf type="twosided"><bsdf type="null"/></bsdf>"#),
-            "twosided wraps only one-sided models (diffuse, conductor, roughconductor, plastic, roughplastic); not a dielectric, thindielectric, null, mask",
+            "twosided wraps only one-sided models (diffuse, conductor, roughconductor, plastic, roughplastic); not a dielectric, roughdielectric, thindielectric, null, mask",
         ),
         scene_case(
             "texture_on_a_parameter_that_takes_none",

@@ -34,7 +34,7 @@ impl Mask {
 }
 
 impl BsdfModel for Mask {
-    #[inline(always)]
+    #[inline(never)]
     fn flags(&self, wo: Vec3) -> BsdfFlags {
         let nested = if self.opacity > 0.0 {
             self.nested.flags(wo)
@@ -48,7 +48,7 @@ impl BsdfModel for Mask {
         }
     }
 
-    #[inline(always)]
+    #[inline(never)]
     fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
         if self.opacity <= 0.0 {
             return Rgb::ZERO;
@@ -56,7 +56,7 @@ impl BsdfModel for Mask {
         self.nested.eval(wo, wi) * self.opacity
     }
 
-    #[inline(always)]
+    #[inline(never)]
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         if self.opacity <= 0.0 {
             return 0.0;
@@ -64,7 +64,7 @@ impl BsdfModel for Mask {
         self.nested.pdf(wo, wi) * self.opacity
     }
 
-    #[inline(always)]
+    #[inline(never)]
     fn sample(&self, wo: Vec3, u1: f32, u2: [f32; 2]) -> Option<BsdfSample> {
         if u1 < self.opacity {
             // Reuse u1 within [0, opacity): still uniform in [0, 1) after rescaling.

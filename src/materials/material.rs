@@ -76,14 +76,29 @@ pub struct Material {
     /// The BSDF with its constant parameters (textured ones hold a placeholder).
     pub bsdf: Bsdf,
     pub bindings: Vec<Binding>,
+    /// Neither textured, nor composed, nor delaying: the integrator uses `bsdf` as it
+    /// is, with one branch (the common case pays nothing for the others).
+    plain: bool,
 }
 
 impl Material {
-    pub fn plain(bsdf: Bsdf) -> Self {
+    pub fn new(bsdf: Bsdf, bindings: Vec<Binding>) -> Self {
+        let plain = bindings.is_empty() && !matches!(bsdf, Bsdf::Composed(_) | Bsdf::Separable(_));
         Material {
             bsdf,
-            bindings: Vec::new(),
+            bindings,
+            plain,
         }
+    }
+
+    pub fn plain(bsdf: Bsdf) -> Self {
+        Self::new(bsdf, Vec::new())
+    }
+
+    /// See the `plain` field.
+    #[inline(always)]
+    pub fn is_plain(&self) -> bool {
+        self.plain
     }
 
     /// Whether the BSDF varies over the surface (then [`Self::at`] needs the hit's uv).
@@ -151,6 +166,14 @@ fn set_model(b: &mut Bsdf, param: Param, v: Vec3) {
             c.distribution.alpha_u = alpha;
             c.distribution.alpha_v = alpha;
         }
+        (Bsdf::RoughDielectric(d), Param::SpecularReflectance) => d.specular_reflectance = colour,
+        (Bsdf::RoughDielectric(d), Param::SpecularTransmittance) => {
+            d.specular_transmittance = colour
+        }
+        (Bsdf::RoughDielectric(d), Param::Alpha) => {
+            d.distribution.alpha_u = alpha;
+            d.distribution.alpha_v = alpha;
+        }
         (Bsdf::Plastic(p), Param::DiffuseReflectance) => *p = p.with_diffuse_reflectance(colour),
         (Bsdf::Plastic(p), Param::SpecularReflectance) => *p = p.with_specular_reflectance(colour),
         (Bsdf::RoughPlastic(p), Param::DiffuseReflectance) => {
@@ -205,15 +228,15 @@ mod tests {
         let diffuse = OneSided::Diffuse(Diffuse {
             reflectance: Rgb::splat(0.5),
         });
-        let m = Material {
-            bsdf: Bsdf::Mask(Mask {
+        let m = Material::new(
+            Bsdf::Mask(Mask {
                 opacity: 0.5,
                 nested: Box::new(Bsdf::TwoSided(TwoSided {
                     front: diffuse.clone(),
                     back: diffuse,
                 })),
             }),
-            bindings: vec![
+            vec![
                 Binding {
                     path: vec![Step::Nested, Step::Back],
                     param: Param::Reflectance,
@@ -227,7 +250,7 @@ mod tests {
                     texture: checker(Vec3::splat(1.0), Vec3::splat(-3.0)),
                 },
             ],
-        };
+        );
         let Bsdf::Mask(at) = m.at(Vec2::new(0.25, 0.25)) else {
             panic!()
         };
@@ -254,14 +277,14 @@ mod tests {
     #[test]
     fn textured_plastic_equals_the_plastic_built_with_that_colour() {
         let base = Plastic::new(1.49, Rgb::splat(0.5), Rgb::ONE, true);
-        let m = Material {
-            bsdf: Bsdf::Plastic(base),
-            bindings: vec![Binding {
+        let m = Material::new(
+            Bsdf::Plastic(base),
+            vec![Binding {
                 path: vec![],
                 param: Param::DiffuseReflectance,
                 texture: checker(Vec3::new(0.8, 0.2, 0.1), Vec3::ZERO),
             }],
-        };
+        );
         assert_eq!(
             m.at(Vec2::new(0.1, 0.1)),
             Bsdf::Plastic(Plastic::new(1.49, Rgb::new(0.8, 0.2, 0.1), Rgb::ONE, true))

@@ -5,11 +5,11 @@
 //! `wo` points back along the incoming ray (towards the camera side of the path), `wi`
 //! is the sampled or queried direction towards the light, both pointing away from the
 //! surface. `eval` returns f * |cos(wi)|. BSDFs are one-sided: `wo.z <= 0` is black,
-//! except for dielectrics and `twosided`.
+//! except for dielectrics (smooth and rough) and `twosided`.
 //!
-//! `twosided` holds two [`OneSided`] models, a type that has no dielectric and no
-//! `twosided`: resolving the side ([`TwoSided::side`]) always ends at a plain model.
-//! `mask` wraps any BSDF (Mitsuba's scenes write `mask(twosided(diffuse))`).
+//! `twosided` holds two [`OneSided`] models, a type that has no dielectric (smooth or
+//! rough) and no `twosided`: resolving the side ([`TwoSided::side`]) always ends at a
+//! plain model. `mask` wraps any BSDF (Mitsuba's scenes write `mask(twosided(diffuse))`).
 
 mod composed;
 mod conductor;
@@ -25,6 +25,7 @@ mod null;
 pub mod parse;
 mod plastic;
 mod rough_conductor;
+mod rough_dielectric;
 mod rough_plastic;
 mod separable;
 pub mod temporal_profile;
@@ -41,6 +42,7 @@ pub use microfacet::{Microfacet, MicrofacetKind};
 pub use null::Null;
 pub use plastic::Plastic;
 pub use rough_conductor::RoughConductor;
+pub use rough_dielectric::RoughDielectric;
 pub use rough_plastic::RoughPlastic;
 pub use separable::Separable;
 pub use temporal_profile::TemporalProfile;
@@ -79,6 +81,17 @@ pub trait BsdfModel {
     /// direction within it.
     fn sample(&self, wo: Vec3, u1: f32, u2: [f32; 2]) -> Option<BsdfSample>;
 
+    /// The relative IOR crossed going from `wo` to `wi` through a non-delta lobe: 1
+    /// unless `wi` is transmitted through an interface, then the IOR of `wi`'s side
+    /// over that of `wo`'s (what `sample` reports as `BsdfSample::eta` for `wi`). Next-
+    /// event estimation scales the segment to a light by it: a light reached through
+    /// rough glass lies in the other medium. Models with a non-delta transmission
+    /// lobe between different media must implement it.
+    #[inline(always)]
+    fn eta(&self, _wo: Vec3, _wi: Vec3) -> f32 {
+        1.0
+    }
+
     /// Directional albedo seen from `wo`, for the G-buffer: the fraction of the energy
     /// arriving along `wo` that is scattered, per channel, i.e. the expected sample
     /// weight with transmitted weights counted as energy (times `eta^2`, undoing the
@@ -86,7 +99,7 @@ pub trait BsdfModel {
     fn albedo(&self, wo: Vec3) -> Rgb;
 }
 
-/// A model that `twosided` can wrap: one-sided, never a dielectric or `twosided`.
+/// A model that `twosided` can wrap: one-sided, never a (rough) dielectric or `twosided`.
 #[derive(Clone, Debug, PartialEq)]
 pub enum OneSided {
     Diffuse(Diffuse),
@@ -110,6 +123,7 @@ pub enum Bsdf {
     Dielectric(Dielectric),
     Conductor(Conductor),
     RoughConductor(RoughConductor),
+    RoughDielectric(RoughDielectric),
     ThinDielectric(ThinDielectric),
     Plastic(Plastic),
     RoughPlastic(RoughPlastic),
@@ -153,6 +167,7 @@ impl TryFrom<Bsdf> for OneSided {
             Bsdf::Plastic(p) => Ok(OneSided::Plastic(p)),
             Bsdf::RoughPlastic(p) => Ok(OneSided::RoughPlastic(p)),
             other @ (Bsdf::Dielectric(_)
+            | Bsdf::RoughDielectric(_)
             | Bsdf::ThinDielectric(_)
             | Bsdf::Null(_)
             | Bsdf::TwoSided(_)
@@ -258,25 +273,37 @@ impl BsdfModel for Bsdf {
     #[inline(always)]
     fn flags(&self, wo: Vec3) -> BsdfFlags {
         dispatch!(self, b => b.flags(wo),
-            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::RoughPlastic, Bsdf::Null, Bsdf::TwoSided, Bsdf::Mask, Bsdf::Separable, Bsdf::Composed)
+            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::RoughDielectric, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::RoughPlastic, Bsdf::Null, Bsdf::TwoSided, Bsdf::Mask, Bsdf::Separable, Bsdf::Composed)
     }
     #[inline(always)]
     fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
         dispatch!(self, b => b.eval(wo, wi),
-            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::RoughPlastic, Bsdf::Null, Bsdf::TwoSided, Bsdf::Mask, Bsdf::Separable, Bsdf::Composed)
+            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::RoughDielectric, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::RoughPlastic, Bsdf::Null, Bsdf::TwoSided, Bsdf::Mask, Bsdf::Separable, Bsdf::Composed)
     }
     #[inline(always)]
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         dispatch!(self, b => b.pdf(wo, wi),
-            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::RoughPlastic, Bsdf::Null, Bsdf::TwoSided, Bsdf::Mask, Bsdf::Separable, Bsdf::Composed)
+            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::RoughDielectric, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::RoughPlastic, Bsdf::Null, Bsdf::TwoSided, Bsdf::Mask, Bsdf::Separable, Bsdf::Composed)
     }
     #[inline(always)]
     fn sample(&self, wo: Vec3, u1: f32, u2: [f32; 2]) -> Option<BsdfSample> {
         dispatch!(self, b => b.sample(wo, u1, u2),
-            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::RoughPlastic, Bsdf::Null, Bsdf::TwoSided, Bsdf::Mask, Bsdf::Separable, Bsdf::Composed)
+            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::RoughDielectric, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::RoughPlastic, Bsdf::Null, Bsdf::TwoSided, Bsdf::Mask, Bsdf::Separable, Bsdf::Composed)
+    }
+    /// Only rough dielectrics refract through a non-delta lobe (also inside `mask` and
+    /// `Separable`); every other model (the default) crosses no interface towards a
+    /// light. A `Composed` vertex is resolved into a child before anyone asks.
+    #[inline(always)]
+    fn eta(&self, wo: Vec3, wi: Vec3) -> f32 {
+        match self {
+            Bsdf::RoughDielectric(b) => b.eta(wo, wi),
+            Bsdf::Mask(m) => m.nested.eta(wo, wi),
+            Bsdf::Separable(s) => s.inner.eta(wo, wi),
+            _ => 1.0,
+        }
     }
     fn albedo(&self, wo: Vec3) -> Rgb {
         dispatch!(self, b => b.albedo(wo),
-            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::RoughPlastic, Bsdf::Null, Bsdf::TwoSided, Bsdf::Mask, Bsdf::Separable, Bsdf::Composed)
+            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::RoughDielectric, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::RoughPlastic, Bsdf::Null, Bsdf::TwoSided, Bsdf::Mask, Bsdf::Separable, Bsdf::Composed)
     }
 }

@@ -5,7 +5,7 @@ use super::material::{Binding, Param, Step};
 use super::RoughPlastic;
 use super::{
     Bsdf, Conductor, Dielectric, Diffuse, Mask, Material, Microfacet, MicrofacetKind, Null,
-    OneSided, Plastic, RoughConductor, ThinDielectric, TwoSided,
+    OneSided, Plastic, RoughConductor, RoughDielectric, ThinDielectric, TwoSided,
 };
 use super::{Composed, Separable, TemporalProfile};
 use crate::math::Rgb;
@@ -219,7 +219,10 @@ fn microfacet(p: &mut Params) -> Result<Microfacet, SceneError> {
     // roughness no real surface has.
     for (name, a) in [("alpha", alpha_u), ("alpha", alpha_v)] {
         if !(1e-4..=10.0).contains(&a) {
-            return Err(props.err_at(name, format!("roughness {a} is outside [1e-4, 10]")));
+            return Err(props.err_at(
+                name,
+                format!("roughness {} is outside [1e-4, 10]", a as f32),
+            ));
         }
     }
     Ok(Microfacet {
@@ -405,6 +408,31 @@ pub fn parse_bsdf(ctx: &Ctx, node: Node, named: &Named) -> Result<Material, Scen
                 )?,
             })
         }
+        "roughdielectric" => {
+            let distribution = microfacet(&mut p)?;
+            let eta = relative_ior(&mut p.props, 1.5046)?;
+            // Mitsuba refuses equal IORs: without an interface the half vector of a
+            // refraction (wo + eta wi) vanishes.
+            if eta as f32 == 1.0 {
+                return Err(p.props.err(
+                    "roughdielectric needs int_ior and ext_ior to differ (equal IORs are no interface; use null)",
+                ));
+            }
+            Bsdf::RoughDielectric(RoughDielectric {
+                distribution,
+                eta: eta as f32,
+                specular_reflectance: p.colour(
+                    "specular_reflectance",
+                    Param::SpecularReflectance,
+                    Rgb::ONE,
+                )?,
+                specular_transmittance: p.colour(
+                    "specular_transmittance",
+                    Param::SpecularTransmittance,
+                    Rgb::ONE,
+                )?,
+            })
+        }
         "twosided" => {
             let children: Vec<Material> = p
                 .props
@@ -421,7 +449,7 @@ pub fn parse_bsdf(ctx: &Ctx, node: Node, named: &Named) -> Result<Material, Scen
             p.adopt(Step::Back, &back);
             let one_sided = |b: Bsdf| {
                 OneSided::try_from(b).map_err(|_| {
-                    p.props.err("twosided wraps only one-sided models (diffuse, conductor, roughconductor, plastic, roughplastic); not a dielectric, thindielectric, null, mask, Separable, Composed or another twosided (write mask(twosided(...)) or Separable(twosided(...)))")
+                    p.props.err("twosided wraps only one-sided models (diffuse, conductor, roughconductor, plastic, roughplastic); not a dielectric, roughdielectric, thindielectric, null, mask, Separable, Composed or another twosided (write mask(twosided(...)) or Separable(twosided(...)))")
                 })
             };
             let (front, back) = (one_sided(front.bsdf)?, one_sided(back.bsdf)?);
@@ -512,7 +540,7 @@ pub fn parse_bsdf(ctx: &Ctx, node: Node, named: &Named) -> Result<Material, Scen
         }
         other => {
             return Err(p.props.err(format!(
-                "unknown BSDF type '{other}' (supported: diffuse, dielectric, thindielectric, conductor, roughconductor, plastic, roughplastic, null, twosided, mask, Separable, Composed)"
+                "unknown BSDF type '{other}' (supported: diffuse, dielectric, roughdielectric, thindielectric, conductor, roughconductor, plastic, roughplastic, null, twosided, mask, Separable, Composed)"
             )))
         }
     };
@@ -523,10 +551,7 @@ pub fn parse_bsdf(ctx: &Ctx, node: Node, named: &Named) -> Result<Material, Scen
         ));
     }
     p.props.finish()?;
-    Ok(Material {
-        bsdf,
-        bindings: p.bindings,
-    })
+    Ok(Material::new(bsdf, p.bindings))
 }
 
 /// A `<TemporalProfile type=...>` (SPEC section 6) and the textures bound to its

@@ -585,9 +585,9 @@ mod tests {
                 ..Checkerboard::default()
             })
         };
-        let m = Material {
-            bsdf: Bsdf::RoughPlastic(plain.clone()),
-            bindings: vec![
+        let m = Material::new(
+            Bsdf::RoughPlastic(plain.clone()),
+            vec![
                 Binding {
                     path: vec![],
                     param: Param::DiffuseReflectance,
@@ -599,7 +599,7 @@ mod tests {
                     texture: checker(Rgb::new(0.5, 0.6, 0.7), Rgb::ONE),
                 },
             ],
-        };
+        );
         let Bsdf::RoughPlastic(at) = m.at(glam::Vec2::new(0.1, 0.1)) else {
             panic!("not a roughplastic")
         };

@@ -33,22 +33,22 @@ impl Separable {
 }
 
 impl BsdfModel for Separable {
-    #[inline]
+    #[inline(never)]
     fn flags(&self, wo: Vec3) -> BsdfFlags {
         self.inner.flags(wo)
     }
 
-    #[inline]
+    #[inline(never)]
     fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
         self.inner.eval(wo, wi)
     }
 
-    #[inline]
+    #[inline(never)]
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         self.inner.pdf(wo, wi)
     }
 
-    #[inline]
+    #[inline(never)]
     fn sample(&self, wo: Vec3, u1: f32, u2: [f32; 2]) -> Option<BsdfSample> {
         self.inner.sample(wo, u1, u2)
     }

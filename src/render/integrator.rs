@@ -164,23 +164,29 @@ unsafe fn trace_path_body<const ISA: u8>(
         let wo = frame.to_local(wo_world);
         let material = &scene.bsdfs[shape.bsdf as usize];
         // A textured material becomes a plain BSDF at this hit's uv (computed only then).
+        // The material at this hit: `whole` (textures resolved) for the G-buffer,
+        // `bsdf` the model that scatters (a `Composed` vertex scatters as one child,
+        // the first with probability w, so each child's delay stays with its own
+        // light), `delaying` its profile when it delays (`materials/composed.rs`).
         let textured;
-        let whole = if material.is_textured() {
-            textured = material.at(shape.uv(hit.face, hit.b1, hit.b2, sp.p));
-            &textured
+        let (whole, bsdf, delaying) = if material.is_plain() {
+            (&material.bsdf, &material.bsdf, None)
         } else {
-            &material.bsdf
-        };
-        // A `Composed` vertex scatters as one child (the first with probability w),
-        // so each child's delay stays with its own light (`materials/composed.rs`).
-        let mut bsdf = whole;
-        while let Bsdf::Composed(c) = bsdf {
-            bsdf = c.pick(rng.next_f32());
-        }
-        // A delaying vertex adds a sampled delay to each light path through it.
-        let delaying = match bsdf {
-            Bsdf::Separable(s) => Some(s),
-            _ => None,
+            let whole = if material.is_textured() {
+                textured = material.at(shape.uv(hit.face, hit.b1, hit.b2, sp.p));
+                &textured
+            } else {
+                &material.bsdf
+            };
+            let mut bsdf = whole;
+            while let Bsdf::Composed(c) = bsdf {
+                bsdf = c.pick(rng.next_f32());
+            }
+            let delaying = match bsdf {
+                Bsdf::Separable(s) => Some(s),
+                _ => None,
+            };
+            (whole, bsdf, delaying)
         };
 
         // Emission (front side only), MIS-weighted against light sampling.
@@ -253,7 +259,11 @@ unsafe fn trace_path_body<const ISA: u8>(
                             power_heuristic(ls.pdf, bsdf.pdf(wo, wi))
                         };
                         let delay = delaying.map_or(0.0, |s| s.sample_delay(rng.next_f32()));
-                        let arrival = opl + delay as f64 + eta as f64 * ls.dist as f64;
+                        // The segment lies in the medium on the light's side: through
+                        // rough glass that is the current IOR times the one crossed
+                        // (the same f32 product a BSDF-sampled path would carry).
+                        let eta_light = eta * bsdf.eta(wo, wi);
+                        let arrival = opl + delay as f64 + eta_light as f64 * ls.dist as f64;
                         contribute(
                             scene,
                             deposits,
