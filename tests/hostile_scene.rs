@@ -601,7 +601,7 @@ fn cases() -> Vec<Case> {
         scene_case(
             "twosided_null",
             sphere(r#"<bsdf type="twosided"><bsdf type="null"/></bsdf>"#),
-            "twosided wraps only one-sided models (diffuse, conductor, roughconductor, plastic); not a dielectric, roughdielectric, thindielectric, null, mask",
+            "twosided wraps only one-sided models (diffuse, conductor, roughconductor, plastic, roughplastic); not a dielectric, roughdielectric, thindielectric, null, mask",
         ),
         scene_case(
             "texture_on_a_parameter_that_takes_none",
@@ -697,6 +697,42 @@ fn cases() -> Vec<Case> {
             "texture_reference_to_nothing",
             sphere(r#"<bsdf type="roughconductor"><ref name="alpha" id="missing"/></bsdf>"#),
             "no <texture id=\"missing\">",
+        ),
+        // roughplastic: Mitsuba's has `alpha` only, and needs a coating that exists.
+        scene_case(
+            "roughplastic_alpha_u",
+            sphere(r#"<bsdf type="roughplastic"><float name="alpha_u" value="0.1"/><float name="alpha_v" value="0.1"/></bsdf>"#),
+            "roughplastic has no 'alpha_u': its roughness is isotropic, give 'alpha'",
+        ),
+        scene_case(
+            "roughplastic_equal_iors",
+            sphere(r#"<bsdf type="roughplastic"><float name="int_ior" value="1.5"/><float name="ext_ior" value="1.5"/></bsdf>"#),
+            "roughplastic's int_ior and ext_ior must differ",
+        ),
+        scene_case(
+            "roughplastic_negative_alpha",
+            sphere(r#"<bsdf type="roughplastic"><string name="distribution" value="ggx"/><float name="alpha" value="-0.25"/></bsdf>"#),
+            "roughness -0.25 is outside [1e-4, 10]",
+        ),
+        scene_case(
+            "roughplastic_reflects_nothing",
+            sphere(r#"<bsdf type="roughplastic"><rgb name="diffuse_reflectance" value="0"/><float name="specular_reflectance" value="0"/></bsdf>"#),
+            "roughplastic with zero diffuse and specular reflectance",
+        ),
+        scene_case(
+            "roughplastic_negative_reflectance",
+            sphere(r#"<bsdf type="roughplastic"><rgb name="diffuse_reflectance" value="0.5, -0.1, 0.5"/></bsdf>"#),
+            "diffuse_reflectance must be non-negative",
+        ),
+        scene_case(
+            "roughplastic_textured_alpha",
+            sphere(r#"<bsdf type="roughplastic"><texture type="checkerboard" name="alpha"/></bsdf>"#),
+            "roughplastic's alpha must be a number, not a texture",
+        ),
+        scene_case(
+            "roughplastic_unknown_ior_name",
+            sphere(r#"<bsdf type="roughplastic"><string name="int_ior" value="kryptonite"/></bsdf>"#),
+            "unknown IOR name 'kryptonite'",
         ),
     ]
 }

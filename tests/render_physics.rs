@@ -414,6 +414,7 @@ fn steady_images_agree_with_mitransient() {
         ("cbox_rough.xml", [0.23642, 0.13817, 0.05612]),
         ("cbox_thin.xml", [0.23424, 0.13919, 0.05784]),
         ("cbox_plastic.xml", [0.20211, 0.12971, 0.05896]),
+        ("cbox_roughplastic.xml", [0.19949, 0.12856, 0.05805]),
         ("cbox_roughglass.xml", [0.23338, 0.14466, 0.06213]),
         // Two 2048-spp mitransient renders (seeds 7 and 8), averaged.
         ("cbox_null.xml", [0.23856, 0.14078, 0.05988]),

@@ -176,6 +176,12 @@ fn set_model(b: &mut Bsdf, param: Param, v: Vec3) {
         }
         (Bsdf::Plastic(p), Param::DiffuseReflectance) => *p = p.with_diffuse_reflectance(colour),
         (Bsdf::Plastic(p), Param::SpecularReflectance) => *p = p.with_specular_reflectance(colour),
+        (Bsdf::RoughPlastic(p), Param::DiffuseReflectance) => {
+            *p = p.with_diffuse_reflectance(colour)
+        }
+        (Bsdf::RoughPlastic(p), Param::SpecularReflectance) => {
+            *p = p.with_specular_reflectance(colour)
+        }
         (Bsdf::Mask(m), Param::Opacity) => m.opacity = v.x.clamp(0.0, 1.0),
         // Profile parameters are kept in their domain when a delay is drawn
         // (`Separable::sample_delay`).
@@ -197,6 +203,7 @@ impl From<OneSided> for Bsdf {
             OneSided::Conductor(c) => Bsdf::Conductor(c),
             OneSided::RoughConductor(c) => Bsdf::RoughConductor(c),
             OneSided::Plastic(p) => Bsdf::Plastic(p),
+            OneSided::RoughPlastic(p) => Bsdf::RoughPlastic(p),
         }
     }
 }

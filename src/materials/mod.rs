@@ -26,6 +26,7 @@ pub mod parse;
 mod plastic;
 mod rough_conductor;
 mod rough_dielectric;
+mod rough_plastic;
 mod separable;
 pub mod temporal_profile;
 mod thin_dielectric;
@@ -42,6 +43,7 @@ pub use null::Null;
 pub use plastic::Plastic;
 pub use rough_conductor::RoughConductor;
 pub use rough_dielectric::RoughDielectric;
+pub use rough_plastic::RoughPlastic;
 pub use separable::Separable;
 pub use temporal_profile::TemporalProfile;
 pub use thin_dielectric::ThinDielectric;
@@ -104,6 +106,7 @@ pub enum OneSided {
     Conductor(Conductor),
     RoughConductor(RoughConductor),
     Plastic(Plastic),
+    RoughPlastic(RoughPlastic),
 }
 
 /// Mitsuba's `twosided`: the front model for `wo.z >= 0`, the back model seen with the
@@ -123,6 +126,7 @@ pub enum Bsdf {
     RoughDielectric(RoughDielectric),
     ThinDielectric(ThinDielectric),
     Plastic(Plastic),
+    RoughPlastic(RoughPlastic),
     Null(Null),
     TwoSided(TwoSided),
     Mask(Mask),
@@ -161,6 +165,7 @@ impl TryFrom<Bsdf> for OneSided {
             Bsdf::Conductor(c) => Ok(OneSided::Conductor(c)),
             Bsdf::RoughConductor(c) => Ok(OneSided::RoughConductor(c)),
             Bsdf::Plastic(p) => Ok(OneSided::Plastic(p)),
+            Bsdf::RoughPlastic(p) => Ok(OneSided::RoughPlastic(p)),
             other @ (Bsdf::Dielectric(_)
             | Bsdf::RoughDielectric(_)
             | Bsdf::ThinDielectric(_)
@@ -245,22 +250,22 @@ macro_rules! dispatch {
 impl BsdfModel for OneSided {
     #[inline(always)]
     fn flags(&self, wo: Vec3) -> BsdfFlags {
-        dispatch!(self, b => b.flags(wo), OneSided::Diffuse, OneSided::Conductor, OneSided::RoughConductor, OneSided::Plastic)
+        dispatch!(self, b => b.flags(wo), OneSided::Diffuse, OneSided::Conductor, OneSided::RoughConductor, OneSided::Plastic, OneSided::RoughPlastic)
     }
     #[inline(always)]
     fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
-        dispatch!(self, b => b.eval(wo, wi), OneSided::Diffuse, OneSided::Conductor, OneSided::RoughConductor, OneSided::Plastic)
+        dispatch!(self, b => b.eval(wo, wi), OneSided::Diffuse, OneSided::Conductor, OneSided::RoughConductor, OneSided::Plastic, OneSided::RoughPlastic)
     }
     #[inline(always)]
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
-        dispatch!(self, b => b.pdf(wo, wi), OneSided::Diffuse, OneSided::Conductor, OneSided::RoughConductor, OneSided::Plastic)
+        dispatch!(self, b => b.pdf(wo, wi), OneSided::Diffuse, OneSided::Conductor, OneSided::RoughConductor, OneSided::Plastic, OneSided::RoughPlastic)
     }
     #[inline(always)]
     fn sample(&self, wo: Vec3, u1: f32, u2: [f32; 2]) -> Option<BsdfSample> {
-        dispatch!(self, b => b.sample(wo, u1, u2), OneSided::Diffuse, OneSided::Conductor, OneSided::RoughConductor, OneSided::Plastic)
+        dispatch!(self, b => b.sample(wo, u1, u2), OneSided::Diffuse, OneSided::Conductor, OneSided::RoughConductor, OneSided::Plastic, OneSided::RoughPlastic)
     }
     fn albedo(&self, wo: Vec3) -> Rgb {
-        dispatch!(self, b => b.albedo(wo), OneSided::Diffuse, OneSided::Conductor, OneSided::RoughConductor, OneSided::Plastic)
+        dispatch!(self, b => b.albedo(wo), OneSided::Diffuse, OneSided::Conductor, OneSided::RoughConductor, OneSided::Plastic, OneSided::RoughPlastic)
     }
 }
 
@@ -268,22 +273,22 @@ impl BsdfModel for Bsdf {
     #[inline(always)]
     fn flags(&self, wo: Vec3) -> BsdfFlags {
         dispatch!(self, b => b.flags(wo),
-            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::RoughDielectric, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::Null, Bsdf::TwoSided, Bsdf::Mask, Bsdf::Separable, Bsdf::Composed)
+            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::RoughDielectric, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::RoughPlastic, Bsdf::Null, Bsdf::TwoSided, Bsdf::Mask, Bsdf::Separable, Bsdf::Composed)
     }
     #[inline(always)]
     fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
         dispatch!(self, b => b.eval(wo, wi),
-            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::RoughDielectric, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::Null, Bsdf::TwoSided, Bsdf::Mask, Bsdf::Separable, Bsdf::Composed)
+            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::RoughDielectric, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::RoughPlastic, Bsdf::Null, Bsdf::TwoSided, Bsdf::Mask, Bsdf::Separable, Bsdf::Composed)
     }
     #[inline(always)]
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         dispatch!(self, b => b.pdf(wo, wi),
-            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::RoughDielectric, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::Null, Bsdf::TwoSided, Bsdf::Mask, Bsdf::Separable, Bsdf::Composed)
+            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::RoughDielectric, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::RoughPlastic, Bsdf::Null, Bsdf::TwoSided, Bsdf::Mask, Bsdf::Separable, Bsdf::Composed)
     }
     #[inline(always)]
     fn sample(&self, wo: Vec3, u1: f32, u2: [f32; 2]) -> Option<BsdfSample> {
         dispatch!(self, b => b.sample(wo, u1, u2),
-            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::RoughDielectric, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::Null, Bsdf::TwoSided, Bsdf::Mask, Bsdf::Separable, Bsdf::Composed)
+            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::RoughDielectric, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::RoughPlastic, Bsdf::Null, Bsdf::TwoSided, Bsdf::Mask, Bsdf::Separable, Bsdf::Composed)
     }
     /// Only rough dielectrics refract through a non-delta lobe (also inside `mask` and
     /// `Separable`); every other model (the default) crosses no interface towards a
@@ -299,6 +304,6 @@ impl BsdfModel for Bsdf {
     }
     fn albedo(&self, wo: Vec3) -> Rgb {
         dispatch!(self, b => b.albedo(wo),
-            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::RoughDielectric, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::Null, Bsdf::TwoSided, Bsdf::Mask, Bsdf::Separable, Bsdf::Composed)
+            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::RoughDielectric, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::RoughPlastic, Bsdf::Null, Bsdf::TwoSided, Bsdf::Mask, Bsdf::Separable, Bsdf::Composed)
     }
 }

@@ -2,6 +2,7 @@
 
 use super::conductor_presets;
 use super::material::{Binding, Param, Step};
+use super::RoughPlastic;
 use super::{
     Bsdf, Conductor, Dielectric, Diffuse, Mask, Material, Microfacet, MicrofacetKind, Null,
     OneSided, Plastic, RoughConductor, RoughDielectric, ThinDielectric, TwoSided,
@@ -218,7 +219,10 @@ fn microfacet(p: &mut Params) -> Result<Microfacet, SceneError> {
     // roughness no real surface has.
     for (name, a) in [("alpha", alpha_u), ("alpha", alpha_v)] {
         if !(1e-4..=10.0).contains(&a) {
-            return Err(props.err_at(name, format!("roughness {} is outside [1e-4, 10]", a as f32)));
+            return Err(props.err_at(
+                name,
+                format!("roughness {} is outside [1e-4, 10]", a as f32),
+            ));
         }
     }
     Ok(Microfacet {
@@ -353,6 +357,43 @@ pub fn parse_bsdf(ctx: &Ctx, node: Node, named: &Named) -> Result<Material, Scen
                 p.props.boolean_or("nonlinear", false)?,
             ))
         }
+        "roughplastic" => {
+            // Mitsuba 3's roughplastic is isotropic and reads alpha as a float (its
+            // tables depend on it): no alpha_u/alpha_v, no textured alpha.
+            for name in ["alpha_u", "alpha_v"] {
+                if p.props.peek(name).is_some() {
+                    return Err(p.props.err_at(
+                        name,
+                        format!("roughplastic has no '{name}': its roughness is isotropic, give 'alpha'"),
+                    ));
+                }
+            }
+            let distribution = microfacet(&mut p)?;
+            if p.bindings.iter().any(|b| b.param == Param::Alpha) {
+                return Err(p.props.err_at(
+                    "alpha",
+                    "roughplastic's alpha must be a number, not a texture (as in Mitsuba: the coating's precomputed tables depend on it)",
+                ));
+            }
+            let eta = relative_ior(&mut p.props, 1.49)?;
+            if eta as f32 == 1.0 {
+                return Err(p.props.err(
+                    "roughplastic's int_ior and ext_ior must differ (the coating would not exist)",
+                ));
+            }
+            let d = p.colour("diffuse_reflectance", Param::DiffuseReflectance, Rgb::splat(0.5))?;
+            let s = p.colour("specular_reflectance", Param::SpecularReflectance, Rgb::ONE)?;
+            if p.bindings.is_empty() && d.element_sum() + s.element_sum() <= 0.0 {
+                return Err(p.props.err("roughplastic with zero diffuse and specular reflectance reflects nothing; use a black diffuse"));
+            }
+            Bsdf::RoughPlastic(RoughPlastic::new(
+                distribution,
+                eta as f32,
+                d,
+                s,
+                p.props.boolean_or("nonlinear", false)?,
+            ))
+        }
         "roughconductor" => {
             let distribution = microfacet(&mut p)?;
             let (eta, k) = conductor_ior(&mut p, "roughconductor", "none")?;
@@ -408,7 +449,7 @@ pub fn parse_bsdf(ctx: &Ctx, node: Node, named: &Named) -> Result<Material, Scen
             p.adopt(Step::Back, &back);
             let one_sided = |b: Bsdf| {
                 OneSided::try_from(b).map_err(|_| {
-                    p.props.err("twosided wraps only one-sided models (diffuse, conductor, roughconductor, plastic); not a dielectric, roughdielectric, thindielectric, null, mask, Separable, Composed or another twosided (write mask(twosided(...)) or Separable(twosided(...)))")
+                    p.props.err("twosided wraps only one-sided models (diffuse, conductor, roughconductor, plastic, roughplastic); not a dielectric, roughdielectric, thindielectric, null, mask, Separable, Composed or another twosided (write mask(twosided(...)) or Separable(twosided(...)))")
                 })
             };
             let (front, back) = (one_sided(front.bsdf)?, one_sided(back.bsdf)?);
@@ -499,7 +540,7 @@ pub fn parse_bsdf(ctx: &Ctx, node: Node, named: &Named) -> Result<Material, Scen
         }
         other => {
             return Err(p.props.err(format!(
-                "unknown BSDF type '{other}' (supported: diffuse, dielectric, roughdielectric, thindielectric, conductor, roughconductor, plastic, null, twosided, mask, Separable, Composed)"
+                "unknown BSDF type '{other}' (supported: diffuse, dielectric, roughdielectric, thindielectric, conductor, roughconductor, plastic, roughplastic, null, twosided, mask, Separable, Composed)"
             )))
         }
     };
