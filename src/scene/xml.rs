@@ -319,6 +319,24 @@ fn parse_integrator(ctx: &Ctx, node: Node) -> Result<IntegratorSettings, SceneEr
             format!("rr_depth must be positive, got {rr_depth}"),
         ));
     }
+    // mitransient's time filter: `box` (each contribution in the one bin its OPL falls
+    // in) is what tstat does; its Gaussian splat is not supported yet.
+    match p.string("temporal_filter")?.as_deref() {
+        // mitransient reads gaussian_stddev only for the Gaussian filter.
+        None | Some("box") => p.ignore("gaussian_stddev"),
+        Some("gaussian") => {
+            return Err(p.err_at(
+                "temporal_filter",
+                "temporal_filter 'gaussian' is not supported (tstat bins with the box filter)",
+            ))
+        }
+        Some(other) => {
+            return Err(p.err_at(
+                "temporal_filter",
+                format!("temporal_filter '{other}' is not one of: box, gaussian"),
+            ))
+        }
+    }
     let s = IntegratorSettings {
         max_depth: max_depth as i32,
         rr_depth: rr_depth as u32,
@@ -341,19 +359,55 @@ fn parse_sensor(ctx: &Ctx, node: Node) -> Result<Sensor, SceneError> {
         ));
     }
     let mut p = Props::parse(ctx, node)?;
-    let fov = p
-        .float("fov")?
-        .ok_or_else(|| p.err("missing parameter 'fov'"))?;
+    // `fov` (on `fov_axis`), or Mitsuba's `focal_length` (35 mm equivalent, default
+    // "50mm", on the diagonal of a 36 x 24 mm frame), as `parse_fov` in Mitsuba 3.
+    let (fov, axis_name) = match (p.float("fov")?, p.string("focal_length")?) {
+        (Some(_), Some(_)) => {
+            return Err(p.err("give either 'fov' or 'focal_length', not both"));
+        }
+        (Some(fov), None) => (fov, p.string("fov_axis")?.unwrap_or_else(|| "x".into())),
+        (None, f) => {
+            let f = f.unwrap_or_else(|| "50mm".into());
+            let mm: f64 = f
+                .trim()
+                .trim_end_matches("mm")
+                .parse()
+                .ok()
+                .filter(|v: &f64| v.is_finite() && *v > 0.0)
+                .ok_or_else(|| {
+                    p.err_at(
+                        "focal_length",
+                        format!("focal_length '{f}' is not of the form <x>mm with x > 0"),
+                    )
+                })?;
+            let fov = 2.0 * ((36.0f64 * 36.0 + 24.0 * 24.0).sqrt() / (2.0 * mm)).atan().to_degrees();
+            if p.string("fov_axis")?.is_some() {
+                p.warn_at("fov_axis", "fov_axis has no effect with focal_length (the diagonal is used), as in Mitsuba");
+            }
+            (fov, "diagonal".to_string())
+        }
+    };
     if !(fov > 0.0 && fov < 180.0) {
         return Err(p.err_at("fov", format!("fov must be in (0, 180) degrees, got {fov}")));
     }
-    let axis_name = p.string("fov_axis")?.unwrap_or_else(|| "x".into());
     let fov_axis = FovAxis::parse(&axis_name).ok_or_else(|| {
         p.err_at(
             "fov_axis",
             format!("fov_axis '{axis_name}' is not one of x, y, smaller, larger, diagonal"),
         )
     })?;
+    // A pinhole has no depth of field: Mitsuba's `perspective` accepts and ignores it.
+    p.ignore("focus_distance");
+    for name in ["principal_point_offset_x", "principal_point_offset_y"] {
+        if let Some(v) = p.float(name)? {
+            if v != 0.0 {
+                return Err(p.err_at(
+                    name,
+                    format!("{name} = {v}: an off-centre principal point is not supported (only 0)"),
+                ));
+            }
+        }
+    }
     // Rays start at the pinhole (SPEC 2); the clip planes do not change what is rendered.
     p.ignore("near_clip");
     p.ignore("far_clip");
