@@ -24,6 +24,9 @@ pub struct Ctx<'a> {
     warning_count: Cell<usize>,
     /// Mesh files read, in document order.
     mesh_files: RefCell<Vec<std::path::PathBuf>>,
+    /// Folders searched for the files the scene names, first match wins: the
+    /// `<path>`s (latest first), then the scene file's folder (Mitsuba's file resolver).
+    search: RefCell<Vec<std::path::PathBuf>>,
 }
 
 /// Warnings kept with their location; the rest are counted.
@@ -68,7 +71,70 @@ impl<'a> Ctx<'a> {
             expanded: Cell::new(0),
             warning_count: Cell::new(0),
             mesh_files: RefCell::new(Vec::new()),
+            search: RefCell::new(vec![file.parent().unwrap_or(Path::new(".")).to_path_buf()]),
         }
+    }
+
+    /// The folder of the file being read.
+    pub fn dir(&self) -> &Path {
+        self.file.parent().unwrap_or(Path::new("."))
+    }
+
+    /// A file the scene names, found as Mitsuba's file resolver does: absolute as it
+    /// is; else the first folder of the search list that has it (the `<path>`s, latest
+    /// first, then the scene's folder), then the folder of the file being read. A
+    /// name found nowhere stays relative to the file being read (the error names it).
+    pub fn resolve(&self, name: &str) -> std::path::PathBuf {
+        let p = Path::new(name);
+        if p.is_absolute() {
+            return p.to_path_buf();
+        }
+        self.search
+            .borrow()
+            .iter()
+            .map(|d| d.join(p))
+            .chain(std::iter::once(self.dir().join(p)))
+            .find(|c| c.exists())
+            .unwrap_or_else(|| self.dir().join(p))
+    }
+
+    /// An included file: next to the including file first, then as [`Self::resolve`].
+    pub fn resolve_near(&self, name: &str) -> std::path::PathBuf {
+        let near = self.dir().join(name);
+        if Path::new(name).is_relative() && near.exists() {
+            near
+        } else {
+            self.resolve(name)
+        }
+    }
+
+    /// Puts `dir` first in the search list.
+    pub fn prepend_search_path(&self, dir: std::path::PathBuf) {
+        self.search.borrow_mut().insert(0, dir);
+    }
+
+    /// The context of an included file: its own text and lines, the same defaults and
+    /// search folders.
+    pub fn for_included_file(&self, file: &'a Path, text: &'a str) -> Ctx<'a> {
+        let child = Ctx::new(file, text, self.defaults);
+        *child.search.borrow_mut() = self.search.borrow().clone();
+        child.expanded.set(self.expanded.get());
+        child
+    }
+
+    /// Takes back what an included file's context gathered: its warnings, mesh files,
+    /// search folders and substitution budget.
+    pub fn adopt(&self, child: Ctx) {
+        for w in child.warnings.take() {
+            if self.warnings.borrow().len() < MAX_WARNINGS {
+                self.warnings.borrow_mut().push(w);
+            }
+        }
+        self.warning_count
+            .set(self.warning_count.get() + child.warning_count.get());
+        self.mesh_files.borrow_mut().extend(child.mesh_files.take());
+        *self.search.borrow_mut() = child.search.take();
+        self.expanded.set(child.expanded.get());
     }
 
     /// Records a warning located at `node`. After [`MAX_WARNINGS`], further warnings are

@@ -258,12 +258,7 @@ pub fn parse_geometry(kind: &str, props: &mut Props) -> Result<ShapeGeom, SceneE
             if name.trim().is_empty() {
                 return Err(props.err_at("filename", "the filename is empty"));
             }
-            let path = props
-                .ctx
-                .file
-                .parent()
-                .unwrap_or(std::path::Path::new("."))
-                .join(&name);
+            let path = props.ctx.resolve(&name);
             props.ctx.read_mesh_file(&path);
             let loaded = if kind == "ply" {
                 load_ply(&path)

@@ -110,12 +110,7 @@ fn parse_bitmap(props: &mut Props) -> Result<Bitmap, SceneError> {
     if name.trim().is_empty() {
         return Err(props.err_at("filename", "the filename is empty"));
     }
-    let path = props
-        .ctx
-        .file
-        .parent()
-        .unwrap_or(std::path::Path::new("."))
-        .join(&name);
+    let path = props.ctx.resolve(&name);
     props.ctx.read_mesh_file(&path);
     let img = load_image(&path, raw)
         .map_err(|e| props.err_at("filename", format!("image '{name}' {e}")))?;

@@ -118,93 +118,16 @@ pub fn load(path: &Path, overrides: &Overrides) -> Result<Scene, SceneError> {
     }
     check_elements(&ctx, root)?;
 
-    let mut named_bsdfs: HashMap<String, Material> = HashMap::new();
-    let mut named_textures: NamedTextures = HashMap::new();
-    let mut bsdfs: Vec<Material> = Vec::new();
-    let mut bsdf_index: HashMap<String, usize> = HashMap::new();
-    let mut shapes: Vec<Shape> = Vec::new();
-    let mut emitters: Vec<Emitter> = Vec::new();
-    let mut sensor: Option<Sensor> = None;
-    let mut integrator: Option<IntegratorSettings> = None;
-
-    for node in root.children().filter(|n| n.is_element()) {
-        match node.tag_name().name() {
-            "default" => {}
-            "integrator" => {
-                if integrator.is_some() {
-                    return Err(ctx.err(node, "a scene has one <integrator>"));
-                }
-                integrator = Some(parse_integrator(&ctx, node)?);
-            }
-            "sensor" => {
-                if sensor.is_some() {
-                    return Err(ctx.err(node, "only one <sensor> is supported"));
-                }
-                sensor = Some(parse_sensor(&ctx, node)?);
-            }
-            "texture" => {
-                let t = parse_texture(&ctx, node, &named_textures)?;
-                let Some(id) = ctx.attr(node, "id")? else {
-                    return Err(ctx.err(node, "a top-level <texture> needs an id to be referenced"));
-                };
-                if named_textures.insert(id.clone(), t).is_some() {
-                    return Err(ctx.err(node, format!("id '{id}' is defined twice")));
-                }
-            }
-            "bsdf" => {
-                let named = Named {
-                    bsdfs: &named_bsdfs,
-                    textures: &named_textures,
-                };
-                let b = parse_bsdf(&ctx, node, &named)?;
-                if let Some(id) = ctx.attr(node, "id")? {
-                    if named_bsdfs.insert(id.clone(), b).is_some() {
-                        return Err(ctx.err(node, format!("id '{id}' is defined twice")));
-                    }
-                }
-            }
-            "shape" => {
-                let index = shapes.len() as u32;
-                let named = Named {
-                    bsdfs: &named_bsdfs,
-                    textures: &named_textures,
-                };
-                let (shape, bsdf, emission) = parse_shape(&ctx, node, index, &named)?;
-                // Equal untextured BSDFs share an index; found by their exact Debug
-                // text, so that many distinct BSDFs do not cost a quadratic search.
-                // (Textured ones are not compared: an image's Debug text is its texels.)
-                let bsdf_index = if bsdf.is_textured() {
-                    bsdfs.push(bsdf);
-                    bsdfs.len() - 1
-                } else {
-                    *bsdf_index.entry(format!("{bsdf:?}")).or_insert_with(|| {
-                        bsdfs.push(bsdf);
-                        bsdfs.len() - 1
-                    })
-                };
-                let mut shape = Shape {
-                    bsdf: bsdf_index as u32,
-                    ..shape
-                };
-                if let Some(radiance) = emission {
-                    shape.emitter = Some(emitters.len() as u32);
-                    emitters.push(Emitter::Area {
-                        shape: index,
-                        radiance,
-                        sampler: AreaSampler::new(&shape),
-                    });
-                }
-                shapes.push(shape);
-            }
-            "emitter" => emitters.push(parse_point_emitter(&ctx, node)?),
-            other => {
-                return Err(ctx.err(
-                    node,
-                    format!("<{other}> is not supported (supported at top level: default, integrator, sensor, texture, bsdf, shape, emitter)"),
-                ))
-            }
-        }
-    }
+    let mut objects = Objects::default();
+    walk(&ctx, root, &mut objects, 0)?;
+    let Objects {
+        bsdfs,
+        shapes,
+        emitters,
+        sensor,
+        integrator,
+        ..
+    } = objects;
 
     check_extent(&ctx, root, &shapes)?;
     let s = sensor.ok_or_else(|| ctx.err(root, "the scene has no <sensor>"))?;
@@ -295,6 +218,203 @@ pub fn load(path: &Path, overrides: &Overrides) -> Result<Scene, SceneError> {
     })
 }
 
+/// What the top-level elements of a scene and its includes define.
+#[derive(Default)]
+struct Objects {
+    named_bsdfs: HashMap<String, Material>,
+    named_textures: NamedTextures,
+    bsdfs: Vec<Material>,
+    bsdf_index: HashMap<String, usize>,
+    shapes: Vec<Shape>,
+    emitters: Vec<Emitter>,
+    sensor: Option<Sensor>,
+    integrator: Option<IntegratorSettings>,
+    /// The files being included, outermost first (to refuse cycles).
+    including: Vec<std::path::PathBuf>,
+}
+
+/// Nested `<include>`s deeper than this are refused (Mitsuba has no limit; cycles are
+/// caught separately).
+const MAX_INCLUDE_DEPTH: usize = 16;
+
+/// The top-level elements of `root` (the scene file's or an included file's), in
+/// document order.
+fn walk(ctx: &Ctx, root: Node, o: &mut Objects, depth: usize) -> Result<(), SceneError> {
+    for node in root.children().filter(|n| n.is_element()) {
+        match node.tag_name().name() {
+            "default" => {}
+            "integrator" => {
+                if o.integrator.is_some() {
+                    return Err(ctx.err(node, "a scene has one <integrator>"));
+                }
+                o.integrator = Some(parse_integrator(ctx, node)?);
+            }
+            "sensor" => {
+                if o.sensor.is_some() {
+                    return Err(ctx.err(node, "only one <sensor> is supported"));
+                }
+                o.sensor = Some(parse_sensor(ctx, node)?);
+            }
+            "texture" => {
+                let t = parse_texture(ctx, node, &o.named_textures)?;
+                let Some(id) = ctx.attr(node, "id")? else {
+                    return Err(ctx.err(node, "a top-level <texture> needs an id to be referenced"));
+                };
+                if o.named_textures.insert(id.clone(), t).is_some() {
+                    return Err(ctx.err(node, format!("id '{id}' is defined twice")));
+                }
+            }
+            "bsdf" => {
+                let named = Named {
+                    bsdfs: &o.named_bsdfs,
+                    textures: &o.named_textures,
+                };
+                let b = parse_bsdf(ctx, node, &named)?;
+                if let Some(id) = ctx.attr(node, "id")? {
+                    if o.named_bsdfs.insert(id.clone(), b).is_some() {
+                        return Err(ctx.err(node, format!("id '{id}' is defined twice")));
+                    }
+                }
+            }
+            "shape" => {
+                let index = o.shapes.len() as u32;
+                let named = Named {
+                    bsdfs: &o.named_bsdfs,
+                    textures: &o.named_textures,
+                };
+                let (shape, bsdf, emission) = parse_shape(ctx, node, index, &named)?;
+                // Equal untextured BSDFs share an index; found by their exact Debug
+                // text, so that many distinct BSDFs do not cost a quadratic search.
+                // (Textured ones are not compared: an image's Debug text is its texels.)
+                let index_of_bsdf = if bsdf.is_textured() {
+                    o.bsdfs.push(bsdf);
+                    o.bsdfs.len() - 1
+                } else {
+                    *o.bsdf_index.entry(format!("{bsdf:?}")).or_insert_with(|| {
+                        o.bsdfs.push(bsdf);
+                        o.bsdfs.len() - 1
+                    })
+                };
+                let mut shape = Shape {
+                    bsdf: index_of_bsdf as u32,
+                    ..shape
+                };
+                if let Some(radiance) = emission {
+                    shape.emitter = Some(o.emitters.len() as u32);
+                    o.emitters.push(Emitter::Area {
+                        shape: index,
+                        radiance,
+                        sampler: AreaSampler::new(&shape),
+                    });
+                }
+                o.shapes.push(shape);
+            }
+            "emitter" => o.emitters.push(parse_point_emitter(ctx, node)?),
+            "path" => add_search_path(ctx, node)?,
+            "include" => include(ctx, node, o, depth)?,
+            other => {
+                return Err(ctx.err(
+                    node,
+                    format!("<{other}> is not supported (supported at top level: default, path, include, integrator, sensor, texture, bsdf, shape, emitter)"),
+                ))
+            }
+        }
+    }
+
+    Ok(())
+}
+
+/// `<path value="...">`: a folder searched for the files the scene names (meshes,
+/// images, includes), ahead of the folders searched so far (Mitsuba's file resolver
+/// `prepend`). A relative folder is taken from the folder of the file that names it,
+/// and must exist.
+fn add_search_path(ctx: &Ctx, node: Node) -> Result<(), SceneError> {
+    let value = ctx.required_attr(node, "value")?;
+    let mut dir = std::path::PathBuf::from(&value);
+    if dir.is_relative() {
+        dir = ctx.dir().join(&value);
+        if !dir.is_dir() {
+            dir = ctx.resolve(&value);
+        }
+    }
+    if !dir.is_dir() {
+        return Err(ctx.err(node, format!("folder '{value}' not found")));
+    }
+    ctx.prepend_search_path(dir);
+    Ok(())
+}
+
+/// `<include filename="...">`: the top-level elements of another scene file, as if
+/// written here (Mitsuba merges the included `<scene>`'s children). The file is looked
+/// up next to the including file first, then as any other file; its `<path>`s stay in
+/// effect afterwards, as with Mitsuba's global file resolver; `$name` defaults are the
+/// including scene's.
+fn include(ctx: &Ctx, node: Node, o: &mut Objects, depth: usize) -> Result<(), SceneError> {
+    let name = ctx.required_attr(node, "filename")?;
+    let path = ctx.resolve_near(&name);
+    if depth + 1 > MAX_INCLUDE_DEPTH {
+        return Err(ctx.err(
+            node,
+            format!("includes nested more than {MAX_INCLUDE_DEPTH} deep"),
+        ));
+    }
+    let canonical = path.canonicalize().map_err(|e| {
+        ctx.err(
+            node,
+            format!("cannot read included file '{}': {e}", path.display()),
+        )
+    })?;
+    if o.including.contains(&canonical) {
+        return Err(ctx.err(
+            node,
+            format!(
+                "'{}' includes itself (through {} files)",
+                path.display(),
+                o.including.len()
+            ),
+        ));
+    }
+    let bytes = crate::io::read_regular(&path, crate::io::MAX_SCENE_BYTES).map_err(|e| {
+        ctx.err(
+            node,
+            format!("cannot read included file '{}': {e}", path.display()),
+        )
+    })?;
+    let text = String::from_utf8(bytes).map_err(|_| {
+        ctx.err(
+            node,
+            format!("included file '{}' is not UTF-8", path.display()),
+        )
+    })?;
+    limits::prescan(&text).map_err(|r| {
+        let line = text[..r.offset].bytes().filter(|&b| b == b'\n').count() + 1;
+        SceneError::new(&path, line as u32, "xml", r.message)
+    })?;
+    let options = roxmltree::ParsingOptions {
+        nodes_limit: limits::MAX_NODES,
+        ..Default::default()
+    };
+    let doc = roxmltree::Document::parse_with_options(&text, options)
+        .map_err(|e| SceneError::new(&path, e.pos().row, "xml", format!("malformed XML: {e}")))?;
+    let child = ctx.for_included_file(&path, &text);
+    if let Some(deep) = limits::too_deep(&doc) {
+        return Err(child.err(
+            deep,
+            format!("elements are nested more than {} deep", limits::MAX_DEPTH),
+        ));
+    }
+    let root = doc.root_element();
+    if root.tag_name().name() != "scene" {
+        return Err(child.err(root, "the root element of an included file must be <scene>"));
+    }
+    check_elements(&child, root)?;
+    o.including.push(canonical);
+    let walked = walk(&child, root, o, depth + 1);
+    o.including.pop();
+    ctx.adopt(child);
+    walked
+}
+
 fn parse_integrator(ctx: &Ctx, node: Node) -> Result<IntegratorSettings, SceneError> {
     let kind = ctx.required_attr(node, "type")?;
     if kind != "transient_path" && kind != "transient_prbvolpath" {
@@ -380,7 +500,10 @@ fn parse_sensor(ctx: &Ctx, node: Node) -> Result<Sensor, SceneError> {
                         format!("focal_length '{f}' is not of the form <x>mm with x > 0"),
                     )
                 })?;
-            let fov = 2.0 * ((36.0f64 * 36.0 + 24.0 * 24.0).sqrt() / (2.0 * mm)).atan().to_degrees();
+            let fov = 2.0
+                * ((36.0f64 * 36.0 + 24.0 * 24.0).sqrt() / (2.0 * mm))
+                    .atan()
+                    .to_degrees();
             if p.string("fov_axis")?.is_some() {
                 p.warn_at("fov_axis", "fov_axis has no effect with focal_length (the diagonal is used), as in Mitsuba");
             }
@@ -403,7 +526,9 @@ fn parse_sensor(ctx: &Ctx, node: Node) -> Result<Sensor, SceneError> {
             if v != 0.0 {
                 return Err(p.err_at(
                     name,
-                    format!("{name} = {v}: an off-centre principal point is not supported (only 0)"),
+                    format!(
+                        "{name} = {v}: an off-centre principal point is not supported (only 0)"
+                    ),
                 ));
             }
         }

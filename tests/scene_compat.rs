@@ -1,0 +1,243 @@
+//! Mitsuba 3 scene-file features that public scenes rely on: `<include>`, `<path>`,
+//! `focal_length`, `focus_distance`, mitransient's `temporal_filter`.
+
+use std::path::Path;
+use tstat::render::{render, PixelSampling, RenderSettings};
+use tstat::scene::{Overrides, Scene};
+use tstat::stats::Transform;
+
+const HEAD: &str = r#"<scene version="3.0.0">
+  <integrator type="transient_path"><integer name="max_depth" value="3"/></integrator>
+  <sensor type="perspective">
+    SENSOR
+    <transform name="to_world"><lookat origin="0,0,4" target="0,0,0" up="0,1,0"/></transform>
+    <sampler type="independent"><integer name="sample_count" value="4"/></sampler>
+    <film type="transient_hdr_film">
+      <integer name="width" value="8"/><integer name="height" value="6"/>
+      <integer name="temporal_bins" value="10"/>
+      <float name="start_opl" value="3"/><float name="bin_width_opl" value="0.5"/>
+    </film>
+  </sensor>
+  <emitter type="point"><point name="position" x="0" y="0" z="3"/><rgb name="intensity" value="5"/></emitter>
+"#;
+
+const FOV: &str = r#"<float name="fov" value="40"/>"#;
+
+const SHAPES: &str = r#"<bsdf type="diffuse" id="grey"><rgb name="reflectance" value="0.4"/></bsdf>
+  <shape type="rectangle"><ref id="grey"/></shape>
+  <shape type="ply"><string name="filename" value="tri.ply"/><ref id="grey"/></shape>
+"#;
+
+const TRI_PLY: &str =
+    "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n\
+    property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n\
+    -0.5 -0.5 0.5\n0.5 -0.5 0.5\n0 0.5 0.5\n3 0 1 2\n";
+
+fn write(dir: &Path, name: &str, text: &str) {
+    let p = dir.join(name);
+    std::fs::create_dir_all(p.parent().unwrap()).unwrap();
+    std::fs::write(p, text).unwrap();
+}
+
+fn scene(sensor: &str, body: &str) -> String {
+    format!("{}{body}</scene>", HEAD.replace("SENSOR", sensor))
+}
+
+fn load(dir: &Path, name: &str) -> Result<Scene, String> {
+    Scene::load(&dir.join(name), &Overrides::default()).map_err(|e| e.to_string())
+}
+
+/// The error of a scene that must not load.
+fn error(dir: &Path, name: &str) -> String {
+    match load(dir, name) {
+        Ok(_) => panic!("{name} loaded"),
+        Err(e) => e,
+    }
+}
+
+fn steady(s: &Scene) -> Vec<f64> {
+    let settings = RenderSettings {
+        spp: s.spp,
+        seed: 1,
+        transform: Transform::Identity,
+        pixel_sampling: PixelSampling::Independent,
+    };
+    render(s, &settings, &|_| {}).steady
+}
+
+#[test]
+fn include_and_path_render_the_same_scene_as_written_inline() {
+    let d = tempfile::tempdir().unwrap();
+    let d = d.path();
+    // Inline: the mesh beside the scene.
+    write(d, "tri.ply", TRI_PLY);
+    write(d, "inline.xml", &scene(FOV, SHAPES));
+    // Split: shapes in parts/shapes.xml, the mesh in meshes/ found through <path>.
+    write(d, "meshes/tri.ply", TRI_PLY);
+    write(
+        d,
+        "parts/shapes.xml",
+        &format!(r#"<scene version="3.0.0">{SHAPES}</scene>"#),
+    );
+    write(
+        d,
+        "split/scene.xml",
+        &scene(
+            FOV,
+            r#"<path value="../meshes"/><include filename="../parts/shapes.xml"/>"#,
+        ),
+    );
+    let a = load(d, "inline.xml").unwrap();
+    let b = load(&d.join("split"), "scene.xml").unwrap();
+    assert_eq!(a.shapes.len(), b.shapes.len());
+    assert_eq!(steady(&a), steady(&b));
+    // The mesh file read is the one under meshes/.
+    assert!(
+        b.mesh_files.iter().any(|f| f.ends_with("meshes/tri.ply")),
+        "{:?}",
+        b.mesh_files
+    );
+}
+
+#[test]
+fn a_later_path_wins_and_the_scene_folder_comes_last() {
+    let d = tempfile::tempdir().unwrap();
+    let d = d.path();
+    // Two candidates: a broken one beside the scene, a good one under good/.
+    write(d, "tri.ply", "not a ply");
+    write(d, "good/tri.ply", TRI_PLY);
+    write(
+        d,
+        "s.xml",
+        &scene(FOV, &format!(r#"<path value="good"/>{SHAPES}"#)),
+    );
+    assert!(load(d, "s.xml").is_ok());
+    write(d, "t.xml", &scene(FOV, SHAPES));
+    assert!(load(d, "t.xml").is_err());
+}
+
+#[test]
+fn bad_includes_and_paths_are_one_clear_error() {
+    let d = tempfile::tempdir().unwrap();
+    let d = d.path();
+    write(d, "tri.ply", TRI_PLY);
+    let cases = [
+        (
+            r#"<include filename="missing.xml"/>"#,
+            "cannot read included file",
+        ),
+        (
+            r#"<path value="no/such/folder"/>"#,
+            "folder 'no/such/folder' not found",
+        ),
+        (r#"<include filename="self.xml"/>"#, "includes itself"),
+        (
+            r#"<include filename="notscene.xml"/>"#,
+            "root element of an included file must be <scene>",
+        ),
+        (r#"<include filename="broken.xml"/>"#, "malformed XML"),
+    ];
+    write(
+        d,
+        "self.xml",
+        &format!(r#"<scene version="3.0.0"><include filename="self.xml"/></scene>"#),
+    );
+    write(d, "notscene.xml", "<shape type=\"sphere\"/>");
+    write(d, "broken.xml", "<scene><shape></scene>");
+    for (body, want) in cases {
+        write(d, "s.xml", &scene(FOV, &format!("{body}{SHAPES}")));
+        let e = error(d, "s.xml");
+        assert!(e.contains(want), "{body}: {e}");
+    }
+}
+
+#[test]
+fn focal_length_gives_mitsubas_field_of_view() {
+    let d = tempfile::tempdir().unwrap();
+    let d = d.path();
+    write(d, "tri.ply", TRI_PLY);
+    // Mitsuba: fov = 2 atan(sqrt(36^2 + 24^2) / (2 f)) on the diagonal; 50mm default.
+    let diag_fov = |f: f64| {
+        2.0 * ((36.0f64 * 36.0 + 24.0 * 24.0).sqrt() / (2.0 * f))
+            .atan()
+            .to_degrees()
+    };
+    for (sensor, f) in [
+        ("", 50.0),
+        (r#"<string name="focal_length" value="35mm"/>"#, 35.0),
+    ] {
+        write(d, "a.xml", &scene(sensor, SHAPES));
+        write(
+            d,
+            "b.xml",
+            &scene(
+                &format!(
+                    r#"<float name="fov" value="{}"/><string name="fov_axis" value="diagonal"/>"#,
+                    diag_fov(f)
+                ),
+                SHAPES,
+            ),
+        );
+        let (a, b) = (load(d, "a.xml").unwrap(), load(d, "b.xml").unwrap());
+        assert_eq!(a.camera.tan_half, b.camera.tan_half, "{f} mm");
+    }
+    // focus_distance has no effect on a pinhole.
+    write(
+        d,
+        "c.xml",
+        &scene(
+            &format!(r#"{FOV}<float name="focus_distance" value="3"/>"#),
+            SHAPES,
+        ),
+    );
+    write(d, "d.xml", &scene(FOV, SHAPES));
+    assert_eq!(
+        load(d, "c.xml").unwrap().camera.tan_half,
+        load(d, "d.xml").unwrap().camera.tan_half
+    );
+    for (sensor, want) in [
+        (
+            format!(r#"{FOV}<string name="focal_length" value="50mm"/>"#),
+            "either 'fov' or 'focal_length'",
+        ),
+        (
+            r#"<string name="focal_length" value="wide"/>"#.to_string(),
+            "focal_length 'wide'",
+        ),
+        (
+            format!(r#"{FOV}<float name="principal_point_offset_x" value="0.1"/>"#),
+            "principal point",
+        ),
+    ] {
+        write(d, "e.xml", &scene(&sensor, SHAPES));
+        let e = error(d, "e.xml");
+        assert!(e.contains(want), "{e}");
+    }
+}
+
+#[test]
+fn temporal_filter_box_is_accepted_and_gaussian_is_refused() {
+    let d = tempfile::tempdir().unwrap();
+    let d = d.path();
+    write(d, "tri.ply", TRI_PLY);
+    let with = |filter: &str| {
+        scene(FOV, SHAPES).replace(
+            r#"<integer name="max_depth" value="3"/>"#,
+            &format!(r#"<integer name="max_depth" value="3"/>{filter}"#),
+        )
+    };
+    write(
+        d,
+        "box.xml",
+        &with(
+            r#"<string name="temporal_filter" value="box"/><float name="gaussian_stddev" value="2"/>"#,
+        ),
+    );
+    assert!(load(d, "box.xml").is_ok());
+    write(
+        d,
+        "g.xml",
+        &with(r#"<string name="temporal_filter" value="gaussian"/>"#),
+    );
+    assert!(error(d, "g.xml").contains("temporal_filter 'gaussian' is not supported"));
+}
