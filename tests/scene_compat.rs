@@ -140,7 +140,7 @@ fn bad_includes_and_paths_are_one_clear_error() {
     write(
         d,
         "self.xml",
-        &format!(r#"<scene version="3.0.0"><include filename="self.xml"/></scene>"#),
+        r#"<scene version="3.0.0"><include filename="self.xml"/></scene>"#,
     );
     write(d, "notscene.xml", "<shape type=\"sphere\"/>");
     write(d, "broken.xml", "<scene><shape></scene>");
