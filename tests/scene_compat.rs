@@ -241,3 +241,85 @@ fn temporal_filter_box_is_accepted_and_gaussian_is_refused() {
     );
     assert!(error(d, "g.xml").contains("temporal_filter 'gaussian' is not supported"));
 }
+
+#[test]
+fn spectra_become_mitsubas_rgb_and_bad_ones_are_clear_errors() {
+    use tstat::materials::Bsdf;
+    use tstat::scene::spectrum::{list_to_srgb, uniform_to_srgb, SpectrumUse};
+    let d = tempfile::tempdir().unwrap();
+    let d = d.path();
+    write(d, "tri.ply", TRI_PLY);
+    write(d, "r.spd", "# a reflectance\n400 0.2\n550 0.6\n700 0.4\n");
+    let with = |refl: &str, light: &str| {
+        scene(FOV, SHAPES)
+            .replace(r#"<rgb name="reflectance" value="0.4"/>"#, refl)
+            .replace(r#"<rgb name="intensity" value="5"/>"#, light)
+    };
+    write(
+        d,
+        "s.xml",
+        &with(
+            r#"<spectrum name="reflectance" value="400:0.2, 550:0.6, 700:0.4"/>"#,
+            r#"<spectrum name="intensity" value="2"/>"#,
+        ),
+    );
+    let s = load(d, "s.xml").unwrap();
+    let want = list_to_srgb(
+        &[400.0, 550.0, 700.0],
+        &[0.2, 0.6, 0.4],
+        SpectrumUse::Reflectance,
+    )
+    .0;
+    let Bsdf::Diffuse(diffuse) = &s.bsdfs[0].bsdf else {
+        panic!("{:?}", s.bsdfs[0].bsdf)
+    };
+    assert_eq!(diffuse.reflectance.to_array(), want);
+    let tstat::lights::Emitter::Point { intensity, .. } = &s.emitters[0] else {
+        panic!()
+    };
+    assert_eq!(
+        intensity.to_array(),
+        uniform_to_srgb(2.0, SpectrumUse::Emission)
+    );
+    // The same spectrum from a file.
+    write(
+        d,
+        "f.xml",
+        &with(
+            r#"<spectrum name="reflectance" filename="r.spd"/>"#,
+            r#"<rgb name="intensity" value="5"/>"#,
+        ),
+    );
+    let f = load(d, "f.xml").unwrap();
+    assert_eq!(f.bsdfs[0].bsdf, s.bsdfs[0].bsdf);
+    for (refl, want) in [
+        (
+            r#"<spectrum name="reflectance" value="500:0.2, 400:0.3"/>"#,
+            "must increase",
+        ),
+        (
+            r#"<spectrum name="reflectance" value="500:0.2"/>"#,
+            "at least two",
+        ),
+        (
+            r#"<spectrum name="reflectance" value="500-0.2, 600:1"/>"#,
+            "not a wavelength:value pair",
+        ),
+        (
+            r#"<spectrum name="reflectance" value="500:x, 600:1"/>"#,
+            "value in '500:x'",
+        ),
+        (
+            r#"<spectrum name="reflectance" filename="none.spd"/>"#,
+            "cannot read spectrum file",
+        ),
+    ] {
+        write(
+            d,
+            "e.xml",
+            &with(refl, r#"<rgb name="intensity" value="5"/>"#),
+        );
+        let e = error(d, "e.xml");
+        assert!(e.contains(want), "{refl}: {e}");
+    }
+}

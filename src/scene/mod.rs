@@ -9,6 +9,7 @@ pub mod limits;
 pub mod mesh;
 pub mod props;
 pub mod shapes;
+pub mod spectrum;
 pub mod textures;
 pub mod transform;
 mod xml;

@@ -4,6 +4,7 @@
 
 use super::error::SceneError;
 use super::transform::parse_transform;
+use crate::scene::spectrum::{list_to_srgb, uniform_to_srgb, SpectrumUse};
 use glam::{DMat4, Vec3};
 use roxmltree::Node;
 use std::cell::{Cell, RefCell};
@@ -261,6 +262,13 @@ pub enum Value {
     Boolean(bool),
     Str(String),
     Rgb([f64; 3]),
+    /// `<spectrum value="x"/>`: uniform (grey for reflectances, Mitsuba's purple-ish
+    /// sRGB of the equal-energy spectrum for emission).
+    Uniform(f64),
+    /// `<spectrum value="w1:v1, w2:v2, ...">` or `<spectrum filename=...>`: wavelengths
+    /// (nm, increasing) and values, converted when the plugin reads it
+    /// (`scene::spectrum`).
+    Spectrum(Vec<f64>, Vec<f64>),
     Point([f64; 3]),
     Transform(DMat4),
 }
@@ -351,13 +359,14 @@ impl<'a, 'i, 'c> Props<'a, 'i, 'c> {
                 })
             }
             "string" => Value::Str(ctx.required_attr(node, "value")?),
-            "rgb" | "spectrum" | "color" => {
+            "spectrum" => parse_spectrum(ctx, node)?,
+            "rgb" | "color" => {
                 let v = ctx.required_attr(node, "value")?;
                 let f = numbers(&v)?;
                 match f.len() {
                     1 => Value::Rgb([f[0]; 3]),
                     3 => Value::Rgb([f[0], f[1], f[2]]),
-                    _ => return Err(bad("one or three numbers (wavelength:value spectra are not supported)", &v)),
+                    _ => return Err(bad("one or three numbers", &v)),
                 }
             }
             "point" | "vector" => {
@@ -442,11 +451,34 @@ impl<'a, 'i, 'c> Props<'a, 'i, 'c> {
     }
 
     /// An rgb colour; a `<float>` gives a grey.
+    /// A colour parameter (reflectances and the like): `<rgb>`, `<float>` or `<spectrum>`.
     pub fn rgb(&mut self, name: &str) -> Result<Option<Vec3>, SceneError> {
+        self.colour(name, SpectrumUse::Reflectance)
+    }
+
+    /// An emitted colour (radiance, intensity): as [`Self::rgb`], with Mitsuba's rules
+    /// for spectra of emitters (no D65 weighting, no upper clamp, uniform spectra
+    /// purple-ish).
+    pub fn emission(&mut self, name: &str) -> Result<Option<Vec3>, SceneError> {
+        self.colour(name, SpectrumUse::Emission)
+    }
+
+    fn colour(&mut self, name: &str, usage: SpectrumUse) -> Result<Option<Vec3>, SceneError> {
         match self.take(name) {
             None => Ok(None),
             Some((_, Value::Rgb(c))) => Ok(Some(Vec3::new(c[0] as f32, c[1] as f32, c[2] as f32))),
             Some((_, Value::Float(v))) => Ok(Some(Vec3::splat(v as f32))),
+            Some((_, Value::Uniform(v))) => Ok(Some(Vec3::from_array(uniform_to_srgb(v, usage)))),
+            Some((n, Value::Spectrum(w, v))) => {
+                let (c, clamped) = list_to_srgb(&w, &v, usage);
+                if clamped {
+                    self.ctx.warn(
+                        n,
+                        format!("spectrum '{name}' is out of the sRGB gamut; clamped to {c:?}, as Mitsuba does"),
+                    );
+                }
+                Ok(Some(Vec3::from_array(c)))
+            }
             Some((n, _)) => Err(self.type_err(n, name, "an <rgb>, <spectrum> or <float>")),
         }
     }
@@ -503,4 +535,67 @@ impl<'a, 'i, 'c> Props<'a, 'i, 'c> {
         }
         Ok(())
     }
+}
+
+/// A `<spectrum>` element: `value="x"` (uniform), `value="r, g, b"` (taken as RGB),
+/// `value="w1:v1, w2:v2, ..."` or `filename="..."` (Mitsuba's `.spd`: one `wavelength
+/// value` pair per line, `#` comments).
+fn parse_spectrum(ctx: &Ctx, node: Node) -> Result<Value, SceneError> {
+    let bad = |msg: String| ctx.err(node, msg);
+    let pairs: Vec<(f64, f64)> = match (ctx.attr(node, "value")?, ctx.attr(node, "filename")?) {
+        (Some(_), Some(_)) => return Err(bad("give either 'value' or 'filename'".into())),
+        (None, None) => return Err(bad("missing attribute 'value' (or 'filename')".into())),
+        (Some(v), None) if !v.contains(':') => {
+            let f = scene_numbers(&v).map_err(|e| bad(format!("value '{v}': {e}")))?;
+            return match f.len() {
+                1 => Ok(Value::Uniform(f[0])),
+                3 => Ok(Value::Rgb([f[0], f[1], f[2]])),
+                _ => Err(bad(format!(
+                    "value '{v}': expected one number, three, or wavelength:value pairs"
+                ))),
+            };
+        }
+        (Some(v), None) => v
+            .split(',')
+            .map(str::trim)
+            .filter(|t| !t.is_empty())
+            .map(|t| {
+                let (w, x) = t
+                    .split_once(':')
+                    .ok_or_else(|| bad(format!("'{t}' is not a wavelength:value pair")))?;
+                let w = scene_number(w).map_err(|e| bad(format!("wavelength in '{t}': {e}")))?;
+                let x = scene_number(x).map_err(|e| bad(format!("value in '{t}': {e}")))?;
+                Ok((w, x))
+            })
+            .collect::<Result<_, SceneError>>()?,
+        (None, Some(f)) => {
+            let path = ctx.resolve(&f);
+            let bytes = crate::io::read_regular(&path, 1 << 20)
+                .map_err(|e| bad(format!("cannot read spectrum file '{f}': {e}")))?;
+            let text = String::from_utf8_lossy(&bytes);
+            let mut pairs = Vec::new();
+            for (i, line) in text.lines().enumerate() {
+                let line = line.split('#').next().unwrap_or("").trim();
+                if line.is_empty() {
+                    continue;
+                }
+                let f2 = scene_numbers(line).map_err(|e| bad(format!("{f}:{}: {e}", i + 1)))?;
+                if f2.len() != 2 {
+                    return Err(bad(format!("{f}:{}: expected 'wavelength value'", i + 1)));
+                }
+                pairs.push((f2[0], f2[1]));
+            }
+            pairs
+        }
+    };
+    if pairs.len() < 2 {
+        return Err(bad(
+            "a spectrum needs at least two wavelength:value pairs".into()
+        ));
+    }
+    if pairs.windows(2).any(|p| p[1].0 <= p[0].0) {
+        return Err(bad("the wavelengths of a spectrum must increase".into()));
+    }
+    let (w, v) = pairs.into_iter().unzip();
+    Ok(Value::Spectrum(w, v))
 }

@@ -648,9 +648,10 @@ fn allowed_attributes(tag: &str) -> Option<&'static [&'static str]> {
         "scene" => &["version"],
         "default" => &["name", "value"],
         "ref" => &["id", "name"],
-        "float" | "integer" | "boolean" | "string" | "rgb" | "spectrum" | "color" => {
-            &["name", "value"]
-        }
+        "float" | "integer" | "boolean" | "string" | "rgb" | "color" => &["name", "value"],
+        "spectrum" => &["name", "value", "filename"],
+        "path" => &["value"],
+        "include" => &["filename"],
         "point" | "vector" => &["name", "value", "x", "y", "z"],
         "transform" => &["name"],
         t if OBJECT_TAGS.contains(&t) => &["type", "id", "name"],
@@ -722,7 +723,7 @@ fn parse_shape(
                 }
                 let mut ep = Props::parse(ctx, obj)?;
                 let radiance = ep
-                    .rgb("radiance")?
+                    .emission("radiance")?
                     .ok_or_else(|| ep.err("missing parameter 'radiance'"))?;
                 if radiance.min_element() < 0.0 {
                     return Err(ep.err_at("radiance", "radiance must be non-negative"));
@@ -785,7 +786,7 @@ fn parse_point_emitter(ctx: &Ctx, node: Node) -> Result<Emitter, SceneError> {
         ));
     }
     let mut p = Props::parse(ctx, node)?;
-    let intensity = p.rgb("intensity")?.unwrap_or(Rgb::ONE);
+    let intensity = p.emission("intensity")?.unwrap_or(Rgb::ONE);
     if intensity.min_element() < 0.0 {
         return Err(p.err_at("intensity", "intensity must be non-negative"));
     }
