@@ -14,6 +14,9 @@
 //! 5 nm from 360 to 830 nm, as Mitsuba 3 tabulates them (its D65 pre-normalised);
 //! `tests` check the conversion against values computed by Mitsuba 3.9.1.
 
+// The tables keep the digits of the f32 values they came from (printed in f64).
+#![allow(clippy::excessive_precision)]
+
 const CIE_MIN: f32 = 360.0;
 const CIE_MAX: f32 = 830.0;
 const CIE_SAMPLES: usize = 95;
