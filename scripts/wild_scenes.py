@@ -35,6 +35,21 @@ def scenes(wild):
     return rows
 
 
+# Values for scene parameters that public scenes leave to the caller.
+PARAMETERS = {"spp": "4", "max_depth": "8", "rr_depth": "5", "res": "16", "resx": "16", "resy": "16",
+              "integrator": "transient_path"}
+
+
+def run(cmd, timeout):
+    try:
+        r = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout)
+    except subprocess.TimeoutExpired:
+        return False, f"error: timed out after {timeout:.0f} s"
+    if r.returncode == 0:
+        return True, ""
+    return False, first_error(r.stderr)
+
+
 def first_error(stderr):
     for line in stderr.splitlines():
         if line.startswith("error:"):
@@ -69,12 +84,15 @@ def main():
             out = os.path.join(tmp, f"s{i}.tstats")
             cmd = [a.tstat, "render", f, "--out", out, "--width", "16", "--spp", "4",
                    "--bins", "8", "--threads", "2"]
-            try:
-                r = subprocess.run(cmd, capture_output=True, text=True, timeout=a.timeout)
-                good = r.returncode == 0
-                msg = "" if good else first_error(r.stderr)
-            except subprocess.TimeoutExpired:
-                good, msg = False, f"error: timed out after {a.timeout:.0f} s"
+            good, msg = run(cmd, a.timeout)
+            # Scenes that leave parameters to the caller (`$spp` without a <default>,
+            # as Mitsuba's docs build passes them): retry once with typical values.
+            missing = re.findall(r"'\$(\w+)' has no <default", msg)
+            if missing and missing[0] in PARAMETERS:
+                extra = []
+                for k, v in PARAMETERS.items():
+                    extra += ["-D", f"{k}={v}"]
+                good, msg = run(cmd + extra, a.timeout)
             rel = os.path.relpath(f, a.wild)
             if good:
                 ok += 1

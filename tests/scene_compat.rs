@@ -323,3 +323,62 @@ fn spectra_become_mitsubas_rgb_and_bad_ones_are_clear_errors() {
         assert!(e.contains(want), "{refl}: {e}");
     }
 }
+
+#[test]
+fn area_emitters_declared_at_top_level_attach_by_reference_also_forward() {
+    let d = tempfile::tempdir().unwrap();
+    let d = d.path();
+    write(d, "tri.ply", TRI_PLY);
+    let lamp = r#"<shape type="rectangle"><transform name="to_world"><translate z="2"/><rotate x="1" angle="180"/></transform>EMIT</shape>"#;
+    let inline = lamp.replace(
+        "EMIT",
+        r#"<emitter type="area"><rgb name="radiance" value="3"/></emitter>"#,
+    );
+    let by_ref = lamp.replace("EMIT", r#"<ref id="lamp"/>"#);
+    let decl = r#"<emitter type="area" id="lamp"><rgb name="radiance" value="3"/></emitter>"#;
+    write(d, "a.xml", &scene(FOV, &format!("{SHAPES}{inline}")));
+    write(d, "b.xml", &scene(FOV, &format!("{SHAPES}{decl}{by_ref}")));
+    write(d, "c.xml", &scene(FOV, &format!("{SHAPES}{by_ref}{decl}")));
+    let (a, b, c) = (
+        load(d, "a.xml").unwrap(),
+        load(d, "b.xml").unwrap(),
+        load(d, "c.xml").unwrap(),
+    );
+    assert_eq!(a.emitters.len(), 2);
+    assert_eq!(steady(&a), steady(&b));
+    assert_eq!(steady(&a), steady(&c));
+    write(
+        d,
+        "e.xml",
+        &scene(
+            FOV,
+            &format!("{SHAPES}{}", decl.replace(r#" id="lamp""#, "")),
+        ),
+    );
+    assert!(error(d, "e.xml").contains("needs an id"));
+}
+
+#[test]
+fn d_sets_parameters_the_file_uses_without_a_default() {
+    let d = tempfile::tempdir().unwrap();
+    let d = d.path();
+    write(d, "tri.ply", TRI_PLY);
+    let xml = scene(FOV, SHAPES).replace(
+        r#"<integer name="sample_count" value="4"/>"#,
+        r#"<integer name="sample_count" value="$spp"/>"#,
+    );
+    write(d, "s.xml", &xml);
+    assert!(error(d, "s.xml").contains("'$spp' has no <default"));
+    let o = |k: &str| Overrides {
+        defaults: vec![(k.to_string(), "6".to_string())],
+        ..Default::default()
+    };
+    let s = Scene::load(&d.join("s.xml"), &o("spp")).unwrap();
+    assert_eq!(s.spp, 6);
+    // A name the file never uses is a typo.
+    let e = Scene::load(&d.join("s.xml"), &o("sp"))
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(e.contains("never uses $sp"), "{e}");
+}

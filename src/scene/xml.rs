@@ -108,11 +108,17 @@ pub fn load(path: &Path, overrides: &Overrides) -> Result<Scene, SceneError> {
     if root.tag_name().name() != "scene" {
         return Err(ctx.err(root, "the root element must be <scene>"));
     }
+    // As Mitsuba's scene parameters: -D sets a <default>, or any `$name` the file uses
+    // without one (public scenes leave e.g. `$spp` to the caller). A name the file never
+    // mentions (and has no include that could) is a typo.
     for (key, _) in &overrides.defaults {
-        if !in_file.contains_key(key) {
+        let may_include = root.children().any(|n| n.has_tag_name("include"));
+        if !in_file.contains_key(key) && !mentions(&text, key) && !may_include {
             return Err(ctx.err(
                 root,
-                format!("-D {key}=...: the scene has no <default name=\"{key}\">"),
+                format!(
+                    "-D {key}=...: the scene has no <default name=\"{key}\"> and never uses ${key}"
+                ),
             ));
         }
     }
@@ -218,6 +224,17 @@ pub fn load(path: &Path, overrides: &Overrides) -> Result<Scene, SceneError> {
     })
 }
 
+/// Whether `text` refers to the parameter `$key` (not as the prefix of a longer name).
+fn mentions(text: &str, key: &str) -> bool {
+    let pat = format!("${key}");
+    text.match_indices(&pat).any(|(i, _)| {
+        !text[i + pat.len()..]
+            .chars()
+            .next()
+            .is_some_and(|c| c.is_alphanumeric() || c == '_')
+    })
+}
+
 /// What the top-level elements of a scene and its includes define.
 #[derive(Default)]
 struct Objects {
@@ -229,6 +246,8 @@ struct Objects {
     emitters: Vec<Emitter>,
     sensor: Option<Sensor>,
     integrator: Option<IntegratorSettings>,
+    /// Area emitters declared at the top level, by id (radiance).
+    area_emitters: HashMap<String, Vec3>,
     /// The files being included, outermost first (to refuse cycles).
     including: Vec<std::path::PathBuf>,
 }
@@ -240,6 +259,24 @@ const MAX_INCLUDE_DEPTH: usize = 16;
 /// The top-level elements of `root` (the scene file's or an included file's), in
 /// document order.
 fn walk(ctx: &Ctx, root: Node, o: &mut Objects, depth: usize) -> Result<(), SceneError> {
+    // Area emitters declared at this level, attached to shapes by <ref id> anywhere in
+    // the file, also before their declaration (Mitsuba resolves references after
+    // reading the whole file).
+    for node in root.children().filter(|n| n.has_tag_name("emitter")) {
+        if ctx.attr(node, "type")?.as_deref() != Some("area") {
+            continue;
+        }
+        let Some(id) = ctx.attr(node, "id")? else {
+            return Err(ctx.err(
+                node,
+                "a top-level area emitter needs an id (shapes attach it with <ref id=...>)",
+            ));
+        };
+        let radiance = parse_area_emitter(ctx, node)?;
+        if o.area_emitters.insert(id.clone(), radiance).is_some() {
+            return Err(ctx.err(node, format!("id '{id}' is defined twice")));
+        }
+    }
     for node in root.children().filter(|n| n.is_element()) {
         match node.tag_name().name() {
             "default" => {}
@@ -282,7 +319,8 @@ fn walk(ctx: &Ctx, root: Node, o: &mut Objects, depth: usize) -> Result<(), Scen
                     bsdfs: &o.named_bsdfs,
                     textures: &o.named_textures,
                 };
-                let (shape, bsdf, emission) = parse_shape(ctx, node, index, &named)?;
+                let (shape, bsdf, emission) =
+                    parse_shape(ctx, node, index, &named, &o.area_emitters)?;
                 // Equal untextured BSDFs share an index; found by their exact Debug
                 // text, so that many distinct BSDFs do not cost a quadratic search.
                 // (Textured ones are not compared: an image's Debug text is its texels.)
@@ -309,6 +347,8 @@ fn walk(ctx: &Ctx, root: Node, o: &mut Objects, depth: usize) -> Result<(), Scen
                 }
                 o.shapes.push(shape);
             }
+            // Area emitters declared here were read before the walk (below).
+            "emitter" if ctx.attr(node, "type")?.as_deref() == Some("area") => {}
             "emitter" => o.emitters.push(parse_point_emitter(ctx, node)?),
             "path" => add_search_path(ctx, node)?,
             "include" => include(ctx, node, o, depth)?,
@@ -693,11 +733,34 @@ fn check_elements(ctx: &Ctx, root: Node) -> Result<(), SceneError> {
     Ok(())
 }
 
+/// An `<emitter type="area">`'s radiance.
+fn parse_area_emitter(ctx: &Ctx, obj: Node) -> Result<Vec3, SceneError> {
+    let mut ep = Props::parse(ctx, obj)?;
+    let radiance = ep
+        .emission("radiance")?
+        .ok_or_else(|| ep.err("missing parameter 'radiance'"))?;
+    if radiance.min_element() < 0.0 {
+        return Err(ep.err_at("radiance", "radiance must be non-negative"));
+    }
+    if radiance.max_element() == 0.0 {
+        ctx.warn(
+            obj,
+            "radiance is zero (in single precision): this emitter contributes nothing",
+        );
+    }
+    if let Some(&o) = ep.objects.first() {
+        return Err(ctx.err(o, "unexpected nested element in <emitter>"));
+    }
+    ep.finish()?;
+    Ok(radiance)
+}
+
 fn parse_shape(
     ctx: &Ctx,
     node: Node,
     index: u32,
     named: &Named,
+    area_emitters: &HashMap<String, Vec3>,
 ) -> Result<ParsedShape, SceneError> {
     let kind = ctx.required_attr(node, "type")?;
     let mut p = Props::parse(ctx, node)?;
@@ -707,6 +770,14 @@ fn parse_shape(
     let mut emission = None;
     for obj in std::mem::take(&mut p.objects) {
         match obj.tag_name().name() {
+            // A reference to an area emitter declared at the top level (Mitsuba
+            // resolves a shape's <ref> by the kind of object its id names).
+            "ref" if area_emitters.contains_key(&ctx.required_attr(obj, "id")?) => {
+                if emission.is_some() {
+                    return Err(ctx.err(obj, "a shape has at most one emitter"));
+                }
+                emission = Some((area_emitters[&ctx.required_attr(obj, "id")?], obj));
+            }
             "bsdf" | "ref" => {
                 if bsdf.is_some() {
                     return Err(ctx.err(obj, "a shape has at most one BSDF"));
@@ -721,24 +792,7 @@ fn parse_shape(
                 if k != "area" {
                     return Err(ctx.err(obj, format!("emitter '{k}' cannot be attached to a shape (use area)")));
                 }
-                let mut ep = Props::parse(ctx, obj)?;
-                let radiance = ep
-                    .emission("radiance")?
-                    .ok_or_else(|| ep.err("missing parameter 'radiance'"))?;
-                if radiance.min_element() < 0.0 {
-                    return Err(ep.err_at("radiance", "radiance must be non-negative"));
-                }
-                if radiance.max_element() == 0.0 {
-                    ctx.warn(
-                        obj,
-                        "radiance is zero (in single precision): this emitter contributes nothing",
-                    );
-                }
-                if let Some(&o) = ep.objects.first() {
-                    return Err(ctx.err(o, "unexpected nested element in <emitter>"));
-                }
-                ep.finish()?;
-                emission = Some((radiance, obj));
+                emission = Some((parse_area_emitter(ctx, obj)?, obj));
             }
             other => {
                 return Err(ctx.err(
