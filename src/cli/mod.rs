@@ -8,6 +8,7 @@ macro_rules! say {
     };
 }
 
+mod check;
 mod denoise;
 mod export;
 mod frames;
@@ -49,12 +50,15 @@ pub enum Command {
     Merge(merge::MergeArgs),
     /// Print a bundle's manifest.
     Info(info::InfoArgs),
+    /// List every unsupported feature of Mitsuba scenes (file:line), or "ok".
+    Check(check::CheckArgs),
 }
 
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Run(a) => run::run(a),
         Command::Render(a) => render::run(a),
+        Command::Check(a) => check::run(a),
         Command::Denoise(a) => denoise::run(a),
         Command::Export(a) => export::run(a),
         Command::Frames(a) => frames::run(a),

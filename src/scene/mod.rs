@@ -3,6 +3,7 @@
 //! the BVH. Every plugin documents its parameters in the file that reads it.
 
 pub mod camera;
+pub mod check;
 pub mod error;
 pub mod film;
 pub mod limits;

@@ -1,0 +1,49 @@
+//! `tstat check SCENE.xml...`: lists every unsupported feature of each scene at once
+//! (file:line), or says "ok" for scenes that would render. Exit status 1 if any scene
+//! would not.
+
+use crate::scene::check::{check, Verdict};
+use clap::Args;
+use std::path::PathBuf;
+
+#[derive(Args, Debug)]
+pub struct CheckArgs {
+    /// Mitsuba 3 XML scenes.
+    #[arg(required = true)]
+    pub scenes: Vec<PathBuf>,
+    /// Set a scene parameter: -D name=value (repeatable).
+    #[arg(short = 'D', value_name = "NAME=VALUE")]
+    pub defines: Vec<String>,
+}
+
+pub fn run(a: CheckArgs) -> anyhow::Result<()> {
+    let mut defaults = Vec::new();
+    for d in &a.defines {
+        let Some((k, v)) = d.split_once('=') else {
+            anyhow::bail!("-D {d}: expected name=value");
+        };
+        anyhow::ensure!(!k.trim().is_empty(), "-D {d}: the name is empty");
+        defaults.push((k.trim().to_string(), v.to_string()));
+    }
+    let mut bad = 0;
+    for scene in &a.scenes {
+        match check(scene, &defaults) {
+            Verdict::Ok => say!("{}: ok", scene.display()),
+            Verdict::Unsupported(found) => {
+                bad += 1;
+                say!("{}: {} unsupported:", scene.display(), found.len());
+                for f in found {
+                    say!("  {f}");
+                }
+            }
+            Verdict::Fails(e) => {
+                bad += 1;
+                say!("{}: does not load:\n  {e}", scene.display());
+            }
+        }
+    }
+    if bad > 0 {
+        anyhow::bail!("{bad} of {} scenes would not render", a.scenes.len());
+    }
+    Ok(())
+}

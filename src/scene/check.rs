@@ -1,0 +1,214 @@
+//! `tstat check`: every unsupported feature of a scene at once, for users porting
+//! scenes. A static scan of the scene file and its includes lists each plugin, element
+//! or integrator tstat does not support, with file:line; a scene with none is then
+//! loaded for real (tiny film), which catches parameter-level problems (the first
+//! error), or says it would render.
+//!
+//! The lists below name what the loaders accept; `tests/scene_compat.rs` checks that
+//! every scene in `scenes/` scans clean and that each listed plugin kind loads.
+
+use super::props::Ctx;
+use super::{Overrides, Scene};
+use roxmltree::Node;
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+
+/// Plugin types each loader accepts (by element tag).
+pub const SUPPORTED: &[(&str, &[&str])] = &[
+    (
+        "bsdf",
+        &[
+            "diffuse",
+            "dielectric",
+            "roughdielectric",
+            "thindielectric",
+            "conductor",
+            "roughconductor",
+            "plastic",
+            "roughplastic",
+            "null",
+            "twosided",
+            "mask",
+            "Separable",
+            "Composed",
+        ],
+    ),
+    ("shape", &["rectangle", "cube", "sphere", "ply", "obj"]),
+    ("texture", &["bitmap", "checkerboard"]),
+    ("emitter", &["area", "point"]),
+    ("sensor", &["perspective"]),
+    ("film", &["transient_hdr_film"]),
+    (
+        "sampler",
+        &["independent", "stratified", "multijitter", "orthogonal", "ldsampler"],
+    ),
+    ("rfilter", &["box"]),
+    ("integrator", &["transient_path"]),
+    (
+        "TemporalProfile",
+        &["ConstantTP", "ExponentialTP", "EpanechnikovTP", "PosEpanTP"],
+    ),
+];
+
+/// Elements with no support at all (whatever their type).
+const UNSUPPORTED_TAGS: &[(&str, &str)] = &[
+    ("medium", "participating media are not supported"),
+    ("phase", "phase functions (media) are not supported"),
+];
+
+/// One unsupported feature.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Finding {
+    pub file: PathBuf,
+    pub line: u32,
+    pub what: String,
+}
+
+impl std::fmt::Display for Finding {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}:{}: {}", self.file.display(), self.line, self.what)
+    }
+}
+
+/// The outcome for one scene.
+pub enum Verdict {
+    /// Loads: it would render.
+    Ok,
+    /// The unsupported features found by the scan (none missed by it: then the
+    /// loader's first error).
+    Unsupported(Vec<Finding>),
+    /// The scan found nothing, but the scene does not load (a parameter, a file...).
+    Fails(String),
+}
+
+/// Checks one scene (`defaults` as `-D`).
+pub fn check(path: &Path, defaults: &[(String, String)]) -> Verdict {
+    let mut findings = Vec::new();
+    let defaults_map: HashMap<String, String> = defaults.iter().cloned().collect();
+    scan_file(path, &defaults_map, &mut findings, &mut Vec::new());
+    if !findings.is_empty() {
+        return Verdict::Unsupported(findings);
+    }
+    let overrides = Overrides {
+        width: Some(4),
+        height: Some(4),
+        spp: Some(2),
+        bins: Some(2),
+        defaults: defaults.to_vec(),
+        ..Default::default()
+    };
+    match Scene::load(path, &overrides) {
+        Ok(_) => Verdict::Ok,
+        Err(e) => Verdict::Fails(e.to_string()),
+    }
+}
+
+/// Scans one file (and the files it includes); problems reading or parsing a file
+/// are findings too.
+fn scan_file(
+    path: &Path,
+    defaults: &HashMap<String, String>,
+    out: &mut Vec<Finding>,
+    stack: &mut Vec<PathBuf>,
+) {
+    let here = |line: u32, what: String| Finding {
+        file: path.to_path_buf(),
+        line,
+        what,
+    };
+    let canonical = path.canonicalize().unwrap_or_else(|_| path.to_path_buf());
+    if stack.contains(&canonical) || stack.len() > 16 {
+        out.push(here(0, "included recursively".into()));
+        return;
+    }
+    let text = match crate::io::read_regular(path, crate::io::MAX_SCENE_BYTES)
+        .map_err(|e| e.to_string())
+        .and_then(|b| String::from_utf8(b).map_err(|_| "not UTF-8".to_string()))
+    {
+        Ok(t) => t,
+        Err(e) => {
+            out.push(here(0, format!("cannot read: {e}")));
+            return;
+        }
+    };
+    let options = roxmltree::ParsingOptions {
+        nodes_limit: super::limits::MAX_NODES,
+        ..Default::default()
+    };
+    let doc = match roxmltree::Document::parse_with_options(&text, options) {
+        Ok(d) => d,
+        Err(e) => {
+            out.push(here(e.pos().row, format!("malformed XML: {e}")));
+            return;
+        }
+    };
+    let ctx = Ctx::new(path, &text, defaults);
+    stack.push(canonical);
+    for node in doc.root_element().descendants().filter(|n| n.is_element()) {
+        scan_element(&ctx, node, defaults, out, stack);
+    }
+    stack.pop();
+}
+
+fn scan_element(
+    ctx: &Ctx,
+    node: Node,
+    defaults: &HashMap<String, String>,
+    out: &mut Vec<Finding>,
+    stack: &mut Vec<PathBuf>,
+) {
+    let tag = node.tag_name().name();
+    let line = ctx.line(node);
+    let mut push = |what: String| {
+        out.push(Finding {
+            file: ctx.file.to_path_buf(),
+            line,
+            what,
+        })
+    };
+    if let Some((_, why)) = UNSUPPORTED_TAGS.iter().find(|(t, _)| *t == tag) {
+        push(format!("<{tag}>: {why}"));
+        return;
+    }
+    if tag == "include" {
+        match ctx.attr(node, "filename") {
+            Ok(Some(name)) => scan_file(&ctx.resolve_near(&name), defaults, out, stack),
+            _ => push("<include> without a readable filename".into()),
+        }
+        return;
+    }
+    if tag == "path" {
+        if let Ok(Some(v)) = ctx.attr(node, "value") {
+            let dir = ctx.dir().join(&v);
+            if dir.is_dir() {
+                ctx.prepend_search_path(dir);
+            }
+        }
+        return;
+    }
+    let Some((_, types)) = SUPPORTED.iter().find(|(t, _)| *t == tag) else {
+        return;
+    };
+    // `$name` types are substituted from defaults; unknown ones are the loader's error.
+    let Ok(Some(kind)) = ctx.attr(node, "type") else {
+        return;
+    };
+    if !types.contains(&kind.as_str()) {
+        push(format!(
+            "<{tag} type=\"{kind}\">: not supported (supported: {})",
+            types.join(", ")
+        ));
+    } else if tag == "emitter"
+        && kind == "area"
+        && node.parent_element().is_some_and(|p| {
+            !p.has_tag_name("shape") && !p.has_tag_name("scene")
+        })
+    {
+        push("<emitter type=\"area\"> must be in a <shape> or at the top level".into());
+    } else if tag == "emitter"
+        && kind == "point"
+        && node.parent_element().is_some_and(|p| p.has_tag_name("shape"))
+    {
+        push("<emitter type=\"point\"> cannot be attached to a shape".into());
+    }
+}
