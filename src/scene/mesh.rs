@@ -65,6 +65,9 @@ pub enum MeshError {
     /// The file was read but is not a usable OBJ mesh.
     #[error("invalid OBJ file {}: {message}", .path.display())]
     Obj { path: PathBuf, message: String },
+    /// The file was read but is not a usable Mitsuba `.serialized` mesh.
+    #[error("invalid serialized mesh file {}: {message}", .path.display())]
+    Serialized { path: PathBuf, message: String },
     /// The file is well formed but contains no faces (e.g. a point cloud).
     #[error("mesh file {} has no faces", .path.display())]
     NoFaces { path: PathBuf },

@@ -8,6 +8,7 @@ pub mod film;
 pub mod limits;
 pub mod mesh;
 pub mod props;
+pub mod serialized;
 pub mod shapes;
 pub mod textures;
 pub mod transform;
