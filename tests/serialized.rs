@@ -204,7 +204,7 @@ fn expect(m: &Mesh) -> MeshData {
 #[test]
 fn version_4_single_precision_loads_what_was_written() {
     let m = quad();
-    let got = read(&legacy_file(4, &[m.clone()]), 0).unwrap();
+    let got = read(&legacy_file(4, std::slice::from_ref(&m)), 0).unwrap();
     assert_eq!(got.mesh, expect(&m));
     assert_eq!((got.name.as_str(), got.version), ("quad", 4));
     // Without a dictionary (Mitsuba 3 writes none for one mesh), mesh 0 still loads.
@@ -339,13 +339,13 @@ fn malformed_files_are_one_clear_error() {
     corrupt[4..40].iter_mut().for_each(|b| *b = !*b);
     assert!(error(&corrupt, 0).contains("corrupt compressed data"));
     let body = legacy_body(4, &quad());
-    let mut stream = file_of(4, &[body.clone()], false);
+    let mut stream = file_of(4, std::slice::from_ref(&body), false);
     let n = stream.len();
     stream[n - 1] ^= 1;
     let e = error(&stream, 0);
     assert!(e.contains("corrupt compressed data"), "{e}");
     // Truncated anywhere in the stream.
-    let single = file_of(4, &[body.clone()], false);
+    let single = file_of(4, std::slice::from_ref(&body), false);
     for cut in [6, 20, single.len() - 5] {
         let e = error(&single[..cut], 0);
         assert!(

@@ -1,6 +1,7 @@
 //! Loading triangle meshes from disk.
 //!
-//! Two formats are supported:
+//! Two formats are supported here (Mitsuba's `.serialized` meshes are read into the
+//! same [`MeshData`] by [`super::serialized`]):
 //!
 //! * **PLY** (ASCII, binary little-endian and binary big-endian), read with the
 //!   `ply-rs` crate. The `vertex` element must have scalar `x`, `y`, `z`
