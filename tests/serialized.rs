@@ -267,12 +267,12 @@ fn version_5_records_frames_maps_and_attributes() {
     // Tangents: the frame lanes hold the rotation's modified Rodrigues parameters;
     // a quarter turn about x takes the normal from +z to -y.
     let mut framed = plain;
-    framed.layout = 0x1 | 0x2;
+    framed.layout = 0x1 | 0x2 | 0x4;
     framed.face_normals = true;
     framed.records[0][3..6].copy_from_slice(&[t, 0.0, 0.0]);
     framed.records[1][3..6].copy_from_slice(&[0.0, 0.0, 0.0]);
     let got = read(&file_of(5, &[v5_body(&framed)], false), 0).unwrap();
-    assert!(got.face_normals && got.mesh.uvs.is_none());
+    assert!(got.face_normals);
     let n = got.mesh.normals.unwrap();
     assert!(
         (n[0] - Vec3::new(0.0, -1.0, 0.0)).length() < 1e-6,
@@ -412,6 +412,8 @@ fn malformed_files_are_one_clear_error() {
     };
     let e = error(&file_of(5, &[v5_body(&v5(0x2, vec![]))], false), 0);
     assert!(e.contains("tangents without normals"), "{e}");
+    let e = error(&file_of(5, &[v5_body(&v5(0x3, vec![]))], false), 0);
+    assert!(e.contains("tangents without normals and texture"), "{e}");
     let e = error(
         &file_of(5, &[v5_body(&v5(0, vec![("x", 5, vec![])]))], false),
         0,

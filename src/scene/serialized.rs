@@ -14,7 +14,8 @@
 //! ignores them), the mesh name as a NUL-terminated string (version 4 only), `u64`
 //! vertex and triangle counts, then per-vertex arrays: positions (3 values), normals
 //! (3), texture coordinates (2), colours (3, read and dropped), in `f32` or `f64`
-//! (narrowed to `f32`, as Mitsuba), and `3 F` `u32` vertex indices.
+//! (narrowed to `f32`, as Mitsuba), and `3 F` `u32` vertex indices (Mitsuba 3 reads
+//! indices only as `u32`; so does this loader, and counts above `u32::MAX` are refused).
 //!
 //! Version 5 (Mitsuba 3's current writer, `Mesh::write_serialized`): flags (`0x1`
 //! normals, `0x2` tangents, `0x4` texture coordinates in the low bits, `0x10` face
@@ -464,8 +465,11 @@ fn read_v5<R: Read>(z: &mut Stream<R>) -> Result<SerializedMesh, Problem> {
     let has_normals = flags & V5_NORMALS != 0;
     let tangents = flags & V5_TANGENTS != 0;
     let has_uvs = flags & V5_TEXCOORDS != 0;
-    if tangents && !has_normals {
-        return Err("the flags store tangents without normals".into());
+    if tangents && !(has_normals && has_uvs) {
+        return Err(
+            "the flags store tangents without normals and texture coordinates (Mitsuba requires both)"
+                .into(),
+        );
     }
     let name = read_string(z, "mesh name")?;
     let (nv, nf, np, nn) = (z.u64()?, z.u64()?, z.u64()?, z.u64()?);
