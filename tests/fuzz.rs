@@ -1,9 +1,9 @@
 //! Fuzzing on the stable toolchain: property tests that mutate valid inputs (scene XML,
-//! PLY and OBJ bytes, `.npy` files and manifests of a bundle) and require "a clean error
+//! PLY, OBJ and `.serialized` bytes, `.npy` files and manifests of a bundle) and require "a clean error
 //! or a valid result, never a panic". A panic anywhere (parser, loader, renderer,
 //! reader) fails the property, and proptest shrinks the mutation list to a small case.
 //!
-//! CI runs 1000-3000 cases per target (6000 in all, well under a minute); a developer runs more
+//! CI runs 1000-3000 cases per target (8000 in all, well under a minute); a developer runs more
 //! with `TSTAT_FUZZ_CASES=20000 TSTAT_FUZZ_SEED=$RANDOM cargo test --release --test fuzz`
 //! (README, "Fuzzing"); CI's seed is fixed so its runs are reproducible.
 
@@ -14,6 +14,7 @@ use tstat::bundle::Bundle;
 use tstat::denoise::LoadedSums;
 use tstat::render::{render, PixelSampling, RenderSettings};
 use tstat::scene::mesh::{load_obj, load_ply};
+use tstat::scene::serialized::load_serialized;
 use tstat::scene::{Overrides, Scene};
 use tstat::stats::Transform;
 
@@ -301,6 +302,143 @@ fn mutated_meshes_load_cleanly_or_fail_cleanly() {
             }
             Ok(())
         })
+        .unwrap();
+}
+
+/// zlib-compresses `body`.
+fn zlib(body: &[u8]) -> Vec<u8> {
+    use std::io::Write;
+    let mut e = flate2::write::ZlibEncoder::new(Vec::new(), flate2::Compression::default());
+    e.write_all(body).unwrap();
+    e.finish().unwrap()
+}
+
+/// The decompressed body of a tiny `.serialized` mesh: a version 4 quad (f32 positions,
+/// normals, uv, colours), a version 3 triangle in double precision, or a version 5
+/// quad (records with normals and uv, a point map, one attribute).
+fn serialized_body(version: u16) -> Vec<u8> {
+    let mut b = Vec::new();
+    let f32s = |b: &mut Vec<u8>, v: &[f32]| v.iter().for_each(|x| b.extend(x.to_le_bytes()));
+    let u32s = |b: &mut Vec<u8>, v: &[u32]| v.iter().for_each(|x| b.extend(x.to_le_bytes()));
+    let quad = [
+        0.0f32, 0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 1.0, 0.0, 0.0, 1.0, 0.0,
+    ];
+    match version {
+        3 => {
+            b.extend(0x2000u32.to_le_bytes());
+            b.extend(3u64.to_le_bytes());
+            b.extend(1u64.to_le_bytes());
+            for x in [0.0f64, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0] {
+                b.extend(x.to_le_bytes());
+            }
+            u32s(&mut b, &[0, 1, 2]);
+        }
+        4 => {
+            b.extend((0x1000u32 | 1 | 2 | 8).to_le_bytes());
+            b.extend(b"quad\0");
+            b.extend(4u64.to_le_bytes());
+            b.extend(2u64.to_le_bytes());
+            f32s(&mut b, &quad);
+            f32s(&mut b, &[0.0, 0.0, 1.0].repeat(4));
+            f32s(&mut b, &[0.0, 0.0, 1.0, 0.0, 1.0, 1.0, 0.0, 1.0]);
+            f32s(&mut b, &[0.5; 12]);
+            u32s(&mut b, &[0, 1, 2, 0, 2, 3]);
+        }
+        _ => {
+            b.extend((0x1000u32 | 1 | 4).to_le_bytes());
+            u32s(&mut b, &[1]);
+            b.push(b'q');
+            for n in [4u64, 2, 4, 0] {
+                b.extend(n.to_le_bytes());
+            }
+            for v in quad.chunks(3) {
+                f32s(&mut b, v);
+                f32s(&mut b, &[0.0, 0.0, 1.0, v[0], v[1]]);
+            }
+            u32s(&mut b, &[0, 1, 2, 0, 0, 2, 3, 0]);
+            u32s(&mut b, &[0, 1, 2, 3]);
+            u32s(&mut b, &[1, 6]);
+            b.extend(b"face_a");
+            b.push(0);
+            u32s(&mut b, &[1]);
+            f32s(&mut b, &[1.0, 2.0]);
+        }
+    }
+    b
+}
+
+/// A file of the given bodies (each compressed after the header) and its dictionary.
+fn serialized_file(version: u16, bodies: &[Vec<u8>]) -> Vec<u8> {
+    let mut f = Vec::new();
+    let mut offsets = Vec::new();
+    for body in bodies {
+        offsets.push(f.len() as u64);
+        f.extend(0x041Cu16.to_le_bytes());
+        f.extend(version.to_le_bytes());
+        f.extend(zlib(body));
+    }
+    for o in offsets {
+        if version == 3 {
+            f.extend((o as u32).to_le_bytes());
+        } else {
+            f.extend(o.to_le_bytes());
+        }
+    }
+    f.extend((bodies.len() as u32).to_le_bytes());
+    f
+}
+
+/// Mutations of the file bytes (mostly caught by zlib) and of the decompressed bodies
+/// (the loader's own checks), at every shape_index up to one past the last mesh.
+#[test]
+fn mutated_serialized_meshes_load_cleanly_or_fail_cleanly() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("m.serialized");
+    // The bases are valid: both meshes load.
+    for version in 3..6u16 {
+        let body = serialized_body(version);
+        std::fs::write(&path, serialized_file(version, &[body.clone(), body])).unwrap();
+        for index in 0..2 {
+            let m = load_serialized(&path, index).unwrap().mesh;
+            assert_eq!(m.triangles.len(), if version == 3 { 1 } else { 2 });
+        }
+    }
+    runner(2000)
+        .run(
+            &(3..6u16, any::<bool>(), 0..3u64, mutations(4)),
+            |(version, in_body, index, muts)| {
+                let body = serialized_body(version);
+                let bytes = if in_body {
+                    serialized_file(version, &[body.clone(), apply(&body, &muts)])
+                } else {
+                    apply(&serialized_file(version, &[body.clone(), body]), &muts)
+                };
+                std::fs::write(&path, bytes).unwrap();
+                match load_serialized(&path, index) {
+                    Ok(s) => {
+                        let m = s.mesh;
+                        prop_assert!(m.positions.iter().all(|p| p.is_finite()));
+                        let n = m.positions.len() as u32;
+                        prop_assert!(m.triangles.iter().flatten().all(|&i| i < n));
+                        prop_assert!(!m.triangles.is_empty());
+                        for len in [
+                            m.normals.as_ref().map(Vec::len),
+                            m.uvs.as_ref().map(Vec::len),
+                        ]
+                        .into_iter()
+                        .flatten()
+                        {
+                            prop_assert_eq!(len, m.positions.len());
+                        }
+                    }
+                    Err(e) => {
+                        let msg = e.to_string();
+                        prop_assert!(!msg.is_empty() && !msg.contains('\n'), "{msg:?}");
+                    }
+                }
+                Ok(())
+            },
+        )
         .unwrap();
 }
 

@@ -100,6 +100,38 @@ fn f32s(values: &[f32]) -> Vec<u8> {
     values.iter().flat_map(|v| v.to_le_bytes()).collect()
 }
 
+/// A `.serialized` file: the header, then `body` zlib-compressed, then a dictionary of
+/// one mesh at offset 0.
+fn serialized(version: u16, body: &[u8]) -> File {
+    use std::io::Write;
+    let mut e = flate2::write::ZlibEncoder::new(Vec::new(), flate2::Compression::default());
+    e.write_all(body).unwrap();
+    let mut f = [0x041Cu16.to_le_bytes(), version.to_le_bytes()].concat();
+    f.extend(e.finish().unwrap());
+    f.extend(0u64.to_le_bytes());
+    f.extend(1u32.to_le_bytes());
+    File::Bytes(f)
+}
+
+/// A version 4 body: flags (single precision), name, counts, positions, indices.
+fn serialized_body(vertices: u64, positions: &[f32], faces: &[u32]) -> Vec<u8> {
+    let mut b = 0x1000u32.to_le_bytes().to_vec();
+    b.extend(b"m\0");
+    b.extend(vertices.to_le_bytes());
+    b.extend((faces.len() as u64 / 3).to_le_bytes());
+    b.extend(f32s(positions));
+    faces.iter().for_each(|i| b.extend(i.to_le_bytes()));
+    b
+}
+
+const TRIANGLE: [f32; 9] = [0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0];
+
+fn serialized_scene(params: &str) -> File {
+    scene_with(&format!(
+        r#"<shape type="serialized"><string name="filename" value="m.serialized"/>{params}</shape>"#
+    ))
+}
+
 fn case(name: &'static str, files: Vec<(&'static str, File)>, want: &'static str) -> Case {
     Case {
         name,
@@ -514,6 +546,90 @@ fn cases() -> Vec<Case> {
         mesh_case("ply_without_faces", "ply", "m.ply", File::Text(PLY_HEADER.replace("face 1", "face 0") + "0 0 0\n1 0 0\n0 1 0\n"), "has no faces"),
         mesh_case("ply_not_ply", "ply", "m.ply", File::Text("solid cube\nendsolid\n".into()), "not a PLY file"),
         mesh_case("ply_far_vertex", "ply", "m.ply", ply("0 0 0\n1e20 0 0\n0 1 0\n3 0 1 2\n"), "lies beyond"),
+        // ---- serialized contents ----
+        mesh_case("serialized_links_to_dev_zero", "serialized", "m.serialized", File::Link("/dev/zero"), "not a regular file"),
+        mesh_case("serialized_is_17_gib", "serialized", "m.serialized", File::Sparse(17 << 30), "above the limit"),
+        // Read in place: a large file is not loaded whole (its zero header is refused).
+        mesh_case("serialized_is_10_gib", "serialized", "m.serialized", File::Sparse(10 << 30), "not a serialized mesh"),
+        mesh_case("serialized_not_serialized", "serialized", "m.serialized", ply("0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n"), "not a serialized mesh"),
+        mesh_case("serialized_truncated_header", "serialized", "m.serialized", File::Bytes(vec![0x1C, 0x04, 4]), "truncated header"),
+        mesh_case("serialized_version_9", "serialized", "m.serialized", File::Bytes(vec![0x1C, 0x04, 9, 0, 0x78, 0x9C]), "unsupported version 9"),
+        mesh_case("serialized_not_zlib", "serialized", "m.serialized", File::Bytes([vec![0x1C, 0x04, 4, 0], vec![0xAB; 64]].concat()), "corrupt compressed data"),
+        mesh_case("serialized_empty_stream", "serialized", "m.serialized", File::Bytes(vec![0x1C, 0x04, 4, 0]), "end early"),
+        mesh_case(
+            "serialized_4e9_vertices",
+            "serialized",
+            "m.serialized",
+            serialized(4, &serialized_body(4_000_000_000, &TRIANGLE, &[0, 1, 2])),
+            "compressed bytes left",
+        ),
+        mesh_case(
+            "serialized_vertices_beyond_u32",
+            "serialized",
+            "m.serialized",
+            serialized(4, &serialized_body(1 << 40, &TRIANGLE, &[0, 1, 2])),
+            "more than 4294967295",
+        ),
+        // Counts within what the stream could hold (data that do not compress well), the
+        // data shorter.
+        mesh_case(
+            "serialized_zeros_short_of_the_counts",
+            "serialized",
+            "m.serialized",
+            serialized(4, &serialized_body(300_000, &(0..870_000).map(|i| (i % 1009) as f32 * 0.37).collect::<Vec<_>>(), &[0, 1, 2])),
+            "end early",
+        ),
+        mesh_case(
+            "serialized_counts_below_the_data",
+            "serialized",
+            "m.serialized",
+            serialized(4, &[serialized_body(3, &TRIANGLE, &[0, 1, 2]), vec![0; 12]].concat()),
+            "more data than its counts",
+        ),
+        mesh_case(
+            "serialized_index_out_of_range",
+            "serialized",
+            "m.serialized",
+            serialized(4, &serialized_body(3, &TRIANGLE, &[0, 1, 3])),
+            "triangle 0 refers to vertex 3",
+        ),
+        mesh_case(
+            "serialized_nan",
+            "serialized",
+            "m.serialized",
+            serialized(4, &serialized_body(3, &[0.0, 0.0, 0.0, f32::NAN, 0.0, 0.0, 0.0, 1.0, 0.0], &[0, 1, 2])),
+            "vertex 1: position",
+        ),
+        mesh_case(
+            "serialized_far_vertex",
+            "serialized",
+            "m.serialized",
+            serialized(4, &serialized_body(3, &[0.0, 0.0, 0.0, 1e20, 0.0, 0.0, 0.0, 1.0, 0.0], &[0, 1, 2])),
+            "lies beyond",
+        ),
+        mesh_case(
+            "serialized_without_faces",
+            "serialized",
+            "m.serialized",
+            serialized(4, &serialized_body(3, &TRIANGLE, &[])),
+            "has no faces",
+        ),
+        case(
+            "serialized_shape_index_out_of_range",
+            vec![
+                ("scene.xml", serialized_scene(r#"<integer name="shape_index" value="1"/>"#)),
+                ("m.serialized", serialized(4, &serialized_body(3, &TRIANGLE, &[0, 1, 2]))),
+            ],
+            "shape_index 1 is out of range: the file holds 1 mesh",
+        ),
+        case(
+            "serialized_shape_index_negative",
+            vec![
+                ("scene.xml", serialized_scene(r#"<integer name="shape_index" value="-1"/>"#)),
+                ("m.serialized", serialized(4, &serialized_body(3, &TRIANGLE, &[0, 1, 2]))),
+            ],
+            "shape_index must be non-negative",
+        ),
         // ---- OBJ contents ----
         mesh_case("obj_empty", "obj", "m.obj", File::Text(String::new()), "has no faces"),
         mesh_case("obj_index_out_of_range", "obj", "m.obj", File::Text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n".into()), "vertex index 4 is out of range"),

@@ -10,14 +10,21 @@ use std::path::Path;
 pub const MAX_SCENE_BYTES: u64 = 256 << 20;
 /// Bundle manifests (JSON): a few kB in practice.
 pub const MAX_MANIFEST_BYTES: u64 = 16 << 20;
-/// Meshes (PLY, OBJ): 16 GiB, more than this machine's users render.
+/// Meshes (PLY, OBJ, serialized): 16 GiB, more than this machine's users render.
 pub const MAX_MESH_BYTES: u64 = 16 << 30;
 /// Texture images (PNG, JPEG, HDR, EXR): compressed data of the largest texture accepted.
 pub const MAX_IMAGE_BYTES: u64 = 4 << 30;
 
-/// Reads a whole regular file of at most `max_bytes`. The error is a short reason
-/// (without the path: callers name the file in their own error type).
-pub fn read_regular(path: &Path, max_bytes: u64) -> Result<Vec<u8>, String> {
+/// Opens a regular file of at most `max_bytes` for reading in place (seeking), with
+/// the same checks as [`read_regular`]; returns it with its size.
+pub fn open_regular(path: &Path, max_bytes: u64) -> Result<(std::fs::File, u64), String> {
+    let meta = check_regular(path, max_bytes)?;
+    let file = std::fs::File::open(path).map_err(|e| e.to_string())?;
+    Ok((file, meta.len()))
+}
+
+/// The metadata of a regular file (after links) of at most `max_bytes`.
+fn check_regular(path: &Path, max_bytes: u64) -> Result<std::fs::Metadata, String> {
     let meta = std::fs::metadata(path).map_err(|e| e.to_string())?;
     if !meta.is_file() {
         let kind = if meta.is_dir() {
@@ -34,6 +41,13 @@ pub fn read_regular(path: &Path, max_bytes: u64) -> Result<Vec<u8>, String> {
             max_bytes
         ));
     }
+    Ok(meta)
+}
+
+/// Reads a whole regular file of at most `max_bytes`. The error is a short reason
+/// (without the path: callers name the file in their own error type).
+pub fn read_regular(path: &Path, max_bytes: u64) -> Result<Vec<u8>, String> {
+    let meta = check_regular(path, max_bytes)?;
     let file = std::fs::File::open(path).map_err(|e| e.to_string())?;
     let mut bytes = Vec::new();
     // A file within the limit may still not fit in memory (or under `ulimit -v`):

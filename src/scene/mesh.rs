@@ -1,6 +1,7 @@
 //! Loading triangle meshes from disk.
 //!
-//! Two formats are supported:
+//! Two formats are supported here (Mitsuba's `.serialized` meshes are read into the
+//! same [`MeshData`] by [`super::serialized`]):
 //!
 //! * **PLY** (ASCII, binary little-endian and binary big-endian), read with the
 //!   `ply-rs` crate. The `vertex` element must have scalar `x`, `y`, `z`
@@ -65,6 +66,9 @@ pub enum MeshError {
     /// The file was read but is not a usable OBJ mesh.
     #[error("invalid OBJ file {}: {message}", .path.display())]
     Obj { path: PathBuf, message: String },
+    /// The file was read but is not a usable Mitsuba `.serialized` mesh.
+    #[error("invalid serialized mesh file {}: {message}", .path.display())]
+    Serialized { path: PathBuf, message: String },
     /// The file is well formed but contains no faces (e.g. a point cloud).
     #[error("mesh file {} has no faces", .path.display())]
     NoFaces { path: PathBuf },

@@ -9,6 +9,7 @@ pub mod film;
 pub mod limits;
 pub mod mesh;
 pub mod props;
+pub mod serialized;
 pub mod shapes;
 pub mod spectrum;
 pub mod textures;

@@ -1,4 +1,5 @@
-//! Shape plugins: `rectangle`, `cube`, `sphere`, `ply`, `obj` (Mitsuba 3 semantics).
+//! Shape plugins: `rectangle`, `cube`, `sphere`, `ply`, `obj`, `serialized` (Mitsuba 3
+//! semantics).
 //!
 //! | shape | parameters |
 //! |-------|------------|
@@ -6,6 +7,7 @@
 //! | cube | `to_world`; [-1, 1]^3, normals outward |
 //! | sphere | `center` (point, 0), `radius` (float, 1), `to_world` (uniform scale only) |
 //! | ply, obj | `filename` (relative to the scene file), `to_world`, `face_normals` (bool, false: smooth normals from the file, or angle-weighted ones computed as Mitsuba does), `flip_tex_coords` (bool: v -> 1 - v of the file's texture coordinates; true for obj, false for ply, as Mitsuba) |
+//! | serialized | as ply (no `flip_tex_coords`: uv as stored), plus `shape_index` (integer, 0: which mesh of the file); see [`super::serialized`] |
 //!
 //! Texture coordinates (`Shape::uv`) follow Mitsuba: rectangle (p + 1) / 2 in its local
 //! square; cube [0, 1]^2 on every face, oriented as Mitsuba's cube; sphere
@@ -18,6 +20,7 @@
 use super::error::SceneError;
 use super::mesh::{load_obj, load_ply, MeshData};
 use super::props::Props;
+use super::serialized::load_serialized;
 use crate::geometry::shape::ShapeGeom;
 use crate::geometry::sphere::SphereGeom;
 use glam::{DMat4, DVec3, Mat3, Vec2, Vec3};
@@ -251,7 +254,7 @@ pub fn parse_geometry(kind: &str, props: &mut Props) -> Result<ShapeGeom, SceneE
                 to_local,
             ))
         }
-        "ply" | "obj" => {
+        "ply" | "obj" | "serialized" => {
             let name = props
                 .string("filename")?
                 .ok_or_else(|| props.err("missing parameter 'filename'"))?;
@@ -260,19 +263,38 @@ pub fn parse_geometry(kind: &str, props: &mut Props) -> Result<ShapeGeom, SceneE
             }
             let path = props.ctx.resolve(&name);
             props.ctx.read_mesh_file(&path);
-            let loaded = if kind == "ply" {
-                load_ply(&path)
+            // A version 5 serialized mesh may ask for face normals itself.
+            let mut stored_face_normals = false;
+            let mut mesh = if kind == "serialized" {
+                let index = props.integer("shape_index")?.unwrap_or(0);
+                let index = u64::try_from(index).map_err(|_| {
+                    props.err_at(
+                        "shape_index",
+                        format!("shape_index must be non-negative, got {index}"),
+                    )
+                })?;
+                let loaded = load_serialized(&path, index).map_err(|e| {
+                    props.err_at("filename", format!("{e} (shape_index {index})"))
+                })?;
+                stored_face_normals = loaded.face_normals;
+                loaded.mesh
             } else {
-                load_obj(&path)
-            };
-            let mut mesh = loaded.map_err(|e| props.err_at("filename", e.to_string()))?;
-            // Mitsuba flips v of OBJ texture coordinates by default, not of PLY ones.
-            if props.boolean_or("flip_tex_coords", kind == "obj")? {
-                for uv in mesh.uvs.iter_mut().flatten() {
-                    uv.y = 1.0 - uv.y;
+                let loaded = if kind == "ply" {
+                    load_ply(&path)
+                } else {
+                    load_obj(&path)
+                };
+                let mut mesh = loaded.map_err(|e| props.err_at("filename", e.to_string()))?;
+                // Mitsuba flips v of OBJ texture coordinates by default, not of PLY ones;
+                // serialized meshes keep theirs as stored (no such parameter).
+                if props.boolean_or("flip_tex_coords", kind == "obj")? {
+                    for uv in mesh.uvs.iter_mut().flatten() {
+                        uv.y = 1.0 - uv.y;
+                    }
                 }
-            }
-            if props.boolean_or("face_normals", false)? {
+                mesh
+            };
+            if props.boolean_or("face_normals", stored_face_normals)? {
                 mesh.normals = None;
             } else if mesh.normals.is_none() {
                 mesh.normals = Some(vertex_normals(&mesh));
@@ -284,7 +306,7 @@ pub fn parse_geometry(kind: &str, props: &mut Props) -> Result<ShapeGeom, SceneE
                 .map_err(|e| props.err_at("filename", format!("mesh '{name}': {e}")))
         }
         other => Err(props.err(format!(
-            "unknown shape type '{other}' (supported: rectangle, cube, sphere, ply, obj)"
+            "unknown shape type '{other}' (supported: rectangle, cube, sphere, ply, obj, serialized)"
         ))),
     }
 }
