@@ -76,7 +76,7 @@ def main():
     files = scenes(a.wild)
     if not files:
         sys.exit(f"no scenes found in {a.wild}/README.md")
-    ok = 0
+    ok = checked = 0
     causes = collections.Counter()
     examples = {}
     with tempfile.TemporaryDirectory() as tmp:
@@ -84,6 +84,9 @@ def main():
             out = os.path.join(tmp, f"s{i}.tstats")
             cmd = [a.tstat, "render", f, "--out", out, "--width", "16", "--spp", "4",
                    "--bins", "8", "--threads", "2"]
+            # `tstat check` must agree with the render about whether the scene works.
+            c = subprocess.run([a.tstat, "check", f], capture_output=True, text=True)
+            checked += c.returncode == 0
             good, msg = run(cmd, a.timeout)
             # Scenes that leave parameters to the caller (`$spp` without a <default>,
             # as Mitsuba's docs build passes them): retry once with typical values.
@@ -104,7 +107,8 @@ def main():
                 print(("ok   " if good else "FAIL ") + rel + ("" if good else "\n       " + msg))
             subprocess.run(["rm", "-rf", out])
     n = len(files)
-    print(f"\n{ok} of {n} scenes load and render ({100.0 * ok / n:.1f}%)")
+    print(f"\n{ok} of {n} scenes load and render ({100.0 * ok / n:.1f}%); "
+          f"`tstat check` says ok for {checked} (without scene parameters)")
     print("\nwhat blocks the rest (first error of each scene), most frequent first:")
     for key, count in causes.most_common():
         print(f"{count:4d}  {key}\n      e.g. {examples[key]}")

@@ -382,3 +382,61 @@ fn d_sets_parameters_the_file_uses_without_a_default() {
         .to_string();
     assert!(e.contains("never uses $sp"), "{e}");
 }
+
+#[test]
+fn check_lists_every_unsupported_feature_with_its_line() {
+    use tstat::scene::check::{check, Verdict};
+    let d = tempfile::tempdir().unwrap();
+    let d = d.path();
+    write(d, "tri.ply", TRI_PLY);
+    let body = format!(
+        "{SHAPES}\n<emitter type=\"envmap\"/>\n<bsdf type=\"principled\" id=\"p\"/>\n<medium type=\"homogeneous\" id=\"fog\"/>\n"
+    );
+    write(d, "s.xml", &scene(FOV, &body));
+    let Verdict::Unsupported(found) = check(&d.join("s.xml"), &[]) else {
+        panic!("not flagged")
+    };
+    let text: Vec<String> = found.iter().map(|f| f.to_string()).collect();
+    assert_eq!(found.len(), 3, "{text:?}");
+    assert!(
+        text[0].contains("envmap")
+            && text[1].contains("principled")
+            && text[2].contains("<medium>"),
+        "{text:?}"
+    );
+    // Lines of the file: the body starts after the 14-line head.
+    let lines: Vec<u32> = found.iter().map(|f| f.line).collect();
+    assert!(lines.windows(2).all(|w| w[1] == w[0] + 1), "{lines:?}");
+    // Through an include too.
+    write(
+        d,
+        "part.xml",
+        r#"<scene version="3.0.0"><shape type="disk"/></scene>"#,
+    );
+    write(
+        d,
+        "i.xml",
+        &scene(FOV, &format!(r#"{SHAPES}<include filename="part.xml"/>"#)),
+    );
+    let Verdict::Unsupported(found) = check(&d.join("i.xml"), &[]) else {
+        panic!()
+    };
+    assert!(found[0].file.ends_with("part.xml") && found[0].what.contains("disk"));
+    // A supported scene that still fails says why; a good one is ok.
+    write(
+        d,
+        "f.xml",
+        &scene(FOV, &SHAPES.replace("tri.ply", "missing.ply")),
+    );
+    assert!(matches!(check(&d.join("f.xml"), &[]), Verdict::Fails(e) if e.contains("missing.ply")));
+    write(d, "g.xml", &scene(FOV, SHAPES));
+    assert!(matches!(check(&d.join("g.xml"), &[]), Verdict::Ok));
+    // Every bundled scene checks ok.
+    let scenes = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+    for e in std::fs::read_dir(scenes).unwrap() {
+        let p = e.unwrap().path();
+        if p.extension().is_some_and(|x| x == "xml") {
+            assert!(matches!(check(&p, &[]), Verdict::Ok), "{}", p.display());
+        }
+    }
+}

@@ -33,17 +33,26 @@ pub const SUPPORTED: &[(&str, &[&str])] = &[
             "Composed",
         ],
     ),
-    ("shape", &["rectangle", "cube", "sphere", "ply", "obj"]),
+    (
+        "shape",
+        &["rectangle", "cube", "sphere", "ply", "obj", "serialized"],
+    ),
     ("texture", &["bitmap", "checkerboard"]),
     ("emitter", &["area", "point"]),
     ("sensor", &["perspective"]),
     ("film", &["transient_hdr_film"]),
     (
         "sampler",
-        &["independent", "stratified", "multijitter", "orthogonal", "ldsampler"],
+        &[
+            "independent",
+            "stratified",
+            "multijitter",
+            "orthogonal",
+            "ldsampler",
+        ],
     ),
     ("rfilter", &["box"]),
-    ("integrator", &["transient_path"]),
+    ("integrator", &["transient_path", "transient_prbvolpath"]),
     (
         "TemporalProfile",
         &["ConstantTP", "ExponentialTP", "EpanechnikovTP", "PosEpanTP"],
@@ -200,14 +209,16 @@ fn scan_element(
         ));
     } else if tag == "emitter"
         && kind == "area"
-        && node.parent_element().is_some_and(|p| {
-            !p.has_tag_name("shape") && !p.has_tag_name("scene")
-        })
+        && node
+            .parent_element()
+            .is_some_and(|p| !p.has_tag_name("shape") && !p.has_tag_name("scene"))
     {
         push("<emitter type=\"area\"> must be in a <shape> or at the top level".into());
     } else if tag == "emitter"
         && kind == "point"
-        && node.parent_element().is_some_and(|p| p.has_tag_name("shape"))
+        && node
+            .parent_element()
+            .is_some_and(|p| p.has_tag_name("shape"))
     {
         push("<emitter type=\"point\"> cannot be attached to a shape".into());
     }
