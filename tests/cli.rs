@@ -705,3 +705,27 @@ fn unknown_tstat_isa_is_a_warning_and_changes_no_bits() {
         assert!(a == b, "{f} differs between instruction sets");
     }
 }
+
+#[test]
+fn check_says_ok_or_lists_what_is_unsupported() {
+    let r = tstat(&["check", &scene("cbox.xml"), &scene("delay_chlorophyll.xml")]);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let out = String::from_utf8_lossy(&r.stdout);
+    assert_eq!(out.matches(": ok").count(), 2, "{out}");
+    let dir = tempfile::tempdir().unwrap();
+    let bad = dir.path().join("bad.xml");
+    let xml = std::fs::read_to_string(scene("cbox.xml")).unwrap().replace(
+        "</scene>",
+        "<emitter type=\"envmap\"/><medium type=\"homogeneous\"/></scene>",
+    );
+    std::fs::write(&bad, xml).unwrap();
+    let r = tstat(&["check", &scene("cbox.xml"), &s(&bad)]);
+    assert_eq!(r.status.code(), Some(1));
+    let out = String::from_utf8_lossy(&r.stdout);
+    assert!(
+        out.contains("2 unsupported") && out.contains("envmap") && out.contains("<medium>"),
+        "{out}"
+    );
+    let err = String::from_utf8_lossy(&r.stderr);
+    assert_eq!(err.trim(), "error: 1 of 2 scenes would not render");
+}
