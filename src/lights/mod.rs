@@ -5,6 +5,12 @@
 //!
 //! `point` (top level): | intensity | rgb/float | 1 | radiant intensity (W/sr) |
 //! | position | point | — | or `to_world` (its translation) |
+//!
+//! `spot` (top level, Mitsuba 3's): a point light shining along the local +z of
+//! `to_world`: | intensity | rgb/float | 1 | on the axis |
+//! | cutoff_angle | float | 20 | degrees; no light beyond |
+//! | beam_width | float | 3/4 cutoff_angle | degrees; full intensity within |
+//! Between the two the intensity falls linearly in angle, as Mitsuba's `falloff_curve`.
 
 use crate::geometry::shape::{AreaSampler, Shape};
 use crate::math::Rgb;
@@ -20,7 +26,36 @@ pub enum Emitter {
     Point {
         position: Vec3,
         intensity: Rgb,
+        /// A spot light's cone (none: shines in every direction).
+        spot: Option<Spot>,
     },
+}
+
+/// The cone of a `spot` light.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Spot {
+    /// The beam's axis in world space (unit).
+    pub axis: Vec3,
+    /// Angles in radians.
+    pub cutoff: f32,
+    pub beam_width: f32,
+}
+
+impl Spot {
+    /// The fraction of the on-axis intensity emitted along unit direction `d` (from the
+    /// light): 1 within `beam_width`, 0 beyond `cutoff`, linear in angle between.
+    #[inline]
+    pub fn falloff(&self, d: Vec3) -> f32 {
+        let cos_theta = self.axis.dot(d);
+        if cos_theta <= self.cutoff.cos() {
+            return 0.0;
+        }
+        if cos_theta >= self.beam_width.cos() {
+            return 1.0;
+        }
+        let theta = cos_theta.clamp(-1.0, 1.0).acos();
+        ((self.cutoff - theta) / (self.cutoff - self.beam_width)).clamp(0.0, 1.0)
+    }
 }
 
 /// A sampled light connection from a reference point.
@@ -84,6 +119,7 @@ impl Emitter {
             Emitter::Point {
                 position,
                 intensity,
+                spot,
             } => {
                 let d = *position - x;
                 let dist2 = d.length_squared();
@@ -91,12 +127,20 @@ impl Emitter {
                     return None;
                 }
                 let dist = dist2.sqrt();
+                let wi = d / dist;
+                let falloff = match spot {
+                    None => 1.0,
+                    Some(s) => s.falloff(-wi),
+                };
+                if falloff <= 0.0 {
+                    return None;
+                }
                 Some(LightSample {
                     p: *position,
                     n: Vec3::ZERO,
-                    wi: d / dist,
+                    wi,
                     dist,
-                    li: *intensity / dist2,
+                    li: *intensity * (falloff / dist2),
                     pdf: select_pdf,
                     delta: true,
                 })
@@ -114,5 +158,29 @@ impl Emitter {
             }
             _ => 0.0,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn spot_falloff_is_mitsubas_linear_ramp_in_angle() {
+        let s = Spot {
+            axis: Vec3::Z,
+            cutoff: 20f32.to_radians(),
+            beam_width: 15f32.to_radians(),
+        };
+        let at = |deg: f32| {
+            let t = deg.to_radians();
+            s.falloff(Vec3::new(t.sin(), 0.0, t.cos()))
+        };
+        assert_eq!(at(0.0), 1.0);
+        assert_eq!(at(14.9), 1.0);
+        assert!((at(17.5) - 0.5).abs() < 1e-3, "{}", at(17.5));
+        assert!((at(19.0) - 0.2).abs() < 1e-3);
+        assert_eq!(at(20.1), 0.0);
+        assert_eq!(at(90.0), 0.0);
     }
 }

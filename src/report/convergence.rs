@@ -459,9 +459,13 @@ fn hash_loaded_scene(h: &mut Sha256, scene: &Scene, overrides: &Overrides) {
             Emitter::Point {
                 position,
                 intensity,
+                spot,
             } => {
                 f32s(h, &position.to_array());
                 f32s(h, &intensity.to_array());
+                if let Some(s) = spot {
+                    f32s(h, &[s.axis.x, s.axis.y, s.axis.z, s.cutoff, s.beam_width]);
+                }
             }
         }
     }

@@ -38,7 +38,7 @@ pub const SUPPORTED: &[(&str, &[&str])] = &[
         &["rectangle", "cube", "sphere", "ply", "obj", "serialized"],
     ),
     ("texture", &["bitmap", "checkerboard"]),
-    ("emitter", &["area", "point"]),
+    ("emitter", &["area", "point", "spot"]),
     ("sensor", &["perspective"]),
     ("film", &["transient_hdr_film"]),
     (

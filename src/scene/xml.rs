@@ -833,10 +833,10 @@ fn parse_shape(
 
 fn parse_point_emitter(ctx: &Ctx, node: Node) -> Result<Emitter, SceneError> {
     let kind = ctx.required_attr(node, "type")?;
-    if kind != "point" {
+    if kind != "point" && kind != "spot" {
         return Err(ctx.err(
             node,
-            format!("emitter '{kind}' is not supported at top level (supported: point; area lights go inside a <shape>)"),
+            format!("emitter '{kind}' is not supported at top level (supported: point, spot; area lights go inside a <shape> or are attached by <ref>)"),
         ));
     }
     let mut p = Props::parse(ctx, node)?;
@@ -850,20 +850,56 @@ fn parse_point_emitter(ctx: &Ctx, node: Node) -> Result<Emitter, SceneError> {
             "intensity is zero (in single precision): this emitter contributes nothing",
         );
     }
-    let position = match (p.point("position")?, p.transform("to_world")?) {
-        (Some(_), Some(_)) => return Err(p.err("give either 'position' or 'to_world', not both")),
-        (Some(pos), None) => DVec3::from(pos),
-        (None, Some(m)) => m.transform_point3(DVec3::ZERO),
-        (None, None) => DVec3::ZERO,
+    let (position, spot) = if kind == "spot" {
+        // Mitsuba's spot: a to_world frame (the beam along its +z), no `position`.
+        let m = p.transform("to_world")?.unwrap_or(DMat4::IDENTITY);
+        let cutoff = p.float_or("cutoff_angle", 20.0)?;
+        let beam = p.float_or("beam_width", cutoff * 0.75)?;
+        if !(cutoff > 0.0 && cutoff <= 180.0) {
+            return Err(p.err_at(
+                "cutoff_angle",
+                format!("cutoff_angle must be in (0, 180] degrees, got {cutoff}"),
+            ));
+        }
+        if !(beam > 0.0 && beam <= cutoff) {
+            return Err(p.err_at(
+                "beam_width",
+                format!("beam_width must be in (0, cutoff_angle = {cutoff}] degrees, got {beam}"),
+            ));
+        }
+        let axis = m.transform_vector3(DVec3::Z);
+        if !(axis.length() > 0.0) || !axis.is_finite() {
+            return Err(p.err_at("to_world", "the spot's to_world maps its axis to nothing"));
+        }
+        let spot = crate::lights::Spot {
+            axis: axis.normalize().as_vec3(),
+            cutoff: cutoff.to_radians() as f32,
+            beam_width: beam.to_radians() as f32,
+        };
+        (m.transform_point3(DVec3::ZERO), Some(spot))
+    } else {
+        let position = match (p.point("position")?, p.transform("to_world")?) {
+            (Some(_), Some(_)) => {
+                return Err(p.err("give either 'position' or 'to_world', not both"))
+            }
+            (Some(pos), None) => DVec3::from(pos),
+            (None, Some(m)) => m.transform_point3(DVec3::ZERO),
+            (None, None) => DVec3::ZERO,
+        };
+        (position, None)
     };
     if let Some(&o) = p.objects.first() {
-        return Err(ctx.err(o, "unexpected nested element in <emitter>"));
+        return Err(ctx.err(
+            o,
+            "unexpected nested element in <emitter> (a textured spot is not supported)",
+        ));
     }
     p.finish()?;
     check_world_point(position).map_err(|e| ctx.err(node, format!("position: {e}")))?;
     Ok(Emitter::Point {
         position: position.as_vec3(),
         intensity,
+        spot,
     })
 }
 
