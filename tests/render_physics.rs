@@ -590,12 +590,18 @@ fn anisotropic_scene_agrees_with_mitransient_block_by_block() {
             r#"<float name="alpha_u" value="0.05"/><float name="alpha_v" value="0.4"/>"#,
             r#"<float name="alpha_u" value="0.4"/><float name="alpha_v" value="0.05"/>"#,
         );
-    assert_eq!(swapped.matches("alpha_u").count(), xml.matches("alpha_u").count());
+    assert_eq!(
+        swapped.matches("alpha_u").count(),
+        xml.matches("alpha_u").count()
+    );
     assert_ne!(swapped, xml);
     let dir = tempfile::tempdir().unwrap();
     let swapped_path = dir.path().join("cbox_aniso_swapped.xml");
     std::fs::write(&swapped_path, swapped).unwrap();
-    let rel = block_errors(&run(&Scene::load(&swapped_path, &o).unwrap(), 5).steady, &want);
+    let rel = block_errors(
+        &run(&Scene::load(&swapped_path, &o).unwrap(), 5).steady,
+        &want,
+    );
     let over = rel.iter().filter(|&&r| r > 0.15).count();
     // Measured: max about 10 (a highlight where mitransient has none), 32 block
     // channels beyond 15%.

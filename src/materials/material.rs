@@ -53,7 +53,11 @@ impl Param {
             Param::Alpha
                 | Param::AlphaU
                 | Param::AlphaV
-                | Param::Opacity | Param::Delay | Param::Lambda | Param::Mu | Param::Sigma
+                | Param::Opacity
+                | Param::Delay
+                | Param::Lambda
+                | Param::Mu
+                | Param::Sigma
         )
     }
 }

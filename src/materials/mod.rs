@@ -152,9 +152,9 @@ impl Bsdf {
         match self {
             Bsdf::RoughConductor(c) => c.distribution.is_anisotropic(),
             Bsdf::RoughDielectric(d) => d.distribution.is_anisotropic(),
-            Bsdf::TwoSided(t) => [&t.front, &t.back]
-                .iter()
-                .any(|s| matches!(s, OneSided::RoughConductor(c) if c.distribution.is_anisotropic())),
+            Bsdf::TwoSided(t) => [&t.front, &t.back].iter().any(
+                |s| matches!(s, OneSided::RoughConductor(c) if c.distribution.is_anisotropic()),
+            ),
             Bsdf::Mask(m) => m.nested.anisotropic(),
             Bsdf::Separable(s) => s.inner.anisotropic(),
             Bsdf::Composed(c) => c.first.anisotropic() || c.second.anisotropic(),

@@ -524,13 +524,21 @@ mod tests {
             let want = to_world.transform_vector3(DVec3::new(2.0, 0.0, 0.0));
             for f in 0..2 {
                 let got = r.dpdu(f, 0.2, 0.2, Vec3::ZERO).as_dvec3();
-                assert!((got - want).length() < 1e-5 * want.length(), "{got} vs {want}");
+                assert!(
+                    (got - want).length() < 1e-5 * want.length(),
+                    "{got} vs {want}"
+                );
             }
             check_mesh_dpdu(&shape(transform_mesh(cube(), &to_world, true).unwrap()));
         }
         // Mitsuba's cube on +z: u runs from corner 4 (-1,-1,1) to corner 6 (-1,1,1).
         let c = shape(transform_mesh(cube(), &DMat4::IDENTITY, true).unwrap());
-        let ShapeGeom::Mesh { triangles, positions, .. } = &c.geom else {
+        let ShapeGeom::Mesh {
+            triangles,
+            positions,
+            ..
+        } = &c.geom
+        else {
             unreachable!()
         };
         let top = (0..triangles.len())
@@ -549,9 +557,21 @@ mod tests {
                 uvs[0][0], uvs[0][1], uvs[1][0], uvs[1][1], uvs[2][0], uvs[2][1]
             )
         };
-        std::fs::write(dir.path().join("t.ply"), ply([[0.1, 0.2], [0.9, 0.3], [0.2, 0.8]])).unwrap();
-        std::fs::write(dir.path().join("d.ply"), ply([[0.5, 0.5], [0.5, 0.5], [0.5, 0.5]])).unwrap();
-        std::fs::write(dir.path().join("n.obj"), "v 0 0 0\nv 1 0.2 0\nv 0.1 1 0.3\nf 1 2 3\n").unwrap();
+        std::fs::write(
+            dir.path().join("t.ply"),
+            ply([[0.1, 0.2], [0.9, 0.3], [0.2, 0.8]]),
+        )
+        .unwrap();
+        std::fs::write(
+            dir.path().join("d.ply"),
+            ply([[0.5, 0.5], [0.5, 0.5], [0.5, 0.5]]),
+        )
+        .unwrap();
+        std::fs::write(
+            dir.path().join("n.obj"),
+            "v 0 0 0\nv 1 0.2 0\nv 0.1 1 0.3\nf 1 2 3\n",
+        )
+        .unwrap();
         let file = dir.path().join("scene.xml");
         let load = |kind: &str, name: &str| {
             let xml = format!(
@@ -589,8 +609,12 @@ mod tests {
         let (c, r) = (g.center.as_dvec3(), g.radius as f64);
         let mut checked = 0;
         for i in 0..40 {
-            let d = DVec3::new((i as f64 * 1.3).sin(), (i as f64 * 0.7).cos(), (i as f64 * 2.1).sin() - 0.2)
-                .normalize();
+            let d = DVec3::new(
+                (i as f64 * 1.3).sin(),
+                (i as f64 * 0.7).cos(),
+                (i as f64 * 2.1).sin() - 0.2,
+            )
+            .normalize();
             let local = (*to_local * d.as_vec3()).normalize();
             // Away from the poles and from the seam, where u jumps from 1 to 0.
             if local.z.abs() > 0.95 || (local.y.abs() < 0.05 && local.x > 0.0) {

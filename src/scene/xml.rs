@@ -727,8 +727,14 @@ mod tests {
         // A textured alpha_u sets alpha_u only (checkerboard eval_1 at (0.25, 0.25):
         // color1's 0.2), a textured alpha_v alpha_v only.
         for (params, want) in [
-            (r#"<texture type="checkerboard" name="alpha_u"/><float name="alpha_v" value="0.7"/>"#, (0.2, 0.7)),
-            (r#"<float name="alpha_u" value="0.7"/><texture type="checkerboard" name="alpha_v"/>"#, (0.7, 0.2)),
+            (
+                r#"<texture type="checkerboard" name="alpha_u"/><float name="alpha_v" value="0.7"/>"#,
+                (0.2, 0.7),
+            ),
+            (
+                r#"<float name="alpha_u" value="0.7"/><texture type="checkerboard" name="alpha_v"/>"#,
+                (0.7, 0.2),
+            ),
         ] {
             let scene = load_text(&with(&format!(
                 r#"{LIGHT}<shape type="sphere"><bsdf type="roughdielectric"><string name="distribution" value="ggx"/>{params}</bsdf></shape>"#
@@ -739,7 +745,10 @@ mod tests {
                 panic!()
             };
             let (u, v) = (d.distribution.alpha_u, d.distribution.alpha_v);
-            assert!((u - want.0).abs() < 1e-6 && (v - want.1).abs() < 1e-6, "{u} {v}");
+            assert!(
+                (u - want.0).abs() < 1e-6 && (v - want.1).abs() < 1e-6,
+                "{u} {v}"
+            );
         }
     }
 
