@@ -149,17 +149,19 @@ impl Shape {
 
     /// The position's derivative along u, dp/du, at a surface point, with Mitsuba 3's
     /// convention for each shape (the direction anisotropic roughness's `alpha_u`
-    /// follows, [`crate::math::frame::Frame::from_normal_tangent`]): on a mesh with
-    /// uv, the derivative of the triangle's linear map from uv to position (the
-    /// triangle's, not the interpolated shading normal's; the same on both triangles
-    /// of a planar face), or where its uvs are degenerate (zero determinant) the first
-    /// axis of `Frame::from_normal` of the triangle's unflipped face normal, as
-    /// `src/render/mesh.cpp` does; on a mesh without uv (the barycentrics are uv),
-    /// `p1 - p0`; on a sphere, the world image of `2 pi (-y, x, 0)` at the
-    /// object-space point (`src/shapes/sphere.cpp`), zero at the poles. Rectangles and
-    /// cubes are meshes with Mitsuba's uv, so theirs is Mitsuba's too. `p` is the hit
-    /// point (spheres only). Computed only for anisotropic materials.
-    /// (A triangle's dp/du is constant: the barycentrics are unused.)
+    /// follows, [`crate::math::frame::Frame::from_normal_tangent`]):
+    /// - a mesh with uv: the derivative of the triangle's linear map from uv to
+    ///   position (constant over the triangle, the same on both triangles of a planar
+    ///   face with a linear uv), or, where the triangle's uvs are degenerate (zero
+    ///   determinant), the first axis of `Frame::from_normal` of its unflipped face
+    ///   normal, as `src/render/mesh.cpp` does;
+    /// - a mesh without uv (the barycentrics are uv): `p1 - p0`;
+    /// - a sphere: the world image of `2 pi (-y, x, 0)` at the object-space point
+    ///   (`src/shapes/sphere.cpp`), zero at the poles.
+    ///
+    /// Rectangles and cubes are meshes with Mitsuba's uv, so theirs is Mitsuba's too.
+    /// `p` is the hit point (spheres only; a triangle's dp/du does not depend on the
+    /// barycentrics). Computed only for anisotropic materials.
     pub fn dpdu(&self, face: u32, _b1: f32, _b2: f32, p: Vec3) -> Vec3 {
         match &self.geom {
             ShapeGeom::Mesh { uvs, triangles, .. } => {

@@ -24,18 +24,24 @@ impl Frame {
     /// Mitsuba 3's shading frame from a surface's dp/du (`SurfaceInteraction::
     /// initialize_sh_frame`): `s` is `dpdu` made orthogonal to `n` (Gram-Schmidt) and
     /// normalised, `t = n x s`. Where `dpdu` gives no direction (zero, as at a sphere's
-    /// poles, or along `n`), the frame of [`Self::from_normal`], as Mitsuba falls back
-    /// to `coordinate_system(n)`. Used only for anisotropic materials, whose lobes
-    /// follow `s` (alpha_u) and `t` (alpha_v).
+    /// poles, not finite, or within about 1e-5 rad of `n`), the frame of
+    /// [`Self::from_normal`], as Mitsuba falls back to `coordinate_system(n)` for a
+    /// zero dp/du. Used only for anisotropic materials, whose lobes follow `s`
+    /// (alpha_u) and `t` (alpha_v).
     pub fn from_normal_tangent(n: Vec3, dpdu: Vec3) -> Self {
-        let s = dpdu - n * n.dot(dpdu);
-        match s.try_normalize() {
-            Some(s) => Frame {
+        let Some(d) = dpdu.try_normalize() else {
+            return Self::from_normal(n);
+        };
+        let s = d - n * n.dot(d);
+        if s.length_squared() > 1e-10 {
+            let s = s.normalize();
+            Frame {
                 s,
                 t: n.cross(s),
                 n,
-            },
-            None => Self::from_normal(n),
+            }
+        } else {
+            Self::from_normal(n)
         }
     }
 
@@ -86,7 +92,8 @@ mod tests {
         // The frame of from_normal is right-handed too: the same convention.
         let g = Frame::from_normal(n);
         assert!((g.s.cross(g.t) - n).length() < 1e-6);
-        for degenerate in [Vec3::ZERO, n * 3.0] {
+        let nearly_n = n + Frame::from_normal(n).t * 1e-7;
+        for degenerate in [Vec3::ZERO, n * 3.0, nearly_n, Vec3::NAN, Vec3::INFINITY] {
             let f = Frame::from_normal_tangent(n, degenerate);
             assert_eq!((f.s, f.t, f.n), (g.s, g.t, g.n));
         }
