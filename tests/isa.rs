@@ -1,6 +1,7 @@
 //! The tracer is compiled once per instruction set (`render::cpu`): every level this
 //! CPU has must trace every path to the same bits as the portable baseline, on a flat
-//! scene (triangle packets), one with spheres and one with a BVH (the bunny).
+//! scene (triangle packets), one with spheres, one with a BVH (the bunny) and one with
+//! anisotropic materials (frames from dp/du on a cube and a sphere).
 //! A separate test binary, since it switches the process-wide level.
 
 use tstat::math::rng::Pcg32;
@@ -58,7 +59,12 @@ fn every_instruction_set_traces_the_same_bits() {
         .into_iter()
         .filter(|i| i.supported())
         .collect();
-    for name in ["cbox.xml", "cbox_spheres.xml", "bunny.xml"] {
+    for name in [
+        "cbox.xml",
+        "cbox_spheres.xml",
+        "bunny.xml",
+        "cbox_aniso.xml",
+    ] {
         let scene = scene(name);
         cpu::force(Isa::Baseline).unwrap();
         let reference = trace_all(&scene);

@@ -147,6 +147,46 @@ impl Shape {
         }
     }
 
+    /// The position's derivative along u, dp/du, at a surface point, with Mitsuba 3's
+    /// convention for each shape (the direction anisotropic roughness's `alpha_u`
+    /// follows, [`crate::math::frame::Frame::from_normal_tangent`]):
+    /// - a mesh with uv: the derivative of the triangle's linear map from uv to
+    ///   position (constant over the triangle, the same on both triangles of a planar
+    ///   face with a linear uv), or, where the triangle's uvs are degenerate (zero
+    ///   determinant), the first axis of `Frame::from_normal` of its unflipped face
+    ///   normal, as `src/render/mesh.cpp` does;
+    /// - a mesh without uv (the barycentrics are uv): `p1 - p0`;
+    /// - a sphere: the world image of `2 pi (-y, x, 0)` at the object-space point
+    ///   (`src/shapes/sphere.cpp`), zero at the poles.
+    ///
+    /// Rectangles and cubes are meshes with Mitsuba's uv, so theirs is Mitsuba's too.
+    /// `p` is the hit point (spheres only; a triangle's dp/du does not depend on the
+    /// barycentrics). Computed only for anisotropic materials.
+    pub fn dpdu(&self, face: u32, _b1: f32, _b2: f32, p: Vec3) -> Vec3 {
+        match &self.geom {
+            ShapeGeom::Mesh { uvs, triangles, .. } => {
+                let tri = self.triangle(face);
+                let Some(uv) = uvs else {
+                    return tri.e1;
+                };
+                let [a, b, c] = triangles[face as usize];
+                let (uv0, uv1, uv2) = (uv[a as usize], uv[b as usize], uv[c as usize]);
+                let (duv0, duv1) = (uv1 - uv0, uv2 - uv0);
+                let det = duv0.x * duv1.y - duv0.y * duv1.x;
+                let dpdu = (tri.e1 * duv1.y - tri.e2 * duv0.y) / det;
+                if det != 0.0 && dpdu.is_finite() {
+                    dpdu
+                } else {
+                    crate::math::frame::Frame::from_normal(tri.cross().normalize_or_zero()).s
+                }
+            }
+            ShapeGeom::Sphere(s, to_local) => {
+                let l = (*to_local * (p - s.center)).normalize_or_zero();
+                to_local.inverse() * (Vec3::new(-l.y, l.x, 0.0) * std::f32::consts::TAU)
+            }
+        }
+    }
+
     pub fn area(&self) -> f64 {
         match &self.geom {
             ShapeGeom::Mesh { triangles, .. } => (0..triangles.len() as u32)

@@ -29,8 +29,12 @@ pub enum Param {
     Eta,
     /// A conductor's extinction coefficient.
     K,
-    /// Microfacet roughness (isotropic).
+    /// Microfacet roughness (isotropic: both axes).
     Alpha,
+    /// Anisotropic microfacet roughness along the shading frame's s axis (dp/du) and
+    /// t axis.
+    AlphaU,
+    AlphaV,
     /// `mask`'s opacity.
     Opacity,
     /// Temporal profile parameters of `Separable` (`ConstantTP`'s delay,
@@ -46,7 +50,14 @@ impl Param {
     fn is_scalar(self) -> bool {
         matches!(
             self,
-            Param::Alpha | Param::Opacity | Param::Delay | Param::Lambda | Param::Mu | Param::Sigma
+            Param::Alpha
+                | Param::AlphaU
+                | Param::AlphaV
+                | Param::Opacity
+                | Param::Delay
+                | Param::Lambda
+                | Param::Mu
+                | Param::Sigma
         )
     }
 }
@@ -79,15 +90,23 @@ pub struct Material {
     /// Neither textured, nor composed, nor delaying: the integrator uses `bsdf` as it
     /// is, with one branch (the common case pays nothing for the others).
     plain: bool,
+    /// Some model inside is anisotropic (alpha_u != alpha_v, or either textured): the
+    /// integrator builds this material's shading frames from dp/du.
+    anisotropic: bool,
 }
 
 impl Material {
     pub fn new(bsdf: Bsdf, bindings: Vec<Binding>) -> Self {
         let plain = bindings.is_empty() && !matches!(bsdf, Bsdf::Composed(_) | Bsdf::Separable(_));
+        let anisotropic = bsdf.anisotropic()
+            || bindings
+                .iter()
+                .any(|b| matches!(b.param, Param::AlphaU | Param::AlphaV));
         Material {
             bsdf,
             bindings,
             plain,
+            anisotropic,
         }
     }
 
@@ -99,6 +118,16 @@ impl Material {
     #[inline(always)]
     pub fn is_plain(&self) -> bool {
         self.plain
+    }
+
+    /// Whether a model inside (through twosided, mask, Separable and Composed) has
+    /// anisotropic roughness, constant or textured: then its lobes follow the
+    /// surface's dp/du and the shading frame must be built from it
+    /// (`Frame::from_normal_tangent`); every other material keeps
+    /// `Frame::from_normal`, whose orientation in the tangent plane does not matter.
+    #[inline(always)]
+    pub fn is_anisotropic(&self) -> bool {
+        self.anisotropic
     }
 
     /// Whether the BSDF varies over the surface (then [`Self::at`] needs the hit's uv).
@@ -166,6 +195,8 @@ fn set_model(b: &mut Bsdf, param: Param, v: Vec3) {
             c.distribution.alpha_u = alpha;
             c.distribution.alpha_v = alpha;
         }
+        (Bsdf::RoughConductor(c), Param::AlphaU) => c.distribution.alpha_u = alpha,
+        (Bsdf::RoughConductor(c), Param::AlphaV) => c.distribution.alpha_v = alpha,
         (Bsdf::RoughDielectric(d), Param::SpecularReflectance) => d.specular_reflectance = colour,
         (Bsdf::RoughDielectric(d), Param::SpecularTransmittance) => {
             d.specular_transmittance = colour
@@ -174,6 +205,8 @@ fn set_model(b: &mut Bsdf, param: Param, v: Vec3) {
             d.distribution.alpha_u = alpha;
             d.distribution.alpha_v = alpha;
         }
+        (Bsdf::RoughDielectric(d), Param::AlphaU) => d.distribution.alpha_u = alpha,
+        (Bsdf::RoughDielectric(d), Param::AlphaV) => d.distribution.alpha_v = alpha,
         (Bsdf::Plastic(p), Param::DiffuseReflectance) => *p = p.with_diffuse_reflectance(colour),
         (Bsdf::Plastic(p), Param::SpecularReflectance) => *p = p.with_specular_reflectance(colour),
         (Bsdf::RoughPlastic(p), Param::DiffuseReflectance) => {

@@ -26,6 +26,12 @@ pub struct Microfacet {
 }
 
 impl Microfacet {
+    /// `alpha_u != alpha_v`: the lobe depends on the tangent frame's orientation.
+    #[inline]
+    pub fn is_anisotropic(&self) -> bool {
+        self.alpha_u != self.alpha_v
+    }
+
     fn visible(&self) -> bool {
         self.sample_visible && self.kind == MicrofacetKind::Ggx
     }

@@ -145,6 +145,23 @@ impl Bsdf {
         matches!(self, Bsdf::Mask(m) if m.mostly_transparent())
     }
 
+    /// Whether the model or a model inside it (twosided's sides, mask's and
+    /// Separable's nested model, Composed's children) has anisotropic roughness
+    /// (constant; textured roughness is known from the material's bindings).
+    pub fn anisotropic(&self) -> bool {
+        match self {
+            Bsdf::RoughConductor(c) => c.distribution.is_anisotropic(),
+            Bsdf::RoughDielectric(d) => d.distribution.is_anisotropic(),
+            Bsdf::TwoSided(t) => [&t.front, &t.back].iter().any(
+                |s| matches!(s, OneSided::RoughConductor(c) if c.distribution.is_anisotropic()),
+            ),
+            Bsdf::Mask(m) => m.nested.anisotropic(),
+            Bsdf::Separable(s) => s.inner.anisotropic(),
+            Bsdf::Composed(c) => c.first.anisotropic() || c.second.anisotropic(),
+            _ => false,
+        }
+    }
+
     /// Whether the model or a model inside it delays its re-emission.
     pub fn delays(&self) -> bool {
         match self {

@@ -168,7 +168,8 @@ fn conductor_ior(p: &mut Params, kind: &str, default: &str) -> Result<(Rgb, Rgb)
 }
 
 /// Mitsuba's microfacet parameters: `distribution` (beckmann), `alpha` (a float or a
-/// texture) or `alpha_u` and `alpha_v` (0.1), `sample_visible` (true).
+/// texture) or `alpha_u` and `alpha_v` (floats or textures; default `alpha` 0.1),
+/// `sample_visible` (true).
 fn microfacet(p: &mut Params) -> Result<Microfacet, SceneError> {
     let kind = match p.props.string("distribution")?.as_deref() {
         None | Some("beckmann") => MicrofacetKind::Beckmann,
@@ -189,18 +190,24 @@ fn microfacet(p: &mut Params) -> Result<Microfacet, SceneError> {
             Some(0.1)
         }
     };
-    let mut axis = |name: &str| {
-        match texture_param(&mut p.props, name, p.textures)? {
+    // Anisotropic roughness: alpha_u along the shading frame's s axis, Mitsuba's
+    // dp/du (`Shape::dpdu`), alpha_v along t. Either may be a texture.
+    let mut axis = |name: &str, param: Param| match texture_param(&mut p.props, name, p.textures)? {
         None => Ok(None),
         Some(Texture::Constant(a)) => Ok(Some(a.x as f64)),
-        Some(_) => Err(p.props.err_at(
-            name,
-            format!("a textured {name} (anisotropic roughness) is not supported: it needs the surface tangents Mitsuba derives from uv coordinates"),
-        )),
-    }
+        Some(texture) => {
+            p.bind(param, texture);
+            // A placeholder: `Material::at` sets it at every hit.
+            Ok::<_, SceneError>(Some(0.1))
+        }
     };
-    let alpha_u = axis("alpha_u")?;
-    let alpha_v = axis("alpha_v")?;
+    let alpha_u = axis("alpha_u", Param::AlphaU)?;
+    let alpha_v = axis("alpha_v", Param::AlphaV)?;
+    let names = if alpha_u.is_some() || alpha_v.is_some() {
+        ["alpha_u", "alpha_v"]
+    } else {
+        ["alpha", "alpha"]
+    };
     let props = &mut p.props;
     let (alpha_u, alpha_v) = match (alpha, alpha_u, alpha_v) {
         (a, None, None) => (a.unwrap_or(0.1), a.unwrap_or(0.1)),
@@ -208,16 +215,9 @@ fn microfacet(p: &mut Params) -> Result<Microfacet, SceneError> {
         (Some(_), _, _) => return Err(props.err("give either 'alpha' or 'alpha_u' and 'alpha_v'")),
         _ => return Err(props.err("'alpha_u' and 'alpha_v' must be given together")),
     };
-    if alpha_u != alpha_v {
-        // Mitsuba orients anisotropic lobes along dp/du of the surface's uv
-        // parameterisation; tstat's shading frames do not carry it yet.
-        return Err(props.err(
-            "anisotropic roughness (alpha_u != alpha_v) is not supported: it needs the surface tangents Mitsuba derives from uv coordinates",
-        ));
-    }
     // Below 1e-4 the distribution is a delta that f32 cannot resolve; above 10, a
     // roughness no real surface has.
-    for (name, a) in [("alpha", alpha_u), ("alpha", alpha_v)] {
+    for (name, a) in [(names[0], alpha_u), (names[1], alpha_v)] {
         if !(1e-4..=10.0).contains(&a) {
             return Err(props.err_at(
                 name,

@@ -4,7 +4,7 @@
 //! | parameter | type | default | meaning |
 //! |-----------|------|---------|---------|
 //! | distribution | string | beckmann | `beckmann` or `ggx` |
-//! | alpha, or alpha_u and alpha_v | float | 0.1 | roughness (isotropic, or along the tangent and bitangent) |
+//! | alpha, or alpha_u and alpha_v | float or texture | 0.1 | roughness: isotropic, or `alpha_u` along the shading frame's s axis (Mitsuba's dp/du, `Shape::dpdu`) and `alpha_v` along t |
 //! | sample_visible | boolean | true | GGX samples the visible normals (see `microfacet.rs`) |
 //! | material | string | none | Mitsuba's named conductors (`conductor_presets.rs`), `none` a perfect mirror (Mitsuba 3's code default; its docs say copper) |
 //! | eta, k | rgb/float | 0, 1 | real and imaginary IOR per channel (instead of `material`) |

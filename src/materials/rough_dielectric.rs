@@ -6,7 +6,7 @@
 //! | parameter | type | default | meaning |
 //! |-----------|------|---------|---------|
 //! | distribution | string | beckmann | `beckmann` or `ggx` |
-//! | alpha, or alpha_u and alpha_v | float | 0.1 | roughness (isotropic only: anisotropy is refused) |
+//! | alpha, or alpha_u and alpha_v | float or texture | 0.1 | roughness: isotropic, or `alpha_u` along the shading frame's s axis (Mitsuba's dp/du, `Shape::dpdu`) and `alpha_v` along t |
 //! | sample_visible | boolean | true | GGX samples the visible normals (see `microfacet.rs`) |
 //! | int_ior | float or name | bk7 (1.5046) | IOR inside (the side opposite the normal) |
 //! | ext_ior | float or name | air (1.000277) | IOR outside; must differ from int_ior |

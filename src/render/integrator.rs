@@ -160,9 +160,15 @@ unsafe fn trace_path_body<const ISA: u8>(
         let shape = &scene.shapes[hit.shape as usize];
         let sp = hit.surface;
         let wo_world = -d;
-        let frame = Frame::from_normal(sp.ns);
-        let wo = frame.to_local(wo_world);
         let material = &scene.bsdfs[shape.bsdf as usize];
+        // Anisotropic roughness follows the surface's dp/du (Mitsuba's shading frame);
+        // every other material keeps the normal's own frame (same bits, no uv work).
+        let frame = if material.is_anisotropic() {
+            Frame::from_normal_tangent(sp.ns, shape.dpdu(hit.face, hit.b1, hit.b2, sp.p))
+        } else {
+            Frame::from_normal(sp.ns)
+        };
+        let wo = frame.to_local(wo_world);
         // A textured material becomes a plain BSDF at this hit's uv (computed only then).
         // The material at this hit: `whole` (textures resolved) for the G-buffer,
         // `bsdf` the model that scatters (a `Composed` vertex scatters as one child,

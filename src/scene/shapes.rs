@@ -315,6 +315,7 @@ pub fn parse_geometry(kind: &str, props: &mut Props) -> Result<ShapeGeom, SceneE
 mod tests {
     use super::*;
     use crate::geometry::shape::Shape;
+    use glam::DVec2;
 
     #[test]
     fn cube_faces_point_outward_and_cover_area_24() {
@@ -485,6 +486,174 @@ mod tests {
         assert!(close(uv(Vec3::Z), [0.25, 0.5]), "{}", uv(Vec3::Z));
         assert!(close(uv(Vec3::NEG_X), [0.5, 0.5]), "{}", uv(Vec3::NEG_X));
         assert!(close(uv(Vec3::NEG_Z), [0.75, 0.5]), "{}", uv(Vec3::NEG_Z));
+    }
+
+    /// dp/du from finite differences: `at(a, b)` is the (point, uv) at two surface
+    /// coordinates around (0, 0); the chain rule through their 2 x 2 Jacobians.
+    fn fd_dpdu(at: impl Fn(f64, f64) -> (DVec3, DVec2)) -> DVec3 {
+        let h = 1e-4;
+        let (pa1, ua1) = at(h, 0.0);
+        let (pa0, ua0) = at(-h, 0.0);
+        let (pb1, ub1) = at(0.0, h);
+        let (pb0, ub0) = at(0.0, -h);
+        let (dp_da, dp_db) = ((pa1 - pa0) / (2.0 * h), (pb1 - pb0) / (2.0 * h));
+        let (duv_da, duv_db) = ((ua1 - ua0) / (2.0 * h), (ub1 - ub0) / (2.0 * h));
+        // (a, b) -> uv is [duv_da duv_db]; its inverse's first column is d(a, b)/du.
+        let det = duv_da.x * duv_db.y - duv_db.x * duv_da.y;
+        dp_da * (duv_db.y / det) - dp_db * (duv_da.y / det)
+    }
+
+    /// Shape::dpdu of every triangle against finite differences of the triangle's
+    /// position and Shape::uv (in f64 from the shape's own f32 data).
+    fn check_mesh_dpdu(s: &Shape) {
+        let ShapeGeom::Mesh { triangles, .. } = &s.geom else {
+            unreachable!()
+        };
+        for f in 0..triangles.len() as u32 {
+            let t = s.triangle(f);
+            let (b1, b2) = (0.3f64, 0.25f64);
+            let fd = fd_dpdu(|a, b| {
+                let (x, y) = (b1 + a, b2 + b);
+                let p = t.v0.as_dvec3() + t.e1.as_dvec3() * x + t.e2.as_dvec3() * y;
+                (p, s.uv(f, x as f32, y as f32, Vec3::ZERO).as_dvec2())
+            });
+            let got = s.dpdu(f, b1 as f32, b2 as f32, Vec3::ZERO).as_dvec3();
+            assert!(
+                (got - fd).length() < 2e-3 * fd.length(),
+                "face {f}: dpdu {got} vs finite differences {fd}"
+            );
+        }
+    }
+
+    #[test]
+    fn dpdu_is_the_derivative_of_position_along_u() {
+        use crate::scene::props::Ctx;
+        // Rectangle and cube under a rotation, a non-uniform scale and a mirror.
+        let m = DMat4::from_translation(DVec3::new(3.0, 0.0, 1.0))
+            * DMat4::from_rotation_x(0.7)
+            * DMat4::from_rotation_y(-0.3)
+            * DMat4::from_scale(DVec3::new(2.0, 0.5, 1.5));
+        let mirror = DMat4::from_scale(DVec3::new(-1.0, 1.0, 1.0));
+        for to_world in [DMat4::IDENTITY, m, m * mirror] {
+            let r = shape(transform_mesh(rectangle(), &to_world, true).unwrap());
+            check_mesh_dpdu(&r);
+            // Mitsuba's rectangle: dp/du = to_world (2, 0, 0) on both triangles.
+            let want = to_world.transform_vector3(DVec3::new(2.0, 0.0, 0.0));
+            for f in 0..2 {
+                let got = r.dpdu(f, 0.2, 0.2, Vec3::ZERO).as_dvec3();
+                assert!(
+                    (got - want).length() < 1e-5 * want.length(),
+                    "{got} vs {want}"
+                );
+            }
+            check_mesh_dpdu(&shape(transform_mesh(cube(), &to_world, true).unwrap()));
+        }
+        // Mitsuba's cube on +z: u runs from corner 4 (-1,-1,1) to corner 6 (-1,1,1).
+        let c = shape(transform_mesh(cube(), &DMat4::IDENTITY, true).unwrap());
+        let ShapeGeom::Mesh {
+            triangles,
+            positions,
+            ..
+        } = &c.geom
+        else {
+            unreachable!()
+        };
+        let top = (0..triangles.len())
+            .find(|&f| triangles[f].iter().all(|&i| positions[i as usize].z == 1.0))
+            .unwrap() as u32;
+        assert!((c.dpdu(top, 0.2, 0.2, Vec3::ZERO) - Vec3::new(0.0, 2.0, 0.0)).length() < 1e-6);
+
+        // File meshes: with uv (PLY as stored), without (the barycentrics: p1 - p0),
+        // and with degenerate uv (the first axis of the face normal's frame).
+        let dir = tempfile::tempdir().unwrap();
+        let ply = |uvs: [[f32; 2]; 3]| {
+            format!(
+                "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n\
+                 property float s\nproperty float t\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n\
+                 0 0 0 {} {}\n1 0.2 0 {} {}\n0.1 1 0.3 {} {}\n3 0 1 2\n",
+                uvs[0][0], uvs[0][1], uvs[1][0], uvs[1][1], uvs[2][0], uvs[2][1]
+            )
+        };
+        std::fs::write(
+            dir.path().join("t.ply"),
+            ply([[0.1, 0.2], [0.9, 0.3], [0.2, 0.8]]),
+        )
+        .unwrap();
+        std::fs::write(
+            dir.path().join("d.ply"),
+            ply([[0.5, 0.5], [0.5, 0.5], [0.5, 0.5]]),
+        )
+        .unwrap();
+        std::fs::write(
+            dir.path().join("n.obj"),
+            "v 0 0 0\nv 1 0.2 0\nv 0.1 1 0.3\nf 1 2 3\n",
+        )
+        .unwrap();
+        let file = dir.path().join("scene.xml");
+        let load = |kind: &str, name: &str| {
+            let xml = format!(
+                r#"<shape type="{kind}"><string name="filename" value="{name}"/><transform name="to_world"><rotate z="1" angle="30"/></transform></shape>"#
+            );
+            let defaults = std::collections::HashMap::new();
+            let ctx = Ctx::new(&file, &xml, &defaults);
+            let doc = roxmltree::Document::parse(&xml).unwrap();
+            let mut props = Props::parse(&ctx, doc.root_element()).unwrap();
+            shape(parse_geometry(kind, &mut props).unwrap())
+        };
+        check_mesh_dpdu(&load("ply", "t.ply"));
+        let none = load("obj", "n.obj");
+        check_mesh_dpdu(&none);
+        assert_eq!(none.dpdu(0, 0.2, 0.2, Vec3::ZERO), none.triangle(0).e1);
+        let degenerate = load("ply", "d.ply");
+        let n = degenerate.triangle(0).cross().normalize();
+        assert_eq!(
+            degenerate.dpdu(0, 0.2, 0.2, Vec3::ZERO),
+            crate::math::frame::Frame::from_normal(n).s
+        );
+
+        // The sphere under a rotation and a scale, at points away from the poles and
+        // the seam phi = 0; zero at the poles (the shading frame then falls back).
+        let xml = r#"<shape type="sphere"><point name="center" x="1" y="2" z="3"/><float name="radius" value="2"/>
+            <transform name="to_world"><rotate x="1" angle="-60"/><rotate z="1" angle="20"/><scale value="0.5"/></transform></shape>"#;
+        let defaults = std::collections::HashMap::new();
+        let ctx = Ctx::new(std::path::Path::new("s.xml"), xml, &defaults);
+        let doc = roxmltree::Document::parse(xml).unwrap();
+        let mut props = Props::parse(&ctx, doc.root_element()).unwrap();
+        let s = shape(parse_geometry("sphere", &mut props).unwrap());
+        let ShapeGeom::Sphere(g, to_local) = &s.geom else {
+            unreachable!()
+        };
+        let (c, r) = (g.center.as_dvec3(), g.radius as f64);
+        let mut checked = 0;
+        for i in 0..40 {
+            let d = DVec3::new(
+                (i as f64 * 1.3).sin(),
+                (i as f64 * 0.7).cos(),
+                (i as f64 * 2.1).sin() - 0.2,
+            )
+            .normalize();
+            let local = (*to_local * d.as_vec3()).normalize();
+            // Away from the poles and from the seam, where u jumps from 1 to 0.
+            if local.z.abs() > 0.95 || (local.y.abs() < 0.05 && local.x > 0.0) {
+                continue;
+            }
+            let frame = crate::math::frame::Frame::from_normal(d.as_vec3());
+            let (t1, t2) = (frame.s.as_dvec3(), frame.t.as_dvec3());
+            let fd = fd_dpdu(|a, b| {
+                let p = c + (d + t1 * a + t2 * b).normalize() * r;
+                (p, s.uv(0, 0.0, 0.0, p.as_vec3()).as_dvec2())
+            });
+            let got = s.dpdu(0, 0.0, 0.0, (c + d * r).as_vec3()).as_dvec3();
+            assert!(
+                (got - fd).length() < 5e-3 * fd.length(),
+                "sphere at {d}: dpdu {got} vs finite differences {fd}"
+            );
+            checked += 1;
+        }
+        assert!(checked > 20);
+        let pole = to_local.inverse() * Vec3::Z;
+        let at_pole = s.dpdu(0, 0.0, 0.0, g.center + pole.normalize() * g.radius);
+        assert!(at_pole.length() < 1e-5 * g.radius, "{at_pole}");
     }
 
     #[test]

@@ -964,6 +964,65 @@ mod tests {
     }
 
     #[test]
+    fn anisotropy_is_flagged_through_every_wrapper_and_textures_set_each_axis() {
+        use crate::materials::Bsdf;
+        let aniso = r#"<bsdf type="roughconductor"><float name="alpha_u" value="0.1"/><float name="alpha_v" value="0.3"/></bsdf>"#;
+        let iso = r#"<bsdf type="roughconductor"><float name="alpha_u" value="0.2"/><float name="alpha_v" value="0.2"/></bsdf>"#;
+        let tp = r#"<TemporalProfile type="ConstantTP" name="tp"><float name="delay" value="1"/></TemporalProfile>"#;
+        let cases = [
+            (aniso.to_string(), true),
+            (iso.to_string(), false),
+            (r#"<bsdf type="roughdielectric"><float name="alpha_u" value="0.1"/><float name="alpha_v" value="0.3"/></bsdf>"#.to_string(), true),
+            (r#"<bsdf type="roughconductor"><float name="alpha" value="0.3"/></bsdf>"#.to_string(), false),
+            (r#"<bsdf type="roughplastic"><float name="alpha" value="0.3"/></bsdf>"#.to_string(), false),
+            (format!(r#"<bsdf type="twosided"><bsdf type="diffuse"/>{aniso}</bsdf>"#), true),
+            (format!(r#"<bsdf type="twosided">{iso}</bsdf>"#), false),
+            (format!(r#"<bsdf type="mask"><float name="opacity" value="0.7"/>{aniso}</bsdf>"#), true),
+            (format!(r#"<bsdf type="Separable">{aniso}{tp}</bsdf>"#), true),
+            (format!(r#"<bsdf type="Composed"><bsdf type="diffuse"/><bsdf type="mask"><bsdf type="twosided">{aniso}</bsdf></bsdf></bsdf>"#), true),
+            (format!(r#"<bsdf type="Composed"><bsdf type="diffuse"/>{iso}</bsdf>"#), false),
+            // Textured axes: anisotropic wherever they may differ.
+            (r#"<bsdf type="roughconductor"><texture type="checkerboard" name="alpha_u"/><float name="alpha_v" value="0.1"/></bsdf>"#.to_string(), true),
+            (r#"<bsdf type="twosided"><bsdf type="roughconductor"><float name="alpha_u" value="0.1"/><texture type="checkerboard" name="alpha_v"/></bsdf></bsdf>"#.to_string(), true),
+            (r#"<bsdf type="roughconductor"><texture type="checkerboard" name="alpha"/></bsdf>"#.to_string(), false),
+        ];
+        for (bsdf, want) in cases {
+            let scene = load_text(&with(&format!(
+                r#"{LIGHT}<shape type="sphere">{bsdf}</shape>"#
+            )))
+            .unwrap_or_else(|e| panic!("{bsdf}: {e}"));
+            let m = &scene.bsdfs[scene.shapes[1].bsdf as usize];
+            assert_eq!(m.is_anisotropic(), want, "{bsdf}");
+        }
+        // A textured alpha_u sets alpha_u only (checkerboard eval_1 at (0.25, 0.25):
+        // color1's 0.2), a textured alpha_v alpha_v only.
+        for (params, want) in [
+            (
+                r#"<texture type="checkerboard" name="alpha_u"/><float name="alpha_v" value="0.7"/>"#,
+                (0.2, 0.7),
+            ),
+            (
+                r#"<float name="alpha_u" value="0.7"/><texture type="checkerboard" name="alpha_v"/>"#,
+                (0.7, 0.2),
+            ),
+        ] {
+            let scene = load_text(&with(&format!(
+                r#"{LIGHT}<shape type="sphere"><bsdf type="roughdielectric"><string name="distribution" value="ggx"/>{params}</bsdf></shape>"#
+            )))
+            .unwrap();
+            let m = &scene.bsdfs[scene.shapes[1].bsdf as usize];
+            let Bsdf::RoughDielectric(d) = m.at(glam::Vec2::new(0.25, 0.25)) else {
+                panic!()
+            };
+            let (u, v) = (d.distribution.alpha_u, d.distribution.alpha_v);
+            assert!(
+                (u - want.0).abs() < 1e-6 && (v - want.1).abs() < 1e-6,
+                "{u} {v}"
+            );
+        }
+    }
+
+    #[test]
     fn deep_nesting_is_an_error_not_a_stack_overflow() {
         let n = 100_000;
         let deep = format!(
