@@ -440,3 +440,32 @@ fn check_lists_every_unsupported_feature_with_its_line() {
         }
     }
 }
+
+#[test]
+fn a_spot_light_is_a_point_light_inside_its_beam_and_dark_outside() {
+    let d = tempfile::tempdir().unwrap();
+    let d = d.path();
+    write(d, "tri.ply", TRI_PLY);
+    let point = r#"<emitter type="point"><point name="position" x="0" y="0" z="3"/><rgb name="intensity" value="5"/></emitter>"#;
+    // The spot at the same place shines along -z (towards the shapes).
+    let spot = |cutoff: f64| {
+        format!(
+            r#"<emitter type="spot"><transform name="to_world"><lookat origin="0,0,3" target="0,0,0" up="0,1,0"/></transform><rgb name="intensity" value="5"/><float name="cutoff_angle" value="{cutoff}"/><float name="beam_width" value="{}"/></emitter>"#,
+            cutoff * 0.99
+        )
+    };
+    let a = scene(FOV, SHAPES);
+    assert!(a.contains(point));
+    write(d, "p.xml", &a);
+    write(d, "s.xml", &a.replace(point, &spot(80.0)));
+    write(d, "n.xml", &a.replace(point, &spot(8.0)));
+    let p = steady(&load(d, "p.xml").unwrap());
+    // Everything visible lies within 40 degrees of the axis: the same light.
+    assert_eq!(p, steady(&load(d, "s.xml").unwrap()));
+    // An 8-degree beam lights only the middle.
+    let n = steady(&load(d, "n.xml").unwrap());
+    let (sp, sn): (f64, f64) = (p.iter().sum(), n.iter().sum());
+    assert!(sn > 0.0 && sn < 0.3 * sp, "{sn} vs {sp}");
+    write(d, "e.xml", &a.replace(point, &spot(0.0)));
+    assert!(error(d, "e.xml").contains("cutoff_angle must be in (0, 180]"));
+}
