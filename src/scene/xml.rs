@@ -868,7 +868,7 @@ fn parse_point_emitter(ctx: &Ctx, node: Node) -> Result<Emitter, SceneError> {
             ));
         }
         let axis = m.transform_vector3(DVec3::Z);
-        if !(axis.length() > 0.0) || !axis.is_finite() {
+        if axis.length() <= 0.0 || !axis.is_finite() {
             return Err(p.err_at("to_world", "the spot's to_world maps its axis to nothing"));
         }
         let spot = crate::lights::Spot {
