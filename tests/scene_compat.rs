@@ -469,3 +469,29 @@ fn a_spot_light_is_a_point_light_inside_its_beam_and_dark_outside() {
     write(d, "e.xml", &a.replace(point, &spot(0.0)));
     assert!(error(d, "e.xml").contains("cutoff_angle must be in (0, 180]"));
 }
+
+#[test]
+fn samplers_declared_at_top_level_and_capitalised_booleans_load() {
+    let d = tempfile::tempdir().unwrap();
+    let d = d.path();
+    write(d, "tri.ply", TRI_PLY);
+    let xml = scene(FOV, SHAPES)
+        .replace(
+            r#"<sampler type="independent"><integer name="sample_count" value="4"/></sampler>"#,
+            r#"<ref id="s"/>"#,
+        )
+        .replace(
+            r#"<scene version="3.0.0">"#,
+            r#"<scene version="3.0.0"><sampler type="independent" id="s"><integer name="sample_count" value="7"/><integer name="seed" value="3"/></sampler>"#,
+        )
+        .replace(
+            r#"<integer name="max_depth" value="3"/>"#,
+            r#"<integer name="max_depth" value="3"/><boolean name="hide_emitters" value="True"/>"#,
+        );
+    write(d, "s.xml", &xml);
+    let s = load(d, "s.xml").unwrap();
+    assert_eq!((s.spp, s.seed), (7, 3));
+    assert!(s.integrator.hide_emitters);
+    write(d, "e.xml", &xml.replace(r#" id="s">"#, ">"));
+    assert!(error(d, "e.xml").contains("a top-level <sampler> needs an id"));
+}

@@ -352,7 +352,8 @@ impl<'a, 'i, 'c> Props<'a, 'i, 'c> {
             }
             "boolean" => {
                 let v = ctx.required_attr(node, "value")?;
-                Value::Boolean(match v.trim() {
+                // Mitsuba compares lower-cased: "True" and "FALSE" are booleans too.
+                Value::Boolean(match v.trim().to_ascii_lowercase().as_str() {
                     "true" => true,
                     "false" => false,
                     _ => return Err(bad("true or false", &v)),

@@ -246,6 +246,8 @@ struct Objects {
     emitters: Vec<Emitter>,
     sensor: Option<Sensor>,
     integrator: Option<IntegratorSettings>,
+    /// Samplers declared at the top level, by id (sample count, seed).
+    named_samplers: HashMap<String, (u32, u64)>,
     /// Area emitters declared at the top level, by id (radiance).
     area_emitters: HashMap<String, Vec3>,
     /// The files being included, outermost first (to refuse cycles).
@@ -290,7 +292,7 @@ fn walk(ctx: &Ctx, root: Node, o: &mut Objects, depth: usize) -> Result<(), Scen
                 if o.sensor.is_some() {
                     return Err(ctx.err(node, "only one <sensor> is supported"));
                 }
-                o.sensor = Some(parse_sensor(ctx, node)?);
+                o.sensor = Some(parse_sensor(ctx, node, &o.named_samplers)?);
             }
             "texture" => {
                 let t = parse_texture(ctx, node, &o.named_textures)?;
@@ -350,12 +352,21 @@ fn walk(ctx: &Ctx, root: Node, o: &mut Objects, depth: usize) -> Result<(), Scen
             // Area emitters declared here were read before the walk (below).
             "emitter" if ctx.attr(node, "type")?.as_deref() == Some("area") => {}
             "emitter" => o.emitters.push(parse_point_emitter(ctx, node)?),
+            "sampler" => {
+                let Some(id) = ctx.attr(node, "id")? else {
+                    return Err(ctx.err(node, "a top-level <sampler> needs an id (a sensor attaches it with <ref id=...>)"));
+                };
+                let sampler = parse_sampler(ctx, node)?;
+                if o.named_samplers.insert(id.clone(), sampler).is_some() {
+                    return Err(ctx.err(node, format!("id '{id}' is defined twice")));
+                }
+            }
             "path" => add_search_path(ctx, node)?,
             "include" => include(ctx, node, o, depth)?,
             other => {
                 return Err(ctx.err(
                     node,
-                    format!("<{other}> is not supported (supported at top level: default, path, include, integrator, sensor, texture, bsdf, shape, emitter)"),
+                    format!("<{other}> is not supported (supported at top level: default, path, include, integrator, sensor, sampler, texture, bsdf, shape, emitter)"),
                 ))
             }
         }
@@ -510,7 +521,42 @@ fn parse_integrator(ctx: &Ctx, node: Node) -> Result<IntegratorSettings, SceneEr
     Ok(s)
 }
 
-fn parse_sensor(ctx: &Ctx, node: Node) -> Result<Sensor, SceneError> {
+/// A `<sampler>`: its sample count and seed (defaults 4 and 0).
+fn parse_sampler(ctx: &Ctx, obj: Node) -> Result<(u32, u64), SceneError> {
+    let (mut spp, mut seed) = (4u32, 0u64);
+    // The sampler type only decides whether the scene loads: sub-pixel
+    // positions are chosen by `--pixel-sampling` (default stratified), and
+    // every other dimension of a path is always independent. Mitsuba's
+    // stratified-like samplers are accepted as plain requests for spp/seed.
+    let k = ctx.required_attr(obj, "type")?;
+    const STRATIFIED_LIKE: [&str; 4] = ["stratified", "multijitter", "orthogonal", "ldsampler"];
+    if k != "independent" && !STRATIFIED_LIKE.contains(&k.as_str()) {
+        return Err(ctx.err(obj, format!("sampler '{k}' is not supported (use independent; sub-pixel positions are set by --pixel-sampling)")));
+    }
+    let mut sp = Props::parse(ctx, obj)?;
+    if k != "independent" {
+        sp.ignore("jitter");
+        sp.ignore("strength");
+    }
+    if let Some(n) = sp.integer("sample_count")? {
+        if !(0..=u32::MAX as i64).contains(&n) {
+            return Err(sp.err_at("sample_count", format!("sample_count {n} is out of range")));
+        }
+        spp = n as u32;
+    }
+    if let Some(s) = sp.integer("seed")? {
+        seed = u64::try_from(s)
+            .map_err(|_| sp.err_at("seed", format!("seed must be non-negative, got {s}")))?;
+    }
+    sp.finish()?;
+    Ok((spp, seed))
+}
+
+fn parse_sensor(
+    ctx: &Ctx,
+    node: Node,
+    named_samplers: &HashMap<String, (u32, u64)>,
+) -> Result<Sensor, SceneError> {
     let kind = ctx.required_attr(node, "type")?;
     if kind != "perspective" {
         return Err(ctx.err(
@@ -586,36 +632,16 @@ fn parse_sensor(ctx: &Ctx, node: Node) -> Result<Sensor, SceneError> {
             "sampler" if seen_sampler => return Err(ctx.err(obj, "a sensor has one <sampler>")),
             "film" => film = Some(Film::parse(ctx, obj)?),
             "sampler" => {
-                // The sampler type only decides whether the scene loads: sub-pixel
-                // positions are chosen by `--pixel-sampling` (default stratified), and
-                // every other dimension of a path is always independent. Mitsuba's
-                // stratified-like samplers are accepted as plain requests for spp/seed.
-                let k = ctx.required_attr(obj, "type")?;
-                const STRATIFIED_LIKE: [&str; 4] =
-                    ["stratified", "multijitter", "orthogonal", "ldsampler"];
-                if k != "independent" && !STRATIFIED_LIKE.contains(&k.as_str()) {
-                    return Err(ctx.err(obj, format!("sampler '{k}' is not supported (use independent; sub-pixel positions are set by --pixel-sampling)")));
+                seen_sampler = true;
+                (spp, seed) = parse_sampler(ctx, obj)?;
+            }
+            // A sampler declared at the top level with an id.
+            "ref" if named_samplers.contains_key(&ctx.required_attr(obj, "id")?) => {
+                if seen_sampler {
+                    return Err(ctx.err(obj, "a sensor has one <sampler>"));
                 }
                 seen_sampler = true;
-                let mut sp = Props::parse(ctx, obj)?;
-                if k != "independent" {
-                    sp.ignore("jitter");
-                    sp.ignore("strength");
-                }
-                if let Some(n) = sp.integer("sample_count")? {
-                    if !(0..=u32::MAX as i64).contains(&n) {
-                        return Err(
-                            sp.err_at("sample_count", format!("sample_count {n} is out of range"))
-                        );
-                    }
-                    spp = n as u32;
-                }
-                if let Some(s) = sp.integer("seed")? {
-                    seed = u64::try_from(s).map_err(|_| {
-                        sp.err_at("seed", format!("seed must be non-negative, got {s}"))
-                    })?;
-                }
-                sp.finish()?;
+                (spp, seed) = named_samplers[&ctx.required_attr(obj, "id")?];
             }
             other => return Err(ctx.err(obj, format!("unexpected <{other}> inside <sensor>"))),
         }
