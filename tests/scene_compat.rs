@@ -216,7 +216,7 @@ fn focal_length_gives_mitsubas_field_of_view() {
 }
 
 #[test]
-fn temporal_filter_box_is_accepted_and_gaussian_is_refused() {
+fn temporal_filter_is_accepted_as_mitransient_does() {
     let d = tempfile::tempdir().unwrap();
     let d = d.path();
     write(d, "tri.ply", TRI_PLY);
@@ -234,12 +234,37 @@ fn temporal_filter_box_is_accepted_and_gaussian_is_refused() {
         ),
     );
     assert!(load(d, "box.xml").is_ok());
+    // mitransient 1.3.1 ignores the filter: a Gaussian request loads with a warning and
+    // is binned as box.
     write(
         d,
         "g.xml",
-        &with(r#"<string name="temporal_filter" value="gaussian"/>"#),
+        &with(
+            r#"<string name="temporal_filter" value="gaussian"/><float name="gaussian_stddev" value="0.5"/>"#,
+        ),
     );
-    assert!(error(d, "g.xml").contains("temporal_filter 'gaussian' is not supported"));
+    let g = load(d, "g.xml").unwrap();
+    assert!(
+        g.warnings
+            .iter()
+            .any(|w| w.contains("as mitransient 1.3.1 does")),
+        "{:?}",
+        g.warnings
+    );
+    write(
+        d,
+        "x.xml",
+        &with(r#"<string name="temporal_filter" value="tent"/>"#),
+    );
+    assert!(error(d, "x.xml").contains("'tent' is not one of: box, gaussian"));
+    write(
+        d,
+        "n.xml",
+        &with(
+            r#"<string name="temporal_filter" value="gaussian"/><float name="gaussian_stddev" value="-1"/>"#,
+        ),
+    );
+    assert!(error(d, "n.xml").contains("gaussian_stddev must be positive"));
 }
 
 #[test]

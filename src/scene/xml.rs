@@ -490,16 +490,25 @@ fn parse_integrator(ctx: &Ctx, node: Node) -> Result<IntegratorSettings, SceneEr
             format!("rr_depth must be positive, got {rr_depth}"),
         ));
     }
-    // mitransient's time filter: `box` (each contribution in the one bin its OPL falls
-    // in) is what tstat does; its Gaussian splat is not supported yet.
+    // mitransient's time filter. mitransient 1.3.1 reads `temporal_filter` and
+    // `gaussian_stddev` and ignores them (every contribution goes to the one bin its OPL
+    // falls in, as tstat does); a Gaussian request is warned about, not silently
+    // dropped.
     match p.string("temporal_filter")?.as_deref() {
-        // mitransient reads gaussian_stddev only for the Gaussian filter.
-        None | Some("box") => p.ignore("gaussian_stddev"),
+        None | Some("" | "box") => p.ignore("gaussian_stddev"),
         Some("gaussian") => {
-            return Err(p.err_at(
+            if let Some(sd) = p.float("gaussian_stddev")? {
+                if sd <= 0.0 {
+                    return Err(p.err_at(
+                        "gaussian_stddev",
+                        format!("gaussian_stddev must be positive, got {sd}"),
+                    ));
+                }
+            }
+            p.warn_at(
                 "temporal_filter",
-                "temporal_filter 'gaussian' is not supported (tstat bins with the box filter)",
-            ))
+                "temporal_filter 'gaussian' is binned with the box filter, as mitransient 1.3.1 does (it ignores temporal_filter and gaussian_stddev)",
+            );
         }
         Some(other) => {
             return Err(p.err_at(
