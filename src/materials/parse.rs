@@ -181,28 +181,11 @@ fn microfacet(p: &mut Params) -> Result<Microfacet, SceneError> {
             ))
         }
     };
-    let alpha = match texture_param(&mut p.props, "alpha", p.textures)? {
-        None => None,
-        Some(Texture::Constant(a)) => Some(a.x as f64),
-        Some(texture) => {
-            p.bind(Param::Alpha, texture);
-            // A placeholder: `Material::at` sets it at every hit.
-            Some(0.1)
-        }
-    };
+    let alpha = p.scalar("alpha", Param::Alpha, 0.1)?;
     // Anisotropic roughness: alpha_u along the shading frame's s axis, Mitsuba's
     // dp/du (`Shape::dpdu`), alpha_v along t. Either may be a texture.
-    let mut axis = |name: &str, param: Param| match texture_param(&mut p.props, name, p.textures)? {
-        None => Ok(None),
-        Some(Texture::Constant(a)) => Ok(Some(a.x as f64)),
-        Some(texture) => {
-            p.bind(param, texture);
-            // A placeholder: `Material::at` sets it at every hit.
-            Ok::<_, SceneError>(Some(0.1))
-        }
-    };
-    let alpha_u = axis("alpha_u", Param::AlphaU)?;
-    let alpha_v = axis("alpha_v", Param::AlphaV)?;
+    let alpha_u = p.scalar("alpha_u", Param::AlphaU, 0.1)?;
+    let alpha_v = p.scalar("alpha_v", Param::AlphaV, 0.1)?;
     let names = if alpha_u.is_some() || alpha_v.is_some() {
         ["alpha_u", "alpha_v"]
     } else {
@@ -247,6 +230,25 @@ impl Params<'_, '_, '_> {
             param,
             texture,
         });
+    }
+
+    /// A scalar parameter that accepts a texture: a constant's value (its first
+    /// channel), or for a texture, bound here, `placeholder`; `None` when absent.
+    /// (Scene numbers are finite by construction: `props::scene_number`.)
+    fn scalar(
+        &mut self,
+        name: &str,
+        param: Param,
+        placeholder: f64,
+    ) -> Result<Option<f64>, SceneError> {
+        match texture_param(&mut self.props, name, self.textures)? {
+            None => Ok(None),
+            Some(Texture::Constant(c)) => Ok(Some(c.x as f64)),
+            Some(texture) => {
+                self.bind(param, texture);
+                Ok(Some(placeholder))
+            }
+        }
     }
 
     /// A reflectance-like colour that accepts a texture: a constant is checked
@@ -457,23 +459,15 @@ pub fn parse_bsdf(ctx: &Ctx, node: Node, named: &Named) -> Result<Material, Scen
             Bsdf::TwoSided(TwoSided { front, back })
         }
         "mask" => {
-            let opacity = match texture_param(&mut p.props, "opacity", p.textures)? {
-                None => 0.5,
-                Some(Texture::Constant(c)) => {
-                    let o = c.x;
-                    if !(0.0..=1.0).contains(&o) {
-                        p.props.warn_at(
-                            "opacity",
-                            format!("opacity {o} is outside [0, 1]; clamped, as Mitsuba does"),
-                        );
-                    }
-                    o.clamp(0.0, 1.0)
-                }
-                Some(texture) => {
-                    p.bind(Param::Opacity, texture);
-                    0.5
-                }
-            };
+            // A textured opacity holds the placeholder 0.5 (set per hit).
+            let o = p.scalar("opacity", Param::Opacity, 0.5)?.unwrap_or(0.5) as f32;
+            if !(0.0..=1.0).contains(&o) {
+                p.props.warn_at(
+                    "opacity",
+                    format!("opacity {o} is outside [0, 1]; clamped, as Mitsuba does"),
+                );
+            }
+            let opacity = o.clamp(0.0, 1.0);
             let nested = match p.props.objects.as_slice() {
                 [one] => resolve_bsdf(ctx, *one, named)?,
                 _ => return Err(p.props.err("mask needs exactly one nested BSDF (and its opacity)")),
@@ -567,23 +561,8 @@ fn parse_temporal_profile(
         textures,
         bindings: Vec::new(),
     };
-    // A float or a single-channel texture; `None` when absent.
-    let scalar = |p: &mut Params, name: &str, param: Param| -> Result<Option<f64>, SceneError> {
-        match texture_param(&mut p.props, name, p.textures)? {
-            None => Ok(None),
-            Some(Texture::Constant(c)) => {
-                let v = c.x as f64;
-                if !v.is_finite() {
-                    return Err(p.props.err_at(name, format!("{name} must be finite")));
-                }
-                Ok(Some(v))
-            }
-            Some(texture) => {
-                p.bind(param, texture);
-                Ok(Some(f64::NAN))
-            }
-        }
-    };
+    // A float or a single-channel texture (NaN marks a textured one, set per hit).
+    let scalar = |p: &mut Params, name: &str, param: Param| p.scalar(name, param, f64::NAN);
     let required = |p: &Params, v: Option<f64>, name: &str| {
         v.ok_or_else(|| p.props.err(format!("{kind} needs '{name}'")))
     };
