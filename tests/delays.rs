@@ -6,9 +6,11 @@
 use statrs::distribution::{ChiSquared, ContinuousCDF};
 use tstat::materials::TemporalProfile;
 use tstat::math::rng::Pcg32;
-use tstat::render::{render, PixelSampling, RenderOutput, RenderSettings};
+use tstat::render::RenderOutput;
 use tstat::scene::{Overrides, Scene};
-use tstat::stats::Transform;
+
+mod common;
+use common::{load, run};
 
 const ALPHA: f64 = 0.01;
 /// Delay histograms (5 profiles) + convolution bins (checked by z-scores below, 4
@@ -157,13 +159,6 @@ const NARROW: Plane = Plane {
     max_depth: 2,
 };
 
-fn load(xml: &str) -> Scene {
-    let dir = tempfile::tempdir().unwrap();
-    let path = dir.path().join("scene.xml");
-    std::fs::write(&path, xml).unwrap();
-    Scene::load(&path, &Overrides::default()).unwrap()
-}
-
 fn plane(p: &Plane, bsdf: &str) -> Scene {
     load(
         &CONFOCAL_PLANE
@@ -172,17 +167,8 @@ fn plane(p: &Plane, bsdf: &str) -> Scene {
             .replace("SPP", &p.spp.to_string())
             .replace("BINS", &p.bins.to_string())
             .replace("BSDF", bsdf),
+        &Overrides::default(),
     )
-}
-
-fn run(scene: &Scene, seed: u64) -> RenderOutput {
-    let settings = RenderSettings {
-        spp: scene.spp,
-        seed,
-        transform: Transform::Identity,
-        pixel_sampling: PixelSampling::Independent,
-    };
-    render(scene, &settings, &|_| {})
 }
 
 const DIFFUSE: &str =
@@ -280,14 +266,8 @@ fn a_pure_delay_leaves_the_steady_image_and_gbuffers_unchanged_in_a_cornell_box(
         bins: Some(300),
         ..Default::default()
     };
-    let load_with = |xml: &str| {
-        let dir = tempfile::tempdir().unwrap();
-        let path = dir.path().join("scene.xml");
-        std::fs::write(&path, xml).unwrap();
-        Scene::load(&path, &o).unwrap()
-    };
-    let a = run(&load_with(&zero), 8);
-    let b = run(&load_with(&exp), 8);
+    let a = run(&load(&zero, &o), 8);
+    let b = run(&load(&exp, &o), 8);
     assert_eq!(a.steady, b.steady);
     assert_eq!(a.gbuffer, b.gbuffer);
     // ... while the transients differ: the delays moved energy later.

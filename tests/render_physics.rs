@@ -3,26 +3,11 @@
 use tstat::math::rng::Pcg32;
 use tstat::render::deposits::PathDeposits;
 use tstat::render::integrator::{trace_path, PathTally};
-use tstat::render::{render, PixelSampling, RenderOutput, RenderSettings};
+use tstat::render::RenderOutput;
 use tstat::scene::{Overrides, Scene};
-use tstat::stats::Transform;
 
-fn load(xml: &str, overrides: &Overrides) -> Scene {
-    let dir = tempfile::tempdir().unwrap();
-    let path = dir.path().join("scene.xml");
-    std::fs::write(&path, xml).unwrap();
-    Scene::load(&path, overrides).unwrap()
-}
-
-fn run(scene: &Scene, seed: u64) -> RenderOutput {
-    let settings = RenderSettings {
-        spp: scene.spp,
-        seed,
-        transform: Transform::Identity,
-        pixel_sampling: PixelSampling::Independent,
-    };
-    render(scene, &settings, &|_| {})
-}
+mod common;
+use common::{load, run};
 
 fn cbox(overrides: &Overrides) -> Scene {
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cbox.xml");

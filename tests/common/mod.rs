@@ -1,0 +1,25 @@
+//! Helpers shared by the render tests (each test file includes this module).
+#![allow(dead_code)]
+
+use tstat::render::{render, PixelSampling, RenderOutput, RenderSettings};
+use tstat::scene::{Overrides, Scene};
+use tstat::stats::Transform;
+
+/// Loads a scene written as XML text (from a temporary folder).
+pub fn load(xml: &str, overrides: &Overrides) -> Scene {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("scene.xml");
+    std::fs::write(&path, xml).unwrap();
+    Scene::load(&path, overrides).unwrap()
+}
+
+/// Renders in memory with i.i.d. samples (what the statistics assume) and `seed`.
+pub fn run(scene: &Scene, seed: u64) -> RenderOutput {
+    let settings = RenderSettings {
+        spp: scene.spp,
+        seed,
+        transform: Transform::Identity,
+        pixel_sampling: PixelSampling::Independent,
+    };
+    render(scene, &settings, &|_| {})
+}
