@@ -728,4 +728,11 @@ fn check_says_ok_or_lists_what_is_unsupported() {
     );
     let err = String::from_utf8_lossy(&r.stderr);
     assert_eq!(err.trim(), "error: 1 of 2 scenes would not render");
+    // A missing scene is reported, a malformed -D is one usage error.
+    let r = tstat(&["check", &s(&dir.path().join("none.xml"))]);
+    assert_eq!(r.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&r.stdout).contains("cannot read"));
+    let r = tstat(&["check", &scene("cbox.xml"), "-D", "spp"]);
+    assert_eq!(r.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&r.stderr).contains("-D spp: expected name=value"));
 }
