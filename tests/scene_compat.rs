@@ -520,3 +520,72 @@ fn samplers_declared_at_top_level_and_capitalised_booleans_load() {
     write(d, "e.xml", &xml.replace(r#" id="s">"#, ">"));
     assert!(error(d, "e.xml").contains("a top-level <sampler> needs an id"));
 }
+
+#[test]
+fn an_included_file_finds_its_includes_through_the_scene_folder_as_mitsuba_does() {
+    // Mitsuba's test scenes: main.xml includes "include/base.xml", which includes
+    // "include/preamble.xml" -- a name relative to the scene's folder, not to
+    // include/ (there is no include/include/). Both the load and `check` find it.
+    use tstat::scene::check::{check, Verdict};
+    let d = tempfile::tempdir().unwrap();
+    let d = d.path();
+    write(d, "tri.ply", TRI_PLY);
+    write(
+        d,
+        "include/preamble.xml",
+        r#"<scene version="3.0.0"><bsdf type="diffuse" id="grey"><rgb name="reflectance" value="0.4"/></bsdf></scene>"#,
+    );
+    write(
+        d,
+        "include/base.xml",
+        r#"<scene version="3.0.0"><include filename="include/preamble.xml"/></scene>"#,
+    );
+    let body = SHAPES.replace(
+        r#"<bsdf type="diffuse" id="grey"><rgb name="reflectance" value="0.4"/></bsdf>"#,
+        r#"<include filename="include/base.xml"/>"#,
+    );
+    write(d, "main.xml", &scene(FOV, &body));
+    write(d, "inline.xml", &scene(FOV, SHAPES));
+    let (a, b) = (load(d, "main.xml").unwrap(), load(d, "inline.xml").unwrap());
+    assert_eq!(steady(&a), steady(&b));
+    assert!(matches!(check(&d.join("main.xml"), &[]), Verdict::Ok));
+}
+
+#[test]
+fn discard_direct_light_hides_the_emitters_the_camera_sees() {
+    let d = tempfile::tempdir().unwrap();
+    let d = d.path();
+    write(d, "tri.ply", TRI_PLY);
+    let light = r#"<shape type="rectangle"><transform name="to_world"><translate z="1"/></transform>
+        <bsdf type="diffuse"/><emitter type="area"><rgb name="radiance" value="2"/></emitter></shape>"#;
+    let with = |flag: &str| {
+        scene(FOV, &format!("{SHAPES}{light}")).replace(
+            r#"<integer name="max_depth" value="3"/>"#,
+            &format!(r#"<integer name="max_depth" value="3"/>{flag}"#),
+        )
+    };
+    write(d, "plain.xml", &with(""));
+    write(
+        d,
+        "hide.xml",
+        &with(r#"<boolean name="hide_emitters" value="true"/>"#),
+    );
+    write(
+        d,
+        "discard.xml",
+        &with(r#"<boolean name="discard_direct_light" value="true"/>"#),
+    );
+    let plain = steady(&load(d, "plain.xml").unwrap());
+    let hide = steady(&load(d, "hide.xml").unwrap());
+    let discard = steady(&load(d, "discard.xml").unwrap());
+    assert_eq!(hide, discard);
+    // The light fills part of the view: hiding it must change the image.
+    assert!(plain.iter().sum::<f64>() > hide.iter().sum::<f64>() + 1.0);
+    // Parameters of older mitransient versions are errors, as in mitransient 1.3.1.
+    write(
+        d,
+        "old.xml",
+        &with(r#"<float name="progressive" value="0.25"/>"#),
+    );
+    assert!(error(d, "old.xml").contains("progressive"));
+}

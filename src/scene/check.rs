@@ -94,7 +94,7 @@ pub enum Verdict {
 pub fn check(path: &Path, defaults: &[(String, String)]) -> Verdict {
     let mut findings = Vec::new();
     let defaults_map: HashMap<String, String> = defaults.iter().cloned().collect();
-    scan_file(path, &defaults_map, &mut findings, &mut Vec::new());
+    scan_file(path, None, &defaults_map, &mut findings, &mut Vec::new());
     if !findings.is_empty() {
         return Verdict::Unsupported(findings);
     }
@@ -114,8 +114,11 @@ pub fn check(path: &Path, defaults: &[(String, String)]) -> Verdict {
 
 /// Scans one file (and the files it includes); problems reading or parsing a file
 /// are findings too.
+/// `parent`: the including file's context, whose search folders an included file
+/// inherits (as the real load does).
 fn scan_file(
     path: &Path,
+    parent: Option<&Ctx>,
     defaults: &HashMap<String, String>,
     out: &mut Vec<Finding>,
     stack: &mut Vec<PathBuf>,
@@ -151,7 +154,10 @@ fn scan_file(
             return;
         }
     };
-    let ctx = Ctx::new(path, &text, defaults);
+    let ctx = match parent {
+        Some(p) => p.for_included_file(path, &text),
+        None => Ctx::new(path, &text, defaults),
+    };
     stack.push(canonical);
     for node in doc.root_element().descendants().filter(|n| n.is_element()) {
         scan_element(&ctx, node, defaults, out, stack);
@@ -181,7 +187,7 @@ fn scan_element(
     }
     if tag == "include" {
         match ctx.attr(node, "filename") {
-            Ok(Some(name)) => scan_file(&ctx.resolve_near(&name), defaults, out, stack),
+            Ok(Some(name)) => scan_file(&ctx.resolve_near(&name), Some(ctx), defaults, out, stack),
             _ => push("<include> without a readable filename".into()),
         }
         return;

@@ -34,6 +34,7 @@ use std::path::{Path, PathBuf};
 /// | rr_depth | integer | 5 | depth from which Russian roulette runs |
 /// | hide_emitters | boolean | false | directly visible emitters render black |
 /// | camera_unwarp | boolean | false | drop the camera segment from the path's OPL |
+/// | discard_direct_light | boolean | false | as `hide_emitters` (mitransient 1.3.1 also drops the BSDF-sampled share of every later emitter hit; tstat keeps it) |
 #[derive(Clone, Debug, PartialEq)]
 pub struct IntegratorSettings {
     pub max_depth: i32,

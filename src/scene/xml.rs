@@ -520,7 +520,12 @@ fn parse_integrator(ctx: &Ctx, node: Node) -> Result<IntegratorSettings, SceneEr
     let s = IntegratorSettings {
         max_depth: max_depth as i32,
         rr_depth: rr_depth as u32,
-        hide_emitters: p.boolean_or("hide_emitters", false)?,
+        // mitransient's `discard_direct_light` drops emission found by BSDF
+        // sampling; of that, only the emitters seen from the camera are direct light
+        // (later vertices' emitter hits are the BSDF half of MIS, which mitransient
+        // 1.3.1 also drops, losing energy): tstat hides the directly visible emitters.
+        hide_emitters: p.boolean_or("hide_emitters", false)?
+            | p.boolean_or("discard_direct_light", false)?,
         camera_unwarp: p.boolean_or("camera_unwarp", false)?,
     };
     if let Some(&obj) = p.objects.first() {
