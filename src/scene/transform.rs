@@ -13,6 +13,35 @@ fn number(ctx: &Ctx, node: Node, attr: &str, default: f64) -> Result<f64, SceneE
     }
 }
 
+/// Dr.Jit's `rotate` (Mitsuba's `<rotate>`): `c I + (1 - c) a a^T + s [a]x` with the
+/// axis `a` as written, not normalised, so an axis such as (0, 1, 1) gives the same
+/// (non-orthogonal) matrix as in Mitsuba 3.
+pub fn rotation(a: DVec3, angle: f64) -> DMat4 {
+    let (s, c) = angle.sin_cos();
+    let cm = 1.0 - c;
+    DMat4::from_cols(
+        DVec4::new(
+            a.x * a.x * cm + c,
+            a.y * a.x * cm + a.z * s,
+            a.z * a.x * cm - a.y * s,
+            0.0,
+        ),
+        DVec4::new(
+            a.x * a.y * cm - a.z * s,
+            a.y * a.y * cm + c,
+            a.z * a.y * cm + a.x * s,
+            0.0,
+        ),
+        DVec4::new(
+            a.x * a.z * cm + a.y * s,
+            a.y * a.z * cm - a.x * s,
+            a.z * a.z * cm + c,
+            0.0,
+        ),
+        DVec4::W,
+    )
+}
+
 fn vector(ctx: &Ctx, node: Node, attr: &str) -> Result<DVec3, SceneError> {
     let v = ctx.required_attr(node, attr)?;
     let f = scene_numbers(&v).map_err(|e| ctx.err(node, format!("attribute '{attr}': {e}")))?;
@@ -92,11 +121,14 @@ pub fn parse_transform(ctx: &Ctx, node: Node) -> Result<DMat4, SceneError> {
                         number(ctx, child, "z", 0.0)?,
                     ),
                 };
-                let axis = axis
-                    .try_normalize()
-                    .ok_or_else(|| ctx.err(child, "rotation axis is zero"))?;
+                if axis == DVec3::ZERO || !axis.is_finite() {
+                    return Err(ctx.err(child, "rotation axis is zero"));
+                }
+                if ctx.attr(child, "angle")?.is_none() {
+                    return Err(ctx.err(child, "<rotate> needs an angle"));
+                }
                 let angle = number(ctx, child, "angle", 0.0)?;
-                DMat4::from_axis_angle(axis, angle.to_radians())
+                rotation(axis, angle.to_radians())
             }
             "matrix" => {
                 check_attrs(ctx, child, &["value"])?;
@@ -208,6 +240,33 @@ mod tests {
         .unwrap();
         let p = m.transform_point3(DVec3::X);
         assert!((p - DVec3::new(1.0, 2.0, 0.0)).length() < 1e-12, "{p}");
+    }
+
+    #[test]
+    fn rotate_keeps_the_axis_as_written_as_mitsuba_does() {
+        // mitsuba.ScalarTransform4f().rotate([0, 1, 1], 15).matrix in Mitsuba 3.9.1
+        // (also what its XML parser builds): the axis is not normalised.
+        let want = [
+            [0.965926, -0.258819, 0.258819],
+            [0.258819, 1.0, 0.0340742],
+            [-0.258819, 0.0340742, 1.0],
+        ];
+        let m = parse(r#"<transform name="t"><rotate x="0" y="1" z="1" angle="15"/></transform>"#)
+            .unwrap();
+        for (r, row) in want.iter().enumerate() {
+            for (c, w) in row.iter().enumerate() {
+                assert!(
+                    (m.col(c)[r] - w).abs() < 1e-6,
+                    "({r}, {c}): {} vs {w}",
+                    m.col(c)[r]
+                );
+            }
+        }
+        // A unit axis is a rotation; no angle or a zero axis is an error, as in Mitsuba.
+        let u = parse(r#"<transform name="t"><rotate z="1" angle="90"/></transform>"#).unwrap();
+        assert!((u.transform_point3(DVec3::X) - DVec3::Y).length() < 1e-12);
+        assert!(parse(r#"<transform name="t"><rotate z="1"/></transform>"#).is_err());
+        assert!(parse(r#"<transform name="t"><rotate x="0" angle="3"/></transform>"#).is_err());
     }
 
     #[test]
