@@ -60,7 +60,7 @@ pub fn shadow_ray(p: Vec3, ng: Vec3, ls: &crate::lights::LightSample) -> (Vec3, 
     };
     let d = target - origin;
     let dist = d.length();
-    if !(dist > 0.0) {
+    if dist.is_nan() || dist <= 0.0 {
         return (origin, ls.wi, 0.0);
     }
     (origin, d / dist, dist * (1.0 - 1e-4))
