@@ -12,6 +12,8 @@ pub mod props;
 pub mod serialized;
 pub mod shapes;
 pub mod spectrum;
+pub mod angular_area;
+pub mod projector;
 pub mod textures;
 pub mod transform;
 mod xml;
