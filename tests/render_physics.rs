@@ -652,7 +652,12 @@ fn projector_lights_a_plane_with_its_texture_at_pi_s_e_over_d_squared() {
         .unwrap()
         .save(dir.path().join("tex.png"))
         .unwrap();
-    for (fov, axis) in [(60.0, "x"), (45.0, "y"), (70.0, "diagonal"), (50.0, "smaller")] {
+    for (fov, axis) in [
+        (60.0, "x"),
+        (45.0, "y"),
+        (70.0, "diagonal"),
+        (50.0, "smaller"),
+    ] {
         let path = dir.path().join("scene.xml");
         std::fs::write(&path, projector_plane(fov, axis)).unwrap();
         let scene = Scene::load(&path, &Overrides::default()).unwrap();
@@ -691,9 +696,10 @@ fn angular_area_light_with_a_90_degree_cone_is_the_area_light_bit_for_bit() {
         bins: Some(40),
         ..Default::default()
     };
-    let text =
-        std::fs::read_to_string(std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cbox.xml"))
-            .unwrap();
+    let text = std::fs::read_to_string(
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cbox.xml"),
+    )
+    .unwrap();
     assert_eq!(text.matches("<emitter type=\"area\">").count(), 1);
     let angular = text.replace(
         "<emitter type=\"area\">",

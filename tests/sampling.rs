@@ -1905,7 +1905,12 @@ fn angular_scene() -> tstat::scene::Scene {
 /// (`pdf_area_hit * cos_l / dist^2`), in cells of equal area about the foot point
 /// (rings equal in r^2 up to r = 1, inside the light, times sectors), plus one cell
 /// for the samples that carry nothing (`sample` gives None) and fall outside the rings.
-fn angular_p_value(scene: &tstat::scene::Scene, sampler: &Emitter, pdf: &Emitter, seed: u64) -> f64 {
+fn angular_p_value(
+    scene: &tstat::scene::Scene,
+    sampler: &Emitter,
+    pdf: &Emitter,
+    seed: u64,
+) -> f64 {
     const N: usize = 200_000;
     const RINGS: usize = 10;
     const SECTORS: usize = 8;
@@ -2046,8 +2051,14 @@ fn angular_power_p_value(seed: u64, weight: fn(Rgb, f32) -> Rgb) -> (f64, [f64; 
 fn angular_light_emits_its_closed_form_power() {
     let (p, mean, want) = angular_power_p_value(5, |li, _| li);
     eprintln!("angular power {mean:?} vs {want:?}, p = {p:.3e}");
-    assert!(p > LEVEL, "power {mean:?} vs closed form {want:?}: p = {p:.3e}");
+    assert!(
+        p > LEVEL,
+        "power {mean:?} vs closed form {want:?}: p = {p:.3e}"
+    );
     // mitransient 1.3.1's light-sample weight (an extra 1 / dist^2) must fail.
     let (p, mean, _) = angular_power_p_value(6, |li, dist| li / (dist * dist));
-    assert!(p < LEVEL, "the 1/dist^2 weight passed: {mean:?}, p = {p:.3e}");
+    assert!(
+        p < LEVEL,
+        "the 1/dist^2 weight passed: {mean:?}, p = {p:.3e}"
+    );
 }

@@ -532,8 +532,13 @@ fn angulararea_attaches_like_area_and_projector_reads_mitsubas_parameters() {
     // angulararea: inline, or declared at the top level and referenced (before or
     // after), as `area`; mitransient's defaults (radiance 1, cutoff 10, beam = cutoff).
     let lamp = r#"<shape type="rectangle"><transform name="to_world"><translate z="2"/><rotate x="1" angle="180"/></transform>EMIT</shape>"#;
-    let emitter = r#"<emitter type="angulararea"><float name="cutoff_angle" value="50"/></emitter>"#;
-    write(d, "a.xml", &scene(FOV, &format!("{SHAPES}{}", lamp.replace("EMIT", emitter))));
+    let emitter =
+        r#"<emitter type="angulararea"><float name="cutoff_angle" value="50"/></emitter>"#;
+    write(
+        d,
+        "a.xml",
+        &scene(FOV, &format!("{SHAPES}{}", lamp.replace("EMIT", emitter))),
+    );
     let decl = emitter.replace(r#"type="angulararea""#, r#"type="angulararea" id="lamp""#);
     let by_ref = lamp.replace("EMIT", r#"<ref id="lamp"/>"#);
     write(d, "b.xml", &scene(FOV, &format!("{SHAPES}{by_ref}{decl}")));
@@ -546,11 +551,20 @@ fn angulararea_attaches_like_area_and_projector_reads_mitsubas_parameters() {
         panic!("{:?}", a.emitters[1])
     };
     assert_eq!(radiance.to_array(), [1.0; 3]);
-    assert_eq!((falloff.cutoff, falloff.beam_width), (50f32.to_radians(), 50f32.to_radians()));
+    assert_eq!(
+        (falloff.cutoff, falloff.beam_width),
+        (50f32.to_radians(), 50f32.to_radians())
+    );
     write(
         d,
         "c.xml",
-        &scene(FOV, &format!("{SHAPES}{}", lamp.replace("EMIT", r#"<emitter type="angulararea"/>"#))),
+        &scene(
+            FOV,
+            &format!(
+                "{SHAPES}{}",
+                lamp.replace("EMIT", r#"<emitter type="angulararea"/>"#)
+            ),
+        ),
     );
     let Emitter::AngularArea { falloff, .. } = &load(d, "c.xml").unwrap().emitters[1] else {
         panic!()
@@ -563,14 +577,24 @@ fn angulararea_attaches_like_area_and_projector_reads_mitsubas_parameters() {
             r#"<texture type="checkerboard" id="checks"/>{SHAPES}<emitter type="projector">{params}<transform name="to_world"><lookat origin="0,0,3" target="0,0,0" up="0,1,0"/></transform></emitter>"#
         )
     };
-    write(d, "p.xml", &scene(FOV, &proj(r#"<spectrum name="irradiance" value="2"/><float name="fov" value="30"/>"#)));
+    write(
+        d,
+        "p.xml",
+        &scene(
+            FOV,
+            &proj(r#"<spectrum name="irradiance" value="2"/><float name="fov" value="30"/>"#),
+        ),
+    );
     let s = load(d, "p.xml").unwrap();
     let Emitter::Projector(p) = &s.emitters[1] else {
         panic!("{:?}", s.emitters[1])
     };
     assert_eq!(
         p.irradiance,
-        Texture::Constant(glam::Vec3::from_array(uniform_to_srgb(2.0, SpectrumUse::Emission)))
+        Texture::Constant(glam::Vec3::from_array(uniform_to_srgb(
+            2.0,
+            SpectrumUse::Emission
+        )))
     );
     assert!((p.inv_tan_half - 1.0 / 15f32.to_radians().tan()).abs() < 1e-5);
     assert!((p.position - glam::Vec3::new(0.0, 0.0, 3.0)).length() < 1e-6);
@@ -579,7 +603,12 @@ fn angulararea_attaches_like_area_and_projector_reads_mitsubas_parameters() {
     write(
         d,
         "q.xml",
-        &scene(FOV, &proj(r#"<ref name="irradiance" id="checks"/><string name="focal_length" value="50mm"/><float name="scale" value="3"/>"#)),
+        &scene(
+            FOV,
+            &proj(
+                r#"<ref name="irradiance" id="checks"/><string name="focal_length" value="50mm"/><float name="scale" value="3"/>"#,
+            ),
+        ),
     );
     let s = load(d, "q.xml").unwrap();
     let Emitter::Projector(p) = &s.emitters[1] else {
@@ -594,7 +623,13 @@ fn angulararea_attaches_like_area_and_projector_reads_mitsubas_parameters() {
     write(
         d,
         "dup.xml",
-        &scene(FOV, &format!("{SHAPES}{decl}{0}{0}", by_ref.replace("<shape", r#"<shape id="light""#))),
+        &scene(
+            FOV,
+            &format!(
+                "{SHAPES}{decl}{0}{0}",
+                by_ref.replace("<shape", r#"<shape id="light""#)
+            ),
+        ),
     );
     let e = error(d, "dup.xml");
     assert!(e.contains("id 'light' is already used"), "{e}");

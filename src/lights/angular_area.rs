@@ -123,7 +123,13 @@ mod tests {
 
     #[test]
     fn projected_solid_angle_matches_quadrature() {
-        for (c, b) in [(35.0, 20.0), (50.0, 50.0), (10.0, 0.0), (120.0, 60.0), (90.0, 90.0)] {
+        for (c, b) in [
+            (35.0, 20.0),
+            (50.0, 50.0),
+            (10.0, 0.0),
+            (120.0, 60.0),
+            (90.0, 90.0),
+        ] {
             let f = AngularFalloff::new(c, b);
             // Midpoint rule in theta over the front hemisphere, f64 falloff.
             let n = 200_000;
@@ -148,6 +154,9 @@ mod tests {
             let exact = f.projected_solid_angle();
             assert!((q - exact).abs() < 1e-6, "{c} {b}: {q} vs {exact}");
         }
-        assert!((AngularFalloff::new(90.0, 90.0).projected_solid_angle() - std::f64::consts::PI).abs() < 1e-6);
+        assert!(
+            (AngularFalloff::new(90.0, 90.0).projected_solid_angle() - std::f64::consts::PI).abs()
+                < 1e-6
+        );
     }
 }

@@ -113,8 +113,12 @@ impl Emitter {
                 shape,
                 radiance,
                 sampler,
-            } => sample_area(&shapes[*shape as usize], sampler, x, select_pdf, u1, u2)
-                .map(|(ls, _)| LightSample { li: *radiance, ..ls }),
+            } => sample_area(&shapes[*shape as usize], sampler, x, select_pdf, u1, u2).map(
+                |(ls, _)| LightSample {
+                    li: *radiance,
+                    ..ls
+                },
+            ),
             Emitter::AngularArea {
                 shape,
                 radiance,

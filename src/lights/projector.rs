@@ -65,7 +65,7 @@ impl Projector {
     /// frustum (z > 0, (u, v) in [0, 1]^2).
     #[inline]
     pub fn uv(&self, local: Vec3) -> Option<Vec2> {
-        if !(local.z > 0.0) {
+        if local.z.is_nan() || local.z <= 0.0 {
             return None;
         }
         let k = self.inv_tan_half / local.z;
@@ -88,7 +88,7 @@ impl Projector {
         let dist = dist2.sqrt();
         let wi = d / dist;
         let cos = -self.axis.dot(wi);
-        if !(cos > 0.0) {
+        if cos.is_nan() || cos <= 0.0 {
             return None;
         }
         let e = self.irradiance.eval_rgb(uv);
@@ -160,11 +160,18 @@ mod tests {
     fn a_plane_facing_it_receives_pi_s_e_over_d_squared() {
         let p = projector(Texture::Constant(Vec3::new(1.0, 2.0, 3.0)), 60.0, 1, 1);
         // The plane z = 0 is at d = 2; irradiance = Li * cos(plane normal, wi).
-        for x in [Vec3::ZERO, Vec3::new(0.5, -0.3, 0.0), Vec3::new(-1.1, 1.0, 0.0)] {
+        for x in [
+            Vec3::ZERO,
+            Vec3::new(0.5, -0.3, 0.0),
+            Vec3::new(-1.1, 1.0, 0.0),
+        ] {
             let ls = p.sample(x, 1.0).unwrap();
             let e = ls.li * ls.wi.z;
             let want = Vec3::new(1.0, 2.0, 3.0) * (std::f32::consts::PI * 1.5 / 4.0);
-            assert!((e - want).abs().max_element() < 1e-5 * want.max_element(), "{e} {want}");
+            assert!(
+                (e - want).abs().max_element() < 1e-5 * want.max_element(),
+                "{e} {want}"
+            );
             assert!(ls.delta && (ls.dist - (x - p.position).length()).abs() < 1e-6);
         }
         // Outside the square frustum (tan 30 deg * 2 = 1.1547 at the plane), nothing;
@@ -182,13 +189,22 @@ mod tests {
         let y = Projector::frustum(40.0, FovAxis::Y, 200, 100).0;
         assert!((y - 2.0 * 20f64.to_radians().tan()).abs() < 1e-12);
         assert_eq!(Projector::frustum(40.0, FovAxis::Smaller, 200, 100).0, y);
-        assert_eq!(Projector::frustum(40.0, FovAxis::Larger, 200, 100).0, Projector::frustum(40.0, FovAxis::X, 200, 100).0);
+        assert_eq!(
+            Projector::frustum(40.0, FovAxis::Larger, 200, 100).0,
+            Projector::frustum(40.0, FovAxis::X, 200, 100).0
+        );
         let d = Projector::frustum(40.0, FovAxis::Diagonal, 200, 100).0;
         // The diagonal half-tangent is tan 20 deg.
         assert!(((d * d + (d / 2.0) * (d / 2.0)).sqrt() - 20f64.to_radians().tan()).abs() < 1e-12);
         // 1:2 texture: smaller = x, larger = y.
-        assert_eq!(Projector::frustum(40.0, FovAxis::Smaller, 100, 200).0, Projector::frustum(40.0, FovAxis::X, 100, 200).0);
-        assert_eq!(Projector::frustum(40.0, FovAxis::Larger, 100, 200).0, Projector::frustum(40.0, FovAxis::Y, 100, 200).0);
+        assert_eq!(
+            Projector::frustum(40.0, FovAxis::Smaller, 100, 200).0,
+            Projector::frustum(40.0, FovAxis::X, 100, 200).0
+        );
+        assert_eq!(
+            Projector::frustum(40.0, FovAxis::Larger, 100, 200).0,
+            Projector::frustum(40.0, FovAxis::Y, 100, 200).0
+        );
     }
 
     #[test]

@@ -13,7 +13,7 @@ pub fn parse_angular_area(ctx: &Ctx, obj: Node) -> Result<(Vec3, AngularFalloff)
     let mut ep = Props::parse(ctx, obj)?;
     // mitransient: `props.get_emissive_texture('radiance', 1.0)`.
     let radiance = ep.emission("radiance")?.unwrap_or(Vec3::ONE);
-    if !(radiance.min_element() >= 0.0) {
+    if radiance.min_element() < 0.0 {
         return Err(ep.err_at("radiance", "radiance must be non-negative"));
     }
     let cutoff = ep.float_or("cutoff_angle", 10.0)?;

@@ -38,7 +38,10 @@ pub const SUPPORTED: &[(&str, &[&str])] = &[
         &["rectangle", "cube", "sphere", "ply", "obj", "serialized"],
     ),
     ("texture", &["bitmap", "checkerboard"]),
-    ("emitter", &["area", "angulararea", "point", "spot", "projector"]),
+    (
+        "emitter",
+        &["area", "angulararea", "point", "spot", "projector"],
+    ),
     ("sensor", &["perspective"]),
     ("film", &["transient_hdr_film"]),
     (
@@ -222,6 +225,8 @@ fn scan_element(
             .parent_element()
             .is_some_and(|p| p.has_tag_name("shape"))
     {
-        push(format!("<emitter type=\"{kind}\"> cannot be attached to a shape"));
+        push(format!(
+            "<emitter type=\"{kind}\"> cannot be attached to a shape"
+        ));
     }
 }

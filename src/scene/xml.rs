@@ -265,7 +265,9 @@ fn walk(ctx: &Ctx, root: Node, o: &mut Objects, depth: usize) -> Result<(), Scen
     // the file, also before their declaration (Mitsuba resolves references after
     // reading the whole file).
     for node in root.children().filter(|n| n.has_tag_name("emitter")) {
-        let Some(kind) = ctx.attr(node, "type")?.filter(|k| AREA_KINDS.contains(&k.as_str()))
+        let Some(kind) = ctx
+            .attr(node, "type")?
+            .filter(|k| AREA_KINDS.contains(&k.as_str()))
         else {
             continue;
         };
