@@ -850,7 +850,119 @@ fn cases() -> Vec<Case> {
             sphere(r#"<bsdf type="roughplastic"><string name="int_ior" value="kryptonite"/></bsdf>"#),
             "unknown IOR name 'kryptonite'",
         ),
+        // projector (Mitsuba 3's)
+        scene_case(
+            "projector_fov_180",
+            scene_with(&projector(r#"<float name="fov" value="180"/>"#)),
+            "fov must be in (0, 180) degrees, got 180",
+        ),
+        scene_case(
+            "projector_fov_negative",
+            scene_with(&projector(r#"<float name="fov" value="-30"/>"#)),
+            "fov must be in (0, 180) degrees, got -30",
+        ),
+        scene_case(
+            "projector_fov_nan",
+            scene_with(&projector(r#"<float name="fov" value="nan"/>"#)),
+            "<float name=\"fov\">",
+        ),
+        scene_case(
+            "projector_fov_and_focal_length",
+            scene_with(&projector(r#"<float name="fov" value="30"/><string name="focal_length" value="35mm"/>"#)),
+            "give either 'fov' or 'focal_length', not both",
+        ),
+        scene_case(
+            "projector_bad_fov_axis",
+            scene_with(&projector(r#"<float name="fov" value="30"/><string name="fov_axis" value="z"/>"#)),
+            "fov_axis 'z' is not one of",
+        ),
+        scene_case(
+            "projector_missing_texture_file",
+            scene_with(&projector(r#"<float name="fov" value="30"/><texture type="bitmap" name="irradiance"><string name="filename" value="nowhere.png"/></texture>"#)),
+            "image 'nowhere.png'",
+        ),
+        scene_case(
+            "projector_texture_reference_to_nothing",
+            scene_with(&projector(r#"<float name="fov" value="30"/><ref name="irradiance" id="missing"/>"#)),
+            "no <texture id=\"missing\">",
+        ),
+        scene_case(
+            "projector_negative_irradiance",
+            scene_with(&projector(r#"<float name="fov" value="30"/><rgb name="irradiance" value="1, -1, 1"/>"#)),
+            "irradiance must be finite and non-negative",
+        ),
+        scene_case(
+            "projector_negative_scale",
+            scene_with(&projector(r#"<float name="fov" value="30"/><float name="scale" value="-2"/>"#)),
+            "scale must be finite and non-negative, got -2",
+        ),
+        scene_case(
+            "projector_unknown_parameter",
+            scene_with(&projector(r#"<float name="fov" value="30"/><rgb name="intensity" value="1"/>"#)),
+            "unknown parameter 'intensity'",
+        ),
+        scene_case(
+            "projector_on_a_shape",
+            scene_with(r#"<shape type="sphere"><emitter type="projector"><float name="fov" value="30"/></emitter></shape>"#),
+            "emitter 'projector' cannot be attached to a shape",
+        ),
+        // angulararea (mitransient's)
+        scene_case(
+            "angulararea_negative_cutoff",
+            scene_with(&angular(r#"<float name="cutoff_angle" value="-10"/>"#)),
+            "cutoff_angle must be in (0, 180] degrees, got -10",
+        ),
+        scene_case(
+            "angulararea_zero_cutoff",
+            scene_with(&angular(r#"<float name="cutoff_angle" value="0"/>"#)),
+            "cutoff_angle must be in (0, 180] degrees, got 0",
+        ),
+        scene_case(
+            "angulararea_cutoff_beyond_180",
+            scene_with(&angular(r#"<float name="cutoff_angle" value="200"/>"#)),
+            "cutoff_angle must be in (0, 180] degrees, got 200",
+        ),
+        scene_case(
+            "angulararea_cutoff_nan",
+            scene_with(&angular(r#"<float name="cutoff_angle" value="nan"/>"#)),
+            "<float name=\"cutoff_angle\">",
+        ),
+        scene_case(
+            "angulararea_beam_wider_than_cutoff",
+            scene_with(&angular(r#"<float name="cutoff_angle" value="20"/><float name="beam_width" value="30"/>"#)),
+            "beam_width must be in [0, cutoff_angle = 20] degrees, got 30",
+        ),
+        scene_case(
+            "angulararea_negative_beam",
+            scene_with(&angular(r#"<float name="beam_width" value="-1"/>"#)),
+            "beam_width must be in [0, cutoff_angle = 10] degrees, got -1",
+        ),
+        scene_case(
+            "angulararea_negative_radiance",
+            scene_with(&angular(r#"<rgb name="radiance" value="-1"/>"#)),
+            "radiance must be non-negative",
+        ),
+        scene_case(
+            "angulararea_textured_radiance",
+            scene_with(&angular(r#"<texture type="checkerboard" name="radiance"/>"#)),
+            "a textured radiance is not supported",
+        ),
+        scene_case(
+            "angulararea_top_level_without_id",
+            scene_with(r#"<emitter type="angulararea"/>"#),
+            "a top-level area emitter needs an id",
+        ),
     ]
+}
+
+/// A top-level projector with `params`.
+fn projector(params: &str) -> String {
+    format!(r#"<emitter type="projector">{params}</emitter>"#)
+}
+
+/// A sphere with an `angulararea` emitter with `params`.
+fn angular(params: &str) -> String {
+    format!(r#"<shape type="sphere"><emitter type="angulararea">{params}</emitter></shape>"#)
 }
 
 impl Case {

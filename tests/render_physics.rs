@@ -658,3 +658,124 @@ fn an_area_light_lights_the_floor_at_grazing_angles_as_the_closed_form_says() {
         );
     }
 }
+
+/// A projector and the camera at the same place with the same frustum (`fov` on
+/// `fov_axis` of a 4 x 3 film and a 4 x 3 texture), a diffuse plane at d = 2 facing
+/// them. The plane receives `pi s E / d^2` (Mitsuba's projector radiometry), so it
+/// shows `rho s E(texel) / d^2`, and camera pixel (i, j) sees exactly the points that
+/// receive texel (i, j): the rendered image is the texture, unmirrored.
+fn projector_plane(fov: f64, fov_axis: &str) -> String {
+    format!(
+        r#"<scene version="3.0.0">
+  <integrator type="transient_path"><integer name="max_depth" value="2"/></integrator>
+  <sensor type="perspective">
+    <float name="fov" value="{fov}"/><string name="fov_axis" value="{fov_axis}"/>
+    <transform name="to_world"><lookat origin="0.3,0.2,0" target="0.3,0.2,-1" up="0,1,0"/></transform>
+    <sampler type="independent"><integer name="sample_count" value="64"/></sampler>
+    <film type="transient_hdr_film">
+      <integer name="width" value="4"/><integer name="height" value="3"/>
+      <integer name="temporal_bins" value="60"/>
+      <float name="start_opl" value="3.9"/><float name="bin_width_opl" value="0.05"/>
+    </film>
+  </sensor>
+  <emitter type="projector">
+    <float name="fov" value="{fov}"/><string name="fov_axis" value="{fov_axis}"/>
+    <float name="scale" value="1.5"/>
+    <transform name="to_world"><lookat origin="0.3,0.2,0" target="0.3,0.2,-1" up="0,1,0"/></transform>
+    <texture type="bitmap" name="irradiance">
+      <string name="filename" value="tex.png"/>
+      <string name="filter_type" value="nearest"/><boolean name="raw" value="true"/>
+    </texture>
+  </emitter>
+  <shape type="rectangle">
+    <transform name="to_world"><scale value="10"/><translate z="-2"/></transform>
+    <bsdf type="diffuse"><rgb name="reflectance" value="0.5, 0.6, 0.7"/></bsdf>
+  </shape>
+</scene>"#
+    )
+}
+
+/// Texel (i, j) of the test image, as bytes: every texel distinct in every channel.
+fn projector_texel(i: usize, j: usize) -> [u8; 3] {
+    [
+        (10 + 20 * i) as u8,
+        (30 + 40 * j) as u8,
+        (200 - 15 * (i + 2 * j)) as u8,
+    ]
+}
+
+#[test]
+fn projector_lights_a_plane_with_its_texture_at_pi_s_e_over_d_squared() {
+    let dir = tempfile::tempdir().unwrap();
+    let bytes = (0..3)
+        .flat_map(|j| (0..4).flat_map(move |i| projector_texel(i, j)))
+        .collect();
+    image::RgbImage::from_raw(4, 3, bytes)
+        .unwrap()
+        .save(dir.path().join("tex.png"))
+        .unwrap();
+    for (fov, axis) in [
+        (60.0, "x"),
+        (45.0, "y"),
+        (70.0, "diagonal"),
+        (50.0, "smaller"),
+    ] {
+        let path = dir.path().join("scene.xml");
+        std::fs::write(&path, projector_plane(fov, axis)).unwrap();
+        let scene = Scene::load(&path, &Overrides::default()).unwrap();
+        let out = run(&scene, 4);
+        let (w, h, t_bins) = (4usize, 3usize, 60usize);
+        let (rho, s, d) = ([0.5, 0.6, 0.7], 1.5, 2.0);
+        for j in 0..h {
+            for i in 0..w {
+                let texel = projector_texel(i, j);
+                for c in 0..3 {
+                    let want = rho[c] * s * (texel[c] as f64 / 255.0) / (d * d);
+                    let got = out.steady[(j * w + i) * 3 + c];
+                    assert!(
+                        (got - want).abs() <= 1e-5 * want,
+                        "fov {fov} on {axis}: pixel ({i}, {j}) channel {c}: {got} vs {want}"
+                    );
+                    // Everything arrives in the window, no earlier than OPL 2 d = 4
+                    // (bin 2), and the bins sum to the steady value.
+                    let bins: Vec<f64> = (0..t_bins)
+                        .map(|k| out.accum.x1[((j * w + i) * t_bins + k) * 3 + c])
+                        .collect();
+                    assert!(bins[..2].iter().all(|&v| v == 0.0));
+                    let total: f64 = bins.iter().sum::<f64>() / scene.spp as f64;
+                    assert!((total - got).abs() <= 1e-9 * got);
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn angular_area_light_with_a_90_degree_cone_is_the_area_light_bit_for_bit() {
+    let o = Overrides {
+        width: Some(12),
+        spp: Some(8),
+        bins: Some(40),
+        ..Default::default()
+    };
+    let text = std::fs::read_to_string(
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cbox.xml"),
+    )
+    .unwrap();
+    assert_eq!(text.matches("<emitter type=\"area\">").count(), 1);
+    let angular = text.replace(
+        "<emitter type=\"area\">",
+        "<emitter type=\"angulararea\"><float name=\"cutoff_angle\" value=\"90\"/>",
+    );
+    let a = run(&load(&text, &o), 3);
+    let b = run(&load(&angular, &o), 3);
+    assert!(a.steady == b.steady && a.accum.x1 == b.accum.x1 && a.accum.x2 == b.accum.x2);
+    // A 30-degree cone is a different light: the walls lit at grazing angles go dark.
+    let narrow = text.replace(
+        "<emitter type=\"area\">",
+        "<emitter type=\"angulararea\"><float name=\"cutoff_angle\" value=\"30\"/>",
+    );
+    let c = run(&load(&narrow, &o), 3);
+    let sum = |v: &[f64]| v.iter().sum::<f64>();
+    assert!(sum(&c.steady) < 0.8 * sum(&a.steady));
+}

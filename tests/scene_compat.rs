@@ -589,3 +589,117 @@ fn discard_direct_light_hides_the_emitters_the_camera_sees() {
     );
     assert!(error(d, "old.xml").contains("progressive"));
 }
+
+#[test]
+fn angulararea_attaches_like_area_and_projector_reads_mitsubas_parameters() {
+    use tstat::lights::Emitter;
+    use tstat::scene::spectrum::{uniform_to_srgb, SpectrumUse};
+    use tstat::textures::Texture;
+    let d = tempfile::tempdir().unwrap();
+    let d = d.path();
+    write(d, "tri.ply", TRI_PLY);
+    // angulararea: inline, or declared at the top level and referenced (before or
+    // after), as `area`; mitransient's defaults (radiance 1, cutoff 10, beam = cutoff).
+    let lamp = r#"<shape type="rectangle"><transform name="to_world"><translate z="2"/><rotate x="1" angle="180"/></transform>EMIT</shape>"#;
+    let emitter =
+        r#"<emitter type="angulararea"><float name="cutoff_angle" value="50"/></emitter>"#;
+    write(
+        d,
+        "a.xml",
+        &scene(FOV, &format!("{SHAPES}{}", lamp.replace("EMIT", emitter))),
+    );
+    let decl = emitter.replace(r#"type="angulararea""#, r#"type="angulararea" id="lamp""#);
+    let by_ref = lamp.replace("EMIT", r#"<ref id="lamp"/>"#);
+    write(d, "b.xml", &scene(FOV, &format!("{SHAPES}{by_ref}{decl}")));
+    let (a, b) = (load(d, "a.xml").unwrap(), load(d, "b.xml").unwrap());
+    assert_eq!(steady(&a), steady(&b));
+    let Emitter::AngularArea {
+        radiance, falloff, ..
+    } = &a.emitters[1]
+    else {
+        panic!("{:?}", a.emitters[1])
+    };
+    assert_eq!(radiance.to_array(), [1.0; 3]);
+    assert_eq!(
+        (falloff.cutoff, falloff.beam_width),
+        (50f32.to_radians(), 50f32.to_radians())
+    );
+    write(
+        d,
+        "c.xml",
+        &scene(
+            FOV,
+            &format!(
+                "{SHAPES}{}",
+                lamp.replace("EMIT", r#"<emitter type="angulararea"/>"#)
+            ),
+        ),
+    );
+    let Emitter::AngularArea { falloff, .. } = &load(d, "c.xml").unwrap().emitters[1] else {
+        panic!()
+    };
+    assert_eq!(falloff.cutoff, 10f32.to_radians());
+    // projector: a uniform spectrum follows the emission rule; a top-level texture by
+    // reference; focal_length instead of fov; scale and to_world.
+    let proj = |params: &str| {
+        format!(
+            r#"<texture type="checkerboard" id="checks"/>{SHAPES}<emitter type="projector">{params}<transform name="to_world"><lookat origin="0,0,3" target="0,0,0" up="0,1,0"/></transform></emitter>"#
+        )
+    };
+    write(
+        d,
+        "p.xml",
+        &scene(
+            FOV,
+            &proj(r#"<spectrum name="irradiance" value="2"/><float name="fov" value="30"/>"#),
+        ),
+    );
+    let s = load(d, "p.xml").unwrap();
+    let Emitter::Projector(p) = &s.emitters[1] else {
+        panic!("{:?}", s.emitters[1])
+    };
+    assert_eq!(
+        p.irradiance,
+        Texture::Constant(glam::Vec3::from_array(uniform_to_srgb(
+            2.0,
+            SpectrumUse::Emission
+        )))
+    );
+    assert!((p.inv_tan_half - 1.0 / 15f32.to_radians().tan()).abs() < 1e-5);
+    assert!((p.position - glam::Vec3::new(0.0, 0.0, 3.0)).length() < 1e-6);
+    assert!((p.axis - glam::Vec3::new(0.0, 0.0, -1.0)).length() < 1e-6);
+    assert_eq!((p.scale, p.aspect), (1.0, 1.0));
+    write(
+        d,
+        "q.xml",
+        &scene(
+            FOV,
+            &proj(
+                r#"<ref name="irradiance" id="checks"/><string name="focal_length" value="50mm"/><float name="scale" value="3"/>"#,
+            ),
+        ),
+    );
+    let s = load(d, "q.xml").unwrap();
+    let Emitter::Projector(p) = &s.emitters[1] else {
+        panic!()
+    };
+    assert!(matches!(p.irradiance, Texture::Checkerboard(_)) && p.scale == 3.0);
+    // 50 mm on the diagonal of a square (1 x 1) frustum: tan(fov_x / 2) = (43.27 / 100) / sqrt 2.
+    let want = (36f64.hypot(24.0) / 100.0) / 2f64.sqrt();
+    assert!((1.0 / p.inv_tan_half as f64 - want).abs() < 1e-6);
+    // Two shapes with one id: Mitsuba 3.9.1 refuses it too ("duplicate ID"), e.g.
+    // mitransient's examples/test/simple/simple_angular_4light.xml.
+    write(
+        d,
+        "dup.xml",
+        &scene(
+            FOV,
+            &format!(
+                "{SHAPES}{decl}{0}{0}",
+                by_ref.replace("<shape", r#"<shape id="light""#)
+            ),
+        ),
+    );
+    let e = error(d, "dup.xml");
+    assert!(e.contains("id 'light' is already used"), "{e}");
+}

@@ -12,7 +12,7 @@ pub const MAX_SCENE_BYTES: u64 = 256 << 20;
 pub const MAX_MANIFEST_BYTES: u64 = 16 << 20;
 /// Meshes (PLY, OBJ, serialized): 16 GiB, more than this machine's users render.
 pub const MAX_MESH_BYTES: u64 = 16 << 30;
-/// Texture images (PNG, JPEG, HDR, EXR): compressed data of the largest texture accepted.
+/// Texture images (PNG, JPEG, BMP, HDR, EXR): compressed data of the largest texture accepted.
 pub const MAX_IMAGE_BYTES: u64 = 4 << 30;
 
 /// Opens a regular file of at most `max_bytes` for reading in place (seeking), with

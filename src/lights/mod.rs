@@ -11,6 +11,18 @@
 //! | cutoff_angle | float | 20 | degrees; no light beyond |
 //! | beam_width | float | 3/4 cutoff_angle | degrees; full intensity within |
 //! Between the two the intensity falls linearly in angle, as Mitsuba's `falloff_curve`.
+//!
+//! `angulararea` (nested in a `<shape>`, mitransient's): an area light emitting within
+//! a cone about its normal (`angular_area.rs`).
+//!
+//! `projector` (top level, Mitsuba 3's): a delta-position light projecting a texture
+//! through a perspective frustum (`projector.rs`).
+
+pub mod angular_area;
+pub mod projector;
+
+pub use angular_area::AngularFalloff;
+pub use projector::Projector;
 
 use crate::geometry::shape::{AreaSampler, Shape};
 use crate::math::Rgb;
@@ -29,6 +41,14 @@ pub enum Emitter {
         /// A spot light's cone (none: shines in every direction).
         spot: Option<Spot>,
     },
+    /// An area light whose emission is restricted to a cone about its normal.
+    AngularArea {
+        shape: u32,
+        radiance: Rgb,
+        sampler: AreaSampler,
+        falloff: AngularFalloff,
+    },
+    Projector(Box<Projector>),
 }
 
 /// The cone of a `spot` light.
@@ -93,29 +113,24 @@ impl Emitter {
                 shape,
                 radiance,
                 sampler,
-            } => {
-                let s = sampler.sample(&shapes[*shape as usize], u1, u2);
-                let d = s.p - x;
-                let dist2 = d.length_squared();
-                let dist = dist2.sqrt();
-                if dist <= 0.0 {
-                    return None;
-                }
-                let wi = d / dist;
-                let cos_l = -s.ns.dot(wi);
-                if cos_l <= 0.0 {
-                    return None;
-                }
-                Some(LightSample {
-                    p: s.p,
-                    n: s.ng,
-                    wi,
-                    dist,
+            } => sample_area(&shapes[*shape as usize], sampler, x, select_pdf, u1, u2).map(
+                |(ls, _)| LightSample {
                     li: *radiance,
-                    pdf: select_pdf * dist2 / (cos_l * sampler.total_area),
-                    delta: false,
-                })
+                    ..ls
+                },
+            ),
+            Emitter::AngularArea {
+                shape,
+                radiance,
+                sampler,
+                falloff,
+            } => {
+                let (ls, cos_l) =
+                    sample_area(&shapes[*shape as usize], sampler, x, select_pdf, u1, u2)?;
+                let li = angular_area::angular_radiance(*radiance, falloff, cos_l)?;
+                Some(LightSample { li, ..ls })
             }
+            Emitter::Projector(p) => p.sample(x, select_pdf),
             Emitter::Point {
                 position,
                 intensity,
@@ -150,15 +165,72 @@ impl Emitter {
 
     /// Solid-angle density with which `sample` would have produced a point at distance
     /// `dist` whose normal makes cosine `cos_l` with the direction back to the reference.
+    /// An angular light's is 0 outside its cone (mitransient's `pdf_direction`).
     #[inline(always)]
     pub fn pdf_area_hit(&self, select_pdf: f32, dist: f32, cos_l: f32) -> f32 {
         match self {
             Emitter::Area { sampler, .. } if cos_l > 0.0 => {
                 select_pdf * dist * dist / (cos_l * sampler.total_area)
             }
+            Emitter::AngularArea {
+                sampler, falloff, ..
+            } if cos_l > 0.0 && falloff.eval(cos_l) > 0.0 => {
+                select_pdf * dist * dist / (cos_l * sampler.total_area)
+            }
             _ => 0.0,
         }
     }
+
+    /// The radiance a shape's light emits towards cosine `cos_l` > 0 from its normal
+    /// (front side); None for an angular light seen outside its cone.
+    #[inline(always)]
+    pub fn emitted(&self, cos_l: f32) -> Option<Rgb> {
+        match self {
+            Emitter::Area { radiance, .. } => Some(*radiance),
+            Emitter::AngularArea {
+                radiance, falloff, ..
+            } => angular_area::angular_radiance(*radiance, falloff, cos_l),
+            _ => unreachable!("shape emitters are area lights"),
+        }
+    }
+}
+
+/// A point sampled uniformly by area on a shape, as a connection from `x` (radiance
+/// left zero for the caller), with the cosine at the light; None when the point faces
+/// away from `x`.
+#[inline(always)]
+fn sample_area(
+    shape: &Shape,
+    sampler: &AreaSampler,
+    x: Vec3,
+    select_pdf: f32,
+    u1: f32,
+    u2: [f32; 2],
+) -> Option<(LightSample, f32)> {
+    let s = sampler.sample(shape, u1, u2);
+    let d = s.p - x;
+    let dist2 = d.length_squared();
+    let dist = dist2.sqrt();
+    if dist <= 0.0 {
+        return None;
+    }
+    let wi = d / dist;
+    let cos_l = -s.ns.dot(wi);
+    if cos_l <= 0.0 {
+        return None;
+    }
+    Some((
+        LightSample {
+            p: s.p,
+            n: s.ng,
+            wi,
+            dist,
+            li: Rgb::ZERO,
+            pdf: select_pdf * dist2 / (cos_l * sampler.total_area),
+            delta: false,
+        },
+        cos_l,
+    ))
 }
 
 #[cfg(test)]

@@ -217,23 +217,26 @@ unsafe fn trace_path_body<const ISA: u8>(
             (whole, bsdf, delaying)
         };
 
-        // Emission (front side only), MIS-weighted against light sampling.
+        // Emission (front side only; an angular light only within its cone),
+        // MIS-weighted against light sampling.
         let mut seen_emitter = false;
         if let Some(ei) = shape.emitter {
             let cos_l = wo.z;
-            if cos_l > 0.0 {
+            let emitter = &scene.emitters[ei as usize];
+            let radiance = if cos_l > 0.0 {
+                emitter.emitted(cos_l)
+            } else {
+                None
+            };
+            if let Some(radiance) = radiance {
                 seen_emitter = true;
                 if !(depth == 0 && settings.hide_emitters) {
-                    let emitter = &scene.emitters[ei as usize];
-                    let crate::lights::Emitter::Area { radiance, .. } = emitter else {
-                        unreachable!("shape emitters are area lights")
-                    };
                     let w = if prev_delta {
                         1.0
                     } else {
                         power_heuristic(prev_pdf, emitter.pdf_area_hit(select_pdf, hit.t, cos_l))
                     };
-                    contribute(scene, deposits, tally, opl, beta * *radiance * w);
+                    contribute(scene, deposits, tally, opl, beta * radiance * w);
                 }
             }
         }

@@ -467,6 +467,14 @@ fn hash_loaded_scene(h: &mut Sha256, scene: &Scene, overrides: &Overrides) {
                     f32s(h, &[s.axis.x, s.axis.y, s.axis.z, s.cutoff, s.beam_width]);
                 }
             }
+            Emitter::AngularArea {
+                radiance, falloff, ..
+            } => {
+                f32s(h, &radiance.to_array());
+                f32s(h, &[falloff.cutoff, falloff.beam_width]);
+            }
+            // Its texture's texels are in its Debug text.
+            Emitter::Projector(p) => h.update(format!("{p:?}").as_bytes()),
         }
     }
 }

@@ -38,7 +38,10 @@ pub const SUPPORTED: &[(&str, &[&str])] = &[
         &["rectangle", "cube", "sphere", "ply", "obj", "serialized"],
     ),
     ("texture", &["bitmap", "checkerboard"]),
-    ("emitter", &["area", "point", "spot"]),
+    (
+        "emitter",
+        &["area", "angulararea", "point", "spot", "projector"],
+    ),
     ("sensor", &["perspective"]),
     ("film", &["transient_hdr_film"]),
     (
@@ -214,18 +217,22 @@ fn scan_element(
             types.join(", ")
         ));
     } else if tag == "emitter"
-        && kind == "area"
+        && (kind == "area" || kind == "angulararea")
         && node
             .parent_element()
             .is_some_and(|p| !p.has_tag_name("shape") && !p.has_tag_name("scene"))
     {
-        push("<emitter type=\"area\"> must be in a <shape> or at the top level".into());
+        push(format!(
+            "<emitter type=\"{kind}\"> must be in a <shape> or at the top level"
+        ));
     } else if tag == "emitter"
-        && kind == "point"
+        && (kind == "point" || kind == "projector")
         && node
             .parent_element()
             .is_some_and(|p| p.has_tag_name("shape"))
     {
-        push("<emitter type=\"point\"> cannot be attached to a shape".into());
+        push(format!(
+            "<emitter type=\"{kind}\"> cannot be attached to a shape"
+        ));
     }
 }

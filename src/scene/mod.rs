@@ -2,12 +2,14 @@
 //! render. `load` reads and checks the file, applies command-line overrides, and builds
 //! the BVH. Every plugin documents its parameters in the file that reads it.
 
+pub mod angular_area;
 pub mod camera;
 pub mod check;
 pub mod error;
 pub mod film;
 pub mod limits;
 pub mod mesh;
+pub mod projector;
 pub mod props;
 pub mod serialized;
 pub mod shapes;

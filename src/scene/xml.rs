@@ -9,7 +9,7 @@ use super::shapes::{check_world_point, parse_geometry};
 use super::{IntegratorSettings, Overrides, Scene};
 use crate::geometry::accel::Accel;
 use crate::geometry::shape::{AreaSampler, Shape, ShapeGeom};
-use crate::lights::Emitter;
+use crate::lights::{AngularFalloff, Emitter};
 use crate::materials::parse::{parse_bsdf, resolve_bsdf, Named};
 use crate::materials::{Bsdf, Diffuse, Material};
 use crate::math::Rgb;
@@ -248,8 +248,8 @@ struct Objects {
     integrator: Option<IntegratorSettings>,
     /// Samplers declared at the top level, by id (sample count, seed).
     named_samplers: HashMap<String, (u32, u64)>,
-    /// Area emitters declared at the top level, by id (radiance).
-    area_emitters: HashMap<String, Vec3>,
+    /// Area emitters declared at the top level, by id.
+    area_emitters: HashMap<String, AreaEmission>,
     /// The files being included, outermost first (to refuse cycles).
     including: Vec<std::path::PathBuf>,
 }
@@ -265,17 +265,20 @@ fn walk(ctx: &Ctx, root: Node, o: &mut Objects, depth: usize) -> Result<(), Scen
     // the file, also before their declaration (Mitsuba resolves references after
     // reading the whole file).
     for node in root.children().filter(|n| n.has_tag_name("emitter")) {
-        if ctx.attr(node, "type")?.as_deref() != Some("area") {
+        let Some(kind) = ctx
+            .attr(node, "type")?
+            .filter(|k| AREA_KINDS.contains(&k.as_str()))
+        else {
             continue;
-        }
+        };
         let Some(id) = ctx.attr(node, "id")? else {
             return Err(ctx.err(
                 node,
                 "a top-level area emitter needs an id (shapes attach it with <ref id=...>)",
             ));
         };
-        let radiance = parse_area_emitter(ctx, node)?;
-        if o.area_emitters.insert(id.clone(), radiance).is_some() {
+        let emission = parse_area_emission(ctx, node, &kind)?;
+        if o.area_emitters.insert(id.clone(), emission).is_some() {
             return Err(ctx.err(node, format!("id '{id}' is defined twice")));
         }
     }
@@ -339,18 +342,33 @@ fn walk(ctx: &Ctx, root: Node, o: &mut Objects, depth: usize) -> Result<(), Scen
                     bsdf: index_of_bsdf as u32,
                     ..shape
                 };
-                if let Some(radiance) = emission {
+                if let Some(emission) = emission {
                     shape.emitter = Some(o.emitters.len() as u32);
-                    o.emitters.push(Emitter::Area {
-                        shape: index,
-                        radiance,
-                        sampler: AreaSampler::new(&shape),
+                    let sampler = AreaSampler::new(&shape);
+                    o.emitters.push(match emission.falloff {
+                        None => Emitter::Area {
+                            shape: index,
+                            radiance: emission.radiance,
+                            sampler,
+                        },
+                        Some(falloff) => Emitter::AngularArea {
+                            shape: index,
+                            radiance: emission.radiance,
+                            sampler,
+                            falloff,
+                        },
                     });
                 }
                 o.shapes.push(shape);
             }
             // Area emitters declared here were read before the walk (below).
-            "emitter" if ctx.attr(node, "type")?.as_deref() == Some("area") => {}
+            "emitter"
+                if ctx
+                    .attr(node, "type")?
+                    .is_some_and(|k| AREA_KINDS.contains(&k.as_str())) => {}
+            "emitter" if ctx.attr(node, "type")?.as_deref() == Some("projector") => o
+                .emitters
+                .push(super::projector::parse_projector(ctx, node, &o.named_textures)?),
             "emitter" => o.emitters.push(parse_point_emitter(ctx, node)?),
             "sampler" => {
                 let Some(id) = ctx.attr(node, "id")? else {
@@ -566,21 +584,11 @@ fn parse_sampler(ctx: &Ctx, obj: Node) -> Result<(u32, u64), SceneError> {
     Ok((spp, seed))
 }
 
-fn parse_sensor(
-    ctx: &Ctx,
-    node: Node,
-    named_samplers: &HashMap<String, (u32, u64)>,
-) -> Result<Sensor, SceneError> {
-    let kind = ctx.required_attr(node, "type")?;
-    if kind != "perspective" {
-        return Err(ctx.err(
-            node,
-            format!("sensor '{kind}' is not supported (use perspective)"),
-        ));
-    }
-    let mut p = Props::parse(ctx, node)?;
-    // `fov` (on `fov_axis`), or Mitsuba's `focal_length` (35 mm equivalent, default
-    // "50mm", on the diagonal of a 36 x 24 mm frame), as `parse_fov` in Mitsuba 3.
+/// `fov` (on `fov_axis`), or Mitsuba's `focal_length` (35 mm equivalent, default
+/// "50mm", on the diagonal of a 36 x 24 mm frame), as `parse_fov` in Mitsuba 3: the
+/// field of view in degrees, in (0, 180), and the extent it spans. Shared by the
+/// `perspective` sensor and the `projector` emitter.
+pub(super) fn parse_fov(p: &mut Props) -> Result<(f64, FovAxis), SceneError> {
     let (fov, axis_name) = match (p.float("fov")?, p.string("focal_length")?) {
         (Some(_), Some(_)) => {
             return Err(p.err("give either 'fov' or 'focal_length', not both"));
@@ -619,6 +627,23 @@ fn parse_sensor(
             format!("fov_axis '{axis_name}' is not one of x, y, smaller, larger, diagonal"),
         )
     })?;
+    Ok((fov, fov_axis))
+}
+
+fn parse_sensor(
+    ctx: &Ctx,
+    node: Node,
+    named_samplers: &HashMap<String, (u32, u64)>,
+) -> Result<Sensor, SceneError> {
+    let kind = ctx.required_attr(node, "type")?;
+    if kind != "perspective" {
+        return Err(ctx.err(
+            node,
+            format!("sensor '{kind}' is not supported (use perspective)"),
+        ));
+    }
+    let mut p = Props::parse(ctx, node)?;
+    let (fov, fov_axis) = parse_fov(&mut p)?;
     // A pinhole has no depth of field: Mitsuba's `perspective` accepts and ignores it.
     p.ignore("focus_distance");
     for name in ["principal_point_offset_x", "principal_point_offset_y"] {
@@ -675,7 +700,7 @@ fn parse_sensor(
     })
 }
 
-type ParsedShape = (Shape, Material, Option<Rgb>);
+type ParsedShape = (Shape, Material, Option<AreaEmission>);
 
 /// The diagonal of the box around all shapes, in world units.
 fn extent(shapes: &[Shape]) -> Option<f32> {
@@ -773,6 +798,32 @@ fn check_elements(ctx: &Ctx, root: Node) -> Result<(), SceneError> {
     Ok(())
 }
 
+/// Emitters that live on a shape.
+const AREA_KINDS: &[&str] = &["area", "angulararea"];
+
+/// What a shape's emitter declares: its radiance and, for `angulararea`, its cone.
+#[derive(Clone, Copy, Debug)]
+struct AreaEmission {
+    radiance: Vec3,
+    falloff: Option<AngularFalloff>,
+}
+
+/// An `<emitter>` of one of the `AREA_KINDS`.
+fn parse_area_emission(ctx: &Ctx, obj: Node, kind: &str) -> Result<AreaEmission, SceneError> {
+    Ok(if kind == "angulararea" {
+        let (radiance, falloff) = super::angular_area::parse_angular_area(ctx, obj)?;
+        AreaEmission {
+            radiance,
+            falloff: Some(falloff),
+        }
+    } else {
+        AreaEmission {
+            radiance: parse_area_emitter(ctx, obj)?,
+            falloff: None,
+        }
+    })
+}
+
 /// An `<emitter type="area">`'s radiance.
 fn parse_area_emitter(ctx: &Ctx, obj: Node) -> Result<Vec3, SceneError> {
     let mut ep = Props::parse(ctx, obj)?;
@@ -800,7 +851,7 @@ fn parse_shape(
     node: Node,
     index: u32,
     named: &Named,
-    area_emitters: &HashMap<String, Vec3>,
+    area_emitters: &HashMap<String, AreaEmission>,
 ) -> Result<ParsedShape, SceneError> {
     let kind = ctx.required_attr(node, "type")?;
     let mut p = Props::parse(ctx, node)?;
@@ -829,10 +880,10 @@ fn parse_shape(
             }
             "emitter" => {
                 let k = ctx.required_attr(obj, "type")?;
-                if k != "area" {
-                    return Err(ctx.err(obj, format!("emitter '{k}' cannot be attached to a shape (use area)")));
+                if !AREA_KINDS.contains(&k.as_str()) {
+                    return Err(ctx.err(obj, format!("emitter '{k}' cannot be attached to a shape (use area or angulararea)")));
                 }
-                emission = Some((parse_area_emitter(ctx, obj)?, obj));
+                emission = Some((parse_area_emission(ctx, obj, &k)?, obj));
             }
             other => {
                 return Err(ctx.err(
@@ -868,7 +919,7 @@ fn parse_shape(
     let bsdf = bsdf.unwrap_or(Material::plain(Bsdf::Diffuse(Diffuse {
         reflectance: Rgb::splat(0.5),
     })));
-    Ok((shape, bsdf, emission.map(|(radiance, _)| radiance)))
+    Ok((shape, bsdf, emission.map(|(e, _)| e)))
 }
 
 fn parse_point_emitter(ctx: &Ctx, node: Node) -> Result<Emitter, SceneError> {
@@ -876,7 +927,7 @@ fn parse_point_emitter(ctx: &Ctx, node: Node) -> Result<Emitter, SceneError> {
     if kind != "point" && kind != "spot" {
         return Err(ctx.err(
             node,
-            format!("emitter '{kind}' is not supported at top level (supported: point, spot; area lights go inside a <shape> or are attached by <ref>)"),
+            format!("emitter '{kind}' is not supported at top level (supported: point, spot, projector; area lights go inside a <shape> or are attached by <ref>)"),
         ));
     }
     let mut p = Props::parse(ctx, node)?;

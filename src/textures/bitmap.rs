@@ -4,7 +4,7 @@
 //!
 //! | parameter | type | default | meaning |
 //! |-----------|------|---------|---------|
-//! | filename | string | (required) | PNG, JPEG, Radiance HDR (`.hdr`) or OpenEXR, relative to the scene file |
+//! | filename | string | (required) | PNG, JPEG, BMP, Radiance HDR (`.hdr`) or OpenEXR, relative to the scene file |
 //! | filter_type | string | `bilinear` | `bilinear` or `nearest` |
 //! | wrap_mode | string | `repeat` | `repeat`, `mirror` or `clamp`: lookups outside [0, 1] |
 //! | raw | boolean | false | keep the stored values: no sRGB decoding of 8/16-bit images (normal maps, roughness) |

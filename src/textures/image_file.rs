@@ -77,11 +77,13 @@ fn decode_ldr_or_hdr(bytes: &[u8], raw: bool) -> Result<ImageData, String> {
             .with_guessed_format()
             .map_err(|e| e.to_string())?;
         match r.format() {
-            Some(ImageFormat::Png | ImageFormat::Jpeg | ImageFormat::Hdr) => Ok(r),
+            Some(ImageFormat::Png | ImageFormat::Jpeg | ImageFormat::Bmp | ImageFormat::Hdr) => {
+                Ok(r)
+            }
             Some(f) => Err(format!(
-                "is a {f:?} image (supported: PNG, JPEG, Radiance HDR, OpenEXR)"
+                "is a {f:?} image (supported: PNG, JPEG, BMP, Radiance HDR, OpenEXR)"
             )),
-            None => Err("is not a PNG, JPEG, Radiance HDR or OpenEXR image".into()),
+            None => Err("is not a PNG, JPEG, BMP, Radiance HDR or OpenEXR image".into()),
         }
     };
     let (w, h) = reader()?
@@ -283,6 +285,27 @@ mod tests {
         let bytes = [128u8, 0, 255, 10, 64, 200];
         for (v, b) in raw.data.iter().zip(bytes) {
             assert_eq!(*v, b as f32 / 255.0);
+        }
+    }
+
+    #[test]
+    fn bmp_decodes_as_the_same_png_does() {
+        // Mitsuba reads BMP (e.g. its projector docs scene's flower.bmp) as 8-bit sRGB.
+        let dir = tempfile::tempdir().unwrap();
+        let bytes = vec![128, 0, 255, 10, 64, 200, 3, 90, 250, 255, 255, 1];
+        let rgb = image::RgbImage::from_raw(2, 2, bytes).unwrap();
+        let png = write_png(dir.path(), "a.png", rgb.clone().into());
+        let bmp = write_png(dir.path(), "a.bmp", rgb.into());
+        assert!(std::fs::read(&bmp).unwrap().starts_with(b"BM"));
+        for raw in [false, true] {
+            let (a, b) = (
+                load_image(&png, raw).unwrap(),
+                load_image(&bmp, raw).unwrap(),
+            );
+            assert_eq!(
+                (a.width, a.height, a.channels, a.data),
+                (b.width, b.height, b.channels, b.data)
+            );
         }
     }
 

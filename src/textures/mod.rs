@@ -4,7 +4,7 @@
 //!
 //! | plugin | file | what it is |
 //! |--------|------|------------|
-//! | `bitmap` | `bitmap.rs` (lookup), `image_file.rs` (decoding) | an image: PNG, JPEG, Radiance HDR, OpenEXR |
+//! | `bitmap` | `bitmap.rs` (lookup), `image_file.rs` (decoding) | an image: PNG, JPEG, BMP, Radiance HDR, OpenEXR |
 //! | `checkerboard` | `checkerboard.rs` | two colours in a 2 x 2 pattern per unit square of uv |
 //!
 //! Both take `to_uv` ([`UvTransform`]). The XML side lives in `scene::textures`.

@@ -1,0 +1,99 @@
+//! `<emitter type="projector">` (Mitsuba 3's; parameters and radiometry documented in
+//! `lights/projector.rs`).
+
+use super::error::SceneError;
+use super::props::{Ctx, Props};
+use super::shapes::check_world_point;
+use super::textures::{texture_param, NamedTextures};
+use crate::lights::{Emitter, Projector};
+use crate::textures::Texture;
+use glam::{DMat4, DVec3, Vec3};
+use roxmltree::Node;
+
+/// The resolution Mitsuba's `Texture::resolution` reports: an image's size, else 1 x 1.
+fn resolution(t: &Texture) -> (usize, usize) {
+    match t {
+        Texture::Bitmap(b) => (b.width, b.height),
+        Texture::Constant(_) | Texture::Checkerboard(_) => (1, 1),
+    }
+}
+
+/// Whether every value the texture can return is finite and non-negative.
+fn non_negative(t: &Texture) -> bool {
+    match t {
+        Texture::Constant(c) => c.is_finite() && c.min_element() >= 0.0,
+        Texture::Bitmap(b) => b.data.iter().all(|v| v.is_finite() && *v >= 0.0),
+        Texture::Checkerboard(c) => non_negative(&c.color0) && non_negative(&c.color1),
+    }
+}
+
+/// Whether the texture is black everywhere.
+fn black(t: &Texture) -> bool {
+    match t {
+        Texture::Constant(c) => c.max_element() == 0.0,
+        Texture::Bitmap(b) => b.data.iter().all(|v| *v == 0.0),
+        Texture::Checkerboard(c) => black(&c.color0) && black(&c.color1),
+    }
+}
+
+pub fn parse_projector(
+    ctx: &Ctx,
+    node: Node,
+    named: &NamedTextures,
+) -> Result<Emitter, SceneError> {
+    let mut p = Props::parse(ctx, node)?;
+    // An emitted colour (Mitsuba's `get_emissive_texture`): a constant follows the
+    // emission rules for spectra; otherwise a nested or referenced texture.
+    let irradiance = match p.peek("irradiance") {
+        Some(_) => Texture::Constant(p.emission("irradiance")?.unwrap_or(Vec3::ONE)),
+        None => texture_param(&mut p, "irradiance", named)?.unwrap_or(Texture::Constant(Vec3::ONE)),
+    };
+    if !non_negative(&irradiance) {
+        return Err(p.err_at(
+            "irradiance",
+            "irradiance must be finite and non-negative everywhere",
+        ));
+    }
+    let scale = p.float_or("scale", 1.0)?;
+    if !(scale >= 0.0 && (scale as f32).is_finite()) {
+        return Err(p.err_at(
+            "scale",
+            format!("scale must be finite and non-negative, got {scale}"),
+        ));
+    }
+    if scale as f32 == 0.0 || black(&irradiance) {
+        ctx.warn(
+            node,
+            "the projected irradiance is zero (in single precision): this emitter contributes nothing",
+        );
+    }
+    let (fov, fov_axis) = super::xml::parse_fov(&mut p)?;
+    let to_world = p.transform("to_world")?.unwrap_or(DMat4::IDENTITY);
+    if let Some(&o) = p.objects.first() {
+        return Err(ctx.err(
+            o,
+            "unexpected nested element in <emitter type=\"projector\"> (it takes a texture only as irradiance)",
+        ));
+    }
+    p.finish()?;
+    let position = to_world.transform_point3(DVec3::ZERO);
+    check_world_point(position).map_err(|e| ctx.err(node, format!("position: {e}")))?;
+    let (w, h) = resolution(&irradiance);
+    let (tan_half, aspect) = Projector::frustum(fov, fov_axis, w, h);
+    let inv_tan_half = (1.0 / tan_half) as f32;
+    if !(inv_tan_half.is_finite() && inv_tan_half > 0.0 && (aspect as f32).is_finite()) {
+        return Err(ctx.err(
+            node,
+            format!("fov {fov:e} degrees on a {w}x{h} texture gives a frustum that is flat or unbounded in single precision"),
+        ));
+    }
+    Ok(Emitter::Projector(Box::new(Projector {
+        position: position.as_vec3(),
+        to_local: to_world.inverse().as_mat4(),
+        axis: to_world.transform_vector3(DVec3::Z).as_vec3(),
+        inv_tan_half,
+        aspect: aspect as f32,
+        irradiance,
+        scale: scale as f32,
+    })))
+}
