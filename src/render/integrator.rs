@@ -6,7 +6,7 @@ use super::cpu::{Isa, ISA_AVX2, ISA_AVX512, ISA_BASELINE};
 use super::deposits::PathDeposits;
 use super::gbuffer::GSample;
 use crate::geometry::accel::{offset_origin, ray_epsilon};
-use crate::materials::{Bsdf, BsdfModel};
+use crate::materials::{Bsdf, BsdfModel, HitGeometry};
 use crate::math::frame::Frame;
 use crate::math::rng::Pcg32;
 use crate::math::sampling::power_heuristic;
@@ -42,6 +42,32 @@ fn contribute(scene: &Scene, deposits: &mut PathDeposits, tally: &mut PathTally,
     if let Some(bin) = scene.film.bin(opl) {
         deposits.add(bin, c);
     }
+}
+
+/// The material at a hit of a `normalmap`/`bumpmap` material: textures resolved at the
+/// hit's uv and every perturbed frame set from the hit's geometry (`frame` is
+/// Mitsuba's dp/du shading frame, `wo` the direction back along the ray in it). Out of
+/// line: only such materials come here.
+#[inline(never)]
+fn perturbed_at(
+    material: &crate::materials::Material,
+    shape: &crate::geometry::shape::Shape,
+    hit: &crate::geometry::accel::Hit,
+    sp: &crate::geometry::shape::SurfacePoint,
+    frame: &Frame,
+    wo: Vec3,
+) -> Bsdf {
+    let uv = shape.uv(hit.face, hit.b1, hit.b2, sp.p);
+    let mut b = material.at(uv);
+    b.resolve_frames(&HitGeometry {
+        uv,
+        shading: *frame,
+        dpdu: shape.dpdu(hit.face, hit.b1, hit.b2, sp.p),
+        dpdv: shape.dpdv(hit.face, sp.p),
+        ng: sp.ng,
+        wo,
+    });
+    b
 }
 
 /// Traces one camera path from the pinhole along unit direction `d`, with the tracer
@@ -178,7 +204,10 @@ unsafe fn trace_path_body<const ISA: u8>(
         let (whole, bsdf, delaying) = if material.is_plain() {
             (&material.bsdf, &material.bsdf, None)
         } else {
-            let whole = if material.is_textured() {
+            let whole = if material.perturbs() {
+                textured = perturbed_at(material, shape, &hit, &sp, &frame, wo);
+                &textured
+            } else if material.is_textured() {
                 textured = material.at(shape.uv(hit.face, hit.b1, hit.b2, sp.p));
                 &textured
             } else {
