@@ -309,6 +309,21 @@ fn walk(ctx: &Ctx, root: Node, o: &mut Objects, depth: usize) -> Result<(), Scen
                     textures: &o.named_textures,
                 };
                 let b = parse_bsdf(ctx, node, &named)?;
+                // Mitsuba names every object with an id, nested ones too (a scene may
+                // refer to the BSDF inside a `bumpmap`): those are parsed on their own.
+                let mut found = Vec::new();
+                for inner in node.descendants().skip(1) {
+                    if inner.is_element() && inner.tag_name().name() == "bsdf" {
+                        if let Some(id) = ctx.attr(inner, "id")? {
+                            found.push((id, inner, parse_bsdf(ctx, inner, &named)?));
+                        }
+                    }
+                }
+                for (id, inner, m) in found {
+                    if o.named_bsdfs.insert(id.clone(), m).is_some() {
+                        return Err(ctx.err(inner, format!("id '{id}' is defined twice")));
+                    }
+                }
                 if let Some(id) = ctx.attr(node, "id")? {
                     if o.named_bsdfs.insert(id.clone(), b).is_some() {
                         return Err(ctx.err(node, format!("id '{id}' is defined twice")));
