@@ -354,6 +354,55 @@ mod tests {
     }
 
     #[test]
+    fn blend_weights_are_clipped_and_bindings_reach_inside_normal_maps() {
+        use crate::materials::{Blend, Perturbation, Perturbed};
+        let d = |r: f32| {
+            Bsdf::Diffuse(Diffuse {
+                reflectance: Rgb::splat(r),
+            })
+        };
+        let m = Material::new(
+            Bsdf::Blend(Blend {
+                weight: 0.5,
+                first: Box::new(d(0.1)),
+                second: Box::new(Bsdf::Perturbed(Perturbed {
+                    perturbation: Perturbation::NormalMap(Texture::Constant(Vec3::Z)),
+                    flip_invalid_normals: true,
+                    use_shadowing_function: true,
+                    nested: Box::new(d(0.2)),
+                    frame: crate::materials::perturbed::IDENTITY,
+                })),
+            }),
+            vec![
+                Binding {
+                    path: vec![],
+                    param: Param::Weight,
+                    // eval_1 at (0.25, 0.25): color1's luminance, 3 -> clipped to 1.
+                    texture: checker(Vec3::splat(-1.0), Vec3::splat(3.0)),
+                },
+                Binding {
+                    path: vec![Step::Second, Step::Nested],
+                    param: Param::Reflectance,
+                    texture: checker(Vec3::X, Vec3::Y),
+                },
+            ],
+        );
+        assert!(m.perturbs() && m.is_anisotropic() && !m.is_plain());
+        let Bsdf::Blend(b) = m.at(Vec2::new(0.25, 0.25)) else {
+            panic!()
+        };
+        assert_eq!(b.weight, 1.0);
+        let Bsdf::Perturbed(p) = *b.second else {
+            panic!()
+        };
+        assert_eq!(*p.nested, Bsdf::Diffuse(Diffuse { reflectance: Vec3::X }));
+        let Bsdf::Blend(b) = m.at(Vec2::new(0.75, 0.25)) else {
+            panic!()
+        };
+        assert_eq!(b.weight, 0.0);
+    }
+
+    #[test]
     fn textured_plastic_equals_the_plastic_built_with_that_colour() {
         let base = Plastic::new(1.49, Rgb::splat(0.5), Rgb::ONE, true);
         let m = Material::new(

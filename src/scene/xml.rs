@@ -1013,6 +1013,39 @@ mod tests {
         }
     }
 
+    /// Mitsuba names nested objects too: a reference to the BSDF inside a top-level
+    /// `bumpmap` gets that BSDF (the staircase scene's pattern), not the bump map; the
+    /// normal/bump-mapped materials are flagged through wrappers, others are not.
+    #[test]
+    fn nested_bsdf_ids_are_named_and_perturbation_is_flagged() {
+        use crate::materials::Bsdf;
+        let scene = load_text(&with(&format!(
+            r#"{LIGHT}<bsdf type="bumpmap"><texture type="checkerboard" name="h"/><bsdf type="twosided" id="inner"><bsdf type="diffuse"/></bsdf></bsdf>
+               <shape type="sphere"><ref id="inner"/></shape>"#
+        )))
+        .unwrap();
+        let m = &scene.bsdfs[scene.shapes[1].bsdf as usize];
+        assert!(matches!(m.bsdf, Bsdf::TwoSided(_)) && !m.perturbs() && m.is_plain());
+        let nm = r#"<bsdf type="normalmap"><texture type="checkerboard" name="normalmap"/><bsdf type="diffuse"/></bsdf>"#;
+        for (bsdf, want) in [
+            (nm.to_string(), true),
+            (format!(r#"<bsdf type="mask">{nm}</bsdf>"#), true),
+            (format!(r#"<bsdf type="blendbsdf"><float name="weight" value="0.2"/><bsdf type="diffuse"/>{nm}</bsdf>"#), true),
+            (r#"<bsdf type="blendbsdf"><float name="weight" value="0.2"/><bsdf type="diffuse"/><bsdf type="diffuse"/></bsdf>"#.to_string(), false),
+            (r#"<bsdf type="pplastic"/>"#.to_string(), false),
+        ] {
+            let scene = load_text(&with(&format!(
+                r#"{LIGHT}<shape type="sphere">{bsdf}</shape>"#
+            )))
+            .unwrap_or_else(|e| panic!("{bsdf}: {e}"));
+            let m = &scene.bsdfs[scene.shapes[1].bsdf as usize];
+            assert_eq!(m.perturbs(), want, "{bsdf}");
+            // Perturbing materials build Mitsuba's dp/du frame and are never plain.
+            assert_eq!(m.is_anisotropic(), want, "{bsdf}");
+            assert!(!(want && m.is_plain()), "{bsdf}");
+        }
+    }
+
     #[test]
     fn anisotropy_is_flagged_through_every_wrapper_and_textures_set_each_axis() {
         use crate::materials::Bsdf;
