@@ -790,12 +790,14 @@ fn all_models() -> Vec<(&'static str, Box<dyn BsdfModel>)> {
             "mask 0.8 over twosided gold/diffuse",
             Box::new(mask(0.8, two_sided(OneSided::Conductor(gold()), d(0.5)))),
         ),
+        // (Mitsuba's blend of a delta lobe with a density in its direction is biased:
+        // not here; a mask's pass-through meets no density of a diffuse reflection.)
         (
-            "blendbsdf 0.3 of grey diffuse and plastic",
+            "blendbsdf 0.3 of grey diffuse and mask 0.4 over diffuse",
             Box::new(blend(
                 0.3,
                 Bsdf::Diffuse(diffuse(0.4)),
-                Bsdf::Plastic(Plastic::new(1.49, Rgb::new(0.8, 0.3, 0.1), Rgb::ONE, false)),
+                Bsdf::Mask(mask(0.4, Bsdf::Diffuse(diffuse(0.9)))),
             )),
         ),
         (

@@ -7,15 +7,17 @@
 //! | weight | float or texture | required | w, the share of the SECOND child (clipped to [0, 1], as Mitsuba) |
 //! | (nested) | two bsdfs | required | f_0, then f_1 |
 //!
-//! Sampling (Mitsuba's `sample`): with u1 <= w the second child is sampled with
-//! u1 / w, else the first with (u1 - w) / (1 - w); a non-delta direction then carries
-//! the mixture's eval / pdf (the other child evaluated there too), its pdf the mixture's.
-//! A delta direction keeps the sampling child's weight: the choice probability cancels
-//! its mixture share. Mitsuba blends a delta sample with the other child's density
-//! there too (the delta lobe's discrete probability added to a solid-angle density);
-//! the two agree whenever the other child has no density in the delta direction, e.g.
-//! blends of two non-delta models or of two delta ones, and differ (Mitsuba being
-//! biased) for a delta lobe blended with a glossy or diffuse one.
+//! Sampling, exactly Mitsuba's `sample`: with u1 <= w the second child is sampled with
+//! u1 / w, else the first with (u1 - w) / (1 - w); with c the chosen child (share w_c,
+//! sample weight r_c and pdf p_c) and o the other, evaluated in the sampled direction,
+//! weight = (w_c r_c p_c + w_o eval_o) / (w_c p_c + w_o pdf_o), pdf the denominator.
+//! For a non-delta direction that is the mixture's eval / pdf. For a delta lobe p_c is
+//! the probability of having chosen it (`BsdfSample::pdf`), so where the other child
+//! has a density in that direction Mitsuba adds a solid-angle density to a discrete
+//! probability: the estimate is then biased (a mirror blended with a glossy lobe around
+//! its reflection). We keep that, so that renders agree with Mitsuba's; blends of
+//! non-delta models, of delta ones, or of a delta lobe with a model that has no density
+//! there (a diffuse reflection and a transmission) are unbiased.
 
 use super::{Bsdf, BsdfFlags, BsdfModel, BsdfSample};
 use crate::math::Rgb;
@@ -77,15 +79,22 @@ impl BsdfModel for Blend {
             (&self.first, (u1 - w) / (1.0 - w))
         };
         let s = child.sample(wo, u.clamp(0.0, 1.0 - f32::EPSILON / 2.0), u2)?;
-        if s.lobe.is_delta() {
-            return Some(s);
-        }
-        let pdf = self.pdf(wo, s.wi);
+        let (w_c, other, w_o) = if std::ptr::eq(child, &self.second) {
+            (w, &self.first, 1.0 - w)
+        } else {
+            (1.0 - w, &self.second, w)
+        };
+        let (eval_o, pdf_o) = if w_o > 0.0 {
+            (other.eval(wo, s.wi), other.pdf(wo, s.wi))
+        } else {
+            (Rgb::ZERO, 0.0)
+        };
+        let pdf = w_c * s.pdf + w_o * pdf_o;
         if !(pdf > 0.0) {
             return None;
         }
         Some(BsdfSample {
-            weight: self.eval(wo, s.wi) / pdf,
+            weight: (s.weight * (w_c * s.pdf) + eval_o * w_o) / pdf,
             pdf,
             ..s
         })
@@ -136,7 +145,8 @@ mod tests {
         assert!((b(1.0).eval(wo, wi).x - want(0.8)).abs() < 1e-6);
         assert!((b(0.25).eval(wo, wi).x - want(0.35)).abs() < 1e-6);
         assert!((b(0.25).albedo(wo).x - 0.35).abs() < 1e-6);
-        // A delta child's sample keeps its weight.
+        // A mirror's sample mixes in the diffuse child's eval and density at the
+        // mirror direction, as Mitsuba does.
         let m = Blend {
             weight: 0.5,
             first: b(0.0).first,
@@ -148,7 +158,13 @@ mod tests {
         };
         let s = m.sample(wo, 0.3, [0.5, 0.5]).unwrap();
         assert!(s.lobe.is_delta());
-        assert!((s.weight - Rgb::splat(0.6)).abs().max_element() < 1e-6);
+        // Mitsuba: (0.5 0.6 1 + 0.5 f_d cos) / (0.5 1 + 0.5 cos / pi) at the mirror
+        // direction, f_d = 0.2 / pi.
+        let c = s.wi.z;
+        let pi = std::f32::consts::PI;
+        let want = (0.5 * 0.6 + 0.5 * 0.2 * c / pi) / (0.5 + 0.5 * c / pi);
+        assert!((s.weight - Rgb::splat(want)).abs().max_element() < 1e-6, "{}", s.weight);
+        assert!((s.pdf - (0.5 + 0.5 * c / pi)).abs() < 1e-6);
         assert!(m.sample(wo, 0.7, [0.5, 0.5]).unwrap().lobe == BsdfFlags::DIFFUSE_REFLECTION);
     }
 }

@@ -65,7 +65,10 @@ pub struct BsdfSample {
     pub wi: Vec3,
     /// f * |cos(wi)| / pdf (1 x reflectance for delta lobes).
     pub weight: Rgb,
-    /// Solid-angle density (meaningless for delta lobes, kept 1 there).
+    /// Solid-angle density; for a delta lobe the probability of having chosen it
+    /// (Mitsuba's convention: a dielectric's R or 1 - R, a plastic's specular choice, 1
+    /// for a mirror), which only `blendbsdf` reads (the integrator gives delta lobes
+    /// MIS weight 1).
     pub pdf: f32,
     /// The one lobe that produced `wi`.
     pub lobe: BsdfFlags,
