@@ -30,15 +30,15 @@ use tstat::geometry::shape::ShapeGeom;
 use tstat::lights::Emitter;
 use tstat::materials::perturbed::{shadow_terminator, IDENTITY};
 use tstat::materials::{Blend, PPlastic, Perturbation, Perturbed, Polarizer, RoughPlastic};
-use tstat::math::frame::Frame;
-use tstat::textures::Texture;
 use tstat::materials::{
     Bsdf, BsdfFlags, BsdfModel, BsdfSample, Conductor, Dielectric, Diffuse, Mask, Microfacet,
     MicrofacetKind, OneSided, Plastic, RoughConductor, RoughDielectric, ThinDielectric, TwoSided,
 };
+use tstat::math::frame::Frame;
 use tstat::math::rng::Pcg32;
 use tstat::math::sampling::{cosine_hemisphere, cosine_hemisphere_pdf};
 use tstat::math::Rgb;
+use tstat::textures::Texture;
 
 /// Overall significance of the file's statistical tests.
 const ALPHA: f64 = 0.01;
@@ -486,7 +486,11 @@ fn non_delta_cases() -> Vec<Case> {
         .chain(perturbed_cases())
         .chain(pplastic_models().into_iter().map(|(n, b, theta)| {
             let model: Box<dyn BsdfModel> = Box::new(b);
-            (format!("pplastic {n}, {theta} deg"), model, dir(theta, 50.0))
+            (
+                format!("pplastic {n}, {theta} deg"),
+                model,
+                dir(theta, 50.0),
+            )
         }))
         .collect()
 }
@@ -539,7 +543,11 @@ fn tilted_frame(deg: f32, turn: f32) -> Frame {
     let s0 = Vec3::new(a.cos(), 0.0, -a.sin());
     let t0 = n.cross(s0);
     let s = s0 * b.cos() + t0 * b.sin();
-    Frame { s, t: n.cross(s), n }
+    Frame {
+        s,
+        t: n.cross(s),
+        n,
+    }
 }
 
 fn perturbed(nested: Bsdf, frame: Frame, shadowing: bool) -> Perturbed {
@@ -559,12 +567,20 @@ fn perturbed_cases() -> Vec<Case> {
     vec![
         (
             "normal map 30 deg over diffuse, 40 deg".into(),
-            Box::new(perturbed(Bsdf::Diffuse(diffuse(0.8)), tilted_frame(30.0, 0.0), true)),
+            Box::new(perturbed(
+                Bsdf::Diffuse(diffuse(0.8)),
+                tilted_frame(30.0, 0.0),
+                true,
+            )),
             dir(40.0, 10.0),
         ),
         (
             "normal map 50 deg over diffuse, no shadowing, 70 deg".into(),
-            Box::new(perturbed(Bsdf::Diffuse(diffuse(0.8)), tilted_frame(-50.0, 0.0), false)),
+            Box::new(perturbed(
+                Bsdf::Diffuse(diffuse(0.8)),
+                tilted_frame(-50.0, 0.0),
+                false,
+            )),
             dir(70.0, 160.0),
         ),
         (
@@ -595,7 +611,14 @@ fn perturbed_cases() -> Vec<Case> {
     ]
 }
 
-fn pplastic(kind: MicrofacetKind, alpha_u: f32, alpha_v: f32, eta: f32, d: Rgb, s: Rgb) -> PPlastic {
+fn pplastic(
+    kind: MicrofacetKind,
+    alpha_u: f32,
+    alpha_v: f32,
+    eta: f32,
+    d: Rgb,
+    s: Rgb,
+) -> PPlastic {
     let (dm, sm) = (d.element_sum() / 3.0, s.element_sum() / 3.0);
     PPlastic {
         distribution: Microfacet {
@@ -802,11 +825,19 @@ fn all_models() -> Vec<(&'static str, Box<dyn BsdfModel>)> {
         ),
         (
             "blendbsdf 0.5 of glass and gold",
-            Box::new(blend(0.5, Bsdf::Dielectric(glass(1.5)), Bsdf::Conductor(gold()))),
+            Box::new(blend(
+                0.5,
+                Bsdf::Dielectric(glass(1.5)),
+                Bsdf::Conductor(gold()),
+            )),
         ),
         (
             "blendbsdf 1 of diffuse and twosided diffuse",
-            Box::new(blend(1.0, Bsdf::Diffuse(diffuse(0.9)), two_sided(d(0.2), d(0.7)))),
+            Box::new(blend(
+                1.0,
+                Bsdf::Diffuse(diffuse(0.9)),
+                two_sided(d(0.2), d(0.7)),
+            )),
         ),
     ]
 }
@@ -2125,7 +2156,10 @@ fn polarizer_passes_half_the_transmittance_straight_through() {
     };
     for wo in [dir(0.0, 0.0), dir(70.0, 30.0), dir(150.0, 200.0)] {
         let s = p.sample(wo, 0.4, [0.2, 0.9]).unwrap();
-        assert_eq!((s.wi, s.eta, s.lobe), (-wo, 1.0, BsdfFlags::DELTA_TRANSMISSION));
+        assert_eq!(
+            (s.wi, s.eta, s.lobe),
+            (-wo, 1.0, BsdfFlags::DELTA_TRANSMISSION)
+        );
         assert_eq!(s.weight, Rgb::new(0.5, 0.4, 0.1));
         assert!(p.flags(wo).is_delta());
         assert_eq!((p.eval(wo, -wo), p.pdf(wo, -wo)), (Rgb::ZERO, 0.0));

@@ -35,7 +35,10 @@ impl Blend {
     /// The children with their shares, skipping a child whose share is 0.
     #[inline]
     fn parts(&self) -> [(&Bsdf, f32); 2] {
-        [(&self.first, 1.0 - self.weight), (&self.second, self.weight)]
+        [
+            (&self.first, 1.0 - self.weight),
+            (&self.second, self.weight),
+        ]
     }
 }
 
@@ -90,7 +93,7 @@ impl BsdfModel for Blend {
             (Rgb::ZERO, 0.0)
         };
         let pdf = w_c * s.pdf + w_o * pdf_o;
-        if !(pdf > 0.0) {
+        if pdf.is_nan() || pdf <= 0.0 {
             return None;
         }
         Some(BsdfSample {
@@ -163,7 +166,11 @@ mod tests {
         let c = s.wi.z;
         let pi = std::f32::consts::PI;
         let want = (0.5 * 0.6 + 0.5 * 0.2 * c / pi) / (0.5 + 0.5 * c / pi);
-        assert!((s.weight - Rgb::splat(want)).abs().max_element() < 1e-6, "{}", s.weight);
+        assert!(
+            (s.weight - Rgb::splat(want)).abs().max_element() < 1e-6,
+            "{}",
+            s.weight
+        );
         assert!((s.pdf - (0.5 + 0.5 * c / pi)).abs() < 1e-6);
         assert!(m.sample(wo, 0.7, [0.5, 0.5]).unwrap().lobe == BsdfFlags::DIFFUSE_REFLECTION);
     }

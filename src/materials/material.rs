@@ -395,7 +395,12 @@ mod tests {
         let Bsdf::Perturbed(p) = *b.second else {
             panic!()
         };
-        assert_eq!(*p.nested, Bsdf::Diffuse(Diffuse { reflectance: Vec3::X }));
+        assert_eq!(
+            *p.nested,
+            Bsdf::Diffuse(Diffuse {
+                reflectance: Vec3::X
+            })
+        );
         let Bsdf::Blend(b) = m.at(Vec2::new(0.75, 0.25)) else {
             panic!()
         };

@@ -4,10 +4,12 @@ use super::conductor_presets;
 use super::material::{Binding, Param, Step};
 use super::RoughPlastic;
 use super::{
+    Blend, Composed, PPlastic, Perturbation, Perturbed, Polarizer, Separable, TemporalProfile,
+};
+use super::{
     Bsdf, Conductor, Dielectric, Diffuse, Mask, Material, Microfacet, MicrofacetKind, Null,
     OneSided, Plastic, RoughConductor, RoughDielectric, ThinDielectric, TwoSided,
 };
-use super::{Blend, Composed, PPlastic, Perturbation, Perturbed, Polarizer, Separable, TemporalProfile};
 use crate::math::Rgb;
 use crate::scene::error::SceneError;
 use crate::scene::props::{Ctx, Props, Value};
@@ -668,7 +670,7 @@ pub fn parse_bsdf(ctx: &Ctx, node: Node, named: &Named) -> Result<Material, Scen
             };
             let (d, d_mean, _) = mean_of(&mut p, "diffuse_reflectance", Param::DiffuseReflectance, Rgb::splat(0.5))?;
             let (s, s_mean, _) = mean_of(&mut p, "specular_reflectance", Param::SpecularReflectance, Rgb::ONE)?;
-            if !(d_mean + s_mean > 0.0) {
+            if (d_mean + s_mean).is_nan() || d_mean + s_mean <= 0.0 {
                 return Err(p.props.err("pplastic with zero diffuse and specular reflectance reflects nothing; use a black diffuse"));
             }
             Bsdf::PPlastic(PPlastic {

@@ -22,6 +22,7 @@
 //!   normalize(dp/du - n (n . dp/du)) with dp/du in WORLD coordinates and n local,
 //!   exactly as Mitsuba 3.9.1 writes it (this only turns the frame about n, which
 //!   matters for an anisotropic nested BSDF alone), t = n x s.
+//!
 //! With `flip_invalid_normals`, where `wo.z (wo . n) <= 0` n becomes (-n.x, -n.y, n.z)
 //! (before normalising, for the normal map).
 //!

@@ -96,7 +96,7 @@ impl BsdfModel for PPlastic {
             (cosine_hemisphere(u2), BsdfFlags::DIFFUSE_REFLECTION)
         };
         let (value, pdf) = self.eval_pdf(wo, wi);
-        if !(pdf > 0.0) || value == Rgb::ZERO {
+        if pdf.is_nan() || pdf <= 0.0 || value == Rgb::ZERO {
             return None;
         }
         Some(BsdfSample {
@@ -149,7 +149,8 @@ mod tests {
             let rp = ((1.5 * c - ct) / (1.5 * c + ct)).powi(2);
             0.5 * (rs + rp)
         };
-        let k = (1.0 - fr(wo.z as f64)) * (1.0 - fr(wi.z as f64)) * wi.z as f64 / std::f64::consts::PI;
+        let k =
+            (1.0 - fr(wo.z as f64)) * (1.0 - fr(wi.z as f64)) * wi.z as f64 / std::f64::consts::PI;
         let v = b.eval(wo, wi);
         for (c, d) in [(v.x, 0.2), (v.y, 0.5), (v.z, 0.8)] {
             assert!((c as f64 - d * k).abs() < 1e-6, "{c} vs {}", d * k);

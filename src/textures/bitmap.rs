@@ -271,7 +271,9 @@ mod tests {
         for _ in 0..200 {
             let uv = Vec2::new(rng.next_f32(), rng.next_f32());
             let g = b.eval_1_grad(uv);
-            let fd = |d: Vec2| (b.eval_float(uv + d) as f64 - b.eval_float(uv - d) as f64) / (2.0 * h as f64);
+            let fd = |d: Vec2| {
+                (b.eval_float(uv + d) as f64 - b.eval_float(uv - d) as f64) / (2.0 * h as f64)
+            };
             let (gu, gv) = (fd(Vec2::new(h, 0.0)), fd(Vec2::new(0.0, h)));
             // Skip pairs that straddle a texel centre (a kink of the interpolant).
             let p = b.to_uv.apply(uv) * Vec2::new(5.0, 4.0) - Vec2::splat(0.5);
@@ -279,8 +281,14 @@ mod tests {
             if near(p.x, 2.0 * 5.0 * h) || near(p.y, 3.0 * 4.0 * h) {
                 continue;
             }
-            assert!((g.x as f64 - gu).abs() < 1e-3 * (1.0 + gu.abs()), "{uv}: {g} vs ({gu}, {gv})");
-            assert!((g.y as f64 - gv).abs() < 1e-3 * (1.0 + gv.abs()), "{uv}: {g} vs ({gu}, {gv})");
+            assert!(
+                (g.x as f64 - gu).abs() < 1e-3 * (1.0 + gu.abs()),
+                "{uv}: {g} vs ({gu}, {gv})"
+            );
+            assert!(
+                (g.y as f64 - gv).abs() < 1e-3 * (1.0 + gv.abs()),
+                "{uv}: {g} vs ({gu}, {gv})"
+            );
         }
         let n = Bitmap {
             filter: FilterType::Nearest,
