@@ -717,7 +717,7 @@ fn cases() -> Vec<Case> {
         scene_case(
             "twosided_null",
             sphere(r#"<bsdf type="twosided"><bsdf type="null"/></bsdf>"#),
-            "twosided wraps only one-sided models (diffuse, conductor, roughconductor, plastic, roughplastic); not a dielectric, roughdielectric, thindielectric, null, mask",
+            "twosided wraps only one-sided models (diffuse, conductor, roughconductor, plastic, roughplastic, pplastic); not a dielectric, roughdielectric, thindielectric, null, mask",
         ),
         scene_case(
             "texture_on_a_parameter_that_takes_none",
@@ -793,6 +793,127 @@ fn cases() -> Vec<Case> {
             "mask_without_a_nested_bsdf",
             sphere(r#"<bsdf type="mask"><float name="opacity" value="0.5"/></bsdf>"#),
             "mask needs exactly one nested BSDF",
+        ),
+        // ---- blendbsdf, normalmap, bumpmap, pplastic, polarizer ----
+        scene_case(
+            "blendbsdf_without_weight",
+            sphere(r#"<bsdf type="blendbsdf"><bsdf type="diffuse"/><bsdf type="diffuse"/></bsdf>"#),
+            "blendbsdf needs 'weight'",
+        ),
+        scene_case(
+            "blendbsdf_with_one_bsdf",
+            sphere(r#"<bsdf type="blendbsdf"><float name="weight" value="0.5"/><bsdf type="diffuse"/></bsdf>"#),
+            "blendbsdf needs exactly two nested BSDFs",
+        ),
+        scene_case(
+            "blendbsdf_nan_weight",
+            sphere(r#"<bsdf type="blendbsdf"><float name="weight" value="nan"/><bsdf type="diffuse"/><bsdf type="diffuse"/></bsdf>"#),
+            "'nan' is not a finite number",
+        ),
+        scene_case(
+            "blendbsdf_around_a_delay",
+            sphere(r#"<bsdf type="blendbsdf"><float name="weight" value="0.5"/><bsdf type="diffuse"/><bsdf type="Separable"><bsdf type="diffuse"/><TemporalProfile type="ConstantTP" name="tp"><float name="delay" value="1"/></TemporalProfile></bsdf></bsdf>"#),
+            "blendbsdf cannot blend a delaying BSDF",
+        ),
+        scene_case(
+            "blendbsdf_two_rough_glasses",
+            sphere(r#"<bsdf type="blendbsdf"><float name="weight" value="0.5"/><bsdf type="roughdielectric"/><bsdf type="roughdielectric"><float name="int_ior" value="2"/></bsdf></bsdf>"#),
+            "cannot blend two rough dielectrics of different IORs",
+        ),
+        scene_case(
+            "normalmap_without_a_texture",
+            sphere(r#"<bsdf type="normalmap"><bsdf type="diffuse"/></bsdf>"#),
+            "normalmap needs a texture 'normalmap'",
+        ),
+        scene_case(
+            "normalmap_missing_file",
+            sphere(r#"<bsdf type="normalmap"><texture type="bitmap" name="normalmap"><string name="filename" value="nowhere.png"/></texture><bsdf type="diffuse"/></bsdf>"#),
+            "nowhere.png",
+        ),
+        scene_case(
+            "normalmap_without_a_bsdf",
+            sphere(r#"<bsdf type="normalmap"><texture type="checkerboard" name="normalmap"/></bsdf>"#),
+            "normalmap needs exactly one nested BSDF",
+        ),
+        scene_case(
+            "normalmap_negative_flag",
+            sphere(r#"<bsdf type="normalmap"><boolean name="flip_invalid_normals" value="maybe"/><texture type="checkerboard" name="normalmap"/><bsdf type="diffuse"/></bsdf>"#),
+            "flip_invalid_normals",
+        ),
+        scene_case(
+            "twosided_normalmap",
+            sphere(r#"<bsdf type="twosided"><bsdf type="normalmap"><texture type="checkerboard" name="normalmap"/><bsdf type="diffuse"/></bsdf></bsdf>"#),
+            "twosided wraps only one-sided models",
+        ),
+        scene_case(
+            "bumpmap_without_a_texture",
+            sphere(r#"<bsdf type="bumpmap"><float name="scale" value="0.1"/><bsdf type="diffuse"/></bsdf>"#),
+            "bumpmap needs one nested <texture>",
+        ),
+        scene_case(
+            "bumpmap_two_textures",
+            sphere(r#"<bsdf type="bumpmap"><texture type="checkerboard" name="a"/><texture type="checkerboard" name="b"/><bsdf type="diffuse"/></bsdf>"#),
+            "bumpmap takes exactly one nested texture",
+        ),
+        scene_case(
+            "bumpmap_nan_scale",
+            sphere(r#"<bsdf type="bumpmap"><float name="scale" value="NaN"/><texture type="checkerboard" name="h"/><bsdf type="diffuse"/></bsdf>"#),
+            "'NaN' is not a finite number",
+        ),
+        scene_case(
+            "bumpmap_missing_file",
+            sphere(r#"<bsdf type="bumpmap"><texture type="bitmap" name="h"><string name="filename" value="gone.png"/></texture><bsdf type="diffuse"/></bsdf>"#),
+            "gone.png",
+        ),
+        scene_case(
+            "bumpmap_around_a_normalmap",
+            sphere(r#"<bsdf type="bumpmap"><texture type="checkerboard" name="h"/><bsdf type="normalmap"><texture type="checkerboard" name="normalmap"/><bsdf type="diffuse"/></bsdf></bsdf>"#),
+            "bumpmap cannot wrap another normalmap or bumpmap",
+        ),
+        scene_case(
+            "bumpmap_around_a_delay",
+            sphere(r#"<bsdf type="bumpmap"><texture type="checkerboard" name="h"/><bsdf type="Separable"><bsdf type="diffuse"/><TemporalProfile type="ConstantTP" name="tp"><float name="delay" value="1"/></TemporalProfile></bsdf></bsdf>"#),
+            "bumpmap cannot wrap a delaying BSDF",
+        ),
+        scene_case(
+            "pplastic_equal_iors",
+            sphere(r#"<bsdf type="pplastic"><float name="int_ior" value="1.3"/><float name="ext_ior" value="1.3"/></bsdf>"#),
+            "pplastic's int_ior and ext_ior must differ",
+        ),
+        scene_case(
+            "pplastic_eta_and_int_ior",
+            sphere(r#"<bsdf type="pplastic"><float name="eta" value="1.3"/><float name="int_ior" value="1.5"/></bsdf>"#),
+            "give either 'eta' or 'int_ior' and 'ext_ior'",
+        ),
+        scene_case(
+            "pplastic_negative_eta",
+            sphere(r#"<bsdf type="pplastic"><float name="eta" value="-1.3"/></bsdf>"#),
+            "eta must be positive",
+        ),
+        scene_case(
+            "pplastic_negative_diffuse",
+            sphere(r#"<bsdf type="pplastic"><rgb name="diffuse_reflectance" value="0.5, -0.1, 0.2"/></bsdf>"#),
+            "diffuse_reflectance must be non-negative",
+        ),
+        scene_case(
+            "pplastic_negative_alpha",
+            sphere(r#"<bsdf type="pplastic"><float name="alpha" value="-0.2"/></bsdf>"#),
+            "roughness -0.2 is outside [1e-4, 10]",
+        ),
+        scene_case(
+            "pplastic_reflects_nothing",
+            sphere(r#"<bsdf type="pplastic"><rgb name="diffuse_reflectance" value="0"/><rgb name="specular_reflectance" value="0"/></bsdf>"#),
+            "pplastic with zero diffuse and specular reflectance",
+        ),
+        scene_case(
+            "polarizer_negative_transmittance",
+            sphere(r#"<bsdf type="polarizer"><rgb name="transmittance" value="-0.5"/></bsdf>"#),
+            "transmittance must be non-negative",
+        ),
+        scene_case(
+            "polarizer_unknown_parameter",
+            sphere(r#"<bsdf type="polarizer"><float name="angle" value="30"/></bsdf>"#),
+            "angle",
         ),
         scene_case(
             "mask_with_two_nested_bsdfs",

@@ -412,6 +412,12 @@ fn steady_images_agree_with_mitransient() {
         // Anisotropic roughness (GGX box, Beckmann sphere), two 4096-spp mitransient
         // renders (seeds 7, 8) averaged.
         ("cbox_aniso.xml", [0.24121, 0.14218, 0.05772]),
+        // blendbsdf (bitmap and constant weights), normal and bump maps (rectangles,
+        // cube faces, a sphere; diffuse and rough gold nested), pplastic with a
+        // polarizer pane: two 4096-spp mitransient renders (seeds 7, 8) averaged each.
+        ("cbox_blend.xml", [0.22235, 0.13450, 0.05630]),
+        ("cbox_bump.xml", [0.23135, 0.13811, 0.05629]),
+        ("cbox_pplastic.xml", [0.19040, 0.12335, 0.05504]),
     ];
     for (name, want) in cases {
         let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))

@@ -187,6 +187,43 @@ impl Shape {
         }
     }
 
+    /// The position's derivative along v, dp/dv, with the conventions of
+    /// [`Self::dpdu`] (Mitsuba 3's): a mesh with uv, the derivative of the triangle's
+    /// map from uv (degenerate uv: the second axis of `Frame::from_normal` of its
+    /// unflipped face normal); without uv, `p2 - p0`; a sphere, the world image of
+    /// `pi (z cos phi, z sin phi, -r_xy)` at the object-space point (`pi (1, 0, 0)` at
+    /// the poles). Computed only for bump maps.
+    pub fn dpdv(&self, face: u32, p: Vec3) -> Vec3 {
+        match &self.geom {
+            ShapeGeom::Mesh { uvs, triangles, .. } => {
+                let tri = self.triangle(face);
+                let Some(uv) = uvs else {
+                    return tri.e2;
+                };
+                let [a, b, c] = triangles[face as usize];
+                let (uv0, uv1, uv2) = (uv[a as usize], uv[b as usize], uv[c as usize]);
+                let (duv0, duv1) = (uv1 - uv0, uv2 - uv0);
+                let det = duv0.x * duv1.y - duv0.y * duv1.x;
+                let dpdv = (tri.e2 * duv0.x - tri.e1 * duv1.x) / det;
+                if det != 0.0 && dpdv.is_finite() {
+                    dpdv
+                } else {
+                    crate::math::frame::Frame::from_normal(tri.cross().normalize_or_zero()).t
+                }
+            }
+            ShapeGeom::Sphere(s, to_local) => {
+                let l = (*to_local * (p - s.center)).normalize_or_zero();
+                let rd = (l.x * l.x + l.y * l.y).sqrt();
+                let v = if rd == 0.0 {
+                    Vec3::X
+                } else {
+                    Vec3::new(l.z * l.x / rd, l.z * l.y / rd, -rd)
+                };
+                to_local.inverse() * (v * std::f32::consts::PI)
+            }
+        }
+    }
+
     pub fn area(&self) -> f64 {
         match &self.geom {
             ShapeGeom::Mesh { triangles, .. } => (0..triangles.len() as u32)

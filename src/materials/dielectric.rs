@@ -49,7 +49,7 @@ impl BsdfModel for Dielectric {
             Some(BsdfSample {
                 wi: Vec3::new(-wo.x, -wo.y, wo.z),
                 weight: self.specular_reflectance,
-                pdf: 1.0,
+                pdf: r,
                 lobe: BsdfFlags::DELTA_REFLECTION,
                 eta: 1.0,
             })
@@ -57,7 +57,7 @@ impl BsdfModel for Dielectric {
             Some(BsdfSample {
                 wi: Vec3::new(-eta_ti * wo.x, -eta_ti * wo.y, cos_theta_t),
                 weight: self.specular_transmittance * (eta_ti * eta_ti),
-                pdf: 1.0,
+                pdf: 1.0 - r,
                 lobe: BsdfFlags::DELTA_TRANSMISSION,
                 eta: eta_it,
             })

@@ -37,6 +37,12 @@ pub enum Param {
     AlphaV,
     /// `mask`'s opacity.
     Opacity,
+    /// `blendbsdf`'s weight (clipped to [0, 1]).
+    Weight,
+    /// `pplastic`'s relative IOR `eta`.
+    RelativeEta,
+    /// `polarizer`'s transmittance.
+    Transmittance,
     /// Temporal profile parameters of `Separable` (`ConstantTP`'s delay,
     /// `ExponentialTP`'s lambda, `EpanechnikovTP`'s mu and sigma).
     Delay,
@@ -54,6 +60,8 @@ impl Param {
                 | Param::AlphaU
                 | Param::AlphaV
                 | Param::Opacity
+                | Param::Weight
+                | Param::RelativeEta
                 | Param::Delay
                 | Param::Lambda
                 | Param::Mu
@@ -67,9 +75,9 @@ impl Param {
 pub enum Step {
     Front,
     Back,
-    /// `mask`'s or `Separable`'s nested BSDF.
+    /// `mask`'s, `Separable`'s, `normalmap`'s or `bumpmap`'s nested BSDF.
     Nested,
-    /// `Composed`'s children.
+    /// `Composed`'s or `blendbsdf`'s children.
     First,
     Second,
 }
@@ -90,15 +98,22 @@ pub struct Material {
     /// Neither textured, nor composed, nor delaying: the integrator uses `bsdf` as it
     /// is, with one branch (the common case pays nothing for the others).
     plain: bool,
-    /// Some model inside is anisotropic (alpha_u != alpha_v, or either textured): the
-    /// integrator builds this material's shading frames from dp/du.
+    /// Some model inside is anisotropic (alpha_u != alpha_v, or either textured) or
+    /// perturbs the frame: the integrator builds this material's shading frames from
+    /// dp/du.
     anisotropic: bool,
+    /// A `normalmap` or `bumpmap` inside: each hit sets its frame.
+    perturbs: bool,
 }
 
 impl Material {
     pub fn new(bsdf: Bsdf, bindings: Vec<Binding>) -> Self {
-        let plain = bindings.is_empty() && !matches!(bsdf, Bsdf::Composed(_) | Bsdf::Separable(_));
+        let perturbs = bsdf.perturbs();
+        let plain = bindings.is_empty()
+            && !perturbs
+            && !matches!(bsdf, Bsdf::Composed(_) | Bsdf::Separable(_));
         let anisotropic = bsdf.anisotropic()
+            || perturbs
             || bindings
                 .iter()
                 .any(|b| matches!(b.param, Param::AlphaU | Param::AlphaV));
@@ -107,6 +122,7 @@ impl Material {
             bindings,
             plain,
             anisotropic,
+            perturbs,
         }
     }
 
@@ -120,14 +136,22 @@ impl Material {
         self.plain
     }
 
-    /// Whether a model inside (through twosided, mask, Separable and Composed) has
-    /// anisotropic roughness, constant or textured: then its lobes follow the
-    /// surface's dp/du and the shading frame must be built from it
+    /// Whether a model inside (through twosided, mask, Separable, Composed, blendbsdf,
+    /// normalmap and bumpmap) has anisotropic roughness, constant or textured, or
+    /// perturbs the frame (normal and bump maps live in Mitsuba's tangent frame): then
+    /// the shading frame must be built from the surface's dp/du
     /// (`Frame::from_normal_tangent`); every other material keeps
     /// `Frame::from_normal`, whose orientation in the tangent plane does not matter.
     #[inline(always)]
     pub fn is_anisotropic(&self) -> bool {
         self.anisotropic
+    }
+
+    /// Whether a `normalmap` or `bumpmap` inside needs [`Bsdf::resolve_frames`] at
+    /// each hit (never for plain materials).
+    #[inline(always)]
+    pub fn perturbs(&self) -> bool {
+        self.perturbs
     }
 
     /// Whether the BSDF varies over the surface (then [`Self::at`] needs the hit's uv).
@@ -161,6 +185,9 @@ fn set(b: &mut Bsdf, path: &[Step], param: Param, v: Vec3) {
         (Bsdf::Separable(s), [Step::Nested, rest @ ..]) => set(&mut s.inner, rest, param, v),
         (Bsdf::Composed(c), [Step::First, rest @ ..]) => set(&mut c.first, rest, param, v),
         (Bsdf::Composed(c), [Step::Second, rest @ ..]) => set(&mut c.second, rest, param, v),
+        (Bsdf::Blend(c), [Step::First, rest @ ..]) => set(&mut c.first, rest, param, v),
+        (Bsdf::Blend(c), [Step::Second, rest @ ..]) => set(&mut c.second, rest, param, v),
+        (Bsdf::Perturbed(p), [Step::Nested, rest @ ..]) => set(&mut p.nested, rest, param, v),
         (b, []) => set_model(b, param, v),
         _ => debug_assert!(false, "binding path {path:?} does not fit the BSDF"),
     }
@@ -216,6 +243,24 @@ fn set_model(b: &mut Bsdf, param: Param, v: Vec3) {
             *p = p.with_specular_reflectance(colour)
         }
         (Bsdf::Mask(m), Param::Opacity) => m.opacity = v.x.clamp(0.0, 1.0),
+        (Bsdf::Blend(b), Param::Weight) => b.weight = v.x.clamp(0.0, 1.0),
+        (Bsdf::Polarizer(p), Param::Transmittance) => p.transmittance = colour,
+        (Bsdf::PPlastic(p), Param::DiffuseReflectance) => p.diffuse_reflectance = colour,
+        (Bsdf::PPlastic(p), Param::SpecularReflectance) => p.specular_reflectance = colour,
+        // Kept away from 1 (no interface) and from 0, as a constant's range.
+        (Bsdf::PPlastic(p), Param::RelativeEta) => {
+            p.eta = if v.x > 0.0 && v.x.is_finite() {
+                v.x.clamp(1e-6, 1e6)
+            } else {
+                1.0
+            }
+        }
+        (Bsdf::PPlastic(p), Param::Alpha) => {
+            p.distribution.alpha_u = alpha;
+            p.distribution.alpha_v = alpha;
+        }
+        (Bsdf::PPlastic(p), Param::AlphaU) => p.distribution.alpha_u = alpha,
+        (Bsdf::PPlastic(p), Param::AlphaV) => p.distribution.alpha_v = alpha,
         // Profile parameters are kept in their domain when a delay is drawn
         // (`Separable::sample_delay`).
         (Bsdf::Separable(s), param) => match (&mut s.profile, param) {
@@ -237,6 +282,7 @@ impl From<OneSided> for Bsdf {
             OneSided::RoughConductor(c) => Bsdf::RoughConductor(c),
             OneSided::Plastic(p) => Bsdf::Plastic(p),
             OneSided::RoughPlastic(p) => Bsdf::RoughPlastic(p),
+            OneSided::PPlastic(p) => Bsdf::PPlastic(p),
         }
     }
 }
@@ -305,6 +351,60 @@ mod tests {
                 reflectance: Rgb::splat(0.5)
             })
         );
+    }
+
+    #[test]
+    fn blend_weights_are_clipped_and_bindings_reach_inside_normal_maps() {
+        use crate::materials::{Blend, Perturbation, Perturbed};
+        let d = |r: f32| {
+            Bsdf::Diffuse(Diffuse {
+                reflectance: Rgb::splat(r),
+            })
+        };
+        let m = Material::new(
+            Bsdf::Blend(Blend {
+                weight: 0.5,
+                first: Box::new(d(0.1)),
+                second: Box::new(Bsdf::Perturbed(Perturbed {
+                    perturbation: Perturbation::NormalMap(Texture::Constant(Vec3::Z)),
+                    flip_invalid_normals: true,
+                    use_shadowing_function: true,
+                    nested: Box::new(d(0.2)),
+                    frame: crate::materials::perturbed::IDENTITY,
+                })),
+            }),
+            vec![
+                Binding {
+                    path: vec![],
+                    param: Param::Weight,
+                    // eval_1 at (0.25, 0.25): color1's luminance, 3 -> clipped to 1.
+                    texture: checker(Vec3::splat(-1.0), Vec3::splat(3.0)),
+                },
+                Binding {
+                    path: vec![Step::Second, Step::Nested],
+                    param: Param::Reflectance,
+                    texture: checker(Vec3::X, Vec3::Y),
+                },
+            ],
+        );
+        assert!(m.perturbs() && m.is_anisotropic() && !m.is_plain());
+        let Bsdf::Blend(b) = m.at(Vec2::new(0.25, 0.25)) else {
+            panic!()
+        };
+        assert_eq!(b.weight, 1.0);
+        let Bsdf::Perturbed(p) = *b.second else {
+            panic!()
+        };
+        assert_eq!(
+            *p.nested,
+            Bsdf::Diffuse(Diffuse {
+                reflectance: Vec3::X
+            })
+        );
+        let Bsdf::Blend(b) = m.at(Vec2::new(0.75, 0.25)) else {
+            panic!()
+        };
+        assert_eq!(b.weight, 0.0);
     }
 
     #[test]

@@ -11,6 +11,7 @@
 //! rough) and no `twosided`: resolving the side ([`TwoSided::side`]) always ends at a
 //! plain model. `mask` wraps any BSDF (Mitsuba's scenes write `mask(twosided(diffuse))`).
 
+mod blend;
 mod composed;
 mod conductor;
 pub mod conductor_presets;
@@ -23,7 +24,10 @@ pub mod material;
 pub mod microfacet;
 mod null;
 pub mod parse;
+pub mod perturbed;
 mod plastic;
+mod polarizer;
+mod pplastic;
 mod rough_conductor;
 mod rough_dielectric;
 mod rough_plastic;
@@ -31,6 +35,7 @@ mod separable;
 pub mod temporal_profile;
 mod thin_dielectric;
 
+pub use blend::Blend;
 pub use composed::Composed;
 pub use conductor::Conductor;
 pub use dielectric::Dielectric;
@@ -40,7 +45,10 @@ pub use mask::Mask;
 pub use material::Material;
 pub use microfacet::{Microfacet, MicrofacetKind};
 pub use null::Null;
+pub use perturbed::{HitGeometry, Perturbation, Perturbed};
 pub use plastic::Plastic;
+pub use polarizer::Polarizer;
+pub use pplastic::PPlastic;
 pub use rough_conductor::RoughConductor;
 pub use rough_dielectric::RoughDielectric;
 pub use rough_plastic::RoughPlastic;
@@ -57,7 +65,10 @@ pub struct BsdfSample {
     pub wi: Vec3,
     /// f * |cos(wi)| / pdf (1 x reflectance for delta lobes).
     pub weight: Rgb,
-    /// Solid-angle density (meaningless for delta lobes, kept 1 there).
+    /// Solid-angle density; for a delta lobe the probability of having chosen it
+    /// (Mitsuba's convention: a dielectric's R or 1 - R, a plastic's specular choice, 1
+    /// for a mirror), which only `blendbsdf` reads (the integrator gives delta lobes
+    /// MIS weight 1).
     pub pdf: f32,
     /// The one lobe that produced `wi`.
     pub lobe: BsdfFlags,
@@ -107,6 +118,7 @@ pub enum OneSided {
     RoughConductor(RoughConductor),
     Plastic(Plastic),
     RoughPlastic(RoughPlastic),
+    PPlastic(PPlastic),
 }
 
 /// Mitsuba's `twosided`: the front model for `wo.z >= 0`, the back model seen with the
@@ -134,6 +146,12 @@ pub enum Bsdf {
     Separable(Separable),
     /// A mixture of two BSDFs, resolved per vertex by the integrator.
     Composed(Composed),
+    /// Mitsuba's `blendbsdf`: a mixture that stays one BSDF.
+    Blend(Blend),
+    /// `normalmap` and `bumpmap`: a nested BSDF in a perturbed frame.
+    Perturbed(Perturbed),
+    PPlastic(PPlastic),
+    Polarizer(Polarizer),
 }
 
 impl Bsdf {
@@ -152,13 +170,50 @@ impl Bsdf {
         match self {
             Bsdf::RoughConductor(c) => c.distribution.is_anisotropic(),
             Bsdf::RoughDielectric(d) => d.distribution.is_anisotropic(),
-            Bsdf::TwoSided(t) => [&t.front, &t.back].iter().any(
-                |s| matches!(s, OneSided::RoughConductor(c) if c.distribution.is_anisotropic()),
-            ),
+            Bsdf::TwoSided(t) => [&t.front, &t.back].iter().any(|s| match s {
+                OneSided::RoughConductor(c) => c.distribution.is_anisotropic(),
+                OneSided::PPlastic(p) => p.distribution.is_anisotropic(),
+                _ => false,
+            }),
             Bsdf::Mask(m) => m.nested.anisotropic(),
             Bsdf::Separable(s) => s.inner.anisotropic(),
             Bsdf::Composed(c) => c.first.anisotropic() || c.second.anisotropic(),
+            Bsdf::Blend(c) => c.first.anisotropic() || c.second.anisotropic(),
+            Bsdf::Perturbed(p) => p.nested.anisotropic(),
+            Bsdf::PPlastic(p) => p.distribution.is_anisotropic(),
             _ => false,
+        }
+    }
+
+    /// Whether the model or a model inside it perturbs the shading frame (`normalmap`,
+    /// `bumpmap`): then the integrator builds Mitsuba's dp/du frame and calls
+    /// [`Self::resolve_frames`] at each hit.
+    pub fn perturbs(&self) -> bool {
+        match self {
+            Bsdf::Perturbed(_) => true,
+            Bsdf::Mask(m) => m.nested.perturbs(),
+            Bsdf::Separable(s) => s.inner.perturbs(),
+            Bsdf::Composed(c) => c.first.perturbs() || c.second.perturbs(),
+            Bsdf::Blend(c) => c.first.perturbs() || c.second.perturbs(),
+            _ => false,
+        }
+    }
+
+    /// Sets the perturbed frame of every `normalmap`/`bumpmap` inside for the hit `g`.
+    pub fn resolve_frames(&mut self, g: &HitGeometry) {
+        match self {
+            Bsdf::Perturbed(p) => p.resolve(g),
+            Bsdf::Mask(m) => m.nested.resolve_frames(g),
+            Bsdf::Separable(s) => s.inner.resolve_frames(g),
+            Bsdf::Composed(c) => {
+                c.first.resolve_frames(g);
+                c.second.resolve_frames(g);
+            }
+            Bsdf::Blend(c) => {
+                c.first.resolve_frames(g);
+                c.second.resolve_frames(g);
+            }
+            _ => {}
         }
     }
 
@@ -168,6 +223,8 @@ impl Bsdf {
             Bsdf::Separable(_) => true,
             Bsdf::Composed(c) => c.first.delays() || c.second.delays(),
             Bsdf::Mask(m) => m.nested.delays(),
+            Bsdf::Blend(c) => c.first.delays() || c.second.delays(),
+            Bsdf::Perturbed(p) => p.nested.delays(),
             _ => false,
         }
     }
@@ -183,6 +240,7 @@ impl TryFrom<Bsdf> for OneSided {
             Bsdf::RoughConductor(c) => Ok(OneSided::RoughConductor(c)),
             Bsdf::Plastic(p) => Ok(OneSided::Plastic(p)),
             Bsdf::RoughPlastic(p) => Ok(OneSided::RoughPlastic(p)),
+            Bsdf::PPlastic(p) => Ok(OneSided::PPlastic(p)),
             other @ (Bsdf::Dielectric(_)
             | Bsdf::RoughDielectric(_)
             | Bsdf::ThinDielectric(_)
@@ -190,7 +248,10 @@ impl TryFrom<Bsdf> for OneSided {
             | Bsdf::TwoSided(_)
             | Bsdf::Mask(_)
             | Bsdf::Separable(_)
-            | Bsdf::Composed(_)) => Err(other),
+            | Bsdf::Composed(_)
+            | Bsdf::Blend(_)
+            | Bsdf::Perturbed(_)
+            | Bsdf::Polarizer(_)) => Err(other),
         }
     }
 }
@@ -267,22 +328,22 @@ macro_rules! dispatch {
 impl BsdfModel for OneSided {
     #[inline(always)]
     fn flags(&self, wo: Vec3) -> BsdfFlags {
-        dispatch!(self, b => b.flags(wo), OneSided::Diffuse, OneSided::Conductor, OneSided::RoughConductor, OneSided::Plastic, OneSided::RoughPlastic)
+        dispatch!(self, b => b.flags(wo), OneSided::Diffuse, OneSided::Conductor, OneSided::RoughConductor, OneSided::Plastic, OneSided::RoughPlastic, OneSided::PPlastic)
     }
     #[inline(always)]
     fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
-        dispatch!(self, b => b.eval(wo, wi), OneSided::Diffuse, OneSided::Conductor, OneSided::RoughConductor, OneSided::Plastic, OneSided::RoughPlastic)
+        dispatch!(self, b => b.eval(wo, wi), OneSided::Diffuse, OneSided::Conductor, OneSided::RoughConductor, OneSided::Plastic, OneSided::RoughPlastic, OneSided::PPlastic)
     }
     #[inline(always)]
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
-        dispatch!(self, b => b.pdf(wo, wi), OneSided::Diffuse, OneSided::Conductor, OneSided::RoughConductor, OneSided::Plastic, OneSided::RoughPlastic)
+        dispatch!(self, b => b.pdf(wo, wi), OneSided::Diffuse, OneSided::Conductor, OneSided::RoughConductor, OneSided::Plastic, OneSided::RoughPlastic, OneSided::PPlastic)
     }
     #[inline(always)]
     fn sample(&self, wo: Vec3, u1: f32, u2: [f32; 2]) -> Option<BsdfSample> {
-        dispatch!(self, b => b.sample(wo, u1, u2), OneSided::Diffuse, OneSided::Conductor, OneSided::RoughConductor, OneSided::Plastic, OneSided::RoughPlastic)
+        dispatch!(self, b => b.sample(wo, u1, u2), OneSided::Diffuse, OneSided::Conductor, OneSided::RoughConductor, OneSided::Plastic, OneSided::RoughPlastic, OneSided::PPlastic)
     }
     fn albedo(&self, wo: Vec3) -> Rgb {
-        dispatch!(self, b => b.albedo(wo), OneSided::Diffuse, OneSided::Conductor, OneSided::RoughConductor, OneSided::Plastic, OneSided::RoughPlastic)
+        dispatch!(self, b => b.albedo(wo), OneSided::Diffuse, OneSided::Conductor, OneSided::RoughConductor, OneSided::Plastic, OneSided::RoughPlastic, OneSided::PPlastic)
     }
 }
 
@@ -290,22 +351,22 @@ impl BsdfModel for Bsdf {
     #[inline(always)]
     fn flags(&self, wo: Vec3) -> BsdfFlags {
         dispatch!(self, b => b.flags(wo),
-            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::RoughDielectric, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::RoughPlastic, Bsdf::Null, Bsdf::TwoSided, Bsdf::Mask, Bsdf::Separable, Bsdf::Composed)
+            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::RoughDielectric, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::RoughPlastic, Bsdf::Null, Bsdf::TwoSided, Bsdf::Mask, Bsdf::Separable, Bsdf::Composed, Bsdf::Blend, Bsdf::Perturbed, Bsdf::PPlastic, Bsdf::Polarizer)
     }
     #[inline(always)]
     fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
         dispatch!(self, b => b.eval(wo, wi),
-            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::RoughDielectric, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::RoughPlastic, Bsdf::Null, Bsdf::TwoSided, Bsdf::Mask, Bsdf::Separable, Bsdf::Composed)
+            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::RoughDielectric, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::RoughPlastic, Bsdf::Null, Bsdf::TwoSided, Bsdf::Mask, Bsdf::Separable, Bsdf::Composed, Bsdf::Blend, Bsdf::Perturbed, Bsdf::PPlastic, Bsdf::Polarizer)
     }
     #[inline(always)]
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         dispatch!(self, b => b.pdf(wo, wi),
-            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::RoughDielectric, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::RoughPlastic, Bsdf::Null, Bsdf::TwoSided, Bsdf::Mask, Bsdf::Separable, Bsdf::Composed)
+            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::RoughDielectric, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::RoughPlastic, Bsdf::Null, Bsdf::TwoSided, Bsdf::Mask, Bsdf::Separable, Bsdf::Composed, Bsdf::Blend, Bsdf::Perturbed, Bsdf::PPlastic, Bsdf::Polarizer)
     }
     #[inline(always)]
     fn sample(&self, wo: Vec3, u1: f32, u2: [f32; 2]) -> Option<BsdfSample> {
         dispatch!(self, b => b.sample(wo, u1, u2),
-            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::RoughDielectric, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::RoughPlastic, Bsdf::Null, Bsdf::TwoSided, Bsdf::Mask, Bsdf::Separable, Bsdf::Composed)
+            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::RoughDielectric, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::RoughPlastic, Bsdf::Null, Bsdf::TwoSided, Bsdf::Mask, Bsdf::Separable, Bsdf::Composed, Bsdf::Blend, Bsdf::Perturbed, Bsdf::PPlastic, Bsdf::Polarizer)
     }
     /// Only rough dielectrics refract through a non-delta lobe (also inside `mask` and
     /// `Separable`); every other model (the default) crosses no interface towards a
@@ -316,11 +377,13 @@ impl BsdfModel for Bsdf {
             Bsdf::RoughDielectric(b) => b.eta(wo, wi),
             Bsdf::Mask(m) => m.nested.eta(wo, wi),
             Bsdf::Separable(s) => s.inner.eta(wo, wi),
+            Bsdf::Blend(b) => b.eta(wo, wi),
+            Bsdf::Perturbed(p) => p.eta(wo, wi),
             _ => 1.0,
         }
     }
     fn albedo(&self, wo: Vec3) -> Rgb {
         dispatch!(self, b => b.albedo(wo),
-            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::RoughDielectric, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::RoughPlastic, Bsdf::Null, Bsdf::TwoSided, Bsdf::Mask, Bsdf::Separable, Bsdf::Composed)
+            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::RoughDielectric, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::RoughPlastic, Bsdf::Null, Bsdf::TwoSided, Bsdf::Mask, Bsdf::Separable, Bsdf::Composed, Bsdf::Blend, Bsdf::Perturbed, Bsdf::PPlastic, Bsdf::Polarizer)
     }
 }

@@ -4,10 +4,12 @@ use super::conductor_presets;
 use super::material::{Binding, Param, Step};
 use super::RoughPlastic;
 use super::{
+    Blend, Composed, PPlastic, Perturbation, Perturbed, Polarizer, Separable, TemporalProfile,
+};
+use super::{
     Bsdf, Conductor, Dielectric, Diffuse, Mask, Material, Microfacet, MicrofacetKind, Null,
     OneSided, Plastic, RoughConductor, RoughDielectric, ThinDielectric, TwoSided,
 };
-use super::{Composed, Separable, TemporalProfile};
 use crate::math::Rgb;
 use crate::scene::error::SceneError;
 use crate::scene::props::{Ctx, Props, Value};
@@ -451,7 +453,7 @@ pub fn parse_bsdf(ctx: &Ctx, node: Node, named: &Named) -> Result<Material, Scen
             p.adopt(Step::Back, &back);
             let one_sided = |b: Bsdf| {
                 OneSided::try_from(b).map_err(|_| {
-                    p.props.err("twosided wraps only one-sided models (diffuse, conductor, roughconductor, plastic, roughplastic); not a dielectric, roughdielectric, thindielectric, null, mask, Separable, Composed or another twosided (write mask(twosided(...)) or Separable(twosided(...)))")
+                    p.props.err("twosided wraps only one-sided models (diffuse, conductor, roughconductor, plastic, roughplastic, pplastic); not a dielectric, roughdielectric, thindielectric, null, mask, Separable, Composed, blendbsdf, normalmap, bumpmap, polarizer or another twosided (write mask(twosided(...)), normalmap(twosided(...)) or Separable(twosided(...)))")
                 })
             };
             let (front, back) = (one_sided(front.bsdf)?, one_sided(back.bsdf)?);
@@ -532,9 +534,165 @@ pub fn parse_bsdf(ctx: &Ctx, node: Node, named: &Named) -> Result<Material, Scen
                 second: Box::new(second.bsdf),
             })
         }
+        "blendbsdf" => {
+            // Mitsuba requires the weight (a float or a texture) and clips it to [0, 1].
+            let w = p.scalar("weight", Param::Weight, 0.5)?;
+            let Some(w) = w else {
+                return Err(p.props.err("blendbsdf needs 'weight' (a float or a texture: the share of the second BSDF)"));
+            };
+            if !(0.0..=1.0).contains(&w) {
+                p.props.warn_at(
+                    "weight",
+                    format!("weight {w} is outside [0, 1]; clipped, as Mitsuba does"),
+                );
+            }
+            let children: Vec<Material> = std::mem::take(&mut p.props.objects)
+                .into_iter()
+                .map(|c| resolve_bsdf(ctx, c, named))
+                .collect::<Result<_, _>>()?;
+            let [first, second] = <[Material; 2]>::try_from(children)
+                .map_err(|_| p.props.err("blendbsdf needs exactly two nested BSDFs"))?;
+            if first.bsdf.delays() || second.bsdf.delays() {
+                return Err(p.props.err("blendbsdf cannot blend a delaying BSDF (Separable or Composed); use Composed, which keeps each child's delay with its light"));
+            }
+            if let (Some(a), Some(b)) = (rough_ior(&first.bsdf), rough_ior(&second.bsdf)) {
+                if a != b {
+                    return Err(p.props.err("blendbsdf cannot blend two rough dielectrics of different IORs (the medium behind would be ambiguous)"));
+                }
+            }
+            p.adopt(Step::First, &first);
+            p.adopt(Step::Second, &second);
+            Bsdf::Blend(Blend {
+                weight: (w as f32).clamp(0.0, 1.0),
+                first: Box::new(first.bsdf),
+                second: Box::new(second.bsdf),
+            })
+        }
+        "normalmap" | "bumpmap" => {
+            let flip_invalid_normals = p.props.boolean_or("flip_invalid_normals", true)?;
+            let use_shadowing_function = p.props.boolean_or("use_shadowing_function", true)?;
+            let perturbation = if kind == "normalmap" {
+                let Some(t) = texture_param(&mut p.props, "normalmap", p.textures)? else {
+                    return Err(p.props.err("normalmap needs a texture 'normalmap' (an RGB bitmap, read with raw = true)"));
+                };
+                if let Texture::Bitmap(b) = &t {
+                    if b.channels != 3 {
+                        return Err(p.props.err_at("normalmap", "normalmap's bitmap must have three channels (RGB), as Mitsuba's eval_3 requires"));
+                    }
+                }
+                Perturbation::NormalMap(t)
+            } else {
+                let scale = p.props.float_or("scale", 1.0)?;
+                let mut texture = None;
+                let mut rest = Vec::new();
+                for obj in std::mem::take(&mut p.props.objects) {
+                    let tag = obj.tag_name().name();
+                    let is_texture = tag == "texture"
+                        || (tag == "ref"
+                            && ctx
+                                .attr(obj, "id")?
+                                .is_some_and(|id| named.textures.contains_key(&id)));
+                    if !is_texture {
+                        rest.push(obj);
+                        continue;
+                    }
+                    if texture.is_some() {
+                        return Err(ctx.err(obj, "bumpmap takes exactly one nested texture"));
+                    }
+                    texture = Some(if tag == "ref" {
+                        let id = ctx.required_attr(obj, "id")?;
+                        named.textures[&id].clone()
+                    } else {
+                        crate::scene::textures::parse_texture(ctx, obj, named.textures)?
+                    });
+                }
+                p.props.objects = rest;
+                let Some(texture) = texture else {
+                    return Err(p.props.err("bumpmap needs one nested <texture> (the height field)"));
+                };
+                Perturbation::BumpMap {
+                    texture,
+                    scale: scale as f32,
+                }
+            };
+            let nested = match p.props.objects.as_slice() {
+                [one] => resolve_bsdf(ctx, *one, named)?,
+                _ => return Err(p.props.err(format!("{kind} needs exactly one nested BSDF"))),
+            };
+            p.props.objects.clear();
+            if nested.bsdf.delays() {
+                return Err(p.props.err(format!("{kind} cannot wrap a delaying BSDF (Separable or Composed); write Separable({kind}(...)) instead")));
+            }
+            if nested.bsdf.perturbs() {
+                return Err(p.props.err(format!("{kind} cannot wrap another normalmap or bumpmap")));
+            }
+            p.adopt(Step::Nested, &nested);
+            Bsdf::Perturbed(Perturbed {
+                perturbation,
+                flip_invalid_normals,
+                use_shadowing_function,
+                nested: Box::new(nested.bsdf),
+                frame: super::perturbed::IDENTITY,
+            })
+        }
+        "pplastic" => {
+            let distribution = microfacet(&mut p)?;
+            let eta = if p.props.peek("eta").is_some() || p.props.objects.iter().any(|o| ctx.attr(*o, "name").ok().flatten().as_deref() == Some("eta")) {
+                if p.props.peek("int_ior").is_some() || p.props.peek("ext_ior").is_some() {
+                    return Err(p.props.err("give either 'eta' or 'int_ior' and 'ext_ior', not both"));
+                }
+                let eta = p.scalar("eta", Param::RelativeEta, 1.49)?.unwrap_or(1.49);
+                if !(eta > 0.0 && eta <= MAX_OPTICAL_CONSTANT) {
+                    return Err(p.props.err_at("eta", format!("eta must be positive and at most {MAX_OPTICAL_CONSTANT:e}, got {eta}")));
+                }
+                eta
+            } else {
+                let eta = relative_ior(&mut p.props, 1.49)?;
+                if eta as f32 == 1.0 {
+                    return Err(p.props.err("pplastic's int_ior and ext_ior must differ (as Mitsuba requires)"));
+                }
+                eta
+            };
+            // The lobe choice uses the textures' means (Mitsuba's parameters_changed).
+            let mean_of = |p: &mut Params, name: &str, param: Param, default: Rgb| -> Result<(Rgb, f32, bool), SceneError> {
+                match texture_param(&mut p.props, name, p.textures)? {
+                    None => Ok((default, default.element_sum() / 3.0, false)),
+                    Some(Texture::Constant(c)) => {
+                        let c = check_reflectance(&p.props, name, c)?;
+                        Ok((c, c.element_sum() / 3.0, true))
+                    }
+                    Some(t) => {
+                        let mean = t.mean();
+                        p.bind(param, t);
+                        Ok((default, mean, true))
+                    }
+                }
+            };
+            let (d, d_mean, _) = mean_of(&mut p, "diffuse_reflectance", Param::DiffuseReflectance, Rgb::splat(0.5))?;
+            let (s, s_mean, _) = mean_of(&mut p, "specular_reflectance", Param::SpecularReflectance, Rgb::ONE)?;
+            if (d_mean + s_mean).is_nan() || d_mean + s_mean <= 0.0 {
+                return Err(p.props.err("pplastic with zero diffuse and specular reflectance reflects nothing; use a black diffuse"));
+            }
+            Bsdf::PPlastic(PPlastic {
+                distribution,
+                eta: eta as f32,
+                diffuse_reflectance: d,
+                specular_reflectance: s,
+                specular_weight: s_mean / (d_mean + s_mean),
+            })
+        }
+        "polarizer" => {
+            // Without polarization the angle and `polarizing` change nothing; read them
+            // so that a bad value is still an error.
+            let _theta = texture_param(&mut p.props, "theta", p.textures)?;
+            let _polarizing = p.props.boolean_or("polarizing", true)?;
+            Bsdf::Polarizer(Polarizer {
+                transmittance: p.colour("transmittance", Param::Transmittance, Rgb::ONE)?,
+            })
+        }
         other => {
             return Err(p.props.err(format!(
-                "unknown BSDF type '{other}' (supported: diffuse, dielectric, roughdielectric, thindielectric, conductor, roughconductor, plastic, roughplastic, null, twosided, mask, Separable, Composed)"
+                "unknown BSDF type '{other}' (supported: diffuse, dielectric, roughdielectric, thindielectric, conductor, roughconductor, plastic, roughplastic, null, twosided, mask, Separable, Composed, blendbsdf, normalmap, bumpmap, pplastic, polarizer)"
             )))
         }
     };
@@ -546,6 +704,18 @@ pub fn parse_bsdf(ctx: &Ctx, node: Node, named: &Named) -> Result<Material, Scen
     }
     p.props.finish()?;
     Ok(Material::new(bsdf, p.bindings))
+}
+
+/// The IOR of a rough dielectric inside `b` (the one non-delta lobe that crosses into
+/// another medium), if any.
+fn rough_ior(b: &Bsdf) -> Option<f32> {
+    match b {
+        Bsdf::RoughDielectric(d) => Some(d.eta),
+        Bsdf::Mask(m) => rough_ior(&m.nested),
+        Bsdf::Perturbed(p) => rough_ior(&p.nested),
+        Bsdf::Blend(c) => rough_ior(&c.first).or(rough_ior(&c.second)),
+        _ => None,
+    }
 }
 
 /// A `<TemporalProfile type=...>` (SPEC section 6) and the textures bound to its

@@ -124,7 +124,7 @@ impl BsdfModel for Plastic {
             return Some(BsdfSample {
                 wi: Vec3::new(-wo.x, -wo.y, wo.z),
                 weight: self.specular_reflectance * (f_i / ps),
-                pdf: 1.0,
+                pdf: ps,
                 lobe: BsdfFlags::DELTA_REFLECTION,
                 eta: 1.0,
             });

@@ -66,7 +66,7 @@ impl BsdfModel for ThinDielectric {
             BsdfSample {
                 wi: Vec3::new(-wo.x, -wo.y, wo.z),
                 weight: self.specular_reflectance,
-                pdf: 1.0,
+                pdf: r,
                 lobe: BsdfFlags::DELTA_REFLECTION,
                 eta: 1.0,
             }
@@ -74,7 +74,7 @@ impl BsdfModel for ThinDielectric {
             BsdfSample {
                 wi: -wo,
                 weight: self.specular_transmittance,
-                pdf: 1.0,
+                pdf: 1.0 - r,
                 lobe: BsdfFlags::DELTA_TRANSMISSION,
                 eta: 1.0,
             }

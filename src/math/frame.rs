@@ -3,7 +3,7 @@
 use glam::Vec3;
 
 /// An orthonormal basis (s, t, n); `to_local(v).z` is the cosine with n.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Frame {
     pub s: Vec3,
     pub t: Vec3,

@@ -6,7 +6,7 @@ use super::cpu::{Isa, ISA_AVX2, ISA_AVX512, ISA_BASELINE};
 use super::deposits::PathDeposits;
 use super::gbuffer::GSample;
 use crate::geometry::accel::offset_origin;
-use crate::materials::{Bsdf, BsdfModel};
+use crate::materials::{Bsdf, BsdfModel, HitGeometry};
 use crate::math::frame::Frame;
 use crate::math::rng::Pcg32;
 use crate::math::sampling::power_heuristic;
@@ -64,6 +64,32 @@ pub fn shadow_ray(p: Vec3, ng: Vec3, ls: &crate::lights::LightSample) -> (Vec3, 
         return (origin, ls.wi, 0.0);
     }
     (origin, d / dist, dist * (1.0 - 1e-4))
+}
+
+/// The material at a hit of a `normalmap`/`bumpmap` material: textures resolved at the
+/// hit's uv and every perturbed frame set from the hit's geometry (`frame` is
+/// Mitsuba's dp/du shading frame, `wo` the direction back along the ray in it). Out of
+/// line: only such materials come here.
+#[inline(never)]
+fn perturbed_at(
+    material: &crate::materials::Material,
+    shape: &crate::geometry::shape::Shape,
+    hit: &crate::geometry::accel::Hit,
+    sp: &crate::geometry::shape::SurfacePoint,
+    frame: &Frame,
+    wo: Vec3,
+) -> Bsdf {
+    let uv = shape.uv(hit.face, hit.b1, hit.b2, sp.p);
+    let mut b = material.at(uv);
+    b.resolve_frames(&HitGeometry {
+        uv,
+        shading: *frame,
+        dpdu: shape.dpdu(hit.face, hit.b1, hit.b2, sp.p),
+        dpdv: shape.dpdv(hit.face, sp.p),
+        ng: sp.ng,
+        wo,
+    });
+    b
 }
 
 /// Traces one camera path from the pinhole along unit direction `d`, with the tracer
@@ -200,7 +226,10 @@ unsafe fn trace_path_body<const ISA: u8>(
         let (whole, bsdf, delaying) = if material.is_plain() {
             (&material.bsdf, &material.bsdf, None)
         } else {
-            let whole = if material.is_textured() {
+            let whole = if material.perturbs() {
+                textured = perturbed_at(material, shape, &hit, &sp, &frame, wo);
+                &textured
+            } else if material.is_textured() {
                 textured = material.at(shape.uv(hit.face, hit.b1, hit.b2, sp.p));
                 &textured
             } else {

@@ -31,6 +31,11 @@ pub const SUPPORTED: &[(&str, &[&str])] = &[
             "mask",
             "Separable",
             "Composed",
+            "blendbsdf",
+            "normalmap",
+            "bumpmap",
+            "pplastic",
+            "polarizer",
         ],
     ),
     (

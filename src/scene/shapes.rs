@@ -491,6 +491,11 @@ mod tests {
     /// dp/du from finite differences: `at(a, b)` is the (point, uv) at two surface
     /// coordinates around (0, 0); the chain rule through their 2 x 2 Jacobians.
     fn fd_dpdu(at: impl Fn(f64, f64) -> (DVec3, DVec2)) -> DVec3 {
+        fd_dpduv(at).0
+    }
+
+    /// dp/du and dp/dv from finite differences (see [`fd_dpdu`]).
+    fn fd_dpduv(at: impl Fn(f64, f64) -> (DVec3, DVec2)) -> (DVec3, DVec3) {
         let h = 1e-4;
         let (pa1, ua1) = at(h, 0.0);
         let (pa0, ua0) = at(-h, 0.0);
@@ -500,7 +505,10 @@ mod tests {
         let (duv_da, duv_db) = ((ua1 - ua0) / (2.0 * h), (ub1 - ub0) / (2.0 * h));
         // (a, b) -> uv is [duv_da duv_db]; its inverse's first column is d(a, b)/du.
         let det = duv_da.x * duv_db.y - duv_db.x * duv_da.y;
-        dp_da * (duv_db.y / det) - dp_db * (duv_da.y / det)
+        (
+            dp_da * (duv_db.y / det) - dp_db * (duv_da.y / det),
+            dp_db * (duv_da.x / det) - dp_da * (duv_db.x / det),
+        )
     }
 
     /// Shape::dpdu of every triangle against finite differences of the triangle's
@@ -521,6 +529,17 @@ mod tests {
             assert!(
                 (got - fd).length() < 2e-3 * fd.length(),
                 "face {f}: dpdu {got} vs finite differences {fd}"
+            );
+            let fdv = fd_dpduv(|a, b| {
+                let (x, y) = (b1 + a, b2 + b);
+                let p = t.v0.as_dvec3() + t.e1.as_dvec3() * x + t.e2.as_dvec3() * y;
+                (p, s.uv(f, x as f32, y as f32, Vec3::ZERO).as_dvec2())
+            })
+            .1;
+            let got = s.dpdv(f, Vec3::ZERO).as_dvec3();
+            assert!(
+                (got - fdv).length() < 2e-3 * fdv.length(),
+                "face {f}: dpdv {got} vs finite differences {fdv}"
             );
         }
     }
@@ -604,11 +623,16 @@ mod tests {
         let none = load("obj", "n.obj");
         check_mesh_dpdu(&none);
         assert_eq!(none.dpdu(0, 0.2, 0.2, Vec3::ZERO), none.triangle(0).e1);
+        assert_eq!(none.dpdv(0, Vec3::ZERO), none.triangle(0).e2);
         let degenerate = load("ply", "d.ply");
         let n = degenerate.triangle(0).cross().normalize();
         assert_eq!(
             degenerate.dpdu(0, 0.2, 0.2, Vec3::ZERO),
             crate::math::frame::Frame::from_normal(n).s
+        );
+        assert_eq!(
+            degenerate.dpdv(0, Vec3::ZERO),
+            crate::math::frame::Frame::from_normal(n).t
         );
 
         // The sphere under a rotation and a scale, at points away from the poles and
@@ -648,12 +672,26 @@ mod tests {
                 (got - fd).length() < 5e-3 * fd.length(),
                 "sphere at {d}: dpdu {got} vs finite differences {fd}"
             );
+            let fdv = fd_dpduv(|a, b| {
+                let p = c + (d + t1 * a + t2 * b).normalize() * r;
+                (p, s.uv(0, 0.0, 0.0, p.as_vec3()).as_dvec2())
+            })
+            .1;
+            let got = s.dpdv(0, (c + d * r).as_vec3()).as_dvec3();
+            assert!(
+                (got - fdv).length() < 5e-3 * fdv.length(),
+                "sphere at {d}: dpdv {got} vs finite differences {fdv}"
+            );
             checked += 1;
         }
         assert!(checked > 20);
         let pole = to_local.inverse() * Vec3::Z;
         let at_pole = s.dpdu(0, 0.0, 0.0, g.center + pole.normalize() * g.radius);
         assert!(at_pole.length() < 1e-5 * g.radius, "{at_pole}");
+        // dp/dv stays finite and non-zero there (Mitsuba's pi (1, 0, 0) in object
+        // space exactly on the axis; a rounded pole has some azimuth).
+        let got = s.dpdv(0, g.center + pole.normalize() * g.radius);
+        assert!(got.is_finite() && got.length() > 0.1 * g.radius, "{got}");
     }
 
     #[test]

@@ -312,6 +312,21 @@ fn walk(ctx: &Ctx, root: Node, o: &mut Objects, depth: usize) -> Result<(), Scen
                     textures: &o.named_textures,
                 };
                 let b = parse_bsdf(ctx, node, &named)?;
+                // Mitsuba names every object with an id, nested ones too (a scene may
+                // refer to the BSDF inside a `bumpmap`): those are parsed on their own.
+                let mut found = Vec::new();
+                for inner in node.descendants().skip(1) {
+                    if inner.is_element() && inner.tag_name().name() == "bsdf" {
+                        if let Some(id) = ctx.attr(inner, "id")? {
+                            found.push((id, inner, parse_bsdf(ctx, inner, &named)?));
+                        }
+                    }
+                }
+                for (id, inner, m) in found {
+                    if o.named_bsdfs.insert(id.clone(), m).is_some() {
+                        return Err(ctx.err(inner, format!("id '{id}' is defined twice")));
+                    }
+                }
                 if let Some(id) = ctx.attr(node, "id")? {
                     if o.named_bsdfs.insert(id.clone(), b).is_some() {
                         return Err(ctx.err(node, format!("id '{id}' is defined twice")));
@@ -1051,6 +1066,39 @@ mod tests {
         ] {
             let s = load(&root.join(name), &Overrides::default()).unwrap();
             assert!(s.warnings.is_empty(), "{name}: {:?}", s.warnings);
+        }
+    }
+
+    /// Mitsuba names nested objects too: a reference to the BSDF inside a top-level
+    /// `bumpmap` gets that BSDF (the staircase scene's pattern), not the bump map; the
+    /// normal/bump-mapped materials are flagged through wrappers, others are not.
+    #[test]
+    fn nested_bsdf_ids_are_named_and_perturbation_is_flagged() {
+        use crate::materials::Bsdf;
+        let scene = load_text(&with(&format!(
+            r#"{LIGHT}<bsdf type="bumpmap"><texture type="checkerboard" name="h"/><bsdf type="twosided" id="inner"><bsdf type="diffuse"/></bsdf></bsdf>
+               <shape type="sphere"><ref id="inner"/></shape>"#
+        )))
+        .unwrap();
+        let m = &scene.bsdfs[scene.shapes[1].bsdf as usize];
+        assert!(matches!(m.bsdf, Bsdf::TwoSided(_)) && !m.perturbs() && m.is_plain());
+        let nm = r#"<bsdf type="normalmap"><texture type="checkerboard" name="normalmap"/><bsdf type="diffuse"/></bsdf>"#;
+        for (bsdf, want) in [
+            (nm.to_string(), true),
+            (format!(r#"<bsdf type="mask">{nm}</bsdf>"#), true),
+            (format!(r#"<bsdf type="blendbsdf"><float name="weight" value="0.2"/><bsdf type="diffuse"/>{nm}</bsdf>"#), true),
+            (r#"<bsdf type="blendbsdf"><float name="weight" value="0.2"/><bsdf type="diffuse"/><bsdf type="diffuse"/></bsdf>"#.to_string(), false),
+            (r#"<bsdf type="pplastic"/>"#.to_string(), false),
+        ] {
+            let scene = load_text(&with(&format!(
+                r#"{LIGHT}<shape type="sphere">{bsdf}</shape>"#
+            )))
+            .unwrap_or_else(|e| panic!("{bsdf}: {e}"));
+            let m = &scene.bsdfs[scene.shapes[1].bsdf as usize];
+            assert_eq!(m.perturbs(), want, "{bsdf}");
+            // Perturbing materials build Mitsuba's dp/du frame and are never plain.
+            assert_eq!(m.is_anisotropic(), want, "{bsdf}");
+            assert!(!(want && m.is_plain()), "{bsdf}");
         }
     }
 

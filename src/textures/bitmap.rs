@@ -137,6 +137,62 @@ impl Bitmap {
     }
 }
 
+impl Bitmap {
+    /// The scalar value of texel (x, y): its one channel or its colour's luminance.
+    #[inline]
+    fn texel_float(&self, x: usize, y: usize) -> f32 {
+        let c = self.texel(x, y);
+        if self.channels == 1 {
+            c.x
+        } else {
+            luminance(c)
+        }
+    }
+
+    /// Mitsuba's `eval_1_grad` (`src/textures/bitmap.cpp`): zero for `nearest`; for
+    /// `bilinear`, the derivatives of the interpolation of the four texels' scalar
+    /// values with respect to the texel position, taken through `to_uv` by its
+    /// transpose and then scaled by the resolution (W, H), in that order, as Mitsuba
+    /// writes it (exact for a `to_uv` without rotation or shear).
+    pub fn eval_1_grad(&self, uv: Vec2) -> Vec2 {
+        if self.filter == FilterType::Nearest {
+            return Vec2::ZERO;
+        }
+        let uvt = self.to_uv.apply(uv);
+        let (w, h) = (self.width as i64, self.height as i64);
+        let px = uvt.x * self.width as f32 - 0.5;
+        let py = uvt.y * self.height as f32 - 0.5;
+        let (ix, iy) = (Self::floor_i(px), Self::floor_i(py));
+        let (w1x, w1y) = (px - ix as f32, py - iy as f32);
+        let (w0x, w0y) = (1.0 - w1x, 1.0 - w1y);
+        let (x0, x1) = (
+            self.wrap.wrap(ix, w),
+            self.wrap.wrap(ix.saturating_add(1), w),
+        );
+        let (y0, y1) = (
+            self.wrap.wrap(iy, h),
+            self.wrap.wrap(iy.saturating_add(1), h),
+        );
+        let (f00, f10) = (self.texel_float(x0, y0), self.texel_float(x1, y0));
+        let (f01, f11) = (self.texel_float(x0, y1), self.texel_float(x1, y1));
+        let dfx = w0y * (f10 - f00) + w1y * (f11 - f01);
+        let dfy = w0x * (f01 - f00) + w1x * (f11 - f10);
+        let m = &self.to_uv.m;
+        Vec2::new(
+            self.width as f32 * (m[0][0] * dfx + m[1][0] * dfy),
+            self.height as f32 * (m[0][1] * dfx + m[1][1] * dfy),
+        )
+    }
+
+    /// The mean of every stored value (all texels and channels), Mitsuba's `mean()`.
+    pub fn mean(&self) -> f32 {
+        if self.data.is_empty() {
+            return 0.0;
+        }
+        (self.data.iter().map(|&v| v as f64).sum::<f64>() / self.data.len() as f64) as f32
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -187,6 +243,59 @@ mod tests {
             wrap,
             to_uv: UvTransform::IDENTITY,
         }
+    }
+
+    /// The gradient against central differences of the lookup itself, away from texel
+    /// centres (where the bilinear surface has kinks), through a scaling `to_uv`.
+    #[test]
+    fn gradient_matches_finite_differences_of_the_lookup() {
+        let mut data = Vec::new();
+        for i in 0..(5 * 4) {
+            let v = ((i * 37) % 11) as f32 / 11.0;
+            data.extend([v, 0.5 * v, 1.0 - v]);
+        }
+        let b = Bitmap {
+            width: 5,
+            height: 4,
+            channels: 3,
+            data,
+            filter: FilterType::Bilinear,
+            wrap: WrapMode::Repeat,
+            to_uv: UvTransform {
+                m: [[2.0, 0.0], [0.0, 3.0]],
+                t: Vec2::new(0.1, 0.2),
+            },
+        };
+        let mut rng = crate::math::rng::Pcg32::new(3, 4);
+        let h = 1e-3f32;
+        for _ in 0..200 {
+            let uv = Vec2::new(rng.next_f32(), rng.next_f32());
+            let g = b.eval_1_grad(uv);
+            let fd = |d: Vec2| {
+                (b.eval_float(uv + d) as f64 - b.eval_float(uv - d) as f64) / (2.0 * h as f64)
+            };
+            let (gu, gv) = (fd(Vec2::new(h, 0.0)), fd(Vec2::new(0.0, h)));
+            // Skip pairs that straddle a texel centre (a kink of the interpolant).
+            let p = b.to_uv.apply(uv) * Vec2::new(5.0, 4.0) - Vec2::splat(0.5);
+            let near = |x: f32, step: f32| (x - x.round()).abs() < step;
+            if near(p.x, 2.0 * 5.0 * h) || near(p.y, 3.0 * 4.0 * h) {
+                continue;
+            }
+            assert!(
+                (g.x as f64 - gu).abs() < 1e-3 * (1.0 + gu.abs()),
+                "{uv}: {g} vs ({gu}, {gv})"
+            );
+            assert!(
+                (g.y as f64 - gv).abs() < 1e-3 * (1.0 + gv.abs()),
+                "{uv}: {g} vs ({gu}, {gv})"
+            );
+        }
+        let n = Bitmap {
+            filter: FilterType::Nearest,
+            ..b.clone()
+        };
+        assert_eq!(n.eval_1_grad(Vec2::new(0.3, 0.3)), Vec2::ZERO);
+        assert!((b.mean() - b.data.iter().sum::<f32>() / 60.0).abs() < 1e-6);
     }
 
     #[test]

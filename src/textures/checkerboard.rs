@@ -52,6 +52,17 @@ impl Checkerboard {
         }
     }
 
+    /// The gradient of [`Self::eval_float`]: the cell's colour's (the cell edges are a
+    /// set of measure zero).
+    #[inline]
+    pub fn eval_1_grad(&self, uv: Vec2) -> Vec2 {
+        if self.same_half(uv) {
+            self.color1.eval_1_grad(uv)
+        } else {
+            self.color0.eval_1_grad(uv)
+        }
+    }
+
     /// Mitsuba's `eval_1`: note the swapped cells (see the module documentation).
     #[inline]
     pub fn eval_float(&self, uv: Vec2) -> f32 {

@@ -60,6 +60,31 @@ impl Texture {
         }
     }
 
+    /// Mitsuba's `eval_1_grad`: the gradient of the scalar lookup [`Self::eval_float`]
+    /// with respect to (u, v), for `bumpmap`. Constants have none; a bitmap's is that of
+    /// its bilinear interpolation (zero for `nearest`, as Mitsuba); a checkerboard's is
+    /// its cell's colour's (its cells are constant almost everywhere; Mitsuba 3.9.1
+    /// implements the gradient for bitmaps only and refuses the others).
+    #[inline]
+    pub fn eval_1_grad(&self, uv: Vec2) -> Vec2 {
+        match self {
+            Texture::Constant(_) => Vec2::ZERO,
+            Texture::Bitmap(b) => b.eval_1_grad(uv),
+            Texture::Checkerboard(c) => c.eval_1_grad(uv),
+        }
+    }
+
+    /// Mitsuba's `Texture::mean`: the average over the texture's domain of all its
+    /// channels (a constant's channel mean, a bitmap's texel mean, a checkerboard's
+    /// colours' average), as sampling weights use it.
+    pub fn mean(&self) -> f32 {
+        match self {
+            Texture::Constant(c) => c.element_sum() / 3.0,
+            Texture::Bitmap(b) => b.mean(),
+            Texture::Checkerboard(c) => 0.5 * (c.color0.mean() + c.color1.mean()),
+        }
+    }
+
     /// The texture does not vary over the surface: callers may skip computing uv.
     pub fn is_constant(&self) -> bool {
         matches!(self, Texture::Constant(_))
