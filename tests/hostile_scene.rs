@@ -850,7 +850,93 @@ fn cases() -> Vec<Case> {
             sphere(r#"<bsdf type="roughplastic"><string name="int_ior" value="kryptonite"/></bsdf>"#),
             "unknown IOR name 'kryptonite'",
         ),
+        // ---- sensors: thinlens, orthographic ----
+        scene_case(
+            "thinlens_missing_aperture",
+            sensor_kind("thinlens", r#"<float name="fov" value="40"/>"#),
+            "missing parameter 'aperture_radius'",
+        ),
+        scene_case(
+            "thinlens_negative_aperture",
+            sensor_kind("thinlens", r#"<float name="fov" value="40"/><float name="aperture_radius" value="-0.1"/>"#),
+            "aperture_radius must be in [0",
+        ),
+        scene_case(
+            "thinlens_nan_aperture",
+            sensor_kind("thinlens", r#"<float name="fov" value="40"/><float name="aperture_radius" value="nan"/>"#),
+            "aperture_radius",
+        ),
+        scene_case(
+            "thinlens_zero_focus",
+            sensor_kind("thinlens", r#"<float name="fov" value="40"/><float name="aperture_radius" value="0.1"/><float name="focus_distance" value="0"/>"#),
+            "focus_distance must be in (0",
+        ),
+        scene_case(
+            "thinlens_infinite_focus",
+            sensor_kind("thinlens", r#"<float name="fov" value="40"/><float name="aperture_radius" value="0.1"/><float name="focus_distance" value="inf"/>"#),
+            "focus_distance",
+        ),
+        scene_case(
+            "thinlens_scaled_to_world",
+            sensor_kind_to_world("thinlens", r#"<float name="fov" value="40"/><float name="aperture_radius" value="0.1"/>"#, r#"<scale value="2"/>"#),
+            "scale factors in the camera's to_world are not allowed",
+        ),
+        scene_case(
+            "thinlens_bad_fov",
+            sensor_kind("thinlens", r#"<float name="fov" value="180"/><float name="aperture_radius" value="0.1"/>"#),
+            "fov must be in (0, 180)",
+        ),
+        scene_case(
+            "orthographic_with_fov",
+            sensor_kind("orthographic", r#"<float name="fov" value="40"/>"#),
+            "fov",
+        ),
+        scene_case(
+            "orthographic_flat_to_world",
+            sensor_kind_to_world("orthographic", "", r#"<matrix value="1 1 0 0 1 1 0 0 0 0 1 0 0 0 0 1"/>"#),
+            "singular",
+        ),
+        scene_case(
+            "orthographic_huge_to_world",
+            sensor_kind_to_world("orthographic", "", r#"<scale value="1e30"/>"#),
+            "orthographic: to_world's axes",
+        ),
+        scene_case(
+            "sensor_negative_near_clip",
+            sensor_kind("orthographic", r#"<float name="near_clip" value="-1"/>"#),
+            "near_clip must be positive",
+        ),
+        scene_case(
+            "sensor_far_clip_below_near",
+            sensor_kind("thinlens", r#"<float name="fov" value="40"/><float name="aperture_radius" value="0.1"/><float name="near_clip" value="2"/><float name="far_clip" value="1"/>"#),
+            "far_clip must be finite and greater than near_clip",
+        ),
+        scene_case(
+            "sensor_unknown_type",
+            sensor_kind("fisheye", ""),
+            "sensor 'fisheye' is not supported",
+        ),
     ]
+}
+
+/// The base scene with a sensor of `kind` whose fov line is replaced by `params`.
+fn sensor_kind(kind: &str, params: &str) -> File {
+    let text = BASE.replace("SHAPES", "").replace("SENSOR", "");
+    File::Text(
+        text.replace(r#"<sensor type="perspective">"#, &format!(r#"<sensor type="{kind}">"#))
+            .replace(r#"<float name="fov" value="40"/>"#, params),
+    )
+}
+
+/// As `sensor_kind`, with `extra` transform elements before the look-at.
+fn sensor_kind_to_world(kind: &str, params: &str, extra: &str) -> File {
+    let File::Text(text) = sensor_kind(kind, params) else {
+        unreachable!()
+    };
+    File::Text(text.replace(
+        r#"<transform name="to_world"><lookat"#,
+        &format!(r#"<transform name="to_world">{extra}<lookat"#),
+    ))
 }
 
 impl Case {

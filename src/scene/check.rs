@@ -39,7 +39,7 @@ pub const SUPPORTED: &[(&str, &[&str])] = &[
     ),
     ("texture", &["bitmap", "checkerboard"]),
     ("emitter", &["area", "point", "spot"]),
-    ("sensor", &["perspective"]),
+    ("sensor", &["perspective", "thinlens", "orthographic"]),
     ("film", &["transient_hdr_film"]),
     (
         "sampler",

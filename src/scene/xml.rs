@@ -5,7 +5,7 @@ use super::error::SceneError;
 use super::film::Film;
 use super::limits;
 use super::props::{Ctx, Props, OBJECT_TAGS};
-use super::shapes::{check_world_point, parse_geometry};
+use super::shapes::{check_world_point, parse_geometry, MAX_COORDINATE};
 use super::{IntegratorSettings, Overrides, Scene};
 use crate::geometry::accel::Accel;
 use crate::geometry::shape::{AreaSampler, Shape, ShapeGeom};
@@ -23,12 +23,28 @@ use std::path::Path;
 struct Sensor {
     /// Line of the `<sensor>` element, for errors found after the overrides.
     line: u32,
+    /// The plugin name, for errors found after the overrides.
+    kind: String,
     to_world: DMat4,
-    fov: f64,
-    fov_axis: FovAxis,
+    projection: SensorProjection,
     film: Film,
     spp: u32,
     seed: u64,
+}
+
+/// What the sensor plugin needs besides `to_world` and the film.
+enum SensorProjection {
+    Perspective {
+        fov: f64,
+        fov_axis: FovAxis,
+    },
+    ThinLens {
+        fov: f64,
+        fov_axis: FovAxis,
+        aperture_radius: f32,
+        focus_distance: f32,
+    },
+    Orthographic,
 }
 
 pub fn load(path: &Path, overrides: &Overrides) -> Result<Scene, SceneError> {
@@ -190,20 +206,44 @@ pub fn load(path: &Path, overrides: &Overrides) -> Result<Scene, SceneError> {
     if emitters.is_empty() {
         return Err(ctx.err(root, "the scene has no emitter; it would render black"));
     }
-    let camera = Camera::new(s.to_world, s.fov, s.fov_axis, film.width, film.height);
+    let (w, h) = (film.width, film.height);
+    let (camera, fov) = match s.projection {
+        SensorProjection::Perspective { fov, fov_axis } => {
+            (Camera::new(s.to_world, fov, fov_axis, w, h), Some(fov))
+        }
+        SensorProjection::ThinLens {
+            fov,
+            fov_axis,
+            aperture_radius,
+            focus_distance,
+        } => (
+            Camera::thin_lens(
+                s.to_world,
+                fov,
+                fov_axis,
+                w,
+                h,
+                aperture_radius,
+                focus_distance,
+            ),
+            Some(fov),
+        ),
+        SensorProjection::Orthographic => (Camera::orthographic(s.to_world, w, h), None),
+    };
     if !camera
         .tan_half
         .iter()
         .all(|&t| t >= f32::MIN_POSITIVE && t.is_finite())
     {
+        let what = match fov {
+            Some(fov) => format!("fov {fov:e} degrees at {w}x{h} px gives a field of view that is zero or infinite in single precision"),
+            None => format!("a {w}x{h} px film has an aspect ratio that is zero or infinite in single precision"),
+        };
         return Err(SceneError::new(
             path,
             s.line,
-            "sensor type=\"perspective\"",
-            format!(
-                "fov {:e} degrees at {}x{} px gives a field of view that is zero or infinite in single precision",
-                s.fov, film.width, film.height
-            ),
+            &format!("sensor type=\"{}\"", s.kind),
+            what,
         ));
     }
     let accel = Accel::build(&shapes);
@@ -561,21 +601,9 @@ fn parse_sampler(ctx: &Ctx, obj: Node) -> Result<(u32, u64), SceneError> {
     Ok((spp, seed))
 }
 
-fn parse_sensor(
-    ctx: &Ctx,
-    node: Node,
-    named_samplers: &HashMap<String, (u32, u64)>,
-) -> Result<Sensor, SceneError> {
-    let kind = ctx.required_attr(node, "type")?;
-    if kind != "perspective" {
-        return Err(ctx.err(
-            node,
-            format!("sensor '{kind}' is not supported (use perspective)"),
-        ));
-    }
-    let mut p = Props::parse(ctx, node)?;
-    // `fov` (on `fov_axis`), or Mitsuba's `focal_length` (35 mm equivalent, default
-    // "50mm", on the diagonal of a 36 x 24 mm frame), as `parse_fov` in Mitsuba 3.
+/// `fov` (on `fov_axis`), or Mitsuba's `focal_length` (35 mm equivalent, default
+/// "50mm", on the diagonal of a 36 x 24 mm frame), as `parse_fov` in Mitsuba 3.
+fn parse_fov(p: &mut Props) -> Result<(f64, FovAxis), SceneError> {
     let (fov, axis_name) = match (p.float("fov")?, p.string("focal_length")?) {
         (Some(_), Some(_)) => {
             return Err(p.err("give either 'fov' or 'focal_length', not both"));
@@ -614,23 +642,123 @@ fn parse_sensor(
             format!("fov_axis '{axis_name}' is not one of x, y, smaller, larger, diagonal"),
         )
     })?;
-    // A pinhole has no depth of field: Mitsuba's `perspective` accepts and ignores it.
-    p.ignore("focus_distance");
-    for name in ["principal_point_offset_x", "principal_point_offset_y"] {
-        if let Some(v) = p.float(name)? {
-            if v != 0.0 {
-                return Err(p.err_at(
-                    name,
-                    format!(
-                        "{name} = {v}: an off-centre principal point is not supported (only 0)"
-                    ),
-                ));
+    Ok((fov, fov_axis))
+}
+
+/// A sensor's `to_world`: thinlens refuses scale as Mitsuba does (`has_scale`: some
+/// pair of the linear part's rows has a dot product off the identity's by more than
+/// 1e-3); orthographic needs its x, y and z axes to span the view (finite, non-zero).
+fn check_sensor_transform(kind: &str, m: &DMat4) -> Result<(), String> {
+    let cols = [m.x_axis.truncate(), m.y_axis.truncate(), m.z_axis.truncate()];
+    if kind == "thinlens" {
+        let rows = [0, 1, 2].map(|i| DVec3::new(cols[0][i], cols[1][i], cols[2][i]));
+        for i in 0..3 {
+            for j in i..3 {
+                let want = if i == j { 1.0 } else { 0.0 };
+                if !((rows[i].dot(rows[j]) - want).abs() <= 1e-3) {
+                    return Err("thinlens: scale factors in the camera's to_world are not allowed (as in Mitsuba)".into());
+                }
             }
         }
     }
-    // Rays start at the pinhole (SPEC 2); the clip planes do not change what is rendered.
-    p.ignore("near_clip");
-    p.ignore("far_clip");
+    if kind == "orthographic" {
+        let ok = cols.iter().all(|c| {
+            let l = c.length();
+            l.is_finite() && l as f32 >= f32::MIN_POSITIVE && l <= MAX_COORDINATE
+        });
+        if !ok || m.determinant() == 0.0 {
+            return Err(format!(
+                "orthographic: to_world's axes {:?} must be non-zero, independent and at most {MAX_COORDINATE:e} long (they set the view's extent)",
+                cols.map(|c| c.to_array())
+            ));
+        }
+    }
+    Ok(())
+}
+
+fn parse_sensor(
+    ctx: &Ctx,
+    node: Node,
+    named_samplers: &HashMap<String, (u32, u64)>,
+) -> Result<Sensor, SceneError> {
+    let kind = ctx.required_attr(node, "type")?;
+    if !matches!(kind.as_str(), "perspective" | "thinlens" | "orthographic") {
+        return Err(ctx.err(
+            node,
+            format!("sensor '{kind}' is not supported (use perspective, thinlens or orthographic)"),
+        ));
+    }
+    let mut p = Props::parse(ctx, node)?;
+    // Mitsuba's ProjectiveCamera: near_clip > 0, near_clip < far_clip; focus_distance
+    // defaults to far_clip.
+    let near = p.float_or("near_clip", 1e-2)?;
+    let far = p.float_or("far_clip", 1e4)?;
+    if !(near > 0.0 && near.is_finite()) {
+        return Err(p.err_at("near_clip", format!("near_clip must be positive, got {near}")));
+    }
+    if !(far > near && far.is_finite()) {
+        return Err(p.err_at(
+            "far_clip",
+            format!("far_clip must be finite and greater than near_clip ({near}), got {far}"),
+        ));
+    }
+    let projection = if kind == "orthographic" {
+        SensorProjection::Orthographic
+    } else {
+        let (fov, fov_axis) = parse_fov(&mut p)?;
+        if kind == "perspective" {
+            // A pinhole has no depth of field: Mitsuba's `perspective` accepts and ignores it.
+            p.ignore("focus_distance");
+            SensorProjection::Perspective { fov, fov_axis }
+        } else {
+            let aperture = p
+                .float("aperture_radius")?
+                .ok_or_else(|| p.err("missing parameter 'aperture_radius' (thinlens)"))?;
+            if !(aperture >= 0.0 && aperture as f32 <= MAX_COORDINATE as f32) {
+                return Err(p.err_at(
+                    "aperture_radius",
+                    format!("aperture_radius must be in [0, {MAX_COORDINATE:e}], got {aperture}"),
+                ));
+            }
+            let aperture_radius = if aperture == 0.0 {
+                // Mitsuba: "Can't have a zero aperture radius -- setting to 2^-24".
+                p.warn_at(
+                    "aperture_radius",
+                    "a zero aperture radius is set to 2^-24 (as Mitsuba); use perspective for a pinhole",
+                );
+                f32::EPSILON / 2.0
+            } else {
+                aperture as f32
+            };
+            let focus = p.float_or("focus_distance", far)?;
+            if !(focus > 0.0 && focus as f32 >= f32::MIN_POSITIVE && focus <= MAX_COORDINATE) {
+                return Err(p.err_at(
+                    "focus_distance",
+                    format!("focus_distance must be in (0, {MAX_COORDINATE:e}], got {focus}"),
+                ));
+            }
+            SensorProjection::ThinLens {
+                fov,
+                fov_axis,
+                aperture_radius,
+                focus_distance: focus as f32,
+            }
+        }
+    };
+    if kind != "orthographic" {
+        for name in ["principal_point_offset_x", "principal_point_offset_y"] {
+            if let Some(v) = p.float(name)? {
+                if v != 0.0 {
+                    return Err(p.err_at(
+                        name,
+                        format!(
+                            "{name} = {v}: an off-centre principal point is not supported (only 0)"
+                        ),
+                    ));
+                }
+            }
+        }
+    }
     let to_world = p.transform("to_world")?.unwrap_or(DMat4::IDENTITY);
     let mut film = None;
     let (mut spp, mut seed) = (4u32, 0u64);
@@ -659,11 +787,12 @@ fn parse_sensor(
     let film = film.ok_or_else(|| ctx.err(node, "the sensor has no <film>"))?;
     check_world_point(to_world.transform_point3(DVec3::ZERO))
         .map_err(|e| ctx.err(node, format!("camera position: {e}")))?;
+    check_sensor_transform(&kind, &to_world).map_err(|e| ctx.err(node, e))?;
     Ok(Sensor {
         line: ctx.line(node),
+        kind,
         to_world,
-        fov,
-        fov_axis,
+        projection,
         film,
         spp,
         seed,
