@@ -8,7 +8,7 @@ use super::props::{Ctx, Props, OBJECT_TAGS};
 use super::shapes::{check_world_point, parse_geometry, MAX_COORDINATE};
 use super::{IntegratorSettings, Overrides, Scene};
 use crate::geometry::accel::Accel;
-use crate::geometry::shape::{AreaSampler, Shape, ShapeGeom};
+use crate::geometry::shape::{AreaSampler, Shape};
 use crate::lights::Emitter;
 use crate::materials::parse::{parse_bsdf, resolve_bsdf, Named};
 use crate::materials::{Bsdf, Diffuse, Material};
@@ -805,17 +805,8 @@ type ParsedShape = (Shape, Material, Option<Rgb>);
 fn extent(shapes: &[Shape]) -> Option<f32> {
     let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
     for shape in shapes {
-        match &shape.geom {
-            ShapeGeom::Mesh { positions, .. } => {
-                for &p in positions {
-                    (lo, hi) = (lo.min(p), hi.max(p));
-                }
-            }
-            ShapeGeom::Sphere(s, _) => {
-                lo = lo.min(s.center - Vec3::splat(s.radius));
-                hi = hi.max(s.center + Vec3::splat(s.radius));
-            }
-        }
+        let (a, b) = shape.bounds();
+        (lo, hi) = (lo.min(a), hi.max(b));
     }
     (lo.x <= hi.x).then(|| (hi - lo).length())
 }
