@@ -911,6 +911,47 @@ fn cases() -> Vec<Case> {
             sensor_kind("thinlens", r#"<float name="fov" value="40"/><float name="aperture_radius" value="0.1"/><float name="near_clip" value="2"/><float name="far_clip" value="1"/>"#),
             "far_clip must be finite and greater than near_clip",
         ),
+        // ---- disk, cylinder ----
+        scene_case(
+            "disk_flat_to_world",
+            scene_with(r#"<shape type="disk"><transform name="to_world"><matrix value="1 1 0 0 1 1 0 0 0 0 1 0 0 0 0 1"/></transform></shape>"#),
+            "singular",
+        ),
+        scene_case(
+            "disk_huge_to_world",
+            scene_with(r#"<shape type="disk"><transform name="to_world"><scale value="1e30"/></transform></shape>"#),
+            "to_world",
+        ),
+        scene_case(
+            "disk_radius_parameter",
+            scene_with(r#"<shape type="disk"><float name="radius" value="2"/></shape>"#),
+            "radius",
+        ),
+        scene_case(
+            "cylinder_negative_radius",
+            scene_with(r#"<shape type="cylinder"><float name="radius" value="-1"/></shape>"#),
+            "cylinder radius must be positive",
+        ),
+        scene_case(
+            "cylinder_nan_radius",
+            scene_with(r#"<shape type="cylinder"><float name="radius" value="nan"/></shape>"#),
+            "radius",
+        ),
+        scene_case(
+            "cylinder_zero_length",
+            scene_with(r#"<shape type="cylinder"><point name="p0" x="1" y="1" z="1"/><point name="p1" x="1" y="1" z="1"/></shape>"#),
+            "must differ",
+        ),
+        scene_case(
+            "cylinder_nonuniform_scale",
+            scene_with(r#"<shape type="cylinder"><transform name="to_world"><scale x="1" y="3" z="1"/></transform></shape>"#),
+            "cross-section uniformly",
+        ),
+        scene_case(
+            "cylinder_huge",
+            scene_with(r#"<shape type="cylinder"><float name="radius" value="1e20"/></shape>"#),
+            "cylinder",
+        ),
         scene_case(
             "sensor_unknown_type",
             sensor_kind("fisheye", ""),

@@ -35,7 +35,16 @@ pub const SUPPORTED: &[(&str, &[&str])] = &[
     ),
     (
         "shape",
-        &["rectangle", "cube", "sphere", "ply", "obj", "serialized"],
+        &[
+            "rectangle",
+            "cube",
+            "sphere",
+            "disk",
+            "cylinder",
+            "ply",
+            "obj",
+            "serialized",
+        ],
     ),
     ("texture", &["bitmap", "checkerboard"]),
     ("emitter", &["area", "point", "spot"]),
