@@ -952,6 +952,52 @@ fn cases() -> Vec<Case> {
             scene_with(r#"<shape type="cylinder"><float name="radius" value="1e20"/></shape>"#),
             "cylinder",
         ),
+        // ---- shapegroup, instance ----
+        scene_case(
+            "shapegroup_without_id",
+            scene_with(r#"<shape type="shapegroup"><shape type="sphere"/></shape>"#),
+            "a shapegroup needs an id",
+        ),
+        scene_case(
+            "shapegroup_with_emitter",
+            scene_with(r#"<shape type="shapegroup" id="g"><shape type="sphere"><emitter type="area"><rgb name="radiance" value="1"/></emitter></shape></shape>"#),
+            "instancing of emitters is not supported",
+        ),
+        scene_case(
+            "shapegroup_nested",
+            scene_with(r#"<shape type="shapegroup" id="g"><shape type="shapegroup" id="h"/></shape>"#),
+            "nested instancing",
+        ),
+        scene_case(
+            "instance_without_ref",
+            scene_with(r#"<shape type="instance"/>"#),
+            "a reference to a 'shapegroup' must be specified",
+        ),
+        scene_case(
+            "instance_of_unknown_group",
+            scene_with(r#"<shape type="instance"><ref id="nope"/></shape>"#),
+            "'nope' is not a shapegroup declared before this instance",
+        ),
+        scene_case(
+            "instance_before_its_group",
+            scene_with(r#"<shape type="instance"><ref id="g"/></shape><shape type="shapegroup" id="g"><shape type="sphere"/></shape>"#),
+            "'g' is not a shapegroup declared before",
+        ),
+        scene_case(
+            "instance_two_groups",
+            scene_with(r#"<shape type="shapegroup" id="g"><shape type="sphere"/></shape><shape type="instance"><ref id="g"/><ref id="g"/></shape>"#),
+            "only a single shapegroup",
+        ),
+        scene_case(
+            "instance_nonuniform_sphere",
+            scene_with(r#"<shape type="shapegroup" id="g"><shape type="sphere"/></shape><shape type="instance"><ref id="g"/><transform name="to_world"><scale x="2"/></transform></shape>"#),
+            "an instance of a sphere must scale uniformly",
+        ),
+        scene_case(
+            "instance_huge",
+            scene_with(r#"<shape type="shapegroup" id="g"><shape type="cube"/></shape><shape type="instance"><ref id="g"/><transform name="to_world"><scale value="1e30"/></transform></shape>"#),
+            "shapegroup 'g'",
+        ),
         scene_case(
             "sensor_unknown_type",
             sensor_kind("fisheye", ""),
@@ -964,8 +1010,11 @@ fn cases() -> Vec<Case> {
 fn sensor_kind(kind: &str, params: &str) -> File {
     let text = BASE.replace("SHAPES", "").replace("SENSOR", "");
     File::Text(
-        text.replace(r#"<sensor type="perspective">"#, &format!(r#"<sensor type="{kind}">"#))
-            .replace(r#"<float name="fov" value="40"/>"#, params),
+        text.replace(
+            r#"<sensor type="perspective">"#,
+            &format!(r#"<sensor type="{kind}">"#),
+        )
+        .replace(r#"<float name="fov" value="40"/>"#, params),
     )
 }
 

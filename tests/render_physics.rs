@@ -645,7 +645,10 @@ fn disk_light_irradiance_matches_the_closed_form() {
     let mut mean_e = 0.0;
     for i in 0..grid {
         for j in 0..grid {
-            let (u, v) = ((i as f64 + 0.5) / grid as f64, (j as f64 + 0.5) / grid as f64);
+            let (u, v) = (
+                (i as f64 + 0.5) / grid as f64,
+                (j as f64 + 0.5) / grid as f64,
+            );
             let d = scene.camera.direction(u as f32, v as f32).as_dvec3();
             let t = -cam.z / d.z;
             let p = cam + d * t;

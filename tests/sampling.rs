@@ -1798,7 +1798,10 @@ fn area_uniformity_p_value(
                     }
                     ShapeGeom::Cylinder(g) => {
                         let l = g.to_local(p).as_dvec3();
-                        assert!(((l.x * l.x + l.y * l.y).sqrt() - 1.0).abs() < 1e-4, "point off the tube");
+                        assert!(
+                            ((l.x * l.x + l.y * l.y).sqrt() - 1.0).abs() < 1e-4,
+                            "point off the tube"
+                        );
                         (l.z, l)
                     }
                     _ => unreachable!(),

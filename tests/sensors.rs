@@ -187,13 +187,15 @@ fn thin_lens_defocuses_an_edge_over_the_circle_of_confusion() {
             // The expected value: the segment fraction averaged over the pixel's
             // footprint (x + u, u uniform; sx = (1 - 2 (x + u) / W) tan_half).
             let grid = 2000;
-            let want = l * (0..grid)
-                .map(|i| {
-                    let sx = (1.0 - 2.0 * (x as f64 + (i as f64 + 0.5) / grid as f64) / w as f64)
-                        * tan_half;
-                    disk_fraction_below(-sx / c)
-                })
-                .sum::<f64>()
+            let want = l
+                * (0..grid)
+                    .map(|i| {
+                        let sx = (1.0
+                            - 2.0 * (x as f64 + (i as f64 + 0.5) / grid as f64) / w as f64)
+                            * tan_half;
+                        disk_fraction_below(-sx / c)
+                    })
+                    .sum::<f64>()
                 / grid as f64;
             let got = steady(&out, w, x, y);
             let p = want / l;

@@ -46,12 +46,7 @@ impl CylinderGeom {
         let length = d.length();
         let n = d / length;
         let (s, t) = coordinate_system(n);
-        let frame = DMat4::from_cols(
-            s.extend(0.0),
-            t.extend(0.0),
-            n.extend(0.0),
-            glam::DVec4::W,
-        );
+        let frame = DMat4::from_cols(s.extend(0.0), t.extend(0.0), n.extend(0.0), glam::DVec4::W);
         *to_world
             * DMat4::from_translation(p0)
             * frame
@@ -158,7 +153,11 @@ impl CylinderGeom {
     pub fn dpdu(&self, p: Vec3) -> Vec3 {
         let l = self.to_local(p);
         let r = (l.x * l.x + l.y * l.y).sqrt();
-        let (x, y) = if r > 0.0 { (l.x / r, l.y / r) } else { (1.0, 0.0) };
+        let (x, y) = if r > 0.0 {
+            (l.x / r, l.y / r)
+        } else {
+            (1.0, 0.0)
+        };
         self.m * (Vec3::new(-y, x, 0.0) * std::f32::consts::TAU)
     }
 
@@ -196,32 +195,49 @@ mod tests {
         let g = cyl(DMat4::IDENTITY, DVec3::ZERO, DVec3::new(0.0, 0.0, 2.0), 0.5);
         assert!((g.area() - std::f32::consts::TAU * 0.5 * 2.0).abs() < 1e-5);
         // From outside along -x at z = 1: the near wall at x = 0.5.
-        let t = g.intersect(Vec3::new(3.0, 0.0, 1.0), -Vec3::X, 0.0).unwrap();
+        let t = g
+            .intersect(Vec3::new(3.0, 0.0, 1.0), -Vec3::X, 0.0)
+            .unwrap();
         assert!((t - 2.5).abs() < 1e-6, "{t}");
         // From the axis: the wall at distance 0.5.
         let t = g.intersect(Vec3::new(0.0, 0.0, 1.0), Vec3::Y, 0.0).unwrap();
         assert!((t - 0.5).abs() < 1e-6, "{t}");
         // Above the top end: missed; entering through the open end, the far wall.
-        assert!(g.intersect(Vec3::new(3.0, 0.0, 2.1), -Vec3::X, 0.0).is_none());
+        assert!(g
+            .intersect(Vec3::new(3.0, 0.0, 2.1), -Vec3::X, 0.0)
+            .is_none());
         let d = Vec3::new(-1.0, 0.0, -1.0).normalize();
         let t = g.intersect(Vec3::new(0.4, 0.0, 2.4), d, 0.0).unwrap();
         let p = Vec3::new(0.4, 0.0, 2.4) + d * t;
         assert!((p.x + 0.5).abs() < 1e-5 && p.z > 0.0 && p.z < 2.0, "{p}");
         // Along the axis: never.
-        assert!(g.intersect(Vec3::new(0.0, 0.0, -1.0), Vec3::Z, 0.0).is_none());
+        assert!(g
+            .intersect(Vec3::new(0.0, 0.0, -1.0), Vec3::Z, 0.0)
+            .is_none());
     }
 
     #[test]
     fn p0_p1_radius_and_to_world_place_the_tube() {
-        let tw = DMat4::from_translation(DVec3::new(1.0, -1.0, 0.5)) * DMat4::from_scale(DVec3::splat(2.0));
-        let g = cyl(tw, DVec3::new(1.0, 0.0, 0.0), DVec3::new(1.0, 3.0, 0.0), 0.25);
+        let tw = DMat4::from_translation(DVec3::new(1.0, -1.0, 0.5))
+            * DMat4::from_scale(DVec3::splat(2.0));
+        let g = cyl(
+            tw,
+            DVec3::new(1.0, 0.0, 0.0),
+            DVec3::new(1.0, 3.0, 0.0),
+            0.25,
+        );
         assert!((g.radius - 0.5).abs() < 1e-6 && (g.length - 6.0).abs() < 1e-5);
         // The axis runs from to_world p0 = (3, -1, 0.5) along +y.
         let (p, n) = g.project(Vec3::new(3.0, 2.0, 5.0));
         assert!((p - Vec3::new(3.0, 2.0, 1.0)).length() < 1e-5, "{p}");
         assert!((n - Vec3::Z).length() < 1e-6);
         // A mirroring to_world keeps the normal outward.
-        let g = cyl(DMat4::from_scale(DVec3::new(-1.0, 1.0, 1.0)), DVec3::ZERO, DVec3::Z, 1.0);
+        let g = cyl(
+            DMat4::from_scale(DVec3::new(-1.0, 1.0, 1.0)),
+            DVec3::ZERO,
+            DVec3::Z,
+            1.0,
+        );
         let (_, n) = g.project(Vec3::new(2.0, 0.0, 0.5));
         assert!((n - Vec3::X).length() < 1e-6, "{n}");
         // A non-uniform cross-section is refused.

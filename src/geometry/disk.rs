@@ -147,7 +147,9 @@ mod tests {
             }
         }
         // Parallel to the plane, behind the origin: no hit.
-        assert!(g.intersect(Vec3::new(1.0, 2.0, 3.0), g.m.x_axis.normalize(), 0.0).is_none());
+        assert!(g
+            .intersect(Vec3::new(1.0, 2.0, 3.0), g.m.x_axis.normalize(), 0.0)
+            .is_none());
         let o = Vec3::new(1.0, 2.0, 3.0) + g.n;
         assert!(g.intersect(o, g.n, 0.0).is_none());
         assert!(g.intersect(o, -g.n, 0.0).is_some());

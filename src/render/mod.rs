@@ -25,13 +25,13 @@ pub mod pixel_sampling;
 pub mod sink;
 
 use crate::math::rng::Pcg32;
+use crate::scene::camera::LENS_STREAM_SALT;
 use crate::scene::film::Film;
 use crate::scene::Scene;
 use crate::stats::accumulators::{Accumulators, PixelSums, CHANNELS};
 use crate::stats::Transform;
 use deposits::PathDeposits;
 use gbuffer::{GAccum, GPixel};
-use crate::scene::camera::LENS_STREAM_SALT;
 use integrator::{trace_ray, PathTally};
 pub use pixel_sampling::{PixelPattern, PixelSampling};
 use rayon::prelude::*;

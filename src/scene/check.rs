@@ -44,6 +44,8 @@ pub const SUPPORTED: &[(&str, &[&str])] = &[
             "ply",
             "obj",
             "serialized",
+            "shapegroup",
+            "instance",
         ],
     ),
     ("texture", &["bitmap", "checkerboard"]),

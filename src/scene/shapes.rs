@@ -730,15 +730,25 @@ mod tests {
         };
         for (r, phi) in [(0.5, 0.3), (0.9, 2.0), (0.2, 4.0), (0.7, 6.0)] {
             let (p, uv) = at(r, phi);
-            assert!((uv - DVec2::new(r, phi / std::f64::consts::TAU)).length() < 1e-5, "{uv}");
+            assert!(
+                (uv - DVec2::new(r, phi / std::f64::consts::TAU)).length() < 1e-5,
+                "{uv}"
+            );
             let fd = fd_dpdu(|a, b| at(r + a, phi + b));
             let got = s.dpdu(0, 0.0, 0.0, p.as_vec3()).as_dvec3();
-            assert!((got - fd).length() < 1e-3 * fd.length(), "dpdu {got} vs {fd}");
+            assert!(
+                (got - fd).length() < 1e-3 * fd.length(),
+                "dpdu {got} vs {fd}"
+            );
             // The surface point projects onto the plane; the normal is the transformed +z.
             let sp = s.surface(0, 0.0, 0.0, (p + DVec3::new(1e-4, 0.0, 0.0)).as_vec3());
             assert!((g.to_local(sp.p).z).abs() < 1e-5);
         }
-        let n = m.inverse().transpose().transform_vector3(DVec3::Z).normalize();
+        let n = m
+            .inverse()
+            .transpose()
+            .transform_vector3(DVec3::Z)
+            .normalize();
         let sp = s.surface(0, 0.0, 0.0, g.c);
         assert!((sp.ng.as_dvec3() - n).length() < 1e-6);
         // flip_normals turns the normal only (parse_shape reads it: here by hand).
@@ -746,11 +756,16 @@ mod tests {
         flipped.flip_normals = true;
         let fp = flipped.surface(0, 0.0, 0.0, g.c);
         assert!((fp.ng + sp.ng).length() < 1e-6);
-        assert_eq!(flipped.uv(0, 0.0, 0.0, g.c + g.m.x_axis * 0.5), s.uv(0, 0.0, 0.0, g.c + g.m.x_axis * 0.5));
+        assert_eq!(
+            flipped.uv(0, 0.0, 0.0, g.c + g.m.x_axis * 0.5),
+            s.uv(0, 0.0, 0.0, g.c + g.m.x_axis * 0.5)
+        );
         // The default: the unit disk at the origin facing +z.
         let d = parse_shape("disk", "").unwrap();
         assert!((d.area() - std::f64::consts::PI).abs() < 1e-6);
-        assert!((d.uv(0, 0.0, 0.0, Vec3::new(0.0, 0.5, 0.0)) - Vec2::new(0.5, 0.25)).length() < 1e-6);
+        assert!(
+            (d.uv(0, 0.0, 0.0, Vec3::new(0.0, 0.5, 0.0)) - Vec2::new(0.5, 0.25)).length() < 1e-6
+        );
         assert!((d.dpdu(0, 0.0, 0.0, Vec3::new(0.0, 0.5, 0.0)) - Vec3::Y).length() < 1e-6);
         assert!(parse_shape("disk", r#"<float name="radius" value="2"/>"#).is_err());
     }
@@ -769,7 +784,11 @@ mod tests {
         };
         let len = (DVec3::new(1.5, 1.0, -0.4) - DVec3::new(0.5, -1.0, 0.2)).length() * 1.5;
         let want = std::f64::consts::TAU * 0.45 * len;
-        assert!((s.area() - want).abs() < 1e-5 * want, "{} vs {want}", s.area());
+        assert!(
+            (s.area() - want).abs() < 1e-5 * want,
+            "{} vs {want}",
+            s.area()
+        );
         let m = g.m.as_dmat3();
         let c = g.c.as_dvec3();
         // The object-space point at (phi, z) and its uv (phi / 2 pi, z).
@@ -779,11 +798,17 @@ mod tests {
         };
         for (phi, z) in [(0.3, 0.2), (2.0, 0.9), (4.0, 0.5), (6.0, 0.05)] {
             let (p, uv) = at(phi, z);
-            assert!((uv - DVec2::new(phi / std::f64::consts::TAU, z)).length() < 1e-5, "{uv}");
+            assert!(
+                (uv - DVec2::new(phi / std::f64::consts::TAU, z)).length() < 1e-5,
+                "{uv}"
+            );
             let fd = fd_dpdu(|a, b| at(phi + a, z + b));
             let got = s.dpdu(0, 0.0, 0.0, p.as_vec3()).as_dvec3();
             // uv comes from f32 points ~3 units out: ~3e-7 over steps of 2e-4.
-            assert!((got - fd).length() < 5e-3 * fd.length(), "dpdu {got} vs {fd}");
+            assert!(
+                (got - fd).length() < 5e-3 * fd.length(),
+                "dpdu {got} vs {fd}"
+            );
             // Outward normal: from the axis to the point.
             let sp = s.surface(0, 0.0, 0.0, p.as_vec3());
             let axis = m.z_axis.normalize();
@@ -794,8 +819,14 @@ mod tests {
         // Mitsuba's frame for the default axis +z: phi = 0 along object +x.
         let d = parse_shape("cylinder", "").unwrap();
         assert!((d.area() - std::f64::consts::TAU).abs() < 1e-5);
-        assert!((d.uv(0, 0.0, 0.0, Vec3::new(0.0, 1.0, 0.25)) - Vec2::new(0.25, 0.25)).length() < 1e-6);
-        assert!((d.dpdu(0, 0.0, 0.0, Vec3::new(1.0, 0.0, 0.5)) - Vec3::Y * std::f32::consts::TAU).length() < 1e-5);
+        assert!(
+            (d.uv(0, 0.0, 0.0, Vec3::new(0.0, 1.0, 0.25)) - Vec2::new(0.25, 0.25)).length() < 1e-6
+        );
+        assert!(
+            (d.dpdu(0, 0.0, 0.0, Vec3::new(1.0, 0.0, 0.5)) - Vec3::Y * std::f32::consts::TAU)
+                .length()
+                < 1e-5
+        );
         for bad in [
             r#"<float name="radius" value="-1"/>"#,
             r#"<float name="radius" value="nan"/>"#,

@@ -292,6 +292,151 @@ struct Objects {
     area_emitters: HashMap<String, Vec3>,
     /// The files being included, outermost first (to refuse cycles).
     including: Vec<std::path::PathBuf>,
+    /// `shapegroup`s by id: their shapes (world space of the group) and materials.
+    shapegroups: HashMap<String, Vec<(Shape, Material)>>,
+    /// Triangles added by instances so far (bounded, `instance::MAX_INSTANCED_TRIANGLES`).
+    instanced_triangles: usize,
+}
+
+/// Adds a parsed shape (and its area emitter) to the scene.
+fn add_shape(o: &mut Objects, shape: Shape, bsdf: Material, emission: Option<Vec3>) {
+    let index = o.shapes.len() as u32;
+    // Equal untextured BSDFs share an index; found by their exact Debug
+    // text, so that many distinct BSDFs do not cost a quadratic search.
+    // (Textured ones are not compared: an image's Debug text is its texels.)
+    let index_of_bsdf = if bsdf.is_textured() {
+        o.bsdfs.push(bsdf);
+        o.bsdfs.len() - 1
+    } else {
+        *o.bsdf_index.entry(format!("{bsdf:?}")).or_insert_with(|| {
+            o.bsdfs.push(bsdf);
+            o.bsdfs.len() - 1
+        })
+    };
+    let mut shape = Shape {
+        bsdf: index_of_bsdf as u32,
+        ..shape
+    };
+    if let Some(radiance) = emission {
+        shape.emitter = Some(o.emitters.len() as u32);
+        o.emitters.push(Emitter::Area {
+            shape: index,
+            radiance,
+            sampler: AreaSampler::new(&shape),
+        });
+    }
+    o.shapes.push(shape);
+}
+
+/// `<shape type="shapegroup" id=...>`: its shapes, kept for the instances that name it.
+fn parse_shapegroup(ctx: &Ctx, node: Node, o: &mut Objects) -> Result<(), SceneError> {
+    let Some(id) = ctx.attr(node, "id")? else {
+        return Err(ctx.err(
+            node,
+            "a shapegroup needs an id (instances name it with <ref id=...>)",
+        ));
+    };
+    let mut members = Vec::new();
+    for child in node.children().filter(|n| n.is_element()) {
+        if !child.has_tag_name("shape") {
+            return Err(ctx.err(
+                child,
+                format!(
+                    "<{}> inside a shapegroup is not supported (only <shape>s)",
+                    child.tag_name().name()
+                ),
+            ));
+        }
+        let kind = ctx.required_attr(child, "type")?;
+        if kind == "shapegroup" || kind == "instance" {
+            return Err(ctx.err(
+                child,
+                format!(
+                    "a {kind} inside a shapegroup is not permitted (nested instancing, as Mitsuba)"
+                ),
+            ));
+        }
+        let named = Named {
+            bsdfs: &o.named_bsdfs,
+            textures: &o.named_textures,
+        };
+        let (shape, bsdf, emission) =
+            parse_shape(ctx, child, members.len() as u32, &named, &o.area_emitters)?;
+        if emission.is_some() {
+            return Err(ctx.err(child, "instancing of emitters is not supported (as Mitsuba): a shape in a shapegroup cannot emit"));
+        }
+        members.push((shape, bsdf));
+    }
+    if o.shapegroups.insert(id.clone(), members).is_some() {
+        return Err(ctx.err(node, format!("id '{id}' is defined twice")));
+    }
+    Ok(())
+}
+
+/// `<shape type="instance">`: world-space copies of a shapegroup's shapes under its
+/// `to_world` (`instance.rs`).
+fn add_instance(ctx: &Ctx, node: Node, o: &mut Objects) -> Result<(), SceneError> {
+    let mut p = Props::parse(ctx, node)?;
+    let to_world = p.transform("to_world")?.unwrap_or(DMat4::IDENTITY);
+    let mut group = None;
+    for obj in std::mem::take(&mut p.objects) {
+        let id = match obj.tag_name().name() {
+            "ref" => ctx.required_attr(obj, "id")?,
+            other => {
+                return Err(ctx.err(obj, format!("<{other}> inside an instance: only a <ref id> to a shapegroup can be specified (as Mitsuba)")))
+            }
+        };
+        if group.is_some() {
+            return Err(ctx.err(
+                obj,
+                "only a single shapegroup can be specified per instance (as Mitsuba)",
+            ));
+        }
+        if !o.shapegroups.contains_key(&id) {
+            return Err(ctx.err(
+                obj,
+                format!("'{id}' is not a shapegroup declared before this instance"),
+            ));
+        }
+        group = Some(id);
+    }
+    p.finish()?;
+    let id = group.ok_or_else(|| {
+        ctx.err(
+            node,
+            "a reference to a 'shapegroup' must be specified (<ref id=...>)",
+        )
+    })?;
+    let name = ctx
+        .attr(node, "id")?
+        .unwrap_or_else(|| format!("instance#{}", o.shapes.len()));
+    let members = o.shapegroups[&id].clone();
+    for (shape, bsdf) in members {
+        let added = super::instance::triangle_count(&shape.geom);
+        o.instanced_triangles = o.instanced_triangles.saturating_add(added);
+        if o.instanced_triangles > super::instance::MAX_INSTANCED_TRIANGLES {
+            return Err(ctx.err(
+                node,
+                format!(
+                    "instances add more than {} triangles (each instance is a world-space copy of its group)",
+                    super::instance::MAX_INSTANCED_TRIANGLES
+                ),
+            ));
+        }
+        let geom = super::instance::transformed(&shape.geom, &to_world).map_err(|e| {
+            ctx.err(
+                node,
+                format!("shape '{}' of shapegroup '{id}': {e}", shape.name),
+            )
+        })?;
+        let copy = Shape {
+            name: format!("{name}/{}", shape.name),
+            geom,
+            ..shape
+        };
+        add_shape(o, copy, bsdf, None);
+    }
+    Ok(())
 }
 
 /// Nested `<include>`s deeper than this are refused (Mitsuba has no limit; cycles are
@@ -355,6 +500,12 @@ fn walk(ctx: &Ctx, root: Node, o: &mut Objects, depth: usize) -> Result<(), Scen
                     }
                 }
             }
+            "shape" if ctx.attr(node, "type")?.as_deref() == Some("shapegroup") => {
+                parse_shapegroup(ctx, node, o)?
+            }
+            "shape" if ctx.attr(node, "type")?.as_deref() == Some("instance") => {
+                add_instance(ctx, node, o)?
+            }
             "shape" => {
                 let index = o.shapes.len() as u32;
                 let named = Named {
@@ -363,31 +514,7 @@ fn walk(ctx: &Ctx, root: Node, o: &mut Objects, depth: usize) -> Result<(), Scen
                 };
                 let (shape, bsdf, emission) =
                     parse_shape(ctx, node, index, &named, &o.area_emitters)?;
-                // Equal untextured BSDFs share an index; found by their exact Debug
-                // text, so that many distinct BSDFs do not cost a quadratic search.
-                // (Textured ones are not compared: an image's Debug text is its texels.)
-                let index_of_bsdf = if bsdf.is_textured() {
-                    o.bsdfs.push(bsdf);
-                    o.bsdfs.len() - 1
-                } else {
-                    *o.bsdf_index.entry(format!("{bsdf:?}")).or_insert_with(|| {
-                        o.bsdfs.push(bsdf);
-                        o.bsdfs.len() - 1
-                    })
-                };
-                let mut shape = Shape {
-                    bsdf: index_of_bsdf as u32,
-                    ..shape
-                };
-                if let Some(radiance) = emission {
-                    shape.emitter = Some(o.emitters.len() as u32);
-                    o.emitters.push(Emitter::Area {
-                        shape: index,
-                        radiance,
-                        sampler: AreaSampler::new(&shape),
-                    });
-                }
-                o.shapes.push(shape);
+                add_shape(o, shape, bsdf, emission);
             }
             // Area emitters declared here were read before the walk (below).
             "emitter" if ctx.attr(node, "type")?.as_deref() == Some("area") => {}
@@ -649,7 +776,11 @@ fn parse_fov(p: &mut Props) -> Result<(f64, FovAxis), SceneError> {
 /// pair of the linear part's rows has a dot product off the identity's by more than
 /// 1e-3); orthographic needs its x, y and z axes to span the view (finite, non-zero).
 fn check_sensor_transform(kind: &str, m: &DMat4) -> Result<(), String> {
-    let cols = [m.x_axis.truncate(), m.y_axis.truncate(), m.z_axis.truncate()];
+    let cols = [
+        m.x_axis.truncate(),
+        m.y_axis.truncate(),
+        m.z_axis.truncate(),
+    ];
     if kind == "thinlens" {
         let rows = [0, 1, 2].map(|i| DVec3::new(cols[0][i], cols[1][i], cols[2][i]));
         for i in 0..3 {
@@ -694,7 +825,10 @@ fn parse_sensor(
     let near = p.float_or("near_clip", 1e-2)?;
     let far = p.float_or("far_clip", 1e4)?;
     if !(near > 0.0 && near.is_finite()) {
-        return Err(p.err_at("near_clip", format!("near_clip must be positive, got {near}")));
+        return Err(p.err_at(
+            "near_clip",
+            format!("near_clip must be positive, got {near}"),
+        ));
     }
     if !(far > near && far.is_finite()) {
         return Err(p.err_at(
