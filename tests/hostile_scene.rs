@@ -952,6 +952,12 @@ fn cases() -> Vec<Case> {
             scene_with(r#"<shape type="cylinder"><float name="radius" value="1e20"/></shape>"#),
             "cylinder",
         ),
+        // Mitsuba 3.9.1: 'Plugin "Rectangle" not found' (plugin names are case-sensitive).
+        scene_case(
+            "shape_type_capitalised",
+            scene_with(r#"<shape type="Rectangle"/>"#),
+            "plugin names are case-sensitive, as in Mitsuba 3: write 'rectangle'",
+        ),
         // ---- shapegroup, instance ----
         scene_case(
             "shapegroup_without_id",

@@ -311,9 +311,8 @@ pub fn parse_geometry(kind: &str, props: &mut Props) -> Result<ShapeGeom, SceneE
                         format!("shape_index must be non-negative, got {index}"),
                     )
                 })?;
-                let loaded = load_serialized(&path, index).map_err(|e| {
-                    props.err_at("filename", format!("{e} (shape_index {index})"))
-                })?;
+                let loaded = load_serialized(&path, index)
+                    .map_err(|e| props.err_at("filename", format!("{e} (shape_index {index})")))?;
                 stored_face_normals = loaded.face_normals;
                 loaded.mesh
             } else {
@@ -343,9 +342,30 @@ pub fn parse_geometry(kind: &str, props: &mut Props) -> Result<ShapeGeom, SceneE
             transform_mesh(mesh, &to_world, false)
                 .map_err(|e| props.err_at("filename", format!("mesh '{name}': {e}")))
         }
-        other => Err(props.err(format!(
-            "unknown shape type '{other}' (supported: rectangle, cube, sphere, disk, cylinder, ply, obj, serialized)"
-        ))),
+        other => {
+            // Mitsuba 3.9.1 refuses "Rectangle", "Sphere", ... too (its plugin lookup
+            // is case-sensitive: "Plugin \"Rectangle\" not found").
+            const KINDS: [&str; 10] = [
+                "rectangle",
+                "cube",
+                "sphere",
+                "disk",
+                "cylinder",
+                "ply",
+                "obj",
+                "serialized",
+                "shapegroup",
+                "instance",
+            ];
+            let hint = KINDS
+                .iter()
+                .find(|k| k.eq_ignore_ascii_case(other))
+                .map(|k| format!("; plugin names are case-sensitive, as in Mitsuba 3: write '{k}'"))
+                .unwrap_or_default();
+            Err(props.err(format!(
+                "unknown shape type '{other}' (supported: rectangle, cube, sphere, disk, cylinder, ply, obj, serialized, shapegroup, instance){hint}"
+            )))
+        }
     }
 }
 
