@@ -102,12 +102,13 @@ impl CylinderGeom {
             return None;
         }
         let disc = b * b - 4.0 * a * c;
-        if !(disc >= 0.0) {
+        // Negative or NaN: no real root.
+        if disc.is_nan() || disc < 0.0 {
             return None;
         }
         let q = -0.5 * (b + disc.sqrt().copysign(b));
         let (mut t0, mut t1) = (q / a, c / q);
-        if !(t0 <= t1) {
+        if t0 > t1 {
             std::mem::swap(&mut t0, &mut t1);
         }
         let tmin = tmin as f64;

@@ -242,7 +242,7 @@ pub fn load(path: &Path, overrides: &Overrides) -> Result<Scene, SceneError> {
         return Err(SceneError::new(
             path,
             s.line,
-            &format!("sensor type=\"{}\"", s.kind),
+            format!("sensor type=\"{}\"", s.kind),
             what,
         ));
     }
@@ -786,7 +786,8 @@ fn check_sensor_transform(kind: &str, m: &DMat4) -> Result<(), String> {
         for i in 0..3 {
             for j in i..3 {
                 let want = if i == j { 1.0 } else { 0.0 };
-                if !((rows[i].dot(rows[j]) - want).abs() <= 1e-3) {
+                let off = (rows[i].dot(rows[j]) - want).abs();
+                if off.is_nan() || off > 1e-3 {
                     return Err("thinlens: scale factors in the camera's to_world are not allowed (as in Mitsuba)".into());
                 }
             }
