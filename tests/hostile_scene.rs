@@ -1073,6 +1073,165 @@ fn cases() -> Vec<Case> {
             scene_with(r#"<emitter type="angulararea"/>"#),
             "a top-level area emitter needs an id",
         ),
+        // ---- sensors: thinlens, orthographic ----
+        scene_case(
+            "thinlens_missing_aperture",
+            sensor_kind("thinlens", r#"<float name="fov" value="40"/>"#),
+            "missing parameter 'aperture_radius'",
+        ),
+        scene_case(
+            "thinlens_negative_aperture",
+            sensor_kind("thinlens", r#"<float name="fov" value="40"/><float name="aperture_radius" value="-0.1"/>"#),
+            "aperture_radius must be in [0",
+        ),
+        scene_case(
+            "thinlens_nan_aperture",
+            sensor_kind("thinlens", r#"<float name="fov" value="40"/><float name="aperture_radius" value="nan"/>"#),
+            "aperture_radius",
+        ),
+        scene_case(
+            "thinlens_zero_focus",
+            sensor_kind("thinlens", r#"<float name="fov" value="40"/><float name="aperture_radius" value="0.1"/><float name="focus_distance" value="0"/>"#),
+            "focus_distance must be in (0",
+        ),
+        scene_case(
+            "thinlens_infinite_focus",
+            sensor_kind("thinlens", r#"<float name="fov" value="40"/><float name="aperture_radius" value="0.1"/><float name="focus_distance" value="inf"/>"#),
+            "focus_distance",
+        ),
+        scene_case(
+            "thinlens_scaled_to_world",
+            sensor_kind_to_world("thinlens", r#"<float name="fov" value="40"/><float name="aperture_radius" value="0.1"/>"#, r#"<scale value="2"/>"#),
+            "scale factors in the camera's to_world are not allowed",
+        ),
+        scene_case(
+            "thinlens_bad_fov",
+            sensor_kind("thinlens", r#"<float name="fov" value="180"/><float name="aperture_radius" value="0.1"/>"#),
+            "fov must be in (0, 180)",
+        ),
+        scene_case(
+            "orthographic_with_fov",
+            sensor_kind("orthographic", r#"<float name="fov" value="40"/>"#),
+            "fov",
+        ),
+        scene_case(
+            "orthographic_flat_to_world",
+            sensor_kind_to_world("orthographic", "", r#"<matrix value="1 1 0 0 1 1 0 0 0 0 1 0 0 0 0 1"/>"#),
+            "singular",
+        ),
+        scene_case(
+            "orthographic_huge_to_world",
+            sensor_kind_to_world("orthographic", "", r#"<scale value="1e30"/>"#),
+            "orthographic: to_world's axes",
+        ),
+        scene_case(
+            "sensor_negative_near_clip",
+            sensor_kind("orthographic", r#"<float name="near_clip" value="-1"/>"#),
+            "near_clip must be positive",
+        ),
+        scene_case(
+            "sensor_far_clip_below_near",
+            sensor_kind("thinlens", r#"<float name="fov" value="40"/><float name="aperture_radius" value="0.1"/><float name="near_clip" value="2"/><float name="far_clip" value="1"/>"#),
+            "far_clip must be finite and greater than near_clip",
+        ),
+        // ---- disk, cylinder ----
+        scene_case(
+            "disk_flat_to_world",
+            scene_with(r#"<shape type="disk"><transform name="to_world"><matrix value="1 1 0 0 1 1 0 0 0 0 1 0 0 0 0 1"/></transform></shape>"#),
+            "singular",
+        ),
+        scene_case(
+            "disk_huge_to_world",
+            scene_with(r#"<shape type="disk"><transform name="to_world"><scale value="1e30"/></transform></shape>"#),
+            "to_world",
+        ),
+        scene_case(
+            "disk_radius_parameter",
+            scene_with(r#"<shape type="disk"><float name="radius" value="2"/></shape>"#),
+            "radius",
+        ),
+        scene_case(
+            "cylinder_negative_radius",
+            scene_with(r#"<shape type="cylinder"><float name="radius" value="-1"/></shape>"#),
+            "cylinder radius must be positive",
+        ),
+        scene_case(
+            "cylinder_nan_radius",
+            scene_with(r#"<shape type="cylinder"><float name="radius" value="nan"/></shape>"#),
+            "radius",
+        ),
+        scene_case(
+            "cylinder_zero_length",
+            scene_with(r#"<shape type="cylinder"><point name="p0" x="1" y="1" z="1"/><point name="p1" x="1" y="1" z="1"/></shape>"#),
+            "must differ",
+        ),
+        scene_case(
+            "cylinder_nonuniform_scale",
+            scene_with(r#"<shape type="cylinder"><transform name="to_world"><scale x="1" y="3" z="1"/></transform></shape>"#),
+            "cross-section uniformly",
+        ),
+        scene_case(
+            "cylinder_huge",
+            scene_with(r#"<shape type="cylinder"><float name="radius" value="1e20"/></shape>"#),
+            "cylinder",
+        ),
+        // Mitsuba 3.9.1: 'Plugin "Rectangle" not found' (plugin names are case-sensitive).
+        scene_case(
+            "shape_type_capitalised",
+            scene_with(r#"<shape type="Rectangle"/>"#),
+            "plugin names are case-sensitive, as in Mitsuba 3: write 'rectangle'",
+        ),
+        // ---- shapegroup, instance ----
+        scene_case(
+            "shapegroup_without_id",
+            scene_with(r#"<shape type="shapegroup"><shape type="sphere"/></shape>"#),
+            "a shapegroup needs an id",
+        ),
+        scene_case(
+            "shapegroup_with_emitter",
+            scene_with(r#"<shape type="shapegroup" id="g"><shape type="sphere"><emitter type="area"><rgb name="radiance" value="1"/></emitter></shape></shape>"#),
+            "instancing of emitters is not supported",
+        ),
+        scene_case(
+            "shapegroup_nested",
+            scene_with(r#"<shape type="shapegroup" id="g"><shape type="shapegroup" id="h"/></shape>"#),
+            "nested instancing",
+        ),
+        scene_case(
+            "instance_without_ref",
+            scene_with(r#"<shape type="instance"/>"#),
+            "a reference to a 'shapegroup' must be specified",
+        ),
+        scene_case(
+            "instance_of_unknown_group",
+            scene_with(r#"<shape type="instance"><ref id="nope"/></shape>"#),
+            "'nope' is not a shapegroup declared before this instance",
+        ),
+        scene_case(
+            "instance_before_its_group",
+            scene_with(r#"<shape type="instance"><ref id="g"/></shape><shape type="shapegroup" id="g"><shape type="sphere"/></shape>"#),
+            "'g' is not a shapegroup declared before",
+        ),
+        scene_case(
+            "instance_two_groups",
+            scene_with(r#"<shape type="shapegroup" id="g"><shape type="sphere"/></shape><shape type="instance"><ref id="g"/><ref id="g"/></shape>"#),
+            "only a single shapegroup",
+        ),
+        scene_case(
+            "instance_nonuniform_sphere",
+            scene_with(r#"<shape type="shapegroup" id="g"><shape type="sphere"/></shape><shape type="instance"><ref id="g"/><transform name="to_world"><scale x="2"/></transform></shape>"#),
+            "an instance of a sphere must scale uniformly",
+        ),
+        scene_case(
+            "instance_huge",
+            scene_with(r#"<shape type="shapegroup" id="g"><shape type="cube"/></shape><shape type="instance"><ref id="g"/><transform name="to_world"><scale value="1e30"/></transform></shape>"#),
+            "shapegroup 'g'",
+        ),
+        scene_case(
+            "sensor_unknown_type",
+            sensor_kind("fisheye", ""),
+            "sensor 'fisheye' is not supported",
+        ),
     ]
 }
 
@@ -1084,6 +1243,28 @@ fn projector(params: &str) -> String {
 /// A sphere with an `angulararea` emitter with `params`.
 fn angular(params: &str) -> String {
     format!(r#"<shape type="sphere"><emitter type="angulararea">{params}</emitter></shape>"#)
+}
+/// The base scene with a sensor of `kind` whose fov line is replaced by `params`.
+fn sensor_kind(kind: &str, params: &str) -> File {
+    let text = BASE.replace("SHAPES", "").replace("SENSOR", "");
+    File::Text(
+        text.replace(
+            r#"<sensor type="perspective">"#,
+            &format!(r#"<sensor type="{kind}">"#),
+        )
+        .replace(r#"<float name="fov" value="40"/>"#, params),
+    )
+}
+
+/// As `sensor_kind`, with `extra` transform elements before the look-at.
+fn sensor_kind_to_world(kind: &str, params: &str, extra: &str) -> File {
+    let File::Text(text) = sensor_kind(kind, params) else {
+        unreachable!()
+    };
+    File::Text(text.replace(
+        r#"<transform name="to_world"><lookat"#,
+        &format!(r#"<transform name="to_world">{extra}<lookat"#),
+    ))
 }
 
 impl Case {

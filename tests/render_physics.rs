@@ -785,3 +785,84 @@ fn angular_area_light_with_a_90_degree_cone_is_the_area_light_bit_for_bit() {
     let sum = |v: &[f64]| v.iter().sum::<f64>();
     assert!(sum(&c.steady) < 0.8 * sum(&a.steady));
 }
+
+/// A disk light of radius R at height h above a diffuse plane, facing it, radiance L:
+/// the irradiance at radial distance s from its axis is
+/// `E(s) = pi L / 2 (1 - (h^2 + s^2 - R^2) / sqrt((h^2 + s^2 + R^2)^2 - 4 R^2 s^2))`
+/// (`pi L R^2 / (h^2 + R^2)` on the axis), so the plane's radiance is `rho / pi E`.
+/// A narrow camera looks at the plane point below the disk's centre from the side.
+#[test]
+fn disk_light_irradiance_matches_the_closed_form() {
+    let (r, h, rho) = (0.5f64, 1.0f64, [0.5, 0.6, 0.7]);
+    let l = [1.0, 2.0, 3.0];
+    let cam = glam::DVec3::new(3.0, 0.0, 0.5);
+    let xml = format!(
+        r#"<scene version="3.0.0">
+  <integrator type="transient_path"><integer name="max_depth" value="2"/></integrator>
+  <sensor type="perspective">
+    <float name="fov" value="1"/>
+    <transform name="to_world"><lookat origin="{},{},{}" target="0,0,0" up="0,0,1"/></transform>
+    <sampler type="independent"><integer name="sample_count" value="20000"/></sampler>
+    <film type="transient_hdr_film">
+      <integer name="width" value="1"/><integer name="height" value="1"/>
+      <integer name="temporal_bins" value="3"/>
+      <float name="start_opl" value="0"/><float name="bin_width_opl" value="{}"/>
+    </film>
+  </sensor>
+  <shape type="disk">
+    <transform name="to_world"><scale value="{r}"/><rotate x="1" angle="180"/><translate z="{h}"/></transform>
+    <emitter type="area"><rgb name="radiance" value="{}, {}, {}"/></emitter>
+  </shape>
+  <shape type="rectangle">
+    <transform name="to_world"><scale value="10"/></transform>
+    <bsdf type="diffuse"><rgb name="reflectance" value="{}, {}, {}"/></bsdf>
+  </shape>
+</scene>"#,
+        cam.x, cam.y, cam.z, 10.0, l[0], l[1], l[2], rho[0], rho[1], rho[2]
+    );
+    let scene = load(&xml, &Overrides::default());
+    let out = run(&scene, 17);
+    let n = scene.spp as f64;
+    // The pixel's footprint on the plane: rays through the pixel (x + u, y + v) of the
+    // 1 deg view, averaged on a grid.
+    let irradiance = |s: f64| {
+        let a = h * h + s * s;
+        std::f64::consts::PI / 2.0
+            * (1.0 - (a - r * r) / ((a + r * r).powi(2) - 4.0 * r * r * s * s).sqrt())
+    };
+    let grid = 200;
+    let mut mean_e = 0.0;
+    for i in 0..grid {
+        for j in 0..grid {
+            let (u, v) = (
+                (i as f64 + 0.5) / grid as f64,
+                (j as f64 + 0.5) / grid as f64,
+            );
+            let d = scene.camera.direction(u as f32, v as f32).as_dvec3();
+            let t = -cam.z / d.z;
+            let p = cam + d * t;
+            mean_e += irradiance(p.truncate().length());
+        }
+    }
+    mean_e /= (grid * grid) as f64;
+    assert!((irradiance(0.0) - std::f64::consts::PI * r * r / (h * h + r * r)).abs() < 1e-12);
+    // One bin [0, 10) holds every arrival: its per-path sums give the mean and its
+    // standard error exactly.
+    let t_bins = scene.film.bins;
+    for c in 0..3 {
+        let want = rho[c] / std::f64::consts::PI * l[c] * mean_e;
+        let v = c;
+        let mean = out.accum.x1[v] / n;
+        let var = (out.accum.x2[v] / n - mean * mean).max(0.0) * n / (n - 1.0);
+        let se = (var / n).sqrt();
+        assert!(
+            (mean - want).abs() <= 4.0 * se + 1e-5 * want,
+            "channel {c}: {mean} vs {want} (se {se})"
+        );
+        eprintln!("disk light channel {c}: {mean} vs closed form {want}, se {se}");
+        assert!(se < 0.01 * want, "too noisy to test: se {se}");
+        for k in 1..t_bins {
+            assert_eq!(out.accum.x1[k * 3 + c], 0.0);
+        }
+    }
+}

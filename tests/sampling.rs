@@ -43,7 +43,7 @@ use tstat::textures::Texture;
 /// Overall significance of the file's statistical tests.
 const ALPHA: f64 = 0.01;
 /// Chi-square BSDF cases + delta cases + light cases (checked in each test).
-const FAMILY: usize = 78;
+const FAMILY: usize = 80;
 /// The Bonferroni-corrected level of one test.
 const LEVEL: f64 = ALPHA / FAMILY as f64;
 
@@ -1839,7 +1839,7 @@ fn chi_square_rejects_a_wrong_lobe_choice() {
 // ---------------------------------------------------------------- emitters
 
 /// Light cases in the family: per area emitter, the area-uniformity chi-square test.
-const LIGHT_CASES: usize = 3;
+const LIGHT_CASES: usize = 5;
 
 const LIGHT_SCENE: &str = r#"<scene version="3.0.0">
     <integrator type="transient_path"><integer name="max_depth" value="4"/></integrator>
@@ -1867,6 +1867,18 @@ const LIGHT_SCENE: &str = r#"<scene version="3.0.0">
             <scale x="0.1" y="0.2" z="0.3"/><rotate y="1" angle="30"/><translate x="-0.6" y="0" z="-0.6"/>
         </transform>
         <emitter type="area"><rgb name="radiance" value="3"/></emitter>
+    </shape>
+    <shape type="disk">
+        <transform name="to_world">
+            <scale x="0.3" y="0.15"/><rotate z="1" angle="25"/><rotate y="1" angle="20"/><translate z="-1.2"/>
+        </transform>
+        <emitter type="area"><rgb name="radiance" value="4"/></emitter>
+    </shape>
+    <shape type="cylinder">
+        <point name="p0" x="-0.3" y="-0.9" z="-0.3"/><point name="p1" x="0.3" y="-0.85" z="-0.35"/>
+        <float name="radius" value="0.1"/>
+        <transform name="to_world"><rotate y="1" angle="10"/></transform>
+        <emitter type="area"><rgb name="radiance" value="5"/></emitter>
     </shape>
     <emitter type="point"><point name="position" x="0" y="0.5" z="0.5"/><rgb name="intensity" value="1"/></emitter>
     <shape type="rectangle">
@@ -1955,12 +1967,15 @@ fn light_sample_pdf_matches_the_pdf_mis_uses_on_a_hit() {
             }
         }
     }
-    assert_eq!(area_lights, 4 * refs.len());
+    // The area lights of the family's cases and the angulararea light.
+    assert_eq!(area_lights, (LIGHT_CASES + 1) * refs.len());
     assert!(matched > 0 && points > 0);
 }
 
 /// Chi-square p-value of points sampled on an area light against uniform density by
-/// area: spheres in equal-area cells of (z, phi) about the centre, meshes in cells
+/// area: spheres in equal-area cells of (z, phi) about the centre, disks in cells of
+/// (r^2, phi) and cylinders of (z, phi) of their object-space points (an affine map
+/// keeps area ratios), meshes in cells
 /// (triangle, equal-area band of b0, equal slice of b1 / (b1 + b2)).
 /// `skew` maps the sampler's 2D numbers (the identity for the real sampler).
 fn area_uniformity_p_value(
@@ -1987,6 +2002,37 @@ fn area_uniformity_p_value(
                 assert!((d.length() - 1.0).abs() < 1e-4, "point off the sphere");
                 let zb = (((d.z + 1.0) / 2.0 * K as f64) as usize).min(K - 1);
                 let phi = d.y.atan2(d.x).rem_euclid(2.0 * PI);
+                let pb = ((phi / (2.0 * PI) * (2 * K) as f64) as usize).min(2 * K - 1);
+                counts[zb * 2 * K + pb] += 1;
+            }
+            let n = counts.len();
+            (counts, vec![N as f64 / n as f64; n])
+        }
+        ShapeGeom::Disk(_) | ShapeGeom::Cylinder(_) => {
+            let mut counts = vec![0u64; K * 2 * K];
+            for _ in 0..N {
+                let p = sampler
+                    .sample(shape_ref, rng.next_f32(), skew(rng.next_2d()))
+                    .p;
+                let (band, l) = match &shape_ref.geom {
+                    ShapeGeom::Disk(g) => {
+                        let l = g.to_local(p).as_dvec3();
+                        assert!(l.z.abs() < 1e-5, "point off the disk's plane");
+                        (l.x * l.x + l.y * l.y, l)
+                    }
+                    ShapeGeom::Cylinder(g) => {
+                        let l = g.to_local(p).as_dvec3();
+                        assert!(
+                            ((l.x * l.x + l.y * l.y).sqrt() - 1.0).abs() < 1e-4,
+                            "point off the tube"
+                        );
+                        (l.z, l)
+                    }
+                    _ => unreachable!(),
+                };
+                assert!((-1e-6..=1.0 + 1e-6).contains(&band), "band {band}");
+                let zb = ((band * K as f64) as usize).min(K - 1);
+                let phi = l.y.atan2(l.x).rem_euclid(2.0 * PI);
                 let pb = ((phi / (2.0 * PI) * (2 * K) as f64) as usize).min(2 * K - 1);
                 counts[zb * 2 * K + pb] += 1;
             }

@@ -1,7 +1,10 @@
 //! The acceleration structure: one `obvhs` compressed-wide BVH over every primitive
-//! (triangles and analytic spheres), with closest-hit and occlusion queries. Scenes of
+//! (triangles and analytic spheres, disks and cylinders), with closest-hit and
+//! occlusion queries. Scenes of
 //! at most [`FLAT_MAX`] primitives are tested exhaustively in SIMD packets instead.
 
+use super::cylinder::CylinderGeom;
+use super::disk::DiskGeom;
 use super::flat::{FlatTriangles, FLAT_MAX};
 use super::shape::{Shape, ShapeGeom, SurfacePoint};
 use super::sphere::SphereGeom;
@@ -17,6 +20,26 @@ use obvhs::{Boundable, BvhBuildParams};
 enum PrimGeom {
     Triangle(TriangleGeom),
     Sphere(SphereGeom),
+    /// An index into `Accel::quadrics` (kept out of line so a primitive stays the
+    /// size of a triangle: scenes without these shapes keep their memory layout).
+    Quadric(u32),
+}
+
+/// The analytic shapes too large to store in a primitive.
+#[derive(Clone, Copy, Debug)]
+enum Quadric {
+    Disk(DiskGeom),
+    Cylinder(CylinderGeom),
+}
+
+impl Quadric {
+    #[inline(never)]
+    fn intersect(&self, o: Vec3, d: Vec3, tmin: f32) -> Option<f32> {
+        match self {
+            Quadric::Disk(g) => g.intersect(o, d, tmin),
+            Quadric::Cylinder(g) => g.intersect(o, d, tmin),
+        }
+    }
 }
 
 /// A primitive in BVH leaf order.
@@ -27,9 +50,22 @@ struct Prim {
     face: u32,
 }
 
-impl Boundable for Prim {
+/// A primitive's box (quadrics' boxes come from their shapes), for the builder.
+#[derive(Clone, Copy, Debug)]
+struct Boxed {
+    lo: Vec3,
+    hi: Vec3,
+}
+
+impl Boundable for Boxed {
     fn aabb(&self) -> Aabb {
-        match self.geom {
+        Aabb::new(Vec3A::from(self.lo), Vec3A::from(self.hi))
+    }
+}
+
+impl Prim {
+    fn bounds(&self) -> (Vec3, Vec3) {
+        let b = match self.geom {
             PrimGeom::Triangle(t) => {
                 let (a, b, c) = (t.v0, t.v0 + t.e1, t.v0 + t.e2);
                 Aabb::new(Vec3A::from(a.min(b).min(c)), Vec3A::from(a.max(b).max(c)))
@@ -38,7 +74,9 @@ impl Boundable for Prim {
                 Vec3A::from(s.center - Vec3::splat(s.radius)),
                 Vec3A::from(s.center + Vec3::splat(s.radius)),
             ),
-        }
+            PrimGeom::Quadric(_) => unreachable!("boxed by their shapes"),
+        };
+        (b.min.into(), b.max.into())
     }
 }
 
@@ -59,10 +97,12 @@ pub struct Accel {
     bvh: Option<CwBvh>,
     prims: Vec<Prim>,
     flat: Option<Flat>,
+    /// The disks and cylinders `PrimGeom::Quadric` indexes.
+    quadrics: Vec<Quadric>,
 }
 
-/// The exhaustive path for tiny scenes: the triangles in packets, the spheres in a list,
-/// both as indices into `prims`.
+/// The exhaustive path for tiny scenes: the triangles in packets, the analytic shapes
+/// (spheres, disks, cylinders) in a list, both as indices into `prims`.
 struct Flat {
     tris: FlatTriangles,
     tri_prims: Vec<usize>,
@@ -78,6 +118,7 @@ impl Accel {
     /// As `build`, with the largest primitive count that skips the tree (0: always a BVH).
     pub fn build_with(shapes: &[Shape], flat_max: usize) -> Self {
         let mut prims = Vec::new();
+        let mut quadrics = Vec::new();
         for (si, shape) in shapes.iter().enumerate() {
             match &shape.geom {
                 ShapeGeom::Mesh { triangles, .. } => {
@@ -98,6 +139,22 @@ impl Accel {
                     shape: si as u32,
                     face: 0,
                 }),
+                ShapeGeom::Disk(g) => {
+                    prims.push(Prim {
+                        geom: PrimGeom::Quadric(quadrics.len() as u32),
+                        shape: si as u32,
+                        face: 0,
+                    });
+                    quadrics.push(Quadric::Disk(*g));
+                }
+                ShapeGeom::Cylinder(g) => {
+                    prims.push(Prim {
+                        geom: PrimGeom::Quadric(quadrics.len() as u32),
+                        shape: si as u32,
+                        face: 0,
+                    });
+                    quadrics.push(Quadric::Cylinder(*g));
+                }
             }
         }
         if prims.is_empty() {
@@ -105,6 +162,7 @@ impl Accel {
                 bvh: None,
                 prims,
                 flat: None,
+                quadrics,
             };
         }
         if prims.len() <= flat_max {
@@ -115,7 +173,7 @@ impl Accel {
                 .iter()
                 .map(|&i| match prims[i].geom {
                     PrimGeom::Triangle(t) => t,
-                    PrimGeom::Sphere(_) => unreachable!("partitioned"),
+                    _ => unreachable!("partitioned"),
                 })
                 .collect();
             let groups: Vec<u32> = tri_prims.iter().map(|&i| prims[i].shape).collect();
@@ -128,10 +186,21 @@ impl Accel {
                 bvh: None,
                 prims,
                 flat: Some(flat),
+                quadrics,
             };
         }
+        let boxed: Vec<Boxed> = prims
+            .iter()
+            .map(|&prim| {
+                let (lo, hi) = match prim.geom {
+                    PrimGeom::Quadric(_) => shapes[prim.shape as usize].bounds(),
+                    _ => prim.bounds(),
+                };
+                Boxed { lo, hi }
+            })
+            .collect();
         let bvh = obvhs::cwbvh::builder::build_cwbvh(
-            &prims,
+            &boxed,
             BvhBuildParams::medium_build(),
             &mut std::time::Duration::default(),
         );
@@ -145,6 +214,7 @@ impl Accel {
             bvh: Some(bvh),
             prims: ordered,
             flat: None,
+            quadrics,
         }
     }
 
@@ -154,6 +224,7 @@ impl Accel {
         let t = match &p.geom {
             PrimGeom::Triangle(t) => t.intersect(o, d, tmin).map(|h| h.0),
             PrimGeom::Sphere(s) => s.intersect(o, d, tmin),
+            PrimGeom::Quadric(q) => self.quadrics[*q as usize].intersect(o, d, tmin),
         };
         t.unwrap_or(f32::INFINITY)
     }
@@ -209,6 +280,9 @@ impl Accel {
                         None => f32::INFINITY,
                     },
                     PrimGeom::Sphere(s) => s.intersect(o, d, 0.0).unwrap_or(f32::INFINITY),
+                    PrimGeom::Quadric(q) => self.quadrics[*q as usize]
+                        .intersect(o, d, 0.0)
+                        .unwrap_or(f32::INFINITY),
                 };
                 if t < traverse_ray.tmax {
                     hit.primitive_id = state.primitive_id;
@@ -225,7 +299,7 @@ impl Accel {
         let shape = &shapes[p.shape as usize];
         let surface = match &p.geom {
             PrimGeom::Triangle(t) => shape.surface_of(t, p.face, best_b.0, best_b.1),
-            PrimGeom::Sphere(_) => shape.surface(0, 0.0, 0.0, o + d * hit.t),
+            _ => shape.surface(0, 0.0, 0.0, o + d * hit.t),
         };
         Some(Hit {
             t: hit.t,
@@ -307,7 +381,7 @@ impl Accel {
         let shape = &shapes[p.shape as usize];
         let surface = match &p.geom {
             PrimGeom::Triangle(tri) => shape.surface_of(tri, p.face, b1, b2),
-            PrimGeom::Sphere(_) => shape.surface(0, 0.0, 0.0, o + d * t),
+            _ => shape.surface(0, 0.0, 0.0, o + d * t),
         };
         Some(Hit {
             t,

@@ -1,6 +1,8 @@
 //! Geometry: shapes in world space, ray-primitive intersection, and the BVH.
 
 pub mod accel;
+pub mod cylinder;
+pub mod disk;
 pub mod flat;
 mod flat_simd;
 pub mod shape;

@@ -1,6 +1,9 @@
 //! Shapes in world space, as the renderer sees them: triangle meshes (rectangle, cube,
-//! ply, obj) and analytic spheres, with their surface data and area sampling.
+//! ply, obj) and analytic spheres, disks and cylinders, with their surface data and
+//! area sampling.
 
+use super::cylinder::CylinderGeom;
+use super::disk::DiskGeom;
 use super::sphere::SphereGeom;
 use super::triangle::TriangleGeom;
 use crate::math::sampling::{uniform_sphere, uniform_triangle};
@@ -21,6 +24,10 @@ pub enum ShapeGeom {
     /// Mitsuba's `to_world * translate(center) * scale(radius)`, so that
     /// `to_local * (p - center)` is the hit on the unit sphere in object space (uv only).
     Sphere(SphereGeom, Mat3),
+    /// An analytic disk (`disk.rs`).
+    Disk(DiskGeom),
+    /// An analytic open cylinder (`cylinder.rs`).
+    Cylinder(CylinderGeom),
 }
 
 /// One shape of the scene.
@@ -62,7 +69,7 @@ impl Shape {
                     positions[c as usize],
                 )
             }
-            ShapeGeom::Sphere(..) => unreachable!("spheres have no faces"),
+            _ => unreachable!("analytic shapes have no faces"),
         }
     }
 
@@ -75,6 +82,19 @@ impl Shape {
                 let n = (p_hint - s.center).normalize_or_zero();
                 // Project onto the surface to remove the hit's rounding error.
                 let p = s.center + n * s.radius;
+                SurfacePoint {
+                    p,
+                    ng: n * sign,
+                    ns: n * sign,
+                }
+            }
+            ShapeGeom::Disk(g) => SurfacePoint {
+                p: g.project(p_hint),
+                ng: g.n * sign,
+                ns: g.n * sign,
+            },
+            ShapeGeom::Cylinder(g) => {
+                let (p, n) = g.project(p_hint);
                 SurfacePoint {
                     p,
                     ng: n * sign,
@@ -113,7 +133,8 @@ impl Shape {
     /// triangle `face` (`src/render/mesh.cpp`), or (b1, b2) themselves when the mesh has
     /// none; on a sphere, `(phi / 2 pi, theta / pi)` of the object-space point, phi
     /// measured from +x towards +y in [0, 2 pi) and theta from +z (`src/shapes/sphere.cpp`).
-    /// `p` is the hit point (spheres only). Computed only when a texture asks for it.
+    /// Disks: (r, phi / 2 pi); cylinders: (phi / 2 pi, z) (`disk.rs`, `cylinder.rs`).
+    /// `p` is the hit point (analytic shapes only). Computed only when a texture asks.
     pub fn uv(&self, face: u32, b1: f32, b2: f32, p: Vec3) -> Vec2 {
         match &self.geom {
             ShapeGeom::Mesh {
@@ -144,6 +165,8 @@ impl Shape {
                     theta * std::f32::consts::FRAC_1_PI,
                 )
             }
+            ShapeGeom::Disk(g) => g.uv(p),
+            ShapeGeom::Cylinder(g) => g.uv(p),
         }
     }
 
@@ -158,6 +181,8 @@ impl Shape {
     /// - a mesh without uv (the barycentrics are uv): `p1 - p0`;
     /// - a sphere: the world image of `2 pi (-y, x, 0)` at the object-space point
     ///   (`src/shapes/sphere.cpp`), zero at the poles.
+    ///
+    /// - a disk: to_world (cos phi, sin phi, 0); a cylinder: to_world 2 pi (-y, x, 0).
     ///
     /// Rectangles and cubes are meshes with Mitsuba's uv, so theirs is Mitsuba's too.
     /// `p` is the hit point (spheres only; a triangle's dp/du does not depend on the
@@ -184,6 +209,8 @@ impl Shape {
                 let l = (*to_local * (p - s.center)).normalize_or_zero();
                 to_local.inverse() * (Vec3::new(-l.y, l.x, 0.0) * std::f32::consts::TAU)
             }
+            ShapeGeom::Disk(g) => g.dpdu(p),
+            ShapeGeom::Cylinder(g) => g.dpdu(p),
         }
     }
 
@@ -221,6 +248,8 @@ impl Shape {
                 };
                 to_local.inverse() * (v * std::f32::consts::PI)
             }
+            ShapeGeom::Disk(g) => g.dpdv(p),
+            ShapeGeom::Cylinder(g) => g.dpdv(),
         }
     }
 
@@ -230,6 +259,25 @@ impl Shape {
                 .map(|f| self.triangle(f).area() as f64)
                 .sum(),
             ShapeGeom::Sphere(s, _) => s.area() as f64,
+            ShapeGeom::Disk(g) => g.area as f64,
+            ShapeGeom::Cylinder(g) => g.area() as f64,
+        }
+    }
+
+    /// An axis-aligned box around the shape (world space).
+    pub fn bounds(&self) -> (Vec3, Vec3) {
+        match &self.geom {
+            ShapeGeom::Mesh { positions, .. } => positions
+                .iter()
+                .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), &p| {
+                    (lo.min(p), hi.max(p))
+                }),
+            ShapeGeom::Sphere(s, _) => (
+                s.center - Vec3::splat(s.radius),
+                s.center + Vec3::splat(s.radius),
+            ),
+            ShapeGeom::Disk(g) => g.bounds(),
+            ShapeGeom::Cylinder(g) => g.bounds(),
         }
     }
 }
@@ -237,9 +285,9 @@ impl Shape {
 /// Uniform-by-area sampling of a shape's surface (for area lights).
 #[derive(Clone, Debug)]
 pub struct AreaSampler {
-    /// Cumulative triangle areas normalised to end at 1 (empty for spheres).
+    /// Cumulative triangle areas normalised to end at 1 (empty for analytic shapes).
     cdf: Vec<f32>,
-    /// The triangles, in face order (empty for spheres).
+    /// The triangles, in face order (empty for analytic shapes).
     tris: Vec<TriangleGeom>,
     pub total_area: f32,
 }
@@ -266,10 +314,10 @@ impl AreaSampler {
                     total_area: acc as f32,
                 }
             }
-            ShapeGeom::Sphere(s, _) => AreaSampler {
+            ShapeGeom::Sphere(..) | ShapeGeom::Disk(_) | ShapeGeom::Cylinder(_) => AreaSampler {
                 cdf: Vec::new(),
                 tris: Vec::new(),
-                total_area: s.area(),
+                total_area: shape.area() as f32,
             },
         }
     }
@@ -290,6 +338,8 @@ impl AreaSampler {
                 let p = s.center + uniform_sphere(u2) * s.radius;
                 shape.surface(0, 0.0, 0.0, p)
             }
+            ShapeGeom::Disk(g) => shape.surface(0, 0.0, 0.0, g.sample(u2)),
+            ShapeGeom::Cylinder(g) => shape.surface(0, 0.0, 0.0, g.sample(u2)),
         }
     }
 }

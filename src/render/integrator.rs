@@ -102,13 +102,27 @@ pub fn trace_path(
     deposits: &mut PathDeposits,
     tally: &mut PathTally,
 ) -> GSample {
+    trace_ray(scene, scene.camera.origin, d, rng, deposits, tally)
+}
+
+/// Traces one camera path from `o` (where its OPL starts) along unit direction `d`:
+/// the ray `Camera::ray` gives, for every sensor.
+#[inline]
+pub fn trace_ray(
+    scene: &Scene,
+    o: Vec3,
+    d: Vec3,
+    rng: &mut Pcg32,
+    deposits: &mut PathDeposits,
+    tally: &mut PathTally,
+) -> GSample {
     match super::cpu::current() {
         // SAFETY: `cpu::current` returns a level only when the CPU supports it.
         #[cfg(target_arch = "x86_64")]
-        Isa::Avx512 => unsafe { trace_path_avx512(scene, d, rng, deposits, tally) },
+        Isa::Avx512 => unsafe { trace_path_avx512(scene, o, d, rng, deposits, tally) },
         #[cfg(target_arch = "x86_64")]
-        Isa::Avx2 => unsafe { trace_path_avx2(scene, d, rng, deposits, tally) },
-        _ => trace_path_baseline(scene, d, rng, deposits, tally),
+        Isa::Avx2 => unsafe { trace_path_avx2(scene, o, d, rng, deposits, tally) },
+        _ => trace_path_baseline(scene, o, d, rng, deposits, tally),
     }
 }
 
@@ -117,37 +131,40 @@ pub fn trace_path(
 #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
 fn trace_path_avx512(
     scene: &Scene,
+    o: Vec3,
     d: Vec3,
     rng: &mut Pcg32,
     deposits: &mut PathDeposits,
     tally: &mut PathTally,
 ) -> GSample {
     // SAFETY: this wrapper is compiled for (and only called on CPUs with) ISA_AVX512.
-    unsafe { trace_path_body::<ISA_AVX512>(scene, d, rng, deposits, tally) }
+    unsafe { trace_path_body::<ISA_AVX512>(scene, o, d, rng, deposits, tally) }
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
 fn trace_path_avx2(
     scene: &Scene,
+    o: Vec3,
     d: Vec3,
     rng: &mut Pcg32,
     deposits: &mut PathDeposits,
     tally: &mut PathTally,
 ) -> GSample {
     // SAFETY: this wrapper is compiled for (and only called on CPUs with) ISA_AVX2.
-    unsafe { trace_path_body::<ISA_AVX2>(scene, d, rng, deposits, tally) }
+    unsafe { trace_path_body::<ISA_AVX2>(scene, o, d, rng, deposits, tally) }
 }
 
 fn trace_path_baseline(
     scene: &Scene,
+    o: Vec3,
     d: Vec3,
     rng: &mut Pcg32,
     deposits: &mut PathDeposits,
     tally: &mut PathTally,
 ) -> GSample {
     // SAFETY: this wrapper is compiled for (and only called on CPUs with) ISA_BASELINE.
-    unsafe { trace_path_body::<ISA_BASELINE>(scene, d, rng, deposits, tally) }
+    unsafe { trace_path_body::<ISA_BASELINE>(scene, o, d, rng, deposits, tally) }
 }
 
 /// The path tracer itself, inlined into one wrapper per instruction set; `ISA` picks
@@ -158,6 +175,7 @@ fn trace_path_baseline(
 #[inline(always)]
 unsafe fn trace_path_body<const ISA: u8>(
     scene: &Scene,
+    o: Vec3,
     d: Vec3,
     rng: &mut Pcg32,
     deposits: &mut PathDeposits,
@@ -169,7 +187,7 @@ unsafe fn trace_path_body<const ISA: u8>(
     let mut g = GSample::default();
     let mut g_pending = true;
 
-    let mut o = scene.camera.origin;
+    let mut o = o;
     let mut d = d;
     let mut opl = 0.0f64;
     let mut beta = Rgb::ONE;

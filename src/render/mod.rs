@@ -25,13 +25,14 @@ pub mod pixel_sampling;
 pub mod sink;
 
 use crate::math::rng::Pcg32;
+use crate::scene::camera::LENS_STREAM_SALT;
 use crate::scene::film::Film;
 use crate::scene::Scene;
 use crate::stats::accumulators::{Accumulators, PixelSums, CHANNELS};
 use crate::stats::Transform;
 use deposits::PathDeposits;
 use gbuffer::{GAccum, GPixel};
-use integrator::{trace_path, PathTally};
+use integrator::{trace_ray, PathTally};
 pub use pixel_sampling::{PixelPattern, PixelSampling};
 use rayon::prelude::*;
 use sink::{MemorySink, Row, RowSink};
@@ -200,8 +201,10 @@ fn render_row(
         for s in 0..settings.spp {
             let mut rng = Pcg32::for_path(settings.seed, pixel, s as u64);
             let [u, v] = positions.position(s, &mut rng);
-            let d = scene.camera.direction(x as f32 + u, y as f32 + v);
-            g.add(&trace_path(scene, d, &mut rng, &mut deposits, &mut tally));
+            let (o, d) = scene.camera.ray(x as f32 + u, y as f32 + v, || {
+                Pcg32::for_path(settings.seed ^ LENS_STREAM_SALT, pixel, s as u64).next_2d()
+            });
+            g.add(&trace_ray(scene, o, d, &mut rng, &mut deposits, &mut tally));
             result.voxel_samples += deposits.len() as u64;
             for (bin, c) in deposits.drain() {
                 row.pixel.add_sample(z, bin as usize, c);

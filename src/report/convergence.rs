@@ -451,6 +451,14 @@ fn hash_loaded_scene(h: &mut Sha256, scene: &Scene, overrides: &Overrides) {
                 }
             }
             ShapeGeom::Sphere(s, _) => f32s(h, &[s.center.x, s.center.y, s.center.z, s.radius]),
+            ShapeGeom::Disk(g) => {
+                f32s(h, &g.m.to_cols_array());
+                f32s(h, &g.c.to_array());
+            }
+            ShapeGeom::Cylinder(g) => {
+                f32s(h, &g.m.to_cols_array());
+                f32s(h, &g.c.to_array());
+            }
         }
     }
     for e in &scene.emitters {

@@ -1,15 +1,34 @@
-//! `perspective` sensor: a pinhole camera (Mitsuba 3's semantics).
+//! Sensors: `perspective` (a pinhole), `thinlens` (a pinhole's projection through a
+//! circular lens with depth of field) and `orthographic`, with Mitsuba 3's semantics
+//! (`src/sensors/{perspective,thinlens,orthographic}.cpp`).
 //!
-//! | parameter | type | default | meaning |
-//! |-----------|------|---------|---------|
-//! | fov | float | required | field of view in degrees |
-//! | fov_axis | string | x | which extent fov spans: x, y, smaller, larger, diagonal |
-//! | near_clip, far_clip | float | 0.01, 10000 | accepted; rays start at the pinhole (SPEC 2) |
-//! | to_world | transform | identity | camera to world; the camera looks along +z, +y up |
-//! | film, sampler | nested | — | `transient_hdr_film`, `independent` |
+//! | parameter | sensors | type | default | meaning |
+//! |-----------|---------|------|---------|---------|
+//! | fov | perspective, thinlens | float | — | field of view in degrees (or `focal_length`) |
+//! | focal_length | perspective, thinlens | string | 50mm | 35 mm equivalent, on the diagonal |
+//! | fov_axis | perspective, thinlens | string | x | which extent fov spans: x, y, smaller, larger, diagonal |
+//! | aperture_radius | thinlens | float | required | lens radius in scene units (0: Mitsuba's 2^-24, with a warning) |
+//! | focus_distance | thinlens | float | far_clip | distance from the lens to the plane in focus (ignored by perspective) |
+//! | near_clip, far_clip | all | float | 0.01, 10000 | accepted; rays start at the camera's origin plane (below) |
+//! | to_world | all | transform | identity | camera to world; the camera looks along +z, +y up; thinlens refuses scale (as Mitsuba); orthographic: its x and y scale set the view extent |
+//! | film, sampler | all | nested | — | `transient_hdr_film`, `independent` |
 //!
 //! Image row 0 is the top; column 0 is the camera's +x ("left" in Mitsuba's look-at),
 //! so the image is not mirrored.
+//!
+//! Where a camera ray starts, which is where its path's OPL starts (SPEC 2; Mitsuba
+//! starts every camera ray on the near-clip plane instead, and mitransient counts the
+//! camera segment from there unless `camera_unwarp` drops it):
+//! - perspective: the pinhole;
+//! - thinlens: the sampled point on the lens (the local plane z = 0), so the camera
+//!   segment is the distance from the lens to the first hit;
+//! - orthographic: the point of the sensor plane (local z = 0) the pixel sample maps
+//!   to, local (1 - 2 x / W, (1 - 2 y / H) H / W, 0), as Mitsuba's `[-1, 1]` across the
+//!   film width: every ray of a plane perpendicular to the view arrives at one OPL.
+//!
+//! The thin lens's aperture sample comes from its own random stream per path
+//! (`Pcg32::for_path` of a salted seed), so a thinlens path draws the same other random
+//! numbers as the perspective path of the same pixel and sample.
 
 use glam::{DMat4, Vec3};
 
@@ -35,18 +54,40 @@ impl FovAxis {
     }
 }
 
+/// How a film position becomes a ray (the sensor plugin).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Projection {
+    /// `perspective`: rays from the pinhole `Camera::origin`.
+    Pinhole,
+    /// `thinlens`: rays from a uniform point of the lens disk of radius
+    /// `aperture_radius` towards the pinhole ray's point at depth `focus_distance`.
+    ThinLens {
+        aperture_radius: f32,
+        focus_distance: f32,
+    },
+    /// `orthographic`: parallel rays along `Camera::axes[2]` from the sensor plane;
+    /// `extent` holds the world images of the local x and y axes (to_world's columns,
+    /// with their scale), so local (sx, sy, 0) is `origin + extent[0] sx + extent[1] sy`.
+    Orthographic { extent: [Vec3; 2] },
+}
+
+/// Salt of the seed for the thin lens's aperture stream (see the module notes).
+pub const LENS_STREAM_SALT: u64 = 0x6c65_6e73_5f61_7074;
+
 #[derive(Clone, Debug)]
 pub struct Camera {
     pub origin: Vec3,
     /// Camera axes in world space: left (+x local), up (+y), forward (+z).
     pub axes: [Vec3; 3],
-    /// tan of the half field of view along x and y.
+    /// tan of the half field of view along x and y (perspective and thinlens).
     pub tan_half: [f32; 2],
     pub width: usize,
     pub height: usize,
+    pub projection: Projection,
 }
 
 impl Camera {
+    /// A `perspective` camera.
     pub fn new(to_world: DMat4, fov_deg: f64, axis: FovAxis, width: usize, height: usize) -> Self {
         let (w, h) = (width as f64, height as f64);
         let t = (fov_deg.to_radians() * 0.5).tan();
@@ -73,15 +114,83 @@ impl Camera {
             tan_half: [tx as f32, ty as f32],
             width,
             height,
+            projection: Projection::Pinhole,
         }
     }
 
-    /// Unit direction through film position (x, y) in pixels (x right, y down).
+    /// A `thinlens` camera: the perspective camera's projection seen through a lens.
+    pub fn thin_lens(
+        to_world: DMat4,
+        fov_deg: f64,
+        axis: FovAxis,
+        width: usize,
+        height: usize,
+        aperture_radius: f32,
+        focus_distance: f32,
+    ) -> Self {
+        Camera {
+            projection: Projection::ThinLens {
+                aperture_radius,
+                focus_distance,
+            },
+            ..Camera::new(to_world, fov_deg, axis, width, height)
+        }
+    }
+
+    /// An `orthographic` camera: the local square [-1, 1] across the film's width (and
+    /// [-H/W, H/W] along its height) mapped by `to_world`, viewing along its +z.
+    pub fn orthographic(to_world: DMat4, width: usize, height: usize) -> Self {
+        let column = |v: glam::DVec3| to_world.transform_vector3(v).as_vec3();
+        let mut cam = Camera::new(to_world, 90.0, FovAxis::X, width, height);
+        cam.tan_half = [1.0, (height as f64 / width as f64) as f32];
+        cam.projection = Projection::Orthographic {
+            extent: [column(glam::DVec3::X), column(glam::DVec3::Y)],
+        };
+        cam
+    }
+
+    /// Unit direction of the pinhole ray through film position (x, y) in pixels (x
+    /// right, y down).
     #[inline]
     pub fn direction(&self, x: f32, y: f32) -> Vec3 {
         let sx = (1.0 - 2.0 * x / self.width as f32) * self.tan_half[0];
         let sy = (1.0 - 2.0 * y / self.height as f32) * self.tan_half[1];
         (self.axes[0] * sx + self.axes[1] * sy + self.axes[2]).normalize()
+    }
+
+    /// The camera ray (origin, unit direction) through film position (x, y); `lens`
+    /// gives the aperture sample, called only by the thin lens. A perspective ray is
+    /// `(origin, direction(x, y))`, the same bits.
+    #[inline]
+    pub fn ray(&self, x: f32, y: f32, lens: impl FnOnce() -> [f32; 2]) -> (Vec3, Vec3) {
+        match self.projection {
+            Projection::Pinhole => (self.origin, self.direction(x, y)),
+            Projection::ThinLens {
+                aperture_radius,
+                focus_distance,
+            } => self.thin_lens_ray(x, y, aperture_radius, focus_distance, lens()),
+            Projection::Orthographic { extent } => {
+                let sx = 1.0 - 2.0 * x / self.width as f32;
+                let sy = (1.0 - 2.0 * y / self.height as f32) * self.tan_half[1];
+                (self.origin + extent[0] * sx + extent[1] * sy, self.axes[2])
+            }
+        }
+    }
+
+    /// Mitsuba's thin lens (`thinlens.cpp`, `sample_ray`): in camera space the film
+    /// point's pinhole ray meets the focal plane z = focus_distance at
+    /// `focus_distance (sx, sy, 1)`; the ray leaves the lens point
+    /// `aperture_radius concentric_disk(u)` towards it.
+    #[inline(never)]
+    fn thin_lens_ray(&self, x: f32, y: f32, radius: f32, focus: f32, u: [f32; 2]) -> (Vec3, Vec3) {
+        let sx = (1.0 - 2.0 * x / self.width as f32) * self.tan_half[0];
+        let sy = (1.0 - 2.0 * y / self.height as f32) * self.tan_half[1];
+        let [ax, ay] = crate::math::sampling::concentric_disk(u);
+        let (ax, ay) = (ax * radius, ay * radius);
+        let local = Vec3::new(sx * focus - ax, sy * focus - ay, focus).normalize();
+        let to_world = |v: Vec3| self.axes[0] * v.x + self.axes[1] * v.y + self.axes[2] * v.z;
+        let o = self.origin + self.axes[0] * ax + self.axes[1] * ay;
+        (o, to_world(local).normalize())
     }
 }
 

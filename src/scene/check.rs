@@ -40,14 +40,25 @@ pub const SUPPORTED: &[(&str, &[&str])] = &[
     ),
     (
         "shape",
-        &["rectangle", "cube", "sphere", "ply", "obj", "serialized"],
+        &[
+            "rectangle",
+            "cube",
+            "sphere",
+            "disk",
+            "cylinder",
+            "ply",
+            "obj",
+            "serialized",
+            "shapegroup",
+            "instance",
+        ],
     ),
     ("texture", &["bitmap", "checkerboard"]),
     (
         "emitter",
         &["area", "angulararea", "point", "spot", "projector"],
     ),
-    ("sensor", &["perspective"]),
+    ("sensor", &["perspective", "thinlens", "orthographic"]),
     ("film", &["transient_hdr_film"]),
     (
         "sampler",

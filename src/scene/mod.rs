@@ -7,6 +7,7 @@ pub mod camera;
 pub mod check;
 pub mod error;
 pub mod film;
+pub mod instance;
 pub mod limits;
 pub mod mesh;
 pub mod projector;

@@ -5,10 +5,10 @@ use super::error::SceneError;
 use super::film::Film;
 use super::limits;
 use super::props::{Ctx, Props, OBJECT_TAGS};
-use super::shapes::{check_world_point, parse_geometry};
+use super::shapes::{check_world_point, parse_geometry, MAX_COORDINATE};
 use super::{IntegratorSettings, Overrides, Scene};
 use crate::geometry::accel::Accel;
-use crate::geometry::shape::{AreaSampler, Shape, ShapeGeom};
+use crate::geometry::shape::{AreaSampler, Shape};
 use crate::lights::{AngularFalloff, Emitter};
 use crate::materials::parse::{parse_bsdf, resolve_bsdf, Named};
 use crate::materials::{Bsdf, Diffuse, Material};
@@ -23,12 +23,28 @@ use std::path::Path;
 struct Sensor {
     /// Line of the `<sensor>` element, for errors found after the overrides.
     line: u32,
+    /// The plugin name, for errors found after the overrides.
+    kind: String,
     to_world: DMat4,
-    fov: f64,
-    fov_axis: FovAxis,
+    projection: SensorProjection,
     film: Film,
     spp: u32,
     seed: u64,
+}
+
+/// What the sensor plugin needs besides `to_world` and the film.
+enum SensorProjection {
+    Perspective {
+        fov: f64,
+        fov_axis: FovAxis,
+    },
+    ThinLens {
+        fov: f64,
+        fov_axis: FovAxis,
+        aperture_radius: f32,
+        focus_distance: f32,
+    },
+    Orthographic,
 }
 
 pub fn load(path: &Path, overrides: &Overrides) -> Result<Scene, SceneError> {
@@ -190,20 +206,44 @@ pub fn load(path: &Path, overrides: &Overrides) -> Result<Scene, SceneError> {
     if emitters.is_empty() {
         return Err(ctx.err(root, "the scene has no emitter; it would render black"));
     }
-    let camera = Camera::new(s.to_world, s.fov, s.fov_axis, film.width, film.height);
+    let (w, h) = (film.width, film.height);
+    let (camera, fov) = match s.projection {
+        SensorProjection::Perspective { fov, fov_axis } => {
+            (Camera::new(s.to_world, fov, fov_axis, w, h), Some(fov))
+        }
+        SensorProjection::ThinLens {
+            fov,
+            fov_axis,
+            aperture_radius,
+            focus_distance,
+        } => (
+            Camera::thin_lens(
+                s.to_world,
+                fov,
+                fov_axis,
+                w,
+                h,
+                aperture_radius,
+                focus_distance,
+            ),
+            Some(fov),
+        ),
+        SensorProjection::Orthographic => (Camera::orthographic(s.to_world, w, h), None),
+    };
     if !camera
         .tan_half
         .iter()
         .all(|&t| t >= f32::MIN_POSITIVE && t.is_finite())
     {
+        let what = match fov {
+            Some(fov) => format!("fov {fov:e} degrees at {w}x{h} px gives a field of view that is zero or infinite in single precision"),
+            None => format!("a {w}x{h} px film has an aspect ratio that is zero or infinite in single precision"),
+        };
         return Err(SceneError::new(
             path,
             s.line,
-            "sensor type=\"perspective\"",
-            format!(
-                "fov {:e} degrees at {}x{} px gives a field of view that is zero or infinite in single precision",
-                s.fov, film.width, film.height
-            ),
+            format!("sensor type=\"{}\"", s.kind),
+            what,
         ));
     }
     let accel = Accel::build(&shapes);
@@ -252,6 +292,160 @@ struct Objects {
     area_emitters: HashMap<String, AreaEmission>,
     /// The files being included, outermost first (to refuse cycles).
     including: Vec<std::path::PathBuf>,
+    /// `shapegroup`s by id: their shapes (world space of the group) and materials.
+    shapegroups: HashMap<String, Vec<(Shape, Material)>>,
+    /// Triangles added by instances so far (bounded, `instance::MAX_INSTANCED_TRIANGLES`).
+    instanced_triangles: usize,
+}
+
+/// Adds a parsed shape (and its area emitter) to the scene.
+fn add_shape(o: &mut Objects, shape: Shape, bsdf: Material, emission: Option<AreaEmission>) {
+    let index = o.shapes.len() as u32;
+    // Equal untextured BSDFs share an index; found by their exact Debug
+    // text, so that many distinct BSDFs do not cost a quadratic search.
+    // (Textured ones are not compared: an image's Debug text is its texels.)
+    let index_of_bsdf = if bsdf.is_textured() {
+        o.bsdfs.push(bsdf);
+        o.bsdfs.len() - 1
+    } else {
+        *o.bsdf_index.entry(format!("{bsdf:?}")).or_insert_with(|| {
+            o.bsdfs.push(bsdf);
+            o.bsdfs.len() - 1
+        })
+    };
+    let mut shape = Shape {
+        bsdf: index_of_bsdf as u32,
+        ..shape
+    };
+    if let Some(emission) = emission {
+        shape.emitter = Some(o.emitters.len() as u32);
+        let sampler = AreaSampler::new(&shape);
+        o.emitters.push(match emission.falloff {
+            None => Emitter::Area {
+                shape: index,
+                radiance: emission.radiance,
+                sampler,
+            },
+            Some(falloff) => Emitter::AngularArea {
+                shape: index,
+                radiance: emission.radiance,
+                sampler,
+                falloff,
+            },
+        });
+    }
+    o.shapes.push(shape);
+}
+
+/// `<shape type="shapegroup" id=...>`: its shapes, kept for the instances that name it.
+fn parse_shapegroup(ctx: &Ctx, node: Node, o: &mut Objects) -> Result<(), SceneError> {
+    let Some(id) = ctx.attr(node, "id")? else {
+        return Err(ctx.err(
+            node,
+            "a shapegroup needs an id (instances name it with <ref id=...>)",
+        ));
+    };
+    let mut members = Vec::new();
+    for child in node.children().filter(|n| n.is_element()) {
+        if !child.has_tag_name("shape") {
+            return Err(ctx.err(
+                child,
+                format!(
+                    "<{}> inside a shapegroup is not supported (only <shape>s)",
+                    child.tag_name().name()
+                ),
+            ));
+        }
+        let kind = ctx.required_attr(child, "type")?;
+        if kind == "shapegroup" || kind == "instance" {
+            return Err(ctx.err(
+                child,
+                format!(
+                    "a {kind} inside a shapegroup is not permitted (nested instancing, as Mitsuba)"
+                ),
+            ));
+        }
+        let named = Named {
+            bsdfs: &o.named_bsdfs,
+            textures: &o.named_textures,
+        };
+        let (shape, bsdf, emission) =
+            parse_shape(ctx, child, members.len() as u32, &named, &o.area_emitters)?;
+        if emission.is_some() {
+            return Err(ctx.err(child, "instancing of emitters is not supported (as Mitsuba): a shape in a shapegroup cannot emit"));
+        }
+        members.push((shape, bsdf));
+    }
+    if o.shapegroups.insert(id.clone(), members).is_some() {
+        return Err(ctx.err(node, format!("id '{id}' is defined twice")));
+    }
+    Ok(())
+}
+
+/// `<shape type="instance">`: world-space copies of a shapegroup's shapes under its
+/// `to_world` (`instance.rs`).
+fn add_instance(ctx: &Ctx, node: Node, o: &mut Objects) -> Result<(), SceneError> {
+    let mut p = Props::parse(ctx, node)?;
+    let to_world = p.transform("to_world")?.unwrap_or(DMat4::IDENTITY);
+    let mut group = None;
+    for obj in std::mem::take(&mut p.objects) {
+        let id = match obj.tag_name().name() {
+            "ref" => ctx.required_attr(obj, "id")?,
+            other => {
+                return Err(ctx.err(obj, format!("<{other}> inside an instance: only a <ref id> to a shapegroup can be specified (as Mitsuba)")))
+            }
+        };
+        if group.is_some() {
+            return Err(ctx.err(
+                obj,
+                "only a single shapegroup can be specified per instance (as Mitsuba)",
+            ));
+        }
+        if !o.shapegroups.contains_key(&id) {
+            return Err(ctx.err(
+                obj,
+                format!("'{id}' is not a shapegroup declared before this instance"),
+            ));
+        }
+        group = Some(id);
+    }
+    p.finish()?;
+    let id = group.ok_or_else(|| {
+        ctx.err(
+            node,
+            "a reference to a 'shapegroup' must be specified (<ref id=...>)",
+        )
+    })?;
+    let name = ctx
+        .attr(node, "id")?
+        .unwrap_or_else(|| format!("instance#{}", o.shapes.len()));
+    let members = o.shapegroups[&id].clone();
+    for (shape, bsdf) in members {
+        let added = super::instance::triangle_count(&shape.geom);
+        o.instanced_triangles = o.instanced_triangles.saturating_add(added);
+        if o.instanced_triangles > super::instance::MAX_INSTANCED_TRIANGLES {
+            return Err(ctx.err(
+                node,
+                format!(
+                    "instances add more than {} triangles (each instance is a world-space copy of its group)",
+                    super::instance::MAX_INSTANCED_TRIANGLES
+                ),
+            ));
+        }
+        let geom = super::instance::transformed(&shape.geom, &to_world).map_err(|e| {
+            ctx.err(
+                node,
+                format!("shape '{}' of shapegroup '{id}': {e}", shape.name),
+            )
+        })?;
+        let copy = Shape {
+            name: format!("{name}/{}", shape.name),
+            geom,
+            ..shape
+        };
+        add_shape(o, copy, bsdf, None);
+    }
+    Ok(())
 }
 
 /// Nested `<include>`s deeper than this are refused (Mitsuba has no limit; cycles are
@@ -333,6 +527,12 @@ fn walk(ctx: &Ctx, root: Node, o: &mut Objects, depth: usize) -> Result<(), Scen
                     }
                 }
             }
+            "shape" if ctx.attr(node, "type")?.as_deref() == Some("shapegroup") => {
+                parse_shapegroup(ctx, node, o)?
+            }
+            "shape" if ctx.attr(node, "type")?.as_deref() == Some("instance") => {
+                add_instance(ctx, node, o)?
+            }
             "shape" => {
                 let index = o.shapes.len() as u32;
                 let named = Named {
@@ -341,40 +541,7 @@ fn walk(ctx: &Ctx, root: Node, o: &mut Objects, depth: usize) -> Result<(), Scen
                 };
                 let (shape, bsdf, emission) =
                     parse_shape(ctx, node, index, &named, &o.area_emitters)?;
-                // Equal untextured BSDFs share an index; found by their exact Debug
-                // text, so that many distinct BSDFs do not cost a quadratic search.
-                // (Textured ones are not compared: an image's Debug text is its texels.)
-                let index_of_bsdf = if bsdf.is_textured() {
-                    o.bsdfs.push(bsdf);
-                    o.bsdfs.len() - 1
-                } else {
-                    *o.bsdf_index.entry(format!("{bsdf:?}")).or_insert_with(|| {
-                        o.bsdfs.push(bsdf);
-                        o.bsdfs.len() - 1
-                    })
-                };
-                let mut shape = Shape {
-                    bsdf: index_of_bsdf as u32,
-                    ..shape
-                };
-                if let Some(emission) = emission {
-                    shape.emitter = Some(o.emitters.len() as u32);
-                    let sampler = AreaSampler::new(&shape);
-                    o.emitters.push(match emission.falloff {
-                        None => Emitter::Area {
-                            shape: index,
-                            radiance: emission.radiance,
-                            sampler,
-                        },
-                        Some(falloff) => Emitter::AngularArea {
-                            shape: index,
-                            radiance: emission.radiance,
-                            sampler,
-                            falloff,
-                        },
-                    });
-                }
-                o.shapes.push(shape);
+                add_shape(o, shape, bsdf, emission);
             }
             // Area emitters declared here were read before the walk (below).
             "emitter"
@@ -645,37 +812,128 @@ pub(super) fn parse_fov(p: &mut Props) -> Result<(f64, FovAxis), SceneError> {
     Ok((fov, fov_axis))
 }
 
+/// A sensor's `to_world`: thinlens refuses scale as Mitsuba does (`has_scale`: some
+/// pair of the linear part's rows has a dot product off the identity's by more than
+/// 1e-3); orthographic needs its x, y and z axes to span the view (finite, non-zero).
+fn check_sensor_transform(kind: &str, m: &DMat4) -> Result<(), String> {
+    let cols = [
+        m.x_axis.truncate(),
+        m.y_axis.truncate(),
+        m.z_axis.truncate(),
+    ];
+    if kind == "thinlens" {
+        let rows = [0, 1, 2].map(|i| DVec3::new(cols[0][i], cols[1][i], cols[2][i]));
+        for i in 0..3 {
+            for j in i..3 {
+                let want = if i == j { 1.0 } else { 0.0 };
+                let off = (rows[i].dot(rows[j]) - want).abs();
+                if off.is_nan() || off > 1e-3 {
+                    return Err("thinlens: scale factors in the camera's to_world are not allowed (as in Mitsuba)".into());
+                }
+            }
+        }
+    }
+    if kind == "orthographic" {
+        let ok = cols.iter().all(|c| {
+            let l = c.length();
+            l.is_finite() && l as f32 >= f32::MIN_POSITIVE && l <= MAX_COORDINATE
+        });
+        if !ok || m.determinant() == 0.0 {
+            return Err(format!(
+                "orthographic: to_world's axes {:?} must be non-zero, independent and at most {MAX_COORDINATE:e} long (they set the view's extent)",
+                cols.map(|c| c.to_array())
+            ));
+        }
+    }
+    Ok(())
+}
+
 fn parse_sensor(
     ctx: &Ctx,
     node: Node,
     named_samplers: &HashMap<String, (u32, u64)>,
 ) -> Result<Sensor, SceneError> {
     let kind = ctx.required_attr(node, "type")?;
-    if kind != "perspective" {
+    if !matches!(kind.as_str(), "perspective" | "thinlens" | "orthographic") {
         return Err(ctx.err(
             node,
-            format!("sensor '{kind}' is not supported (use perspective)"),
+            format!("sensor '{kind}' is not supported (use perspective, thinlens or orthographic)"),
         ));
     }
     let mut p = Props::parse(ctx, node)?;
-    let (fov, fov_axis) = parse_fov(&mut p)?;
-    // A pinhole has no depth of field: Mitsuba's `perspective` accepts and ignores it.
-    p.ignore("focus_distance");
-    for name in ["principal_point_offset_x", "principal_point_offset_y"] {
-        if let Some(v) = p.float(name)? {
-            if v != 0.0 {
+    // Mitsuba's ProjectiveCamera: near_clip > 0, near_clip < far_clip; focus_distance
+    // defaults to far_clip.
+    let near = p.float_or("near_clip", 1e-2)?;
+    let far = p.float_or("far_clip", 1e4)?;
+    if !(near > 0.0 && near.is_finite()) {
+        return Err(p.err_at(
+            "near_clip",
+            format!("near_clip must be positive, got {near}"),
+        ));
+    }
+    if !(far > near && far.is_finite()) {
+        return Err(p.err_at(
+            "far_clip",
+            format!("far_clip must be finite and greater than near_clip ({near}), got {far}"),
+        ));
+    }
+    let projection = if kind == "orthographic" {
+        SensorProjection::Orthographic
+    } else {
+        let (fov, fov_axis) = parse_fov(&mut p)?;
+        if kind == "perspective" {
+            // A pinhole has no depth of field: Mitsuba's `perspective` accepts and ignores it.
+            p.ignore("focus_distance");
+            SensorProjection::Perspective { fov, fov_axis }
+        } else {
+            let aperture = p
+                .float("aperture_radius")?
+                .ok_or_else(|| p.err("missing parameter 'aperture_radius' (thinlens)"))?;
+            if !(aperture >= 0.0 && aperture as f32 <= MAX_COORDINATE as f32) {
                 return Err(p.err_at(
-                    name,
-                    format!(
-                        "{name} = {v}: an off-centre principal point is not supported (only 0)"
-                    ),
+                    "aperture_radius",
+                    format!("aperture_radius must be in [0, {MAX_COORDINATE:e}], got {aperture}"),
                 ));
+            }
+            let aperture_radius = if aperture == 0.0 {
+                // Mitsuba: "Can't have a zero aperture radius -- setting to 2^-24".
+                p.warn_at(
+                    "aperture_radius",
+                    "a zero aperture radius is set to 2^-24 (as Mitsuba); use perspective for a pinhole",
+                );
+                f32::EPSILON / 2.0
+            } else {
+                aperture as f32
+            };
+            let focus = p.float_or("focus_distance", far)?;
+            if !(focus > 0.0 && focus as f32 >= f32::MIN_POSITIVE && focus <= MAX_COORDINATE) {
+                return Err(p.err_at(
+                    "focus_distance",
+                    format!("focus_distance must be in (0, {MAX_COORDINATE:e}], got {focus}"),
+                ));
+            }
+            SensorProjection::ThinLens {
+                fov,
+                fov_axis,
+                aperture_radius,
+                focus_distance: focus as f32,
+            }
+        }
+    };
+    if kind != "orthographic" {
+        for name in ["principal_point_offset_x", "principal_point_offset_y"] {
+            if let Some(v) = p.float(name)? {
+                if v != 0.0 {
+                    return Err(p.err_at(
+                        name,
+                        format!(
+                            "{name} = {v}: an off-centre principal point is not supported (only 0)"
+                        ),
+                    ));
+                }
             }
         }
     }
-    // Rays start at the pinhole (SPEC 2); the clip planes do not change what is rendered.
-    p.ignore("near_clip");
-    p.ignore("far_clip");
     let to_world = p.transform("to_world")?.unwrap_or(DMat4::IDENTITY);
     let mut film = None;
     let (mut spp, mut seed) = (4u32, 0u64);
@@ -704,11 +962,12 @@ fn parse_sensor(
     let film = film.ok_or_else(|| ctx.err(node, "the sensor has no <film>"))?;
     check_world_point(to_world.transform_point3(DVec3::ZERO))
         .map_err(|e| ctx.err(node, format!("camera position: {e}")))?;
+    check_sensor_transform(&kind, &to_world).map_err(|e| ctx.err(node, e))?;
     Ok(Sensor {
         line: ctx.line(node),
+        kind,
         to_world,
-        fov,
-        fov_axis,
+        projection,
         film,
         spp,
         seed,
@@ -721,17 +980,8 @@ type ParsedShape = (Shape, Material, Option<AreaEmission>);
 fn extent(shapes: &[Shape]) -> Option<f32> {
     let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
     for shape in shapes {
-        match &shape.geom {
-            ShapeGeom::Mesh { positions, .. } => {
-                for &p in positions {
-                    (lo, hi) = (lo.min(p), hi.max(p));
-                }
-            }
-            ShapeGeom::Sphere(s, _) => {
-                lo = lo.min(s.center - Vec3::splat(s.radius));
-                hi = hi.max(s.center + Vec3::splat(s.radius));
-            }
-        }
+        let (a, b) = shape.bounds();
+        (lo, hi) = (lo.min(a), hi.max(b));
     }
     (lo.x <= hi.x).then(|| (hi - lo).length())
 }
