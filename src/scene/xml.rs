@@ -4,11 +4,13 @@ use super::camera::{Camera, FovAxis};
 use super::error::SceneError;
 use super::film::Film;
 use super::limits;
+use super::infinite_emitters;
 use super::props::{Ctx, Props, OBJECT_TAGS};
 use super::shapes::{check_world_point, parse_geometry};
 use super::{IntegratorSettings, Overrides, Scene};
 use crate::geometry::accel::Accel;
 use crate::geometry::shape::{AreaSampler, Shape, ShapeGeom};
+use crate::lights::scene_sphere::SceneSphere;
 use crate::lights::Emitter;
 use crate::materials::parse::{parse_bsdf, resolve_bsdf, Named};
 use crate::materials::{Bsdf, Diffuse, Material};
@@ -129,11 +131,19 @@ pub fn load(path: &Path, overrides: &Overrides) -> Result<Scene, SceneError> {
     let Objects {
         bsdfs,
         shapes,
-        emitters,
+        mut emitters,
         sensor,
         integrator,
         ..
     } = objects;
+    // Infinitely distant emitters learn the scene's bounding sphere (Mitsuba's set_scene).
+    let environment = emitters.iter().position(|e| e.is_environment()).map(|i| i as u32);
+    if emitters.iter().any(|e| e.is_infinite()) {
+        let sphere = SceneSphere::of_shapes(&shapes);
+        for e in &mut emitters {
+            e.set_scene_sphere(sphere);
+        }
+    }
 
     check_extent(&ctx, root, &shapes)?;
     let s = sensor.ok_or_else(|| ctx.err(root, "the scene has no <sensor>"))?;
@@ -218,6 +228,7 @@ pub fn load(path: &Path, overrides: &Overrides) -> Result<Scene, SceneError> {
         bsdfs,
         shapes,
         emitters,
+        environment,
         accel,
         warnings: ctx.take_warnings(),
         mesh_files: ctx.take_mesh_files(),
@@ -351,7 +362,21 @@ fn walk(ctx: &Ctx, root: Node, o: &mut Objects, depth: usize) -> Result<(), Scen
             }
             // Area emitters declared here were read before the walk (below).
             "emitter" if ctx.attr(node, "type")?.as_deref() == Some("area") => {}
-            "emitter" => o.emitters.push(parse_point_emitter(ctx, node)?),
+            "emitter" => {
+                let kind = ctx.required_attr(node, "type")?;
+                if infinite_emitters::KINDS.contains(&kind.as_str()) {
+                    let e = infinite_emitters::parse_infinite_emitter(ctx, node, &kind)?;
+                    if e.is_environment() && o.emitters.iter().any(|e| e.is_environment()) {
+                        return Err(ctx.err(
+                            node,
+                            "a scene has at most one environment emitter (envmap or constant), as in Mitsuba",
+                        ));
+                    }
+                    o.emitters.push(e);
+                } else {
+                    o.emitters.push(parse_point_emitter(ctx, node)?);
+                }
+            }
             "sampler" => {
                 let Some(id) = ctx.attr(node, "id")? else {
                     return Err(ctx.err(node, "a top-level <sampler> needs an id (a sensor attaches it with <ref id=...>)"));
@@ -871,7 +896,7 @@ fn parse_point_emitter(ctx: &Ctx, node: Node) -> Result<Emitter, SceneError> {
     if kind != "point" && kind != "spot" {
         return Err(ctx.err(
             node,
-            format!("emitter '{kind}' is not supported at top level (supported: point, spot; area lights go inside a <shape> or are attached by <ref>)"),
+            format!("emitter '{kind}' is not supported at top level (supported: point, spot, envmap, constant, directional; area lights go inside a <shape> or are attached by <ref>)"),
         ));
     }
     let mut p = Props::parse(ctx, node)?;
