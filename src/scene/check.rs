@@ -38,7 +38,10 @@ pub const SUPPORTED: &[(&str, &[&str])] = &[
         &["rectangle", "cube", "sphere", "ply", "obj", "serialized"],
     ),
     ("texture", &["bitmap", "checkerboard"]),
-    ("emitter", &["area", "point", "spot"]),
+    (
+        "emitter",
+        &["area", "point", "spot", "envmap", "constant", "directional"],
+    ),
     ("sensor", &["perspective"]),
     ("film", &["transient_hdr_film"]),
     (
