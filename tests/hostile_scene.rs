@@ -1236,7 +1236,9 @@ fn suspicious_scenes_warn_once_and_render() {
         ),
         (
             "directional_irradiance_zero",
-            scene_with(r#"<emitter type="directional"><float name="irradiance" value="0"/></emitter>"#),
+            scene_with(
+                r#"<emitter type="directional"><float name="irradiance" value="0"/></emitter>"#,
+            ),
             "irradiance is zero",
         ),
         (

@@ -88,7 +88,10 @@ fn white_furnace_a_diffuse_sphere_under_constant_radiance_is_albedo_times_radian
         for c in 0..3 {
             let sum: f64 = (0..t).map(|k| out.accum.x1[(p * t + k) * 3 + c] / n).sum();
             let steady = out.steady[p * 3 + c];
-            assert!((sum - steady).abs() <= 1e-12 * steady, "pixel {p}: {sum} vs {steady}");
+            assert!(
+                (sum - steady).abs() <= 1e-12 * steady,
+                "pixel {p}: {sum} vs {steady}"
+            );
         }
     }
 }
@@ -109,7 +112,11 @@ fn write_exr(path: &Path, w: usize, h: usize, f: impl Fn(usize, usize) -> [f32; 
 fn texel_direction(x: usize, y: usize, w: usize, h: usize) -> [f64; 3] {
     let (u, v) = ((x as f64 + 0.5) / w as f64, y as f64 / (h - 1) as f64);
     let (phi, theta) = (2.0 * PI * u, PI * v);
-    let d = [phi.sin() * theta.sin(), theta.cos(), -phi.cos() * theta.sin()];
+    let d = [
+        phi.sin() * theta.sin(),
+        theta.cos(),
+        -phi.cos() * theta.sin(),
+    ];
     // rotate y by +90 degrees: (x, y, z) -> (z, y, -x)
     [d[2], d[1], -d[0]]
 }
@@ -154,21 +161,43 @@ fn camera_rays_see_the_texel_mitsubas_convention_puts_in_their_direction() {
             [0.1, 0.1, 0.1]
         }
     });
-    let v = look(dir.path(), "e.exr", texel_direction(bright.0, bright.1, w, h));
+    let v = look(
+        dir.path(),
+        "e.exr",
+        texel_direction(bright.0, bright.1, w, h),
+    );
     let want = [14.0, 6.0, 2.0];
     for c in 0..3 {
         assert!((v[c] - want[c]).abs() < 1e-3 * want[c], "{v:?} vs {want:?}");
     }
     // Its neighbours, the texel mirrored in u, and the poles see grey.
-    for (x, y) in [(4, 2), (6, 2), (5, 1), (5, 3), (w - 1 - 5, 2), (0, 0), (3, h - 1)] {
+    for (x, y) in [
+        (4, 2),
+        (6, 2),
+        (5, 1),
+        (5, 3),
+        (w - 1 - 5, 2),
+        (0, 0),
+        (3, h - 1),
+    ] {
         let v = look(dir.path(), "e.exr", texel_direction(x, y, w, h));
-        assert!(v.iter().all(|&c| (c - 0.2).abs() < 1e-3), "texel ({x}, {y}): {v:?}");
+        assert!(
+            v.iter().all(|&c| (c - 0.2).abs() < 1e-3),
+            "texel ({x}, {y}): {v:?}"
+        );
     }
     // Halfway between the bright texel and the next column: the bilinear mean.
     let mid = {
-        let (u, v) = ((bright.0 as f64 + 1.0) / w as f64, bright.1 as f64 / (h - 1) as f64);
+        let (u, v) = (
+            (bright.0 as f64 + 1.0) / w as f64,
+            bright.1 as f64 / (h - 1) as f64,
+        );
         let (phi, theta) = (2.0 * PI * u, PI * v);
-        let d = [phi.sin() * theta.sin(), theta.cos(), -phi.cos() * theta.sin()];
+        let d = [
+            phi.sin() * theta.sin(),
+            theta.cos(),
+            -phi.cos() * theta.sin(),
+        ];
         [d[2], d[1], -d[0]]
     };
     let v = look(dir.path(), "e.exr", mid);
@@ -177,7 +206,11 @@ fn camera_rays_see_the_texel_mitsubas_convention_puts_in_their_direction() {
     let mut png = image::RgbImage::from_pixel(w as u32, h as u32, image::Rgb([0, 0, 0]));
     png.put_pixel(bright.0 as u32, bright.1 as u32, image::Rgb([255, 128, 0]));
     png.save(dir.path().join("e.png")).unwrap();
-    let v = look(dir.path(), "e.png", texel_direction(bright.0, bright.1, w, h));
+    let v = look(
+        dir.path(),
+        "e.png",
+        texel_direction(bright.0, bright.1, w, h),
+    );
     let want = [2.0, 2.0 * 0.2158605, 0.0];
     for c in 0..3 {
         assert!((v[c] - want[c]).abs() < 1e-3, "{v:?} vs {want:?}");
@@ -215,7 +248,10 @@ fn a_directional_light_arrives_2r_after_the_surface_it_lights() {
         for c in 0..3 {
             let want = [0.5, 0.6, 0.7][c] * [2.0, 3.0, 4.0][c] / PI;
             let v = out.accum.x1[(p * t + bin) * 3 + c] / n as f64;
-            assert!((v - want).abs() <= 1e-5 * want, "pixel {p} channel {c}: {v} vs {want}");
+            assert!(
+                (v - want).abs() <= 1e-5 * want,
+                "pixel {p} channel {c}: {v} vs {want}"
+            );
             assert_eq!(out.steady[p * 3 + c], v);
             for k in (0..t).filter(|&k| k != bin) {
                 assert_eq!(out.accum.x1[(p * t + k) * 3 + c], 0.0);
@@ -268,7 +304,10 @@ fn with_an_environment_the_bins_sum_to_the_steady_image() {
             let sum: f64 = (0..t).map(|k| out.accum.x1[(p * t + k) * 3 + c] / n).sum();
             let steady = out.steady[p * 3 + c];
             assert!(steady > 0.0);
-            assert!((sum - steady).abs() <= 1e-12 * steady, "pixel {p}: {sum} vs {steady}");
+            assert!(
+                (sum - steady).abs() <= 1e-12 * steady,
+                "pixel {p}: {sum} vs {steady}"
+            );
         }
     }
 }
@@ -302,7 +341,10 @@ fn hide_emitters_hides_the_environment_from_camera_rays_only() {
             assert_eq!(hidden.gbuffer[p].emitter, 0.0);
         } else if g.emitter == 0.0 {
             rest += 1;
-            assert_eq!(&hidden.steady[p * 3..p * 3 + 3], &shown.steady[p * 3..p * 3 + 3]);
+            assert_eq!(
+                &hidden.steady[p * 3..p * 3 + 3],
+                &shown.steady[p * 3..p * 3 + 3]
+            );
             assert_eq!(hidden.gbuffer[p], *g);
         }
     }

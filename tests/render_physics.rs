@@ -629,7 +629,10 @@ fn envmap_scene_agrees_with_mitransient_block_by_block() {
         "blocks: max {max}, median {median}"
     );
     let xml = std::fs::read_to_string(&path).unwrap();
-    let turned = xml.replace(r#"<rotate y="1" angle="90"/>"#, r#"<rotate y="1" angle="-90"/>"#);
+    let turned = xml.replace(
+        r#"<rotate y="1" angle="90"/>"#,
+        r#"<rotate y="1" angle="-90"/>"#,
+    );
     assert_ne!(turned, xml);
     let dir = tempfile::tempdir().unwrap();
     std::fs::create_dir(dir.path().join("textures")).unwrap();
@@ -640,7 +643,10 @@ fn envmap_scene_agrees_with_mitransient_block_by_block() {
     .unwrap();
     let turned_path = dir.path().join("envmap_turned.xml");
     std::fs::write(&turned_path, turned).unwrap();
-    let rel = block_errors(&run(&Scene::load(&turned_path, &o).unwrap(), 5).steady, &want);
+    let rel = block_errors(
+        &run(&Scene::load(&turned_path, &o).unwrap(), 5).steady,
+        &want,
+    );
     let over = rel.iter().filter(|&&r| r > 0.06).count();
     // Measured: max 5.1 (the red stripe where mitransient has sky).
     assert!(

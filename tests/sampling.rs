@@ -29,8 +29,8 @@
 use glam::Vec3;
 use statrs::distribution::{Binomial, ChiSquared, ContinuousCDF, DiscreteCDF};
 use std::f64::consts::PI;
-use tstat::geometry::shape::ShapeGeom;
 use std::sync::Arc;
+use tstat::geometry::shape::ShapeGeom;
 use tstat::lights::envmap::EnvMap;
 use tstat::lights::scene_sphere::SceneSphere;
 use tstat::lights::Emitter;
@@ -1969,7 +1969,10 @@ fn environment_samples_follow_the_escape_pdf() {
         sphere,
     };
     let d = Vec3::new(0.1, 0.9, -0.3).normalize();
-    assert_ne!(comp.escape(1.0, Vec3::ZERO, d).1, plain.escape(1.0, Vec3::ZERO, d).1);
+    assert_ne!(
+        comp.escape(1.0, Vec3::ZERO, d).1,
+        plain.escape(1.0, Vec3::ZERO, d).1
+    );
     let integrals = pdf_cell_integrals(&|w| comp.escape(1.0, Vec3::ZERO, w).1 as f64);
     let p = chi2_of_samples(integrals, 700, &mut |rng| {
         let (u1, u2) = (rng.next_f32(), rng.next_2d());
@@ -2005,7 +2008,10 @@ fn infinite_light_samples_carry_the_pdf_and_radiance_of_an_escaping_ray() {
                 n += 1;
                 assert!((ls.wi.length() - 1.0).abs() < 1e-5, "{name}");
                 assert_eq!(ls.dist, want_dist, "{name}");
-                assert!((ls.p - (x + ls.wi * ls.dist)).length() < 1e-5 * ls.dist, "{name}");
+                assert!(
+                    (ls.p - (x + ls.wi * ls.dist)).length() < 1e-5 * ls.dist,
+                    "{name}"
+                );
                 let (li, pdf, dist) = e.escape(select_pdf, x, ls.wi);
                 if let Emitter::Directional {
                     direction,

@@ -9,14 +9,13 @@
 //! of the random numbers). Cells of zero weight are never chosen.
 
 /// Sampling tables: `(nv + 1)` marginal CDF values and `nv (nu + 1)` conditional ones
-/// (f32), plus each cell's probability (`nu nv` f32).
+/// (f32).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Distribution2D {
     nu: usize,
     nv: usize,
     marginal: Vec<f32>,
     conditional: Vec<f32>,
-    prob: Vec<f32>,
 }
 
 /// The normalised CDF of `w` (f64 sums, stored as f32; the last entry exactly 1), or
@@ -30,7 +29,7 @@ fn cdf(w: impl Iterator<Item = f64>, n: usize, out: &mut Vec<f32>) -> Option<()>
         sum += v;
         partial.push(sum);
     }
-    if !(sum > 0.0) {
+    if sum.is_nan() || sum <= 0.0 {
         out.truncate(start);
         out.extend(std::iter::repeat_n(0.0, n + 1));
         return None;
@@ -66,18 +65,11 @@ impl Distribution2D {
         }
         let mut marginal = Vec::with_capacity(nv + 1);
         cdf(row_sums.into_iter(), nv, &mut marginal)?;
-        let mut prob = Vec::with_capacity(nu * nv);
-        for j in 0..nv {
-            let pj = marginal[j + 1] - marginal[j];
-            let c = &conditional[j * (nu + 1)..(j + 1) * (nu + 1)];
-            prob.extend((0..nu).map(|i| pj * (c[i + 1] - c[i])));
-        }
         Some(Distribution2D {
             nu,
             nv,
             marginal,
             conditional,
-            prob,
         })
     }
 
@@ -91,15 +83,17 @@ impl Distribution2D {
         (i, j, [ru, rv])
     }
 
-    /// The probability of cell `(i, j)`.
+    /// The probability of cell `(i, j)`: the widths of its marginal and conditional CDF
+    /// steps, the intervals of u that `sample` maps to it.
     #[inline]
     pub fn prob(&self, i: usize, j: usize) -> f32 {
-        self.prob[j * self.nu + i]
+        let c = &self.conditional[j * (self.nu + 1)..];
+        (self.marginal[j + 1] - self.marginal[j]) * (c[i + 1] - c[i])
     }
 
     /// Bytes held by the tables.
     pub fn bytes(&self) -> usize {
-        4 * (self.marginal.len() + self.conditional.len() + self.prob.len())
+        4 * (self.marginal.len() + self.conditional.len())
     }
 
     pub fn size(&self) -> (usize, usize) {

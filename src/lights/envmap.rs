@@ -38,7 +38,7 @@
 //!
 //! Memory: the texels (`12 W H` bytes, f32 RGB) and the sampling tables (`W (H - 1)`
 //! cell densities, `(W + 1) (H - 1)` conditional and `H` marginal CDF values, all f32:
-//! about `8 W H` bytes). A 2048 x 1024 map holds 40 MB.
+//! about `8 W H` bytes). A 2048 x 1024 map holds 42 MB.
 
 use super::distribution::Distribution2D;
 use crate::math::Rgb;
@@ -228,10 +228,7 @@ impl EnvMap {
         let (i, j, r) = distr.sample(u);
         let (nu, nv) = (self.width as f32, (self.height - 1) as f32);
         let uu = (i as f32 + 0.5 + r[0]) / nu;
-        let (c0, c1) = (
-            (PI * j as f32 / nv).cos(),
-            (PI * (j + 1) as f32 / nv).cos(),
-        );
+        let (c0, c1) = ((PI * j as f32 / nv).cos(), (PI * (j + 1) as f32 / nv).cos());
         let cos_t = (c0 + r[1] * (c1 - c0)).clamp(-1.0, 1.0);
         let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
         let (sin_p, cos_p) = (2.0 * PI * uu).sin_cos();
@@ -260,7 +257,10 @@ mod tests {
             for x in 0..w {
                 let uv = [(x as f32 + 0.5) / w as f32, y as f32 / (h - 1) as f32];
                 let c = m.eval_uv(uv);
-                assert!((c.x - x as f32).abs() < 1e-4 && (c.y - y as f32).abs() < 1e-4, "{x} {y} {c}");
+                assert!(
+                    (c.x - x as f32).abs() < 1e-4 && (c.y - y as f32).abs() < 1e-4,
+                    "{x} {y} {c}"
+                );
             }
         }
         // Across the seam: u = 0 is halfway between the last column and the first.
@@ -287,7 +287,9 @@ mod tests {
 
     #[test]
     fn the_density_integrates_to_one_and_sampling_agrees_with_pdf() {
-        let m = map(7, 6, |x, y| Vec3::new((x * y % 5) as f32, 0.5, (x + y) as f32 * 0.1));
+        let m = map(7, 6, |x, y| {
+            Vec3::new((x * y % 5) as f32, 0.5, (x + y) as f32 * 0.1)
+        });
         // Midpoint rule in (phi, cos theta): the density is constant on each cell.
         let n = 700;
         let mut sum = 0.0f64;
@@ -302,6 +304,11 @@ mod tests {
         }
         let integral = sum * 4.0 * std::f64::consts::PI / (n * n) as f64;
         assert!((integral - 1.0).abs() < 3e-3, "{integral}");
+        let (w, h) = (7, 6);
+        assert_eq!(
+            m.bytes(),
+            12 * w * h + 4 * w * (h - 1) + 4 * (w + 1) * (h - 1) + 4 * h
+        );
         let mut rng = crate::math::rng::Pcg32::new(3, 1);
         for _ in 0..10000 {
             if let Some((d, li, pdf)) = m.sample(rng.next_2d()) {

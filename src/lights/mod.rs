@@ -197,7 +197,14 @@ impl Emitter {
                 direction,
                 irradiance,
                 sphere,
-            } => Some(distant(sphere, x, -*direction, *irradiance, select_pdf, true)),
+            } => Some(distant(
+                sphere,
+                x,
+                -*direction,
+                *irradiance,
+                select_pdf,
+                true,
+            )),
         }
     }
 

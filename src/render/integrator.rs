@@ -194,7 +194,10 @@ unsafe fn trace_path_body<const ISA: u8>(
         let Some(hit) = hit else {
             // Only scenes with an environment emitter take this branch.
             if let Some(env) = scene.environment {
-                escape(scene, env, o, d, depth, opl, eta, beta, prev_delta, prev_pdf, deposits, tally, &mut g, g_pending);
+                escape(
+                    scene, env, o, d, depth, opl, eta, beta, prev_delta, prev_pdf, deposits, tally,
+                    &mut g, g_pending,
+                );
             }
             break;
         };

@@ -31,7 +31,9 @@ pub fn parse_infinite_emitter(ctx: &Ctx, node: Node, kind: &str) -> Result<Emitt
             let irradiance = colour(&mut p, "irradiance")?;
             let direction = match (p.point("direction")?, p.transform("to_world")?) {
                 (Some(_), Some(_)) => {
-                    return Err(p.err("give either 'direction' or 'to_world', not both (as Mitsuba)"))
+                    return Err(
+                        p.err("give either 'direction' or 'to_world', not both (as Mitsuba)")
+                    )
                 }
                 (Some(d), None) => DVec3::from(d),
                 (None, Some(m)) => m.transform_vector3(DVec3::Z),
@@ -39,7 +41,11 @@ pub fn parse_infinite_emitter(ctx: &Ctx, node: Node, kind: &str) -> Result<Emitt
             };
             if !(direction.is_finite() && direction.length() > 0.0) {
                 return Err(p.err_at(
-                    if p.peek("direction").is_some() { "direction" } else { "to_world" },
+                    if p.peek("direction").is_some() {
+                        "direction"
+                    } else {
+                        "to_world"
+                    },
                     "the light's direction is zero or not finite",
                 ));
             }
@@ -64,7 +70,7 @@ pub fn parse_infinite_emitter(ctx: &Ctx, node: Node, kind: &str) -> Result<Emitt
 /// `radiance` / `irradiance`: non-negative, default 1; zero warns.
 fn colour(p: &mut Props, name: &str) -> Result<Rgb, SceneError> {
     let c = p.emission(name)?.unwrap_or(Rgb::ONE);
-    if !(c.min_element() >= 0.0) {
+    if c.is_nan() || c.min_element() < 0.0 {
         return Err(p.err_at(name, format!("{name} must be non-negative")));
     }
     if c.max_element() == 0.0 {
@@ -90,7 +96,7 @@ fn parse_envmap(p: &mut Props) -> Result<Emitter, SceneError> {
         return Err(p.err_at("filename", "the filename is empty"));
     }
     let scale = p.float_or("scale", 1.0)?;
-    if !(scale >= 0.0) {
+    if scale.is_nan() || scale < 0.0 {
         return Err(p.err_at("scale", format!("scale must be non-negative, got {scale}")));
     }
     let to_world = p.transform("to_world")?.unwrap_or(DMat4::IDENTITY);
@@ -114,7 +120,9 @@ fn parse_envmap(p: &mut Props) -> Result<Emitter, SceneError> {
     if negative > 0 {
         p.warn_at(
             "filename",
-            format!("image '{name}' has {negative} texels with negative values; they are taken as 0"),
+            format!(
+                "image '{name}' has {negative} texels with negative values; they are taken as 0"
+            ),
         );
     }
     let linear = DMat3::from_mat4(to_world);
@@ -139,7 +147,9 @@ fn parse_envmap(p: &mut Props) -> Result<Emitter, SceneError> {
     if map.is_black() {
         p.warn_at(
             "filename",
-            format!("image '{name}' times scale {scale} is black: this emitter contributes nothing"),
+            format!(
+                "image '{name}' times scale {scale} is black: this emitter contributes nothing"
+            ),
         );
     }
     Ok(Emitter::Envmap {

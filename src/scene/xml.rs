@@ -3,8 +3,8 @@
 use super::camera::{Camera, FovAxis};
 use super::error::SceneError;
 use super::film::Film;
-use super::limits;
 use super::infinite_emitters;
+use super::limits;
 use super::props::{Ctx, Props, OBJECT_TAGS};
 use super::shapes::{check_world_point, parse_geometry};
 use super::{IntegratorSettings, Overrides, Scene};
@@ -137,7 +137,10 @@ pub fn load(path: &Path, overrides: &Overrides) -> Result<Scene, SceneError> {
         ..
     } = objects;
     // Infinitely distant emitters learn the scene's bounding sphere (Mitsuba's set_scene).
-    let environment = emitters.iter().position(|e| e.is_environment()).map(|i| i as u32);
+    let environment = emitters
+        .iter()
+        .position(|e| e.is_environment())
+        .map(|i| i as u32);
     if emitters.iter().any(|e| e.is_infinite()) {
         let sphere = SceneSphere::of_shapes(&shapes);
         for e in &mut emitters {
