@@ -1654,7 +1654,9 @@ fn chi_square_rejects_a_wrong_lobe_choice() {
 
 /// Light cases in the family: per area emitter, the area-uniformity chi-square test;
 /// the envmap's and the constant emitter's direction chi-square tests.
-const LIGHT_CASES: usize = 5;
+const LIGHT_CASES: usize = AREA_LIGHT_CASES + ENVIRONMENT_CASES;
+const AREA_LIGHT_CASES: usize = 3;
+const ENVIRONMENT_CASES: usize = 2;
 
 const LIGHT_SCENE: &str = r#"<scene version="3.0.0">
     <integrator type="transient_path"><integer name="max_depth" value="4"/></integrator>
@@ -1864,7 +1866,7 @@ fn area_lights_sample_uniformly_by_area() {
             ps.push(p);
         }
     }
-    assert_eq!(ps.len(), LIGHT_CASES);
+    assert_eq!(ps.len(), AREA_LIGHT_CASES);
     eprintln!("area-uniformity p-values {ps:.3?}");
     // Squaring one number crowds the points towards one edge of each triangle (and
     // one pole of a sphere): every light must fail.
@@ -1893,7 +1895,7 @@ fn test_envmap(mis_compensation: bool) -> EnvMap {
         })
         .collect();
     let to_world = glam::DMat3::from_axis_angle(glam::DVec3::new(1.0, 2.0, 0.5).normalize(), 0.7);
-    EnvMap::new(w, h, &rgb, 1.5, to_world, mis_compensation).unwrap()
+    EnvMap::new(w, h, rgb, 1.5, to_world, mis_compensation).unwrap()
 }
 
 fn infinite_emitters() -> Vec<(&'static str, Emitter)> {
@@ -1956,7 +1958,7 @@ fn environment_samples_follow_the_escape_pdf() {
         let p = environment_p_value(&e, 600 + i as u64, |[a, b]| [a, b * b]);
         assert!(p < LEVEL, "{name}: skewed sampling passed, p = {p:.3e}");
     }
-    assert_eq!(cases, 2);
+    assert_eq!(cases, ENVIRONMENT_CASES);
     // MIS compensation changes the density, and it still matches its samples; a sampler
     // drawing with the uncompensated table against the compensated pdf is rejected.
     let sphere = SceneSphere::default();

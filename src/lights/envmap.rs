@@ -42,7 +42,6 @@
 
 use super::distribution::Distribution2D;
 use crate::math::Rgb;
-use crate::textures::luminance;
 use glam::{DMat3, Mat3, Vec3};
 use std::f32::consts::PI;
 
@@ -78,7 +77,7 @@ impl EnvMap {
     pub fn new(
         width: usize,
         height: usize,
-        rgb: &[Vec3],
+        rgb: Vec<Vec3>,
         scale: f32,
         to_world: DMat3,
         mis_compensation: bool,
@@ -94,40 +93,43 @@ impl EnvMap {
         }
         // Mitsuba's Bitmap::pad_to(2, 3): repeat the last column, then the last row.
         let (w, h) = (width.max(2), height.max(3));
-        let mut texels = Vec::with_capacity(w * h);
-        for y in 0..h {
-            let row = &rgb[y.min(height - 1) * width..][..width];
-            texels.extend((0..w).map(|x| row[x.min(width - 1)].max(Vec3::ZERO)));
-        }
-        let lum: Vec<f32> = texels.iter().map(|&c| luminance(c)).collect();
+        let texels: Vec<Vec3> = if (w, h) == (width, height) {
+            rgb.into_iter().map(|c| c.max(Vec3::ZERO)).collect()
+        } else {
+            (0..w * h)
+                .map(|k| rgb[(k / w).min(height - 1) * width + (k % w).min(width - 1)])
+                .map(|c| c.max(Vec3::ZERO))
+                .collect()
+        };
+        // Luminance in f64 (no overflow for any finite texel).
+        let lum = |c: Vec3| 0.212671 * c.x as f64 + 0.715160 * c.y as f64 + 0.072169 * c.z as f64;
         // Mitsuba's MIS compensation: subtract the mean luminance unless the map is
         // nearly constant (mean - min <= 1% of the mean).
-        let mut offset = 0.0f32;
+        let mut offset = 0.0f64;
         if mis_compensation {
-            let mean = (lum.iter().map(|&l| l as f64).sum::<f64>() / lum.len() as f64) as f32;
-            let min = lum.iter().copied().fold(f32::INFINITY, f32::min);
+            let mean = texels.iter().map(|&c| lum(c)).sum::<f64>() / texels.len() as f64;
+            let min = texels.iter().map(|&c| lum(c)).fold(f64::INFINITY, f64::min);
             if mean - min > 0.01 * mean {
                 offset = mean;
             }
         }
-        let l = |x: usize, y: usize| (lum[y * w + x % w] - offset).max(0.0) as f64;
+        let l = |x: usize, y: usize| (lum(texels[y * w + x % w]) - offset).max(0.0);
         let (nu, nv) = (w, h - 1);
         let theta = |j: usize| std::f64::consts::PI * j as f64 / nv as f64;
-        let mut omega = Vec::with_capacity(nu * nv);
+        let omega: Vec<f64> = (0..nv)
+            .map(|j| 2.0 * std::f64::consts::PI / nu as f64 * (theta(j).cos() - theta(j + 1).cos()))
+            .collect();
         let mut weights = Vec::with_capacity(nu * nv);
-        for j in 0..nv {
-            let band = theta(j).cos() - theta(j + 1).cos();
+        for (j, &om) in omega.iter().enumerate() {
             for i in 0..nu {
-                let om = 2.0 * std::f64::consts::PI / nu as f64 * band;
                 let corners = l(i, j) + l(i + 1, j) + l(i, j + 1) + l(i + 1, j + 1);
-                omega.push(om);
                 weights.push(0.25 * corners * om);
             }
         }
         let distr = Distribution2D::new(&weights, nu, nv);
         let cell_pdf = match &distr {
             Some(d) => (0..nu * nv)
-                .map(|k| (d.prob(k % nu, k / nu) as f64 / omega[k]) as f32)
+                .map(|k| (d.prob(k % nu, k / nu) as f64 / omega[k / nu]) as f32)
                 .collect(),
             None => vec![0.0; nu * nv],
         };
@@ -246,7 +248,7 @@ mod tests {
 
     fn map(w: usize, h: usize, f: impl Fn(usize, usize) -> Vec3) -> EnvMap {
         let rgb: Vec<Vec3> = (0..w * h).map(|k| f(k % w, k / w)).collect();
-        EnvMap::new(w, h, &rgb, 1.0, DMat3::IDENTITY, false).unwrap()
+        EnvMap::new(w, h, rgb, 1.0, DMat3::IDENTITY, false).unwrap()
     }
 
     #[test]

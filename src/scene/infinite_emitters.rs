@@ -125,11 +125,13 @@ fn parse_envmap(p: &mut Props) -> Result<Emitter, SceneError> {
             ),
         );
     }
+    let (width, height) = (img.width, img.height);
+    drop(img);
     let linear = DMat3::from_mat4(to_world);
     let map = EnvMap::new(
-        img.width,
-        img.height,
-        &rgb,
+        width,
+        height,
+        rgb,
         scale as f32,
         linear,
         mis_compensation,
