@@ -1232,6 +1232,91 @@ fn cases() -> Vec<Case> {
             sensor_kind("fisheye", ""),
             "sensor 'fisheye' is not supported",
         ),
+        // ---- infinitely distant emitters ----
+        scene_case("envmap_without_filename", scene_with(r#"<emitter type="envmap"/>"#), "missing parameter 'filename'"),
+        scene_case("envmap_missing_file", envmap("none.exr", ""), "image 'none.exr'"),
+        case(
+            "envmap_not_an_image",
+            vec![("scene.xml", envmap("e.exr", "")), ("e.exr", File::Text("not an image".into()))],
+            "image 'e.exr' is not a PNG, JPEG, BMP, Radiance HDR or OpenEXR image",
+        ),
+        case(
+            "envmap_zero_size",
+            vec![
+                ("scene.xml", envmap("e.hdr", "")),
+                ("e.hdr", File::Text("#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 0 +X 4\n".into())),
+            ],
+            "image 'e.hdr'",
+        ),
+        case(
+            "envmap_nan_texel",
+            vec![
+                ("scene.xml", envmap("e.exr", "")),
+                ("e.exr", exr(4, 3, |x, y| if (x, y) == (2, 1) { [1.0, f32::NAN, 1.0] } else { [1.0; 3] })),
+            ],
+            "image 'e.exr' has a non-finite value (NaN)",
+        ),
+        case(
+            "envmap_infinite_texel",
+            vec![
+                ("scene.xml", envmap("e.exr", "")),
+                ("e.exr", exr(4, 3, |x, _| if x == 3 { [f32::INFINITY; 3] } else { [1.0; 3] })),
+            ],
+            "image 'e.exr' has a non-finite value (inf)",
+        ),
+        scene_case("envmap_negative_scale", envmap(SKY, r#"<float name="scale" value="-1"/>"#), "scale must be non-negative"),
+        scene_case("envmap_nan_scale", envmap(SKY, r#"<float name="scale" value="nan"/>"#), "scale"),
+        scene_case(
+            "envmap_scaled_to_world",
+            envmap(SKY, r#"<transform name="to_world"><scale value="2"/></transform>"#),
+            "to_world must be a rotation",
+        ),
+        scene_case(
+            "envmap_filter_type",
+            envmap(SKY, r#"<string name="filter_type" value="nearest"/>"#),
+            "envmap has no parameter 'filter_type' in Mitsuba 3",
+        ),
+        scene_case("envmap_unknown_parameter", envmap(SKY, r#"<float name="gamma" value="2"/>"#), "gamma"),
+        scene_case(
+            "two_environment_emitters",
+            scene_with(r#"<emitter type="constant"/><emitter type="constant"/>"#),
+            "at most one environment emitter",
+        ),
+        scene_case(
+            "envmap_and_constant",
+            envmap_and(SKY, "", r#"<emitter type="constant"/>"#),
+            "at most one environment emitter",
+        ),
+        scene_case(
+            "constant_negative_radiance",
+            scene_with(r#"<emitter type="constant"><rgb name="radiance" value="1, -1, 1"/></emitter>"#),
+            "radiance must be non-negative",
+        ),
+        scene_case(
+            "constant_textured_radiance",
+            scene_with(r#"<emitter type="constant"><texture type="checkerboard" name="radiance"/></emitter>"#),
+            "unexpected nested element in <emitter type=\"constant\">",
+        ),
+        scene_case(
+            "directional_zero_direction",
+            scene_with(r#"<emitter type="directional"><vector name="direction" value="0, 0, 0"/></emitter>"#),
+            "direction is zero",
+        ),
+        scene_case(
+            "directional_direction_and_to_world",
+            scene_with(r#"<emitter type="directional"><vector name="direction" value="0, 0, 1"/><transform name="to_world"><rotate x="1" angle="30"/></transform></emitter>"#),
+            "either 'direction' or 'to_world'",
+        ),
+        scene_case(
+            "directional_negative_irradiance",
+            scene_with(r#"<emitter type="directional"><rgb name="irradiance" value="-2"/></emitter>"#),
+            "irradiance must be non-negative",
+        ),
+        scene_case(
+            "directional_on_a_shape",
+            scene_with(r#"<shape type="cube"><emitter type="directional"/></shape>"#),
+            "cannot be attached to a shape",
+        ),
     ]
 }
 
@@ -1265,6 +1350,33 @@ fn sensor_kind_to_world(kind: &str, params: &str, extra: &str) -> File {
         r#"<transform name="to_world"><lookat"#,
         &format!(r#"<transform name="to_world">{extra}<lookat"#),
     ))
+}
+
+/// The bundled environment image, by absolute path.
+const SKY: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/textures/sky.exr");
+
+/// The base scene with an envmap of `file` with extra `params`.
+fn envmap(file: &str, params: &str) -> File {
+    envmap_and(file, params, "")
+}
+
+/// As [`envmap`], then `more` at the top level.
+fn envmap_and(file: &str, params: &str, more: &str) -> File {
+    scene_with(&format!(
+        r#"<emitter type="envmap"><string name="filename" value="{file}"/>{params}</emitter>{more}"#
+    ))
+}
+
+/// An RGB f32 OpenEXR image of `w x h` texels.
+fn exr(w: usize, h: usize, f: impl Fn(usize, usize) -> [f32; 3] + Sync) -> File {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("i.exr");
+    exr::prelude::write_rgb_file(&path, w, h, |x, y| {
+        let [r, g, b] = f(x, y);
+        (r, g, b)
+    })
+    .unwrap();
+    File::Bytes(std::fs::read(&path).unwrap())
 }
 
 impl Case {
@@ -1530,6 +1642,25 @@ fn suspicious_scenes_warn_once_and_render() {
                 r#"<float name="bin_width_opl" value="1"/><float name="start_opl" value="-10"/>"#,
             ),
             "every bin stays empty",
+        ),
+        (
+            "constant_radiance_zero",
+            scene_with(r#"<emitter type="constant"><rgb name="radiance" value="0"/></emitter>"#),
+            "radiance is zero",
+        ),
+        (
+            "directional_irradiance_zero",
+            scene_with(
+                r#"<emitter type="directional"><float name="irradiance" value="0"/></emitter>"#,
+            ),
+            "irradiance is zero",
+        ),
+        (
+            "envmap_scale_zero",
+            scene_with(&format!(
+                r#"<emitter type="envmap"><string name="filename" value="{SKY}"/><float name="scale" value="0"/></emitter>"#
+            )),
+            "is black: this emitter contributes nothing",
         ),
         (
             "reflectance_above_one",

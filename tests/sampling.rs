@@ -16,7 +16,10 @@
 //! - rough models: the mean sample energy equals quadrature of `eval` (rough glass over
 //!   the whole sphere, transmission times eta^2), which never exceeds 1;
 //! - emitters: the solid-angle pdf of a light sample equals the pdf the integrator's
-//!   MIS computes when it hits the same point, and samples are uniform by area.
+//!   MIS computes when it hits the same point (or, for the environment, when a ray
+//!   leaves the scene in the same direction), area samples are uniform by area, and
+//!   environment samples (envmap, constant) follow their pdf by the same chi-square as
+//!   the BSDFs.
 //!
 //! All statistical tests of this file form one family: each is held to
 //! `ALPHA / FAMILY` (Bonferroni), so the whole file fails by chance with probability
@@ -26,7 +29,10 @@
 use glam::Vec3;
 use statrs::distribution::{Binomial, ChiSquared, ContinuousCDF, DiscreteCDF};
 use std::f64::consts::PI;
+use std::sync::Arc;
 use tstat::geometry::shape::ShapeGeom;
+use tstat::lights::envmap::EnvMap;
+use tstat::lights::scene_sphere::SceneSphere;
 use tstat::lights::Emitter;
 use tstat::materials::perturbed::{shadow_terminator, IDENTITY};
 use tstat::materials::{Blend, PPlastic, Perturbation, Perturbed, Polarizer, RoughPlastic};
@@ -43,7 +49,7 @@ use tstat::textures::Texture;
 /// Overall significance of the file's statistical tests.
 const ALPHA: f64 = 0.01;
 /// Chi-square BSDF cases + delta cases + light cases (checked in each test).
-const FAMILY: usize = 80;
+const FAMILY: usize = 82;
 /// The Bonferroni-corrected level of one test.
 const LEVEL: f64 = ALPHA / FAMILY as f64;
 
@@ -895,6 +901,11 @@ fn simpson(f: &mut dyn FnMut(f64) -> f64, a: f64, b: f64, eps: f64) -> f64 {
 
 /// The pdf integrated over every grid cell (solid angle: sin(theta) dtheta dphi).
 fn cell_integrals(b: &dyn BsdfModel, wo: Vec3) -> Vec<f64> {
+    pdf_cell_integrals(&|w| b.pdf(wo, w) as f64)
+}
+
+/// A solid-angle density integrated over every grid cell.
+fn pdf_cell_integrals(pdf: &dyn Fn(Vec3) -> f64) -> Vec<f64> {
     let (dt, dp) = (PI / THETA_CELLS as f64, 2.0 * PI / PHI_CELLS as f64);
     let mut out = Vec::with_capacity(THETA_CELLS * PHI_CELLS);
     for t in 0..THETA_CELLS {
@@ -907,7 +918,7 @@ fn cell_integrals(b: &dyn BsdfModel, wo: Vec3) -> Vec<f64> {
                         (theta.sin() * phi.sin()) as f32,
                         theta.cos() as f32,
                     );
-                    b.pdf(wo, w) as f64 * theta.sin()
+                    pdf(w) * theta.sin()
                 };
                 simpson(&mut inner, p0, p0 + dp, 1e-8)
             };
@@ -920,18 +931,31 @@ fn cell_integrals(b: &dyn BsdfModel, wo: Vec3) -> Vec<f64> {
 /// Chi-square p-value of `CHI2_SAMPLES` non-delta samples against the integrated pdf.
 /// A sample in a cell whose expected count is zero gives p = 0 (pbrt's rule).
 fn chi2_p_value(b: &dyn BsdfModel, wo: Vec3, seed: u64) -> f64 {
-    let expected: Vec<f64> = cell_integrals(b, wo)
+    let expected = cell_integrals(b, wo);
+    chi2_of_samples(expected, seed, &mut |rng| {
+        let (u1, u2) = (rng.next_f32(), rng.next_2d());
+        b.sample(wo, u1, u2)
+            .filter(|s| !s.lobe.is_delta())
+            .map(|s| s.wi)
+    })
+}
+
+/// Chi-square p-value of `CHI2_SAMPLES` directions drawn by `sample` (`None`: no
+/// direction) against the integrated pdf per grid cell, `integrals`.
+fn chi2_of_samples(
+    integrals: Vec<f64>,
+    seed: u64,
+    sample: &mut dyn FnMut(&mut Pcg32) -> Option<Vec3>,
+) -> f64 {
+    let expected: Vec<f64> = integrals
         .into_iter()
         .map(|v| v * CHI2_SAMPLES as f64)
         .collect();
     let mut observed = vec![0u64; expected.len()];
     let mut rng = Pcg32::new(seed, 0xb5df);
     for _ in 0..CHI2_SAMPLES {
-        let (u1, u2) = (rng.next_f32(), rng.next_2d());
-        if let Some(s) = b.sample(wo, u1, u2) {
-            if !s.lobe.is_delta() {
-                observed[cell_of(s.wi)] += 1;
-            }
+        if let Some(w) = sample(&mut rng) {
+            observed[cell_of(w)] += 1;
         }
     }
     let mut order: Vec<usize> = (0..expected.len()).collect();
@@ -1838,8 +1862,11 @@ fn chi_square_rejects_a_wrong_lobe_choice() {
 
 // ---------------------------------------------------------------- emitters
 
-/// Light cases in the family: per area emitter, the area-uniformity chi-square test.
-const LIGHT_CASES: usize = 5;
+/// Light cases in the family: per area emitter, the area-uniformity chi-square test;
+/// the envmap's and the constant emitter's direction chi-square tests.
+const LIGHT_CASES: usize = AREA_LIGHT_CASES + ENVIRONMENT_CASES;
+const AREA_LIGHT_CASES: usize = 5;
+const ENVIRONMENT_CASES: usize = 2;
 
 const LIGHT_SCENE: &str = r#"<scene version="3.0.0">
     <integrator type="transient_path"><integer name="max_depth" value="4"/></integrator>
@@ -1929,6 +1956,11 @@ fn light_sample_pdf_matches_the_pdf_mis_uses_on_a_hit() {
                         assert_eq!(emitter.pdf_area_hit(select_pdf, ls.dist, 1.0), 0.0);
                         points += 1;
                     }
+                    Emitter::Envmap { .. }
+                    | Emitter::Constant { .. }
+                    | Emitter::Directional { .. } => {
+                        unreachable!("the light scene has no infinitely distant lights")
+                    }
                     Emitter::Area { shape, .. } | Emitter::AngularArea { shape, .. } => {
                         assert!(!ls.delta);
                         let Some(hit) =
@@ -1968,7 +2000,7 @@ fn light_sample_pdf_matches_the_pdf_mis_uses_on_a_hit() {
         }
     }
     // The area lights of the family's cases and the angulararea light.
-    assert_eq!(area_lights, (LIGHT_CASES + 1) * refs.len());
+    assert_eq!(area_lights, (AREA_LIGHT_CASES + 1) * refs.len());
     assert!(matched > 0 && points > 0);
 }
 
@@ -2103,7 +2135,7 @@ fn area_lights_sample_uniformly_by_area() {
             ps.push(p);
         }
     }
-    assert_eq!(ps.len(), LIGHT_CASES);
+    assert_eq!(ps.len(), AREA_LIGHT_CASES);
     eprintln!("area-uniformity p-values {ps:.3?}");
     // Squaring one number crowds the points towards one edge of each triangle (and
     // one pole of a sphere): every light must fail.
@@ -2423,5 +2455,161 @@ fn polarizer_passes_half_the_transmittance_straight_through() {
         assert_eq!(s.weight, Rgb::new(0.5, 0.4, 0.1));
         assert!(p.flags(wo).is_delta());
         assert_eq!((p.eval(wo, -wo), p.pdf(wo, -wo)), (Rgb::ZERO, 0.0));
+    }
+}
+
+// ------------------------------------------------------- infinitely distant emitters
+
+/// A small non-uniform environment (6 x 5 texels over three decades, a bright texel, a
+/// black patch whose sampling cells have zero density), turned about an oblique axis.
+fn test_envmap(mis_compensation: bool) -> EnvMap {
+    let (w, h) = (6usize, 5usize);
+    let rgb: Vec<Vec3> = (0..w * h)
+        .map(|k| match (k % w, k / w) {
+            (4, 1) => Vec3::new(40.0, 30.0, 20.0),
+            (1 | 2, 3 | 4) => Vec3::ZERO,
+            (x, y) => Vec3::new(0.1 + 0.2 * x as f32, 0.05 * (1 + y) as f32, 0.3),
+        })
+        .collect();
+    let to_world = glam::DMat3::from_axis_angle(glam::DVec3::new(1.0, 2.0, 0.5).normalize(), 0.7);
+    EnvMap::new(w, h, rgb, 1.5, to_world, mis_compensation).unwrap()
+}
+
+fn infinite_emitters() -> Vec<(&'static str, Emitter)> {
+    let sphere = SceneSphere {
+        center: Vec3::new(0.3, -0.2, 0.1),
+        radius: 2.5,
+    };
+    vec![
+        (
+            "envmap",
+            Emitter::Envmap {
+                map: Arc::new(test_envmap(false)),
+                sphere,
+            },
+        ),
+        (
+            "constant",
+            Emitter::Constant {
+                radiance: Rgb::new(1.0, 2.0, 3.0),
+                sphere,
+            },
+        ),
+        (
+            "directional",
+            Emitter::Directional {
+                direction: Vec3::new(0.2, -1.0, 0.3).normalize(),
+                irradiance: Rgb::new(3.0, 2.0, 1.0),
+                sphere,
+            },
+        ),
+    ]
+}
+
+/// Chi-square p-value of an environment emitter's sampled directions against the
+/// density a ray leaving the scene evaluates for MIS (`Emitter::escape`).
+/// `skew` maps the sampler's 2D numbers (the identity for the real sampler).
+fn environment_p_value(e: &Emitter, seed: u64, skew: fn([f32; 2]) -> [f32; 2]) -> f64 {
+    let integrals = pdf_cell_integrals(&|w| e.escape(1.0, Vec3::ZERO, w).1 as f64);
+    let total: f64 = integrals.iter().sum();
+    assert!((total - 1.0).abs() < 1e-3, "the pdf integrates to {total}");
+    chi2_of_samples(integrals, seed, &mut |rng| {
+        let u1 = rng.next_f32();
+        let u2 = skew(rng.next_2d());
+        e.sample(&[], Vec3::ZERO, 1.0, u1, u2).map(|ls| ls.wi)
+    })
+}
+
+#[test]
+fn environment_samples_follow_the_escape_pdf() {
+    let mut cases = 0;
+    for (i, (name, e)) in infinite_emitters().into_iter().enumerate() {
+        if !e.is_environment() {
+            continue;
+        }
+        let p = environment_p_value(&e, 500 + i as u64, |u| u);
+        assert!(p > LEVEL, "{name}: chi-square p = {p:.3e}");
+        eprintln!("{name}: chi-square p = {p:.3}");
+        cases += 1;
+        // Squaring one number crowds the samples towards one end: must fail.
+        let p = environment_p_value(&e, 600 + i as u64, |[a, b]| [a, b * b]);
+        assert!(p < LEVEL, "{name}: skewed sampling passed, p = {p:.3e}");
+    }
+    assert_eq!(cases, ENVIRONMENT_CASES);
+    // MIS compensation changes the density, and it still matches its samples; a sampler
+    // drawing with the uncompensated table against the compensated pdf is rejected.
+    let sphere = SceneSphere::default();
+    let comp = Emitter::Envmap {
+        map: Arc::new(test_envmap(true)),
+        sphere,
+    };
+    let plain = Emitter::Envmap {
+        map: Arc::new(test_envmap(false)),
+        sphere,
+    };
+    let d = Vec3::new(0.1, 0.9, -0.3).normalize();
+    assert_ne!(
+        comp.escape(1.0, Vec3::ZERO, d).1,
+        plain.escape(1.0, Vec3::ZERO, d).1
+    );
+    let integrals = pdf_cell_integrals(&|w| comp.escape(1.0, Vec3::ZERO, w).1 as f64);
+    let p = chi2_of_samples(integrals, 700, &mut |rng| {
+        let (u1, u2) = (rng.next_f32(), rng.next_2d());
+        plain.sample(&[], Vec3::ZERO, 1.0, u1, u2).map(|ls| ls.wi)
+    });
+    assert!(p < LEVEL, "wrong table passed, p = {p:.3e}");
+}
+
+#[test]
+fn infinite_light_samples_carry_the_pdf_and_radiance_of_an_escaping_ray() {
+    let select_pdf = 0.25;
+    let refs = [
+        Vec3::new(0.0, -0.5, 0.0),
+        Vec3::new(1.2, 0.3, -0.9),
+        // Outside the bounding sphere (a camera): the distance grows with it.
+        Vec3::new(0.0, 0.0, 8.0),
+    ];
+    let mut rng = Pcg32::new(33, 0);
+    for (name, e) in infinite_emitters() {
+        let (center, radius) = match &e {
+            Emitter::Envmap { sphere, .. }
+            | Emitter::Constant { sphere, .. }
+            | Emitter::Directional { sphere, .. } => (sphere.center, sphere.radius),
+            _ => unreachable!(),
+        };
+        for x in refs {
+            let want_dist = 2.0 * radius.max((x - center).length());
+            let mut n = 0;
+            for _ in 0..2000 {
+                let Some(ls) = e.sample(&[], x, select_pdf, rng.next_f32(), rng.next_2d()) else {
+                    continue;
+                };
+                n += 1;
+                assert!((ls.wi.length() - 1.0).abs() < 1e-5, "{name}");
+                assert_eq!(ls.dist, want_dist, "{name}");
+                assert!(
+                    (ls.p - (x + ls.wi * ls.dist)).length() < 1e-5 * ls.dist,
+                    "{name}"
+                );
+                let (li, pdf, dist) = e.escape(select_pdf, x, ls.wi);
+                if let Emitter::Directional {
+                    direction,
+                    irradiance,
+                    ..
+                } = &e
+                {
+                    assert!(ls.delta && ls.pdf == select_pdf, "{name}");
+                    assert_eq!((ls.wi, ls.li), (-*direction, *irradiance));
+                    // Never met by a ray.
+                    assert_eq!((li, pdf), (Rgb::ZERO, 0.0));
+                } else {
+                    assert!(!ls.delta && ls.pdf > 0.0, "{name}");
+                    assert_eq!(ls.pdf, pdf, "{name}: sampled pdf vs MIS pdf");
+                    assert_eq!(ls.li, li, "{name}: sampled radiance vs escape radiance");
+                    assert_eq!(ls.dist, dist, "{name}");
+                }
+            }
+            assert!(n > 1900, "{name}: only {n} samples");
+        }
     }
 }

@@ -415,7 +415,7 @@ fn check_lists_every_unsupported_feature_with_its_line() {
     let d = d.path();
     write(d, "tri.ply", TRI_PLY);
     let body = format!(
-        "{SHAPES}\n<emitter type=\"envmap\"/>\n<bsdf type=\"principled\" id=\"p\"/>\n<medium type=\"homogeneous\" id=\"fog\"/>\n"
+        "{SHAPES}\n<emitter type=\"sunsky\"/>\n<bsdf type=\"principled\" id=\"p\"/>\n<medium type=\"homogeneous\" id=\"fog\"/>\n"
     );
     write(d, "s.xml", &scene(FOV, &body));
     let Verdict::Unsupported(found) = check(&d.join("s.xml"), &[]) else {
@@ -424,7 +424,7 @@ fn check_lists_every_unsupported_feature_with_its_line() {
     let text: Vec<String> = found.iter().map(|f| f.to_string()).collect();
     assert_eq!(found.len(), 3, "{text:?}");
     assert!(
-        text[0].contains("envmap")
+        text[0].contains("sunsky")
             && text[1].contains("principled")
             && text[2].contains("<medium>"),
         "{text:?}"

@@ -1,4 +1,5 @@
-//! Emitters: area lights on shapes and point lights. The light pulse is a delta at
+//! Emitters: area lights on shapes, point and spot lights, and infinitely distant
+//! lights (environment map, constant, directional). The light pulse is a delta at
 //! t = 0 at every emitter (SPEC 2).
 //!
 //! `area` (nested in a `<shape>`): | radiance | rgb/float | required | emitted radiance, front side only |
@@ -17,6 +18,21 @@
 //!
 //! `projector` (top level, Mitsuba 3's): a delta-position light projecting a texture
 //! through a perspective frustum (`projector.rs`).
+//!
+//! Infinitely distant emitters (top level; at most one `envmap` or `constant` per
+//! scene, as Mitsuba's single environment emitter; any number of `directional`):
+//!
+//! `envmap`: see `envmap.rs`.
+//!
+//! `constant`: | radiance | rgb/float/spectrum | 1 | radiance arriving from every direction |
+//! Light samples are uniform on the sphere (Mitsuba's `square_to_uniform_sphere`).
+//!
+//! `directional`: | irradiance | rgb/float/spectrum | 1 | irradiance on a surface facing the light |
+//! | direction | vector | — | the direction the light travels, or `to_world` (its local +z) |
+//! A delta in direction: reached by next-event estimation only, never by a ray.
+//!
+//! All three lie at distance `2 max(R, |x - c|)` from a reference point `x`
+//! (`scene_sphere.rs`), for visibility and for time.
 
 pub mod angular_area;
 pub mod projector;
@@ -24,9 +40,17 @@ pub mod projector;
 pub use angular_area::AngularFalloff;
 pub use projector::Projector;
 
+pub mod distribution;
+pub mod envmap;
+pub mod scene_sphere;
+
 use crate::geometry::shape::{AreaSampler, Shape};
+use crate::math::sampling::uniform_sphere;
 use crate::math::Rgb;
+use envmap::EnvMap;
 use glam::Vec3;
+use scene_sphere::SceneSphere;
+use std::sync::Arc;
 
 #[derive(Clone, Debug)]
 pub enum Emitter {
@@ -49,6 +73,23 @@ pub enum Emitter {
         falloff: AngularFalloff,
     },
     Projector(Box<Projector>),
+    /// An environment image (`envmap`).
+    Envmap {
+        map: Arc<EnvMap>,
+        sphere: SceneSphere,
+    },
+    /// Uniform radiance from every direction (`constant`).
+    Constant {
+        radiance: Rgb,
+        sphere: SceneSphere,
+    },
+    /// Parallel light travelling along `direction` (unit), `irradiance` on a surface
+    /// facing it (`directional`).
+    Directional {
+        direction: Vec3,
+        irradiance: Rgb,
+        sphere: SceneSphere,
+    },
 }
 
 /// The cone of a `spot` light.
@@ -81,17 +122,18 @@ impl Spot {
 /// A sampled light connection from a reference point.
 #[derive(Clone, Copy, Debug)]
 pub struct LightSample {
-    /// The point on the light.
+    /// The point on the light (for infinitely distant lights: at `dist` along `wi`).
     pub p: Vec3,
     /// The light's normal there (zero for point lights).
     pub n: Vec3,
     /// Unit direction from the reference point towards the light.
     pub wi: Vec3,
     pub dist: f32,
-    /// Radiance (area) or intensity / dist^2 (point) arriving along -wi.
+    /// Radiance (area, envmap, constant), intensity / dist^2 (point) or irradiance
+    /// (directional) arriving along -wi.
     pub li: Rgb,
-    /// Solid-angle density including the choice of this light (for point lights: the
-    /// choice probability only).
+    /// Solid-angle density including the choice of this light (for point and
+    /// directional lights: the choice probability only).
     pub pdf: f32,
     pub delta: bool,
 }
@@ -160,6 +202,75 @@ impl Emitter {
                     delta: true,
                 })
             }
+            Emitter::Envmap { map, sphere } => {
+                let (wi, li, pdf) = map.sample(u2)?;
+                Some(distant(sphere, x, wi, li, select_pdf * pdf, false))
+            }
+            Emitter::Constant { radiance, sphere } => {
+                let wi = uniform_sphere(u2);
+                let pdf = select_pdf * UNIFORM_SPHERE_PDF;
+                Some(distant(sphere, x, wi, *radiance, pdf, false))
+            }
+            Emitter::Directional {
+                direction,
+                irradiance,
+                sphere,
+            } => Some(distant(
+                sphere,
+                x,
+                -*direction,
+                *irradiance,
+                select_pdf,
+                true,
+            )),
+        }
+    }
+
+    /// Whether this emitter is infinitely distant (`envmap`, `constant`, `directional`).
+    pub fn is_infinite(&self) -> bool {
+        matches!(
+            self,
+            Emitter::Envmap { .. } | Emitter::Constant { .. } | Emitter::Directional { .. }
+        )
+    }
+
+    /// Whether a ray that leaves the scene sees this emitter (`envmap`, `constant`).
+    pub fn is_environment(&self) -> bool {
+        matches!(self, Emitter::Envmap { .. } | Emitter::Constant { .. })
+    }
+
+    /// An environment emitter's radiance arriving along `-d` for a ray leaving the
+    /// scene in unit direction `d`, the solid-angle density (times `select_pdf`) with
+    /// which `sample` picks `d`, and the ray's length to it from origin `o` (as a light
+    /// sample's `dist`). Zero for other emitters.
+    #[inline]
+    pub fn escape(&self, select_pdf: f32, o: Vec3, d: Vec3) -> (Rgb, f32, f32) {
+        match self {
+            Emitter::Envmap { map, sphere } => (
+                map.eval(d),
+                select_pdf * map.pdf(d),
+                sphere.distance_from(o),
+            ),
+            Emitter::Constant { radiance, sphere } => (
+                *radiance,
+                select_pdf * UNIFORM_SPHERE_PDF,
+                sphere.distance_from(o),
+            ),
+            _ => (Rgb::ZERO, 0.0, 0.0),
+        }
+    }
+
+    /// Tells an infinitely distant emitter the scene's bounding sphere (Mitsuba's
+    /// `set_scene`).
+    pub fn set_scene_sphere(&mut self, s: SceneSphere) {
+        match self {
+            Emitter::Envmap { sphere, .. }
+            | Emitter::Constant { sphere, .. }
+            | Emitter::Directional { sphere, .. } => *sphere = s,
+            Emitter::Area { .. }
+            | Emitter::Point { .. }
+            | Emitter::AngularArea { .. }
+            | Emitter::Projector(_) => {}
         }
     }
 
@@ -231,6 +342,24 @@ fn sample_area(
         },
         cos_l,
     ))
+}
+
+/// `1 / (4 pi)`.
+const UNIFORM_SPHERE_PDF: f32 = 1.0 / (4.0 * std::f32::consts::PI);
+
+/// A light sample of an infinitely distant emitter in direction `wi` from `x`.
+#[inline]
+fn distant(sphere: &SceneSphere, x: Vec3, wi: Vec3, li: Rgb, pdf: f32, delta: bool) -> LightSample {
+    let dist = sphere.distance_from(x);
+    LightSample {
+        p: x + wi * dist,
+        n: -wi,
+        wi,
+        dist,
+        li,
+        pdf,
+        delta,
+    }
 }
 
 #[cfg(test)]

@@ -1,6 +1,8 @@
 //! G-buffers for the joint bilateral base filter, averaged over each pixel's samples:
 //! albedo and shading normal at the first non-delta vertex, depth of the first hit, and
-//! the fraction of samples whose first non-delta vertex is a directly seen emitter.
+//! the fraction of samples whose first non-delta vertex is a directly seen emitter (an
+//! area light, or the environment emitter met by a ray that leaves the scene; a sample
+//! that sees the environment has no depth and no normal).
 
 use glam::Vec3;
 

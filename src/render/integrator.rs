@@ -92,6 +92,52 @@ fn perturbed_at(
     b
 }
 
+/// A ray from `o` along unit `d` that left the scene: the environment emitter `env`
+/// seen along it, MIS-weighted against light sampling unless the last vertex was a
+/// delta lobe (camera rays: weight 1, nothing when `hide_emitters`). Its segment counts
+/// `eta * 2 max(R, |o - c|)` of OPL, the distance of a light sample of that emitter
+/// (`lights::scene_sphere`); a camera segment under `camera_unwarp` counts nothing. A
+/// camera path whose first non-delta vertex would be here sees an emitter (G-buffer).
+#[inline(never)]
+#[allow(clippy::too_many_arguments)]
+fn escape(
+    scene: &Scene,
+    env: u32,
+    o: Vec3,
+    d: Vec3,
+    depth: u32,
+    opl: f64,
+    eta: f32,
+    beta: Rgb,
+    prev_delta: bool,
+    prev_pdf: f32,
+    deposits: &mut PathDeposits,
+    tally: &mut PathTally,
+    g: &mut GSample,
+    g_pending: bool,
+) {
+    let settings = &scene.integrator;
+    if depth == 0 && settings.hide_emitters {
+        return;
+    }
+    if g_pending {
+        g.emitter = true;
+    }
+    let select_pdf = 1.0 / scene.emitters.len() as f32;
+    let (radiance, light_pdf, dist) = scene.emitters[env as usize].escape(select_pdf, o, d);
+    let w = if prev_delta {
+        1.0
+    } else {
+        power_heuristic(prev_pdf, light_pdf)
+    };
+    let segment = if depth == 0 && settings.camera_unwarp {
+        0.0
+    } else {
+        eta as f64 * dist as f64
+    };
+    contribute(scene, deposits, tally, opl + segment, beta * radiance * w);
+}
+
 /// Traces one camera path from the pinhole along unit direction `d`, with the tracer
 /// compiled for the instruction set `cpu::current()` chose (same bits at every level).
 #[inline]
@@ -212,6 +258,13 @@ unsafe fn trace_path_body<const ISA: u8>(
                 .intersect_with::<ISA>(&scene.shapes, o, d, f32::INFINITY)
         };
         let Some(hit) = hit else {
+            // Only scenes with an environment emitter take this branch.
+            if let Some(env) = scene.environment {
+                escape(
+                    scene, env, o, d, depth, opl, eta, beta, prev_delta, prev_pdf, deposits, tally,
+                    &mut g, g_pending,
+                );
+            }
             break;
         };
         let segment = if depth == 0 && settings.camera_unwarp {

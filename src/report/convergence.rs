@@ -483,6 +483,23 @@ fn hash_loaded_scene(h: &mut Sha256, scene: &Scene, overrides: &Overrides) {
             }
             // Its texture's texels are in its Debug text.
             Emitter::Projector(p) => h.update(format!("{p:?}").as_bytes()),
+            Emitter::Envmap { map, .. } => {
+                h.update(b"envmap");
+                f32s(h, &map.key_values().collect::<Vec<_>>());
+            }
+            Emitter::Constant { radiance, .. } => {
+                h.update(b"constant");
+                f32s(h, &radiance.to_array());
+            }
+            Emitter::Directional {
+                direction,
+                irradiance,
+                ..
+            } => {
+                h.update(b"directional");
+                f32s(h, &direction.to_array());
+                f32s(h, &irradiance.to_array());
+            }
         }
     }
 }

@@ -56,7 +56,16 @@ pub const SUPPORTED: &[(&str, &[&str])] = &[
     ("texture", &["bitmap", "checkerboard"]),
     (
         "emitter",
-        &["area", "angulararea", "point", "spot", "projector"],
+        &[
+            "area",
+            "angulararea",
+            "point",
+            "spot",
+            "projector",
+            "envmap",
+            "constant",
+            "directional",
+        ],
     ),
     ("sensor", &["perspective", "thinlens", "orthographic"]),
     ("film", &["transient_hdr_film"]),

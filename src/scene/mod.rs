@@ -7,6 +7,7 @@ pub mod camera;
 pub mod check;
 pub mod error;
 pub mod film;
+pub mod infinite_emitters;
 pub mod instance;
 pub mod limits;
 pub mod mesh;
@@ -85,6 +86,9 @@ pub struct Scene {
     pub bsdfs: Vec<Material>,
     pub shapes: Vec<Shape>,
     pub emitters: Vec<Emitter>,
+    /// The environment emitter (`envmap` or `constant`), the one a ray leaving the
+    /// scene sees; `None` in scenes without one, where escaping rays end the path.
+    pub environment: Option<u32>,
     pub accel: Accel,
     /// Legal but suspicious input (an emitter that contributes nothing, a shape with no
     /// area), one line each as `file:line: <element>: message`. The caller prints them

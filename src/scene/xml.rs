@@ -3,12 +3,14 @@
 use super::camera::{Camera, FovAxis};
 use super::error::SceneError;
 use super::film::Film;
+use super::infinite_emitters;
 use super::limits;
 use super::props::{Ctx, Props, OBJECT_TAGS};
 use super::shapes::{check_world_point, parse_geometry, MAX_COORDINATE};
 use super::{IntegratorSettings, Overrides, Scene};
 use crate::geometry::accel::Accel;
 use crate::geometry::shape::{AreaSampler, Shape};
+use crate::lights::scene_sphere::SceneSphere;
 use crate::lights::{AngularFalloff, Emitter};
 use crate::materials::parse::{parse_bsdf, resolve_bsdf, Named};
 use crate::materials::{Bsdf, Diffuse, Material};
@@ -145,11 +147,22 @@ pub fn load(path: &Path, overrides: &Overrides) -> Result<Scene, SceneError> {
     let Objects {
         bsdfs,
         shapes,
-        emitters,
+        mut emitters,
         sensor,
         integrator,
         ..
     } = objects;
+    // Infinitely distant emitters learn the scene's bounding sphere (Mitsuba's set_scene).
+    let environment = emitters
+        .iter()
+        .position(|e| e.is_environment())
+        .map(|i| i as u32);
+    if emitters.iter().any(|e| e.is_infinite()) {
+        let sphere = SceneSphere::of_shapes(&shapes);
+        for e in &mut emitters {
+            e.set_scene_sphere(sphere);
+        }
+    }
 
     check_extent(&ctx, root, &shapes)?;
     let s = sensor.ok_or_else(|| ctx.err(root, "the scene has no <sensor>"))?;
@@ -258,6 +271,7 @@ pub fn load(path: &Path, overrides: &Overrides) -> Result<Scene, SceneError> {
         bsdfs,
         shapes,
         emitters,
+        environment,
         accel,
         warnings: ctx.take_warnings(),
         mesh_files: ctx.take_mesh_files(),
@@ -551,7 +565,21 @@ fn walk(ctx: &Ctx, root: Node, o: &mut Objects, depth: usize) -> Result<(), Scen
             "emitter" if ctx.attr(node, "type")?.as_deref() == Some("projector") => o
                 .emitters
                 .push(super::projector::parse_projector(ctx, node, &o.named_textures)?),
-            "emitter" => o.emitters.push(parse_point_emitter(ctx, node)?),
+            "emitter" => {
+                let kind = ctx.required_attr(node, "type")?;
+                if infinite_emitters::KINDS.contains(&kind.as_str()) {
+                    let e = infinite_emitters::parse_infinite_emitter(ctx, node, &kind)?;
+                    if e.is_environment() && o.emitters.iter().any(|e| e.is_environment()) {
+                        return Err(ctx.err(
+                            node,
+                            "a scene has at most one environment emitter (envmap or constant), as in Mitsuba",
+                        ));
+                    }
+                    o.emitters.push(e);
+                } else {
+                    o.emitters.push(parse_point_emitter(ctx, node)?);
+                }
+            }
             "sampler" => {
                 let Some(id) = ctx.attr(node, "id")? else {
                     return Err(ctx.err(node, "a top-level <sampler> needs an id (a sensor attaches it with <ref id=...>)"));
@@ -1192,7 +1220,7 @@ fn parse_point_emitter(ctx: &Ctx, node: Node) -> Result<Emitter, SceneError> {
     if kind != "point" && kind != "spot" {
         return Err(ctx.err(
             node,
-            format!("emitter '{kind}' is not supported at top level (supported: point, spot, projector; area lights go inside a <shape> or are attached by <ref>)"),
+            format!("emitter '{kind}' is not supported at top level (supported: point, spot, projector, envmap, constant, directional; area lights go inside a <shape> or are attached by <ref>)"),
         ));
     }
     let mut p = Props::parse(ctx, node)?;
