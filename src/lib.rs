@@ -11,6 +11,7 @@ pub mod geometry;
 pub mod io;
 pub mod lights;
 pub mod materials;
+pub mod media;
 pub mod math;
 pub mod render;
 pub mod report;

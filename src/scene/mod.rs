@@ -25,8 +25,8 @@ pub use error::SceneError;
 use film::Film;
 use std::path::{Path, PathBuf};
 
-/// `transient_path` (mitransient's name; `transient_prbvolpath` is accepted as the same
-/// integrator for scenes without media).
+/// `transient_path` (surfaces only) and `transient_prbvolpath` (participating media,
+/// `render/volpath.rs`), mitransient's names; both take these parameters.
 ///
 /// | parameter | type | default | meaning |
 /// |-----------|------|---------|---------|
@@ -40,6 +40,9 @@ pub struct IntegratorSettings {
     pub rr_depth: u32,
     pub hide_emitters: bool,
     pub camera_unwarp: bool,
+    /// `transient_prbvolpath`: the volumetric path tracer (media, null boundaries
+    /// transparent to shadow rays).
+    pub volumetric: bool,
 }
 
 impl Default for IntegratorSettings {
@@ -49,6 +52,7 @@ impl Default for IntegratorSettings {
             rr_depth: 5,
             hide_emitters: false,
             camera_unwarp: false,
+            volumetric: false,
         }
     }
 }
@@ -81,6 +85,10 @@ pub struct Scene {
     pub bsdfs: Vec<Material>,
     pub shapes: Vec<Shape>,
     pub emitters: Vec<Emitter>,
+    /// Participating media (shapes' `interior` / `exterior` and `camera_medium` index it).
+    pub media: Vec<crate::media::Medium>,
+    /// The medium the camera sits in.
+    pub camera_medium: Option<u32>,
     pub accel: Accel,
     /// Legal but suspicious input (an emitter that contributes nothing, a shape with no
     /// area), one line each as `file:line: <element>: message`. The caller prints them
