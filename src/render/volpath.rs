@@ -20,15 +20,19 @@
 //! of refraction of their own; `eta` is the product of the relative IORs crossed at
 //! dielectric boundaries, as in `integrator.rs`).
 //!
-//! Free-flight sampling in RGB (differs from Mitsuba, same expectation): Mitsuba picks
-//! one channel per path and samples `t` from that channel's `sigma_t`, weighting by
-//! `Tr(t) sigma_s / p_c(t)`. Here each free flight picks a channel `c` uniformly and
-//! weights by the one-sample MIS (balance heuristic) density `p(t) = mean_c p_c(t)`,
-//! with `p_c(t) = sigma_t,c exp(-sigma_t,c t)` for a scattering and
-//! `exp(-sigma_t,c s_surf)` for reaching the surface. Both are unbiased for every
-//! channel; for a grey medium the two are the same estimator, and for a coloured one
-//! this one has bounded weights where Mitsuba's can blow up. Media are homogeneous, so
-//! no null-collision (ratio) tracking is needed.
+//! Free-flight sampling in RGB (differs from Mitsuba's `volpath`, same expectation):
+//! both pick one channel h per path, uniformly, and sample every free flight from
+//! `sigma_t,h`. Mitsuba weights channel k by the ratio of its free-flight terms to
+//! channel h's densities, a product over the path that is unbounded (and heavy-tailed)
+//! when the channels' extinctions differ. Here the path is weighted by the balance
+//! heuristic over the three channels' path densities (spectral MIS, as Mitsuba's
+//! `volpathmis`): with `f_k` the product of channel k's free-flight terms
+//! (`Tr_k(t) sigma_s,k` per scattering, `Tr_k(s)` per surface reached) and `p_c` the
+//! product of the densities had channel c been sampled (`sigma_t,c Tr_c(t)`, `Tr_c(s)`),
+//! channel k weighs `f_k / mean_c p_c` (at most `3 prod albedo_k`). Both estimators are
+//! unbiased for every channel; for a grey medium they are the same. The products are
+//! kept relative to `p_h` in f64. Media are homogeneous, so no null-collision (ratio)
+//! tracking is needed.
 //!
 //! G-buffer: as `integrator.rs`, looking through `null` interfaces; a camera path whose
 //! first real interaction is a medium scattering records the medium's albedo, a zero
@@ -47,7 +51,7 @@ use crate::math::sampling::power_heuristic;
 use crate::math::Rgb;
 use crate::media::Medium;
 use crate::scene::Scene;
-use glam::Vec3;
+use glam::{DVec3, Vec3};
 
 /// Shadow rays cross at most this many `null` interfaces (then count as blocked), and a
 /// path at most this many in a row: a guard against rays stuck on a surface.
@@ -118,40 +122,75 @@ fn is_null(scene: &Scene, shape: &Shape) -> bool {
     matches!(scene.bsdfs[shape.bsdf as usize].bsdf, Bsdf::Null(_))
 }
 
-/// Result of a free flight through a homogeneous medium towards a surface at `s_surf`.
-enum Flight {
-    /// A real scattering at distance `t`, with the path weight's factor.
-    Scatter { t: f32, weight: Rgb },
-    /// The surface was reached, with the path weight's factor.
-    Surface { weight: Rgb },
+/// The spectral MIS state of a path (see the module documentation): channel `h`
+/// samples the free flights; `f` and `p` are the products of every channel's
+/// free-flight terms and densities, both divided by channel h's densities.
+struct Spectral {
+    h: usize,
+    f: DVec3,
+    p: DVec3,
 }
 
-/// Samples a free-flight distance (spectral MIS over the channels, see the module
-/// documentation) with uniforms `u_c` (channel) and `u` (distance).
+impl Spectral {
+    fn new(u: f32) -> Self {
+        Spectral {
+            h: ((u * 3.0) as usize).min(2),
+            f: DVec3::ONE,
+            p: DVec3::ONE,
+        }
+    }
+
+    /// The factor channel k's throughput carries: `f_k / mean_c p_c`.
+    #[inline(always)]
+    fn weight(&self) -> Rgb {
+        let mean = self.p.element_sum() / 3.0;
+        if mean > 0.0 && mean.is_finite() {
+            (self.f / mean).as_vec3()
+        } else {
+            Rgb::ZERO
+        }
+    }
+
+    /// Folds in one event with per-channel terms `f` and densities `p`.
+    #[inline(always)]
+    fn update(&mut self, f: Rgb, p: Rgb) {
+        let ph = p[self.h] as f64;
+        if ph > 0.0 {
+            self.f *= f.as_dvec3() / ph;
+            self.p *= p.as_dvec3() / ph;
+        } else {
+            self.f = DVec3::ZERO;
+        }
+    }
+}
+
+/// Result of a free flight through a homogeneous medium towards a surface at `s_surf`.
+enum Flight {
+    /// A real scattering at distance `t`.
+    Scatter { t: f32 },
+    /// The surface was reached.
+    Surface,
+}
+
+/// Samples a free-flight distance from channel `spec.h`'s extinction with the uniform
+/// `u`, and folds the event into `spec`.
 #[inline(always)]
-fn free_flight(m: &Medium, s_surf: f32, u_c: f32, u: f32) -> Flight {
+fn free_flight(m: &Medium, s_surf: f32, u: f32, spec: &mut Spectral) -> Flight {
     let st = m.sigma_t;
-    let c = ((u_c * 3.0) as usize).min(2);
-    let sc = st[c];
-    let t = if sc > 0.0 {
-        -(1.0 - u).ln() / sc
+    let sh = st[spec.h];
+    let t = if sh > 0.0 {
+        -(1.0 - u).ln() / sh
     } else {
         f32::INFINITY
     };
     if t < s_surf {
         let tr = (-st * t).exp();
-        let pdf = (st * tr).element_sum() / 3.0;
-        let weight = if pdf > 0.0 {
-            tr * m.sigma_s() / pdf
-        } else {
-            Rgb::ZERO
-        };
-        Flight::Scatter { t, weight }
+        spec.update(tr * m.sigma_s(), st * tr);
+        Flight::Scatter { t }
     } else {
         let tr = m.transmittance(s_surf);
-        let pdf = tr.element_sum() / 3.0;
-        let weight = if pdf > 0.0 { tr / pdf } else { Rgb::ZERO };
-        Flight::Surface { weight }
+        spec.update(tr, tr);
+        Flight::Surface
     }
 }
 
@@ -263,6 +302,10 @@ unsafe fn trace_body<const ISA: u8>(
     } else {
         0.0f64
     };
+    // The throughput is `common * spec.weight()`: `common` holds the BSDF and phase
+    // weights and Russian roulette, `spec` the free flights (spectral MIS).
+    let mut spec = Spectral::new(rng.next_f32());
+    let mut common = Rgb::ONE;
     let mut beta = Rgb::ONE;
     let mut eta = 1.0f32;
     let mut depth: u32 = 0;
@@ -279,6 +322,7 @@ unsafe fn trace_body<const ISA: u8>(
             if u_rr >= q {
                 break;
             }
+            common /= q;
             beta /= q;
         }
         if depth >= max_depth || beta == Rgb::ZERO || beta.max_element().is_nan() {
@@ -297,11 +341,11 @@ unsafe fn trace_body<const ISA: u8>(
         // ---- Medium: free flight, and a real scattering before the surface. ----
         if let Some(mi) = medium {
             let m = &scene.media[mi as usize];
-            let u_c = rng.next_f32();
             let u_t = rng.next_f32();
-            match free_flight(m, s_surf, u_c, u_t) {
-                Flight::Scatter { t, weight } => {
-                    beta *= weight;
+            let flight = free_flight(m, s_surf, u_t, &mut spec);
+            beta = common * spec.weight();
+            match flight {
+                Flight::Scatter { t } => {
                     let p = o + d * t;
                     opl += eta as f64 * t as f64;
                     if depth == 0 && g.depth.is_none() {
@@ -367,7 +411,7 @@ unsafe fn trace_body<const ISA: u8>(
                     d = ps.wo;
                     continue;
                 }
-                Flight::Surface { weight } => beta *= weight,
+                Flight::Surface => {}
             }
         }
 
@@ -517,7 +561,8 @@ unsafe fn trace_body<const ISA: u8>(
         if let Some(s) = delaying {
             opl += s.sample_delay(rng.next_f32()) as f64;
         }
-        beta *= bs.weight;
+        common *= bs.weight;
+        beta = common * spec.weight();
         eta *= bs.eta;
         if null {
             nulls_in_a_row += 1;

@@ -914,11 +914,7 @@ fn parse_shape(
         let slot_name = ctx.attr(obj, "name")?;
         match obj.tag_name().name() {
             // Media: `<medium name="interior|exterior">` or `<ref name=... id=...>`.
-            "medium" | "ref"
-                if matches!(slot_name.as_deref(), Some("interior" | "exterior"))
-                    && (obj.has_tag_name("medium")
-                        || named_media.contains_key(&ctx.required_attr(obj, "id")?)) =>
-            {
+            "medium" | "ref" if matches!(slot_name.as_deref(), Some("interior" | "exterior")) => {
                 let slot = if slot_name.as_deref() == Some("interior") {
                     &mut interior
                 } else {
