@@ -165,7 +165,10 @@ fn a_non_absorbing_medium_in_a_uniform_emitter_loses_no_energy() {
     // Grey: every scattering weighs exactly albedo = 1, so only light sampling and MIS
     // add noise and the check is tight. Chromatic: the spectral MIS weights of the free
     // flights add much more.
-    for (sigma_t, spp, max_se, seed) in [("2, 2, 2", "128", 0.003, 7u64), ("1, 2, 4", "256", 0.006, 8)] {
+    for (sigma_t, spp, max_se, seed) in [
+        ("2, 2, 2", "128", 0.003, 7u64),
+        ("1, 2, 4", "256", 0.006, 8),
+    ] {
         let xml = FURNACE.replace("SIGMA_T", sigma_t).replace("SPP", spp);
         let scene = load(&xml, &Overrides::default());
         let out = run(&scene, seed);
@@ -173,8 +176,7 @@ fn a_non_absorbing_medium_in_a_uniform_emitter_loses_no_energy() {
         for c in 0..3 {
             let v: Vec<f64> = (0..pixels).map(|p| out.steady[p * 3 + c]).collect();
             let mean = v.iter().sum::<f64>() / pixels as f64;
-            let var =
-                v.iter().map(|x| (x - mean) * (x - mean)).sum::<f64>() / (pixels - 1) as f64;
+            let var = v.iter().map(|x| (x - mean) * (x - mean)).sum::<f64>() / (pixels - 1) as f64;
             let se = (var / pixels as f64).sqrt();
             eprintln!("sigma_t {sigma_t} channel {c}: {mean:.5} (se {se:.5})");
             assert!(
@@ -200,11 +202,16 @@ fn a_non_absorbing_medium_in_a_uniform_emitter_loses_no_energy() {
         .sum();
     let frac = out.gbuffer.iter().map(|g| g.medium as f64).sum::<f64>() / pixels as f64;
     let se = (want * (1.0 - want) / (pixels as f64 * scene.spp as f64)).sqrt();
-    assert!((frac - want).abs() < 4.5 * se, "medium fraction {frac} vs {want}");
+    assert!(
+        (frac - want).abs() < 4.5 * se,
+        "medium fraction {frac} vs {want}"
+    );
 }
 
 fn scene_file(name: &str) -> std::path::PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes").join(name)
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("scenes")
+        .join(name)
 }
 
 /// Per-bin image totals of a render and their variances (pixels are independent).
@@ -292,7 +299,10 @@ fn a_dense_fog_changes_the_render_and_records_where_paths_scatter_first() {
         .map(|p| out.gbuffer[p].medium as f64)
         .sum::<f64>()
         / 16.0;
-    assert!(medium > 0.5 && centre > 0.9, "medium fraction {medium}, centre {centre}");
+    assert!(
+        medium > 0.5 && centre > 0.9,
+        "medium fraction {medium}, centre {centre}"
+    );
     let clear = Scene::load(
         &scene_file("cbox.xml"),
         &Overrides {
@@ -313,7 +323,10 @@ fn transient_path_refuses_scenes_with_media() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("s.xml");
     std::fs::write(&path, text).unwrap();
-    let e = Scene::load(&path, &Overrides::default()).err().unwrap().to_string();
+    let e = Scene::load(&path, &Overrides::default())
+        .err()
+        .unwrap()
+        .to_string();
     assert!(
         e.contains("<medium") && e.contains("transient_prbvolpath") && !e.contains('\n'),
         "{e}"

@@ -58,14 +58,18 @@ pub fn parse_medium(ctx: &Ctx, node: Node) -> Result<Medium, SceneError> {
         }
         (Some(a), Some(s)) => {
             if sigma_t.is_some() || albedo.is_some() {
-                return Err(p.err(
-                    "give either sigma_t and albedo, or sigma_a and sigma_s, not both",
-                ));
+                return Err(
+                    p.err("give either sigma_t and albedo, or sigma_a and sigma_s, not both")
+                );
             }
             nonneg(&p, "sigma_a", a)?;
             nonneg(&p, "sigma_s", s)?;
             let st = (a + s) * scale as f32;
-            let al = glam::Vec3::select((a + s).cmpgt(glam::Vec3::ZERO), s / (a + s), glam::Vec3::ZERO);
+            let al = glam::Vec3::select(
+                (a + s).cmpgt(glam::Vec3::ZERO),
+                s / (a + s),
+                glam::Vec3::ZERO,
+            );
             (st, al)
         }
         (Some(_), None) => return Err(p.err_at("sigma_a", "sigma_a needs sigma_s")),

@@ -102,7 +102,11 @@ mod tests {
     #[test]
     fn sampled_pdf_is_the_value() {
         let wi = Vec3::new(0.3, -0.5, 0.8).normalize();
-        for phase in [Phase::Isotropic, Phase::Hg { g: 0.6 }, Phase::Hg { g: -0.4 }] {
+        for phase in [
+            Phase::Isotropic,
+            Phase::Hg { g: 0.6 },
+            Phase::Hg { g: -0.4 },
+        ] {
             for k in 0..50 {
                 let u = [(k as f32 + 0.3) / 50.0, (k as f32 * 0.37) % 1.0];
                 let s = phase.sample(wi, u);

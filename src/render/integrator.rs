@@ -27,7 +27,13 @@ pub struct PathTally {
 
 /// Adds a contribution `c` arriving at OPL `opl` to the path's deposits.
 #[inline(always)]
-pub(super) fn contribute(scene: &Scene, deposits: &mut PathDeposits, tally: &mut PathTally, opl: f64, c: Rgb) {
+pub(super) fn contribute(
+    scene: &Scene,
+    deposits: &mut PathDeposits,
+    tally: &mut PathTally,
+    opl: f64,
+    c: Rgb,
+) {
     if !c.is_finite() {
         tally.dropped_nonfinite += 1;
         return;

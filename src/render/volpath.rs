@@ -218,11 +218,7 @@ unsafe fn transmittance<const ISA: u8>(
         }
         tally.rays += 1;
         // SAFETY: the caller guarantees ISA.
-        let hit = unsafe {
-            scene
-                .accel
-                .intersect_with::<ISA>(&scene.shapes, o, d, tmax)
-        };
+        let hit = unsafe { scene.accel.intersect_with::<ISA>(&scene.shapes, o, d, tmax) };
         let seg = hit.as_ref().map_or(tmax, |h| h.t);
         if let Some(m) = medium {
             tr *= scene.media[m as usize].transmittance(seg);

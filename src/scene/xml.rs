@@ -12,9 +12,9 @@ use crate::geometry::shape::{AreaSampler, Shape, ShapeGeom};
 use crate::lights::Emitter;
 use crate::materials::parse::{parse_bsdf, resolve_bsdf, Named};
 use crate::materials::{Bsdf, Diffuse, Material};
+use crate::math::Rgb;
 use crate::media::parse::parse_medium;
 use crate::media::Medium;
-use crate::math::Rgb;
 use crate::scene::textures::{parse_texture, NamedTextures};
 use glam::{DMat4, DVec3, Vec3};
 use roxmltree::Node;
@@ -747,10 +747,12 @@ fn medium_index(
         return Ok((media.len() - 1) as u32);
     }
     let id = ctx.required_attr(obj, "id")?;
-    named_media
-        .get(&id)
-        .copied()
-        .ok_or_else(|| ctx.err(obj, format!("no <medium> with id '{id}' is declared before this reference")))
+    named_media.get(&id).copied().ok_or_else(|| {
+        ctx.err(
+            obj,
+            format!("no <medium> with id '{id}' is declared before this reference"),
+        )
+    })
 }
 
 /// The volumetric integrator treats `null` surfaces as medium boundaries; `mask`
