@@ -332,3 +332,64 @@ fn transient_path_refuses_scenes_with_media() {
         "{e}"
     );
 }
+
+#[test]
+fn bundles_of_media_scenes_record_them_and_merge_the_medium_fraction() {
+    use std::process::Command;
+    let dir = tempfile::tempdir().unwrap();
+    let bin = env!("CARGO_BIN_EXE_tstat");
+    let scene = scene_file("cbox_fog.xml");
+    for seed in ["1", "2"] {
+        let out = dir.path().join(format!("s{seed}.tstats"));
+        let r = Command::new(bin)
+            .args([
+                "render",
+                scene.to_str().unwrap(),
+                "--out",
+                out.to_str().unwrap(),
+            ])
+            .args(["--spp", "4", "--width", "6", "--bins", "8", "--seed", seed])
+            .output()
+            .unwrap();
+        assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    }
+    let merged = dir.path().join("m.tstats");
+    let r = Command::new(bin)
+        .args(["merge"])
+        .args([dir.path().join("s1.tstats"), dir.path().join("s2.tstats")])
+        .args(["--out".as_ref(), merged.as_os_str()])
+        .output()
+        .unwrap();
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let open = |p: &Path| tstat::bundle::Bundle::open(p).unwrap();
+    let (a, b, m) = (
+        open(&dir.path().join("s1.tstats")),
+        open(&dir.path().join("s2.tstats")),
+        open(&merged),
+    );
+    assert!(a.manifest.media && m.manifest.media);
+    let (fa, fb, fm) = (
+        a.medium().unwrap().unwrap(),
+        b.medium().unwrap().unwrap(),
+        m.medium().unwrap().unwrap(),
+    );
+    assert_eq!(fa.dim(), (6, 6));
+    assert!(fa.iter().any(|&v| v > 0.0) && fa.iter().all(|&v| (0.0..=1.0).contains(&v)));
+    for ((x, y), z) in fa.iter().zip(&fb).zip(&fm) {
+        assert!((0.5 * (x + y) - z).abs() < 1e-6);
+    }
+    // A surface-only scene's bundle has neither.
+    let plain = dir.path().join("p.tstats");
+    let r = Command::new(bin)
+        .args(["render", scene_file("cbox.xml").to_str().unwrap(), "--out"])
+        .arg(&plain)
+        .args(["--spp", "2", "--width", "4", "--bins", "4"])
+        .output()
+        .unwrap();
+    assert!(r.status.success());
+    let p = open(&plain);
+    assert!(!p.manifest.media && p.medium().unwrap().is_none());
+    assert!(!plain.join("medium.npy").exists());
+    let text = std::fs::read_to_string(plain.join("manifest.json")).unwrap();
+    assert!(!text.contains("\"media\""));
+}
