@@ -13,6 +13,7 @@
 //!   sampling. A `null` surface is an interface, not a vertex: it neither counts
 //!   towards `max_depth` nor changes the MIS state; any shape with `interior` /
 //!   `exterior` switches the current medium to the one the new direction enters.
+//!
 //! Shadow rays pass through `null` surfaces (changing medium there) and are blocked by
 //! every other surface; their transmittance is `exp(-sigma_t s)` per medium segment.
 //!
@@ -399,7 +400,7 @@ unsafe fn trace_body<const ISA: u8>(
                     }
                     // Phase sampling (weight 1).
                     let ps = m.phase.sample(wi, rng.next_2d());
-                    if !(ps.pdf > 0.0) {
+                    if ps.pdf.is_nan() || ps.pdf <= 0.0 {
                         break;
                     }
                     last_pdf = ps.pdf;
