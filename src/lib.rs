@@ -12,6 +12,7 @@ pub mod io;
 pub mod lights;
 pub mod materials;
 pub mod math;
+pub mod media;
 pub mod render;
 pub mod report;
 pub mod scene;

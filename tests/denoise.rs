@@ -1600,6 +1600,7 @@ fn write_bundle(
         bin_width_seconds: b.bin_width / c,
         transform: b.transform,
         pixel_sampling: sampling,
+        media: false,
         seed: 1,
         merged_seeds: Vec::new(),
         scene: SceneRef {

@@ -77,6 +77,13 @@ fn mesh_scene(kind: &str, file: &str) -> File {
     ))
 }
 
+/// A sphere with `params` in a scene rendered by the volumetric integrator.
+fn vol(params: &str) -> File {
+    scene_with(&format!(
+        r#"<integrator type="transient_prbvolpath"/><shape type="sphere"><bsdf type="null"/>{params}</shape>"#
+    ))
+}
+
 fn sphere(params: &str) -> File {
     scene_with(&format!(r#"<shape type="sphere">{params}</shape>"#))
 }
@@ -713,6 +720,106 @@ fn cases() -> Vec<Case> {
             "plastic_reflects_nothing",
             sphere(r#"<bsdf type="plastic"><rgb name="diffuse_reflectance" value="0"/><rgb name="specular_reflectance" value="0"/></bsdf>"#),
             "plastic with zero diffuse and specular reflectance",
+        ),
+        scene_case(
+            "medium_with_transient_path",
+            sphere(r#"<bsdf type="null"/><medium type="homogeneous" name="interior"/>"#),
+            "use <integrator type=\"transient_prbvolpath\">",
+        ),
+        scene_case(
+            "medium_negative_sigma_t",
+            vol(r#"<medium type="homogeneous" name="interior"><float name="sigma_t" value="-1"/></medium>"#),
+            "sigma_t must be finite and >= 0",
+        ),
+        scene_case(
+            "medium_albedo_above_one",
+            vol(r#"<medium type="homogeneous" name="interior"><rgb name="albedo" value="0.5, 1.2, 0.5"/></medium>"#),
+            "albedo must lie in [0, 1]",
+        ),
+        scene_case(
+            "medium_nan_scale",
+            vol(r#"<medium type="homogeneous" name="interior"><float name="scale" value="nan"/></medium>"#),
+            "scale",
+        ),
+        scene_case(
+            "medium_negative_scale",
+            vol(r#"<medium type="homogeneous" name="interior"><float name="scale" value="-2"/></medium>"#),
+            "scale must be finite and >= 0",
+        ),
+        scene_case(
+            "medium_sigma_a_alone",
+            vol(r#"<medium type="homogeneous" name="interior"><float name="sigma_a" value="1"/></medium>"#),
+            "sigma_a needs sigma_s",
+        ),
+        scene_case(
+            "medium_both_parametrisations",
+            vol(r#"<medium type="homogeneous" name="interior"><float name="sigma_a" value="1"/><float name="sigma_s" value="1"/><float name="sigma_t" value="1"/></medium>"#),
+            "not both",
+        ),
+        scene_case(
+            "medium_huge_extinction",
+            vol(r#"<medium type="homogeneous" name="interior"><float name="sigma_t" value="1e30"/></medium>"#),
+            "above 1e7",
+        ),
+        scene_case(
+            "medium_unknown_type",
+            vol(r#"<medium type="heterogeneous" name="interior"/>"#),
+            "medium 'heterogeneous' is not supported",
+        ),
+        scene_case(
+            "medium_without_slot_name",
+            vol(r#"<medium type="homogeneous"/>"#),
+            "needs name=\"interior\" or name=\"exterior\"",
+        ),
+        scene_case(
+            "medium_twice_interior",
+            vol(r#"<medium type="homogeneous" name="interior"/><medium type="homogeneous" name="interior"/>"#),
+            "a shape has one interior medium",
+        ),
+        scene_case(
+            "medium_unknown_parameter",
+            vol(r#"<medium type="homogeneous" name="interior"><float name="density" value="1"/></medium>"#),
+            "unknown parameter 'density'",
+        ),
+        scene_case(
+            "phase_g_one",
+            vol(r#"<medium type="homogeneous" name="interior"><phase type="hg"><float name="g" value="1"/></phase></medium>"#),
+            "g must lie in (-1, 1)",
+        ),
+        scene_case(
+            "phase_g_nan",
+            vol(r#"<medium type="homogeneous" name="interior"><phase type="hg"><float name="g" value="nan"/></phase></medium>"#),
+            "g",
+        ),
+        scene_case(
+            "phase_unknown",
+            vol(r#"<medium type="homogeneous" name="interior"><phase type="rayleigh"/></medium>"#),
+            "phase function 'rayleigh' is not supported",
+        ),
+        scene_case(
+            "phase_twice",
+            vol(r#"<medium type="homogeneous" name="interior"><phase type="isotropic"/><phase type="isotropic"/></medium>"#),
+            "only a single phase function",
+        ),
+        scene_case(
+            "medium_ref_missing",
+            vol(r#"<ref name="interior" id="nowhere"/>"#),
+            "'nowhere'",
+        ),
+        scene_case(
+            "top_level_medium_without_id",
+            File::Text(BASE.replace("SHAPES", r#"<medium type="homogeneous"/>"#).replace("SENSOR", "")),
+            "a top-level <medium> needs an id",
+        ),
+        scene_case(
+            "sensor_two_media",
+            File::Text(BASE.replace("SHAPES", "<integrator type=\"transient_prbvolpath\"/>").replace("SENSOR", r#"<medium type="homogeneous"/><medium type="homogeneous"/>"#)),
+            "a sensor has at most one medium",
+        ),
+        scene_case(
+            "mask_in_volumetric_scene",
+            scene_with(r#"<integrator type="transient_prbvolpath"/><shape type="sphere"><bsdf type="mask"><bsdf type="diffuse"/></bsdf></shape>"#),
+            "bsdf 'mask' is not supported by transient_prbvolpath",
         ),
         scene_case(
             "twosided_null",

@@ -43,6 +43,7 @@ fn tstat_denoising_beats_the_noisy_render_in_every_region_at_every_spp_and_conve
         pixel_sampling: PixelSampling::Independent,
         denoise: DenoiseParams::default(),
         method_radii: true,
+        base_by_scene: false,
         reference: ReferenceSource::Render { spp: 4096 },
     };
     let r = run_convergence(&cfg, dir.path(), &|m| eprintln!("{m}")).unwrap();
@@ -531,6 +532,7 @@ fn the_reference_cache_key_follows_scene_defaults() {
         pixel_sampling: PixelSampling::Independent,
         denoise: DenoiseParams::default(),
         method_radii: true,
+        base_by_scene: false,
         reference: ReferenceSource::Render { spp: 8 },
     };
     let first = run_convergence(&cfg("10"), dir.path(), &|_| {}).unwrap();
@@ -602,6 +604,7 @@ fn stratified_convergence_adds_the_independent_baseline() {
         pixel_sampling: PixelSampling::Stratified,
         denoise: DenoiseParams::default(),
         method_radii: true,
+        base_by_scene: false,
         reference: ReferenceSource::Render { spp: 2048 },
     };
     let r = run_convergence(&cfg, dir.path(), &|m| eprintln!("{m}")).unwrap();

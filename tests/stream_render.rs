@@ -118,7 +118,7 @@ fn bundle_bytes_are_the_npy_files_plus_room_for_the_manifest() {
             .map(|f| std::fs::metadata(out.join(f)).unwrap().len())
             .sum();
         let manifest = std::fs::metadata(out.join("manifest.json")).unwrap().len();
-        assert_eq!(bundle_bytes(&sc.film, &transform), npy + 65536);
+        assert_eq!(bundle_bytes(&sc.film, &transform, false), npy + 65536);
         assert!(manifest < 65536);
     }
 }

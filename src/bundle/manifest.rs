@@ -107,6 +107,11 @@ pub struct Manifest {
     /// the sums over-estimate the variance of the mean (see `render::pixel_sampling`).
     #[serde(default = "SamplingRecord::legacy")]
     pub pixel_sampling: SamplingRecord,
+    /// The scene has participating media (rendered by `transient_prbvolpath`): the
+    /// bundle then also holds `medium.npy`, and `denoise` defaults to the Gaussian base
+    /// filter. Absent (false) in bundles of surface-only scenes.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub media: bool,
     pub seed: u64,
     /// Seeds of every render summed into this bundle by `tstat merge` (empty otherwise).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]

@@ -13,7 +13,7 @@ use ndarray::{Array2, Array3, Array4, Zip};
 use std::path::{Path, PathBuf};
 
 fn same_settings(a: &Manifest, b: &Manifest) -> Result<(), String> {
-    let checks: [(&str, bool); 10] = [
+    let checks: [(&str, bool); 11] = [
         ("channels", a.channels == b.channels),
         ("scene (SHA-256)", a.scene.sha256 == b.scene.sha256),
         ("width", a.width == b.width),
@@ -24,6 +24,7 @@ fn same_settings(a: &Manifest, b: &Manifest) -> Result<(), String> {
         ("transform", a.transform == b.transform),
         ("max_depth", a.max_depth == b.max_depth),
         ("unit_m", a.unit_m == b.unit_m),
+        ("media", a.media == b.media),
     ];
     match checks.iter().find(|c| !c.1) {
         Some((what, _)) => Err(format!("its {what} differs from the first bundle's")),
@@ -85,6 +86,7 @@ pub fn merge_bundles(inputs: &[PathBuf], out: &Path, force: bool) -> Result<Mani
     let mut normal = Array3::<f64>::zeros((h, w, 3));
     let mut depth = Array2::<f64>::zeros((h, w));
     let mut emitter = Array2::<f64>::zeros((h, w));
+    let mut medium = first.media.then(|| Array2::<f64>::zeros((h, w)));
     for b in &bundles {
         let counts = b.nonzero()?;
         x1 += &b.sum_array(SumArray::X1, &counts)?;
@@ -118,6 +120,9 @@ pub fn merge_bundles(inputs: &[PathBuf], out: &Path, force: bool) -> Result<Mani
         normal.scaled_add(wgt, &b.normal()?.mapv(f64::from));
         depth.scaled_add(wgt, &b.depth()?.mapv(f64::from));
         emitter.scaled_add(wgt, &b.emitter()?.mapv(f64::from));
+        if let (Some(m), Some(bm)) = (medium.as_mut(), b.medium()?) {
+            m.scaled_add(wgt, &bm.mapv(f64::from));
+        }
     }
     for mut n in normal.rows_mut() {
         let len = n.dot(&n).sqrt();
@@ -151,6 +156,9 @@ pub fn merge_bundles(inputs: &[PathBuf], out: &Path, force: bool) -> Result<Mani
         npy(dir, "normal", "<f4", &f32s(normal), arrays)?;
         npy(dir, "depth", "<f4", &depth.mapv(|v| v as f32), arrays)?;
         npy(dir, "emitter", "<f4", &emitter.mapv(|v| v as f32), arrays)?;
+        if let Some(m) = &medium {
+            npy(dir, "medium", "<f4", &m.mapv(|v| v as f32), arrays)?;
+        }
         npy(dir, "steady", "<f8", &steady, arrays)?;
         let json = serde_json::to_string_pretty(&manifest).expect("manifest serialises");
         let mpath = dir.join("manifest.json");

@@ -94,6 +94,9 @@ pub fn required_arrays(m: &Manifest) -> Vec<(&'static str, &'static str, Vec<usi
         ("emitter", f32::DTYPE, vec![h, w]),
         ("steady", f64::DTYPE, vec![h, w, CHANNELS]),
     ]);
+    if m.media {
+        v.push(("medium", f32::DTYPE, vec![h, w]));
+    }
     v
 }
 
@@ -272,6 +275,7 @@ impl Bundle {
         self.normal()?;
         self.depth()?;
         self.emitter()?;
+        self.medium()?;
         self.steady()?;
         Ok(())
     }
@@ -568,6 +572,21 @@ impl Bundle {
             &AXES2,
             (0.0, 1.0 + UNIT_SLACK),
         )
+    }
+    /// Fraction of each pixel's samples whose first real interaction is a scattering in
+    /// a medium; `None` for bundles of scenes without media.
+    pub fn medium(&self) -> Result<Option<Array2<f32>>, BundleError> {
+        let m = &self.manifest;
+        if !m.media {
+            return Ok(None);
+        }
+        self.read_ranged(
+            "medium",
+            [m.height, m.width].into_dimension(),
+            &AXES2,
+            (0.0, 1.0 + UNIT_SLACK),
+        )
+        .map(Some)
     }
     pub fn steady(&self) -> Result<Array3<f64>, BundleError> {
         let m = &self.manifest;

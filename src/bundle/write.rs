@@ -214,6 +214,7 @@ fn manifest(scene: &Scene, meta: &BundleMeta, seconds: f64, dropped_nonfinite: u
         bin_width_seconds: film.bin_width_opl * meta.unit_m / super::manifest::C_M_PER_S,
         transform: meta.transform,
         pixel_sampling: meta.pixel_sampling.into(),
+        media: !scene.media.is_empty(),
         seed: meta.seed,
         merged_seeds: Vec::new(),
         scene: SceneRef {
@@ -237,6 +238,7 @@ fn write_pixel_arrays(
     (h, w): (usize, usize),
     g: &[GPixel],
     steady: Vec<f64>,
+    media: bool,
     arrays: &mut Vec<ArrayInfo>,
 ) -> Result<(), BundleError> {
     let shape_err = |e: ndarray::ShapeError| BundleError::Io(dir.to_path_buf(), e.to_string());
@@ -272,6 +274,16 @@ fn write_pixel_arrays(
         &Array2::from_shape_vec((h, w), emitter).map_err(shape_err)?,
         arrays,
     )?;
+    if media {
+        let medium: Vec<f32> = g.iter().map(|p| p.medium).collect();
+        npy(
+            dir,
+            "medium",
+            "<f4",
+            &Array2::from_shape_vec((h, w), medium).map_err(shape_err)?,
+            arrays,
+        )?;
+    }
     npy(
         dir,
         "steady",
@@ -343,7 +355,8 @@ pub fn write_bundle(
             &Array3::from_shape_vec((h, w, t), acc.nonzero).map_err(shape_err)?,
             arrays,
         )?;
-        write_pixel_arrays(dir, (h, w), &output.gbuffer, output.steady, arrays)?;
+        let media = written.media;
+        write_pixel_arrays(dir, (h, w), &output.gbuffer, output.steady, media, arrays)?;
         write_manifest(dir, written)
     })?;
     Ok(manifest)
@@ -377,7 +390,7 @@ fn npy_header<A: WritableElement>(shape: &[usize]) -> Result<Vec<u8>, String> {
 
 /// Bytes on disk of the bundle of a film rendered with `transform` (saturating): the
 /// `.npy` files exactly, plus 64 KiB for the manifest.
-pub fn bundle_bytes(film: &Film, transform: &Transform) -> u64 {
+pub fn bundle_bytes(film: &Film, transform: &Transform, media: bool) -> u64 {
     let (h, w, t) = (film.height, film.width, film.bins);
     let mut files: Vec<(Vec<usize>, usize)> = volume_arrays(transform)
         .into_iter()
@@ -397,6 +410,9 @@ pub fn bundle_bytes(film: &Film, transform: &Transform) -> u64 {
         (vec![h, w], 4),           // emitter
         (vec![h, w, CHANNELS], 8), // steady
     ]);
+    if media {
+        files.push((vec![h, w], 4)); // medium
+    }
     let total: u128 = files
         .iter()
         .map(|(shape, size)| {
@@ -544,6 +560,7 @@ impl BundleWriter {
             hw,
             &images.gbuffer,
             images.steady,
+            manifest.media,
             &mut manifest.arrays,
         )?;
         write_manifest(&dir, &manifest)?;

@@ -73,9 +73,10 @@ pub struct FilterArgs {
 /// The base filter's options.
 #[derive(Args, Debug, Clone)]
 pub struct BaseFilterArgs {
-    /// Base filter.
-    #[arg(long, value_enum, default_value = "jbf")]
-    pub base: BaseArg,
+    /// Base filter [default: jbf; gaussian for scenes with participating media, whose
+    /// G-buffers describe the fog's first scatterings, not surfaces].
+    #[arg(long, value_enum)]
+    pub base: Option<BaseArg>,
     /// Standard deviation of pixel offsets (default sqrt(10)).
     #[arg(long, allow_negative_numbers = true)]
     pub sigma_xy: Option<f64>,
@@ -91,14 +92,20 @@ pub struct BaseFilterArgs {
 }
 
 impl BaseFilterArgs {
+    /// The base filter: the one asked for, else Gaussian for renders of scenes with
+    /// media and the joint bilateral filter otherwise (SPEC 7, 8).
+    pub fn kind(&self, media: bool) -> BaseKind {
+        match (self.base, media) {
+            (Some(BaseArg::Jbf), _) | (None, false) => BaseKind::Jbf,
+            (Some(BaseArg::Gaussian), _) | (None, true) => BaseKind::Gaussian,
+        }
+    }
+
     /// Default parameters with this base filter.
     pub fn params(&self) -> anyhow::Result<DenoiseParams> {
         let d = Sigmas::default();
         let p = DenoiseParams {
-            base: match self.base {
-                BaseArg::Jbf => BaseKind::Jbf,
-                BaseArg::Gaussian => BaseKind::Gaussian,
-            },
+            base: self.kind(false),
             sigmas: Sigmas {
                 xy: self.sigma_xy.unwrap_or(d.xy),
                 t: self.sigma_t.unwrap_or(d.t),
@@ -248,7 +255,7 @@ pub fn stage_exr_bins(
 }
 
 pub fn run(a: DenoiseArgs) -> anyhow::Result<()> {
-    let params = a.filter.params()?;
+    let mut params = a.filter.params()?;
     if a.out.extension().and_then(|e| e.to_str()) != Some("npy") {
         bail!("--out {}: the volume is written as .npy", a.out.display());
     }
@@ -264,6 +271,7 @@ pub fn run(a: DenoiseArgs) -> anyhow::Result<()> {
     check_outputs(&[arg("bundle", &a.bundle)], &outputs, a.force)?;
     let bundle = Bundle::open(&a.bundle)?;
     let m = &bundle.manifest;
+    params.base = a.filter.base.kind(m.media);
     let dims = Dims::of(m);
     let halo = halo(&bundle, &params)?;
     let plan = SlabPlan::for_budget(dims, halo, budget);

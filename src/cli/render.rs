@@ -142,7 +142,7 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
 
     let memory = StreamingMemory::new(film, &transform, pool_size(threads));
     check_memory(&memory, limit)?;
-    let disk = bundle_bytes(film, &transform);
+    let disk = bundle_bytes(film, &transform, !scene.media.is_empty());
     check_disk(&a.out, disk, "the bundle")?;
     eprintln!(
         "{}: {}x{} px, {} bins, {} spp ({}), {} primitives; memory {}, bundle {} on disk",

@@ -359,6 +359,7 @@ fn run_conv(a: ConvergenceArgs) -> anyhow::Result<()> {
         pixel_sampling: a.scene_args.pixel_sampling,
         denoise: a.filter.params()?,
         method_radii: a.filter.radius.is_none(),
+        base_by_scene: a.filter.base.base.is_none(),
         reference: match (&a.reference, a.reference_spp) {
             (Some(p), _) => ReferenceSource::Volume(p.clone()),
             (None, s) => {

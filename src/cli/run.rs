@@ -124,6 +124,10 @@ fn job(
     overrides: &crate::scene::Overrides,
 ) -> anyhow::Result<()> {
     let scene = Scene::load(scene_path, overrides)?;
+    let params = &crate::denoise::DenoiseParams {
+        base: a.filter.base.kind(!scene.media.is_empty()),
+        ..*params
+    };
     super::util::check_mesh_inputs(&scene, &[arg("--out", &a.out)])?;
     super::util::print_scene_warnings(&scene);
     let film = &scene.film;
@@ -134,7 +138,8 @@ fn job(
         .saturating_mul(film.bins as u64)
         .saturating_mul(CHANNELS as u64 * 4)
         .saturating_add(4096);
-    let disk = bundle_bytes(film, &transform).saturating_add(volume.saturating_mul(2));
+    let disk = bundle_bytes(film, &transform, !scene.media.is_empty())
+        .saturating_add(volume.saturating_mul(2));
     super::render::check_disk(&a.out, disk, "the run's output")?;
     eprintln!(
         "{}: {}x{} px, {} bins, {} spp ({}); memory {}, {} on disk",

@@ -42,6 +42,10 @@ pub struct Shape {
     pub bsdf: u32,
     /// Index into the scene's emitters, when the shape is an area light.
     pub emitter: Option<u32>,
+    /// Indices into the scene's media: inside (against the geometric normal) and
+    /// outside (along it), Mitsuba's `interior` / `exterior`.
+    pub interior: Option<u32>,
+    pub exterior: Option<u32>,
 }
 
 /// Where a ray met a surface.
@@ -55,6 +59,25 @@ pub struct SurfacePoint {
 }
 
 impl Shape {
+    /// Whether crossing this shape changes the medium (Mitsuba's
+    /// `is_medium_transition`).
+    #[inline]
+    pub fn is_medium_transition(&self) -> bool {
+        self.interior.is_some() || self.exterior.is_some()
+    }
+
+    /// The medium a ray leaving the surface along `d` enters: the exterior when `d`
+    /// points along the geometric normal `ng`, else the interior (Mitsuba's
+    /// `target_medium`).
+    #[inline]
+    pub fn target_medium(&self, d: Vec3, ng: Vec3) -> Option<u32> {
+        if d.dot(ng) > 0.0 {
+            self.exterior
+        } else {
+            self.interior
+        }
+    }
+
     pub fn triangle(&self, face: u32) -> TriangleGeom {
         match &self.geom {
             ShapeGeom::Mesh {

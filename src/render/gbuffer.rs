@@ -15,6 +15,9 @@ pub struct GSample {
     /// Distance from the pinhole to the first hit, if any.
     pub depth: Option<f32>,
     pub emitter: bool,
+    /// The first real interaction was a scattering inside a medium (volumetric
+    /// integrator only).
+    pub medium: bool,
 }
 
 /// One pixel's sums.
@@ -25,6 +28,7 @@ pub struct GAccum {
     depth: f64,
     depth_count: u32,
     emitter: u32,
+    medium: u32,
     samples: u32,
 }
 
@@ -38,6 +42,9 @@ pub struct GPixel {
     pub depth: f32,
     /// Fraction of the pixel's samples whose first non-delta vertex is an emitter.
     pub emitter: f32,
+    /// Fraction of the pixel's samples whose first real interaction is a scattering in
+    /// a medium (0 for surface-only renders).
+    pub medium: f32,
 }
 
 impl GAccum {
@@ -51,6 +58,7 @@ impl GAccum {
             self.depth_count += 1;
         }
         self.emitter += s.emitter as u32;
+        self.medium += s.medium as u32;
         self.samples += 1;
     }
 
@@ -70,6 +78,7 @@ impl GAccum {
                 0.0
             },
             emitter: (self.emitter as f64 / n) as f32,
+            medium: (self.medium as f64 / n) as f32,
         }
     }
 }

@@ -27,7 +27,13 @@ pub struct PathTally {
 
 /// Adds a contribution `c` arriving at OPL `opl` to the path's deposits.
 #[inline(always)]
-fn contribute(scene: &Scene, deposits: &mut PathDeposits, tally: &mut PathTally, opl: f64, c: Rgb) {
+pub(super) fn contribute(
+    scene: &Scene,
+    deposits: &mut PathDeposits,
+    tally: &mut PathTally,
+    opl: f64,
+    c: Rgb,
+) {
     if !c.is_finite() {
         tally.dropped_nonfinite += 1;
         return;
@@ -71,7 +77,7 @@ pub fn shadow_ray(p: Vec3, ng: Vec3, ls: &crate::lights::LightSample) -> (Vec3, 
 /// Mitsuba's dp/du shading frame, `wo` the direction back along the ray in it). Out of
 /// line: only such materials come here.
 #[inline(never)]
-fn perturbed_at(
+pub(super) fn perturbed_at(
     material: &crate::materials::Material,
     shape: &crate::geometry::shape::Shape,
     hit: &crate::geometry::accel::Hit,

@@ -23,6 +23,7 @@ pub mod gbuffer;
 pub mod integrator;
 pub mod pixel_sampling;
 pub mod sink;
+pub mod volpath;
 
 use crate::math::rng::Pcg32;
 use crate::scene::camera::LENS_STREAM_SALT;
@@ -204,7 +205,14 @@ fn render_row(
             let (o, d) = scene.camera.ray(x as f32 + u, y as f32 + v, || {
                 Pcg32::for_path(settings.seed ^ LENS_STREAM_SALT, pixel, s as u64).next_2d()
             });
-            g.add(&trace_ray(scene, o, d, &mut rng, &mut deposits, &mut tally));
+            // The volumetric tracer is a separate function: surface-only scenes run the
+            // same code as before it existed.
+            let gs = if scene.integrator.volumetric {
+                volpath::trace_volpath(scene, o, d, &mut rng, &mut deposits, &mut tally)
+            } else {
+                trace_ray(scene, o, d, &mut rng, &mut deposits, &mut tally)
+            };
+            g.add(&gs);
             result.voxel_samples += deposits.len() as u64;
             for (bin, c) in deposits.drain() {
                 row.pixel.add_sample(z, bin as usize, c);

@@ -41,6 +41,9 @@ pub struct ConvergenceConfig {
     /// Each method at its own default spatial radius ([`Method::default_radius`])
     /// instead of `denoise.radius` (when the user did not choose one).
     pub method_radii: bool,
+    /// The base filter was not chosen: Gaussian for scenes with media, else
+    /// `denoise.base`.
+    pub base_by_scene: bool,
     pub reference: ReferenceSource,
 }
 
@@ -246,7 +249,11 @@ pub fn run_convergence(
         return Err(format!("spp {s}: at least 2 samples per pixel are needed"));
     }
     let (reference, ref_mask, reference_note) = reference(cfg, dir, log)?;
-    let list = methods(&cfg.denoise, cfg.method_radii);
+    let mut denoise = cfg.denoise;
+    if cfg.base_by_scene && !load_scene(cfg, 2)?.media.is_empty() {
+        denoise.base = crate::denoise::base_filter::BaseKind::Gaussian;
+    }
+    let list = methods(&denoise, cfg.method_radii);
     let mut rows = Vec::new();
     let mut per_bin = Vec::new();
     let max_spp = *cfg.spp_list.iter().max().expect("non-empty");

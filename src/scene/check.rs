@@ -85,13 +85,15 @@ pub const SUPPORTED: &[(&str, &[&str])] = &[
         "TemporalProfile",
         &["ConstantTP", "ExponentialTP", "EpanechnikovTP", "PosEpanTP"],
     ),
+    ("medium", &["homogeneous"]),
+    ("phase", &["isotropic", "hg"]),
 ];
 
 /// Elements with no support at all (whatever their type).
-const UNSUPPORTED_TAGS: &[(&str, &str)] = &[
-    ("medium", "participating media are not supported"),
-    ("phase", "phase functions (media) are not supported"),
-];
+const UNSUPPORTED_TAGS: &[(&str, &str)] = &[(
+    "volume",
+    "volume data (gridvolume, heterogeneous media) is not supported",
+)];
 
 /// One unsupported feature.
 #[derive(Clone, Debug, PartialEq)]

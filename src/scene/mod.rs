@@ -29,8 +29,8 @@ pub use error::SceneError;
 use film::Film;
 use std::path::{Path, PathBuf};
 
-/// `transient_path` (mitransient's name; `transient_prbvolpath` is accepted as the same
-/// integrator for scenes without media).
+/// `transient_path` (surfaces only) and `transient_prbvolpath` (participating media,
+/// `render/volpath.rs`), mitransient's names; both take these parameters.
 ///
 /// | parameter | type | default | meaning |
 /// |-----------|------|---------|---------|
@@ -45,6 +45,9 @@ pub struct IntegratorSettings {
     pub rr_depth: u32,
     pub hide_emitters: bool,
     pub camera_unwarp: bool,
+    /// `transient_prbvolpath`: the volumetric path tracer (media, null boundaries
+    /// transparent to shadow rays).
+    pub volumetric: bool,
 }
 
 impl Default for IntegratorSettings {
@@ -54,6 +57,7 @@ impl Default for IntegratorSettings {
             rr_depth: 5,
             hide_emitters: false,
             camera_unwarp: false,
+            volumetric: false,
         }
     }
 }
@@ -89,6 +93,10 @@ pub struct Scene {
     /// The environment emitter (`envmap` or `constant`), the one a ray leaving the
     /// scene sees; `None` in scenes without one, where escaping rays end the path.
     pub environment: Option<u32>,
+    /// Participating media (shapes' `interior` / `exterior` and `camera_medium` index it).
+    pub media: Vec<crate::media::Medium>,
+    /// The medium the camera sits in.
+    pub camera_medium: Option<u32>,
     pub accel: Accel,
     /// Legal but suspicious input (an emitter that contributes nothing, a shape with no
     /// area), one line each as `file:line: <element>: message`. The caller prints them

@@ -384,6 +384,8 @@ mod tests {
             flip_normals: false,
             bsdf: 0,
             emitter: None,
+            interior: None,
+            exterior: None,
         };
         assert!((shape.area() - 24.0).abs() < 1e-5);
         for f in 0..12 {
@@ -428,6 +430,8 @@ mod tests {
             flip_normals: false,
             bsdf: 0,
             emitter: None,
+            interior: None,
+            exterior: None,
         };
         let n = shape.surface(0, 0.2, 0.2, Vec3::ZERO).ng;
         assert!((n - Vec3::new(0.0, 0.0, -1.0)).length() < 1e-6);
@@ -440,6 +444,8 @@ mod tests {
             flip_normals: false,
             bsdf: 0,
             emitter: None,
+            interior: None,
+            exterior: None,
         }
     }
 

@@ -15,6 +15,8 @@ use crate::lights::{AngularFalloff, Emitter};
 use crate::materials::parse::{parse_bsdf, resolve_bsdf, Named};
 use crate::materials::{Bsdf, Diffuse, Material};
 use crate::math::Rgb;
+use crate::media::parse::parse_medium;
+use crate::media::Medium;
 use crate::scene::textures::{parse_texture, NamedTextures};
 use glam::{DMat4, DVec3, Vec3};
 use roxmltree::Node;
@@ -32,6 +34,8 @@ struct Sensor {
     film: Film,
     spp: u32,
     seed: u64,
+    /// The medium the camera sits in (Mitsuba's sensor `medium`).
+    medium: Option<u32>,
 }
 
 /// What the sensor plugin needs besides `to_world` and the film.
@@ -150,6 +154,8 @@ pub fn load(path: &Path, overrides: &Overrides) -> Result<Scene, SceneError> {
         mut emitters,
         sensor,
         integrator,
+        media,
+        first_medium,
         ..
     } = objects;
     // Infinitely distant emitters learn the scene's bounding sphere (Mitsuba's set_scene).
@@ -167,6 +173,22 @@ pub fn load(path: &Path, overrides: &Overrides) -> Result<Scene, SceneError> {
     check_extent(&ctx, root, &shapes)?;
     let s = sensor.ok_or_else(|| ctx.err(root, "the scene has no <sensor>"))?;
     let mut integrator = integrator.unwrap_or_default();
+    // Mitsuba's `path` integrator ignores media; a scene that has them means the
+    // volumetric integrator, so rendering it without would be silently wrong.
+    if let (Some(e), false) = (first_medium, integrator.volumetric) {
+        return Err(e);
+    }
+    if integrator.volumetric {
+        check_volumetric_materials(&ctx, root, &bsdfs)?;
+        // The volumetric tracer ends a ray that leaves the scene: an environment
+        // (which such rays would see) is refused rather than rendered without them.
+        if emitters.iter().any(|e| e.is_environment()) {
+            return Err(ctx.err(
+                root,
+                "envmap and constant emitters are not supported by transient_prbvolpath yet (rays leaving the scene are not traced to them); use transient_path, or a directional or area light",
+            ));
+        }
+    }
     let mut film = s.film;
     match (overrides.width, overrides.height) {
         (Some(w), Some(h)) => (film.width, film.height) = (w, h),
@@ -272,6 +294,8 @@ pub fn load(path: &Path, overrides: &Overrides) -> Result<Scene, SceneError> {
         shapes,
         emitters,
         environment,
+        media,
+        camera_medium: s.medium,
         accel,
         warnings: ctx.take_warnings(),
         mesh_files: ctx.take_mesh_files(),
@@ -310,6 +334,13 @@ struct Objects {
     shapegroups: HashMap<String, Vec<(Shape, Material)>>,
     /// Triangles added by instances so far (bounded, `instance::MAX_INSTANCED_TRIANGLES`).
     instanced_triangles: usize,
+    /// Participating media, referenced by index from shapes and the sensor.
+    media: Vec<Medium>,
+    /// Media declared at the top level, by id (index into `media`).
+    named_media: HashMap<String, u32>,
+    /// The error for the first `<medium>` element seen (any file), should the
+    /// integrator not be the volumetric one.
+    first_medium: Option<SceneError>,
 }
 
 /// Adds a parsed shape (and its area emitter) to the scene.
@@ -383,8 +414,15 @@ fn parse_shapegroup(ctx: &Ctx, node: Node, o: &mut Objects) -> Result<(), SceneE
             bsdfs: &o.named_bsdfs,
             textures: &o.named_textures,
         };
-        let (shape, bsdf, emission) =
-            parse_shape(ctx, child, members.len() as u32, &named, &o.area_emitters)?;
+        let (shape, bsdf, emission) = parse_shape(
+            ctx,
+            child,
+            members.len() as u32,
+            &named,
+            &o.area_emitters,
+            &mut o.media,
+            &o.named_media,
+        )?;
         if emission.is_some() {
             return Err(ctx.err(child, "instancing of emitters is not supported (as Mitsuba): a shape in a shapegroup cannot emit"));
         }
@@ -469,6 +507,14 @@ const MAX_INCLUDE_DEPTH: usize = 16;
 /// The top-level elements of `root` (the scene file's or an included file's), in
 /// document order.
 fn walk(ctx: &Ctx, root: Node, o: &mut Objects, depth: usize) -> Result<(), SceneError> {
+    if o.first_medium.is_none() {
+        if let Some(n) = root.descendants().find(|n| n.has_tag_name("medium")) {
+            o.first_medium = Some(ctx.err(
+                n,
+                "the scene has participating media, which integrator 'transient_path' ignores (as Mitsuba's path integrator does): use <integrator type=\"transient_prbvolpath\">",
+            ));
+        }
+    }
     // Area emitters declared at this level, attached to shapes by <ref id> anywhere in
     // the file, also before their declaration (Mitsuba resolves references after
     // reading the whole file).
@@ -503,7 +549,17 @@ fn walk(ctx: &Ctx, root: Node, o: &mut Objects, depth: usize) -> Result<(), Scen
                 if o.sensor.is_some() {
                     return Err(ctx.err(node, "only one <sensor> is supported"));
                 }
-                o.sensor = Some(parse_sensor(ctx, node, &o.named_samplers)?);
+                o.sensor = Some(parse_sensor(ctx, node, &o.named_samplers, &mut o.media, &o.named_media)?);
+            }
+            "medium" => {
+                let m = parse_medium(ctx, node)?;
+                let Some(id) = ctx.attr(node, "id")? else {
+                    return Err(ctx.err(node, "a top-level <medium> needs an id (shapes and the sensor attach it with <ref name=\"interior\" id=...>)"));
+                };
+                o.media.push(m);
+                if o.named_media.insert(id.clone(), (o.media.len() - 1) as u32).is_some() {
+                    return Err(ctx.err(node, format!("id '{id}' is defined twice")));
+                }
             }
             "texture" => {
                 let t = parse_texture(ctx, node, &o.named_textures)?;
@@ -553,8 +609,15 @@ fn walk(ctx: &Ctx, root: Node, o: &mut Objects, depth: usize) -> Result<(), Scen
                     bsdfs: &o.named_bsdfs,
                     textures: &o.named_textures,
                 };
-                let (shape, bsdf, emission) =
-                    parse_shape(ctx, node, index, &named, &o.area_emitters)?;
+                let (shape, bsdf, emission) = parse_shape(
+                    ctx,
+                    node,
+                    index,
+                    &named,
+                    &o.area_emitters,
+                    &mut o.media,
+                    &o.named_media,
+                )?;
                 add_shape(o, shape, bsdf, emission);
             }
             // Area emitters declared here were read before the walk (below).
@@ -594,7 +657,7 @@ fn walk(ctx: &Ctx, root: Node, o: &mut Objects, depth: usize) -> Result<(), Scen
             other => {
                 return Err(ctx.err(
                     node,
-                    format!("<{other}> is not supported (supported at top level: default, path, include, integrator, sensor, sampler, texture, bsdf, shape, emitter)"),
+                    format!("<{other}> is not supported (supported at top level: default, path, include, integrator, sensor, sampler, texture, bsdf, shape, emitter, medium)"),
                 ))
             }
         }
@@ -699,7 +762,7 @@ fn parse_integrator(ctx: &Ctx, node: Node) -> Result<IntegratorSettings, SceneEr
     if kind != "transient_path" && kind != "transient_prbvolpath" {
         return Err(ctx.err(
             node,
-            format!("integrator '{kind}' is not supported (use transient_path)"),
+            format!("integrator '{kind}' is not supported (use transient_path, or transient_prbvolpath for media)"),
         ));
     }
     let mut p = Props::parse(ctx, node)?;
@@ -755,6 +818,7 @@ fn parse_integrator(ctx: &Ctx, node: Node) -> Result<IntegratorSettings, SceneEr
         hide_emitters: p.boolean_or("hide_emitters", false)?
             | p.boolean_or("discard_direct_light", false)?,
         camera_unwarp: p.boolean_or("camera_unwarp", false)?,
+        volumetric: kind == "transient_prbvolpath",
     };
     if let Some(&obj) = p.objects.first() {
         return Err(ctx.err(obj, "unexpected nested element in <integrator>"));
@@ -880,6 +944,8 @@ fn parse_sensor(
     ctx: &Ctx,
     node: Node,
     named_samplers: &HashMap<String, (u32, u64)>,
+    media: &mut Vec<Medium>,
+    named_media: &HashMap<String, u32>,
 ) -> Result<Sensor, SceneError> {
     let kind = ctx.required_attr(node, "type")?;
     if !matches!(kind.as_str(), "perspective" | "thinlens" | "orthographic") {
@@ -966,8 +1032,20 @@ fn parse_sensor(
     let mut film = None;
     let (mut spp, mut seed) = (4u32, 0u64);
     let mut seen_sampler = false;
+    let mut medium = None;
     for obj in std::mem::take(&mut p.objects) {
         match obj.tag_name().name() {
+            // The camera's medium: nested, or a <ref> to a top-level one (Mitsuba's
+            // sensor takes any medium among its children).
+            "medium" | "ref"
+                if obj.has_tag_name("medium")
+                    || named_media.contains_key(&ctx.required_attr(obj, "id")?) =>
+            {
+                if medium.is_some() {
+                    return Err(ctx.err(obj, "a sensor has at most one medium"));
+                }
+                medium = Some(medium_index(ctx, obj, media, named_media)?);
+            }
             "film" if film.is_some() => return Err(ctx.err(obj, "a sensor has one <film>")),
             "sampler" if seen_sampler => return Err(ctx.err(obj, "a sensor has one <sampler>")),
             "film" => film = Some(Film::parse(ctx, obj)?),
@@ -999,7 +1077,50 @@ fn parse_sensor(
         film,
         spp,
         seed,
+        medium,
     })
+}
+
+/// The index of the medium an element gives: a nested `<medium>` (appended to
+/// `media`) or a `<ref id=...>` to a top-level one.
+fn medium_index(
+    ctx: &Ctx,
+    obj: Node,
+    media: &mut Vec<Medium>,
+    named_media: &HashMap<String, u32>,
+) -> Result<u32, SceneError> {
+    if obj.has_tag_name("medium") {
+        media.push(parse_medium(ctx, obj)?);
+        return Ok((media.len() - 1) as u32);
+    }
+    let id = ctx.required_attr(obj, "id")?;
+    named_media.get(&id).copied().ok_or_else(|| {
+        ctx.err(
+            obj,
+            format!("no <medium> with id '{id}' is declared before this reference"),
+        )
+    })
+}
+
+/// The volumetric integrator treats `null` surfaces as medium boundaries; `mask`
+/// (Mitsuba's partly-null BSDF) would need its null part in shadow rays, which it does
+/// not model: such scenes are refused rather than rendered differently from Mitsuba.
+fn check_volumetric_materials(ctx: &Ctx, root: Node, bsdfs: &[Material]) -> Result<(), SceneError> {
+    fn has_mask(b: &Bsdf) -> bool {
+        match b {
+            Bsdf::Mask(_) => true,
+            Bsdf::Composed(c) => has_mask(&c.first) || has_mask(&c.second),
+            Bsdf::Separable(s) => has_mask(&s.inner),
+            _ => false,
+        }
+    }
+    if bsdfs.iter().any(|m| has_mask(&m.bsdf)) {
+        return Err(ctx.err(
+            root,
+            "bsdf 'mask' is not supported by transient_prbvolpath (its pass-through part is a null interface in Mitsuba's volumetric integrators); use transient_path or a 'null' BSDF",
+        ));
+    }
+    Ok(())
 }
 
 type ParsedShape = (Shape, Material, Option<AreaEmission>);
@@ -1145,6 +1266,8 @@ fn parse_shape(
     index: u32,
     named: &Named,
     area_emitters: &HashMap<String, AreaEmission>,
+    media: &mut Vec<Medium>,
+    named_media: &HashMap<String, u32>,
 ) -> Result<ParsedShape, SceneError> {
     let kind = ctx.required_attr(node, "type")?;
     let mut p = Props::parse(ctx, node)?;
@@ -1152,8 +1275,28 @@ fn parse_shape(
     let flip_normals = p.boolean_or("flip_normals", false)?;
     let mut bsdf = None;
     let mut emission = None;
+    let (mut interior, mut exterior) = (None, None);
     for obj in std::mem::take(&mut p.objects) {
+        let slot_name = ctx.attr(obj, "name")?;
         match obj.tag_name().name() {
+            // Media: `<medium name="interior|exterior">` or `<ref name=... id=...>`.
+            "medium" | "ref" if matches!(slot_name.as_deref(), Some("interior" | "exterior")) => {
+                let slot = if slot_name.as_deref() == Some("interior") {
+                    &mut interior
+                } else {
+                    &mut exterior
+                };
+                if slot.is_some() {
+                    return Err(ctx.err(obj, format!("a shape has one {} medium", slot_name.unwrap_or_default())));
+                }
+                *slot = Some(medium_index(ctx, obj, media, named_media)?);
+            }
+            "medium" => {
+                return Err(ctx.err(
+                    obj,
+                    "a <medium> inside <shape> needs name=\"interior\" or name=\"exterior\"",
+                ))
+            }
             // A reference to an area emitter declared at the top level (Mitsuba
             // resolves a shape's <ref> by the kind of object its id names).
             "ref" if area_emitters.contains_key(&ctx.required_attr(obj, "id")?) => {
@@ -1181,7 +1324,7 @@ fn parse_shape(
             other => {
                 return Err(ctx.err(
                     obj,
-                    format!("<{other}> inside <shape> is not supported (media and textures are not implemented)"),
+                    format!("<{other}> inside <shape> is not supported (a shape takes a bsdf, an emitter and interior/exterior media)"),
                 ))
             }
         }
@@ -1196,6 +1339,8 @@ fn parse_shape(
         flip_normals,
         bsdf: 0,
         emitter: None,
+        interior,
+        exterior,
     };
     // Areas are summed from single-precision triangles, as the light sampler does.
     let area = shape.area() as f32;

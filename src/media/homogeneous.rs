@@ -1,0 +1,45 @@
+//! `homogeneous`: a medium of constant extinction (Mitsuba 3's `homogeneous`).
+//!
+//! | parameter | type | default | meaning |
+//! |-----------|------|---------|---------|
+//! | sigma_t | float or rgb | 1 | extinction coefficient, 1 / scene unit |
+//! | albedo | float or rgb | 0.75 | single-scattering albedo sigma_s / sigma_t, in [0, 1] |
+//! | sigma_a, sigma_s | float or rgb | — | extension (Mitsuba 0.6's names, refused by Mitsuba 3): instead of sigma_t and albedo, sigma_t = sigma_a + sigma_s |
+//! | scale | float | 1 | multiplies the extinction (sigma_t, or sigma_a and sigma_s) |
+//! | sample_emitters | boolean | true | next-event estimation from scattering points |
+//! | has_spectral_extinction | boolean | true | accepted; an optimisation hint in Mitsuba |
+//! | (nested) | phase | isotropic | the phase function |
+//!
+//! Free-flight distances: the transmittance over a length `s` is `exp(-sigma_t s)` per
+//! channel, and a real scattering happens with density `sigma_t exp(-sigma_t s)`, of
+//! which `sigma_s = albedo sigma_t` scatters and the rest is absorbed.
+
+use super::Phase;
+use crate::math::Rgb;
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Homogeneous {
+    /// Extinction per channel (scale applied), 1 / scene unit, finite and >= 0.
+    pub sigma_t: Rgb,
+    /// Single-scattering albedo per channel, in [0, 1].
+    pub albedo: Rgb,
+    pub phase: Phase,
+    pub sample_emitters: bool,
+}
+
+impl Homogeneous {
+    /// Scattering coefficient sigma_s = albedo sigma_t.
+    #[inline]
+    pub fn sigma_s(&self) -> Rgb {
+        self.sigma_t * self.albedo
+    }
+
+    /// Transmittance over a length `s` (infinite lengths give 0 where sigma_t > 0).
+    #[inline]
+    pub fn transmittance(&self, s: f32) -> Rgb {
+        if s == f32::INFINITY {
+            return Rgb::select(self.sigma_t.cmpgt(Rgb::ZERO), Rgb::ZERO, Rgb::ONE);
+        }
+        (-self.sigma_t * s).exp()
+    }
+}
