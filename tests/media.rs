@@ -393,3 +393,29 @@ fn bundles_of_media_scenes_record_them_and_merge_the_medium_fraction() {
     let text = std::fs::read_to_string(plain.join("manifest.json")).unwrap();
     assert!(!text.contains("\"media\""));
 }
+
+#[test]
+fn the_volumetric_integrator_refuses_environment_emitters_it_cannot_reach() {
+    // Rays leaving a volumetric scene end there, so an environment (constant or envmap)
+    // would lose its escaping light: refused in one line, while a directional light
+    // (reached by next-event estimation only) loads.
+    let text = std::fs::read_to_string(scene_file("cbox_fog.xml")).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("s.xml");
+    let with = |emitter: &str| text.replace("</scene>", &format!("{emitter}</scene>"));
+    std::fs::write(&path, with(r#"<emitter type="constant"/>"#)).unwrap();
+    let e = Scene::load(&path, &Overrides::default())
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(
+        e.contains("constant") && e.contains("transient_prbvolpath") && !e.contains('\n'),
+        "{e}"
+    );
+    std::fs::write(
+        &path,
+        with(r#"<emitter type="directional"><vector name="direction" x="0" y="-1" z="0"/></emitter>"#),
+    )
+    .unwrap();
+    assert!(Scene::load(&path, &Overrides::default()).is_ok());
+}
