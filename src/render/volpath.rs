@@ -393,8 +393,30 @@ unsafe fn trace_body<const ISA: u8>(
         }
 
         // ---- Surface. ----
-        // No environment emitters exist: a ray that meets nothing ends the path.
+        // A ray that meets nothing leaves the scene: it sees the environment emitter,
+        // if any, at distance 2 max(R, |o - c|) as in the surface tracer (`escape`),
+        // MIS-weighted against light sampling like an area light's hit.
         let Some(hit) = hit else {
+            if let Some(env) = scene.environment {
+                if g_pending {
+                    g.emitter = true;
+                }
+                if !(depth == 0 && settings.hide_emitters) {
+                    let (radiance, light_pdf, dist) =
+                        scene.emitters[env as usize].escape(select_pdf, o, d);
+                    let w = if depth == 0 || specular_chain {
+                        1.0
+                    } else {
+                        power_heuristic(last_pdf, light_pdf)
+                    };
+                    let segment = if depth == 0 && settings.camera_unwarp {
+                        0.0
+                    } else {
+                        eta as f64 * dist as f64
+                    };
+                    contribute(scene, deposits, tally, opl + segment, beta * radiance * w);
+                }
+            }
             break;
         };
         opl += eta as f64 * hit.t as f64;

@@ -180,14 +180,6 @@ pub fn load(path: &Path, overrides: &Overrides) -> Result<Scene, SceneError> {
     }
     if integrator.volumetric {
         check_volumetric_materials(&ctx, root, &bsdfs)?;
-        // The volumetric tracer ends a ray that leaves the scene: an environment
-        // (which such rays would see) is refused rather than rendered without them.
-        if emitters.iter().any(|e| e.is_environment()) {
-            return Err(ctx.err(
-                root,
-                "envmap and constant emitters are not supported by transient_prbvolpath yet (rays leaving the scene are not traced to them); use transient_path, or a directional or area light",
-            ));
-        }
     }
     let mut film = s.film;
     match (overrides.width, overrides.height) {
