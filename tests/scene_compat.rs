@@ -381,6 +381,17 @@ fn area_emitters_declared_at_top_level_attach_by_reference_also_forward() {
         ),
     );
     assert!(error(d, "e.xml").contains("needs an id"));
+    // No radiance: Mitsuba's default 1, the same render as radiance 1 written out.
+    let one = lamp.replace(
+        "EMIT",
+        r#"<emitter type="area"><rgb name="radiance" value="1"/></emitter>"#,
+    );
+    let bare = lamp.replace("EMIT", r#"<emitter type="area"/>"#);
+    write(d, "one.xml", &scene(FOV, &format!("{SHAPES}{one}")));
+    write(d, "bare.xml", &scene(FOV, &format!("{SHAPES}{bare}")));
+    let (one, bare) = (load(d, "one.xml").unwrap(), load(d, "bare.xml").unwrap());
+    assert_eq!(steady(&one), steady(&bare));
+    assert_ne!(steady(&one), steady(&a));
 }
 
 #[test]

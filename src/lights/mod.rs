@@ -2,7 +2,7 @@
 //! lights (environment map, constant, directional). The light pulse is a delta at
 //! t = 0 at every emitter (SPEC 2).
 //!
-//! `area` (nested in a `<shape>`): | radiance | rgb/float | required | emitted radiance, front side only |
+//! `area` (nested in a `<shape>`): | radiance | rgb/float | 1 | emitted radiance, front side only |
 //!
 //! `point` (top level): | intensity | rgb/float | 1 | radiant intensity (W/sr) |
 //! | position | point | — | or `to_world` (its translation) |

@@ -1230,12 +1230,10 @@ fn parse_area_emission(ctx: &Ctx, obj: Node, kind: &str) -> Result<AreaEmission,
     })
 }
 
-/// An `<emitter type="area">`'s radiance.
+/// An `<emitter type="area">`'s radiance (default 1, as Mitsuba 3's `area`).
 fn parse_area_emitter(ctx: &Ctx, obj: Node) -> Result<Vec3, SceneError> {
     let mut ep = Props::parse(ctx, obj)?;
-    let radiance = ep
-        .emission("radiance")?
-        .ok_or_else(|| ep.err("missing parameter 'radiance'"))?;
+    let radiance = ep.emission("radiance")?.unwrap_or(Vec3::ONE);
     if radiance.min_element() < 0.0 {
         return Err(ep.err_at("radiance", "radiance must be non-negative"));
     }
