@@ -106,7 +106,7 @@ pub(super) fn perturbed_at(
 /// camera path whose first non-delta vertex would be here sees an emitter (G-buffer).
 #[inline(never)]
 #[allow(clippy::too_many_arguments)]
-fn escape(
+pub(super) fn escape(
     scene: &Scene,
     env: u32,
     o: Vec3,

@@ -42,7 +42,7 @@
 use super::cpu::ISA_BASELINE;
 use super::deposits::PathDeposits;
 use super::gbuffer::GSample;
-use super::integrator::{contribute, shadow_ray, PathTally};
+use super::integrator::{contribute, escape, shadow_ray, PathTally};
 use crate::geometry::accel::offset_origin;
 use crate::geometry::shape::Shape;
 use crate::materials::{Bsdf, BsdfModel};
@@ -398,24 +398,11 @@ unsafe fn trace_body<const ISA: u8>(
         // MIS-weighted against light sampling like an area light's hit.
         let Some(hit) = hit else {
             if let Some(env) = scene.environment {
-                if g_pending {
-                    g.emitter = true;
-                }
-                if !(depth == 0 && settings.hide_emitters) {
-                    let (radiance, light_pdf, dist) =
-                        scene.emitters[env as usize].escape(select_pdf, o, d);
-                    let w = if depth == 0 || specular_chain {
-                        1.0
-                    } else {
-                        power_heuristic(last_pdf, light_pdf)
-                    };
-                    let segment = if depth == 0 && settings.camera_unwarp {
-                        0.0
-                    } else {
-                        eta as f64 * dist as f64
-                    };
-                    contribute(scene, deposits, tally, opl + segment, beta * radiance * w);
-                }
+                let prev_delta = depth == 0 || specular_chain;
+                escape(
+                    scene, env, o, d, depth, opl, eta, beta, prev_delta, last_pdf, deposits, tally,
+                    &mut g, g_pending,
+                );
             }
             break;
         };
