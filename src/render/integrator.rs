@@ -50,6 +50,18 @@ pub(super) fn contribute(
     }
 }
 
+/// The end of a shadow ray to a light sample: a point light's position, or a point on
+/// an area (or distant) light moved off its surface along its normal, towards the
+/// reference point.
+#[inline(always)]
+pub fn light_target(ls: &crate::lights::LightSample) -> Vec3 {
+    if ls.delta {
+        ls.p
+    } else {
+        offset_origin(ls.p, ls.n, -ls.wi)
+    }
+}
+
 /// The shadow ray of a light sample from the surface point `p` (geometric normal
 /// `ng`): both ends are moved off their surfaces, the origin along `ng` and a point on
 /// an area light along its normal, each to the side the other end lies on, and the ray
@@ -59,12 +71,7 @@ pub(super) fn contribute(
 #[inline(always)]
 pub fn shadow_ray(p: Vec3, ng: Vec3, ls: &crate::lights::LightSample) -> (Vec3, Vec3, f32) {
     let origin = offset_origin(p, ng, ls.wi);
-    let target = if ls.delta {
-        ls.p
-    } else {
-        offset_origin(ls.p, ls.n, -ls.wi)
-    };
-    let d = target - origin;
+    let d = light_target(ls) - origin;
     let dist = d.length();
     if dist.is_nan() || dist <= 0.0 {
         return (origin, ls.wi, 0.0);

@@ -42,7 +42,7 @@
 use super::cpu::ISA_BASELINE;
 use super::deposits::PathDeposits;
 use super::gbuffer::GSample;
-use super::integrator::{contribute, escape, shadow_ray, PathTally};
+use super::integrator::{contribute, escape, light_target, shadow_ray, PathTally};
 use crate::geometry::accel::offset_origin;
 use crate::geometry::shape::Shape;
 use crate::materials::{Bsdf, BsdfModel};
@@ -84,12 +84,7 @@ pub fn trace_volpath(
 /// `integrator::shadow_ray`), ending a relative 1e-4 short. Direction and end point.
 #[inline(always)]
 fn medium_shadow_ray(p: Vec3, ls: &crate::lights::LightSample) -> (Vec3, Vec3) {
-    let target = if ls.delta {
-        ls.p
-    } else {
-        offset_origin(ls.p, ls.n, -ls.wi)
-    };
-    let d = target - p;
+    let d = light_target(ls) - p;
     let dist = d.length();
     if dist.is_nan() || dist <= 0.0 {
         return (ls.wi, p);
