@@ -45,6 +45,8 @@ import mitsuba as mi
 mi.set_variant('llvm_ad_rgb')
 import mitransient, numpy as np, json
 kw = json.loads(sys.argv[4])
+for folder in json.loads(sys.argv[6]):
+    mi.Thread.thread().file_resolver().append(folder)
 scene = mi.load_file(sys.argv[1], **kw)
 steady, transient = scene.integrator().render(scene, spp=int(sys.argv[2]), seed=int(sys.argv[3]))
 np.save(sys.argv[5] + '_steady.npy', np.array(steady))
@@ -120,6 +122,9 @@ def main():
     ap.add_argument("scenes", nargs="+")
     ap.add_argument("--spp", type=int, default=1024)
     ap.add_argument("--width", type=int, default=64)
+    ap.add_argument("-a", dest="search", action="append", default=[],
+                    help="a folder to search for the scene's files (Mitsuba's -a; repeatable); "
+                         "mitsuba-data scenes get its common/ folder without asking")
     ap.add_argument("--keep", help="a folder to keep each scene's renders in (NAME/)")
     here = os.path.dirname(os.path.abspath(__file__))
     ap.add_argument("--tstat", default=os.path.join(here, "..", "target", "release", "tstat"))
@@ -138,10 +143,14 @@ def main():
                 d = os.path.join(a.keep, os.path.basename(s)[:-4])
                 os.makedirs(d, exist_ok=True)
                 copy, needed = small_copy(s, a.width, d)
+            search = list(a.search)
+            m = re.search(r"^(.*mitsuba-renderer_mitsuba-data)" + re.escape(os.sep), os.path.abspath(s))
+            if m and os.path.isdir(os.path.join(m.group(1), "common")):
+                search.append(os.path.join(m.group(1), "common"))
             ms = []
             for seed in (1, 2):
                 r = subprocess.run([sys.executable, "-c", MIT, copy, str(a.spp), str(seed),
-                                    json.dumps(needed), os.path.join(d, f"m{seed}")],
+                                    json.dumps(needed), os.path.join(d, f"m{seed}"), json.dumps(search)],
                                    capture_output=True, text=True)
                 if r.returncode:
                     print(f"| {name} | mitransient failed: {r.stderr.strip().splitlines()[-1][:120]} | | | |")
@@ -154,6 +163,8 @@ def main():
                    "--out", os.path.join(d, "t.tstats"), "--force"]
             for k, v in needed.items():
                 cmd += ["-D", f"{k}={v}"]
+            for folder in search:
+                cmd += ["-a", folder]
             r = subprocess.run(cmd, capture_output=True, text=True)
             if r.returncode:
                 print(f"| {name} | tstat failed: {r.stderr.strip().splitlines()[-1][:120]} | | | |")

@@ -65,6 +65,16 @@ def normalise(msg):
     return msg[:160]
 
 
+def search_folders(wild, scene):
+    """`-a` folders a scene is published for: mitsuba-data's docs and tests are
+    rendered with `-a common` (its docs build), which holds shared meshes and textures."""
+    label = os.path.relpath(scene, wild).split(os.sep)[0]
+    common = os.path.join(wild, label, "common")
+    if label == "mitsuba-renderer_mitsuba-data" and os.path.isdir(common):
+        return ["-a", common]
+    return []
+
+
 def main():
     ap = argparse.ArgumentParser()
     here = os.path.dirname(os.path.abspath(__file__))
@@ -82,10 +92,11 @@ def main():
     with tempfile.TemporaryDirectory() as tmp:
         for i, f in enumerate(files):
             out = os.path.join(tmp, f"s{i}.tstats")
+            search = search_folders(a.wild, f)
             cmd = [a.tstat, "render", f, "--out", out, "--width", "16", "--spp", "4",
-                   "--bins", "8", "--threads", "2"]
+                   "--bins", "8", "--threads", "2"] + search
             # `tstat check` must agree with the render about whether the scene works.
-            c = subprocess.run([a.tstat, "check", f], capture_output=True, text=True)
+            c = subprocess.run([a.tstat, "check", f] + search, capture_output=True, text=True)
             checked += c.returncode == 0
             good, msg = run(cmd, a.timeout)
             # Scenes that leave parameters to the caller (`$spp` without a <default>,

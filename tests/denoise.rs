@@ -1608,6 +1608,7 @@ fn write_bundle(
             sha256: "0".repeat(64),
         },
         max_depth: -1,
+        time_filter_stddev_bins: None,
         render_seconds: 0.0,
         dropped_nonfinite: 0,
         program: Program {

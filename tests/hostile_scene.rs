@@ -241,6 +241,27 @@ fn cases() -> Vec<Case> {
             )),
             "malformed XML",
         ),
+        // ---- integrator: time filter and mitransient < 1.0's time window ----
+        scene_case(
+            "gaussian_stddev_nan",
+            scene_with(r#"<integrator type="transient_path"><string name="temporal_filter" value="gaussian"/><float name="gaussian_stddev" value="nan"/></integrator>"#),
+            "gaussian_stddev",
+        ),
+        scene_case(
+            "gaussian_stddev_huge",
+            scene_with(r#"<integrator type="transient_path"><string name="temporal_filter" value="gaussian"/><float name="gaussian_stddev" value="1e30"/></integrator>"#),
+            "at most 64 bins",
+        ),
+        scene_case(
+            "legacy_exposure_zero",
+            scene_with(r#"<integrator type="transient_path"><float name="exposure" value="0"/></integrator>"#),
+            "exposure (the bin width of mitransient before 1.0) must be positive",
+        ),
+        scene_case(
+            "legacy_initial_time_inf",
+            scene_with(r#"<integrator type="transient_path"><float name="initial_time" value="1e39"/></integrator>"#),
+            "overflows",
+        ),
         // ---- scene XML: numbers ----
         scene_case(
             "radius_1e39",
@@ -1283,11 +1304,6 @@ fn cases() -> Vec<Case> {
             "cylinder",
         ),
         // Mitsuba 3.9.1: 'Plugin "Rectangle" not found' (plugin names are case-sensitive).
-        scene_case(
-            "shape_type_capitalised",
-            scene_with(r#"<shape type="Rectangle"/>"#),
-            "plugin names are case-sensitive, as in Mitsuba 3: write 'rectangle'",
-        ),
         // ---- shapegroup, instance ----
         scene_case(
             "shapegroup_without_id",

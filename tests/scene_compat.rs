@@ -2,7 +2,9 @@
 //! `focal_length`, `focus_distance`, mitransient's `temporal_filter`.
 
 use std::path::Path;
+use tstat::render::time_filter::TimeFilter;
 use tstat::render::{render, PixelSampling, RenderSettings};
+use tstat::scene::check::{check, Verdict};
 use tstat::scene::{Overrides, Scene};
 use tstat::stats::Transform;
 
@@ -234,8 +236,7 @@ fn temporal_filter_is_accepted_as_mitransient_does() {
         ),
     );
     assert!(load(d, "box.xml").is_ok());
-    // mitransient 1.3.1 ignores the filter: a Gaussian request loads with a warning and
-    // is binned as box.
+    // The Gaussian loads as asked, without a warning; its default stddev is 2 bins.
     write(
         d,
         "g.xml",
@@ -244,12 +245,23 @@ fn temporal_filter_is_accepted_as_mitransient_does() {
         ),
     );
     let g = load(d, "g.xml").unwrap();
-    assert!(
-        g.warnings
-            .iter()
-            .any(|w| w.contains("as mitransient 1.3.1 does")),
-        "{:?}",
-        g.warnings
+    assert!(g.warnings.is_empty(), "{:?}", g.warnings);
+    assert_eq!(
+        g.integrator.time_filter,
+        TimeFilter::Gaussian { stddev: 0.5 }
+    );
+    write(
+        d,
+        "g2.xml",
+        &with(r#"<string name="temporal_filter" value="gaussian"/>"#),
+    );
+    assert_eq!(
+        load(d, "g2.xml").unwrap().integrator.time_filter,
+        TimeFilter::Gaussian { stddev: 2.0 }
+    );
+    assert_eq!(
+        load(d, "box.xml").unwrap().integrator.time_filter,
+        TimeFilter::Box
     );
     write(
         d,
@@ -265,6 +277,14 @@ fn temporal_filter_is_accepted_as_mitransient_does() {
         ),
     );
     assert!(error(d, "n.xml").contains("gaussian_stddev must be positive"));
+    write(
+        d,
+        "w.xml",
+        &with(
+            r#"<string name="temporal_filter" value="gaussian"/><float name="gaussian_stddev" value="1e9"/>"#,
+        ),
+    );
+    assert!(error(d, "w.xml").contains("at most 64 bins"));
 }
 
 #[test]
@@ -426,7 +446,6 @@ fn d_sets_parameters_the_file_uses_without_a_default() {
 
 #[test]
 fn check_lists_every_unsupported_feature_with_its_line() {
-    use tstat::scene::check::{check, Verdict};
     let d = tempfile::tempdir().unwrap();
     let d = d.path();
     write(d, "tri.ply", TRI_PLY);
@@ -434,7 +453,7 @@ fn check_lists_every_unsupported_feature_with_its_line() {
         "{SHAPES}\n<emitter type=\"sunsky\"/>\n<bsdf type=\"principled\" id=\"p\"/>\n<medium type=\"heterogeneous\" id=\"fog\"/>\n"
     );
     write(d, "s.xml", &scene(FOV, &body));
-    let Verdict::Unsupported(found) = check(&d.join("s.xml"), &[]) else {
+    let Verdict::Unsupported(found) = check(&d.join("s.xml"), &[], &[]) else {
         panic!("not flagged")
     };
     let text: Vec<String> = found.iter().map(|f| f.to_string()).collect();
@@ -459,7 +478,7 @@ fn check_lists_every_unsupported_feature_with_its_line() {
         "i.xml",
         &scene(FOV, &format!(r#"{SHAPES}<include filename="part.xml"/>"#)),
     );
-    let Verdict::Unsupported(found) = check(&d.join("i.xml"), &[]) else {
+    let Verdict::Unsupported(found) = check(&d.join("i.xml"), &[], &[]) else {
         panic!()
     };
     assert!(found[0].file.ends_with("part.xml") && found[0].what.contains("sdfgrid"));
@@ -469,15 +488,21 @@ fn check_lists_every_unsupported_feature_with_its_line() {
         "f.xml",
         &scene(FOV, &SHAPES.replace("tri.ply", "missing.ply")),
     );
-    assert!(matches!(check(&d.join("f.xml"), &[]), Verdict::Fails(e) if e.contains("missing.ply")));
+    assert!(
+        matches!(check(&d.join("f.xml"), &[], &[]), Verdict::Fails(e) if e.contains("missing.ply"))
+    );
     write(d, "g.xml", &scene(FOV, SHAPES));
-    assert!(matches!(check(&d.join("g.xml"), &[]), Verdict::Ok));
+    assert!(matches!(check(&d.join("g.xml"), &[], &[]), Verdict::Ok));
     // Every bundled scene checks ok.
     let scenes = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
     for e in std::fs::read_dir(scenes).unwrap() {
         let p = e.unwrap().path();
         if p.extension().is_some_and(|x| x == "xml") {
-            assert!(matches!(check(&p, &[]), Verdict::Ok), "{}", p.display());
+            assert!(
+                matches!(check(&p, &[], &[]), Verdict::Ok),
+                "{}",
+                p.display()
+            );
         }
     }
 }
@@ -542,7 +567,6 @@ fn an_included_file_finds_its_includes_through_the_scene_folder_as_mitsuba_does(
     // Mitsuba's test scenes: main.xml includes "include/base.xml", which includes
     // "include/preamble.xml" -- a name relative to the scene's folder, not to
     // include/ (there is no include/include/). Both the load and `check` find it.
-    use tstat::scene::check::{check, Verdict};
     let d = tempfile::tempdir().unwrap();
     let d = d.path();
     write(d, "tri.ply", TRI_PLY);
@@ -564,7 +588,7 @@ fn an_included_file_finds_its_includes_through_the_scene_folder_as_mitsuba_does(
     write(d, "inline.xml", &scene(FOV, SHAPES));
     let (a, b) = (load(d, "main.xml").unwrap(), load(d, "inline.xml").unwrap());
     assert_eq!(steady(&a), steady(&b));
-    assert!(matches!(check(&d.join("main.xml"), &[]), Verdict::Ok));
+    assert!(matches!(check(&d.join("main.xml"), &[], &[]), Verdict::Ok));
 }
 
 #[test]
@@ -597,13 +621,6 @@ fn discard_direct_light_hides_the_emitters_the_camera_sees() {
     assert_eq!(hide, discard);
     // The light fills part of the view: hiding it must change the image.
     assert!(plain.iter().sum::<f64>() > hide.iter().sum::<f64>() + 1.0);
-    // Parameters of older mitransient versions are errors, as in mitransient 1.3.1.
-    write(
-        d,
-        "old.xml",
-        &with(r#"<float name="progressive" value="0.25"/>"#),
-    );
-    assert!(error(d, "old.xml").contains("progressive"));
 }
 
 #[test]
@@ -718,4 +735,109 @@ fn angulararea_attaches_like_area_and_projector_reads_mitsubas_parameters() {
     );
     let e = error(d, "dup.xml");
     assert!(e.contains("id 'light' is already used"), "{e}");
+}
+
+#[test]
+fn legacy_mitransient_time_window_is_checked_and_named_in_a_warning() {
+    let d = tempfile::tempdir().unwrap();
+    let d = d.path();
+    write(d, "tri.ply", TRI_PLY);
+    let with = |params: &str| {
+        scene(FOV, SHAPES).replace(
+            r#"<integer name="max_depth" value="3"/>"#,
+            &format!(r#"<integer name="max_depth" value="3"/>{params}"#),
+        )
+    };
+    write(
+        d,
+        "old.xml",
+        &with(
+            r#"<float name="exposure" value="6.5"/><integer name="initial_time" value="30"/>
+               <integer name="temporal_bins" value="400"/><float name="progressive" value="0.25"/>
+               <integer name="samples_per_pass" value="8"/>"#,
+        ),
+    );
+    let s = load(d, "old.xml").unwrap();
+    assert_eq!(s.warnings.len(), 1, "{:?}", s.warnings);
+    assert!(
+        s.warnings[0].contains("(400 bins of 6.5 OPL from 195)"),
+        "{}",
+        s.warnings[0]
+    );
+    // The film's window is the one used.
+    assert_eq!(
+        (s.film.bins, s.film.start_opl, s.film.bin_width_opl),
+        (10, 3.0, 0.5)
+    );
+    // progressive and samples_per_pass alone: no warning.
+    write(
+        d,
+        "p.xml",
+        &with(r#"<float name="progressive" value="0.25"/>"#),
+    );
+    assert!(load(d, "p.xml").unwrap().warnings.is_empty());
+    for (bad, msg) in [
+        (
+            r#"<float name="exposure" value="-1"/>"#,
+            "exposure (the bin width of mitransient before 1.0) must be positive",
+        ),
+        (
+            r#"<integer name="temporal_bins" value="0"/>"#,
+            "temporal_bins must be positive",
+        ),
+        (
+            r#"<float name="progressive" value="-0.5"/>"#,
+            "progressive must be >= 0",
+        ),
+    ] {
+        write(d, "bad.xml", &with(bad));
+        let e = error(d, "bad.xml");
+        assert!(e.contains(msg), "{e}");
+    }
+}
+
+#[test]
+fn search_folders_from_the_command_line_come_after_the_scene_folder() {
+    let d = tempfile::tempdir().unwrap();
+    let d = d.path();
+    write(d, "common/tri.ply", TRI_PLY);
+    write(d, "scenes/s.xml", &scene(FOV, SHAPES));
+    let e = error(d, "scenes/s.xml");
+    assert!(e.contains("tri.ply"), "{e}");
+    let o = Overrides {
+        search_paths: vec![d.join("common")],
+        ..Overrides::default()
+    };
+    let with_a = Scene::load(&d.join("scenes/s.xml"), &o).unwrap();
+    assert!(matches!(
+        check(&d.join("scenes/s.xml"), &[], &[d.join("common")]),
+        Verdict::Ok
+    ));
+    // A mesh beside the scene wins over the -a folder's (Mitsuba prepends the scene's
+    // folder): an empty file there is found first and fails.
+    write(d, "scenes/tri.ply", "");
+    assert!(Scene::load(&d.join("scenes/s.xml"), &o).is_err());
+    assert_eq!(with_a.shapes.len(), 2);
+}
+
+#[test]
+fn plugin_types_ignore_case_as_mitsuba_on_windows_and_macos() {
+    let d = tempfile::tempdir().unwrap();
+    let d = d.path();
+    write(d, "tri.ply", TRI_PLY);
+    write(d, "lower.xml", &scene(FOV, SHAPES));
+    write(
+        d,
+        "upper.xml",
+        &scene(
+            FOV,
+            &SHAPES
+                .replace(r#"type="rectangle""#, r#"type="Rectangle""#)
+                .replace(r#"type="diffuse""#, r#"type="Diffuse""#),
+        ),
+    );
+    assert_eq!(
+        steady(&load(d, "upper.xml").unwrap()),
+        steady(&load(d, "lower.xml").unwrap())
+    );
 }

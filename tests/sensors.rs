@@ -221,3 +221,63 @@ fn thin_lens_defocuses_an_edge_over_the_circle_of_confusion() {
         }
     }
 }
+
+/// The temporal Gaussian (`temporal_filter` gaussian) on the plane that arrives at one
+/// OPL: every lit pixel's transient is its radiance times the filter's shares around
+/// OPL 3, computed here from Mitsuba's Gaussian by its definition; each lit bin gets
+/// one sample per path; the steady image keeps the box's bits.
+#[test]
+fn temporal_gaussian_splits_one_arrival_over_its_neighbouring_bins() {
+    let sensor = r#"<transform name="to_world"><scale x="2" y="2"/>
+        <lookat origin="0,0,0" target="0,0,-1" up="0,1,0"/></transform>"#;
+    let boxed = scene_xml("orthographic", sensor, FILM_16X8, 8, PLANE_AT_3);
+    let sd = 1.3;
+    let gauss = boxed.replace(
+        r#"<integer name="max_depth" value="1"/>"#,
+        &format!(
+            r#"<integer name="max_depth" value="1"/><string name="temporal_filter" value="gaussian"/><float name="gaussian_stddev" value="{sd}"/>"#
+        ),
+    );
+    let (b, g) = (
+        run(&load(&boxed, &Overrides::default()), 1),
+        run(&load(&gauss, &Overrides::default()), 1),
+    );
+    assert_eq!(b.steady, g.steady);
+    let (w, t) = (16, 10);
+    // OPL 3 sits at tau = (3 - 2.55) / 0.1 = 4.5 bins: the centre of bin 4.
+    let tau = 4.5;
+    let r: f64 = 4.0 * sd;
+    let weight = |x: f64| {
+        if x.abs() < r {
+            (-x * x / (2.0 * sd * sd)).exp() - (-r * r / (2.0 * sd * sd)).exp()
+        } else {
+            0.0
+        }
+    };
+    let total: f64 = (-50..50).map(|k| weight(k as f64 + 0.5 - tau)).sum();
+    let share: Vec<f64> = (0..t)
+        .map(|k| weight(k as f64 + 0.5 - tau) / total)
+        .collect();
+    // The support (|x| < 5.2 bins) reaches bins 0..=9 from the centre of bin 4: all
+    // of it lies in the window but bin 10's share, which is lost.
+    assert!(share.iter().all(|&s| s > 0.0));
+    let y = 3;
+    for x in 5..=10 {
+        let p = y * w + x;
+        for (c, radiance) in [2.0, 3.0, 4.0].into_iter().enumerate() {
+            for (k, s) in share.iter().enumerate() {
+                let got = g.accum.x1[((p * t) + k) * 3 + c] / 8.0;
+                assert!(
+                    (got - radiance * s).abs() < 1e-6 * radiance,
+                    "({x}, {y}) bin {k} channel {c}: {got} vs {}",
+                    radiance * s
+                );
+            }
+        }
+        for k in 0..t {
+            assert_eq!(g.accum.nonzero[p * t + k], 8, "bin {k}");
+        }
+    }
+    // The box puts it all in bin 4: the test can tell them apart.
+    assert_eq!(b.accum.nonzero[(y * w + 5) * t + 3], 0);
+}

@@ -118,6 +118,10 @@ pub struct Manifest {
     pub merged_seeds: Vec<u64>,
     pub scene: SceneRef,
     pub max_depth: i32,
+    /// The temporal Gaussian's standard deviation in bins (`temporal_filter`
+    /// gaussian); absent for the box.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub time_filter_stddev_bins: Option<f64>,
     pub render_seconds: f64,
     pub dropped_nonfinite: u64,
     pub program: Program,

@@ -13,7 +13,7 @@ use ndarray::{Array2, Array3, Array4, Zip};
 use std::path::{Path, PathBuf};
 
 fn same_settings(a: &Manifest, b: &Manifest) -> Result<(), String> {
-    let checks: [(&str, bool); 11] = [
+    let checks: [(&str, bool); 12] = [
         ("channels", a.channels == b.channels),
         ("scene (SHA-256)", a.scene.sha256 == b.scene.sha256),
         ("width", a.width == b.width),
@@ -25,6 +25,10 @@ fn same_settings(a: &Manifest, b: &Manifest) -> Result<(), String> {
         ("max_depth", a.max_depth == b.max_depth),
         ("unit_m", a.unit_m == b.unit_m),
         ("media", a.media == b.media),
+        (
+            "temporal filter",
+            a.time_filter_stddev_bins == b.time_filter_stddev_bins,
+        ),
     ];
     match checks.iter().find(|c| !c.1) {
         Some((what, _)) => Err(format!("its {what} differs from the first bundle's")),

@@ -222,6 +222,7 @@ fn manifest(scene: &Scene, meta: &BundleMeta, seconds: f64, dropped_nonfinite: u
             sha256: scene.sha256.clone(),
         },
         max_depth: scene.integrator.max_depth,
+        time_filter_stddev_bins: scene.integrator.time_filter.stddev_bins(),
         render_seconds: seconds,
         dropped_nonfinite,
         program: Program {

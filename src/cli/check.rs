@@ -14,6 +14,10 @@ pub struct CheckArgs {
     /// Set a scene parameter: -D name=value (repeatable).
     #[arg(short = 'D', value_name = "NAME=VALUE")]
     pub defines: Vec<String>,
+    /// Add a folder to the search path for the files the scenes name, after each
+    /// scene's own folder (Mitsuba's -a; repeatable).
+    #[arg(short = 'a', value_name = "DIR")]
+    pub search_paths: Vec<PathBuf>,
 }
 
 pub fn run(a: CheckArgs) -> anyhow::Result<()> {
@@ -25,9 +29,10 @@ pub fn run(a: CheckArgs) -> anyhow::Result<()> {
         anyhow::ensure!(!k.trim().is_empty(), "-D {d}: the name is empty");
         defaults.push((k.trim().to_string(), v.to_string()));
     }
+    let search = super::util::search_folders(&a.search_paths)?;
     let mut bad = 0;
     for scene in &a.scenes {
-        match check(scene, &defaults) {
+        match check(scene, &defaults, &search) {
             Verdict::Ok => say!("{}: ok", scene.display()),
             Verdict::Unsupported(found) => {
                 bad += 1;

@@ -38,6 +38,10 @@ pub struct SceneArgs {
     /// Set a scene <default>: -D name=value (repeatable).
     #[arg(short = 'D', value_name = "NAME=VALUE")]
     pub defines: Vec<String>,
+    /// Add a folder to the search path for the files the scene names (meshes,
+    /// textures, includes), after the scene's own folder (Mitsuba's -a; repeatable).
+    #[arg(short = 'a', value_name = "DIR")]
+    pub search_paths: Vec<std::path::PathBuf>,
     /// Sub-pixel positions of the primary rays. Stratified lowers the error at edges; the
     /// variances the denoiser estimates then over-estimate the true ones (conservative).
     /// Independent gives i.i.d. samples, exactly what the statistics assume.
@@ -80,6 +84,7 @@ impl SceneArgs {
             start_opl: self.start_opl,
             bin_width_opl: self.bin_width_opl,
             max_depth: opt_int("--max-depth", self.max_depth, -1, i32::MAX as i64)?,
+            search_paths: super::util::search_folders(&self.search_paths)?,
         })
     }
 }

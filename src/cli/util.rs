@@ -541,6 +541,14 @@ pub fn print_scene_warnings(scene: &crate::scene::Scene) {
     }
 }
 
+/// The `-a` folders, each checked to be a folder.
+pub fn search_folders(dirs: &[std::path::PathBuf]) -> anyhow::Result<Vec<std::path::PathBuf>> {
+    for d in dirs {
+        anyhow::ensure!(d.is_dir(), "-a {}: not a folder", d.display());
+    }
+    Ok(dirs.to_vec())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -5,6 +5,7 @@
 use super::cpu::{Isa, ISA_AVX2, ISA_AVX512, ISA_BASELINE};
 use super::deposits::PathDeposits;
 use super::gbuffer::GSample;
+use super::time_filter::{gaussian_shares, TimeFilter};
 use crate::geometry::accel::offset_origin;
 use crate::materials::{Bsdf, BsdfModel, HitGeometry};
 use crate::math::frame::Frame;
@@ -45,8 +46,17 @@ pub(super) fn contribute(
     for (s, v) in tally.steady.iter_mut().zip(c) {
         *s += v;
     }
-    if let Some(bin) = scene.film.bin(opl) {
-        deposits.add(bin, c);
+    match scene.integrator.time_filter {
+        TimeFilter::Box => {
+            if let Some(bin) = scene.film.bin(opl) {
+                deposits.add(bin, c);
+            }
+        }
+        TimeFilter::Gaussian { stddev } => {
+            gaussian_shares(&scene.film, stddev, opl, |bin, share| {
+                deposits.add(bin, c.map(|v| v * share))
+            })
+        }
     }
 }
 

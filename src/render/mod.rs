@@ -23,6 +23,7 @@ pub mod gbuffer;
 pub mod integrator;
 pub mod pixel_sampling;
 pub mod sink;
+pub mod time_filter;
 pub mod volpath;
 
 use crate::math::rng::Pcg32;

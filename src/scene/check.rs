@@ -89,6 +89,18 @@ pub const SUPPORTED: &[(&str, &[&str])] = &[
     ("phase", &["isotropic", "hg"]),
 ];
 
+/// A plugin type as the loaders spell it: a supported plugin's name written in
+/// another case ("Rectangle", "separable") becomes its spelling in [`SUPPORTED`], as
+/// Mitsuba finds plugins on Windows and macOS, whose file systems ignore case; any
+/// other name stays as written.
+pub fn canonical_plugin_name(name: String) -> String {
+    SUPPORTED
+        .iter()
+        .flat_map(|(_, types)| types.iter())
+        .find(|t| t.eq_ignore_ascii_case(&name))
+        .map_or(name, |t| t.to_string())
+}
+
 /// Elements with no support at all (whatever their type).
 const UNSUPPORTED_TAGS: &[(&str, &str)] = &[(
     "volume",
@@ -121,10 +133,18 @@ pub enum Verdict {
 }
 
 /// Checks one scene (`defaults` as `-D`).
-pub fn check(path: &Path, defaults: &[(String, String)]) -> Verdict {
+/// `search`: the `-a` folders (see [`Overrides::search_paths`]).
+pub fn check(path: &Path, defaults: &[(String, String)], search: &[PathBuf]) -> Verdict {
     let mut findings = Vec::new();
     let defaults_map: HashMap<String, String> = defaults.iter().cloned().collect();
-    scan_file(path, None, &defaults_map, &mut findings, &mut Vec::new());
+    scan_file(
+        path,
+        None,
+        &defaults_map,
+        search,
+        &mut findings,
+        &mut Vec::new(),
+    );
     if !findings.is_empty() {
         return Verdict::Unsupported(findings);
     }
@@ -134,6 +154,7 @@ pub fn check(path: &Path, defaults: &[(String, String)]) -> Verdict {
         spp: Some(2),
         bins: Some(2),
         defaults: defaults.to_vec(),
+        search_paths: search.to_vec(),
         ..Default::default()
     };
     match Scene::load(path, &overrides) {
@@ -150,6 +171,7 @@ fn scan_file(
     path: &Path,
     parent: Option<&Ctx>,
     defaults: &HashMap<String, String>,
+    search: &[PathBuf],
     out: &mut Vec<Finding>,
     stack: &mut Vec<PathBuf>,
 ) {
@@ -186,7 +208,7 @@ fn scan_file(
     };
     let ctx = match parent {
         Some(p) => p.for_included_file(path, &text),
-        None => Ctx::new(path, &text, defaults),
+        None => Ctx::new(path, &text, defaults).with_search_paths(search),
     };
     stack.push(canonical);
     for node in doc.root_element().descendants().filter(|n| n.is_element()) {
@@ -217,7 +239,14 @@ fn scan_element(
     }
     if tag == "include" {
         match ctx.attr(node, "filename") {
-            Ok(Some(name)) => scan_file(&ctx.resolve_near(&name), Some(ctx), defaults, out, stack),
+            Ok(Some(name)) => scan_file(
+                &ctx.resolve_near(&name),
+                Some(ctx),
+                defaults,
+                &[],
+                out,
+                stack,
+            ),
             _ => push("<include> without a readable filename".into()),
         }
         return;

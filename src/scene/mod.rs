@@ -39,6 +39,10 @@ use std::path::{Path, PathBuf};
 /// | hide_emitters | boolean | false | directly visible emitters render black |
 /// | camera_unwarp | boolean | false | drop the camera segment from the path's OPL |
 /// | discard_direct_light | boolean | false | as `hide_emitters` (mitransient 1.3.1 also drops the BSDF-sampled share of every later emitter hit; tstat keeps it) |
+/// | temporal_filter | string | box | `box`, or `gaussian`: each contribution split over the nearby bins (`render/time_filter.rs`) |
+/// | gaussian_stddev | float | 2.0 | the Gaussian's standard deviation in bins |
+/// | temporal_bins, exposure, initial_time, progressive | | | mitransient before 1.0's time window and filter schedule: checked, and the film's window used (a warning) |
+/// | samples_per_pass | integer | | Mitsuba's pass size: no effect |
 #[derive(Clone, Debug, PartialEq)]
 pub struct IntegratorSettings {
     pub max_depth: i32,
@@ -48,6 +52,8 @@ pub struct IntegratorSettings {
     /// `transient_prbvolpath`: the volumetric path tracer (media, null boundaries
     /// transparent to shadow rays).
     pub volumetric: bool,
+    /// mitransient's `temporal_filter`: how a contribution reaches the time bins.
+    pub time_filter: crate::render::time_filter::TimeFilter,
 }
 
 impl Default for IntegratorSettings {
@@ -58,6 +64,7 @@ impl Default for IntegratorSettings {
             hide_emitters: false,
             camera_unwarp: false,
             volumetric: false,
+            time_filter: crate::render::time_filter::TimeFilter::Box,
         }
     }
 }
@@ -75,6 +82,9 @@ pub struct Overrides {
     pub start_opl: Option<f64>,
     pub bin_width_opl: Option<f64>,
     pub max_depth: Option<i32>,
+    /// `-a DIR`: folders searched for the files a scene names, after the scene's own
+    /// `<path>`s and folder (Mitsuba's `-a`).
+    pub search_paths: Vec<PathBuf>,
 }
 
 pub struct Scene {

@@ -109,6 +109,13 @@ impl<'a> Ctx<'a> {
         }
     }
 
+    /// Adds the command line's `-a` folders at the end of the search list, after the
+    /// scene's folder (Mitsuba's `-a` appends to its file resolver).
+    pub fn with_search_paths(self, dirs: &[std::path::PathBuf]) -> Self {
+        self.search.borrow_mut().extend(dirs.iter().cloned());
+        self
+    }
+
     /// Puts `dir` first in the search list.
     pub fn prepend_search_path(&self, dir: std::path::PathBuf) {
         self.search.borrow_mut().insert(0, dir);
@@ -192,9 +199,15 @@ impl<'a> Ctx<'a> {
     }
 
     /// An attribute with `$name` references replaced by their defaults.
+    /// An attribute with its `$default`s substituted. A plugin's `type` is matched
+    /// without regard to case ("Rectangle" = "rectangle",
+    /// [`super::check::canonical_plugin_name`]).
     pub fn attr(&self, node: Node, name: &str) -> Result<Option<String>, SceneError> {
         match node.attribute(name) {
             None => Ok(None),
+            Some(raw) if name == "type" => self
+                .substitute(node, raw)
+                .map(|t| Some(super::check::canonical_plugin_name(t))),
             Some(raw) => self.substitute(node, raw).map(Some),
         }
     }

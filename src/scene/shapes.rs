@@ -343,27 +343,8 @@ pub fn parse_geometry(kind: &str, props: &mut Props) -> Result<ShapeGeom, SceneE
                 .map_err(|e| props.err_at("filename", format!("mesh '{name}': {e}")))
         }
         other => {
-            // Mitsuba 3.9.1 refuses "Rectangle", "Sphere", ... too (its plugin lookup
-            // is case-sensitive: "Plugin \"Rectangle\" not found").
-            const KINDS: [&str; 10] = [
-                "rectangle",
-                "cube",
-                "sphere",
-                "disk",
-                "cylinder",
-                "ply",
-                "obj",
-                "serialized",
-                "shapegroup",
-                "instance",
-            ];
-            let hint = KINDS
-                .iter()
-                .find(|k| k.eq_ignore_ascii_case(other))
-                .map(|k| format!("; plugin names are case-sensitive, as in Mitsuba 3: write '{k}'"))
-                .unwrap_or_default();
             Err(props.err(format!(
-                "unknown shape type '{other}' (supported: rectangle, cube, sphere, disk, cylinder, ply, obj, serialized, shapegroup, instance){hint}"
+                "unknown shape type '{other}' (supported: rectangle, cube, sphere, disk, cylinder, ply, obj, serialized, shapegroup, instance)"
             )))
         }
     }

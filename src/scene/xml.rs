@@ -17,6 +17,7 @@ use crate::materials::{Bsdf, Diffuse, Material};
 use crate::math::Rgb;
 use crate::media::parse::parse_medium;
 use crate::media::Medium;
+use crate::render::time_filter::{TimeFilter, DEFAULT_STDDEV_BINS};
 use crate::scene::textures::{parse_texture, NamedTextures};
 use glam::{DMat4, DVec3, Vec3};
 use roxmltree::Node;
@@ -126,7 +127,7 @@ pub fn load(path: &Path, overrides: &Overrides) -> Result<Scene, SceneError> {
             defaults.insert(name, value);
         }
     }
-    let ctx = Ctx::new(path, &text, &defaults);
+    let ctx = Ctx::new(path, &text, &defaults).with_search_paths(&overrides.search_paths);
     if root.tag_name().name() != "scene" {
         return Err(ctx.err(root, "the root element must be <scene>"));
     }
@@ -749,6 +750,10 @@ fn include(ctx: &Ctx, node: Node, o: &mut Objects, depth: usize) -> Result<(), S
     walked
 }
 
+/// The widest temporal Gaussian accepted, in bins: each contribution visits at most
+/// 8 stddev + 1 bins.
+const MAX_STDDEV_BINS: f64 = 64.0;
+
 fn parse_integrator(ctx: &Ctx, node: Node) -> Result<IntegratorSettings, SceneError> {
     let kind = ctx.required_attr(node, "type")?;
     if kind != "transient_path" && kind != "transient_prbvolpath" {
@@ -773,25 +778,23 @@ fn parse_integrator(ctx: &Ctx, node: Node) -> Result<IntegratorSettings, SceneEr
             format!("rr_depth must be positive, got {rr_depth}"),
         ));
     }
-    // mitransient's time filter. mitransient 1.3.1 reads `temporal_filter` and
-    // `gaussian_stddev` and ignores them (every contribution goes to the one bin its OPL
-    // falls in, as tstat does); a Gaussian request is warned about, not silently
-    // dropped.
-    match p.string("temporal_filter")?.as_deref() {
-        None | Some("" | "box") => p.ignore("gaussian_stddev"),
+    // mitransient's time filter (mitransient 1.3.1 reads `temporal_filter` and
+    // `gaussian_stddev` but bins every contribution as the box; its earlier versions,
+    // whose scenes set them, splat with the Gaussian: tstat does).
+    let time_filter = match p.string("temporal_filter")?.as_deref() {
+        None | Some("" | "box") => {
+            p.ignore("gaussian_stddev");
+            TimeFilter::Box
+        }
         Some("gaussian") => {
-            if let Some(sd) = p.float("gaussian_stddev")? {
-                if sd <= 0.0 {
-                    return Err(p.err_at(
-                        "gaussian_stddev",
-                        format!("gaussian_stddev must be positive, got {sd}"),
-                    ));
-                }
+            let sd = p.float_or("gaussian_stddev", DEFAULT_STDDEV_BINS)?;
+            if !(sd > 0.0 && sd <= MAX_STDDEV_BINS) {
+                return Err(p.err_at(
+                    "gaussian_stddev",
+                    format!("gaussian_stddev must be positive and at most {MAX_STDDEV_BINS} bins, got {sd}"),
+                ));
             }
-            p.warn_at(
-                "temporal_filter",
-                "temporal_filter 'gaussian' is binned with the box filter, as mitransient 1.3.1 does (it ignores temporal_filter and gaussian_stddev)",
-            );
+            TimeFilter::gaussian(sd)
         }
         Some(other) => {
             return Err(p.err_at(
@@ -799,7 +802,10 @@ fn parse_integrator(ctx: &Ctx, node: Node) -> Result<IntegratorSettings, SceneEr
                 format!("temporal_filter '{other}' is not one of: box, gaussian"),
             ))
         }
-    }
+    };
+    legacy_time_window(&mut p)?;
+    // Mitsuba's samples per rendering pass: no effect on what is computed.
+    p.ignore("samples_per_pass");
     let s = IntegratorSettings {
         max_depth: max_depth as i32,
         rr_depth: rr_depth as u32,
@@ -811,12 +817,77 @@ fn parse_integrator(ctx: &Ctx, node: Node) -> Result<IntegratorSettings, SceneEr
             | p.boolean_or("discard_direct_light", false)?,
         camera_unwarp: p.boolean_or("camera_unwarp", false)?,
         volumetric: kind == "transient_prbvolpath",
+        time_filter,
     };
     if let Some(&obj) = p.objects.first() {
         return Err(ctx.err(obj, "unexpected nested element in <integrator>"));
     }
     p.finish()?;
     Ok(s)
+}
+
+/// mitransient before 1.0 held the time window in the integrator: `temporal_bins`
+/// (default 128), `exposure` (the bin width in OPL, default 3.5) and `initial_time`
+/// (the window's start in bins, default 0: a sample of OPL d falls in bin
+/// d / exposure - initial_time), and `progressive`, how fast its Gaussian time filter
+/// narrowed from pass to pass. Scenes written for it also carry a
+/// `transient_hdr_film` (the film mitransient 1.x reads), whose window tstat uses: the
+/// old one is checked and named in a warning, never silently mixed in.
+fn legacy_time_window(p: &mut Props) -> Result<(), SceneError> {
+    let bins = p.integer("temporal_bins")?;
+    let exposure = p.float("exposure")?;
+    let initial = p.float("initial_time")?;
+    if let Some(b) = bins {
+        if b <= 0 {
+            return Err(p.err_at(
+                "temporal_bins",
+                format!("temporal_bins must be positive, got {b}"),
+            ));
+        }
+    }
+    if let Some(e) = exposure {
+        if !(e > 0.0 && e.is_finite()) {
+            return Err(p.err_at(
+                "exposure",
+                format!(
+                    "exposure (the bin width of mitransient before 1.0) must be positive, got {e}"
+                ),
+            ));
+        }
+    }
+    if let Some(t) = initial {
+        if !t.is_finite() {
+            return Err(p.err_at(
+                "initial_time",
+                format!("initial_time must be finite, got {t}"),
+            ));
+        }
+    }
+    if let Some(r) = p.float("progressive")? {
+        if !(r >= 0.0 && r.is_finite()) {
+            return Err(p.err_at("progressive", format!("progressive must be >= 0, got {r}")));
+        }
+    }
+    if bins.is_some() || exposure.is_some() || initial.is_some() {
+        let (b, e, t) = (
+            bins.unwrap_or(128),
+            exposure.unwrap_or(3.5),
+            initial.unwrap_or(0.0),
+        );
+        let name = ["temporal_bins", "exposure", "initial_time"]
+            .into_iter()
+            .zip([bins.is_some(), exposure.is_some(), initial.is_some()])
+            .find(|(_, given)| *given)
+            .map_or("exposure", |(n, _)| n);
+        p.warn_at(
+            name,
+            format!(
+                "temporal_bins/exposure/initial_time are the time window of mitransient before 1.0 ({b} bins of {e} OPL from {}); the transient_hdr_film's window is used",
+                t * e
+            ),
+        );
+    }
+    Ok(())
 }
 
 /// A `<sampler>`: its sample count and seed (defaults 4 and 0).
