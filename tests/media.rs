@@ -457,7 +457,13 @@ fn vol_file(size: [usize; 3], channels: usize, bbox: [f32; 6], data: &[f32]) -> 
     assert_eq!(data.len(), size.iter().product::<usize>() * channels);
     let mut b = b"VOL".to_vec();
     b.push(3);
-    for v in [1, size[0] as i32, size[1] as i32, size[2] as i32, channels as i32] {
+    for v in [
+        1,
+        size[0] as i32,
+        size[1] as i32,
+        size[2] as i32,
+        channels as i32,
+    ] {
         b.extend(v.to_le_bytes());
     }
     for v in bbox.iter().chain(data) {
@@ -499,7 +505,10 @@ fn vol_files_round_trip_through_the_reader_and_the_scene() {
     std::fs::write(&path, &bytes).unwrap();
     let f = tstat::media::vol_file::read_vol(&path).unwrap();
     assert_eq!((f.size, f.channels), (size, 3));
-    assert_eq!((f.bbox_min, f.bbox_max), ([-1.0, -2.0, -3.0], [1.0, 2.0, 3.0]));
+    assert_eq!(
+        (f.bbox_min, f.bbox_max),
+        ([-1.0, -2.0, -3.0], [1.0, 2.0, 3.0])
+    );
     assert_eq!(f.data, data);
     assert_eq!(f.to_bytes(), bytes);
     // Through a scene: nearest lookups at cell centres (the file's box, with
@@ -788,7 +797,9 @@ fn single_scattering_in_a_grid_medium_matches_its_arrival_time_density() {
 /// Deterministic values in [lo, hi) for test grids.
 fn grid_values(count: usize, lo: f32, hi: f32, salt: u64) -> Vec<f32> {
     let mut rng = Pcg32::new(salt, 1);
-    (0..count).map(|_| lo + (hi - lo) * rng.next_f32()).collect()
+    (0..count)
+        .map(|_| lo + (hi - lo) * rng.next_f32())
+        .collect()
 }
 
 /// A sphere of fog (radius 1) in front of a diffuse backdrop, lit by a point light
@@ -887,7 +898,10 @@ fn a_constant_grid_renders_the_homogeneous_medium() {
     assert!(z.len() > 30, "only {} bins hold light", z.len());
     let worst = z.iter().fold(0.0f64, |m, z| m.max(z.abs()));
     let chi2 = z.iter().map(|z| z * z).sum::<f64>() / z.len() as f64;
-    eprintln!("{} bins: largest |z| {worst:.2}, mean z^2 {chi2:.2}", z.len());
+    eprintln!(
+        "{} bins: largest |z| {worst:.2}, mean z^2 {chi2:.2}",
+        z.len()
+    );
     // ~48 comparisons at 4.5 standard errors.
     assert!(worst < 4.5, "largest |z| {worst:.2}");
     // The comparison can fail: 20% more extinction in the grid is seen (mean z^2 is
@@ -895,7 +909,10 @@ fn a_constant_grid_renders_the_homogeneous_medium() {
     let z = z_scores(&totals_with(&hetero, &files(1.2), 2), &reference);
     let chi2 = z.iter().map(|z| z * z).sum::<f64>() / z.len() as f64;
     eprintln!("denser grid: mean z^2 {chi2:.2}");
-    assert!(chi2 > 2.0, "a denser grid goes unnoticed: mean z^2 {chi2:.2}");
+    assert!(
+        chi2 > 2.0,
+        "a denser grid goes unnoticed: mean z^2 {chi2:.2}"
+    );
 }
 
 #[test]

@@ -6,11 +6,11 @@
 use super::vol_file::read_vol;
 use super::volume::{Grid, GridFilter, VolumeData};
 use super::{Heterogeneous, Homogeneous, Medium, Phase, Volume};
-use crate::textures::bitmap::WrapMode;
-use std::sync::Arc;
 use crate::scene::props::{Ctx, Props};
 use crate::scene::SceneError;
+use crate::textures::bitmap::WrapMode;
 use roxmltree::Node;
+use std::sync::Arc;
 
 /// Largest accepted extinction (1 / scene unit): beyond it free flights are shorter
 /// than a ray offset in any scene tstat accepts.
@@ -292,14 +292,16 @@ pub fn parse_volume(ctx: &Ctx, node: Node, role: &str) -> Result<Volume, SceneEr
                 if !(ext.min_element() > 0.0 && ext.is_finite() && lo.is_finite()) {
                     return Err(p.err_at(
                         "use_grid_bbox",
-                        format!("volume '{name}' has the bounding box {:?} - {:?}, which is empty", file.bbox_min, file.bbox_max),
+                        format!(
+                            "volume '{name}' has the bounding box {:?} - {:?}, which is empty",
+                            file.bbox_min, file.bbox_max
+                        ),
                     ));
                 }
                 // Mitsuba: to_local = bbox_transform * to_local, bbox_transform =
                 // scale(1 / extents) * translate(-min).
-                to_world = to_world
-                    * glam::DMat4::from_translation(lo)
-                    * glam::DMat4::from_scale(ext);
+                to_world =
+                    to_world * glam::DMat4::from_translation(lo) * glam::DMat4::from_scale(ext);
             }
             let mut v = Volume::constant(glam::Vec3::ZERO, to_world);
             v.data = VolumeData::Grid(Arc::new(Grid {

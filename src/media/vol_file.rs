@@ -240,7 +240,12 @@ mod tests {
                 "non-finite value NaN at voxel (x 0, y 0, z 1), channel 0",
             ),
             (
-                [&bytes[..48 + 4], &f32::INFINITY.to_le_bytes(), &bytes[48 + 8..]].concat(),
+                [
+                    &bytes[..48 + 4],
+                    &f32::INFINITY.to_le_bytes(),
+                    &bytes[48 + 8..],
+                ]
+                .concat(),
                 "non-finite value inf at voxel (x 1, y 0, z 0)",
             ),
         ];

@@ -209,6 +209,7 @@ fn free_flight(
 /// # Safety
 /// The CPU must support `ISA`.
 #[inline(always)]
+#[allow(clippy::too_many_arguments)]
 unsafe fn transmittance<const ISA: u8>(
     scene: &Scene,
     mut o: Vec3,
@@ -385,7 +386,9 @@ unsafe fn trace_body<const ISA: u8>(
                                 let (dir, target) = medium_shadow_ray(p, &ls);
                                 // SAFETY: the caller guarantees ISA.
                                 let tr = unsafe {
-                                    transmittance::<ISA>(scene, p, dir, target, 0.0, medium, rng, tally)
+                                    transmittance::<ISA>(
+                                        scene, p, dir, target, 0.0, medium, rng, tally,
+                                    )
                                 };
                                 if tr != Rgb::ZERO {
                                     let w = if ls.delta {
