@@ -716,14 +716,14 @@ fn check_says_ok_or_lists_what_is_unsupported() {
     let bad = dir.path().join("bad.xml");
     let xml = std::fs::read_to_string(scene("cbox.xml")).unwrap().replace(
         "</scene>",
-        "<emitter type=\"sunsky\"/><medium type=\"heterogeneous\"/></scene>",
+        "<emitter type=\"sunsky\"/><medium type=\"rayleigh_fog\"/></scene>",
     );
     std::fs::write(&bad, xml).unwrap();
     let r = tstat(&["check", &scene("cbox.xml"), &s(&bad)]);
     assert_eq!(r.status.code(), Some(1));
     let out = String::from_utf8_lossy(&r.stdout);
     assert!(
-        out.contains("2 unsupported") && out.contains("sunsky") && out.contains("heterogeneous"),
+        out.contains("2 unsupported") && out.contains("sunsky") && out.contains("rayleigh_fog"),
         "{out}"
     );
     let err = String::from_utf8_lossy(&r.stderr);

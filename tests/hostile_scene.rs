@@ -84,6 +84,38 @@ fn vol(params: &str) -> File {
     ))
 }
 
+/// A sphere holding a heterogeneous medium with `params`, rendered by the volumetric
+/// integrator.
+fn hetero(params: &str) -> File {
+    vol(&format!(
+        r#"<medium type="heterogeneous" name="interior">{params}</medium>"#
+    ))
+}
+
+/// A Mitsuba `.vol` file (version 3, float32) of the given size and channels over the
+/// unit cube, with `values` as the data (which may be shorter than the header says).
+fn vol_bytes(size: [i32; 3], channels: i32, values: &[f32]) -> Vec<u8> {
+    let mut b = b"VOL\x03".to_vec();
+    for v in [1, size[0], size[1], size[2], channels] {
+        b.extend(v.to_le_bytes());
+    }
+    b.extend(f32s(&[0.0, 0.0, 0.0, 1.0, 1.0, 1.0]));
+    b.extend(f32s(values));
+    b
+}
+
+/// A heterogeneous medium whose sigma_t is the grid file `g.vol` (absent if `None`).
+fn grid_case(name: &'static str, file: Option<File>, want: &'static str) -> Case {
+    let scene = hetero(
+        r#"<volume name="sigma_t" type="gridvolume"><string name="filename" value="g.vol"/></volume>"#,
+    );
+    let mut files = vec![("scene.xml", scene)];
+    if let Some(f) = file {
+        files.push(("g.vol", f));
+    }
+    case(name, files, want)
+}
+
 fn sphere(params: &str) -> File {
     scene_with(&format!(r#"<shape type="sphere">{params}</shape>"#))
 }
@@ -784,8 +816,147 @@ fn cases() -> Vec<Case> {
         ),
         scene_case(
             "medium_unknown_type",
-            vol(r#"<medium type="heterogeneous" name="interior"/>"#),
-            "medium 'heterogeneous' is not supported",
+            vol(r#"<medium type="rayleigh_fog" name="interior"/>"#),
+            "medium 'rayleigh_fog' is not supported",
+        ),
+        grid_case("vol_missing_file", None, "volume 'g.vol'"),
+        grid_case(
+            "vol_truncated",
+            Some(File::Bytes(vol_bytes([2, 2, 2], 1, &[1.0; 8])[..70].to_vec())),
+            "volume 'g.vol' is truncated",
+        ),
+        grid_case(
+            "vol_huge_dims",
+            Some(File::Bytes(vol_bytes([100_000, 100_000, 100_000], 3, &[1.0; 8]))),
+            "is truncated: a 100000 x 100000 x 100000 grid of 3 channel(s) needs",
+        ),
+        grid_case(
+            "vol_short_header",
+            Some(File::Bytes(b"VOL\x03\x01\x00".to_vec())),
+            "shorter than the 48-byte header",
+        ),
+        grid_case(
+            "vol_bad_magic",
+            Some(File::Bytes([b"XOL".as_slice(), &vol_bytes([1, 1, 1], 1, &[1.0])[3..]].concat())),
+            "does not start with 'VOL'",
+        ),
+        grid_case(
+            "vol_six_channels",
+            Some(File::Bytes(vol_bytes([1, 1, 1], 6, &[1.0; 6]))),
+            "has 6 channels",
+        ),
+        grid_case(
+            "vol_nan",
+            Some(File::Bytes(vol_bytes([2, 1, 1], 1, &[1.0, f32::NAN]))),
+            "non-finite value NaN at voxel (x 1, y 0, z 0)",
+        ),
+        grid_case(
+            "vol_negative_sigma_t",
+            Some(File::Bytes(vol_bytes([2, 1, 1], 1, &[1.0, -0.5]))),
+            "as sigma_t they must be >= 0",
+        ),
+        grid_case("vol_is_fifo", Some(File::Fifo), "not a regular file"),
+        grid_case("vol_is_directory", Some(File::Dir), "is a directory"),
+        grid_case(
+            "vol_sparse_huge",
+            Some(File::Sparse(8 << 30)),
+            "above the limit",
+        ),
+        case(
+            "vol_albedo_above_one",
+            vec![
+                ("scene.xml", hetero(r#"<volume name="albedo" type="gridvolume"><string name="filename" value="g.vol"/></volume>"#)),
+                ("g.vol", File::Bytes(vol_bytes([1, 1, 1], 3, &[0.5, 1.5, 0.5]))),
+            ],
+            "as albedo they must be [0, 1]",
+        ),
+        case(
+            "vol_max_value_below_grid",
+            vec![
+                ("scene.xml", hetero(r#"<volume name="sigma_t" type="gridvolume"><string name="filename" value="g.vol"/><float name="max_value" value="1"/></volume>"#)),
+                ("g.vol", File::Bytes(vol_bytes([2, 1, 1], 1, &[1.0, 3.0]))),
+            ],
+            "max_value 1 is below the grid's largest value 3",
+        ),
+        case(
+            "vol_grid_bbox_empty",
+            vec![
+                ("scene.xml", hetero(r#"<volume name="sigma_t" type="gridvolume"><string name="filename" value="g.vol"/><boolean name="use_grid_bbox" value="true"/></volume>"#)),
+                ("g.vol", File::Bytes({
+                    let mut b = vol_bytes([1, 1, 1], 1, &[1.0]);
+                    b[36..40].copy_from_slice(&0f32.to_le_bytes());
+                    b
+                })),
+            ],
+            "which is empty",
+        ),
+        case(
+            "homogeneous_grid_sigma_t",
+            vec![
+                ("scene.xml", vol(r#"<medium type="homogeneous" name="interior"><volume name="sigma_t" type="gridvolume"><string name="filename" value="g.vol"/></volume></medium>"#)),
+                ("g.vol", File::Bytes(vol_bytes([1, 1, 1], 1, &[1.0]))),
+            ],
+            "a homogeneous medium's sigma_t must be constant",
+        ),
+        scene_case(
+            "gridvolume_without_filename",
+            hetero(r#"<volume name="sigma_t" type="gridvolume"/>"#),
+            "missing parameter 'filename'",
+        ),
+        scene_case(
+            "gridvolume_bad_filter",
+            hetero(r#"<volume name="sigma_t" type="gridvolume"><string name="filter_type" value="cubic"/><string name="filename" value="g.vol"/></volume>"#),
+            "filter_type 'cubic' is not one of: trilinear, nearest",
+        ),
+        scene_case(
+            "gridvolume_bad_wrap",
+            hetero(r#"<volume name="sigma_t" type="gridvolume"><string name="wrap_mode" value="border"/><string name="filename" value="g.vol"/></volume>"#),
+            "wrap_mode 'border' is not one of: clamp, repeat, mirror",
+        ),
+        scene_case(
+            "constvolume_negative",
+            hetero(r#"<volume name="sigma_t" type="constvolume"><rgb name="value" value="1, -1, 1"/></volume>"#),
+            "the sigma_t volume's value must be finite and >= 0",
+        ),
+        scene_case(
+            "constvolume_albedo_above_one",
+            hetero(r#"<volume name="albedo" type="constvolume"><float name="value" value="1.5"/></volume>"#),
+            "the albedo volume's value must be finite and [0, 1]",
+        ),
+        scene_case(
+            "volume_singular_to_world",
+            hetero(r#"<volume name="sigma_t" type="constvolume"><transform name="to_world"><matrix value="1 0 0 0 0 0 0 0 0 0 1 0 0 0 0 1"/></transform></volume>"#),
+            "singular",
+        ),
+        scene_case(
+            "volume_unknown_type",
+            hetero(r#"<volume name="sigma_t" type="openvdb"/>"#),
+            "volume 'openvdb' is not supported (supported: constvolume, gridvolume)",
+        ),
+        scene_case(
+            "volume_unknown_slot",
+            hetero(r#"<volume name="density" type="constvolume"/>"#),
+            "unexpected <volume name=\"density\">",
+        ),
+        scene_case(
+            "volume_given_twice",
+            hetero(r#"<float name="sigma_t" value="1"/><volume name="sigma_t" type="constvolume"/>"#),
+            "'sigma_t' is given twice",
+        ),
+        scene_case(
+            "heterogeneous_huge_majorant",
+            hetero(r#"<float name="scale" value="1e30"/>"#),
+            "is above 1e7",
+        ),
+        scene_case(
+            "heterogeneous_negative_sigma_t",
+            hetero(r#"<rgb name="sigma_t" value="1, -2, 1"/>"#),
+            "sigma_t must be finite and >= 0",
+        ),
+        scene_case(
+            "heterogeneous_sigma_a",
+            hetero(r#"<float name="sigma_a" value="1"/>"#),
+            "unknown parameter 'sigma_a'",
         ),
         scene_case(
             "medium_without_slot_name",

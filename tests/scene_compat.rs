@@ -450,7 +450,7 @@ fn check_lists_every_unsupported_feature_with_its_line() {
     let d = d.path();
     write(d, "tri.ply", TRI_PLY);
     let body = format!(
-        "{SHAPES}\n<emitter type=\"sunsky\"/>\n<bsdf type=\"principled\" id=\"p\"/>\n<medium type=\"heterogeneous\" id=\"fog\"/>\n"
+        "{SHAPES}\n<emitter type=\"sunsky\"/>\n<bsdf type=\"principled\" id=\"p\"/>\n<medium type=\"rayleigh_fog\" id=\"fog\"/>\n"
     );
     write(d, "s.xml", &scene(FOV, &body));
     let Verdict::Unsupported(found) = check(&d.join("s.xml"), &[], &[]) else {
@@ -461,7 +461,7 @@ fn check_lists_every_unsupported_feature_with_its_line() {
     assert!(
         text[0].contains("sunsky")
             && text[1].contains("principled")
-            && text[2].contains("heterogeneous"),
+            && text[2].contains("rayleigh_fog"),
         "{text:?}"
     );
     // Lines of the file: the body starts after the 14-line head.

@@ -2,8 +2,8 @@
 //!
 //! | parameter | type | default | meaning |
 //! |-----------|------|---------|---------|
-//! | sigma_t | float or rgb | 1 | extinction coefficient, 1 / scene unit |
-//! | albedo | float or rgb | 0.75 | single-scattering albedo sigma_s / sigma_t, in [0, 1] |
+//! | sigma_t | float, rgb or constvolume | 1 | extinction coefficient, 1 / scene unit (constant: a `gridvolume` here is refused, Mitsuba would read it at the origin only) |
+//! | albedo | float, rgb or volume | 0.75 | single-scattering albedo sigma_s / sigma_t, in [0, 1]; a `<volume>` (`gridvolume`, `constvolume`) makes it vary in space, as Mitsuba allows |
 //! | sigma_a, sigma_s | float or rgb | — | extension (Mitsuba 0.6's names, refused by Mitsuba 3): instead of sigma_t and albedo, sigma_t = sigma_a + sigma_s |
 //! | scale | float | 1 | multiplies the extinction (sigma_t, or sigma_a and sigma_s) |
 //! | sample_emitters | boolean | true | next-event estimation from scattering points |
@@ -14,15 +14,20 @@
 //! channel, and a real scattering happens with density `sigma_t exp(-sigma_t s)`, of
 //! which `sigma_s = albedo sigma_t` scatters and the rest is absorbed.
 
+use super::volume::Volume;
 use super::Phase;
 use crate::math::Rgb;
+use glam::Vec3;
 
 #[derive(Clone, Debug, PartialEq)]
 pub struct Homogeneous {
     /// Extinction per channel (scale applied), 1 / scene unit, finite and >= 0.
     pub sigma_t: Rgb,
-    /// Single-scattering albedo per channel, in [0, 1].
+    /// Single-scattering albedo per channel, in [0, 1] (when `albedo_volume` is
+    /// given: its value at the origin, unused by the tracer).
     pub albedo: Rgb,
+    /// A spatially varying albedo (Mitsuba's `<volume name="albedo">`), values in [0, 1].
+    pub albedo_volume: Option<Volume>,
     pub phase: Phase,
     pub sample_emitters: bool,
 }
@@ -32,6 +37,15 @@ impl Homogeneous {
     #[inline]
     pub fn sigma_s(&self) -> Rgb {
         self.sigma_t * self.albedo
+    }
+
+    /// Single-scattering albedo at `p`.
+    #[inline]
+    pub fn albedo_at(&self, p: Vec3) -> Rgb {
+        match &self.albedo_volume {
+            None => self.albedo,
+            Some(v) => v.eval(p),
+        }
     }
 
     /// Transmittance over a length `s` (infinite lengths give 0 where sigma_t > 0).

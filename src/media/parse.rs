@@ -1,12 +1,16 @@
-//! `<medium>` and `<phase>` elements (Mitsuba 3's XML): a medium is declared at the top
+//! `<medium>`, `<phase>` and `<volume>` elements (Mitsuba 3's XML): a medium is declared at the top
 //! level with an `id` and referenced by `<ref name="interior|exterior|medium" id=...>`,
 //! or nested in a shape (`<medium name="interior" ...>`) or the sensor
 //! (`<medium name="medium" ...>`, or any name there as in Mitsuba).
 
-use super::{Homogeneous, Medium, Phase};
+use super::vol_file::read_vol;
+use super::volume::{Grid, GridFilter, VolumeData};
+use super::{Heterogeneous, Homogeneous, Medium, Phase, Volume};
 use crate::scene::props::{Ctx, Props};
 use crate::scene::SceneError;
+use crate::textures::bitmap::WrapMode;
 use roxmltree::Node;
+use std::sync::Arc;
 
 /// Largest accepted extinction (1 / scene unit): beyond it free flights are shorter
 /// than a ray offset in any scene tstat accepts.
@@ -15,13 +19,46 @@ const MAX_SIGMA_T: f32 = 1e7;
 /// Reads a `<medium>` element.
 pub fn parse_medium(ctx: &Ctx, node: Node) -> Result<Medium, SceneError> {
     let kind = ctx.required_attr(node, "type")?;
-    if kind != "homogeneous" {
+    if kind != "homogeneous" && kind != "heterogeneous" {
         return Err(ctx.err(
             node,
-            format!("medium '{kind}' is not supported (supported: homogeneous)"),
+            format!("medium '{kind}' is not supported (supported: homogeneous, heterogeneous)"),
         ));
     }
     let mut p = Props::parse(ctx, node)?;
+    let mut phase = None;
+    let (mut sigma_t_vol, mut albedo_vol) = (None, None);
+    for obj in std::mem::take(&mut p.objects) {
+        match obj.tag_name().name() {
+            "phase" if phase.is_some() => {
+                return Err(ctx.err(obj, "only a single phase function can be specified per medium"))
+            }
+            "phase" => phase = Some(parse_phase(ctx, obj)?),
+            "volume" => {
+                let name = ctx.required_attr(obj, "name")?;
+                let slot = match name.as_str() {
+                    "sigma_t" => &mut sigma_t_vol,
+                    "albedo" => &mut albedo_vol,
+                    other => {
+                        return Err(ctx.err(
+                            obj,
+                            format!("unexpected <volume name=\"{other}\"> (a medium takes volumes named sigma_t and albedo)"),
+                        ))
+                    }
+                };
+                if slot.is_some() || p.peek(&name).is_some() {
+                    return Err(ctx.err(obj, format!("'{name}' is given twice")));
+                }
+                *slot = Some((obj, parse_volume(ctx, obj, &name)?));
+            }
+            other => {
+                return Err(ctx.err(
+                    obj,
+                    format!("unexpected <{other}> inside <medium> (a medium takes a <phase> and <volume>s named sigma_t and albedo)"),
+                ))
+            }
+        }
+    }
     let scale = p.float_or("scale", 1.0)?;
     if !(scale >= 0.0 && scale.is_finite()) {
         return Err(p.err_at(
@@ -29,31 +66,102 @@ pub fn parse_medium(ctx: &Ctx, node: Node) -> Result<Medium, SceneError> {
             format!("scale must be finite and >= 0, got {scale}"),
         ));
     }
+    let sample_emitters = p.boolean_or("sample_emitters", true)?;
+    p.ignore("has_spectral_extinction");
+    let phase = phase.unwrap_or(Phase::Isotropic);
+    let medium = if kind == "homogeneous" {
+        let mut h = parse_homogeneous(&mut p, scale, sigma_t_vol, albedo_vol)?;
+        h.phase = phase;
+        h.sample_emitters = sample_emitters;
+        Medium::Homogeneous(h)
+    } else {
+        let sigma_t = match sigma_t_vol {
+            Some((_, v)) => v,
+            None => {
+                let st = p.rgb("sigma_t")?.unwrap_or(glam::Vec3::ONE);
+                nonneg(&p, "sigma_t", st)?;
+                Volume::constant(st, glam::DMat4::IDENTITY)
+            }
+        };
+        let albedo = match albedo_vol {
+            Some((_, v)) => v,
+            None => {
+                let al = p.rgb("albedo")?.unwrap_or(glam::Vec3::splat(0.75));
+                unit_range(&p, al)?;
+                Volume::constant(al, glam::DMat4::IDENTITY)
+            }
+        };
+        let majorant = sigma_t.max * scale as f32;
+        if !(majorant.is_finite() && majorant <= MAX_SIGMA_T) {
+            return Err(p.err(format!(
+                "the largest extinction (scale {scale} times the largest sigma_t {}) is above {MAX_SIGMA_T:e} per scene unit",
+                sigma_t.max
+            )));
+        }
+        Medium::Heterogeneous(Heterogeneous {
+            sigma_t,
+            albedo,
+            scale: scale as f32,
+            majorant,
+            phase,
+            sample_emitters,
+        })
+    };
+    p.finish()?;
+    Ok(medium)
+}
+
+fn nonneg(p: &Props, name: &str, v: glam::Vec3) -> Result<(), SceneError> {
+    if v.is_finite() && v.min_element() >= 0.0 {
+        Ok(())
+    } else {
+        Err(p.err_at(
+            name,
+            format!("{name} must be finite and >= 0 in every channel, got {v}"),
+        ))
+    }
+}
+
+fn unit_range(p: &Props, al: glam::Vec3) -> Result<(), SceneError> {
+    if al.is_finite() && al.min_element() >= 0.0 && al.max_element() <= 1.0 {
+        Ok(())
+    } else {
+        Err(p.err_at(
+            "albedo",
+            format!("albedo must lie in [0, 1] in every channel, got {al}"),
+        ))
+    }
+}
+
+/// The parameters of a `homogeneous` medium (phase and `sample_emitters` are set by
+/// the caller). A `constvolume` stands for its value; a grid may give the albedo only.
+fn parse_homogeneous(
+    p: &mut Props,
+    scale: f64,
+    sigma_t_vol: Option<(Node, Volume)>,
+    albedo_vol: Option<(Node, Volume)>,
+) -> Result<Homogeneous, SceneError> {
     let sigma_a = p.rgb("sigma_a")?;
     let sigma_s = p.rgb("sigma_s")?;
-    let sigma_t = p.rgb("sigma_t")?;
-    let albedo = p.rgb("albedo")?;
-    let nonneg = |p: &Props, name: &str, v: glam::Vec3| {
-        if v.is_finite() && v.min_element() >= 0.0 {
-            Ok(())
-        } else {
-            Err(p.err_at(
-                name,
-                format!("{name} must be finite and >= 0 in every channel, got {v}"),
-            ))
-        }
+    let sigma_t = match sigma_t_vol {
+        None => p.rgb("sigma_t")?,
+        Some((n, v)) => Some(v.as_constant().ok_or_else(|| {
+            p.ctx.err(n, "a homogeneous medium's sigma_t must be constant (a float, an rgb or a constvolume); use a heterogeneous medium for a grid")
+        })?),
+    };
+    let (albedo, albedo_volume) = match albedo_vol {
+        None => (p.rgb("albedo")?, None),
+        Some((_, v)) => match v.as_constant() {
+            Some(c) => (Some(c), None),
+            None => (Some(v.eval(glam::Vec3::ZERO)), Some(v)),
+        },
     };
     let (sigma_t, albedo) = match (sigma_a, sigma_s) {
         (None, None) => {
             let st = sigma_t.unwrap_or(glam::Vec3::ONE);
-            nonneg(&p, "sigma_t", st)?;
+            nonneg(p, "sigma_t", st)?;
             let al = albedo.unwrap_or(glam::Vec3::splat(0.75));
-            if !(al.is_finite() && al.min_element() >= 0.0 && al.max_element() <= 1.0) {
-                return Err(p.err_at(
-                    "albedo",
-                    format!("albedo must lie in [0, 1] in every channel, got {al}"),
-                ));
-            }
+            unit_range(p, al)?;
             (st * scale as f32, al)
         }
         (Some(a), Some(s)) => {
@@ -62,8 +170,8 @@ pub fn parse_medium(ctx: &Ctx, node: Node) -> Result<Medium, SceneError> {
                     p.err("give either sigma_t and albedo, or sigma_a and sigma_s, not both")
                 );
             }
-            nonneg(&p, "sigma_a", a)?;
-            nonneg(&p, "sigma_s", s)?;
+            nonneg(p, "sigma_a", a)?;
+            nonneg(p, "sigma_s", s)?;
             let st = (a + s) * scale as f32;
             let al = glam::Vec3::select(
                 (a + s).cmpgt(glam::Vec3::ZERO),
@@ -80,30 +188,144 @@ pub fn parse_medium(ctx: &Ctx, node: Node) -> Result<Medium, SceneError> {
             "the extinction (scale included) is {sigma_t}, above {MAX_SIGMA_T:e} per scene unit"
         )));
     }
-    let sample_emitters = p.boolean_or("sample_emitters", true)?;
-    p.ignore("has_spectral_extinction");
-    let mut phase = None;
-    for obj in std::mem::take(&mut p.objects) {
-        match obj.tag_name().name() {
-            "phase" if phase.is_some() => {
-                return Err(ctx.err(obj, "only a single phase function can be specified per medium"))
-            }
-            "phase" => phase = Some(parse_phase(ctx, obj)?),
-            other => {
-                return Err(ctx.err(
-                    obj,
-                    format!("unexpected <{other}> inside <medium> (a homogeneous medium takes a <phase>; volumes are not supported)"),
-                ))
-            }
-        }
-    }
-    p.finish()?;
     Ok(Homogeneous {
         sigma_t,
         albedo,
-        phase: phase.unwrap_or(Phase::Isotropic),
-        sample_emitters,
+        albedo_volume,
+        phase: Phase::Isotropic,
+        sample_emitters: true,
     })
+}
+
+/// Reads a `<volume>` element given to a medium as `role` (`sigma_t`: values >= 0;
+/// `albedo`: values in [0, 1]).
+pub fn parse_volume(ctx: &Ctx, node: Node, role: &str) -> Result<Volume, SceneError> {
+    let kind = ctx.required_attr(node, "type")?;
+    let mut p = Props::parse(ctx, node)?;
+    if let Some(&o) = p.objects.first() {
+        return Err(ctx.err(
+            o,
+            format!("unexpected nested element in <volume type=\"{kind}\"> (values are given as parameters)"),
+        ));
+    }
+    let to_world = p.transform("to_world")?.unwrap_or(glam::DMat4::IDENTITY);
+    let det = to_world.determinant();
+    if !(det != 0.0 && det.is_finite() && to_world.inverse().is_finite()) {
+        return Err(p.err_at("to_world", "the volume's to_world is singular"));
+    }
+    let (lo_ok, hi) = if role == "albedo" {
+        (0.0f32, 1.0f32)
+    } else {
+        (0.0, f32::INFINITY)
+    };
+    let range = if role == "albedo" { "[0, 1]" } else { ">= 0" };
+    let volume = match kind.as_str() {
+        "constvolume" => {
+            let v = p.rgb("value")?.unwrap_or(glam::Vec3::ONE);
+            if !(v.is_finite() && v.min_element() >= lo_ok && v.max_element() <= hi) {
+                return Err(p.err_at(
+                    "value",
+                    format!("the {role} volume's value must be finite and {range} in every channel, got {v}"),
+                ));
+            }
+            Volume::constant(v, to_world)
+        }
+        "gridvolume" => {
+            let filter = match p.string("filter_type")?.as_deref() {
+                None | Some("trilinear") => GridFilter::Trilinear,
+                Some("nearest") => GridFilter::Nearest,
+                Some(other) => {
+                    return Err(p.err_at(
+                        "filter_type",
+                        format!("filter_type '{other}' is not one of: trilinear, nearest"),
+                    ))
+                }
+            };
+            let wrap = match p.string("wrap_mode")?.as_deref() {
+                None | Some("clamp") => WrapMode::Clamp,
+                Some("repeat") => WrapMode::Repeat,
+                Some("mirror") => WrapMode::Mirror,
+                Some(other) => {
+                    return Err(p.err_at(
+                        "wrap_mode",
+                        format!("wrap_mode '{other}' is not one of: clamp, repeat, mirror"),
+                    ))
+                }
+            };
+            p.boolean_or("raw", false)?;
+            p.boolean_or("accel", true)?;
+            let use_grid_bbox = p.boolean_or("use_grid_bbox", false)?;
+            let max_value = p.float("max_value")?;
+            let name = p
+                .string("filename")?
+                .ok_or_else(|| p.err("missing parameter 'filename' (a .vol file)"))?;
+            if name.trim().is_empty() {
+                return Err(p.err_at("filename", "the filename is empty"));
+            }
+            let path = ctx.resolve(&name);
+            ctx.read_mesh_file(&path);
+            let file = read_vol(&path)
+                .map_err(|e| p.err_at("filename", format!("volume '{name}' {e}")))?;
+            let (min, max) = (file.min(), file.max());
+            if min < lo_ok || max > hi {
+                return Err(p.err_at(
+                    "filename",
+                    format!("volume '{name}' holds values in [{min}, {max}]; as {role} they must be {range}"),
+                ));
+            }
+            let max = match max_value {
+                None => max,
+                Some(m) if m.is_finite() && m as f32 >= max => m as f32,
+                Some(m) => {
+                    return Err(p.err_at(
+                        "max_value",
+                        format!("max_value {m} is below the grid's largest value {max} (it bounds the extinction for delta tracking)"),
+                    ))
+                }
+            };
+            // The local frame: the file's box onto the unit cube (`use_grid_bbox`),
+            // after the world-to-volume map.
+            let mut to_world = to_world;
+            if use_grid_bbox {
+                let lo = glam::Vec3::from_array(file.bbox_min).as_dvec3();
+                let ext = glam::Vec3::from_array(file.bbox_max).as_dvec3() - lo;
+                if !(ext.min_element() > 0.0 && ext.is_finite() && lo.is_finite()) {
+                    return Err(p.err_at(
+                        "use_grid_bbox",
+                        format!(
+                            "volume '{name}' has the bounding box {:?} - {:?}, which is empty",
+                            file.bbox_min, file.bbox_max
+                        ),
+                    ));
+                }
+                // Mitsuba: to_local = bbox_transform * to_local, bbox_transform =
+                // scale(1 / extents) * translate(-min).
+                to_world =
+                    to_world * glam::DMat4::from_translation(lo) * glam::DMat4::from_scale(ext);
+            }
+            let mut v = Volume::constant(glam::Vec3::ZERO, to_world);
+            v.data = VolumeData::Grid(Arc::new(Grid {
+                size: file.size,
+                channels: file.channels,
+                data: file.data,
+                filter,
+                wrap,
+            }));
+            v.max = max;
+            v
+        }
+        other => {
+            return Err(ctx.err(
+                node,
+                format!("volume '{other}' is not supported (supported: constvolume, gridvolume)"),
+            ))
+        }
+    };
+    if !(volume.bbox_min.is_finite() && volume.bbox_max.is_finite()) {
+        return Err(p.err_at("to_world", "the volume's bounding box is not finite"));
+    }
+    p.finish()?;
+    Ok(volume)
 }
 
 /// Reads a `<phase>` element.

@@ -3,7 +3,8 @@
 //!
 //! Per iteration of a path: Russian roulette (from `depth > rr_depth`, survival
 //! `min(max(beta) eta^2, 0.95)`), the `max_depth` test, one closest-hit ray, then
-//! - inside a medium, a free-flight distance `t` from `sigma_t` (below); if `t` comes
+//! - inside a medium, a free-flight distance `t` from `sigma_t` (below; by delta
+//!   tracking in a heterogeneous medium, `media/heterogeneous.rs`); if `t` comes
 //!   before the surface, a real scattering: `depth += 1`, next-event estimation with
 //!   the phase function (unless the medium sets `sample_emitters = false`), and a new
 //!   direction from the phase function (weight 1);
@@ -15,11 +16,14 @@
 //!   `exterior` switches the current medium to the one the new direction enters.
 //!
 //! Shadow rays pass through `null` surfaces (changing medium there) and are blocked by
-//! every other surface; their transmittance is `exp(-sigma_t s)` per medium segment.
+//! every other surface; their transmittance is `exp(-sigma_t s)` per homogeneous
+//! medium segment, and a ratio-tracking estimate of it per heterogeneous one.
 //!
 //! OPL: a segment of length `s` adds `eta * s`, inside media too (media have no index
 //! of refraction of their own; `eta` is the product of the relative IORs crossed at
-//! dielectric boundaries, as in `integrator.rs`).
+//! dielectric boundaries, as in `integrator.rs`). A null collision adds no time: the
+//! OPL of a real scattering at distance `t` is `eta * t` whatever the null collisions
+//! before it.
 //!
 //! Free-flight sampling in RGB (differs from Mitsuba's `volpath`, same expectation):
 //! both pick one channel h per path, uniformly, and sample every free flight from
@@ -32,11 +36,14 @@
 //! product of the densities had channel c been sampled (`sigma_t,c Tr_c(t)`, `Tr_c(s)`),
 //! channel k weighs `f_k / mean_c p_c` (at most `3 prod albedo_k`). Both estimators are
 //! unbiased for every channel; for a grey medium they are the same. The products are
-//! kept relative to `p_h` in f64. Media are homogeneous, so no null-collision (ratio)
-//! tracking is needed.
+//! kept relative to `p_h` in f64. A heterogeneous medium folds in its collisions'
+//! terms the same way (`(sigma_s, sigma_t)` per real, `(sigma_n, sigma_n)` per null
+//! collision, the majorant's exponentials cancelling), so one path may cross media of
+//! both kinds. A spatially varying albedo (`homogeneous` with an albedo volume) only
+//! changes `sigma_s` at the scattering point.
 //!
 //! G-buffer: as `integrator.rs`, looking through `null` interfaces; a camera path whose
-//! first real interaction is a medium scattering records the medium's albedo, a zero
+//! first real interaction is a medium scattering records the medium's albedo there, a zero
 //! normal and `medium = true`; depth is the distance to that first interaction.
 
 use super::cpu::ISA_BASELINE;
@@ -50,6 +57,7 @@ use crate::math::frame::Frame;
 use crate::math::rng::Pcg32;
 use crate::math::sampling::power_heuristic;
 use crate::math::Rgb;
+use crate::media::heterogeneous::Tracked;
 use crate::media::Medium;
 use crate::scene::Scene;
 use glam::{DVec3, Vec3};
@@ -141,7 +149,7 @@ impl Spectral {
     }
 }
 
-/// Result of a free flight through a homogeneous medium towards a surface at `s_surf`.
+/// Result of a free flight through a medium towards a surface at `s_surf`.
 enum Flight {
     /// A real scattering at distance `t`.
     Scatter { t: f32 },
@@ -149,10 +157,29 @@ enum Flight {
     Surface,
 }
 
-/// Samples a free-flight distance from channel `spec.h`'s extinction with the uniform
-/// `u`, and folds the event into `spec`.
+/// Samples a free flight along unit `d` from `o` towards a surface at `s_surf`, and
+/// folds its events into `spec`: in a homogeneous medium a distance from channel
+/// `spec.h`'s extinction (one number), in a heterogeneous one by delta tracking
+/// (`media/heterogeneous.rs`).
 #[inline(always)]
-fn free_flight(m: &Medium, s_surf: f32, u: f32, spec: &mut Spectral) -> Flight {
+fn free_flight(
+    m: &Medium,
+    o: Vec3,
+    d: Vec3,
+    s_surf: f32,
+    rng: &mut Pcg32,
+    spec: &mut Spectral,
+) -> Flight {
+    let m = match m {
+        Medium::Homogeneous(m) => m,
+        Medium::Heterogeneous(m) => {
+            return match m.track(o, d, s_surf, spec.h, rng, |f, p| spec.update(f, p)) {
+                Tracked::Real { t } => Flight::Scatter { t },
+                Tracked::Through => Flight::Surface,
+            }
+        }
+    };
+    let u = rng.next_f32();
     let st = m.sigma_t;
     let sh = st[spec.h];
     let t = if sh > 0.0 {
@@ -162,7 +189,11 @@ fn free_flight(m: &Medium, s_surf: f32, u: f32, spec: &mut Spectral) -> Flight {
     };
     if t < s_surf {
         let tr = (-st * t).exp();
-        spec.update(tr * m.sigma_s(), st * tr);
+        let sigma_s = match &m.albedo_volume {
+            None => m.sigma_s(),
+            Some(v) => st * v.eval(o + d * t),
+        };
+        spec.update(tr * sigma_s, st * tr);
         Flight::Scatter { t }
     } else {
         let tr = m.transmittance(s_surf);
@@ -178,6 +209,7 @@ fn free_flight(m: &Medium, s_surf: f32, u: f32, spec: &mut Spectral) -> Flight {
 /// # Safety
 /// The CPU must support `ISA`.
 #[inline(always)]
+#[allow(clippy::too_many_arguments)]
 unsafe fn transmittance<const ISA: u8>(
     scene: &Scene,
     mut o: Vec3,
@@ -185,6 +217,7 @@ unsafe fn transmittance<const ISA: u8>(
     target: Vec3,
     target_eps: f32,
     mut medium: Option<u32>,
+    rng: &mut Pcg32,
     tally: &mut PathTally,
 ) -> Rgb {
     let mut tr = Rgb::ONE;
@@ -198,7 +231,10 @@ unsafe fn transmittance<const ISA: u8>(
         let hit = unsafe { scene.accel.intersect_with::<ISA>(&scene.shapes, o, d, tmax) };
         let seg = hit.as_ref().map_or(tmax, |h| h.t);
         if let Some(m) = medium {
-            tr *= scene.media[m as usize].transmittance(seg);
+            tr *= match &scene.media[m as usize] {
+                Medium::Homogeneous(m) => m.transmittance(seg),
+                Medium::Heterogeneous(m) => m.transmittance(o, d, seg, rng),
+            };
         }
         let Some(h) = hit else {
             return tr;
@@ -315,8 +351,7 @@ unsafe fn trace_body<const ISA: u8>(
         // ---- Medium: free flight, and a real scattering before the surface. ----
         if let Some(mi) = medium {
             let m = &scene.media[mi as usize];
-            let u_t = rng.next_f32();
-            let flight = free_flight(m, s_surf, u_t, &mut spec);
+            let flight = free_flight(m, o, d, s_surf, rng, &mut spec);
             beta = common * spec.weight();
             match flight {
                 Flight::Scatter { t } => {
@@ -327,7 +362,7 @@ unsafe fn trace_body<const ISA: u8>(
                     }
                     if g_pending {
                         g_pending = false;
-                        g.albedo = m.albedo;
+                        g.albedo = m.albedo_at(p);
                         g.medium = true;
                     }
                     depth += 1;
@@ -338,7 +373,7 @@ unsafe fn trace_body<const ISA: u8>(
                     }
                     let wi = -d;
                     // Next-event estimation with the phase function.
-                    if m.sample_emitters {
+                    if m.sample_emitters() {
                         specular_chain = false;
                         let u_sel = rng.next_f32();
                         let u1 = rng.next_f32();
@@ -346,12 +381,14 @@ unsafe fn trace_body<const ISA: u8>(
                         let idx = ((u_sel * n_emitters as f32) as usize).min(n_emitters - 1);
                         let emitter = &scene.emitters[idx];
                         if let Some(ls) = emitter.sample(&scene.shapes, p, select_pdf, u1, u2) {
-                            let f = m.phase.eval(wi, ls.wi);
+                            let f = m.phase().eval(wi, ls.wi);
                             if f > 0.0 && ls.pdf > 0.0 {
                                 let (dir, target) = medium_shadow_ray(p, &ls);
                                 // SAFETY: the caller guarantees ISA.
                                 let tr = unsafe {
-                                    transmittance::<ISA>(scene, p, dir, target, 0.0, medium, tally)
+                                    transmittance::<ISA>(
+                                        scene, p, dir, target, 0.0, medium, rng, tally,
+                                    )
                                 };
                                 if tr != Rgb::ZERO {
                                     let w = if ls.delta {
@@ -374,7 +411,7 @@ unsafe fn trace_body<const ISA: u8>(
                         specular_chain = true;
                     }
                     // Phase sampling (weight 1).
-                    let ps = m.phase.sample(wi, rng.next_2d());
+                    let ps = m.phase().sample(wi, rng.next_2d());
                     if ps.pdf.is_nan() || ps.pdf <= 0.0 {
                         break;
                     }
@@ -504,7 +541,16 @@ unsafe fn trace_body<const ISA: u8>(
                     };
                     // SAFETY: the caller guarantees ISA.
                     let tr = unsafe {
-                        transmittance::<ISA>(scene, origin, dir, target, 0.0, shadow_medium, tally)
+                        transmittance::<ISA>(
+                            scene,
+                            origin,
+                            dir,
+                            target,
+                            0.0,
+                            shadow_medium,
+                            rng,
+                            tally,
+                        )
                     };
                     if tr != Rgb::ZERO {
                         let w = if ls.delta {

@@ -85,7 +85,8 @@ pub const SUPPORTED: &[(&str, &[&str])] = &[
         "TemporalProfile",
         &["ConstantTP", "ExponentialTP", "EpanechnikovTP", "PosEpanTP"],
     ),
-    ("medium", &["homogeneous"]),
+    ("medium", &["homogeneous", "heterogeneous"]),
+    ("volume", &["constvolume", "gridvolume"]),
     ("phase", &["isotropic", "hg"]),
 ];
 
@@ -102,10 +103,7 @@ pub fn canonical_plugin_name(name: String) -> String {
 }
 
 /// Elements with no support at all (whatever their type).
-const UNSUPPORTED_TAGS: &[(&str, &str)] = &[(
-    "volume",
-    "volume data (gridvolume, heterogeneous media) is not supported",
-)];
+const UNSUPPORTED_TAGS: &[(&str, &str)] = &[];
 
 /// One unsupported feature.
 #[derive(Clone, Debug, PartialEq)]

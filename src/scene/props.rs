@@ -315,6 +315,7 @@ pub const OBJECT_TAGS: &[&str] = &[
     "texture",
     "medium",
     "phase",
+    "volume",
     "profile",
     "TemporalProfile",
 ];
