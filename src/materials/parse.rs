@@ -782,7 +782,7 @@ fn principled(p: &mut Params) -> Result<Principled, SceneError> {
         (false, _) => {
             let s = props.float_or("specular", 0.5)?;
             let e = specular_to_eta(s as f32);
-            if !(s >= 0.0) || !(e.is_finite() && (e as f64) <= MAX_OPTICAL_CONSTANT) {
+            if !(s >= 0.0) || !(e.is_finite() && e > 0.0 && (e as f64) <= MAX_OPTICAL_CONSTANT) {
                 return Err(props.err_at(
                     "specular",
                     format!("specular must be in [0, 12.5) (it sets eta = 2 / (1 - sqrt(0.08 specular)) - 1), got {s}"),
