@@ -36,11 +36,11 @@ use tstat::lights::scene_sphere::SceneSphere;
 use tstat::lights::Emitter;
 use tstat::materials::perturbed::{shadow_terminator, IDENTITY};
 use tstat::materials::{Blend, PPlastic, Perturbation, Perturbed, Polarizer, RoughPlastic};
-use tstat::materials::{Principled, PrincipledThin};
 use tstat::materials::{
     Bsdf, BsdfFlags, BsdfModel, BsdfSample, Conductor, Dielectric, Diffuse, Mask, Microfacet,
     MicrofacetKind, OneSided, Plastic, RoughConductor, RoughDielectric, ThinDielectric, TwoSided,
 };
+use tstat::materials::{Principled, PrincipledThin};
 use tstat::math::frame::Frame;
 use tstat::math::rng::Pcg32;
 use tstat::math::sampling::{cosine_hemisphere, cosine_hemisphere_pdf};
@@ -501,9 +501,11 @@ fn non_delta_cases() -> Vec<Case> {
             )
         }))
         .chain(phase_cases())
-        .chain(principled_models().into_iter().map(|(n, b, theta, _)| {
-            (format!("{n}, {theta} deg"), b, dir(theta, 70.0))
-        }))
+        .chain(
+            principled_models()
+                .into_iter()
+                .map(|(n, b, theta, _)| (format!("{n}, {theta} deg"), b, dir(theta, 70.0))),
+        )
         .collect()
 }
 
@@ -2705,7 +2707,12 @@ fn principled_models() -> Vec<(&'static str, Box<dyn BsdfModel>, f64, f32)> {
         b.base_color = Rgb::new(0.7, 0.1, 0.1);
     });
     vec![
-        ("principled defaults", Box::new(Principled::default()), 30.0, 1.5),
+        (
+            "principled defaults",
+            Box::new(Principled::default()),
+            30.0,
+            1.5,
+        ),
         (
             "principled metallic 0.8, anisotropic 0.6, roughness 0.4",
             Box::new(principled(|b| {
@@ -2717,8 +2724,18 @@ fn principled_models() -> Vec<(&'static str, Box<dyn BsdfModel>, f64, f32)> {
             50.0,
             1.5,
         ),
-        ("principled spec_trans 0.7, eta 1.4, front", Box::new(glass.clone()), 40.0, 1.4),
-        ("principled spec_trans 0.7, eta 1.4, inside", Box::new(glass), 140.0, 1.4),
+        (
+            "principled spec_trans 0.7, eta 1.4, front",
+            Box::new(glass.clone()),
+            40.0,
+            1.4,
+        ),
+        (
+            "principled spec_trans 0.7, eta 1.4, inside",
+            Box::new(glass),
+            140.0,
+            1.4,
+        ),
         (
             "principled clearcoat, sheen, spec_tint, flatness",
             Box::new(principled(|b| {
@@ -2758,7 +2775,12 @@ fn principled_models() -> Vec<(&'static str, Box<dyn BsdfModel>, f64, f32)> {
             35.0,
             1.0,
         ),
-        ("principledthin anisotropic, from the back", Box::new(thin_back), 120.0, 1.0),
+        (
+            "principledthin anisotropic, from the back",
+            Box::new(thin_back),
+            120.0,
+            1.0,
+        ),
         (
             "principledthin spec_trans 1, roughness 0.4",
             Box::new(principled_thin(|b| {
@@ -2814,7 +2836,10 @@ fn principled_weights_energy_and_reciprocity() {
         b.roughness = 0.7;
     });
     let (a, compared) = refraction_asymmetry(&sheet, 1.0, 1600);
-    assert!(compared > 300 && a < 1e-5, "thin diffuse transmission: {a} over {compared}");
+    assert!(
+        compared > 300 && a < 1e-5,
+        "thin diffuse transmission: {a} over {compared}"
+    );
 }
 
 /// White furnace: the energy models made to be lossless stay within 1 (a white
@@ -2869,7 +2894,12 @@ fn principled_white_furnace_bounds() {
             }
         }
     }
-    let (mean, _) = furnace(&PrincipledWithoutRadianceScale(white_glass), dir(10.0, 0.0), 20_000, 0);
+    let (mean, _) = furnace(
+        &PrincipledWithoutRadianceScale(white_glass),
+        dir(10.0, 0.0),
+        20_000,
+        0,
+    );
     assert!(
         mean.max_element() > 1.5,
         "principled glass without 1 / eta^2 passed the furnace: {mean}"

@@ -440,9 +440,7 @@ fn check_lists_every_unsupported_feature_with_its_line() {
     let text: Vec<String> = found.iter().map(|f| f.to_string()).collect();
     assert_eq!(found.len(), 3, "{text:?}");
     assert!(
-        text[0].contains("sunsky")
-            && text[1].contains("hair")
-            && text[2].contains("heterogeneous"),
+        text[0].contains("sunsky") && text[1].contains("hair") && text[2].contains("heterogeneous"),
         "{text:?}"
     );
     // Lines of the file: the body starts after the 14-line head.

@@ -3,10 +3,10 @@
 use super::conductor_presets;
 use super::material::{Binding, Param, Step};
 use super::RoughPlastic;
+use super::{specular_to_eta, Principled, PrincipledThin};
 use super::{
     Blend, Composed, PPlastic, Perturbation, Perturbed, Polarizer, Separable, TemporalProfile,
 };
-use super::{specular_to_eta, Principled, PrincipledThin};
 use super::{
     Bsdf, Conductor, Dielectric, Diffuse, Mask, Material, Microfacet, MicrofacetKind, Null,
     OneSided, Plastic, RoughConductor, RoughDielectric, ThinDielectric, TwoSided,
@@ -761,7 +761,10 @@ fn principled(p: &mut Params) -> Result<Principled, SceneError> {
         principled_weight(p, "clearcoat_gloss", Param::ClearcoatGloss, 0.0, 1.0)?;
     let props = &mut p.props;
     // eta and specular are floats (Mitsuba reads them with get<float>) and exclusive.
-    let eta = match (props.peek("eta").is_some(), props.peek("specular").is_some()) {
+    let eta = match (
+        props.peek("eta").is_some(),
+        props.peek("specular").is_some(),
+    ) {
         (true, true) => return Err(props.err("give either 'eta' or 'specular', not both")),
         (true, false) => {
             let e = props.float_or("eta", 1.5)?;
@@ -782,7 +785,7 @@ fn principled(p: &mut Params) -> Result<Principled, SceneError> {
         (false, _) => {
             let s = props.float_or("specular", 0.5)?;
             let e = specular_to_eta(s as f32);
-            if !(s >= 0.0) || !(e.is_finite() && e > 0.0 && (e as f64) <= MAX_OPTICAL_CONSTANT) {
+            if !(s >= 0.0 && e.is_finite() && e > 0.0 && (e as f64) <= MAX_OPTICAL_CONSTANT) {
                 return Err(props.err_at(
                     "specular",
                     format!("specular must be in [0, 12.5) (it sets eta = 2 / (1 - sqrt(0.08 specular)) - 1), got {s}"),

@@ -110,7 +110,13 @@ pub fn specular_to_eta(specular: f32) -> f32 {
 /// Lobe selection probabilities (diffuse, clearcoat, transmission, reflection),
 /// normalised; `None` when they sum to zero (all rates zero).
 #[inline]
-fn lobe_probabilities(b: &Principled, front: bool, f: f32, brdf: f32, bsdf: f32) -> Option<[f32; 4]> {
+fn lobe_probabilities(
+    b: &Principled,
+    front: bool,
+    f: f32,
+    brdf: f32,
+    bsdf: f32,
+) -> Option<[f32; 4]> {
     let (reflect, trans, coat, diffuse) = if front {
         (
             b.specular_rate * (1.0 - bsdf * (1.0 - f)),
@@ -122,7 +128,7 @@ fn lobe_probabilities(b: &Principled, front: bool, f: f32, brdf: f32, bsdf: f32)
         (f, 1.0 - f, 0.0, 0.0)
     };
     let total = reflect + trans + coat + diffuse;
-    if !(total > 0.0) || !total.is_finite() {
+    if !(total.is_finite() && total > 0.0) {
         return None;
     }
     let r = 1.0 / total;
@@ -208,11 +214,13 @@ impl BsdfModel for Principled {
                 value += Rgb::splat(self.clearcoat * 0.25 * fcc * dcc * gcc * cos_i.abs());
             }
             if front && brdf > 0.0 {
-                value += brdf * diffuse_retro(base, self.roughness, self.flatness, cos_o, cos_i, dot_i);
+                value +=
+                    brdf * diffuse_retro(base, self.roughness, self.flatness, cos_o, cos_i, dot_i);
             }
             // (Mitsuba's LLVM variants add the sheen whenever its own mask holds.)
             if front && self.sheen > 0.0 && 1.0 - self.metallic > 0.0 {
-                value += self.sheen * (1.0 - self.metallic) * sheen(base, self.sheen_tint, cos_i, dot_i);
+                value +=
+                    self.sheen * (1.0 - self.metallic) * sheen(base, self.sheen_tint, cos_i, dot_i);
             }
         } else if self.has_spec_trans
             && bsdf > 0.0
@@ -238,7 +246,7 @@ impl BsdfModel for Principled {
         }
         let (brdf, bsdf) = self.weights();
         let front = cos_o > 0.0;
-        if !front && !(bsdf > 0.0) {
+        if !front && bsdf <= 0.0 {
             return 0.0;
         }
         let reflect = cos_o * cos_i > 0.0;
@@ -299,7 +307,7 @@ impl BsdfModel for Principled {
         }
         let (brdf, bsdf) = self.weights();
         let front = cos_o > 0.0;
-        if !front && !(bsdf > 0.0) {
+        if !front && bsdf <= 0.0 {
             return None;
         }
         let distr = ggx(self.anisotropic, self.roughness);
@@ -309,7 +317,7 @@ impl BsdfModel for Principled {
         let [p_diffuse, p_coat, p_trans, _] = lobe_probabilities(self, front, f, brdf, bsdf)?;
         let (wi, lobe, eta) = if u1 < p_diffuse {
             let wi = cosine_hemisphere(u2);
-            if !(cos_o * wi.z > 0.0) {
+            if cos_o * wi.z <= 0.0 {
                 return None;
             }
             (wi, BsdfFlags::DIFFUSE_REFLECTION, 1.0)
@@ -334,7 +342,7 @@ impl BsdfModel for Principled {
             (wi, BsdfFlags::GLOSSY_REFLECTION, 1.0)
         };
         let pdf = self.pdf(wo, wi);
-        if !(pdf > 0.0) || !pdf.is_finite() {
+        if !(pdf.is_finite() && pdf > 0.0) {
             return None;
         }
         let value = self.eval(wo, wi);

@@ -122,7 +122,7 @@ impl PrincipledThin {
             },
         ];
         let total = p[0] + p[1] + p[2] + p[3];
-        if !(total > 0.0) || !total.is_finite() {
+        if !(total.is_finite() && total > 0.0) {
             return None;
         }
         let r = 1.0 / total;
@@ -263,7 +263,7 @@ impl BsdfModel for PrincipledThin {
         };
         let wi = mulsign(w, cos_o);
         let pdf = self.pdf(wo, wi);
-        if !(pdf > 0.0) || !pdf.is_finite() {
+        if !(pdf.is_finite() && pdf > 0.0) {
             return None;
         }
         Some(BsdfSample {
