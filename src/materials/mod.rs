@@ -5,7 +5,8 @@
 //! `wo` points back along the incoming ray (towards the camera side of the path), `wi`
 //! is the sampled or queried direction towards the light, both pointing away from the
 //! surface. `eval` returns f * |cos(wi)|. BSDFs are one-sided: `wo.z <= 0` is black,
-//! except for dielectrics (smooth and rough) and `twosided`.
+//! except for dielectrics (smooth and rough), `twosided`, `principled` with
+//! `spec_trans` and `principledthin`.
 //!
 //! `twosided` holds two [`OneSided`] models, a type that has no dielectric (smooth or
 //! rough) and no `twosided`: resolving the side ([`TwoSided::side`]) always ends at a
