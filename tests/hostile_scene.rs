@@ -1204,6 +1204,82 @@ fn cases() -> Vec<Case> {
             sphere(r#"<bsdf type="pplastic"><rgb name="diffuse_reflectance" value="0"/><rgb name="specular_reflectance" value="0"/></bsdf>"#),
             "pplastic with zero diffuse and specular reflectance",
         ),
+        // ---- principled, principledthin ----
+        scene_case(
+            "principled_metallic_above_one",
+            sphere(r#"<bsdf type="principled"><float name="metallic" value="1.5"/></bsdf>"#),
+            "metallic must be in [0, 1], got 1.5",
+        ),
+        scene_case(
+            "principled_negative_roughness",
+            sphere(r#"<bsdf type="principled"><float name="roughness" value="-0.1"/></bsdf>"#),
+            "roughness must be in [0, 1], got -0.1",
+        ),
+        scene_case(
+            "principled_nan_clearcoat",
+            sphere(r#"<bsdf type="principled"><float name="clearcoat" value="nan"/></bsdf>"#),
+            "clearcoat",
+        ),
+        scene_case(
+            "principled_eta_and_specular",
+            sphere(r#"<bsdf type="principled"><float name="eta" value="1.3"/><float name="specular" value="0.4"/></bsdf>"#),
+            "give either 'eta' or 'specular', not both",
+        ),
+        scene_case(
+            "principled_zero_eta",
+            sphere(r#"<bsdf type="principled"><float name="eta" value="0"/></bsdf>"#),
+            "eta must be positive",
+        ),
+        scene_case(
+            "principled_negative_specular",
+            sphere(r#"<bsdf type="principled"><float name="specular" value="-0.5"/></bsdf>"#),
+            "specular must be in [0, 12.5)",
+        ),
+        scene_case(
+            "principled_specular_beyond_its_mapping",
+            sphere(r#"<bsdf type="principled"><float name="specular" value="13"/></bsdf>"#),
+            "specular must be in [0, 12.5)",
+        ),
+        scene_case(
+            "principled_negative_base_color",
+            sphere(r#"<bsdf type="principled"><rgb name="base_color" value="0.5, -0.1, 0.2"/></bsdf>"#),
+            "base_color must be non-negative",
+        ),
+        scene_case(
+            "principled_negative_sampling_rate",
+            sphere(r#"<bsdf type="principled"><float name="clearcoat_sampling_rate" value="-1"/></bsdf>"#),
+            "clearcoat_sampling_rate must be non-negative",
+        ),
+        scene_case(
+            "principled_missing_texture_file",
+            sphere(r#"<bsdf type="principled"><texture type="bitmap" name="base_color"><string name="filename" value="nowhere.png"/></texture></bsdf>"#),
+            "nowhere.png",
+        ),
+        scene_case(
+            "principled_has_no_sample_visible",
+            sphere(r#"<bsdf type="principled"><boolean name="sample_visible" value="false"/></bsdf>"#),
+            "unknown parameter 'sample_visible'",
+        ),
+        scene_case(
+            "principled_textured_eta",
+            sphere(r#"<bsdf type="principled"><texture type="checkerboard" name="eta"/></bsdf>"#),
+            "unexpected nested element",
+        ),
+        scene_case(
+            "principledthin_diff_trans_above_two",
+            sphere(r#"<bsdf type="principledthin"><float name="diff_trans" value="2.5"/></bsdf>"#),
+            "diff_trans must be in [0, 2], got 2.5",
+        ),
+        scene_case(
+            "principledthin_negative_eta",
+            sphere(r#"<bsdf type="principledthin"><float name="eta" value="-1.5"/></bsdf>"#),
+            "eta must be positive",
+        ),
+        scene_case(
+            "principledthin_has_no_clearcoat",
+            sphere(r#"<bsdf type="principledthin"><float name="clearcoat" value="0.5"/></bsdf>"#),
+            "unknown parameter 'clearcoat'",
+        ),
         scene_case(
             "polarizer_negative_transmittance",
             sphere(r#"<bsdf type="polarizer"><rgb name="transmittance" value="-0.5"/></bsdf>"#),

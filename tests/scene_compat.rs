@@ -450,7 +450,7 @@ fn check_lists_every_unsupported_feature_with_its_line() {
     let d = d.path();
     write(d, "tri.ply", TRI_PLY);
     let body = format!(
-        "{SHAPES}\n<emitter type=\"sunsky\"/>\n<bsdf type=\"principled\" id=\"p\"/>\n<medium type=\"rayleigh_fog\" id=\"fog\"/>\n"
+        "{SHAPES}\n<emitter type=\"sunsky\"/>\n<bsdf type=\"hair\" id=\"p\"/>\n<medium type=\"rayleigh_fog\" id=\"fog\"/>\n"
     );
     write(d, "s.xml", &scene(FOV, &body));
     let Verdict::Unsupported(found) = check(&d.join("s.xml"), &[], &[]) else {
@@ -460,7 +460,7 @@ fn check_lists_every_unsupported_feature_with_its_line() {
     assert_eq!(found.len(), 3, "{text:?}");
     assert!(
         text[0].contains("sunsky")
-            && text[1].contains("principled")
+            && text[1].contains("hair")
             && text[2].contains("rayleigh_fog"),
         "{text:?}"
     );

@@ -39,7 +39,7 @@ pub enum Param {
     Opacity,
     /// `blendbsdf`'s weight (clipped to [0, 1]).
     Weight,
-    /// `pplastic`'s relative IOR `eta`.
+    /// `pplastic`'s relative IOR `eta` (and `principledthin`'s).
     RelativeEta,
     /// `polarizer`'s transmittance.
     Transmittance,
@@ -49,6 +49,20 @@ pub enum Param {
     Lambda,
     Mu,
     Sigma,
+    /// `principled`'s and `principledthin`'s parameters (`principled.rs`,
+    /// `principled_thin.rs`); the thin model's IOR is [`Param::RelativeEta`].
+    BaseColor,
+    Roughness,
+    Anisotropic,
+    Metallic,
+    SpecTrans,
+    SpecTint,
+    Sheen,
+    SheenTint,
+    Flatness,
+    Clearcoat,
+    ClearcoatGloss,
+    DiffTrans,
 }
 
 impl Param {
@@ -66,6 +80,17 @@ impl Param {
                 | Param::Lambda
                 | Param::Mu
                 | Param::Sigma
+                | Param::Roughness
+                | Param::Anisotropic
+                | Param::Metallic
+                | Param::SpecTrans
+                | Param::SpecTint
+                | Param::Sheen
+                | Param::SheenTint
+                | Param::Flatness
+                | Param::Clearcoat
+                | Param::ClearcoatGloss
+                | Param::DiffTrans
         )
     }
 }
@@ -116,7 +141,7 @@ impl Material {
             || perturbs
             || bindings
                 .iter()
-                .any(|b| matches!(b.param, Param::AlphaU | Param::AlphaV));
+                .any(|b| matches!(b.param, Param::AlphaU | Param::AlphaV | Param::Anisotropic));
         Material {
             bsdf,
             bindings,
@@ -261,6 +286,8 @@ fn set_model(b: &mut Bsdf, param: Param, v: Vec3) {
         }
         (Bsdf::PPlastic(p), Param::AlphaU) => p.distribution.alpha_u = alpha,
         (Bsdf::PPlastic(p), Param::AlphaV) => p.distribution.alpha_v = alpha,
+        (Bsdf::Principled(p), param) => set_principled(p, param, v),
+        (Bsdf::PrincipledThin(p), param) => set_principled_thin(p, param, v),
         // Profile parameters are kept in their domain when a delay is drawn
         // (`Separable::sample_delay`).
         (Bsdf::Separable(s), param) => match (&mut s.profile, param) {
@@ -271,6 +298,59 @@ fn set_model(b: &mut Bsdf, param: Param, v: Vec3) {
             _ => debug_assert!(false, "{param:?} is not a parameter of this profile"),
         },
         (_, param) => debug_assert!(false, "{param:?} is not a parameter of this BSDF"),
+    }
+}
+
+/// A weight read from a texture, clamped to the range a constant may take ([0, 1]; NaN
+/// becomes 0), which keeps every lobe weight non-negative.
+fn unit(x: f32) -> f32 {
+    if x.is_nan() {
+        0.0
+    } else {
+        x.clamp(0.0, 1.0)
+    }
+}
+
+fn set_principled(p: &mut super::Principled, param: Param, v: Vec3) {
+    let x = unit(v.x);
+    match param {
+        Param::BaseColor => p.base_color = v.max(Vec3::ZERO),
+        Param::Roughness => p.roughness = x,
+        Param::Anisotropic => p.anisotropic = x,
+        Param::Metallic => p.metallic = x,
+        Param::SpecTrans => p.spec_trans = x,
+        Param::SpecTint => p.spec_tint = x,
+        Param::Sheen => p.sheen = x,
+        Param::SheenTint => p.sheen_tint = x,
+        Param::Flatness => p.flatness = x,
+        Param::Clearcoat => p.clearcoat = x,
+        Param::ClearcoatGloss => p.clearcoat_gloss = x,
+        _ => debug_assert!(false, "{param:?} is not a parameter of principled"),
+    }
+}
+
+fn set_principled_thin(p: &mut super::PrincipledThin, param: Param, v: Vec3) {
+    let x = unit(v.x);
+    match param {
+        Param::BaseColor => p.base_color = v.max(Vec3::ZERO),
+        Param::Roughness => p.roughness = x,
+        Param::Anisotropic => p.anisotropic = x,
+        Param::SpecTrans => p.spec_trans = x,
+        Param::SpecTint => p.spec_tint = x,
+        Param::Sheen => p.sheen = x,
+        Param::SheenTint => p.sheen_tint = x,
+        Param::Flatness => p.flatness = x,
+        // diff_trans runs over [0, 2] (Mitsuba halves it).
+        Param::DiffTrans => p.diff_trans = 2.0 * unit(v.x / 2.0),
+        // The sheet's IOR, kept positive as a constant's range.
+        Param::RelativeEta => {
+            p.eta = if v.x > 0.0 && v.x.is_finite() {
+                v.x.clamp(1e-6, 1e6)
+            } else {
+                1.0
+            }
+        }
+        _ => debug_assert!(false, "{param:?} is not a parameter of principledthin"),
     }
 }
 

@@ -5,7 +5,8 @@
 //! `wo` points back along the incoming ray (towards the camera side of the path), `wi`
 //! is the sampled or queried direction towards the light, both pointing away from the
 //! surface. `eval` returns f * |cos(wi)|. BSDFs are one-sided: `wo.z <= 0` is black,
-//! except for dielectrics (smooth and rough) and `twosided`.
+//! except for dielectrics (smooth and rough), `twosided`, `principled` with
+//! `spec_trans` and `principledthin`.
 //!
 //! `twosided` holds two [`OneSided`] models, a type that has no dielectric (smooth or
 //! rough) and no `twosided`: resolving the side ([`TwoSided::side`]) always ends at a
@@ -28,6 +29,9 @@ pub mod perturbed;
 mod plastic;
 mod polarizer;
 mod pplastic;
+mod principled;
+mod principled_common;
+mod principled_thin;
 mod rough_conductor;
 mod rough_dielectric;
 mod rough_plastic;
@@ -49,6 +53,8 @@ pub use perturbed::{HitGeometry, Perturbation, Perturbed};
 pub use plastic::Plastic;
 pub use polarizer::Polarizer;
 pub use pplastic::PPlastic;
+pub use principled::{specular_to_eta, Principled};
+pub use principled_thin::PrincipledThin;
 pub use rough_conductor::RoughConductor;
 pub use rough_dielectric::RoughDielectric;
 pub use rough_plastic::RoughPlastic;
@@ -152,6 +158,9 @@ pub enum Bsdf {
     Perturbed(Perturbed),
     PPlastic(PPlastic),
     Polarizer(Polarizer),
+    /// Mitsuba's `principled` and `principledthin` (Disney's BSDF).
+    Principled(Principled),
+    PrincipledThin(PrincipledThin),
 }
 
 impl Bsdf {
@@ -181,6 +190,8 @@ impl Bsdf {
             Bsdf::Blend(c) => c.first.anisotropic() || c.second.anisotropic(),
             Bsdf::Perturbed(p) => p.nested.anisotropic(),
             Bsdf::PPlastic(p) => p.distribution.is_anisotropic(),
+            Bsdf::Principled(p) => p.anisotropic != 0.0,
+            Bsdf::PrincipledThin(p) => p.anisotropic != 0.0,
             _ => false,
         }
     }
@@ -251,7 +262,9 @@ impl TryFrom<Bsdf> for OneSided {
             | Bsdf::Composed(_)
             | Bsdf::Blend(_)
             | Bsdf::Perturbed(_)
-            | Bsdf::Polarizer(_)) => Err(other),
+            | Bsdf::Polarizer(_)
+            | Bsdf::Principled(_)
+            | Bsdf::PrincipledThin(_)) => Err(other),
         }
     }
 }
@@ -351,30 +364,31 @@ impl BsdfModel for Bsdf {
     #[inline(always)]
     fn flags(&self, wo: Vec3) -> BsdfFlags {
         dispatch!(self, b => b.flags(wo),
-            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::RoughDielectric, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::RoughPlastic, Bsdf::Null, Bsdf::TwoSided, Bsdf::Mask, Bsdf::Separable, Bsdf::Composed, Bsdf::Blend, Bsdf::Perturbed, Bsdf::PPlastic, Bsdf::Polarizer)
+            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::RoughDielectric, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::RoughPlastic, Bsdf::Null, Bsdf::TwoSided, Bsdf::Mask, Bsdf::Separable, Bsdf::Composed, Bsdf::Blend, Bsdf::Perturbed, Bsdf::PPlastic, Bsdf::Polarizer, Bsdf::Principled, Bsdf::PrincipledThin)
     }
     #[inline(always)]
     fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
         dispatch!(self, b => b.eval(wo, wi),
-            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::RoughDielectric, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::RoughPlastic, Bsdf::Null, Bsdf::TwoSided, Bsdf::Mask, Bsdf::Separable, Bsdf::Composed, Bsdf::Blend, Bsdf::Perturbed, Bsdf::PPlastic, Bsdf::Polarizer)
+            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::RoughDielectric, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::RoughPlastic, Bsdf::Null, Bsdf::TwoSided, Bsdf::Mask, Bsdf::Separable, Bsdf::Composed, Bsdf::Blend, Bsdf::Perturbed, Bsdf::PPlastic, Bsdf::Polarizer, Bsdf::Principled, Bsdf::PrincipledThin)
     }
     #[inline(always)]
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         dispatch!(self, b => b.pdf(wo, wi),
-            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::RoughDielectric, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::RoughPlastic, Bsdf::Null, Bsdf::TwoSided, Bsdf::Mask, Bsdf::Separable, Bsdf::Composed, Bsdf::Blend, Bsdf::Perturbed, Bsdf::PPlastic, Bsdf::Polarizer)
+            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::RoughDielectric, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::RoughPlastic, Bsdf::Null, Bsdf::TwoSided, Bsdf::Mask, Bsdf::Separable, Bsdf::Composed, Bsdf::Blend, Bsdf::Perturbed, Bsdf::PPlastic, Bsdf::Polarizer, Bsdf::Principled, Bsdf::PrincipledThin)
     }
     #[inline(always)]
     fn sample(&self, wo: Vec3, u1: f32, u2: [f32; 2]) -> Option<BsdfSample> {
         dispatch!(self, b => b.sample(wo, u1, u2),
-            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::RoughDielectric, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::RoughPlastic, Bsdf::Null, Bsdf::TwoSided, Bsdf::Mask, Bsdf::Separable, Bsdf::Composed, Bsdf::Blend, Bsdf::Perturbed, Bsdf::PPlastic, Bsdf::Polarizer)
+            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::RoughDielectric, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::RoughPlastic, Bsdf::Null, Bsdf::TwoSided, Bsdf::Mask, Bsdf::Separable, Bsdf::Composed, Bsdf::Blend, Bsdf::Perturbed, Bsdf::PPlastic, Bsdf::Polarizer, Bsdf::Principled, Bsdf::PrincipledThin)
     }
-    /// Only rough dielectrics refract through a non-delta lobe (also inside `mask` and
-    /// `Separable`); every other model (the default) crosses no interface towards a
-    /// light. A `Composed` vertex is resolved into a child before anyone asks.
+    /// Only rough dielectrics and `principled` with `spec_trans` refract through a
+    /// non-delta lobe (also inside `mask` and `Separable`); every other model (the
+    /// default, `principledthin` included) crosses no interface towards a light. A `Composed` vertex is resolved into a child before anyone asks.
     #[inline(always)]
     fn eta(&self, wo: Vec3, wi: Vec3) -> f32 {
         match self {
             Bsdf::RoughDielectric(b) => b.eta(wo, wi),
+            Bsdf::Principled(b) => b.eta(wo, wi),
             Bsdf::Mask(m) => m.nested.eta(wo, wi),
             Bsdf::Separable(s) => s.inner.eta(wo, wi),
             Bsdf::Blend(b) => b.eta(wo, wi),
@@ -384,6 +398,6 @@ impl BsdfModel for Bsdf {
     }
     fn albedo(&self, wo: Vec3) -> Rgb {
         dispatch!(self, b => b.albedo(wo),
-            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::RoughDielectric, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::RoughPlastic, Bsdf::Null, Bsdf::TwoSided, Bsdf::Mask, Bsdf::Separable, Bsdf::Composed, Bsdf::Blend, Bsdf::Perturbed, Bsdf::PPlastic, Bsdf::Polarizer)
+            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::RoughDielectric, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::RoughPlastic, Bsdf::Null, Bsdf::TwoSided, Bsdf::Mask, Bsdf::Separable, Bsdf::Composed, Bsdf::Blend, Bsdf::Perturbed, Bsdf::PPlastic, Bsdf::Polarizer, Bsdf::Principled, Bsdf::PrincipledThin)
     }
 }

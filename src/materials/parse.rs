@@ -3,6 +3,7 @@
 use super::conductor_presets;
 use super::material::{Binding, Param, Step};
 use super::RoughPlastic;
+use super::{specular_to_eta, Principled, PrincipledThin};
 use super::{
     Blend, Composed, PPlastic, Perturbation, Perturbed, Polarizer, Separable, TemporalProfile,
 };
@@ -690,9 +691,11 @@ pub fn parse_bsdf(ctx: &Ctx, node: Node, named: &Named) -> Result<Material, Scen
                 transmittance: p.colour("transmittance", Param::Transmittance, Rgb::ONE)?,
             })
         }
+        "principled" => Bsdf::Principled(principled(&mut p)?),
+        "principledthin" => Bsdf::PrincipledThin(principled_thin(&mut p)?),
         other => {
             return Err(p.props.err(format!(
-                "unknown BSDF type '{other}' (supported: diffuse, dielectric, roughdielectric, thindielectric, conductor, roughconductor, plastic, roughplastic, null, twosided, mask, Separable, Composed, blendbsdf, normalmap, bumpmap, pplastic, polarizer)"
+                "unknown BSDF type '{other}' (supported: diffuse, dielectric, roughdielectric, thindielectric, conductor, roughconductor, plastic, roughplastic, null, twosided, mask, Separable, Composed, blendbsdf, normalmap, bumpmap, pplastic, polarizer, principled, principledthin)"
             )))
         }
     };
@@ -706,11 +709,161 @@ pub fn parse_bsdf(ctx: &Ctx, node: Node, named: &Named) -> Result<Material, Scen
     Ok(Material::new(bsdf, p.bindings))
 }
 
+/// A float-or-texture weight of `principled`/`principledthin` (`default` when absent),
+/// a constant checked to lie in [0, `hi`], and whether it was given other than as the
+/// float 0 (Mitsuba's `get_flag`, which switches optional lobes on).
+fn principled_weight(
+    p: &mut Params,
+    name: &str,
+    param: Param,
+    default: f64,
+    hi: f64,
+) -> Result<(f32, bool), SceneError> {
+    let float_zero = matches!(p.props.peek(name), Some(Value::Float(v)) if *v == 0.0);
+    match p.scalar(name, param, default)? {
+        None => Ok((default as f32, false)),
+        Some(v) => {
+            if !(0.0..=hi).contains(&v) {
+                return Err(p
+                    .props
+                    .err_at(name, format!("{name} must be in [0, {hi}], got {v}")));
+            }
+            Ok((v as f32, !float_zero))
+        }
+    }
+}
+
+/// A lobe sampling rate: a non-negative float, 1 by default.
+fn sampling_rate(p: &mut Params, name: &str) -> Result<f32, SceneError> {
+    let r = p.props.float_or(name, 1.0)?;
+    if r < 0.0 {
+        return Err(p
+            .props
+            .err_at(name, format!("{name} must be non-negative, got {r}")));
+    }
+    Ok(r as f32)
+}
+
+/// Mitsuba's `principled` (`principled.rs` lists the parameters).
+fn principled(p: &mut Params) -> Result<Principled, SceneError> {
+    let base_color = p.colour("base_color", Param::BaseColor, Rgb::splat(0.5))?;
+    let (roughness, _) = principled_weight(p, "roughness", Param::Roughness, 0.5, 1.0)?;
+    let (anisotropic, _) = principled_weight(p, "anisotropic", Param::Anisotropic, 0.0, 1.0)?;
+    let (metallic, _) = principled_weight(p, "metallic", Param::Metallic, 0.0, 1.0)?;
+    let (spec_trans, has_spec_trans) =
+        principled_weight(p, "spec_trans", Param::SpecTrans, 0.0, 1.0)?;
+    let (spec_tint, _) = principled_weight(p, "spec_tint", Param::SpecTint, 0.0, 1.0)?;
+    let (sheen, _) = principled_weight(p, "sheen", Param::Sheen, 0.0, 1.0)?;
+    let (sheen_tint, _) = principled_weight(p, "sheen_tint", Param::SheenTint, 0.0, 1.0)?;
+    let (flatness, _) = principled_weight(p, "flatness", Param::Flatness, 0.0, 1.0)?;
+    let (clearcoat, _) = principled_weight(p, "clearcoat", Param::Clearcoat, 0.0, 1.0)?;
+    let (clearcoat_gloss, _) =
+        principled_weight(p, "clearcoat_gloss", Param::ClearcoatGloss, 0.0, 1.0)?;
+    let props = &mut p.props;
+    // eta and specular are floats (Mitsuba reads them with get<float>) and exclusive.
+    let eta = match (
+        props.peek("eta").is_some(),
+        props.peek("specular").is_some(),
+    ) {
+        (true, true) => return Err(props.err("give either 'eta' or 'specular', not both")),
+        (true, false) => {
+            let e = props.float_or("eta", 1.5)?;
+            if !(e > 0.0 && e <= MAX_OPTICAL_CONSTANT) {
+                return Err(props.err_at(
+                    "eta",
+                    format!("eta must be positive and at most {MAX_OPTICAL_CONSTANT:e}, got {e}"),
+                ));
+            }
+            // An interface of eta 1 cannot transmit (Mitsuba's adjustment).
+            let e = e as f32;
+            if has_spec_trans && e == 1.0 {
+                1.001
+            } else {
+                e
+            }
+        }
+        (false, _) => {
+            let s = props.float_or("specular", 0.5)?;
+            let e = specular_to_eta(s as f32);
+            if !(s >= 0.0 && e.is_finite() && e > 0.0 && (e as f64) <= MAX_OPTICAL_CONSTANT) {
+                return Err(props.err_at(
+                    "specular",
+                    format!("specular must be in [0, 12.5) (it sets eta = 2 / (1 - sqrt(0.08 specular)) - 1), got {s}"),
+                ));
+            }
+            if has_spec_trans && s == 0.0 {
+                specular_to_eta(1e-3)
+            } else {
+                e
+            }
+        }
+    };
+    Ok(Principled {
+        base_color,
+        roughness,
+        anisotropic,
+        metallic,
+        spec_trans,
+        spec_tint,
+        sheen,
+        sheen_tint,
+        flatness,
+        clearcoat,
+        clearcoat_gloss,
+        eta,
+        diffuse_rate: sampling_rate(p, "diffuse_reflectance_sampling_rate")?,
+        specular_rate: sampling_rate(p, "main_specular_sampling_rate")?,
+        clearcoat_rate: sampling_rate(p, "clearcoat_sampling_rate")?,
+        has_spec_trans,
+    })
+}
+
+/// Mitsuba's `principledthin` (`principled_thin.rs` lists the parameters).
+fn principled_thin(p: &mut Params) -> Result<PrincipledThin, SceneError> {
+    let base_color = p.colour("base_color", Param::BaseColor, Rgb::splat(0.5))?;
+    let (roughness, _) = principled_weight(p, "roughness", Param::Roughness, 0.5, 1.0)?;
+    let (anisotropic, _) = principled_weight(p, "anisotropic", Param::Anisotropic, 0.0, 1.0)?;
+    let (spec_trans, has_spec_trans) =
+        principled_weight(p, "spec_trans", Param::SpecTrans, 0.0, 1.0)?;
+    let (diff_trans, has_diff_trans) =
+        principled_weight(p, "diff_trans", Param::DiffTrans, 0.0, 2.0)?;
+    let (spec_tint, _) = principled_weight(p, "spec_tint", Param::SpecTint, 0.0, 1.0)?;
+    let (sheen, _) = principled_weight(p, "sheen", Param::Sheen, 0.0, 1.0)?;
+    let (sheen_tint, _) = principled_weight(p, "sheen_tint", Param::SheenTint, 0.0, 1.0)?;
+    let (flatness, _) = principled_weight(p, "flatness", Param::Flatness, 0.0, 1.0)?;
+    let eta = p.scalar("eta", Param::RelativeEta, 1.5)?.unwrap_or(1.5);
+    if !(eta > 0.0 && eta <= MAX_OPTICAL_CONSTANT) {
+        return Err(p.props.err_at(
+            "eta",
+            format!("eta must be positive and at most {MAX_OPTICAL_CONSTANT:e}, got {eta}"),
+        ));
+    }
+    Ok(PrincipledThin {
+        base_color,
+        roughness,
+        anisotropic,
+        spec_trans,
+        diff_trans,
+        eta: eta as f32,
+        spec_tint,
+        sheen,
+        sheen_tint,
+        flatness,
+        spec_reflect_rate: sampling_rate(p, "specular_reflectance_sampling_rate")?,
+        spec_trans_rate: sampling_rate(p, "specular_transmittance_sampling_rate")?,
+        diffuse_reflect_rate: sampling_rate(p, "diffuse_reflectance_sampling_rate")?,
+        diffuse_trans_rate: sampling_rate(p, "diffuse_transmittance_sampling_rate")?,
+        has_spec_trans,
+        has_diff_trans,
+    })
+}
+
 /// The IOR of a rough dielectric inside `b` (the one non-delta lobe that crosses into
 /// another medium), if any.
 fn rough_ior(b: &Bsdf) -> Option<f32> {
     match b {
         Bsdf::RoughDielectric(d) => Some(d.eta),
+        Bsdf::Principled(d) if d.has_spec_trans => Some(d.eta),
         Bsdf::Mask(m) => rough_ior(&m.nested),
         Bsdf::Perturbed(p) => rough_ior(&p.nested),
         Bsdf::Blend(c) => rough_ior(&c.first).or(rough_ior(&c.second)),

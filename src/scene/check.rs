@@ -36,6 +36,8 @@ pub const SUPPORTED: &[(&str, &[&str])] = &[
             "bumpmap",
             "pplastic",
             "polarizer",
+            "principled",
+            "principledthin",
         ],
     ),
     (
