@@ -459,9 +459,7 @@ fn check_lists_every_unsupported_feature_with_its_line() {
     let text: Vec<String> = found.iter().map(|f| f.to_string()).collect();
     assert_eq!(found.len(), 3, "{text:?}");
     assert!(
-        text[0].contains("sunsky")
-            && text[1].contains("hair")
-            && text[2].contains("rayleigh_fog"),
+        text[0].contains("sunsky") && text[1].contains("hair") && text[2].contains("rayleigh_fog"),
         "{text:?}"
     );
     // Lines of the file: the body starts after the 14-line head.
@@ -840,4 +838,21 @@ fn plugin_types_ignore_case_as_mitsuba_on_windows_and_macos() {
         steady(&load(d, "upper.xml").unwrap()),
         steady(&load(d, "lower.xml").unwrap())
     );
+}
+
+#[test]
+fn an_emitter_without_a_bsdf_reflects_nothing_as_in_mitsuba() {
+    // Mitsuba's default BSDF is diffuse 0.5, but black on an emitting shape: the lit
+    // emitting rectangle shows exactly its radiance, a plain one the point light.
+    let d = tempfile::tempdir().unwrap();
+    let d = d.path();
+    let lit = r#"<shape type="rectangle"><emitter type="area"><rgb name="radiance" value="1"/></emitter></shape>"#;
+    write(d, "e.xml", &scene(FOV, lit));
+    let s = steady(&load(d, "e.xml").unwrap());
+    // The centre pixel (4, 3) of the 8 x 6 film sees the rectangle.
+    let centre = &s[(3 * 8 + 4) * 3..(3 * 8 + 4) * 3 + 3];
+    assert_eq!(centre, &[1.0, 1.0, 1.0]);
+    write(d, "p.xml", &scene(FOV, r#"<shape type="rectangle"/>"#));
+    let s = steady(&load(d, "p.xml").unwrap());
+    assert!(s[(3 * 8 + 4) * 3] > 0.05, "{}", s[(3 * 8 + 4) * 3]);
 }

@@ -1415,8 +1415,10 @@ fn parse_shape(
         None if area == 0.0 => ctx.warn(node, "the shape has zero area: it is invisible"),
         _ => {}
     }
+    // Mitsuba's default BSDF (`shape.cpp`): diffuse 0.5, black on an emitter.
+    let default_reflectance = if emission.is_some() { 0.0 } else { 0.5 };
     let bsdf = bsdf.unwrap_or(Material::plain(Bsdf::Diffuse(Diffuse {
-        reflectance: Rgb::splat(0.5),
+        reflectance: Rgb::splat(default_reflectance),
     })));
     Ok((shape, bsdf, emission.map(|(e, _)| e)))
 }
