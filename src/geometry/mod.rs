@@ -4,6 +4,7 @@ pub mod accel;
 pub mod cylinder;
 pub mod disk;
 pub mod flat;
+pub mod mesh_attributes;
 mod flat_simd;
 pub mod shape;
 pub mod sphere;

@@ -6,8 +6,11 @@ use super::cylinder::CylinderGeom;
 use super::disk::DiskGeom;
 use super::sphere::SphereGeom;
 use super::triangle::TriangleGeom;
+use super::mesh_attributes::MeshAttributes;
 use crate::math::sampling::{uniform_sphere, uniform_triangle};
+use crate::textures::TexPoint;
 use glam::{Mat3, Vec2, Vec3};
+use std::sync::Arc;
 
 #[derive(Clone, Debug)]
 pub enum ShapeGeom {
@@ -19,6 +22,9 @@ pub enum ShapeGeom {
         /// Per-vertex texture coordinates, when the shape has them (the built-in
         /// rectangle and cube always; file meshes when the file gives them).
         uvs: Option<Vec<Vec2>>,
+        /// Per-vertex and per-face attributes from the mesh file (PLY), when it has
+        /// any (`mesh_attribute` textures read them).
+        attributes: Option<Arc<MeshAttributes>>,
     },
     /// An analytic sphere and its `to_local` map: the linear part of the inverse of
     /// Mitsuba's `to_world * translate(center) * scale(radius)`, so that
@@ -190,6 +196,36 @@ impl Shape {
             }
             ShapeGeom::Disk(g) => g.uv(p),
             ShapeGeom::Cylinder(g) => g.uv(p),
+        }
+    }
+
+    /// Where a material's textures are looked up at barycentrics (b1, b2) of triangle
+    /// `face` (or at `p` on an analytic shape): uv ([`Self::uv`]) and, on a mesh with
+    /// attributes, those with the triangle's vertices.
+    pub fn tex_point(&self, face: u32, b1: f32, b2: f32, p: Vec3) -> TexPoint<'_> {
+        let uv = self.uv(face, b1, b2, p);
+        match &self.geom {
+            ShapeGeom::Mesh {
+                attributes: Some(a),
+                triangles,
+                ..
+            } => TexPoint {
+                uv,
+                attributes: Some(a),
+                face,
+                tri: triangles[face as usize],
+                b1,
+                b2,
+            },
+            _ => TexPoint::uv(uv),
+        }
+    }
+
+    /// The mesh's attributes, if it has any.
+    pub fn attributes(&self) -> Option<&MeshAttributes> {
+        match &self.geom {
+            ShapeGeom::Mesh { attributes, .. } => attributes.as_deref(),
+            _ => None,
         }
     }
 

@@ -92,8 +92,9 @@ pub(super) fn perturbed_at(
     frame: &Frame,
     wo: Vec3,
 ) -> Bsdf {
-    let uv = shape.uv(hit.face, hit.b1, hit.b2, sp.p);
-    let mut b = material.at(uv);
+    let point = shape.tex_point(hit.face, hit.b1, hit.b2, sp.p);
+    let uv = point.uv;
+    let mut b = material.at_point(&point);
     b.resolve_frames(&HitGeometry {
         uv,
         shading: *frame,
@@ -314,7 +315,7 @@ unsafe fn trace_path_body<const ISA: u8>(
                 textured = perturbed_at(material, shape, &hit, &sp, &frame, wo);
                 &textured
             } else if material.is_textured() {
-                textured = material.at(shape.uv(hit.face, hit.b1, hit.b2, sp.p));
+                textured = material.at_point(&shape.tex_point(hit.face, hit.b1, hit.b2, sp.p));
                 &textured
             } else {
                 &material.bsdf

@@ -420,7 +420,7 @@ unsafe fn trace_body<const ISA: u8>(
                 textured = super::integrator::perturbed_at(material, shape, &hit, &sp, &frame, wo);
                 &textured
             } else if material.is_textured() {
-                textured = material.at(shape.uv(hit.face, hit.b1, hit.b2, sp.p));
+                textured = material.at_point(&shape.tex_point(hit.face, hit.b1, hit.b2, sp.p));
                 &textured
             } else {
                 &material.bsdf

@@ -53,7 +53,7 @@ pub const SUPPORTED: &[(&str, &[&str])] = &[
             "instance",
         ],
     ),
-    ("texture", &["bitmap", "checkerboard"]),
+    ("texture", &["bitmap", "checkerboard", "mesh_attribute", "rawconstant"]),
     (
         "emitter",
         &[

@@ -1347,6 +1347,17 @@ fn parse_shape(
     let bsdf = bsdf.unwrap_or(Material::plain(Bsdf::Diffuse(Diffuse {
         reflectance: Rgb::splat(0.5),
     })));
+    // A mesh_attribute texture reads the shape's own attribute: it must be there
+    // (Mitsuba's scalar variants throw on a hit; its LLVM variants read 0).
+    for want in bsdf.mesh_attribute_names() {
+        if shape.attributes().and_then(|a| a.get(want)).is_none() {
+            let have = shape.attributes().map_or("none".to_string(), |a| a.names());
+            return Err(ctx.err(
+                node,
+                format!("the BSDF's mesh_attribute texture reads '{want}', which this shape does not have (its attributes: {have}; only PLY files carry attributes)"),
+            ));
+        }
+    }
     Ok((shape, bsdf, emission.map(|(e, _)| e)))
 }
 
