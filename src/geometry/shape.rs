@@ -381,6 +381,25 @@ impl AreaSampler {
         }
     }
 
+    /// [`Self::sample`] and the point's uv (`Shape::uv`), for textured lights.
+    pub fn sample_with_uv(&self, shape: &Shape, u1: f32, u2: [f32; 2]) -> (SurfacePoint, Vec2) {
+        match &shape.geom {
+            ShapeGeom::Mesh { .. } => {
+                let face = self
+                    .cdf
+                    .partition_point(|&c| c <= u1)
+                    .min(self.cdf.len() - 1);
+                let [b1, b2] = uniform_triangle(u2);
+                let s = shape.surface_of(&self.tris[face], face as u32, b1, b2);
+                (s, shape.uv(face as u32, b1, b2, s.p))
+            }
+            _ => {
+                let s = self.sample(shape, u1, u2);
+                (s, shape.uv(0, 0.0, 0.0, s.p))
+            }
+        }
+    }
+
     /// A point uniformly distributed by area; pdf (per unit area) = 1 / total_area.
     #[inline(always)]
     pub fn sample(&self, shape: &Shape, u1: f32, u2: [f32; 2]) -> SurfacePoint {

@@ -338,7 +338,7 @@ unsafe fn trace_path_body<const ISA: u8>(
             let cos_l = wo.z;
             let emitter = &scene.emitters[ei as usize];
             let radiance = if cos_l > 0.0 {
-                emitter.emitted(cos_l)
+                emitter.emitted(cos_l, || shape.uv(hit.face, hit.b1, hit.b2, sp.p))
             } else {
                 None
             };
