@@ -101,7 +101,10 @@ fn vertex_attributes_interpolate_and_face_attributes_are_per_polygon() {
     assert_eq!(attr("vertex_color", 1.0).eval_float_at(&p), 0.0);
     // vertex_color, raw uchar values: red 0 * .25 + 255 * .25 + 0 * .5 = 63.75, ...
     let c = attr("vertex_color", 1.0).eval_rgb_at(&p);
-    assert!((c - Vec3::new(63.75, 55.0, 20.0)).abs().max_element() < 1e-4, "{c}");
+    assert!(
+        (c - Vec3::new(63.75, 55.0, 20.0)).abs().max_element() < 1e-4,
+        "{c}"
+    );
     // Through the material (scale 0.5).
     let Bsdf::Diffuse(d) = scene.bsdfs[shape.bsdf as usize].at_point(&p) else {
         panic!()
@@ -189,8 +192,13 @@ end_header
     for y in 0..h {
         for x in 0..w {
             // Where the pixel's centre ray meets the quad.
-            let (o, d) = scene.camera.ray(x as f32 + 0.5, y as f32 + 0.5, || [0.5, 0.5]);
-            let hit = scene.accel.intersect(&scene.shapes, o, d, f32::INFINITY).unwrap();
+            let (o, d) = scene
+                .camera
+                .ray(x as f32 + 0.5, y as f32 + 0.5, || [0.5, 0.5]);
+            let hit = scene
+                .accel
+                .intersect(&scene.shapes, o, d, f32::INFINITY)
+                .unwrap();
             let t = (hit.surface.p.x + 1.0) / 2.0;
             let rho = Vec3::new(0.2, 0.9, 0.5).lerp(Vec3::new(0.8, 0.1, 0.5), t);
             let want = rho * e / std::f32::consts::PI;
@@ -199,7 +207,8 @@ end_header
                 // The sub-pixel positions spread a linear ramp: the mean of 64 i.i.d.
                 // positions over a pixel 1/4 wide has sd 0.6 * 0.25 / sqrt(12 * 64)
                 // per unit of rho' ... at most 0.0054 E / pi here; 5 sd.
-                let tol = 5.0 * 0.6 / 4.0 / (12.0f64 * 64.0).sqrt() * (e as f64) / std::f64::consts::PI;
+                let tol =
+                    5.0 * 0.6 / 4.0 / (12.0f64 * 64.0).sqrt() * (e as f64) / std::f64::consts::PI;
                 worst = worst.max((got - want[c] as f64).abs() / tol);
             }
         }
@@ -229,10 +238,7 @@ const CHECKER_LIGHT: &str = r#"<shape type="rectangle">
 
 #[test]
 fn a_checkerboard_area_light_seen_directly_renders_its_pattern() {
-    let scene = load_with(
-        &format!("{LIGHTS_HEAD}{CHECKER_LIGHT}</scene>"),
-        &[],
-    );
+    let scene = load_with(&format!("{LIGHTS_HEAD}{CHECKER_LIGHT}</scene>"), &[]);
     let out = common::run(&scene, 3);
     let Emitter::TexturedArea(t) = &scene.emitters[0] else {
         panic!()
@@ -242,8 +248,13 @@ fn a_checkerboard_area_light_seen_directly_renders_its_pattern() {
         for x in 0..16 {
             // 16 pixels across the rectangle's 2 units: 4 per cell, so the pixel's
             // whole footprint lies in the cell of its centre.
-            let (o, d) = scene.camera.ray(x as f32 + 0.5, y as f32 + 0.5, || [0.5, 0.5]);
-            let hit = scene.accel.intersect(&scene.shapes, o, d, f32::INFINITY).unwrap();
+            let (o, d) = scene
+                .camera
+                .ray(x as f32 + 0.5, y as f32 + 0.5, || [0.5, 0.5]);
+            let hit = scene
+                .accel
+                .intersect(&scene.shapes, o, d, f32::INFINITY)
+                .unwrap();
             let uv = scene.shapes[0].uv(hit.face, hit.b1, hit.b2, hit.surface.p);
             let want = t.radiance.eval_rgb(uv);
             if want.x == 0.5 {
@@ -253,7 +264,10 @@ fn a_checkerboard_area_light_seen_directly_renders_its_pattern() {
             }
             let got = &out.steady[(y * 16 + x) * 3..(y * 16 + x) * 3 + 3];
             for c in 0..3 {
-                assert!((got[c] - want[c] as f64).abs() < 1e-6, "pixel ({x}, {y}): {got:?} vs {want}");
+                assert!(
+                    (got[c] - want[c] as f64).abs() < 1e-6,
+                    "pixel ({x}, {y}): {got:?} vs {want}"
+                );
             }
         }
     }
@@ -287,9 +301,20 @@ fn a_textured_area_light_casts_the_quadrature_of_its_texture() {
     let mut reference = [0.0f64; 3];
     for i in 0..k {
         for j in 0..k {
-            let (px, py) = (-1.0 + (i as f64 + 0.5) * 2.0 / k as f64, -1.0 + (j as f64 + 0.5) * 2.0 / k as f64);
+            let (px, py) = (
+                -1.0 + (i as f64 + 0.5) * 2.0 / k as f64,
+                -1.0 + (j as f64 + 0.5) * 2.0 / k as f64,
+            );
             let p = Vec3::new(px as f32, py as f32, 1.0);
-            let hit = scene.accel.intersect(&scene.shapes, Vec3::new(p.x, p.y, 2.0), -Vec3::Z, f32::INFINITY).unwrap();
+            let hit = scene
+                .accel
+                .intersect(
+                    &scene.shapes,
+                    Vec3::new(p.x, p.y, 2.0),
+                    -Vec3::Z,
+                    f32::INFINITY,
+                )
+                .unwrap();
             let uv = scene.shapes[0].uv(hit.face, hit.b1, hit.b2, hit.surface.p);
             let l = t.radiance.eval_rgb(uv);
             let d = (p - x).as_dvec3();
@@ -314,18 +339,26 @@ fn a_textured_area_light_casts_the_quadrature_of_its_texture() {
             sum2[c] += (v[c] as f64).powi(2);
         }
         // MIS consistency on the hit along the sample.
-        let hit = scene.accel.intersect(&scene.shapes, x, ls.wi, f32::INFINITY).unwrap();
+        let hit = scene
+            .accel
+            .intersect(&scene.shapes, x, ls.wi, f32::INFINITY)
+            .unwrap();
         let cos_l = hit.surface.ns.dot(-ls.wi);
         let mis = emitter.pdf_area_hit(1.0, hit.t, cos_l);
         assert!((mis - ls.pdf).abs() <= 1e-3 * ls.pdf, "{mis} vs {}", ls.pdf);
         let seen = emitter
-            .emitted(cos_l, || scene.shapes[0].uv(hit.face, hit.b1, hit.b2, hit.surface.p))
+            .emitted(cos_l, || {
+                scene.shapes[0].uv(hit.face, hit.b1, hit.b2, hit.surface.p)
+            })
             .unwrap();
         if seen != ls.li {
             mismatched += 1; // a hit within rounding of a cell edge
         }
     }
-    assert!(mismatched < m / 1000, "{mismatched} samples see another colour on a hit");
+    assert!(
+        mismatched < m / 1000,
+        "{mismatched} samples see another colour on a hit"
+    );
     for c in 0..3 {
         let mean = sum[c] / m as f64;
         let sd = ((sum2[c] / m as f64 - mean * mean) / m as f64).sqrt();
@@ -354,13 +387,24 @@ fn a_textured_spot_projects_its_texture() {
     let plain = load_with(&format!("{LIGHTS_HEAD}{}</scene>", spot("")), &[]);
     let tan = 30f32.to_radians().tan();
     let mut checked = 0;
-    for (px, py) in [(0.1f32, 0.1f32), (0.2, -0.15), (-0.3, 0.05), (-0.1, -0.2), (0.45, 0.3), (0.0, 0.6)] {
+    for (px, py) in [
+        (0.1f32, 0.1f32),
+        (0.2, -0.15),
+        (-0.3, 0.05),
+        (-0.1, -0.2),
+        (0.45, 0.3),
+        (0.0, 0.6),
+    ] {
         let x = Vec3::new(px, py, 1.0);
         let Some(ls) = scene.emitters[0].sample(&scene.shapes, x, 1.0, 0.5, [0.5, 0.5]) else {
-            assert!(plain.emitters[0].sample(&plain.shapes, x, 1.0, 0.5, [0.5, 0.5]).is_none());
+            assert!(plain.emitters[0]
+                .sample(&plain.shapes, x, 1.0, 0.5, [0.5, 0.5])
+                .is_none());
             continue;
         };
-        let base = plain.emitters[0].sample(&plain.shapes, x, 1.0, 0.5, [0.5, 0.5]).unwrap();
+        let base = plain.emitters[0]
+            .sample(&plain.shapes, x, 1.0, 0.5, [0.5, 0.5])
+            .unwrap();
         let uv = Vec2::new(0.5 + 0.5 * px / tan, 0.5 + 0.5 * py / tan);
         // Mitsuba's checkerboard: colour0 where both fractional parts are on one side.
         let want = if (uv.x > 0.5) == (uv.y > 0.5) {
@@ -368,7 +412,12 @@ fn a_textured_spot_projects_its_texture() {
         } else {
             Vec3::splat(0.1)
         };
-        assert!((ls.li - base.li * want).abs().max_element() <= 1e-6 * base.li.max_element(), "{x}: {} vs {}", ls.li, base.li * want);
+        assert!(
+            (ls.li - base.li * want).abs().max_element() <= 1e-6 * base.li.max_element(),
+            "{x}: {} vs {}",
+            ls.li,
+            base.li * want
+        );
         assert!(ls.delta && ls.pdf == 1.0 && ls.wi == base.wi && ls.dist == base.dist);
         checked += 1;
     }
@@ -376,8 +425,16 @@ fn a_textured_spot_projects_its_texture() {
     // A texture of ones renders the untextured spot's bits.
     let ones = r#"<texture type="checkerboard" name="texture"><float name="color0" value="1"/><float name="color1" value="1"/></texture>"#;
     let floor = r#"<shape type="rectangle"><transform name="to_world"><scale value="3"/></transform></shape>"#;
-    let spot = |t: &str| spot(t).replace(r#"origin="0, 0, 0" target="0, 0, 1""#, r#"origin="0.1, 0, 2" target="0, 0, 0""#);
-    let head = LIGHTS_HEAD.replace(r#"<integer name="max_depth" value="1"/>"#, r#"<integer name="max_depth" value="3"/>"#);
+    let spot = |t: &str| {
+        spot(t).replace(
+            r#"origin="0, 0, 0" target="0, 0, 1""#,
+            r#"origin="0.1, 0, 2" target="0, 0, 0""#,
+        )
+    };
+    let head = LIGHTS_HEAD.replace(
+        r#"<integer name="max_depth" value="1"/>"#,
+        r#"<integer name="max_depth" value="3"/>"#,
+    );
     let a = load_with(&format!("{head}{floor}{}</scene>", spot(ones)), &[]);
     let b = load_with(&format!("{head}{floor}{}</scene>", spot("")), &[]);
     let (ra, rb) = (common::run(&a, 9), common::run(&b, 9));
@@ -401,6 +458,11 @@ fn textured_light_samples_are_the_untextured_samplers_points() {
         let plain = t.sampler.sample(shape, u1, u2);
         assert_eq!(s.p, plain.p);
         // The rectangle's uv: ((x + 1) / 2, (y + 1) / 2).
-        assert!((uv - Vec2::new((s.p.x + 1.0) / 2.0, (s.p.y + 1.0) / 2.0)).abs().max_element() < 1e-6);
+        assert!(
+            (uv - Vec2::new((s.p.x + 1.0) / 2.0, (s.p.y + 1.0) / 2.0))
+                .abs()
+                .max_element()
+                < 1e-6
+        );
     }
 }

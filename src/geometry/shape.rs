@@ -4,9 +4,9 @@
 
 use super::cylinder::CylinderGeom;
 use super::disk::DiskGeom;
+use super::mesh_attributes::MeshAttributes;
 use super::sphere::SphereGeom;
 use super::triangle::TriangleGeom;
-use super::mesh_attributes::MeshAttributes;
 use crate::math::sampling::{uniform_sphere, uniform_triangle};
 use crate::textures::TexPoint;
 use glam::{Mat3, Vec2, Vec3};

@@ -335,7 +335,12 @@ fn sample_area(
     u1: f32,
     u2: [f32; 2],
 ) -> Option<(LightSample, f32)> {
-    connect(sampler.sample(shape, u1, u2), sampler.total_area, x, select_pdf)
+    connect(
+        sampler.sample(shape, u1, u2),
+        sampler.total_area,
+        x,
+        select_pdf,
+    )
 }
 
 /// The connection from `x` to a point `s` sampled uniformly on a light of area

@@ -454,7 +454,9 @@ unsafe fn trace_body<const ISA: u8>(
                 if !(depth == 0 && settings.hide_emitters) {
                     let emitter = &scene.emitters[ei as usize];
                     // An angular light seen outside its cone emits nothing.
-                    if let Some(radiance) = emitter.emitted(cos_l, || shape.uv(hit.face, hit.b1, hit.b2, sp.p)) {
+                    if let Some(radiance) =
+                        emitter.emitted(cos_l, || shape.uv(hit.face, hit.b1, hit.b2, sp.p))
+                    {
                         let w = if depth == 0 || specular_chain {
                             1.0
                         } else {

@@ -53,7 +53,10 @@ pub const SUPPORTED: &[(&str, &[&str])] = &[
             "instance",
         ],
     ),
-    ("texture", &["bitmap", "checkerboard", "mesh_attribute", "rawconstant"]),
+    (
+        "texture",
+        &["bitmap", "checkerboard", "mesh_attribute", "rawconstant"],
+    ),
     (
         "emitter",
         &[

@@ -106,7 +106,14 @@ pub fn group(prefix: &str, names: &[String], reserved: &[&str]) -> Vec<Descripto
         }
         let Some(us) = name.rfind('_') else {
             if reading {
-                flush(&mut out, &mut seen, &cur_prefix, cur_postfix, level, &cur_fields);
+                flush(
+                    &mut out,
+                    &mut seen,
+                    &cur_prefix,
+                    cur_postfix,
+                    level,
+                    &cur_fields,
+                );
                 (cur_prefix, cur_postfix, level, reading) = (String::new(), 0, 0, false);
                 cur_fields.clear();
             }
@@ -116,7 +123,14 @@ pub fn group(prefix: &str, names: &[String], reserved: &[&str]) -> Vec<Descripto
         let postfix = &name[us + 1..];
         if postfix.len() != 1 {
             if reading {
-                flush(&mut out, &mut seen, &cur_prefix, cur_postfix, level, &cur_fields);
+                flush(
+                    &mut out,
+                    &mut seen,
+                    &cur_prefix,
+                    cur_postfix,
+                    level,
+                    &cur_fields,
+                );
                 (cur_prefix, cur_postfix, level, reading) = (String::new(), 0, 0, false);
                 cur_fields.clear();
             }
@@ -125,7 +139,14 @@ pub fn group(prefix: &str, names: &[String], reserved: &[&str]) -> Vec<Descripto
         }
         let pre = name[..us].to_string();
         if reading && pre != cur_prefix {
-            flush(&mut out, &mut seen, &cur_prefix, cur_postfix, level, &cur_fields);
+            flush(
+                &mut out,
+                &mut seen,
+                &cur_prefix,
+                cur_postfix,
+                level,
+                &cur_fields,
+            );
             (cur_prefix, cur_postfix, level, reading) = (String::new(), 0, 0, false);
             cur_fields.clear();
         }
@@ -163,7 +184,14 @@ pub fn group(prefix: &str, names: &[String], reserved: &[&str]) -> Vec<Descripto
         i += 1;
     }
     if reading {
-        flush(&mut out, &mut seen, &cur_prefix, cur_postfix, level, &cur_fields);
+        flush(
+            &mut out,
+            &mut seen,
+            &cur_prefix,
+            cur_postfix,
+            level,
+            &cur_fields,
+        );
     }
     out
 }
@@ -256,7 +284,11 @@ mod tests {
         );
         // Two channels are ignored; a name without '_' is skipped; 1..3 family.
         assert_eq!(
-            grouped("vertex_", &["x", "y", "z", "k_x", "k_y", "conf", "m_1", "m_2", "m_3"], &r),
+            grouped(
+                "vertex_",
+                &["x", "y", "z", "k_x", "k_y", "conf", "m_1", "m_2", "m_3"],
+                &r
+            ),
             vec![("vertex_m".into(), vec![6, 7, 8])]
         );
         // A broken sequence drops the attribute and, as Mitsuba's loop does, the
@@ -265,7 +297,10 @@ mod tests {
         assert!(grouped("vertex_", &["x", "y", "z", "p_x", "p_z", "q_0", "w_0"], &r).is_empty());
         assert_eq!(
             grouped("vertex_", &["x", "y", "z", "p_x", "p_y", "p_z", "q_0"], &r),
-            vec![("vertex_p".into(), vec![3, 4, 5]), ("vertex_q".into(), vec![6])]
+            vec![
+                ("vertex_p".into(), vec![3, 4, 5]),
+                ("vertex_q".into(), vec![6])
+            ]
         );
     }
 

@@ -1259,12 +1259,23 @@ fn parse_area_emitter(
     let mut ep = Props::parse(ctx, obj)?;
     if ep.peek("radiance").is_none() {
         if let Some(t) = texture_param(&mut ep, "radiance", named)? {
-            super::textures::refuse_mesh_attribute(&ep, "radiance", &t, "an area light's radiance")?;
+            super::textures::refuse_mesh_attribute(
+                &ep,
+                "radiance",
+                &t,
+                "an area light's radiance",
+            )?;
             if !super::projector::non_negative(&t) {
-                return Err(ep.err_at("radiance", "radiance must be finite and non-negative everywhere"));
+                return Err(ep.err_at(
+                    "radiance",
+                    "radiance must be finite and non-negative everywhere",
+                ));
             }
             if super::projector::black(&t) {
-                ctx.warn(obj, "the radiance texture is black: this emitter contributes nothing");
+                ctx.warn(
+                    obj,
+                    "the radiance texture is black: this emitter contributes nothing",
+                );
             }
             if let Some(&o) = ep.objects.first() {
                 return Err(ctx.err(o, "unexpected nested element in <emitter>"));
@@ -1464,7 +1475,10 @@ fn parse_point_emitter(
                 ));
             }
             if !super::projector::non_negative(&t) {
-                return Err(p.err_at("texture", "the spot's texture must be finite and non-negative everywhere"));
+                return Err(p.err_at(
+                    "texture",
+                    "the spot's texture must be finite and non-negative everywhere",
+                ));
             }
             let lin = glam::DMat3::from_mat4(m);
             if !(lin.determinant().abs() > 0.0 && lin.determinant().is_finite()) {
@@ -1495,14 +1509,16 @@ fn parse_point_emitter(
     p.finish()?;
     check_world_point(position).map_err(|e| ctx.err(node, format!("position: {e}")))?;
     if let (Some((texture, to_local, uv_factor)), Some(spot)) = (textured, spot) {
-        return Ok(Emitter::TexturedSpot(Box::new(crate::lights::TexturedSpot {
-            position: position.as_vec3(),
-            intensity,
-            spot,
-            texture,
-            to_local,
-            uv_factor,
-        })));
+        return Ok(Emitter::TexturedSpot(Box::new(
+            crate::lights::TexturedSpot {
+                position: position.as_vec3(),
+                intensity,
+                spot,
+                texture,
+                to_local,
+                uv_factor,
+            },
+        )));
     }
     Ok(Emitter::Point {
         position: position.as_vec3(),
