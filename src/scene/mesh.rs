@@ -8,8 +8,9 @@
 //!   properties (any numeric type, usually `float` or `double`); if it also has
 //!   `nx`, `ny`, `nz` they become per-vertex normals. The `face` element must
 //!   have an integer list property named `vertex_indices` (or `vertex_index`).
-//!   Other elements and properties are skipped (elements after both `vertex`
-//!   and `face` are not read at all).
+//!   Other scalar vertex and face properties become mesh attributes as Mitsuba
+//!   groups them ([`load_ply_with_attributes`], `super::ply_attributes`); other
+//!   elements are skipped (elements after both `vertex` and `face` are not read).
 //! * **Wavefront OBJ**, read with the `tobj` crate using a single index per
 //!   vertex. All objects and groups in the file are merged into one mesh.
 //!   Vertices are numbered in order of first use by a face, and vertices no face
