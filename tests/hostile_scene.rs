@@ -1346,6 +1346,78 @@ fn cases() -> Vec<Case> {
             sphere(r#"<bsdf type="roughplastic"><string name="int_ior" value="kryptonite"/></bsdf>"#),
             "unknown IOR name 'kryptonite'",
         ),
+        // mesh_attribute, rawconstant, textured emitters
+        scene_case(
+            "mesh_attribute_without_name",
+            scene_with(r#"<shape type="sphere"><bsdf type="diffuse"><texture type="mesh_attribute" name="reflectance"/></bsdf></shape>"#),
+            "missing parameter 'name'",
+        ),
+        scene_case(
+            "mesh_attribute_bad_name",
+            scene_with(r#"<shape type="sphere"><bsdf type="diffuse"><texture type="mesh_attribute" name="reflectance"><string name="name" value="color"/></texture></bsdf></shape>"#),
+            "invalid mesh attribute name 'color'",
+        ),
+        scene_case(
+            "mesh_attribute_absent_from_shape",
+            scene_with(r#"<shape type="sphere"><bsdf type="diffuse"><texture type="mesh_attribute" name="reflectance"><string name="name" value="vertex_color"/></texture></bsdf></shape>"#),
+            "reads 'vertex_color', which this shape does not have (its attributes: none",
+        ),
+        case(
+            "mesh_attribute_absent_from_ply",
+            vec![
+                ("scene.xml", File::Text(BASE.replace("SENSOR", "").replace("SHAPES", r#"<shape type="ply"><string name="filename" value="m.ply"/><bsdf type="diffuse"><texture type="mesh_attribute" name="reflectance"><string name="name" value="face_colour"/></texture></bsdf></shape>"#))),
+                ("m.ply", File::Text("ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nproperty float color_0\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2 0.5\n".into())),
+            ],
+            "reads 'face_colour', which this shape does not have (its attributes: face_color;",
+        ),
+        case(
+            "ply_attribute_twice",
+            vec![
+                ("scene.xml", mesh_scene("ply", "m.ply")),
+                ("m.ply", File::Text("ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nproperty float r\nproperty float g\nproperty float b\nproperty float color_0\nproperty float color_1\nproperty float color_2\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0 1 1 1 1 1 1\n1 0 0 1 1 1 1 1 1\n0 1 0 1 1 1 1 1 1\n3 0 1 2\n".into())),
+            ],
+            "mesh attribute 'vertex_color' is defined twice",
+        ),
+        scene_case(
+            "mesh_attribute_as_area_radiance",
+            scene_with(r#"<shape type="sphere"><emitter type="area"><texture type="mesh_attribute" name="radiance"><string name="name" value="vertex_color"/></texture></emitter></shape>"#),
+            "a mesh_attribute texture cannot be an area light's radiance",
+        ),
+        scene_case(
+            "mesh_attribute_in_checkerboard",
+            scene_with(r#"<shape type="sphere"><bsdf type="diffuse"><texture type="checkerboard" name="reflectance"><texture type="mesh_attribute" name="color0"><string name="name" value="vertex_color"/></texture></texture></bsdf></shape>"#),
+            "a mesh_attribute texture cannot be a checkerboard's colour",
+        ),
+        scene_case(
+            "rawconstant_without_value",
+            scene_with(r#"<shape type="sphere"><bsdf type="diffuse"><texture type="rawconstant" name="reflectance"/></bsdf></shape>"#),
+            "missing parameter 'value'",
+        ),
+        scene_case(
+            "area_radiance_texture_negative",
+            scene_with(r#"<shape type="rectangle"><emitter type="area"><texture type="checkerboard" name="radiance"><float name="color0" value="-1"/></texture></emitter></shape>"#),
+            "radiance must be finite and non-negative everywhere",
+        ),
+        scene_case(
+            "area_radiance_texture_missing_file",
+            scene_with(r#"<shape type="rectangle"><emitter type="area"><texture type="bitmap" name="radiance"><string name="filename" value="nowhere.png"/></texture></emitter></shape>"#),
+            "image 'nowhere.png'",
+        ),
+        scene_case(
+            "spot_texture_constant",
+            scene_with(r#"<emitter type="spot"><texture type="rawconstant" name="texture"><float name="value" value="1"/></texture></emitter>"#),
+            "a spot's 'texture' must vary over uv",
+        ),
+        scene_case(
+            "spot_texture_negative",
+            scene_with(r#"<emitter type="spot"><texture type="checkerboard" name="texture"><float name="color1" value="-2"/></texture></emitter>"#),
+            "the spot's texture must be finite and non-negative everywhere",
+        ),
+        scene_case(
+            "spot_texture_missing_file",
+            scene_with(r#"<emitter type="spot"><texture type="bitmap" name="texture"><string name="filename" value="none.jpg"/></texture></emitter>"#),
+            "image 'none.jpg'",
+        ),
         // projector (Mitsuba 3's)
         scene_case(
             "projector_fov_180",

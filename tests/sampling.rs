@@ -2008,15 +2008,16 @@ fn light_sample_pdf_matches_the_pdf_mis_uses_on_a_hit() {
                     continue;
                 };
                 match emitter {
-                    Emitter::Point { .. } | Emitter::Projector(_) => {
+                    Emitter::Point { .. } | Emitter::Projector(_) | Emitter::TexturedSpot(_) => {
                         assert!(ls.delta && ls.pdf == select_pdf);
                         assert_eq!(emitter.pdf_area_hit(select_pdf, ls.dist, 1.0), 0.0);
                         points += 1;
                     }
                     Emitter::Envmap { .. }
                     | Emitter::Constant { .. }
-                    | Emitter::Directional { .. } => {
-                        unreachable!("the light scene has no infinitely distant lights")
+                    | Emitter::Directional { .. }
+                    | Emitter::TexturedArea(_) => {
+                        unreachable!("the light scene has no infinitely distant or textured lights (see tests/textured.rs)")
                     }
                     Emitter::Area { shape, .. } | Emitter::AngularArea { shape, .. } => {
                         assert!(!ls.delta);

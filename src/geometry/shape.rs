@@ -4,10 +4,13 @@
 
 use super::cylinder::CylinderGeom;
 use super::disk::DiskGeom;
+use super::mesh_attributes::MeshAttributes;
 use super::sphere::SphereGeom;
 use super::triangle::TriangleGeom;
 use crate::math::sampling::{uniform_sphere, uniform_triangle};
+use crate::textures::TexPoint;
 use glam::{Mat3, Vec2, Vec3};
+use std::sync::Arc;
 
 #[derive(Clone, Debug)]
 pub enum ShapeGeom {
@@ -19,6 +22,9 @@ pub enum ShapeGeom {
         /// Per-vertex texture coordinates, when the shape has them (the built-in
         /// rectangle and cube always; file meshes when the file gives them).
         uvs: Option<Vec<Vec2>>,
+        /// Per-vertex and per-face attributes from the mesh file (PLY), when it has
+        /// any (`mesh_attribute` textures read them).
+        attributes: Option<Arc<MeshAttributes>>,
     },
     /// An analytic sphere and its `to_local` map: the linear part of the inverse of
     /// Mitsuba's `to_world * translate(center) * scale(radius)`, so that
@@ -193,6 +199,36 @@ impl Shape {
         }
     }
 
+    /// Where a material's textures are looked up at barycentrics (b1, b2) of triangle
+    /// `face` (or at `p` on an analytic shape): uv ([`Self::uv`]) and, on a mesh with
+    /// attributes, those with the triangle's vertices.
+    pub fn tex_point(&self, face: u32, b1: f32, b2: f32, p: Vec3) -> TexPoint<'_> {
+        let uv = self.uv(face, b1, b2, p);
+        match &self.geom {
+            ShapeGeom::Mesh {
+                attributes: Some(a),
+                triangles,
+                ..
+            } => TexPoint {
+                uv,
+                attributes: Some(a),
+                face,
+                tri: triangles[face as usize],
+                b1,
+                b2,
+            },
+            _ => TexPoint::uv(uv),
+        }
+    }
+
+    /// The mesh's attributes, if it has any.
+    pub fn attributes(&self) -> Option<&MeshAttributes> {
+        match &self.geom {
+            ShapeGeom::Mesh { attributes, .. } => attributes.as_deref(),
+            _ => None,
+        }
+    }
+
     /// The position's derivative along u, dp/du, at a surface point, with Mitsuba 3's
     /// convention for each shape (the direction anisotropic roughness's `alpha_u`
     /// follows, [`crate::math::frame::Frame::from_normal_tangent`]):
@@ -342,6 +378,25 @@ impl AreaSampler {
                 tris: Vec::new(),
                 total_area: shape.area() as f32,
             },
+        }
+    }
+
+    /// [`Self::sample`] and the point's uv (`Shape::uv`), for textured lights.
+    pub fn sample_with_uv(&self, shape: &Shape, u1: f32, u2: [f32; 2]) -> (SurfacePoint, Vec2) {
+        match &shape.geom {
+            ShapeGeom::Mesh { .. } => {
+                let face = self
+                    .cdf
+                    .partition_point(|&c| c <= u1)
+                    .min(self.cdf.len() - 1);
+                let [b1, b2] = uniform_triangle(u2);
+                let s = shape.surface_of(&self.tris[face], face as u32, b1, b2);
+                (s, shape.uv(face as u32, b1, b2, s.p))
+            }
+            _ => {
+                let s = self.sample(shape, u1, u2);
+                (s, shape.uv(0, 0.0, 0.0, s.p))
+            }
         }
     }
 

@@ -36,9 +36,13 @@
 
 pub mod angular_area;
 pub mod projector;
+pub mod textured_area;
+pub mod textured_spot;
 
 pub use angular_area::AngularFalloff;
 pub use projector::Projector;
+pub use textured_area::TexturedArea;
+pub use textured_spot::TexturedSpot;
 
 pub mod distribution;
 pub mod envmap;
@@ -48,7 +52,7 @@ use crate::geometry::shape::{AreaSampler, Shape};
 use crate::math::sampling::uniform_sphere;
 use crate::math::Rgb;
 use envmap::EnvMap;
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 use scene_sphere::SceneSphere;
 use std::sync::Arc;
 
@@ -73,6 +77,10 @@ pub enum Emitter {
         falloff: AngularFalloff,
     },
     Projector(Box<Projector>),
+    /// An `area` light whose radiance is a bitmap or checkerboard (`textured_area.rs`).
+    TexturedArea(Box<TexturedArea>),
+    /// A `spot` light projecting a texture (`textured_spot.rs`).
+    TexturedSpot(Box<TexturedSpot>),
     /// An environment image (`envmap`).
     Envmap {
         map: Arc<EnvMap>,
@@ -173,6 +181,8 @@ impl Emitter {
                 Some(LightSample { li, ..ls })
             }
             Emitter::Projector(p) => p.sample(x, select_pdf),
+            Emitter::TexturedArea(t) => t.sample(shapes, x, select_pdf, u1, u2),
+            Emitter::TexturedSpot(t) => t.sample(x, select_pdf),
             Emitter::Point {
                 position,
                 intensity,
@@ -270,7 +280,9 @@ impl Emitter {
             Emitter::Area { .. }
             | Emitter::Point { .. }
             | Emitter::AngularArea { .. }
-            | Emitter::Projector(_) => {}
+            | Emitter::Projector(_)
+            | Emitter::TexturedArea(_)
+            | Emitter::TexturedSpot(_) => {}
         }
     }
 
@@ -288,16 +300,21 @@ impl Emitter {
             } if cos_l > 0.0 && falloff.eval(cos_l) > 0.0 => {
                 select_pdf * dist * dist / (cos_l * sampler.total_area)
             }
+            Emitter::TexturedArea(t) if cos_l > 0.0 => {
+                select_pdf * dist * dist / (cos_l * t.sampler.total_area)
+            }
             _ => 0.0,
         }
     }
 
     /// The radiance a shape's light emits towards cosine `cos_l` > 0 from its normal
-    /// (front side); None for an angular light seen outside its cone.
+    /// (front side); None for an angular light seen outside its cone. `uv` gives the
+    /// hit's texture coordinates, asked for by textured lights only.
     #[inline(always)]
-    pub fn emitted(&self, cos_l: f32) -> Option<Rgb> {
+    pub fn emitted(&self, cos_l: f32, uv: impl FnOnce() -> Vec2) -> Option<Rgb> {
         match self {
             Emitter::Area { radiance, .. } => Some(*radiance),
+            Emitter::TexturedArea(t) => Some(t.emitted(uv())),
             Emitter::AngularArea {
                 radiance, falloff, ..
             } => angular_area::angular_radiance(*radiance, falloff, cos_l),
@@ -318,7 +335,24 @@ fn sample_area(
     u1: f32,
     u2: [f32; 2],
 ) -> Option<(LightSample, f32)> {
-    let s = sampler.sample(shape, u1, u2);
+    connect(
+        sampler.sample(shape, u1, u2),
+        sampler.total_area,
+        x,
+        select_pdf,
+    )
+}
+
+/// The connection from `x` to a point `s` sampled uniformly on a light of area
+/// `total_area` (radiance left zero), with the cosine at the light; None when the
+/// point faces away from `x`.
+#[inline(always)]
+fn connect(
+    s: crate::geometry::shape::SurfacePoint,
+    total_area: f32,
+    x: Vec3,
+    select_pdf: f32,
+) -> Option<(LightSample, f32)> {
     let d = s.p - x;
     let dist2 = d.length_squared();
     let dist = dist2.sqrt();
@@ -337,7 +371,7 @@ fn sample_area(
             wi,
             dist,
             li: Rgb::ZERO,
-            pdf: select_pdf * dist2 / (cos_l * sampler.total_area),
+            pdf: select_pdf * dist2 / (cos_l * total_area),
             delta: false,
         },
         cos_l,

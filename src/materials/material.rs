@@ -13,7 +13,7 @@
 //! range a constant may take; Mitsuba would produce NaNs at 0).
 
 use super::{Bsdf, OneSided, TemporalProfile};
-use crate::textures::Texture;
+use crate::textures::{TexPoint, Texture};
 use glam::{Vec2, Vec3};
 
 /// A texturable parameter.
@@ -185,18 +185,36 @@ impl Material {
         !self.bindings.is_empty()
     }
 
-    /// The BSDF at surface coordinates `uv`.
+    /// The BSDF at surface coordinates `uv` (no mesh attributes).
     pub fn at(&self, uv: Vec2) -> Bsdf {
+        self.at_point(&TexPoint::uv(uv))
+    }
+
+    /// The BSDF at a surface point: uv and, for `mesh_attribute` textures, the hit's
+    /// triangle on a mesh with attributes (`Shape::tex_point`).
+    pub fn at_point(&self, p: &TexPoint) -> Bsdf {
         let mut b = self.bsdf.clone();
         for binding in &self.bindings {
             let value = if binding.param.is_scalar() {
-                Vec3::splat(binding.texture.eval_float(uv))
+                Vec3::splat(binding.texture.eval_float_at(p))
             } else {
-                binding.texture.eval_rgb(uv)
+                binding.texture.eval_rgb_at(p)
             };
             set(&mut b, &binding.path, binding.param, value);
         }
         b
+    }
+
+    /// The attribute names the material's `mesh_attribute` textures read (checked
+    /// against each shape that uses the material when the scene loads).
+    pub fn mesh_attribute_names(&self) -> Vec<&str> {
+        let mut out = Vec::new();
+        for b in &self.bindings {
+            if let Texture::MeshAttribute(m) = &b.texture {
+                out.push(&*m.name);
+            }
+        }
+        out
     }
 }
 

@@ -576,6 +576,7 @@ pub fn parse_bsdf(ctx: &Ctx, node: Node, named: &Named) -> Result<Material, Scen
                 let Some(t) = texture_param(&mut p.props, "normalmap", p.textures)? else {
                     return Err(p.props.err("normalmap needs a texture 'normalmap' (an RGB bitmap, read with raw = true)"));
                 };
+                crate::scene::textures::refuse_mesh_attribute(&p.props, "normalmap", &t, "a normal map")?;
                 if let Texture::Bitmap(b) = &t {
                     if b.channels != 3 {
                         return Err(p.props.err_at("normalmap", "normalmap's bitmap must have three channels (RGB), as Mitsuba's eval_3 requires"));
@@ -611,6 +612,7 @@ pub fn parse_bsdf(ctx: &Ctx, node: Node, named: &Named) -> Result<Material, Scen
                 let Some(texture) = texture else {
                     return Err(p.props.err("bumpmap needs one nested <texture> (the height field)"));
                 };
+                crate::scene::textures::refuse_mesh_attribute(&p.props, "", &texture, "a bump map's height field")?;
                 Perturbation::BumpMap {
                     texture,
                     scale: scale as f32,
@@ -663,6 +665,7 @@ pub fn parse_bsdf(ctx: &Ctx, node: Node, named: &Named) -> Result<Material, Scen
                         Ok((c, c.element_sum() / 3.0, true))
                     }
                     Some(t) => {
+                        crate::scene::textures::refuse_mesh_attribute(&p.props, name, &t, "a pplastic reflectance (Mitsuba needs its mean)")?;
                         let mean = t.mean();
                         p.bind(param, t);
                         Ok((default, mean, true))

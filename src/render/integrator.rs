@@ -102,8 +102,9 @@ pub(super) fn perturbed_at(
     frame: &Frame,
     wo: Vec3,
 ) -> Bsdf {
-    let uv = shape.uv(hit.face, hit.b1, hit.b2, sp.p);
-    let mut b = material.at(uv);
+    let point = shape.tex_point(hit.face, hit.b1, hit.b2, sp.p);
+    let uv = point.uv;
+    let mut b = material.at_point(&point);
     b.resolve_frames(&HitGeometry {
         uv,
         shading: *frame,
@@ -324,7 +325,7 @@ unsafe fn trace_path_body<const ISA: u8>(
                 textured = perturbed_at(material, shape, &hit, &sp, &frame, wo);
                 &textured
             } else if material.is_textured() {
-                textured = material.at(shape.uv(hit.face, hit.b1, hit.b2, sp.p));
+                textured = material.at_point(&shape.tex_point(hit.face, hit.b1, hit.b2, sp.p));
                 &textured
             } else {
                 &material.bsdf
@@ -347,7 +348,7 @@ unsafe fn trace_path_body<const ISA: u8>(
             let cos_l = wo.z;
             let emitter = &scene.emitters[ei as usize];
             let radiance = if cos_l > 0.0 {
-                emitter.emitted(cos_l)
+                emitter.emitted(cos_l, || shape.uv(hit.face, hit.b1, hit.b2, sp.p))
             } else {
                 None
             };

@@ -457,7 +457,7 @@ unsafe fn trace_body<const ISA: u8>(
                 textured = super::integrator::perturbed_at(material, shape, &hit, &sp, &frame, wo);
                 &textured
             } else if material.is_textured() {
-                textured = material.at(shape.uv(hit.face, hit.b1, hit.b2, sp.p));
+                textured = material.at_point(&shape.tex_point(hit.face, hit.b1, hit.b2, sp.p));
                 &textured
             } else {
                 &material.bsdf
@@ -491,7 +491,9 @@ unsafe fn trace_body<const ISA: u8>(
                 if !(depth == 0 && settings.hide_emitters) {
                     let emitter = &scene.emitters[ei as usize];
                     // An angular light seen outside its cone emits nothing.
-                    if let Some(radiance) = emitter.emitted(cos_l) {
+                    if let Some(radiance) =
+                        emitter.emitted(cos_l, || shape.uv(hit.face, hit.b1, hit.b2, sp.p))
+                    {
                         let w = if depth == 0 || specular_chain {
                             1.0
                         } else {

@@ -446,8 +446,12 @@ fn hash_loaded_scene(h: &mut Sha256, scene: &Scene, overrides: &Overrides) {
             ShapeGeom::Mesh {
                 positions,
                 triangles,
+                attributes,
                 ..
             } => {
+                if let Some(a) = attributes {
+                    h.update(format!("{a:?}").as_bytes());
+                }
                 for p in positions {
                     f32s(h, &p.to_array());
                 }
@@ -490,6 +494,10 @@ fn hash_loaded_scene(h: &mut Sha256, scene: &Scene, overrides: &Overrides) {
             }
             // Its texture's texels are in its Debug text.
             Emitter::Projector(p) => h.update(format!("{p:?}").as_bytes()),
+            Emitter::TexturedArea(t) => {
+                h.update(format!("textured area {}|{:?}", t.shape, t.radiance).as_bytes())
+            }
+            Emitter::TexturedSpot(t) => h.update(format!("{t:?}").as_bytes()),
             Emitter::Envmap { map, .. } => {
                 h.update(b"envmap");
                 f32s(h, &map.key_values().collect::<Vec<_>>());

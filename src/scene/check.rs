@@ -55,7 +55,10 @@ pub const SUPPORTED: &[(&str, &[&str])] = &[
             "instance",
         ],
     ),
-    ("texture", &["bitmap", "checkerboard"]),
+    (
+        "texture",
+        &["bitmap", "checkerboard", "mesh_attribute", "rawconstant"],
+    ),
     (
         "emitter",
         &[

@@ -57,6 +57,7 @@ pub fn transformed(g: &ShapeGeom, m: &DMat4) -> Result<ShapeGeom, String> {
             normals,
             triangles,
             uvs,
+            attributes,
         } => {
             let normal_m = lin.inverse().transpose();
             let mut ps = Vec::with_capacity(positions.len());
@@ -90,6 +91,7 @@ pub fn transformed(g: &ShapeGeom, m: &DMat4) -> Result<ShapeGeom, String> {
                 }),
                 triangles: tris,
                 uvs: uvs.clone(),
+                attributes: attributes.clone(),
             }
         }
         ShapeGeom::Sphere(s, to_local) => {

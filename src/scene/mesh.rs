@@ -8,8 +8,9 @@
 //!   properties (any numeric type, usually `float` or `double`); if it also has
 //!   `nx`, `ny`, `nz` they become per-vertex normals. The `face` element must
 //!   have an integer list property named `vertex_indices` (or `vertex_index`).
-//!   Other elements and properties are skipped (elements after both `vertex`
-//!   and `face` are not read at all).
+//!   Other scalar vertex and face properties become mesh attributes as Mitsuba
+//!   groups them ([`load_ply_with_attributes`], `super::ply_attributes`); other
+//!   elements are skipped (elements after both `vertex` and `face` are not read).
 //! * **Wavefront OBJ**, read with the `tobj` crate using a single index per
 //!   vertex. All objects and groups in the file are merged into one mesh.
 //!   Vertices are numbered in order of first use by a face, and vertices no face
@@ -32,6 +33,8 @@ use std::borrow::Cow;
 use std::io;
 use std::path::{Path, PathBuf};
 
+use super::ply_attributes;
+use crate::geometry::mesh_attributes::{MeshAttribute, MeshAttributes};
 use glam::{Vec2, Vec3};
 use ply_rs::parser::Parser;
 use ply_rs::ply::{ElementDef, Encoding, Property, PropertyAccess, PropertyType, ScalarType};
@@ -80,6 +83,14 @@ pub enum MeshError {
 
 /// Loads a PLY mesh (ASCII or binary, either byte order).
 pub fn load_ply(path: &Path) -> Result<MeshData, MeshError> {
+    load_ply_with_attributes(path).map(|(m, _)| m)
+}
+
+/// [`load_ply`], plus the mesh attributes Mitsuba makes of the file's other vertex
+/// and face properties (`ply_attributes`), `None` when there are none.
+pub fn load_ply_with_attributes(
+    path: &Path,
+) -> Result<(MeshData, Option<MeshAttributes>), MeshError> {
     let bytes = read_file(path)?;
     parse_ply(&bytes).map_err(|problem| match problem {
         Problem::NoFaces => MeshError::NoFaces {
@@ -108,7 +119,7 @@ impl From<String> for Problem {
 /// preference.
 const FACE_LIST_NAMES: [&str; 2] = ["vertex_indices", "vertex_index"];
 
-fn parse_ply(bytes: &[u8]) -> Result<MeshData, Problem> {
+fn parse_ply(bytes: &[u8]) -> Result<(MeshData, Option<MeshAttributes>), Problem> {
     if !bytes.starts_with(b"ply") {
         return Err("not a PLY file (it does not start with 'ply')"
             .to_string()
@@ -243,6 +254,47 @@ fn parse_ply(bytes: &[u8]) -> Result<MeshData, Problem> {
     let vertex_count = positions.len();
     let mut triangles = Vec::with_capacity(faces.len());
     let mut polygon = Vec::new();
+    // Mesh attributes: Mitsuba's names for the properties it does not use itself.
+    let scalar_names = |def: &ElementDef| -> Vec<String> {
+        def.properties
+            .values()
+            .filter(|p| matches!(p.data_type, PropertyType::Scalar(_)))
+            .map(|p| p.name.clone())
+            .collect()
+    };
+    let vertex_originals = scalar_names(vertex_def);
+    let mut vertex_names = vertex_originals.clone();
+    if let Some(rank) = uv_rank {
+        for (k, to) in ["u", "v"].into_iter().enumerate() {
+            if let Some(n) = vertex_names.iter_mut().find(|n| **n == UV_NAMES[rank][k]) {
+                *n = to.into();
+            }
+        }
+    }
+    let vertex_groups = ply_attributes::group(
+        "vertex_",
+        &vertex_names,
+        &["x", "y", "z", "nx", "ny", "nz", "u", "v"],
+    );
+    let face_names = scalar_names(face_def);
+    let face_groups = ply_attributes::group("face_", &face_names, &[]);
+    let mut attributes: Vec<MeshAttribute> = Vec::new();
+    for d in &vertex_groups {
+        let originals: Vec<&String> = d.fields.iter().map(|&f| &vertex_originals[f]).collect();
+        let mut data = Vec::with_capacity(vertices.len() * d.fields.len());
+        for v in &vertices {
+            for n in &originals {
+                data.push(extra_value(&v.extra, n));
+            }
+        }
+        attributes.push(MeshAttribute {
+            name: d.name.clone(),
+            per_vertex: true,
+            dim: d.fields.len(),
+            data,
+        });
+    }
+    let mut face_data: Vec<Vec<f32>> = vec![Vec::new(); face_groups.len()];
     for (f, face) in faces.iter().enumerate() {
         if face.indices.len() < 3 {
             return Err(format!(
@@ -263,15 +315,50 @@ fn parse_ply(bytes: &[u8]) -> Result<MeshData, Problem> {
                 }
             }
         }
+        let before = triangles.len();
         push_fan(&polygon, &mut triangles);
+        for (d, data) in face_groups.iter().zip(face_data.iter_mut()) {
+            for _ in before..triangles.len() {
+                for &f in &d.fields {
+                    data.push(extra_value(&face.extra, &face_names[f]));
+                }
+            }
+        }
     }
+    for (d, data) in face_groups.iter().zip(face_data) {
+        attributes.push(MeshAttribute {
+            name: d.name.clone(),
+            per_vertex: false,
+            dim: d.fields.len(),
+            data,
+        });
+    }
+    // Mitsuba's add_attribute refuses a name twice (e.g. r g b and color_0..2).
+    for (i, a) in attributes.iter().enumerate() {
+        if attributes[..i].iter().any(|b| b.name == a.name) {
+            return Err(format!("mesh attribute '{}' is defined twice (Mitsuba: add_attribute(): attribute already exists)", a.name).into());
+        }
+    }
+    let attributes = (!attributes.is_empty()).then_some(MeshAttributes { list: attributes });
 
-    Ok(MeshData {
-        positions,
-        normals,
-        triangles,
-        uvs,
-    })
+    Ok((
+        MeshData {
+            positions,
+            normals,
+            triangles,
+            uvs,
+        },
+        attributes,
+    ))
+}
+
+/// The value of property `name` among an entry's extra properties (0 when absent:
+/// the property exists in the header, so every entry sets it).
+fn extra_value(extra: &[(String, Property)], name: &str) -> f32 {
+    extra
+        .iter()
+        .find(|(n, _)| n == name)
+        .map_or(0.0, |(_, p)| ply_attributes::value(p))
 }
 
 /// `ply-rs` 0.1 panics (an `unwrap` in its header grammar) when an element
@@ -496,6 +583,8 @@ struct PlyVertex {
     normal: [f64; 3],
     /// One slot per pair of [`UV_NAMES`]: the header decides which is used.
     uv: [[f64; 2]; 3],
+    /// Every other scalar property, for mesh attributes (`ply_attributes`).
+    extra: Vec<(String, Property)>,
 }
 
 impl PropertyAccess for PlyVertex {
@@ -517,7 +606,12 @@ impl PropertyAccess for PlyVertex {
             "texture_v" => &mut self.uv[1][1],
             "s" => &mut self.uv[2][0],
             "t" => &mut self.uv[2][1],
-            _ => return,
+            _ => {
+                if ply_attributes::scalar_type(&property).is_some() {
+                    self.extra.push((name, property));
+                }
+                return;
+            }
         };
         if let Some(value) = scalar_value(&property) {
             *slot = value;
@@ -531,6 +625,8 @@ impl PropertyAccess for PlyVertex {
 struct PlyFace {
     indices: Vec<i64>,
     from_preferred_name: bool,
+    /// Every scalar property, for mesh attributes (`ply_attributes`).
+    extra: Vec<(String, Property)>,
 }
 
 impl PropertyAccess for PlyFace {
@@ -539,6 +635,10 @@ impl PropertyAccess for PlyFace {
     }
 
     fn set_property(&mut self, name: String, property: Property) {
+        if ply_attributes::scalar_type(&property).is_some() {
+            self.extra.push((name, property));
+            return;
+        }
         let preferred = name == FACE_LIST_NAMES[0];
         if !(preferred || (name == FACE_LIST_NAMES[1] && !self.from_preferred_name)) {
             return;

@@ -11,6 +11,7 @@ pub mod infinite_emitters;
 pub mod instance;
 pub mod limits;
 pub mod mesh;
+pub mod ply_attributes;
 pub mod projector;
 pub mod props;
 pub mod serialized;

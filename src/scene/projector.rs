@@ -14,25 +14,28 @@ use roxmltree::Node;
 fn resolution(t: &Texture) -> (usize, usize) {
     match t {
         Texture::Bitmap(b) => (b.width, b.height),
-        Texture::Constant(_) | Texture::Checkerboard(_) => (1, 1),
+        Texture::Constant(_) | Texture::Checkerboard(_) | Texture::MeshAttribute(_) => (1, 1),
     }
 }
 
-/// Whether every value the texture can return is finite and non-negative.
-fn non_negative(t: &Texture) -> bool {
+/// Whether every value the texture can return is finite and non-negative (a mesh
+/// attribute: unknown here, false; emitters refuse them first).
+pub(crate) fn non_negative(t: &Texture) -> bool {
     match t {
         Texture::Constant(c) => c.is_finite() && c.min_element() >= 0.0,
         Texture::Bitmap(b) => b.data.iter().all(|v| v.is_finite() && *v >= 0.0),
         Texture::Checkerboard(c) => non_negative(&c.color0) && non_negative(&c.color1),
+        Texture::MeshAttribute(_) => false,
     }
 }
 
 /// Whether the texture is black everywhere.
-fn black(t: &Texture) -> bool {
+pub(crate) fn black(t: &Texture) -> bool {
     match t {
         Texture::Constant(c) => c.max_element() == 0.0,
         Texture::Bitmap(b) => b.data.iter().all(|v| *v == 0.0),
         Texture::Checkerboard(c) => black(&c.color0) && black(&c.color1),
+        Texture::MeshAttribute(_) => false,
     }
 }
 
@@ -48,6 +51,7 @@ pub fn parse_projector(
         Some(_) => Texture::Constant(p.emission("irradiance")?.unwrap_or(Vec3::ONE)),
         None => texture_param(&mut p, "irradiance", named)?.unwrap_or(Texture::Constant(Vec3::ONE)),
     };
+    super::textures::refuse_mesh_attribute(&p, "irradiance", &irradiance, "a projector's image")?;
     if !non_negative(&irradiance) {
         return Err(p.err_at(
             "irradiance",

@@ -21,7 +21,7 @@
 //! `<ref>` (default: diffuse 0.5) and an optional nested `<emitter type="area">`.
 
 use super::error::SceneError;
-use super::mesh::{load_obj, load_ply, MeshData};
+use super::mesh::{load_obj, load_ply_with_attributes, MeshData};
 use super::props::Props;
 use super::serialized::load_serialized;
 use crate::geometry::cylinder::CylinderGeom;
@@ -192,6 +192,7 @@ fn transform_mesh(
         normals: m.normals,
         triangles: m.triangles,
         uvs: m.uvs,
+        attributes: None,
     })
 }
 
@@ -303,6 +304,8 @@ pub fn parse_geometry(kind: &str, props: &mut Props) -> Result<ShapeGeom, SceneE
             props.ctx.read_mesh_file(&path);
             // A version 5 serialized mesh may ask for face normals itself.
             let mut stored_face_normals = false;
+            // Mesh attributes (PLY files only, as Mitsuba's loaders).
+            let mut attributes = None;
             let mut mesh = if kind == "serialized" {
                 let index = props.integer("shape_index")?.unwrap_or(0);
                 let index = u64::try_from(index).map_err(|_| {
@@ -317,7 +320,10 @@ pub fn parse_geometry(kind: &str, props: &mut Props) -> Result<ShapeGeom, SceneE
                 loaded.mesh
             } else {
                 let loaded = if kind == "ply" {
-                    load_ply(&path)
+                    load_ply_with_attributes(&path).map(|(m, a)| {
+                        attributes = a;
+                        m
+                    })
                 } else {
                     load_obj(&path)
                 };
@@ -339,8 +345,12 @@ pub fn parse_geometry(kind: &str, props: &mut Props) -> Result<ShapeGeom, SceneE
             if mesh.triangles.is_empty() {
                 return Err(props.err_at("filename", format!("mesh '{name}' has no triangles")));
             }
-            transform_mesh(mesh, &to_world, false)
-                .map_err(|e| props.err_at("filename", format!("mesh '{name}': {e}")))
+            let mut geom = transform_mesh(mesh, &to_world, false)
+                .map_err(|e| props.err_at("filename", format!("mesh '{name}': {e}")))?;
+            if let ShapeGeom::Mesh { attributes: a, .. } = &mut geom {
+                *a = attributes.map(std::sync::Arc::new);
+            }
+            Ok(geom)
         }
         other => {
             Err(props.err(format!(

@@ -7,9 +7,11 @@
 //! parsed in place, `<ref name=... id=...>` looks up a top-level texture.
 
 use super::error::SceneError;
-use super::props::{Ctx, Props};
+use super::props::{Ctx, Props, Value};
 use crate::textures::image_file::load_image;
-use crate::textures::{Bitmap, Checkerboard, FilterType, Texture, UvTransform, WrapMode};
+use crate::textures::{
+    Bitmap, Checkerboard, FilterType, MeshAttributeTexture, Texture, UvTransform, WrapMode,
+};
 use glam::Vec3;
 use roxmltree::Node;
 use std::collections::HashMap;
@@ -39,6 +41,7 @@ pub fn parse_texture(ctx: &Ctx, node: Node, named: &NamedTextures) -> Result<Tex
                         return Err(props.err_at(name, format!("{name} must be finite")));
                     }
                 }
+                refuse_mesh_attribute(props, name, &t, "a checkerboard's colour")?;
                 Ok(Box::new(t))
             };
             let color0 = colour(&mut props, "color0", 0.4)?;
@@ -50,9 +53,43 @@ pub fn parse_texture(ctx: &Ctx, node: Node, named: &NamedTextures) -> Result<Tex
             })
         }
         "bitmap" => Texture::Bitmap(Arc::new(parse_bitmap(&mut props)?)),
+        "mesh_attribute" => {
+            let name = props
+                .string("name")?
+                .ok_or_else(|| props.err("missing parameter 'name' (the mesh attribute, e.g. vertex_color)"))?;
+            // Mitsuba's test: the name contains one of the prefixes.
+            if !name.contains("vertex_") && !name.contains("face_") {
+                return Err(props.err_at(
+                    "name",
+                    format!("invalid mesh attribute name '{name}': it must start with \"vertex_\" or \"face_\""),
+                ));
+            }
+            let scale = props.float_or("scale", 1.0)? as f32;
+            Texture::MeshAttribute(MeshAttributeTexture {
+                name: name.into(),
+                scale,
+            })
+        }
+        // Mitsuba's `rawconstant`: the value as it is (no colour conversion), a float
+        // in every channel or a 3-vector.
+        "rawconstant" => {
+            let value = match props.peek("value") {
+                None => return Err(props.err("missing parameter 'value' (a <float> or <vector>)")),
+                Some(Value::Point(_)) => {
+                    let v = props.point("value")?.unwrap_or_default();
+                    Vec3::new(v[0] as f32, v[1] as f32, v[2] as f32)
+                }
+                Some(_) => Vec3::splat(
+                    props
+                        .float("value")?
+                        .ok_or_else(|| props.err("missing parameter 'value'"))? as f32,
+                ),
+            };
+            Texture::Constant(value)
+        }
         other => {
             return Err(props.err(format!(
-                "unknown texture type '{other}' (supported: bitmap, checkerboard)"
+                "unknown texture type '{other}' (supported: bitmap, checkerboard, mesh_attribute, rawconstant)"
             )))
         }
     };
@@ -123,6 +160,23 @@ fn parse_bitmap(props: &mut Props) -> Result<Bitmap, SceneError> {
         wrap,
         to_uv,
     })
+}
+
+/// Refuses a `mesh_attribute` texture (or a checkerboard holding one) given as
+/// parameter `name` of a plugin that looks textures up by uv only (`what` names it).
+pub fn refuse_mesh_attribute(
+    props: &Props,
+    name: &str,
+    t: &Texture,
+    what: &str,
+) -> Result<(), SceneError> {
+    if t.uses_mesh_attributes() {
+        return Err(props.err_at(
+            name,
+            format!("a mesh_attribute texture cannot be {what} (it is read only by materials on meshes)"),
+        ));
+    }
+    Ok(())
 }
 
 /// A parameter that accepts a texture: an `<rgb>`/`<float>` constant, a nested

@@ -18,7 +18,8 @@ use crate::math::Rgb;
 use crate::media::parse::parse_medium;
 use crate::media::Medium;
 use crate::render::time_filter::{TimeFilter, DEFAULT_STDDEV_BINS};
-use crate::scene::textures::{parse_texture, NamedTextures};
+use crate::scene::textures::{parse_texture, texture_param, NamedTextures};
+use crate::textures::Texture;
 use glam::{DMat4, DVec3, Vec3};
 use roxmltree::Node;
 use sha2::{Digest, Sha256};
@@ -358,13 +359,20 @@ fn add_shape(o: &mut Objects, shape: Shape, bsdf: Material, emission: Option<Are
     if let Some(emission) = emission {
         shape.emitter = Some(o.emitters.len() as u32);
         let sampler = AreaSampler::new(&shape);
-        o.emitters.push(match emission.falloff {
-            None => Emitter::Area {
+        o.emitters.push(match (emission.falloff, emission.texture) {
+            (None, Some(radiance)) => {
+                Emitter::TexturedArea(Box::new(crate::lights::TexturedArea {
+                    shape: index,
+                    radiance,
+                    sampler,
+                }))
+            }
+            (None, None) => Emitter::Area {
                 shape: index,
                 radiance: emission.radiance,
                 sampler,
             },
-            Some(falloff) => Emitter::AngularArea {
+            (Some(falloff), _) => Emitter::AngularArea {
                 shape: index,
                 radiance: emission.radiance,
                 sampler,
@@ -524,7 +532,7 @@ fn walk(ctx: &Ctx, root: Node, o: &mut Objects, depth: usize) -> Result<(), Scen
                 "a top-level area emitter needs an id (shapes attach it with <ref id=...>)",
             ));
         };
-        let emission = parse_area_emission(ctx, node, &kind)?;
+        let emission = parse_area_emission(ctx, node, &kind, &o.named_textures)?;
         if o.area_emitters.insert(id.clone(), emission).is_some() {
             return Err(ctx.err(node, format!("id '{id}' is defined twice")));
         }
@@ -633,7 +641,7 @@ fn walk(ctx: &Ctx, root: Node, o: &mut Objects, depth: usize) -> Result<(), Scen
                     }
                     o.emitters.push(e);
                 } else {
-                    o.emitters.push(parse_point_emitter(ctx, node)?);
+                    o.emitters.push(parse_point_emitter(ctx, node, &o.named_textures)?);
                 }
             }
             "sampler" => {
@@ -1278,32 +1286,79 @@ fn check_elements(ctx: &Ctx, root: Node) -> Result<(), SceneError> {
 /// Emitters that live on a shape.
 const AREA_KINDS: &[&str] = &["area", "angulararea"];
 
-/// What a shape's emitter declares: its radiance and, for `angulararea`, its cone.
-#[derive(Clone, Copy, Debug)]
+/// What a shape's emitter declares: its radiance (or, for a textured `area`, its
+/// texture) and, for `angulararea`, its cone.
+#[derive(Clone, Debug)]
 struct AreaEmission {
     radiance: Vec3,
+    texture: Option<Texture>,
     falloff: Option<AngularFalloff>,
 }
 
 /// An `<emitter>` of one of the `AREA_KINDS`.
-fn parse_area_emission(ctx: &Ctx, obj: Node, kind: &str) -> Result<AreaEmission, SceneError> {
+fn parse_area_emission(
+    ctx: &Ctx,
+    obj: Node,
+    kind: &str,
+    named: &NamedTextures,
+) -> Result<AreaEmission, SceneError> {
     Ok(if kind == "angulararea" {
         let (radiance, falloff) = super::angular_area::parse_angular_area(ctx, obj)?;
         AreaEmission {
             radiance,
+            texture: None,
             falloff: Some(falloff),
         }
     } else {
+        let (radiance, texture) = parse_area_emitter(ctx, obj, named)?;
         AreaEmission {
-            radiance: parse_area_emitter(ctx, obj)?,
+            radiance,
+            texture,
             falloff: None,
         }
     })
 }
 
-/// An `<emitter type="area">`'s radiance (default 1, as Mitsuba 3's `area`).
-fn parse_area_emitter(ctx: &Ctx, obj: Node) -> Result<Vec3, SceneError> {
+/// An `<emitter type="area">`'s radiance (default 1, as Mitsuba 3's `area`): a
+/// constant, or a spatially varying texture (`bitmap`, `checkerboard`; Mitsuba's
+/// `get_emissive_texture`), nested or referenced.
+fn parse_area_emitter(
+    ctx: &Ctx,
+    obj: Node,
+    named: &NamedTextures,
+) -> Result<(Vec3, Option<Texture>), SceneError> {
     let mut ep = Props::parse(ctx, obj)?;
+    if ep.peek("radiance").is_none() {
+        if let Some(t) = texture_param(&mut ep, "radiance", named)? {
+            super::textures::refuse_mesh_attribute(
+                &ep,
+                "radiance",
+                &t,
+                "an area light's radiance",
+            )?;
+            if !super::projector::non_negative(&t) {
+                return Err(ep.err_at(
+                    "radiance",
+                    "radiance must be finite and non-negative everywhere",
+                ));
+            }
+            if super::projector::black(&t) {
+                ctx.warn(
+                    obj,
+                    "the radiance texture is black: this emitter contributes nothing",
+                );
+            }
+            if let Some(&o) = ep.objects.first() {
+                return Err(ctx.err(o, "unexpected nested element in <emitter>"));
+            }
+            ep.finish()?;
+            // A constant texture (`rawconstant`) is a plain radiance.
+            return Ok(match t {
+                Texture::Constant(c) => (c, None),
+                t => (Vec3::ZERO, Some(t)),
+            });
+        }
+    }
     let radiance = ep.emission("radiance")?.unwrap_or(Vec3::ONE);
     if radiance.min_element() < 0.0 {
         return Err(ep.err_at("radiance", "radiance must be non-negative"));
@@ -1318,7 +1373,7 @@ fn parse_area_emitter(ctx: &Ctx, obj: Node) -> Result<Vec3, SceneError> {
         return Err(ctx.err(o, "unexpected nested element in <emitter>"));
     }
     ep.finish()?;
-    Ok(radiance)
+    Ok((radiance, None))
 }
 
 fn parse_shape(
@@ -1364,7 +1419,7 @@ fn parse_shape(
                 if emission.is_some() {
                     return Err(ctx.err(obj, "a shape has at most one emitter"));
                 }
-                emission = Some((area_emitters[&ctx.required_attr(obj, "id")?], obj));
+                emission = Some((area_emitters[&ctx.required_attr(obj, "id")?].clone(), obj));
             }
             "bsdf" | "ref" => {
                 if bsdf.is_some() {
@@ -1380,7 +1435,7 @@ fn parse_shape(
                 if !AREA_KINDS.contains(&k.as_str()) {
                     return Err(ctx.err(obj, format!("emitter '{k}' cannot be attached to a shape (use area or angulararea)")));
                 }
-                emission = Some((parse_area_emission(ctx, obj, &k)?, obj));
+                emission = Some((parse_area_emission(ctx, obj, &k, named.textures)?, obj));
             }
             other => {
                 return Err(ctx.err(
@@ -1420,10 +1475,25 @@ fn parse_shape(
     let bsdf = bsdf.unwrap_or(Material::plain(Bsdf::Diffuse(Diffuse {
         reflectance: Rgb::splat(default_reflectance),
     })));
+    // A mesh_attribute texture reads the shape's own attribute: it must be there
+    // (Mitsuba's scalar variants throw on a hit; its LLVM variants read 0).
+    for want in bsdf.mesh_attribute_names() {
+        if shape.attributes().and_then(|a| a.get(want)).is_none() {
+            let have = shape.attributes().map_or("none".to_string(), |a| a.names());
+            return Err(ctx.err(
+                node,
+                format!("the BSDF's mesh_attribute texture reads '{want}', which this shape does not have (its attributes: {have}; only PLY files carry attributes)"),
+            ));
+        }
+    }
     Ok((shape, bsdf, emission.map(|(e, _)| e)))
 }
 
-fn parse_point_emitter(ctx: &Ctx, node: Node) -> Result<Emitter, SceneError> {
+fn parse_point_emitter(
+    ctx: &Ctx,
+    node: Node,
+    named: &NamedTextures,
+) -> Result<Emitter, SceneError> {
     let kind = ctx.required_attr(node, "type")?;
     if kind != "point" && kind != "spot" {
         return Err(ctx.err(
@@ -1442,6 +1512,8 @@ fn parse_point_emitter(ctx: &Ctx, node: Node) -> Result<Emitter, SceneError> {
             "intensity is zero (in single precision): this emitter contributes nothing",
         );
     }
+    // A spot's projected image (Mitsuba: `texture`, which must vary over uv).
+    let mut textured: Option<(Texture, glam::Mat3, f32)> = None;
     let (position, spot) = if kind == "spot" {
         // Mitsuba's spot: a to_world frame (the beam along its +z), no `position`.
         let m = p.transform("to_world")?.unwrap_or(DMat4::IDENTITY);
@@ -1468,6 +1540,27 @@ fn parse_point_emitter(ctx: &Ctx, node: Node) -> Result<Emitter, SceneError> {
             cutoff: cutoff.to_radians() as f32,
             beam_width: beam.to_radians() as f32,
         };
+        if let Some(t) = texture_param(&mut p, "texture", named)? {
+            if !t.is_spatially_varying() {
+                return Err(p.err_at(
+                    "texture",
+                    "a spot's 'texture' must vary over uv (a bitmap or checkerboard), as Mitsuba requires",
+                ));
+            }
+            if !super::projector::non_negative(&t) {
+                return Err(p.err_at(
+                    "texture",
+                    "the spot's texture must be finite and non-negative everywhere",
+                ));
+            }
+            let lin = glam::DMat3::from_mat4(m);
+            if !(lin.determinant().abs() > 0.0 && lin.determinant().is_finite()) {
+                return Err(p.err_at("to_world", "a textured spot's to_world must be invertible"));
+            }
+            let to_local = lin.inverse().as_mat3();
+            let uv_factor = (cutoff.to_radians() as f32).tan();
+            textured = Some((t, to_local, uv_factor));
+        }
         (m.transform_point3(DVec3::ZERO), Some(spot))
     } else {
         let position = match (p.point("position")?, p.transform("to_world")?) {
@@ -1483,11 +1576,23 @@ fn parse_point_emitter(ctx: &Ctx, node: Node) -> Result<Emitter, SceneError> {
     if let Some(&o) = p.objects.first() {
         return Err(ctx.err(
             o,
-            "unexpected nested element in <emitter> (a textured spot is not supported)",
+            "unexpected nested element in <emitter> (a spot takes a nested texture only as 'texture')",
         ));
     }
     p.finish()?;
     check_world_point(position).map_err(|e| ctx.err(node, format!("position: {e}")))?;
+    if let (Some((texture, to_local, uv_factor)), Some(spot)) = (textured, spot) {
+        return Ok(Emitter::TexturedSpot(Box::new(
+            crate::lights::TexturedSpot {
+                position: position.as_vec3(),
+                intensity,
+                spot,
+                texture,
+                to_local,
+                uv_factor,
+            },
+        )));
+    }
     Ok(Emitter::Point {
         position: position.as_vec3(),
         intensity,

@@ -6,20 +6,55 @@
 //! |--------|------|------------|
 //! | `bitmap` | `bitmap.rs` (lookup), `image_file.rs` (decoding) | an image: PNG, JPEG, BMP, Radiance HDR, OpenEXR |
 //! | `checkerboard` | `checkerboard.rs` | two colours in a 2 x 2 pattern per unit square of uv |
+//! | `mesh_attribute` | `mesh_attribute.rs` | a mesh's per-vertex or per-face attribute (from its PLY file) |
+//! | `rawconstant` | (a [`Texture::Constant`]) | a value used as it is, 1 or 3 channels |
 //!
-//! Both take `to_uv` ([`UvTransform`]). The XML side lives in `scene::textures`.
+//! `bitmap` and `checkerboard` take `to_uv` ([`UvTransform`]). The XML side lives in
+//! `scene::textures`. Material textures are looked up at a [`TexPoint`] (uv plus the
+//! hit's triangle, for `mesh_attribute`); every other user of a texture has uv only
+//! and refuses `mesh_attribute` when the scene is parsed.
 
 pub mod bitmap;
 pub mod checkerboard;
 pub mod image_file;
+pub mod mesh_attribute;
 pub mod uv_transform;
 
 pub use bitmap::{Bitmap, FilterType, WrapMode};
 pub use checkerboard::Checkerboard;
+pub use mesh_attribute::MeshAttributeTexture;
 pub use uv_transform::UvTransform;
 
+use crate::geometry::mesh_attributes::MeshAttributes;
 use glam::{Vec2, Vec3};
 use std::sync::Arc;
+
+/// Where a material's texture is looked up: the hit's uv and, for `mesh_attribute`,
+/// the mesh's attributes (if any), the triangle (index and vertex indices) and the
+/// barycentrics (b1, b2) on it. `Shape::tex_point` builds it.
+#[derive(Clone, Copy, Debug)]
+pub struct TexPoint<'a> {
+    pub uv: Vec2,
+    pub attributes: Option<&'a MeshAttributes>,
+    pub face: u32,
+    pub tri: [u32; 3],
+    pub b1: f32,
+    pub b2: f32,
+}
+
+impl TexPoint<'_> {
+    /// A point known by its uv only (no mesh attributes).
+    pub fn uv(uv: Vec2) -> Self {
+        TexPoint {
+            uv,
+            attributes: None,
+            face: 0,
+            tri: [0; 3],
+            b1: 0.0,
+            b2: 0.0,
+        }
+    }
+}
 
 /// A spatially varying (or constant) value over a surface.
 #[derive(Clone, Debug, PartialEq)]
@@ -29,6 +64,8 @@ pub enum Texture {
     /// An image; shared, since one `<texture id>` may be referenced many times.
     Bitmap(Arc<Bitmap>),
     Checkerboard(Checkerboard),
+    /// A mesh attribute (needs a [`TexPoint`]: [`Self::eval_rgb_at`]).
+    MeshAttribute(MeshAttributeTexture),
 }
 
 /// Mitsuba's luminance of linear sRGB (Rec. 709 primaries, D65): the weights of
@@ -46,6 +83,27 @@ impl Texture {
             Texture::Constant(c) => *c,
             Texture::Bitmap(b) => b.eval_rgb(uv),
             Texture::Checkerboard(c) => c.eval_rgb(uv),
+            // Parsing keeps mesh attributes out of every uv-only lookup; a point
+            // without attributes reads 0, as Mitsuba's LLVM variants.
+            Texture::MeshAttribute(_) => Vec3::ZERO,
+        }
+    }
+
+    /// The linear RGB value at a surface point (material textures).
+    #[inline]
+    pub fn eval_rgb_at(&self, p: &TexPoint) -> Vec3 {
+        match self {
+            Texture::MeshAttribute(m) => m.eval_rgb(p),
+            _ => self.eval_rgb(p.uv),
+        }
+    }
+
+    /// The scalar value at a surface point (material textures).
+    #[inline]
+    pub fn eval_float_at(&self, p: &TexPoint) -> f32 {
+        match self {
+            Texture::MeshAttribute(m) => m.eval_float(p),
+            _ => self.eval_float(p.uv),
         }
     }
 
@@ -57,6 +115,7 @@ impl Texture {
             Texture::Constant(c) => luminance(*c),
             Texture::Bitmap(b) => b.eval_float(uv),
             Texture::Checkerboard(c) => c.eval_float(uv),
+            Texture::MeshAttribute(_) => 0.0,
         }
     }
 
@@ -71,6 +130,7 @@ impl Texture {
             Texture::Constant(_) => Vec2::ZERO,
             Texture::Bitmap(b) => b.eval_1_grad(uv),
             Texture::Checkerboard(c) => c.eval_1_grad(uv),
+            Texture::MeshAttribute(_) => Vec2::ZERO,
         }
     }
 
@@ -82,7 +142,26 @@ impl Texture {
             Texture::Constant(c) => c.element_sum() / 3.0,
             Texture::Bitmap(b) => b.mean(),
             Texture::Checkerboard(c) => 0.5 * (c.color0.mean() + c.color1.mean()),
+            // Mitsuba has none (NotImplementedError); parsing refuses such uses.
+            Texture::MeshAttribute(_) => 0.0,
         }
+    }
+
+    /// Whether this is a `mesh_attribute` texture, or a checkerboard with one inside.
+    pub fn uses_mesh_attributes(&self) -> bool {
+        match self {
+            Texture::MeshAttribute(_) => true,
+            Texture::Checkerboard(c) => {
+                c.color0.uses_mesh_attributes() || c.color1.uses_mesh_attributes()
+            }
+            _ => false,
+        }
+    }
+
+    /// Whether the value varies over a surface's uv (Mitsuba's `is_spatially_varying`:
+    /// bitmaps and checkerboards).
+    pub fn is_spatially_varying(&self) -> bool {
+        matches!(self, Texture::Bitmap(_) | Texture::Checkerboard(_))
     }
 
     /// The texture does not vary over the surface: callers may skip computing uv.
