@@ -46,6 +46,8 @@ pub const SUPPORTED: &[(&str, &[&str])] = &[
             "sphere",
             "disk",
             "cylinder",
+            "linearcurve",
+            "bsplinecurve",
             "ply",
             "obj",
             "serialized",
