@@ -143,7 +143,10 @@ fn linear_segments_match_the_swept_sphere_reference() {
             match (want, got) {
                 (None, None) => agreed += 1,
                 (Some(w), Some((t, seg, v))) => {
-                    assert!((t as f64 - w).abs() < 2e-5, "curve {curve_no}: t {t} vs reference {w}");
+                    assert!(
+                        (t as f64 - w).abs() < 2e-5,
+                        "curve {curve_no}: t {t} vs reference {w}"
+                    );
                     // The reported sphere is the one the point lies on: |p - c(v)| = r(v).
                     let p = o + d * t;
                     let (a, b) = (pts[seg], pts[seg + 1]);
@@ -152,11 +155,16 @@ fn linear_segments_match_the_swept_sphere_reference() {
                     agreed += 1;
                     hits += 1;
                 }
-                _ => panic!("curve {curve_no}: ray {o} {d}: reference {want:?}, intersector {got:?}"),
+                _ => {
+                    panic!("curve {curve_no}: ray {o} {d}: reference {want:?}, intersector {got:?}")
+                }
             }
         }
     }
-    assert!(hits > 150 && grazing < 10, "{agreed} agreed, {hits} hits, {grazing} grazing");
+    assert!(
+        hits > 150 && grazing < 10,
+        "{agreed} agreed, {hits} hits, {grazing} grazing"
+    );
 }
 
 /// Is `p` inside the B-spline's circle sweep: some u in (0, 1) has `p` in its normal
@@ -165,8 +173,13 @@ fn linear_segments_match_the_swept_sphere_reference() {
 fn bspline_inside(b: &[DVec4; 4], p: DVec3) -> Option<f64> {
     let eval = |u: f64| {
         let s = 1.0 - u;
-        let c = b[0] * (s * s * s) + b[1] * (3.0 * s * s * u) + b[2] * (3.0 * s * u * u) + b[3] * (u * u * u);
-        let dc = (b[1] - b[0]) * (3.0 * s * s) + (b[2] - b[1]) * (6.0 * s * u) + (b[3] - b[2]) * (3.0 * u * u);
+        let c = b[0] * (s * s * s)
+            + b[1] * (3.0 * s * s * u)
+            + b[2] * (3.0 * s * u * u)
+            + b[3] * (u * u * u);
+        let dc = (b[1] - b[0]) * (3.0 * s * s)
+            + (b[2] - b[1]) * (6.0 * s * u)
+            + (b[3] - b[2]) * (3.0 * u * u);
         (c, dc)
     };
     let f = |u: f64| {
@@ -207,7 +220,10 @@ fn bspline_reference(b: &[DVec4; 4], o: DVec3, d: DVec3) -> Result<Option<f64>, 
     let h = 2e-3;
     // March only through the sphere around the control hull (widened by the radii).
     let centre = (b[0] + b[3]).truncate() * 0.5;
-    let reach = b.iter().map(|p| (p.truncate() - centre).length() + p.w).fold(0.0, f64::max);
+    let reach = b
+        .iter()
+        .map(|p| (p.truncate() - centre).length() + p.w)
+        .fold(0.0, f64::max);
     let along = (centre - o).dot(d);
     let mut t = (along - reach).max(0.0);
     let end = along + reach;
@@ -226,7 +242,7 @@ fn bspline_reference(b: &[DVec4; 4], o: DVec3, d: DVec3) -> Result<Option<f64>, 
                 }
             }
             let u = bspline_inside(b, o + hi * d).unwrap();
-            if u < 0.02 || u > 0.98 {
+            if !(0.02..=0.98).contains(&u) {
                 return Err(());
             }
             return Ok(Some(hi));
@@ -261,7 +277,10 @@ fn bspline_segments_match_the_circle_sweep_reference() {
         for _ in 0..60 {
             let u = rng.next_f32() as f64;
             let s = 1.0 - u;
-            let c = seg.b[0] * (s * s * s) + seg.b[1] * (3.0 * s * s * u) + seg.b[2] * (3.0 * s * u * u) + seg.b[3] * (u * u * u);
+            let c = seg.b[0] * (s * s * s)
+                + seg.b[1] * (3.0 * s * s * u)
+                + seg.b[2] * (3.0 * s * u * u)
+                + seg.b[3] * (u * u * u);
             let target = c.truncate() + unit(&mut rng) * c.w * 1.5;
             let o = target + unit(&mut rng) * 5.0;
             let (o, d) = (o.as_vec3(), (target - o).normalize().as_vec3());
@@ -274,7 +293,10 @@ fn bspline_segments_match_the_circle_sweep_reference() {
             match (want, got) {
                 (None, None) => agreed += 1,
                 (Some(w), Some((t, _, _))) => {
-                    assert!((t as f64 - w).abs() < 2e-5, "curve {curve_no}: t {t} vs reference {w}");
+                    assert!(
+                        (t as f64 - w).abs() < 2e-5,
+                        "curve {curve_no}: t {t} vs reference {w}"
+                    );
                     agreed += 1;
                     hits += 1;
                 }
@@ -285,11 +307,16 @@ fn bspline_segments_match_the_circle_sweep_reference() {
                     assert!(n.dot(d).abs() < 0.05, "curve {curve_no}: ray {o} {d}: reference misses, intersector hits at {t} facing {}", n.dot(d));
                     ambiguous += 1;
                 }
-                (Some(w), None) => panic!("curve {curve_no}: ray {o} {d}: reference hit at {w}, intersector misses"),
+                (Some(w), None) => panic!(
+                    "curve {curve_no}: ray {o} {d}: reference hit at {w}, intersector misses"
+                ),
             }
         }
     }
-    assert!(hits > 60 && ambiguous * 10 < total, "{agreed} agreed, {hits} hits, {ambiguous} ambiguous of {total}");
+    assert!(
+        hits > 60 && ambiguous * 10 < total,
+        "{agreed} agreed, {hits} hits, {ambiguous} ambiguous of {total}"
+    );
 }
 
 #[test]
@@ -315,18 +342,28 @@ fn a_straight_constant_radius_bspline_is_a_cylinder() {
         // The infinite cylinder's entry, kept when its axial position lies in [0, len].
         let w = o - a;
         let (wp, dp) = (w - w.dot(axis) * axis, d - d.dot(axis) * axis);
-        let (qa, qb, qc) = (dp.length_squared(), 2.0 * wp.dot(dp), wp.length_squared() - r * r);
+        let (qa, qb, qc) = (
+            dp.length_squared(),
+            2.0 * wp.dot(dp),
+            wp.length_squared() - r * r,
+        );
         let disc = qb * qb - 4.0 * qa * qc;
-        let want = (disc >= 0.0 && qa > 0.0).then(|| (-qb - disc.sqrt()) / (2.0 * qa)).filter(|&t| t > 0.0);
+        let want = (disc >= 0.0 && qa > 0.0)
+            .then(|| (-qb - disc.sqrt()) / (2.0 * qa))
+            .filter(|&t| t > 0.0);
         let axial = want.map(|t| (o + t * d - a).dot(axis));
-        if axial.is_some_and(|s| (s.abs() < 1e-4) || ((s - len).abs() < 1e-4)) || disc.abs() < 1e-6 {
+        if axial.is_some_and(|s| (s.abs() < 1e-4) || ((s - len).abs() < 1e-4)) || disc.abs() < 1e-6
+        {
             continue;
         }
         let want = want.filter(|_| axial.is_some_and(|s| (0.0..=len).contains(&s)));
         let got = hit(&g, o32, d32);
         match (want, got) {
             (Some(w), Some((t, _, v))) => {
-                assert!((t as f64 - w).abs() < 1e-5 * (1.0 + w), "t {t} vs cylinder {w}");
+                assert!(
+                    (t as f64 - w).abs() < 1e-5 * (1.0 + w),
+                    "t {t} vs cylinder {w}"
+                );
                 let s = (o + t as f64 * d - a).dot(axis) / len;
                 assert!((s - v as f64).abs() < 1e-5, "v {v} vs axial {s}");
                 hits += 1;
@@ -358,7 +395,10 @@ fn normals_are_perpendicular_to_the_surface() {
             };
             let p = o + d * t;
             let n = g.normal(seg, v, p);
-            assert!((n.length() - 1.0).abs() < 1e-5 && n.dot(d) < 0.0, "{kind:?}: n {n} d {d}");
+            assert!(
+                (n.length() - 1.0).abs() < 1e-5 && n.dot(d) < 0.0,
+                "{kind:?}: n {n} d {d}"
+            );
             // Neighbouring hits (rays moved by 1e-3 across the ray) lie in the tangent
             // plane to second order.
             let (s, u) = {
@@ -381,7 +421,10 @@ fn normals_are_perpendicular_to_the_surface() {
                 }
             }
             if seen >= 2 {
-                assert!(ok, "{kind:?}: normal {n} at {p} is not perpendicular to the surface");
+                assert!(
+                    ok,
+                    "{kind:?}: normal {n} at {p} is not perpendicular to the surface"
+                );
                 checked += 1;
             }
         }
@@ -417,5 +460,8 @@ fn a_straight_segment_renders_its_capsule_silhouette() {
     let (r, half) = (0.15f64, 0.6f64);
     let want = 1.0 - (2.0 * r * 2.0 * half + std::f64::consts::PI * r * r) / 4.0;
     // 64 x 64 x 64 samples: the binomial standard error of the dark share is 1.7e-3.
-    assert!((sky - want).abs() < 6e-3, "lit share {sky}, closed form {want}");
+    assert!(
+        (sky - want).abs() < 6e-3,
+        "lit share {sky}, closed form {want}"
+    );
 }

@@ -322,7 +322,7 @@ fn bspline_partials(e: &Eval, u: f64) -> (DVec3, DVec3) {
         let n = cross.cross(e.dc).normalize_or_zero();
         (n, t.cross(n).normalize_or_zero())
     };
-    if !(kappa >= f32::EPSILON as f64) {
+    if kappa.is_nan() || kappa < f32::EPSILON as f64 {
         kappa = 0.0;
         tau = 0.0;
         (fn_, fb) = coordinate_system(t);
@@ -332,8 +332,7 @@ fn bspline_partials(e: &Eval, u: f64) -> (DVec3, DVec3) {
     let rad = c_ * rad_dir + s_ * rot;
     let (cos_t, sin_t) = (fn_.dot(rad), fb.dot(rad));
     let radu = -sin_t * fn_ + cos_t * fb;
-    let radv =
-        norm_dc * cos_t * (-kappa * t + tau * fb) + norm_dc * sin_t * (-tau * fn_);
+    let radv = norm_dc * cos_t * (-kappa * t + tau * fb) + norm_dc * sin_t * (-tau * fn_);
     (e.r * radu, e.dc + e.dr * rad + e.r * radv)
 }
 
@@ -413,7 +412,7 @@ impl LinearSegment {
                 roots[0] = -c / b;
             }
             for t in roots {
-                if !(t > tmin) {
+                if t.is_nan() || t <= tmin {
                     continue;
                 }
                 let y = yp + t * ddp;
@@ -436,8 +435,13 @@ impl LinearSegment {
 /// A point on a cubic Bézier in 4D and its first two derivatives.
 fn bezier(b: &[DVec4; 4], u: f64) -> (DVec4, DVec4, DVec4) {
     let s = 1.0 - u;
-    let p = b[0] * (s * s * s) + b[1] * (3.0 * s * s * u) + b[2] * (3.0 * s * u * u) + b[3] * (u * u * u);
-    let d1 = (b[1] - b[0]) * (3.0 * s * s) + (b[2] - b[1]) * (6.0 * s * u) + (b[3] - b[2]) * (3.0 * u * u);
+    let p = b[0] * (s * s * s)
+        + b[1] * (3.0 * s * s * u)
+        + b[2] * (3.0 * s * u * u)
+        + b[3] * (u * u * u);
+    let d1 = (b[1] - b[0]) * (3.0 * s * s)
+        + (b[2] - b[1]) * (6.0 * s * u)
+        + (b[3] - b[2]) * (3.0 * u * u);
     let d2 = (b[2] - 2.0 * b[1] + b[0]) * (6.0 * s) + (b[3] - 2.0 * b[2] + b[1]) * (6.0 * u);
     (p, d1, d2)
 }
@@ -476,17 +480,21 @@ impl BSplineSegment {
             .iter()
             .map(|p| p.truncate().length() + p.w.abs())
             .fold(0.0f64, f64::max);
-        if !(size > 0.0) {
+        if size.is_nan() || size <= 0.0 {
             return None;
         }
         let tol = BSPLINE_TOLERANCE * size;
         let mut best: Option<(f64, f64)> = None;
-        let mut stack: Vec<([DVec4; 4], f64, f64, u32)> = Vec::with_capacity(2 * MAX_DEPTH as usize);
+        let mut stack: Vec<([DVec4; 4], f64, f64, u32)> =
+            Vec::with_capacity(2 * MAX_DEPTH as usize);
         stack.push((b, 0.0, 1.0, 0));
         while let Some((piece, u0, u1, depth)) = stack.pop() {
             let (a, e) = (piece[0].truncate(), piece[3].truncate());
-            let dev = segment_distance(piece[1].truncate(), a, e)
-                .max(segment_distance(piece[2].truncate(), a, e));
+            let dev = segment_distance(piece[1].truncate(), a, e).max(segment_distance(
+                piece[2].truncate(),
+                a,
+                e,
+            ));
             let rmax = piece.iter().map(|p| p.w.abs()).fold(0.0f64, f64::max);
             // Bounding sphere of the capsule: the ray must meet it before the best hit.
             let centre = (a + e) * 0.5;
@@ -505,10 +513,11 @@ impl BSplineSegment {
                 .abs()
                 .max((piece[2].w - (piece[0].w + 2.0 * piece[3].w) / 3.0).abs());
             if (dev <= tol && rdev <= tol) || depth >= MAX_DEPTH {
-                let mut seeds: Vec<(f64, f64)> = straight_tube_roots(o, d, a, e, piece[0].w, piece[3].w)
-                    .into_iter()
-                    .map(|(t, s)| (u0 + s.clamp(0.0, 1.0) * (u1 - u0), t))
-                    .collect();
+                let mut seeds: Vec<(f64, f64)> =
+                    straight_tube_roots(o, d, a, e, piece[0].w, piece[3].w)
+                        .into_iter()
+                        .map(|(t, s)| (u0 + s.clamp(0.0, 1.0) * (u1 - u0), t))
+                        .collect();
                 plane_sweep_roots(&b, o, d, u0, u1, &mut seeds);
                 for seed in seeds {
                     if let Some((t, u)) = newton(&b, o, d, seed, size) {
@@ -566,11 +575,18 @@ fn line_segment_distance(o: DVec3, d: DVec3, a: DVec3, e: DVec3) -> f64 {
 /// Roots `(t, s)` of the ray with the straight circle sweep from `(a, ra)` to `(e, re)`
 /// (a truncated cone: radius `ra + s (re - ra)` in the plane normal to the chord at
 /// `s`), for `s` a little beyond [0, 1] (neighbouring pieces overlap).
-fn straight_tube_roots(o: DVec3, d: DVec3, a: DVec3, e: DVec3, ra: f64, re: f64) -> Vec<(f64, f64)> {
+fn straight_tube_roots(
+    o: DVec3,
+    d: DVec3,
+    a: DVec3,
+    e: DVec3,
+    ra: f64,
+    re: f64,
+) -> Vec<(f64, f64)> {
     let w = e - a;
     let l2 = w.length_squared();
     let mut out = Vec::with_capacity(2);
-    if !(l2 > 0.0) {
+    if l2.is_nan() || l2 <= 0.0 {
         // A point-like piece: seed at the ray's closest approach.
         out.push(((a - o).dot(d), 0.5));
         return out;
@@ -608,7 +624,7 @@ fn plane_excess(b: &[DVec4; 4], o: DVec3, d: DVec3, u: f64) -> Option<(f64, f64)
     let (c, dc, _) = bezier(b, u);
     let dcc = dc.truncate();
     let den = d.dot(dcc);
-    if !(den.abs() > 1e-9 * dcc.length()) {
+    if den.is_nan() || den.abs() <= 1e-9 * dcc.length() {
         return None;
     }
     let t = (c.truncate() - o).dot(dcc) / den;
@@ -618,7 +634,14 @@ fn plane_excess(b: &[DVec4; 4], o: DVec3, d: DVec3, u: f64) -> Option<(f64, f64)
 /// Seeds from sign changes of [`plane_excess`] over 8 steps of [u0, u1], each narrowed
 /// by bisection (where the ray crosses the normal planes; the straight tube's roots
 /// cover rays nearly parallel to them, whose two hits may share a step).
-fn plane_sweep_roots(b: &[DVec4; 4], o: DVec3, d: DVec3, u0: f64, u1: f64, seeds: &mut Vec<(f64, f64)>) {
+fn plane_sweep_roots(
+    b: &[DVec4; 4],
+    o: DVec3,
+    d: DVec3,
+    u0: f64,
+    u1: f64,
+    seeds: &mut Vec<(f64, f64)>,
+) {
     const STEPS: usize = 8;
     let at = |k: usize| u0 + (u1 - u0) * k as f64 / STEPS as f64;
     let mut prev = (u0, plane_excess(b, o, d, u0));
@@ -653,7 +676,13 @@ fn plane_sweep_roots(b: &[DVec4; 4], o: DVec3, d: DVec3, u0: f64, u1: f64, seeds
 
 /// Newton's method on `(p - c)·c' = 0`, `|p - c|² = r²` with `p = o + t d`, from
 /// `(u, t)`; the root, if it converges.
-fn newton(b: &[DVec4; 4], o: DVec3, d: DVec3, (mut u, mut t): (f64, f64), size: f64) -> Option<(f64, f64)> {
+fn newton(
+    b: &[DVec4; 4],
+    o: DVec3,
+    d: DVec3,
+    (mut u, mut t): (f64, f64),
+    size: f64,
+) -> Option<(f64, f64)> {
     for _ in 0..20 {
         let (c, dc, ddc) = bezier(b, u);
         let (cc, dcc, ddcc) = (c.truncate(), dc.truncate(), ddc.truncate());
@@ -665,14 +694,14 @@ fn newton(b: &[DVec4; 4], o: DVec3, d: DVec3, (mut u, mut t): (f64, f64), size: 
         let j21 = -2.0 * f1 - 2.0 * c.w * dc.w;
         let j22 = 2.0 * q.dot(d);
         let det = j11 * j22 - j12 * j21;
-        if !(det.abs() > 0.0) || !det.is_finite() {
+        if det == 0.0 || !det.is_finite() {
             return None;
         }
         let du = (f1 * j22 - f2 * j12) / det;
         let dt = (j11 * f2 - j21 * f1) / det;
         u -= du;
         t -= dt;
-        if !(u.is_finite() && t.is_finite()) || !(-0.5..=1.5).contains(&u) {
+        if !(u.is_finite() && t.is_finite() && (-0.5..=1.5).contains(&u)) {
             return None;
         }
         if du.abs() < 1e-14 && dt.abs() < 1e-13 * size {

@@ -49,8 +49,8 @@ pub fn parse_curves(text: &[u8], kind: CurveKind, to_world: &DMat4) -> Result<Cu
                 raw.len()
             ));
         }
-        let line = std::str::from_utf8(raw)
-            .map_err(|_| format!("line {line_no} is not UTF-8 text"))?;
+        let line =
+            std::str::from_utf8(raw).map_err(|_| format!("line {line_no} is not UTF-8 text"))?;
         if line.trim_matches([' ', '\t', '\r']).is_empty() {
             if !new_curve {
                 finish(&points, &starts, line_no)?;
@@ -69,12 +69,16 @@ pub fn parse_curves(text: &[u8], kind: CurveKind, to_world: &DMat4) -> Result<Cu
                 ));
             };
             *v = tok.parse::<f32>().map_err(|_| {
-                format!("line {line_no}: '{tok}' is not a number (a control point is 'x y z radius')")
+                format!(
+                    "line {line_no}: '{tok}' is not a number (a control point is 'x y z radius')"
+                )
             })?;
         }
         let [x, y, z, r] = values;
         if !(x.is_finite() && y.is_finite() && z.is_finite()) {
-            return Err(format!("line {line_no}: the position ({x}, {y}, {z}) is not finite"));
+            return Err(format!(
+                "line {line_no}: the position ({x}, {y}, {z}) is not finite"
+            ));
         }
         if !r.is_finite() || r < 0.0 {
             return Err(format!(
@@ -133,10 +137,17 @@ mod tests {
         let e = parse(text, CurveKind::BSpline).unwrap_err();
         assert!(e.contains("at least 4"), "{e}");
         // Several blank lines, \r\n endings and trailing numbers are accepted.
-        let g = parse("0 0 0 1 9\r\n\r\n\n1 0 0 1\r\n2 0 0 1\r\n3 0 0 1\r\n4 0 0 1", CurveKind::BSpline);
+        let g = parse(
+            "0 0 0 1 9\r\n\r\n\n1 0 0 1\r\n2 0 0 1\r\n3 0 0 1\r\n4 0 0 1",
+            CurveKind::BSpline,
+        );
         let e = g.unwrap_err();
         assert!(e.contains("1 control point;"), "{e}");
-        let g = parse("\n1 0 0 1\r\n2 0 0 1\r\n3 0 0 1\r\n4 0 0 1 7\r\n5 0 0 2\n\n", CurveKind::BSpline).unwrap();
+        let g = parse(
+            "\n1 0 0 1\r\n2 0 0 1\r\n3 0 0 1\r\n4 0 0 1 7\r\n5 0 0 2\n\n",
+            CurveKind::BSpline,
+        )
+        .unwrap();
         assert_eq!(g.segments, vec![0, 1]);
         assert_eq!(g.points[4], Vec4::new(5.0, 0.0, 0.0, 2.0));
     }
@@ -145,7 +156,13 @@ mod tests {
     fn radii_do_not_scale_and_positions_do() {
         let m = DMat4::from_scale(DVec3::new(2.0, 3.0, 4.0));
         let g = parse_curves(b"1 1 1 0.5\n2 2 2 0.25\n", CurveKind::Linear, &m).unwrap();
-        assert_eq!(g.points, vec![Vec4::new(2.0, 3.0, 4.0, 0.5), Vec4::new(4.0, 6.0, 8.0, 0.25)]);
+        assert_eq!(
+            g.points,
+            vec![
+                Vec4::new(2.0, 3.0, 4.0, 0.5),
+                Vec4::new(4.0, 6.0, 8.0, 0.25)
+            ]
+        );
     }
 
     #[test]
@@ -166,9 +183,13 @@ mod tests {
             assert!(e.contains(want), "{text:?}: {e}");
         }
         let long = format!("0 0 0 1{}\n1 0 0 1\n", " ".repeat(2000));
-        assert!(parse(&long, CurveKind::Linear).unwrap_err().contains("too long"));
-        assert!(parse_curves(b"0 0 0 1\n\xff\n", CurveKind::Linear, &DMat4::IDENTITY)
+        assert!(parse(&long, CurveKind::Linear)
             .unwrap_err()
-            .contains("UTF-8"));
+            .contains("too long"));
+        assert!(
+            parse_curves(b"0 0 0 1\n\xff\n", CurveKind::Linear, &DMat4::IDENTITY)
+                .unwrap_err()
+                .contains("UTF-8")
+        );
     }
 }
