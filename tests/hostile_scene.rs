@@ -1622,6 +1622,81 @@ fn cases() -> Vec<Case> {
             scene_with(r#"<shape type="cylinder"><float name="radius" value="1e20"/></shape>"#),
             "cylinder",
         ),
+        // ---- curves: linearcurve, bsplinecurve ----
+        scene_case(
+            "curve_file_missing",
+            scene_with(r#"<shape type="linearcurve"><string name="filename" value="none.txt"/></shape>"#),
+            "linearcurve file 'none.txt'",
+        ),
+        scene_case(
+            "curve_no_filename",
+            scene_with(r#"<shape type="bsplinecurve"/>"#),
+            "missing parameter 'filename'",
+        ),
+        case(
+            "curve_non_numeric",
+            vec![
+                ("scene.xml", scene_with(r#"<shape type="linearcurve"><string name="filename" value="c.txt"/></shape>"#)),
+                ("c.txt", File::Text("0 0 0 0.1\n1 x 0 0.1\n".into())),
+            ],
+            "line 2: 'x' is not a number",
+        ),
+        case(
+            "curve_negative_radius",
+            vec![
+                ("scene.xml", scene_with(r#"<shape type="linearcurve"><string name="filename" value="c.txt"/></shape>"#)),
+                ("c.txt", File::Text("0 0 0 0.1\n1 0 0 -0.1\n".into())),
+            ],
+            "radius -0.1 must be finite and non-negative",
+        ),
+        case(
+            "curve_nan_position",
+            vec![
+                ("scene.xml", scene_with(r#"<shape type="linearcurve"><string name="filename" value="c.txt"/></shape>"#)),
+                ("c.txt", File::Text("0 nan 0 0.1\n1 0 0 0.1\n".into())),
+            ],
+            "not finite",
+        ),
+        case(
+            "bspline_too_few_points",
+            vec![
+                ("scene.xml", scene_with(r#"<shape type="bsplinecurve"><string name="filename" value="c.txt"/></shape>"#)),
+                ("c.txt", File::Text("0 0 0 0.1\n1 0 0 0.1\n2 0 0 0.1\n".into())),
+            ],
+            "needs at least 4 per curve",
+        ),
+        case(
+            "curve_empty_file",
+            vec![
+                ("scene.xml", scene_with(r#"<shape type="linearcurve"><string name="filename" value="c.txt"/></shape>"#)),
+                ("c.txt", File::Text("\n\n".into())),
+            ],
+            "no control points",
+        ),
+        case(
+            "curve_file_is_a_directory",
+            vec![
+                ("scene.xml", scene_with(r#"<shape type="linearcurve"><string name="filename" value="c.txt"/></shape>"#)),
+                ("c.txt", File::Dir),
+            ],
+            "c.txt",
+        ),
+        case(
+            "curve_area_emitter",
+            vec![
+                ("scene.xml", scene_with(r#"<shape type="linearcurve"><string name="filename" value="c.txt"/><emitter type="area"/></shape>"#)),
+                ("c.txt", File::Text("0 0 0 0.1\n1 0 0 0.1\n".into())),
+            ],
+            "cannot be an area emitter",
+        ),
+        case(
+            "curve_flip_normals",
+            vec![
+                ("scene.xml", scene_with(r#"<shape type="linearcurve"><string name="filename" value="c.txt"/><boolean name="flip_normals" value="true"/></shape>"#)),
+                ("c.txt", File::Text("0 0 0 0.1\n1 0 0 0.1\n".into())),
+            ],
+            "flip_normals",
+        ),
         // Mitsuba 3.9.1: 'Plugin "Rectangle" not found' (plugin names are case-sensitive).
         // ---- shapegroup, instance ----
         scene_case(

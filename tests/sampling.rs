@@ -2129,6 +2129,7 @@ fn area_uniformity_p_value(
             let n = counts.len();
             (counts, vec![N as f64 / n as f64; n])
         }
+        ShapeGeom::Curve(_) => unreachable!("curves cannot emit"),
         ShapeGeom::Mesh { triangles, .. } => {
             let tris: Vec<_> = (0..triangles.len() as u32)
                 .map(|f| shape_ref.triangle(f))

@@ -3,6 +3,7 @@
 //! occlusion queries. Scenes of
 //! at most [`FLAT_MAX`] primitives are tested exhaustively in SIMD packets instead.
 
+use super::curve::Segment;
 use super::cylinder::CylinderGeom;
 use super::disk::DiskGeom;
 use super::flat::{FlatTriangles, FLAT_MAX};
@@ -25,19 +26,22 @@ enum PrimGeom {
     Quadric(u32),
 }
 
-/// The analytic shapes too large to store in a primitive.
+/// The analytic shapes too large to store in a primitive (and curve segments).
 #[derive(Clone, Copy, Debug)]
 enum Quadric {
     Disk(DiskGeom),
     Cylinder(CylinderGeom),
+    Curve(Segment),
 }
 
 impl Quadric {
+    /// The hit distance and, for a curve segment, its parameter `v` (else 0).
     #[inline(never)]
-    fn intersect(&self, o: Vec3, d: Vec3, tmin: f32) -> Option<f32> {
+    fn intersect(&self, o: Vec3, d: Vec3, tmin: f32) -> Option<(f32, f32)> {
         match self {
-            Quadric::Disk(g) => g.intersect(o, d, tmin),
-            Quadric::Cylinder(g) => g.intersect(o, d, tmin),
+            Quadric::Disk(g) => g.intersect(o, d, tmin).map(|t| (t, 0.0)),
+            Quadric::Cylinder(g) => g.intersect(o, d, tmin).map(|t| (t, 0.0)),
+            Quadric::Curve(g) => g.intersect(o, d, tmin),
         }
     }
 }
@@ -97,7 +101,7 @@ pub struct Accel {
     bvh: Option<CwBvh>,
     prims: Vec<Prim>,
     flat: Option<Flat>,
-    /// The disks and cylinders `PrimGeom::Quadric` indexes.
+    /// The disks, cylinders and curve segments `PrimGeom::Quadric` indexes.
     quadrics: Vec<Quadric>,
 }
 
@@ -119,6 +123,8 @@ impl Accel {
     pub fn build_with(shapes: &[Shape], flat_max: usize) -> Self {
         let mut prims = Vec::new();
         let mut quadrics = Vec::new();
+        // Boxes of the curve segments (the other quadrics take their shape's).
+        let mut segment_boxes: Vec<Option<(Vec3, Vec3)>> = Vec::new();
         for (si, shape) in shapes.iter().enumerate() {
             match &shape.geom {
                 ShapeGeom::Mesh { triangles, .. } => {
@@ -154,6 +160,18 @@ impl Accel {
                         face: 0,
                     });
                     quadrics.push(Quadric::Cylinder(*g));
+                }
+                ShapeGeom::Curve(g) => {
+                    segment_boxes.resize(quadrics.len(), None);
+                    for i in 0..g.segments.len() {
+                        prims.push(Prim {
+                            geom: PrimGeom::Quadric(quadrics.len() as u32),
+                            shape: si as u32,
+                            face: i as u32,
+                        });
+                        quadrics.push(Quadric::Curve(g.segment(i)));
+                        segment_boxes.push(Some(g.segment_bounds(i)));
+                    }
                 }
             }
         }
@@ -193,7 +211,11 @@ impl Accel {
             .iter()
             .map(|&prim| {
                 let (lo, hi) = match prim.geom {
-                    PrimGeom::Quadric(_) => shapes[prim.shape as usize].bounds(),
+                    PrimGeom::Quadric(q) => segment_boxes
+                        .get(q as usize)
+                        .copied()
+                        .flatten()
+                        .unwrap_or_else(|| shapes[prim.shape as usize].bounds()),
                     _ => prim.bounds(),
                 };
                 Boxed { lo, hi }
@@ -220,13 +242,24 @@ impl Accel {
 
     #[inline(always)]
     fn prim_t(&self, id: usize, o: Vec3, d: Vec3, tmin: f32) -> f32 {
+        self.prim_tv(id, o, d, tmin).0
+    }
+
+    /// The hit distance of primitive `id` (infinite when missed) and a curve
+    /// segment's parameter there (0 for the other shapes).
+    #[inline(always)]
+    fn prim_tv(&self, id: usize, o: Vec3, d: Vec3, tmin: f32) -> (f32, f32) {
         let p = &self.prims[id];
         let t = match &p.geom {
             PrimGeom::Triangle(t) => t.intersect(o, d, tmin).map(|h| h.0),
             PrimGeom::Sphere(s) => s.intersect(o, d, tmin),
-            PrimGeom::Quadric(q) => self.quadrics[*q as usize].intersect(o, d, tmin),
+            PrimGeom::Quadric(q) => {
+                return self.quadrics[*q as usize]
+                    .intersect(o, d, tmin)
+                    .unwrap_or((f32::INFINITY, 0.0))
+            }
         };
-        t.unwrap_or(f32::INFINITY)
+        (t.unwrap_or(f32::INFINITY), 0.0)
     }
 
     /// The closest surface along the ray (unit direction `d`) with t in (0, tmax).
@@ -258,6 +291,8 @@ impl Accel {
         let ray = Ray::new(Vec3A::from(o), Vec3A::from(d), 0.0, tmax);
         let mut hit = RayHit::none();
         let (mut best_t, mut best_b) = (f32::INFINITY, (0.0f32, 0.0f32));
+        // The curve parameter of the nearest quadric hit so far (curves only).
+        let mut curve_v = 0.0f32;
         let mut traverse_ray = ray;
         let mut state = bvh.new_traversal(ray.direction);
         let mut node;
@@ -280,9 +315,15 @@ impl Accel {
                         None => f32::INFINITY,
                     },
                     PrimGeom::Sphere(s) => s.intersect(o, d, 0.0).unwrap_or(f32::INFINITY),
-                    PrimGeom::Quadric(q) => self.quadrics[*q as usize]
-                        .intersect(o, d, 0.0)
-                        .unwrap_or(f32::INFINITY),
+                    PrimGeom::Quadric(q) => match self.quadrics[*q as usize].intersect(o, d, 0.0) {
+                        Some((t, v)) => {
+                            if t < traverse_ray.tmax {
+                                curve_v = v;
+                            }
+                            t
+                        }
+                        None => f32::INFINITY,
+                    },
                 };
                 if t < traverse_ray.tmax {
                     hit.primitive_id = state.primitive_id;
@@ -299,6 +340,10 @@ impl Accel {
         let shape = &shapes[p.shape as usize];
         let surface = match &p.geom {
             PrimGeom::Triangle(t) => shape.surface_of(t, p.face, best_b.0, best_b.1),
+            PrimGeom::Quadric(_) => {
+                best_b = (curve_v, 0.0);
+                shape.surface(p.face, curve_v, 0.0, o + d * hit.t)
+            }
             _ => shape.surface(0, 0.0, 0.0, o + d * hit.t),
         };
         Some(Hit {
@@ -371,9 +416,9 @@ impl Accel {
         let mut best = unsafe { flat.tris.intersect_with::<ISA>(o, d, tmax) }
             .map(|(k, t, b1, b2)| (flat.tri_prims[k], t, b1, b2));
         for &i in &flat.sphere_prims {
-            let t = self.prim_t(i, o, d, 0.0);
+            let (t, v) = self.prim_tv(i, o, d, 0.0);
             if t < best.map_or(tmax, |b| b.1) {
-                best = Some((i, t, 0.0, 0.0));
+                best = Some((i, t, v, 0.0));
             }
         }
         let (i, t, b1, b2) = best?;
@@ -381,6 +426,7 @@ impl Accel {
         let shape = &shapes[p.shape as usize];
         let surface = match &p.geom {
             PrimGeom::Triangle(tri) => shape.surface_of(tri, p.face, b1, b2),
+            PrimGeom::Quadric(_) => shape.surface(p.face, b1, 0.0, o + d * t),
             _ => shape.surface(0, 0.0, 0.0, o + d * t),
         };
         Some(Hit {

@@ -2,6 +2,7 @@
 //! ply, obj) and analytic spheres, disks and cylinders, with their surface data and
 //! area sampling.
 
+use super::curve::CurveGeom;
 use super::cylinder::CylinderGeom;
 use super::disk::DiskGeom;
 use super::mesh_attributes::MeshAttributes;
@@ -34,6 +35,9 @@ pub enum ShapeGeom {
     Disk(DiskGeom),
     /// An analytic open cylinder (`cylinder.rs`).
     Cylinder(CylinderGeom),
+    /// Mitsuba's `linearcurve` or `bsplinecurve` (`curve.rs`): one BVH primitive per
+    /// segment; `face` is the segment and `b1` the curve parameter of a hit on it.
+    Curve(CurveGeom),
 }
 
 /// One shape of the scene.
@@ -130,6 +134,14 @@ impl Shape {
                     ns: n * sign,
                 }
             }
+            ShapeGeom::Curve(g) => {
+                let n = g.normal(face as usize, b1, p_hint) * sign;
+                SurfacePoint {
+                    p: p_hint,
+                    ng: n,
+                    ns: n,
+                }
+            }
         }
     }
 
@@ -196,6 +208,7 @@ impl Shape {
             }
             ShapeGeom::Disk(g) => g.uv(p),
             ShapeGeom::Cylinder(g) => g.uv(p),
+            ShapeGeom::Curve(g) => g.uv(face as usize, b1, p),
         }
     }
 
@@ -246,7 +259,7 @@ impl Shape {
     /// Rectangles and cubes are meshes with Mitsuba's uv, so theirs is Mitsuba's too.
     /// `p` is the hit point (spheres only; a triangle's dp/du does not depend on the
     /// barycentrics). Computed only for anisotropic materials.
-    pub fn dpdu(&self, face: u32, _b1: f32, _b2: f32, p: Vec3) -> Vec3 {
+    pub fn dpdu(&self, face: u32, b1: f32, _b2: f32, p: Vec3) -> Vec3 {
         match &self.geom {
             ShapeGeom::Mesh { uvs, triangles, .. } => {
                 let tri = self.triangle(face);
@@ -270,6 +283,7 @@ impl Shape {
             }
             ShapeGeom::Disk(g) => g.dpdu(p),
             ShapeGeom::Cylinder(g) => g.dpdu(p),
+            ShapeGeom::Curve(g) => g.dpduv(face as usize, b1, p).0,
         }
     }
 
@@ -278,8 +292,9 @@ impl Shape {
     /// map from uv (degenerate uv: the second axis of `Frame::from_normal` of its
     /// unflipped face normal); without uv, `p2 - p0`; a sphere, the world image of
     /// `pi (z cos phi, z sin phi, -r_xy)` at the object-space point (`pi (1, 0, 0)` at
-    /// the poles). Computed only for bump maps.
-    pub fn dpdv(&self, face: u32, p: Vec3) -> Vec3 {
+    /// the poles); a curve's at its parameter `b1` (Mitsuba's). Computed only for bump
+    /// maps.
+    pub fn dpdv(&self, face: u32, b1: f32, p: Vec3) -> Vec3 {
         match &self.geom {
             ShapeGeom::Mesh { uvs, triangles, .. } => {
                 let tri = self.triangle(face);
@@ -309,6 +324,7 @@ impl Shape {
             }
             ShapeGeom::Disk(g) => g.dpdv(p),
             ShapeGeom::Cylinder(g) => g.dpdv(),
+            ShapeGeom::Curve(g) => g.dpduv(face as usize, b1, p).1,
         }
     }
 
@@ -320,6 +336,8 @@ impl Shape {
             ShapeGeom::Sphere(s, _) => s.area() as f64,
             ShapeGeom::Disk(g) => g.area as f64,
             ShapeGeom::Cylinder(g) => g.area() as f64,
+            // Mitsuba defines no area for curves (they cannot emit).
+            ShapeGeom::Curve(_) => f64::NAN,
         }
     }
 
@@ -337,6 +355,7 @@ impl Shape {
             ),
             ShapeGeom::Disk(g) => g.bounds(),
             ShapeGeom::Cylinder(g) => g.bounds(),
+            ShapeGeom::Curve(g) => g.bounds(),
         }
     }
 }
@@ -373,7 +392,10 @@ impl AreaSampler {
                     total_area: acc as f32,
                 }
             }
-            ShapeGeom::Sphere(..) | ShapeGeom::Disk(_) | ShapeGeom::Cylinder(_) => AreaSampler {
+            ShapeGeom::Sphere(..)
+            | ShapeGeom::Disk(_)
+            | ShapeGeom::Cylinder(_)
+            | ShapeGeom::Curve(_) => AreaSampler {
                 cdf: Vec::new(),
                 tris: Vec::new(),
                 total_area: shape.area() as f32,
@@ -418,6 +440,7 @@ impl AreaSampler {
             }
             ShapeGeom::Disk(g) => shape.surface(0, 0.0, 0.0, g.sample(u2)),
             ShapeGeom::Cylinder(g) => shape.surface(0, 0.0, 0.0, g.sample(u2)),
+            ShapeGeom::Curve(_) => unreachable!("the scene parser refuses emitters on curves"),
         }
     }
 }

@@ -56,6 +56,10 @@ impl SceneSphere {
                     let (a, b) = g.bounds();
                     (lo, hi) = (lo.min(a), hi.max(b));
                 }
+                ShapeGeom::Curve(g) => {
+                    let (a, b) = g.control_bounds();
+                    (lo, hi) = (lo.min(a), hi.max(b));
+                }
             }
         }
         if !(lo.x <= hi.x && lo.y <= hi.y && lo.z <= hi.z) {

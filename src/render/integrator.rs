@@ -109,7 +109,7 @@ pub(super) fn perturbed_at(
         uv,
         shading: *frame,
         dpdu: shape.dpdu(hit.face, hit.b1, hit.b2, sp.p),
-        dpdv: shape.dpdv(hit.face, sp.p),
+        dpdv: shape.dpdv(hit.face, hit.b1, sp.p),
         ng: sp.ng,
         wo,
     });

@@ -470,6 +470,15 @@ fn hash_loaded_scene(h: &mut Sha256, scene: &Scene, overrides: &Overrides) {
                 f32s(h, &g.m.to_cols_array());
                 f32s(h, &g.c.to_array());
             }
+            ShapeGeom::Curve(g) => {
+                h.update(g.kind.name().as_bytes());
+                for p in &g.points {
+                    f32s(h, &p.to_array());
+                }
+                for &s in &g.segments {
+                    h.update(s.to_le_bytes());
+                }
+            }
         }
     }
     for e in &scene.emitters {

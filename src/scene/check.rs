@@ -48,6 +48,8 @@ pub const SUPPORTED: &[(&str, &[&str])] = &[
             "sphere",
             "disk",
             "cylinder",
+            "linearcurve",
+            "bsplinecurve",
             "ply",
             "obj",
             "serialized",

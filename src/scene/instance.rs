@@ -140,5 +140,13 @@ pub fn transformed(g: &ShapeGeom, m: &DMat4) -> Result<ShapeGeom, String> {
             check_world_point(hi.as_dvec3())?;
             ShapeGeom::Cylinder(g)
         }
+        ShapeGeom::Curve(g) => {
+            // Embree instances a curve with its radii in object space; tstat keeps
+            // curves in world space only.
+            return Err(format!(
+                "a {} cannot be instanced (shapegroup): tstat supports curves at the top level only",
+                g.kind.name()
+            ));
+        }
     })
 }

@@ -5,6 +5,7 @@
 pub mod angular_area;
 pub mod camera;
 pub mod check;
+pub mod curves;
 pub mod error;
 pub mod film;
 pub mod infinite_emitters;

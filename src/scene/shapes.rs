@@ -9,6 +9,7 @@
 //! | disk | `to_world` (any affine map); the unit disk in the z = 0 plane, normal +z (its normal transform); analytic ([`crate::geometry::disk`]) |
 //! | cylinder | `p0` (point, 0), `p1` (point, (0, 0, 1)), `radius` (float, 1), `to_world` (its cross-section must stay a circle: no shear, equal x/y scale); open tube, normals outward; analytic ([`crate::geometry::cylinder`]) |
 //! | ply, obj | `filename` (relative to the scene file), `to_world`, `face_normals` (bool, false: smooth normals from the file, or angle-weighted ones computed as Mitsuba does), `flip_tex_coords` (bool: v -> 1 - v of the file's texture coordinates; true for obj, false for ply, as Mitsuba) |
+//! | linearcurve, bsplinecurve | `filename` (Mitsuba's curve file, [`super::curves`]), `to_world` (positions only: radii are not transformed); round linear or cubic B-spline tubes as Embree renders them for Mitsuba, back faces culled ([`crate::geometry::curve`]); no `flip_normals`, area emitters or media |
 //! | serialized | as ply (no `flip_tex_coords`: uv as stored), plus `shape_index` (integer, 0: which mesh of the file); see [`super::serialized`] |
 //!
 //! Texture coordinates (`Shape::uv`) follow Mitsuba: rectangle (p + 1) / 2 in its local
@@ -20,10 +21,12 @@
 //! Every shape takes `flip_normals` (bool, false), an optional nested `<bsdf>` or
 //! `<ref>` (default: diffuse 0.5) and an optional nested `<emitter type="area">`.
 
+use super::curves::load_curves;
 use super::error::SceneError;
 use super::mesh::{load_obj, load_ply_with_attributes, MeshData};
 use super::props::Props;
 use super::serialized::load_serialized;
+use crate::geometry::curve::CurveKind;
 use crate::geometry::cylinder::CylinderGeom;
 use crate::geometry::disk::DiskGeom;
 use crate::geometry::shape::ShapeGeom;
@@ -293,6 +296,25 @@ pub fn parse_geometry(kind: &str, props: &mut Props) -> Result<ShapeGeom, SceneE
             check_bounds(g.bounds()).map_err(|e| at_transform(props, e))?;
             Ok(ShapeGeom::Cylinder(g))
         }
+        "linearcurve" | "bsplinecurve" => {
+            let kind = if kind == "linearcurve" {
+                CurveKind::Linear
+            } else {
+                CurveKind::BSpline
+            };
+            let name = props
+                .string("filename")?
+                .ok_or_else(|| props.err("missing parameter 'filename'"))?;
+            if name.trim().is_empty() {
+                return Err(props.err_at("filename", "the filename is empty"));
+            }
+            let path = props.ctx.resolve(&name);
+            props.ctx.read_mesh_file(&path);
+            let g = load_curves(&path, kind, &to_world).map_err(|e| {
+                props.err_at("filename", format!("{} file '{name}': {e}", kind.name()))
+            })?;
+            Ok(ShapeGeom::Curve(g))
+        }
         "ply" | "obj" | "serialized" => {
             let name = props
                 .string("filename")?
@@ -354,7 +376,7 @@ pub fn parse_geometry(kind: &str, props: &mut Props) -> Result<ShapeGeom, SceneE
         }
         other => {
             Err(props.err(format!(
-                "unknown shape type '{other}' (supported: rectangle, cube, sphere, disk, cylinder, ply, obj, serialized, shapegroup, instance)"
+                "unknown shape type '{other}' (supported: rectangle, cube, sphere, disk, cylinder, linearcurve, bsplinecurve, ply, obj, serialized, shapegroup, instance)"
             )))
         }
     }
@@ -591,7 +613,7 @@ mod tests {
                 (p, s.uv(f, x as f32, y as f32, Vec3::ZERO).as_dvec2())
             })
             .1;
-            let got = s.dpdv(f, Vec3::ZERO).as_dvec3();
+            let got = s.dpdv(f, 0.0, Vec3::ZERO).as_dvec3();
             assert!(
                 (got - fdv).length() < 2e-3 * fdv.length(),
                 "face {f}: dpdv {got} vs finite differences {fdv}"
@@ -678,7 +700,7 @@ mod tests {
         let none = load("obj", "n.obj");
         check_mesh_dpdu(&none);
         assert_eq!(none.dpdu(0, 0.2, 0.2, Vec3::ZERO), none.triangle(0).e1);
-        assert_eq!(none.dpdv(0, Vec3::ZERO), none.triangle(0).e2);
+        assert_eq!(none.dpdv(0, 0.0, Vec3::ZERO), none.triangle(0).e2);
         let degenerate = load("ply", "d.ply");
         let n = degenerate.triangle(0).cross().normalize();
         assert_eq!(
@@ -686,7 +708,7 @@ mod tests {
             crate::math::frame::Frame::from_normal(n).s
         );
         assert_eq!(
-            degenerate.dpdv(0, Vec3::ZERO),
+            degenerate.dpdv(0, 0.0, Vec3::ZERO),
             crate::math::frame::Frame::from_normal(n).t
         );
 
@@ -732,7 +754,7 @@ mod tests {
                 (p, s.uv(0, 0.0, 0.0, p.as_vec3()).as_dvec2())
             })
             .1;
-            let got = s.dpdv(0, (c + d * r).as_vec3()).as_dvec3();
+            let got = s.dpdv(0, 0.0, (c + d * r).as_vec3()).as_dvec3();
             assert!(
                 (got - fdv).length() < 5e-3 * fdv.length(),
                 "sphere at {d}: dpdv {got} vs finite differences {fdv}"
@@ -745,7 +767,7 @@ mod tests {
         assert!(at_pole.length() < 1e-5 * g.radius, "{at_pole}");
         // dp/dv stays finite and non-zero there (Mitsuba's pi (1, 0, 0) in object
         // space exactly on the axis; a rounded pole has some azimuth).
-        let got = s.dpdv(0, g.center + pole.normalize() * g.radius);
+        let got = s.dpdv(0, 0.0, g.center + pole.normalize() * g.radius);
         assert!(got.is_finite() && got.length() > 0.1 * g.radius, "{got}");
     }
 

@@ -9,7 +9,7 @@ use super::props::{Ctx, Props, OBJECT_TAGS};
 use super::shapes::{check_world_point, parse_geometry, MAX_COORDINATE};
 use super::{IntegratorSettings, Overrides, Scene};
 use crate::geometry::accel::Accel;
-use crate::geometry::shape::{AreaSampler, Shape};
+use crate::geometry::shape::{AreaSampler, Shape, ShapeGeom};
 use crate::lights::scene_sphere::SceneSphere;
 use crate::lights::{AngularFalloff, Emitter};
 use crate::materials::parse::{parse_bsdf, resolve_bsdf, Named};
@@ -1388,7 +1388,9 @@ fn parse_shape(
     let kind = ctx.required_attr(node, "type")?;
     let mut p = Props::parse(ctx, node)?;
     let geom = parse_geometry(&kind, &mut p)?;
-    let flip_normals = p.boolean_or("flip_normals", false)?;
+    // Mitsuba's curves read no `flip_normals` (the unknown-parameter check reports it).
+    let is_curve = matches!(geom, ShapeGeom::Curve(_));
+    let flip_normals = !is_curve && p.boolean_or("flip_normals", false)?;
     let mut bsdf = None;
     let mut emission = None;
     let (mut interior, mut exterior) = (None, None);
@@ -1446,6 +1448,20 @@ fn parse_shape(
         }
     }
     p.finish()?;
+    if is_curve {
+        if let Some((_, obj)) = emission {
+            return Err(ctx.err(
+                obj,
+                format!("a {kind} cannot be an area emitter (Mitsuba 3 defines no area or area sampling for curves)"),
+            ));
+        }
+        if interior.is_some() || exterior.is_some() {
+            return Err(ctx.err(
+                node,
+                format!("a {kind} cannot bound a medium (its back faces are culled: rays inside it never meet it)"),
+            ));
+        }
+    }
     let name = ctx
         .attr(node, "id")?
         .unwrap_or_else(|| format!("shape#{index}"));
@@ -1468,6 +1484,7 @@ fn parse_shape(
             ))
         }
         None if area == 0.0 => ctx.warn(node, "the shape has zero area: it is invisible"),
+        // Curves have no area (NaN): nothing to warn about.
         _ => {}
     }
     // Mitsuba's default BSDF (`shape.cpp`): diffuse 0.5, black on an emitter.
