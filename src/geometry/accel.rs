@@ -1,11 +1,12 @@
 //! The acceleration structure: one `obvhs` compressed-wide BVH over every primitive
-//! (triangles and analytic spheres, disks and cylinders), with closest-hit and
-//! occlusion queries. Scenes of
+//! (triangles, analytic spheres, disks and cylinders, and the non-empty voxels of SDF
+//! grids), with closest-hit and occlusion queries. Scenes of
 //! at most [`FLAT_MAX`] primitives are tested exhaustively in SIMD packets instead.
 
 use super::cylinder::CylinderGeom;
 use super::disk::DiskGeom;
 use super::flat::{FlatTriangles, FLAT_MAX};
+use super::sdfgrid::SdfGeom;
 use super::shape::{Shape, ShapeGeom, SurfacePoint};
 use super::sphere::SphereGeom;
 use super::triangle::TriangleGeom;
@@ -22,6 +23,7 @@ enum PrimGeom {
     Sphere(SphereGeom),
     /// An index into `Accel::quadrics` (kept out of line so a primitive stays the
     /// size of a triangle: scenes without these shapes keep their memory layout).
+    /// An SDF grid's voxels share one entry; the primitive's `face` is the voxel.
     Quadric(u32),
 }
 
@@ -30,16 +32,8 @@ enum PrimGeom {
 enum Quadric {
     Disk(DiskGeom),
     Cylinder(CylinderGeom),
-}
-
-impl Quadric {
-    #[inline(never)]
-    fn intersect(&self, o: Vec3, d: Vec3, tmin: f32) -> Option<f32> {
-        match self {
-            Quadric::Disk(g) => g.intersect(o, d, tmin),
-            Quadric::Cylinder(g) => g.intersect(o, d, tmin),
-        }
-    }
+    /// An index into `Accel::sdfs`.
+    Sdf(u32),
 }
 
 /// A primitive in BVH leaf order.
@@ -99,6 +93,8 @@ pub struct Accel {
     flat: Option<Flat>,
     /// The disks and cylinders `PrimGeom::Quadric` indexes.
     quadrics: Vec<Quadric>,
+    /// The SDF grids `Quadric::Sdf` indexes.
+    sdfs: Vec<SdfGeom>,
 }
 
 /// The exhaustive path for tiny scenes: the triangles in packets, the analytic shapes
@@ -119,6 +115,7 @@ impl Accel {
     pub fn build_with(shapes: &[Shape], flat_max: usize) -> Self {
         let mut prims = Vec::new();
         let mut quadrics = Vec::new();
+        let mut sdfs = Vec::new();
         for (si, shape) in shapes.iter().enumerate() {
             match &shape.geom {
                 ShapeGeom::Mesh { triangles, .. } => {
@@ -155,6 +152,18 @@ impl Accel {
                     });
                     quadrics.push(Quadric::Cylinder(*g));
                 }
+                ShapeGeom::Sdf(g) => {
+                    let q = quadrics.len() as u32;
+                    quadrics.push(Quadric::Sdf(sdfs.len() as u32));
+                    sdfs.push(g.clone());
+                    for k in 0..g.voxel_count() as u32 {
+                        prims.push(Prim {
+                            geom: PrimGeom::Quadric(q),
+                            shape: si as u32,
+                            face: k,
+                        });
+                    }
+                }
             }
         }
         if prims.is_empty() {
@@ -163,6 +172,7 @@ impl Accel {
                 prims,
                 flat: None,
                 quadrics,
+                sdfs,
             };
         }
         if prims.len() <= flat_max {
@@ -187,13 +197,17 @@ impl Accel {
                 prims,
                 flat: Some(flat),
                 quadrics,
+                sdfs,
             };
         }
         let boxed: Vec<Boxed> = prims
             .iter()
             .map(|&prim| {
                 let (lo, hi) = match prim.geom {
-                    PrimGeom::Quadric(_) => shapes[prim.shape as usize].bounds(),
+                    PrimGeom::Quadric(q) => match quadrics[q as usize] {
+                        Quadric::Sdf(g) => sdfs[g as usize].voxel_bounds(prim.face),
+                        _ => shapes[prim.shape as usize].bounds(),
+                    },
                     _ => prim.bounds(),
                 };
                 Boxed { lo, hi }
@@ -215,6 +229,17 @@ impl Accel {
             prims: ordered,
             flat: None,
             quadrics,
+            sdfs,
+        }
+    }
+
+    /// The distance to an out-of-line primitive: quadric `q`, `face` its SDF voxel.
+    #[inline(never)]
+    fn quadric_t(&self, q: u32, face: u32, o: Vec3, d: Vec3, tmin: f32) -> Option<f32> {
+        match &self.quadrics[q as usize] {
+            Quadric::Disk(g) => g.intersect(o, d, tmin),
+            Quadric::Cylinder(g) => g.intersect(o, d, tmin),
+            Quadric::Sdf(i) => self.sdfs[*i as usize].intersect_voxel(face, o, d, tmin),
         }
     }
 
@@ -224,7 +249,7 @@ impl Accel {
         let t = match &p.geom {
             PrimGeom::Triangle(t) => t.intersect(o, d, tmin).map(|h| h.0),
             PrimGeom::Sphere(s) => s.intersect(o, d, tmin),
-            PrimGeom::Quadric(q) => self.quadrics[*q as usize].intersect(o, d, tmin),
+            PrimGeom::Quadric(q) => self.quadric_t(*q, p.face, o, d, tmin),
         };
         t.unwrap_or(f32::INFINITY)
     }
@@ -268,7 +293,8 @@ impl Accel {
             node.intersect_ray(&traverse_ray, state.oct_inv4),
             {
                 let id = state.primitive_id as usize;
-                let t = match &self.prims[id].geom {
+                let prim = &self.prims[id];
+                let t = match &prim.geom {
                     PrimGeom::Triangle(tri) => match tri.intersect(o, d, 0.0) {
                         Some((t, b1, b2)) => {
                             if t < best_t {
@@ -280,8 +306,8 @@ impl Accel {
                         None => f32::INFINITY,
                     },
                     PrimGeom::Sphere(s) => s.intersect(o, d, 0.0).unwrap_or(f32::INFINITY),
-                    PrimGeom::Quadric(q) => self.quadrics[*q as usize]
-                        .intersect(o, d, 0.0)
+                    PrimGeom::Quadric(q) => self
+                        .quadric_t(*q, prim.face, o, d, 0.0)
                         .unwrap_or(f32::INFINITY),
                 };
                 if t < traverse_ray.tmax {
@@ -299,7 +325,7 @@ impl Accel {
         let shape = &shapes[p.shape as usize];
         let surface = match &p.geom {
             PrimGeom::Triangle(t) => shape.surface_of(t, p.face, best_b.0, best_b.1),
-            _ => shape.surface(0, 0.0, 0.0, o + d * hit.t),
+            _ => shape.surface(p.face, 0.0, 0.0, o + d * hit.t),
         };
         Some(Hit {
             t: hit.t,
@@ -381,7 +407,7 @@ impl Accel {
         let shape = &shapes[p.shape as usize];
         let surface = match &p.geom {
             PrimGeom::Triangle(tri) => shape.surface_of(tri, p.face, b1, b2),
-            _ => shape.surface(0, 0.0, 0.0, o + d * t),
+            _ => shape.surface(p.face, 0.0, 0.0, o + d * t),
         };
         Some(Hit {
             t,

@@ -5,6 +5,7 @@ pub mod cylinder;
 pub mod disk;
 pub mod flat;
 mod flat_simd;
+pub mod sdfgrid;
 pub mod shape;
 pub mod sphere;
 pub mod triangle;

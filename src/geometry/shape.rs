@@ -1,9 +1,10 @@
 //! Shapes in world space, as the renderer sees them: triangle meshes (rectangle, cube,
-//! ply, obj) and analytic spheres, disks and cylinders, with their surface data and
-//! area sampling.
+//! ply, obj), analytic spheres, disks and cylinders, and SDF grids, with their surface
+//! data and area sampling.
 
 use super::cylinder::CylinderGeom;
 use super::disk::DiskGeom;
+use super::sdfgrid::SdfGeom;
 use super::sphere::SphereGeom;
 use super::triangle::TriangleGeom;
 use crate::math::sampling::{uniform_sphere, uniform_triangle};
@@ -28,6 +29,9 @@ pub enum ShapeGeom {
     Disk(DiskGeom),
     /// An analytic open cylinder (`cylinder.rs`).
     Cylinder(CylinderGeom),
+    /// A signed distance function grid (`sdfgrid.rs`): one primitive per non-empty
+    /// voxel, its index the hit's `face`.
+    Sdf(SdfGeom),
 }
 
 /// One shape of the scene.
@@ -124,6 +128,11 @@ impl Shape {
                     ns: n * sign,
                 }
             }
+            // No flip_normals (Mitsuba's sdfgrid takes none); `face` is the voxel.
+            ShapeGeom::Sdf(g) => {
+                let (ng, ns) = g.normals(face, p_hint);
+                SurfacePoint { p: p_hint, ng, ns }
+            }
         }
     }
 
@@ -190,6 +199,8 @@ impl Shape {
             }
             ShapeGeom::Disk(g) => g.uv(p),
             ShapeGeom::Cylinder(g) => g.uv(p),
+            // Mitsuba's sdfgrid emits no uv (zero).
+            ShapeGeom::Sdf(_) => Vec2::ZERO,
         }
     }
 
@@ -234,6 +245,8 @@ impl Shape {
             }
             ShapeGeom::Disk(g) => g.dpdu(p),
             ShapeGeom::Cylinder(g) => g.dpdu(p),
+            // Zero, as Mitsuba's sdfgrid leaves it: the frame is `Frame::from_normal`.
+            ShapeGeom::Sdf(_) => Vec3::ZERO,
         }
     }
 
@@ -273,6 +286,7 @@ impl Shape {
             }
             ShapeGeom::Disk(g) => g.dpdv(p),
             ShapeGeom::Cylinder(g) => g.dpdv(),
+            ShapeGeom::Sdf(_) => Vec3::ZERO,
         }
     }
 
@@ -284,6 +298,8 @@ impl Shape {
             ShapeGeom::Sphere(s, _) => s.area() as f64,
             ShapeGeom::Disk(g) => g.area as f64,
             ShapeGeom::Cylinder(g) => g.area() as f64,
+            // Mitsuba's sdfgrid reports 0 (and cannot emit).
+            ShapeGeom::Sdf(_) => 0.0,
         }
     }
 
@@ -301,6 +317,7 @@ impl Shape {
             ),
             ShapeGeom::Disk(g) => g.bounds(),
             ShapeGeom::Cylinder(g) => g.bounds(),
+            ShapeGeom::Sdf(g) => g.bounds(),
         }
     }
 }
@@ -337,7 +354,10 @@ impl AreaSampler {
                     total_area: acc as f32,
                 }
             }
-            ShapeGeom::Sphere(..) | ShapeGeom::Disk(_) | ShapeGeom::Cylinder(_) => AreaSampler {
+            ShapeGeom::Sphere(..)
+            | ShapeGeom::Disk(_)
+            | ShapeGeom::Cylinder(_)
+            | ShapeGeom::Sdf(_) => AreaSampler {
                 cdf: Vec::new(),
                 tris: Vec::new(),
                 total_area: shape.area() as f32,
@@ -363,6 +383,7 @@ impl AreaSampler {
             }
             ShapeGeom::Disk(g) => shape.surface(0, 0.0, 0.0, g.sample(u2)),
             ShapeGeom::Cylinder(g) => shape.surface(0, 0.0, 0.0, g.sample(u2)),
+            ShapeGeom::Sdf(_) => unreachable!("an sdfgrid cannot emit: refused when loading"),
         }
     }
 }

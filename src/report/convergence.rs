@@ -466,6 +466,11 @@ fn hash_loaded_scene(h: &mut Sha256, scene: &Scene, overrides: &Overrides) {
                 f32s(h, &g.m.to_cols_array());
                 f32s(h, &g.c.to_array());
             }
+            ShapeGeom::Sdf(g) => {
+                h.update(format!("{:?}|{}", g.grid.res, g.smooth).as_bytes());
+                f32s(h, &g.to_world.as_mat4().to_cols_array());
+                f32s(h, &g.grid.values);
+            }
         }
     }
     for e in &scene.emitters {

@@ -49,6 +49,7 @@ pub const SUPPORTED: &[(&str, &[&str])] = &[
             "ply",
             "obj",
             "serialized",
+            "sdfgrid",
             "shapegroup",
             "instance",
         ],

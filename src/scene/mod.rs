@@ -13,6 +13,7 @@ pub mod limits;
 pub mod mesh;
 pub mod projector;
 pub mod props;
+pub mod sdfgrid;
 pub mod serialized;
 pub mod shapes;
 pub mod spectrum;

@@ -10,6 +10,7 @@
 //! | cylinder | `p0` (point, 0), `p1` (point, (0, 0, 1)), `radius` (float, 1), `to_world` (its cross-section must stay a circle: no shear, equal x/y scale); open tube, normals outward; analytic ([`crate::geometry::cylinder`]) |
 //! | ply, obj | `filename` (relative to the scene file), `to_world`, `face_normals` (bool, false: smooth normals from the file, or angle-weighted ones computed as Mitsuba does), `flip_tex_coords` (bool: v -> 1 - v of the file's texture coordinates; true for obj, false for ply, as Mitsuba) |
 //! | serialized | as ply (no `flip_tex_coords`: uv as stored), plus `shape_index` (integer, 0: which mesh of the file); see [`super::serialized`] |
+//! | sdfgrid | `filename` (a `.vol` grid), `normals` (`smooth` / `analytic`), `to_world`; no `flip_normals`, no emitter; see [`super::sdfgrid`] |
 //!
 //! Texture coordinates (`Shape::uv`) follow Mitsuba: rectangle (p + 1) / 2 in its local
 //! square; cube [0, 1]^2 on every face, oriented as Mitsuba's cube; sphere
@@ -292,6 +293,7 @@ pub fn parse_geometry(kind: &str, props: &mut Props) -> Result<ShapeGeom, SceneE
             check_bounds(g.bounds()).map_err(|e| at_transform(props, e))?;
             Ok(ShapeGeom::Cylinder(g))
         }
+        "sdfgrid" => super::sdfgrid::parse_sdfgrid(props, &to_world),
         "ply" | "obj" | "serialized" => {
             let name = props
                 .string("filename")?
@@ -345,7 +347,7 @@ pub fn parse_geometry(kind: &str, props: &mut Props) -> Result<ShapeGeom, SceneE
         other => {
             // Mitsuba 3.9.1 refuses "Rectangle", "Sphere", ... too (its plugin lookup
             // is case-sensitive: "Plugin \"Rectangle\" not found").
-            const KINDS: [&str; 10] = [
+            const KINDS: [&str; 11] = [
                 "rectangle",
                 "cube",
                 "sphere",
@@ -354,6 +356,7 @@ pub fn parse_geometry(kind: &str, props: &mut Props) -> Result<ShapeGeom, SceneE
                 "ply",
                 "obj",
                 "serialized",
+                "sdfgrid",
                 "shapegroup",
                 "instance",
             ];
@@ -363,7 +366,7 @@ pub fn parse_geometry(kind: &str, props: &mut Props) -> Result<ShapeGeom, SceneE
                 .map(|k| format!("; plugin names are case-sensitive, as in Mitsuba 3: write '{k}'"))
                 .unwrap_or_default();
             Err(props.err(format!(
-                "unknown shape type '{other}' (supported: rectangle, cube, sphere, disk, cylinder, ply, obj, serialized, shapegroup, instance){hint}"
+                "unknown shape type '{other}' (supported: rectangle, cube, sphere, disk, cylinder, ply, obj, serialized, sdfgrid, shapegroup, instance){hint}"
             )))
         }
     }

@@ -1262,7 +1262,9 @@ fn parse_shape(
     let kind = ctx.required_attr(node, "type")?;
     let mut p = Props::parse(ctx, node)?;
     let geom = parse_geometry(&kind, &mut p)?;
-    let flip_normals = p.boolean_or("flip_normals", false)?;
+    // Mitsuba's sdfgrid reads no flip_normals (an unreferenced property there too).
+    let is_sdf = matches!(geom, crate::geometry::shape::ShapeGeom::Sdf(_));
+    let flip_normals = !is_sdf && p.boolean_or("flip_normals", false)?;
     let mut bsdf = None;
     let mut emission = None;
     let (mut interior, mut exterior) = (None, None);
@@ -1335,6 +1337,13 @@ fn parse_shape(
     // Areas are summed from single-precision triangles, as the light sampler does.
     let area = shape.area() as f32;
     match emission {
+        Some((_, obj)) if is_sdf => {
+            return Err(ctx.err(
+                obj,
+                "an sdfgrid cannot be an emitter (Mitsuba 3's sdfgrid has no area to sample)",
+            ))
+        }
+        None if is_sdf => {}
         Some((_, obj)) if !(area > 0.0 && area.is_finite()) => {
             return Err(ctx.err(
                 obj,
