@@ -155,7 +155,7 @@ impl Accel {
                 ShapeGeom::Sdf(g) => {
                     let q = quadrics.len() as u32;
                     quadrics.push(Quadric::Sdf(sdfs.len() as u32));
-                    sdfs.push(g.clone());
+                    sdfs.push((**g).clone());
                     for k in 0..g.voxel_count() as u32 {
                         prims.push(Prim {
                             geom: PrimGeom::Quadric(q),

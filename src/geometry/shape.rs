@@ -30,8 +30,9 @@ pub enum ShapeGeom {
     /// An analytic open cylinder (`cylinder.rs`).
     Cylinder(CylinderGeom),
     /// A signed distance function grid (`sdfgrid.rs`): one primitive per non-empty
-    /// voxel, its index the hit's `face`.
-    Sdf(SdfGeom),
+    /// voxel, its index the hit's `face`. Boxed: the enum keeps the size it has
+    /// without it.
+    Sdf(Box<SdfGeom>),
 }
 
 /// One shape of the scene.

@@ -146,7 +146,7 @@ pub fn transformed(g: &ShapeGeom, m: &DMat4) -> Result<ShapeGeom, String> {
             let (lo, hi) = g.bounds();
             check_world_point(lo.as_dvec3())?;
             check_world_point(hi.as_dvec3())?;
-            ShapeGeom::Sdf(g)
+            ShapeGeom::Sdf(Box::new(g))
         }
     })
 }

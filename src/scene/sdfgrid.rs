@@ -33,17 +33,18 @@ const HEADER: usize = 48;
 
 /// The `sdfgrid` shape of `props` placed by `to_world`.
 pub fn parse_sdfgrid(props: &mut Props, to_world: &DMat4) -> Result<ShapeGeom, SceneError> {
-    let smooth =
-        match props.string("normals")?.as_deref() {
-            None | Some("smooth") => true,
-            Some("analytic") => false,
-            Some(other) => return Err(props.err_at(
+    let smooth = match props.string("normals")?.as_deref() {
+        None | Some("smooth") => true,
+        Some("analytic") => false,
+        Some(other) => {
+            return Err(props.err_at(
                 "normals",
                 format!(
                     "invalid normals mode \"{other}\", must be one of: \"analytic\", or \"smooth\""
                 ),
-            )),
-        };
+            ))
+        }
+    };
     let name = props.string("filename")?.ok_or_else(|| {
         props.err("the SDF values must be specified with the \"filename\" parameter (a .vol grid)")
     })?;
@@ -62,7 +63,7 @@ pub fn parse_sdfgrid(props: &mut Props, to_world: &DMat4) -> Result<ShapeGeom, S
     super::shapes::check_world_point(lo.as_dvec3())
         .and_then(|_| super::shapes::check_world_point(hi.as_dvec3()))
         .map_err(|e| props.err_at("to_world", e))?;
-    Ok(ShapeGeom::Sdf(geom))
+    Ok(ShapeGeom::Sdf(Box::new(geom)))
 }
 
 /// A one-channel `.vol` file: its sizes `[nx, ny, nz]` and values (x fastest).
