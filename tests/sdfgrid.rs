@@ -6,6 +6,7 @@
 
 use glam::{DMat4, DQuat, DVec3, Vec3};
 use std::path::Path;
+use tstat::geometry::accel::Accel;
 use tstat::geometry::shape::ShapeGeom;
 use tstat::math::rng::Pcg32;
 use tstat::scene::{Overrides, Scene};
@@ -262,6 +263,77 @@ fn hits_are_the_first_zero_of_the_trilinear_sdf() {
         hits > 1500 && misses > 300 && from_inside > 100,
         "{hits} {misses} {from_inside}"
     );
+}
+
+/// The BVH over the voxels' tight boxes finds what testing every voxel finds (the
+/// boxes hide no surface), and shadow rays agree with the closest hit.
+#[test]
+fn tight_boxes_hide_nothing_and_shadow_rays_agree() {
+    let dir = tempfile::tempdir().unwrap();
+    let (scene, _) = sphere_scene(dir.path(), 17, "smooth");
+    let bvh = &scene.accel;
+    let every = Accel::build_with(&scene.shapes, usize::MAX);
+    let mut hits = 0;
+    for (o, d) in rays(3000, 13) {
+        let (a, b) = (
+            bvh.intersect(&scene.shapes, o, d, f32::INFINITY),
+            every.intersect(&scene.shapes, o, d, f32::INFINITY),
+        );
+        assert_eq!(
+            a.map(|h| (h.t, h.face)),
+            b.map(|h| (h.t, h.face)),
+            "o {o} d {d}"
+        );
+        if let Some(h) = a {
+            assert!(bvh.occluded(o, d, h.t * 1.0001) && every.occluded(o, d, h.t * 1.0001));
+            assert!(!bvh.occluded(o, d, h.t * 0.9999) && !every.occluded(o, d, h.t * 0.9999));
+            hits += 1;
+        }
+    }
+    assert!(hits > 1500, "{hits}");
+}
+
+/// An instance of a grid is the grid under the composed transform: the same hits.
+#[test]
+fn an_instance_is_the_grid_under_the_composed_transform() {
+    let dir = tempfile::tempdir().unwrap();
+    let vol = dir.path().join("s.vol");
+    write_vol(&vol, [9; 3], &sphere_values(9));
+    let inner = r#"<rotate z="1" angle="25"/><translate x="0.1"/>"#;
+    let outer = TO_WORLD_XML;
+    let grid = |t: &str| {
+        format!(
+            r#"<shape type="sdfgrid"><string name="filename" value="{}"/><transform name="to_world">{t}</transform></shape>"#,
+            vol.display()
+        )
+    };
+    let instanced = format!(
+        r#"<shape type="shapegroup" id="g">{}</shape><shape type="instance"><ref id="g"/><transform name="to_world">{outer}</transform></shape>"#,
+        grid(inner)
+    );
+    let a = load_text(dir.path(), &scene_xml(&instanced, 8, 4));
+    let b = load_text(
+        dir.path(),
+        &scene_xml(&grid(&format!("{inner}{outer}")), 8, 4),
+    );
+    let mut hits = 0;
+    for (o, d) in rays(2000, 17) {
+        let (x, y) = (
+            a.accel.intersect(&a.shapes, o, d, f32::INFINITY),
+            b.accel.intersect(&b.shapes, o, d, f32::INFINITY),
+        );
+        match (x, y) {
+            (Some(x), Some(y)) => {
+                assert!((x.t - y.t).abs() <= 1e-5 * x.t, "{} {}", x.t, y.t);
+                assert!(x.surface.ng.dot(y.surface.ng) > 0.9999);
+                assert!(x.surface.ns.dot(y.surface.ns) > 0.9999);
+                hits += 1;
+            }
+            (None, None) => {}
+            _ => panic!("o {o} d {d}: one hit, one miss"),
+        }
+    }
+    assert!(hits > 300, "{hits}");
 }
 
 #[test]

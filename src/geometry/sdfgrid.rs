@@ -319,7 +319,7 @@ impl SdfGeom {
                 t1 = t1.min(ta.max(tb));
             }
         }
-        if !(t0 <= t1) {
+        if t0 > t1 {
             return None;
         }
         let c = cubic_along(&grid.corners(v), og + dg * t0, dg);
