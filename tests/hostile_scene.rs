@@ -1842,12 +1842,21 @@ fn suspicious_scenes_warn_once_and_render() {
             ),
             "exceeds 1",
         ),
+        (
+            "sdfgrid_rotated",
+            scene_with(
+                r#"<shape type="sdfgrid"><string name="filename" value="g.vol"/><transform name="to_world"><rotate z="1" angle="30"/></transform></shape>"#,
+            ),
+            "Mitsuba 3 warns and renders holes",
+        ),
     ];
     let mut failures = Vec::new();
     for (name, scene, want) in cases {
         let tmp = tempfile::tempdir().unwrap();
         let dir = tmp.path();
         make(dir, "scene.xml", &scene);
+        // The grid the sdfgrid case reads.
+        make(dir, "g.vol", &vol_file([2, 2, 2], 1, &SDF8));
         let out = dir.join("out.tstats");
         let c = scene_case(name, scene, want);
         let r = run(dir, &render_args(&c, dir, &out));

@@ -5,7 +5,7 @@
 //! |-----------|---------|
 //! | filename | required: a Mitsuba `.vol` file of one channel (Mitsuba's `grid` tensor parameter exists only from Python/C++, not in XML; without `filename` Mitsuba throws as tstat does) |
 //! | normals | `smooth` (default) or `analytic`, anything else an error (Mitsuba's message) |
-//! | to_world | any invertible affine map of the grid's `[0, 1]^3` |
+//! | to_world | any invertible affine map of the grid's `[0, 1]^3` (a warning when it rotates or shears, where Mitsuba 3 warns and renders holes) |
 //!
 //! No `flip_normals` (Mitsuba's sdfgrid does not read it: "unreferenced property"),
 //! and no emitter: its area is 0 in Mitsuba, which cannot sample it, so tstat refuses it
@@ -59,6 +59,24 @@ pub fn parse_sdfgrid(props: &mut Props, to_world: &DMat4) -> Result<ShapeGeom, S
         .map_err(|e| props.err_at("filename", format!("'{name}': {e}")))?;
     let geom =
         SdfGeom::new(Arc::new(grid), *to_world, smooth).map_err(|e| props.err_at("to_world", e))?;
+    // Mitsuba warns on rotations (its voxel boxes map only two corners, so a rotated
+    // grid renders with holes there); tstat maps all eight and stays exact.
+    let lin = glam::DMat3::from_mat4(*to_world);
+    let scale = lin.x_axis.length() + lin.y_axis.length() + lin.z_axis.length();
+    let off = [
+        lin.x_axis.y,
+        lin.x_axis.z,
+        lin.y_axis.x,
+        lin.y_axis.z,
+        lin.z_axis.x,
+        lin.z_axis.y,
+    ];
+    if off.iter().any(|v| v.abs() > 1e-6 * scale) {
+        props.warn_at(
+            "to_world",
+            "the sdfgrid's to_world rotates or shears: tstat intersects it exactly, but Mitsuba 3 warns and renders holes (its voxel boxes assume an axis-aligned map); use shapegroup + instance to match it",
+        );
+    }
     let (lo, hi) = geom.bounds();
     super::shapes::check_world_point(lo.as_dvec3())
         .and_then(|_| super::shapes::check_world_point(hi.as_dvec3()))
