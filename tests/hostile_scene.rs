@@ -171,6 +171,37 @@ fn serialized_scene(params: &str) -> File {
     ))
 }
 
+/// A `.vol` grid file (Mitsuba's format) with the given header fields and values.
+fn vol_file(dims: [i32; 3], channels: i32, values: &[f32]) -> File {
+    let mut b = b"VOL\x03".to_vec();
+    for v in [1, dims[0], dims[1], dims[2], channels] {
+        b.extend(v.to_le_bytes());
+    }
+    b.extend(f32s(&[0.0, 0.0, 0.0, 1.0, 1.0, 1.0]));
+    b.extend(f32s(values));
+    File::Bytes(b)
+}
+
+/// A 2 x 2 x 2 grid with one corner inside: one non-empty voxel.
+const SDF8: [f32; 8] = [-0.5, 0.5, 0.5, 0.5, 0.5, 0.5, 0.5, 0.5];
+
+/// An `sdfgrid` reading `g.vol`, with `params`.
+fn sdf_case(name: &'static str, vol: File, params: &str, want: &'static str) -> Case {
+    case(
+        name,
+        vec![
+            (
+                "scene.xml",
+                scene_with(&format!(
+                    r#"<shape type="sdfgrid"><string name="filename" value="g.vol"/>{params}</shape>"#
+                )),
+            ),
+            ("g.vol", vol),
+        ],
+        want,
+    )
+}
+
 fn case(name: &'static str, files: Vec<(&'static str, File)>, want: &'static str) -> Case {
     Case {
         name,
@@ -1622,6 +1653,42 @@ fn cases() -> Vec<Case> {
             scene_with(r#"<shape type="cylinder"><float name="radius" value="1e20"/></shape>"#),
             "cylinder",
         ),
+        // ---- sdfgrid ----
+        scene_case("sdfgrid_without_filename", scene_with(r#"<shape type="sdfgrid"/>"#), "\"filename\" parameter"),
+        scene_case(
+            "sdfgrid_missing_file",
+            scene_with(r#"<shape type="sdfgrid"><string name="filename" value="absent.vol"/></shape>"#),
+            "absent.vol",
+        ),
+        sdf_case("sdfgrid_empty_file", File::Bytes(Vec::new()), "", "does not start with \"VOL\""),
+        sdf_case("sdfgrid_is_17_gib", File::Sparse(17 << 30), "", "above the limit"),
+        sdf_case("sdfgrid_header_only", vol_file([2, 2, 2], 1, &[]), "", "truncated"),
+        sdf_case("sdfgrid_truncated", vol_file([4, 4, 4], 1, &[0.5; 10]), "", "needs 304 bytes, the file has 88"),
+        sdf_case("sdfgrid_huge_dims", vol_file([i32::MAX; 3], 1, &SDF8), "", "truncated"),
+        sdf_case("sdfgrid_zero_dims", vol_file([0, 2, 2], 1, &[]), "", "at least 2 along each axis"),
+        sdf_case("sdfgrid_negative_dims", vol_file([2, -2, 2], 1, &SDF8), "", "at least 2 along each axis"),
+        sdf_case("sdfgrid_one_value_wide", vol_file([1, 2, 2], 1, &SDF8[..4]), "", "at least 2 along each axis"),
+        sdf_case("sdfgrid_three_channels", vol_file([2, 2, 2], 3, &[0.5; 24]), "", "has 3 channels, expected 1"),
+        sdf_case("sdfgrid_nan_value", vol_file([2, 2, 2], 1, &[-0.5, 0.5, f32::NAN, 0.5, 0.5, 0.5, 0.5, 0.5]), "", "value 2 (x 0, y 1, z 0) is NaN"),
+        sdf_case("sdfgrid_infinite_value", vol_file([2, 2, 2], 1, &[-0.5, 0.5, 0.5, 0.5, 0.5, 0.5, 0.5, f32::INFINITY]), "", "is inf"),
+        sdf_case("sdfgrid_no_zero_crossing", vol_file([2, 2, 2], 1, &[0.5; 8]), "", "no zero crossing"),
+        sdf_case("sdfgrid_bad_normals", vol_file([2, 2, 2], 1, &SDF8), r#"<string name="normals" value="falloff"/>"#, "invalid normals mode \"falloff\""),
+        // Mitsuba: 'unreferenced property "flip_normals"' (its sdfgrid reads none).
+        sdf_case("sdfgrid_flip_normals", vol_file([2, 2, 2], 1, &SDF8), r#"<boolean name="flip_normals" value="true"/>"#, "unknown parameter 'flip_normals'"),
+        sdf_case("sdfgrid_emitter", vol_file([2, 2, 2], 1, &SDF8), r#"<emitter type="area"/>"#, "an sdfgrid cannot be an emitter"),
+        sdf_case(
+            "sdfgrid_singular_to_world",
+            vol_file([2, 2, 2], 1, &SDF8),
+            r#"<transform name="to_world"><scale x="1" y="0" z="1"/></transform>"#,
+            "singular",
+        ),
+        sdf_case(
+            "sdfgrid_huge_to_world",
+            vol_file([2, 2, 2], 1, &SDF8),
+            r#"<transform name="to_world"><scale value="1e30"/></transform>"#,
+            "beyond",
+        ),
+        // Mitsuba 3.9.1: 'Plugin "Rectangle" not found' (plugin names are case-sensitive).
         // ---- curves: linearcurve, bsplinecurve ----
         scene_case(
             "curve_file_missing",
@@ -2186,12 +2253,21 @@ fn suspicious_scenes_warn_once_and_render() {
             ),
             "exceeds 1",
         ),
+        (
+            "sdfgrid_rotated",
+            scene_with(
+                r#"<shape type="sdfgrid"><string name="filename" value="g.vol"/><transform name="to_world"><rotate z="1" angle="30"/></transform></shape>"#,
+            ),
+            "Mitsuba 3 warns and renders holes",
+        ),
     ];
     let mut failures = Vec::new();
     for (name, scene, want) in cases {
         let tmp = tempfile::tempdir().unwrap();
         let dir = tmp.path();
         make(dir, "scene.xml", &scene);
+        // The grid the sdfgrid case reads.
+        make(dir, "g.vol", &vol_file([2, 2, 2], 1, &SDF8));
         let out = dir.join("out.tstats");
         let c = scene_case(name, scene, want);
         let r = run(dir, &render_args(&c, dir, &out));

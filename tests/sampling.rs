@@ -2174,6 +2174,7 @@ fn area_uniformity_p_value(
                 .collect();
             (counts, expected)
         }
+        ShapeGeom::Sdf(_) => unreachable!("an sdfgrid cannot emit"),
     };
     let stat: f64 = counts
         .iter()

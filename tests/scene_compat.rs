@@ -469,7 +469,7 @@ fn check_lists_every_unsupported_feature_with_its_line() {
     write(
         d,
         "part.xml",
-        r#"<scene version="3.0.0"><shape type="sdfgrid"/></scene>"#,
+        r#"<scene version="3.0.0"><shape type="ellipsoids"/></scene>"#,
     );
     write(
         d,
@@ -479,7 +479,7 @@ fn check_lists_every_unsupported_feature_with_its_line() {
     let Verdict::Unsupported(found) = check(&d.join("i.xml"), &[], &[]) else {
         panic!()
     };
-    assert!(found[0].file.ends_with("part.xml") && found[0].what.contains("sdfgrid"));
+    assert!(found[0].file.ends_with("part.xml") && found[0].what.contains("ellipsoids"));
     // A supported scene that still fails says why; a good one is ok.
     write(
         d,

@@ -1,12 +1,13 @@
 //! The acceleration structure: one `obvhs` compressed-wide BVH over every primitive
-//! (triangles and analytic spheres, disks and cylinders), with closest-hit and
-//! occlusion queries. Scenes of
+//! (triangles, analytic spheres, disks and cylinders, and the non-empty voxels of SDF
+//! grids), with closest-hit and occlusion queries. Scenes of
 //! at most [`FLAT_MAX`] primitives are tested exhaustively in SIMD packets instead.
 
 use super::curve::Segment;
 use super::cylinder::CylinderGeom;
 use super::disk::DiskGeom;
 use super::flat::{FlatTriangles, FLAT_MAX};
+use super::sdfgrid::SdfGeom;
 use super::shape::{Shape, ShapeGeom, SurfacePoint};
 use super::sphere::SphereGeom;
 use super::triangle::TriangleGeom;
@@ -23,6 +24,7 @@ enum PrimGeom {
     Sphere(SphereGeom),
     /// An index into `Accel::quadrics` (kept out of line so a primitive stays the
     /// size of a triangle: scenes without these shapes keep their memory layout).
+    /// An SDF grid's voxels share one entry; the primitive's `face` is the voxel.
     Quadric(u32),
 }
 
@@ -32,18 +34,8 @@ enum Quadric {
     Disk(DiskGeom),
     Cylinder(CylinderGeom),
     Curve(Segment),
-}
-
-impl Quadric {
-    /// The hit distance and, for a curve segment, its parameter `v` (else 0).
-    #[inline(never)]
-    fn intersect(&self, o: Vec3, d: Vec3, tmin: f32) -> Option<(f32, f32)> {
-        match self {
-            Quadric::Disk(g) => g.intersect(o, d, tmin).map(|t| (t, 0.0)),
-            Quadric::Cylinder(g) => g.intersect(o, d, tmin).map(|t| (t, 0.0)),
-            Quadric::Curve(g) => g.intersect(o, d, tmin),
-        }
-    }
+    /// An index into `Accel::sdfs`.
+    Sdf(u32),
 }
 
 /// A primitive in BVH leaf order.
@@ -103,6 +95,8 @@ pub struct Accel {
     flat: Option<Flat>,
     /// The disks, cylinders and curve segments `PrimGeom::Quadric` indexes.
     quadrics: Vec<Quadric>,
+    /// The SDF grids `Quadric::Sdf` indexes.
+    sdfs: Vec<SdfGeom>,
 }
 
 /// The exhaustive path for tiny scenes: the triangles in packets, the analytic shapes
@@ -125,6 +119,7 @@ impl Accel {
         let mut quadrics = Vec::new();
         // Boxes of the curve segments (the other quadrics take their shape's).
         let mut segment_boxes: Vec<Option<(Vec3, Vec3)>> = Vec::new();
+        let mut sdfs = Vec::new();
         for (si, shape) in shapes.iter().enumerate() {
             match &shape.geom {
                 ShapeGeom::Mesh { triangles, .. } => {
@@ -173,6 +168,18 @@ impl Accel {
                         segment_boxes.push(Some(g.segment_bounds(i)));
                     }
                 }
+                ShapeGeom::Sdf(g) => {
+                    let q = quadrics.len() as u32;
+                    quadrics.push(Quadric::Sdf(sdfs.len() as u32));
+                    sdfs.push((**g).clone());
+                    for k in 0..g.voxel_count() as u32 {
+                        prims.push(Prim {
+                            geom: PrimGeom::Quadric(q),
+                            shape: si as u32,
+                            face: k,
+                        });
+                    }
+                }
             }
         }
         if prims.is_empty() {
@@ -181,6 +188,7 @@ impl Accel {
                 prims,
                 flat: None,
                 quadrics,
+                sdfs,
             };
         }
         if prims.len() <= flat_max {
@@ -205,17 +213,21 @@ impl Accel {
                 prims,
                 flat: Some(flat),
                 quadrics,
+                sdfs,
             };
         }
         let boxed: Vec<Boxed> = prims
             .iter()
             .map(|&prim| {
                 let (lo, hi) = match prim.geom {
-                    PrimGeom::Quadric(q) => segment_boxes
-                        .get(q as usize)
-                        .copied()
-                        .flatten()
-                        .unwrap_or_else(|| shapes[prim.shape as usize].bounds()),
+                    PrimGeom::Quadric(q) => match quadrics[q as usize] {
+                        Quadric::Sdf(g) => sdfs[g as usize].voxel_bounds(prim.face),
+                        _ => segment_boxes
+                            .get(q as usize)
+                            .copied()
+                            .flatten()
+                            .unwrap_or_else(|| shapes[prim.shape as usize].bounds()),
+                    },
                     _ => prim.bounds(),
                 };
                 Boxed { lo, hi }
@@ -237,6 +249,21 @@ impl Accel {
             prims: ordered,
             flat: None,
             quadrics,
+            sdfs,
+        }
+    }
+
+    /// The distance to an out-of-line primitive, quadric `q` (`face`: its SDF voxel),
+    /// and for a curve segment its parameter `v` (else 0).
+    #[inline(never)]
+    fn quadric_hit(&self, q: u32, face: u32, o: Vec3, d: Vec3, tmin: f32) -> Option<(f32, f32)> {
+        match &self.quadrics[q as usize] {
+            Quadric::Disk(g) => g.intersect(o, d, tmin).map(|t| (t, 0.0)),
+            Quadric::Cylinder(g) => g.intersect(o, d, tmin).map(|t| (t, 0.0)),
+            Quadric::Curve(g) => g.intersect(o, d, tmin),
+            Quadric::Sdf(i) => self.sdfs[*i as usize]
+                .intersect_voxel(face, o, d, tmin)
+                .map(|t| (t, 0.0)),
         }
     }
 
@@ -254,8 +281,8 @@ impl Accel {
             PrimGeom::Triangle(t) => t.intersect(o, d, tmin).map(|h| h.0),
             PrimGeom::Sphere(s) => s.intersect(o, d, tmin),
             PrimGeom::Quadric(q) => {
-                return self.quadrics[*q as usize]
-                    .intersect(o, d, tmin)
+                return self
+                    .quadric_hit(*q, p.face, o, d, tmin)
                     .unwrap_or((f32::INFINITY, 0.0))
             }
         };
@@ -303,7 +330,8 @@ impl Accel {
             node.intersect_ray(&traverse_ray, state.oct_inv4),
             {
                 let id = state.primitive_id as usize;
-                let t = match &self.prims[id].geom {
+                let prim = &self.prims[id];
+                let t = match &prim.geom {
                     PrimGeom::Triangle(tri) => match tri.intersect(o, d, 0.0) {
                         Some((t, b1, b2)) => {
                             if t < best_t {
@@ -315,7 +343,7 @@ impl Accel {
                         None => f32::INFINITY,
                     },
                     PrimGeom::Sphere(s) => s.intersect(o, d, 0.0).unwrap_or(f32::INFINITY),
-                    PrimGeom::Quadric(q) => match self.quadrics[*q as usize].intersect(o, d, 0.0) {
+                    PrimGeom::Quadric(q) => match self.quadric_hit(*q, prim.face, o, d, 0.0) {
                         Some((t, v)) => {
                             if t < traverse_ray.tmax {
                                 curve_v = v;

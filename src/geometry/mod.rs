@@ -7,6 +7,7 @@ pub mod disk;
 pub mod flat;
 mod flat_simd;
 pub mod mesh_attributes;
+pub mod sdfgrid;
 pub mod shape;
 pub mod sphere;
 pub mod triangle;

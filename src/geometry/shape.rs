@@ -1,11 +1,12 @@
 //! Shapes in world space, as the renderer sees them: triangle meshes (rectangle, cube,
-//! ply, obj) and analytic spheres, disks and cylinders, with their surface data and
-//! area sampling.
+//! ply, obj), analytic spheres, disks and cylinders, and SDF grids, with their surface
+//! data and area sampling.
 
 use super::curve::CurveGeom;
 use super::cylinder::CylinderGeom;
 use super::disk::DiskGeom;
 use super::mesh_attributes::MeshAttributes;
+use super::sdfgrid::SdfGeom;
 use super::sphere::SphereGeom;
 use super::triangle::TriangleGeom;
 use crate::math::sampling::{uniform_sphere, uniform_triangle};
@@ -38,6 +39,10 @@ pub enum ShapeGeom {
     /// Mitsuba's `linearcurve` or `bsplinecurve` (`curve.rs`): one BVH primitive per
     /// segment; `face` is the segment and `b1` the curve parameter of a hit on it.
     Curve(CurveGeom),
+    /// A signed distance function grid (`sdfgrid.rs`): one primitive per non-empty
+    /// voxel, its index the hit's `face`. Boxed: the enum keeps the size it has
+    /// without it.
+    Sdf(Box<SdfGeom>),
 }
 
 /// One shape of the scene.
@@ -142,6 +147,11 @@ impl Shape {
                     ns: n,
                 }
             }
+            // No flip_normals (Mitsuba's sdfgrid takes none); `face` is the voxel.
+            ShapeGeom::Sdf(g) => {
+                let (ng, ns) = g.normals(face, p_hint);
+                SurfacePoint { p: p_hint, ng, ns }
+            }
         }
     }
 
@@ -209,6 +219,8 @@ impl Shape {
             ShapeGeom::Disk(g) => g.uv(p),
             ShapeGeom::Cylinder(g) => g.uv(p),
             ShapeGeom::Curve(g) => g.uv(face as usize, b1, p),
+            // Mitsuba's sdfgrid emits no uv (zero).
+            ShapeGeom::Sdf(_) => Vec2::ZERO,
         }
     }
 
@@ -284,6 +296,8 @@ impl Shape {
             ShapeGeom::Disk(g) => g.dpdu(p),
             ShapeGeom::Cylinder(g) => g.dpdu(p),
             ShapeGeom::Curve(g) => g.dpduv(face as usize, b1, p).0,
+            // Zero, as Mitsuba's sdfgrid leaves it: the frame is `Frame::from_normal`.
+            ShapeGeom::Sdf(_) => Vec3::ZERO,
         }
     }
 
@@ -325,6 +339,7 @@ impl Shape {
             ShapeGeom::Disk(g) => g.dpdv(p),
             ShapeGeom::Cylinder(g) => g.dpdv(),
             ShapeGeom::Curve(g) => g.dpduv(face as usize, b1, p).1,
+            ShapeGeom::Sdf(_) => Vec3::ZERO,
         }
     }
 
@@ -338,6 +353,8 @@ impl Shape {
             ShapeGeom::Cylinder(g) => g.area() as f64,
             // Mitsuba defines no area for curves (they cannot emit).
             ShapeGeom::Curve(_) => f64::NAN,
+            // Mitsuba's sdfgrid reports 0 (and cannot emit).
+            ShapeGeom::Sdf(_) => 0.0,
         }
     }
 
@@ -356,6 +373,7 @@ impl Shape {
             ShapeGeom::Disk(g) => g.bounds(),
             ShapeGeom::Cylinder(g) => g.bounds(),
             ShapeGeom::Curve(g) => g.bounds(),
+            ShapeGeom::Sdf(g) => g.bounds(),
         }
     }
 }
@@ -395,7 +413,8 @@ impl AreaSampler {
             ShapeGeom::Sphere(..)
             | ShapeGeom::Disk(_)
             | ShapeGeom::Cylinder(_)
-            | ShapeGeom::Curve(_) => AreaSampler {
+            | ShapeGeom::Curve(_)
+            | ShapeGeom::Sdf(_) => AreaSampler {
                 cdf: Vec::new(),
                 tris: Vec::new(),
                 total_area: shape.area() as f32,
@@ -441,6 +460,7 @@ impl AreaSampler {
             ShapeGeom::Disk(g) => shape.surface(0, 0.0, 0.0, g.sample(u2)),
             ShapeGeom::Cylinder(g) => shape.surface(0, 0.0, 0.0, g.sample(u2)),
             ShapeGeom::Curve(_) => unreachable!("the scene parser refuses emitters on curves"),
+            ShapeGeom::Sdf(_) => unreachable!("an sdfgrid cannot emit: refused when loading"),
         }
     }
 }

@@ -60,6 +60,11 @@ impl SceneSphere {
                     let (a, b) = g.control_bounds();
                     (lo, hi) = (lo.min(a), hi.max(b));
                 }
+                // Mitsuba's sdfgrid box: the unit cube's 8 corners mapped to the world.
+                ShapeGeom::Sdf(g) => {
+                    let (a, b) = g.bounds();
+                    (lo, hi) = (lo.min(a), hi.max(b));
+                }
             }
         }
         if !(lo.x <= hi.x && lo.y <= hi.y && lo.z <= hi.z) {

@@ -479,6 +479,11 @@ fn hash_loaded_scene(h: &mut Sha256, scene: &Scene, overrides: &Overrides) {
                     h.update(s.to_le_bytes());
                 }
             }
+            ShapeGeom::Sdf(g) => {
+                h.update(format!("{:?}|{}", g.grid.res, g.smooth).as_bytes());
+                f32s(h, &g.to_world.as_mat4().to_cols_array());
+                f32s(h, &g.grid.values);
+            }
         }
     }
     for e in &scene.emitters {

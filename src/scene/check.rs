@@ -53,6 +53,7 @@ pub const SUPPORTED: &[(&str, &[&str])] = &[
             "ply",
             "obj",
             "serialized",
+            "sdfgrid",
             "shapegroup",
             "instance",
         ],

@@ -26,10 +26,12 @@ use glam::{DMat3, DMat4, DVec3, Mat3};
 /// The most triangles instances may add to one scene.
 pub const MAX_INSTANCED_TRIANGLES: usize = 20_000_000;
 
-/// The number of triangles a geometry holds (0 for analytic shapes).
+/// The number of primitives a geometry adds: its triangles, an SDF grid's non-empty
+/// voxels, 1 for the other analytic shapes.
 pub fn triangle_count(g: &ShapeGeom) -> usize {
     match g {
         ShapeGeom::Mesh { triangles, .. } => triangles.len(),
+        ShapeGeom::Sdf(g) => g.voxel_count(),
         _ => 1,
     }
 }
@@ -147,6 +149,14 @@ pub fn transformed(g: &ShapeGeom, m: &DMat4) -> Result<ShapeGeom, String> {
                 "a {} cannot be instanced (shapegroup): tstat supports curves at the top level only",
                 g.kind.name()
             ));
+        }
+        // The grid is shared; only its to_world changes (rotations are exact).
+        ShapeGeom::Sdf(g) => {
+            let g = g.transformed(m)?;
+            let (lo, hi) = g.bounds();
+            check_world_point(lo.as_dvec3())?;
+            check_world_point(hi.as_dvec3())?;
+            ShapeGeom::Sdf(Box::new(g))
         }
     })
 }

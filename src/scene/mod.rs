@@ -15,6 +15,7 @@ pub mod mesh;
 pub mod ply_attributes;
 pub mod projector;
 pub mod props;
+pub mod sdfgrid;
 pub mod serialized;
 pub mod shapes;
 pub mod spectrum;

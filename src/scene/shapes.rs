@@ -11,6 +11,7 @@
 //! | ply, obj | `filename` (relative to the scene file), `to_world`, `face_normals` (bool, false: smooth normals from the file, or angle-weighted ones computed as Mitsuba does), `flip_tex_coords` (bool: v -> 1 - v of the file's texture coordinates; true for obj, false for ply, as Mitsuba) |
 //! | linearcurve, bsplinecurve | `filename` (Mitsuba's curve file, [`super::curves`]), `to_world` (positions only: radii are not transformed); round linear or cubic B-spline tubes as Embree renders them for Mitsuba, back faces culled ([`crate::geometry::curve`]); no `flip_normals`, area emitters or media |
 //! | serialized | as ply (no `flip_tex_coords`: uv as stored), plus `shape_index` (integer, 0: which mesh of the file); see [`super::serialized`] |
+//! | sdfgrid | `filename` (a `.vol` grid), `normals` (`smooth` / `analytic`), `to_world`; no `flip_normals`, no emitter; see [`super::sdfgrid`] |
 //!
 //! Texture coordinates (`Shape::uv`) follow Mitsuba: rectangle (p + 1) / 2 in its local
 //! square; cube [0, 1]^2 on every face, oriented as Mitsuba's cube; sphere
@@ -315,6 +316,7 @@ pub fn parse_geometry(kind: &str, props: &mut Props) -> Result<ShapeGeom, SceneE
             })?;
             Ok(ShapeGeom::Curve(g))
         }
+        "sdfgrid" => super::sdfgrid::parse_sdfgrid(props, &to_world),
         "ply" | "obj" | "serialized" => {
             let name = props
                 .string("filename")?
@@ -376,7 +378,7 @@ pub fn parse_geometry(kind: &str, props: &mut Props) -> Result<ShapeGeom, SceneE
         }
         other => {
             Err(props.err(format!(
-                "unknown shape type '{other}' (supported: rectangle, cube, sphere, disk, cylinder, linearcurve, bsplinecurve, ply, obj, serialized, shapegroup, instance)"
+                "unknown shape type '{other}' (supported: rectangle, cube, sphere, disk, cylinder, linearcurve, bsplinecurve, ply, obj, serialized, sdfgrid, shapegroup, instance)"
             )))
         }
     }

@@ -1388,9 +1388,12 @@ fn parse_shape(
     let kind = ctx.required_attr(node, "type")?;
     let mut p = Props::parse(ctx, node)?;
     let geom = parse_geometry(&kind, &mut p)?;
-    // Mitsuba's curves read no `flip_normals` (the unknown-parameter check reports it).
+    // Mitsuba's curves and sdfgrid read no `flip_normals` (the unknown-parameter
+    // check reports it).
     let is_curve = matches!(geom, ShapeGeom::Curve(_));
-    let flip_normals = !is_curve && p.boolean_or("flip_normals", false)?;
+    let is_sdf = matches!(geom, ShapeGeom::Sdf(_));
+    let no_flip = is_curve || is_sdf;
+    let flip_normals = !no_flip && p.boolean_or("flip_normals", false)?;
     let mut bsdf = None;
     let mut emission = None;
     let (mut interior, mut exterior) = (None, None);
@@ -1477,6 +1480,13 @@ fn parse_shape(
     // Areas are summed from single-precision triangles, as the light sampler does.
     let area = shape.area() as f32;
     match emission {
+        Some((_, obj)) if is_sdf => {
+            return Err(ctx.err(
+                obj,
+                "an sdfgrid cannot be an emitter (Mitsuba 3's sdfgrid has no area to sample)",
+            ))
+        }
+        None if is_sdf => {}
         Some((_, obj)) if !(area > 0.0 && area.is_finite()) => {
             return Err(ctx.err(
                 obj,
