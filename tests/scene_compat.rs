@@ -856,3 +856,47 @@ fn an_emitter_without_a_bsdf_reflects_nothing_as_in_mitsuba() {
     let s = steady(&load(d, "p.xml").unwrap());
     assert!(s[(3 * 8 + 4) * 3] > 0.05, "{}", s[(3 * 8 + 4) * 3]);
 }
+
+#[test]
+fn an_included_files_defaults_hold_in_it_and_the_including_scene_wins() {
+    // Mitsuba adds an included file's <default>s to its parameters unless set already.
+    let d = tempfile::tempdir().unwrap();
+    let d = d.path();
+    write(d, "tri.ply", TRI_PLY);
+    write(
+        d,
+        "parts/integrator.xml",
+        r#"<scene version="3.0.0"><default name="depth" value="2"/>
+           <integrator type="transient_path"><integer name="max_depth" value="$depth"/></integrator></scene>"#,
+    );
+    let body = format!(r#"<include filename="parts/integrator.xml"/>{SHAPES}"#);
+    let head = HEAD.replace(
+        r#"<integrator type="transient_path"><integer name="max_depth" value="3"/></integrator>"#,
+        "",
+    );
+    let text = format!("{}{body}</scene>", head.replace("SENSOR", FOV));
+    write(d, "s.xml", &text);
+    assert_eq!(load(d, "s.xml").unwrap().integrator.max_depth, 2);
+    // The including scene's default wins over the included file's.
+    write(
+        d,
+        "t.xml",
+        &text.replace(
+            r#"<scene version="3.0.0">"#,
+            r#"<scene version="3.0.0"><default name="depth" value="5"/>"#,
+        ),
+    );
+    assert_eq!(load(d, "t.xml").unwrap().integrator.max_depth, 5);
+    // And -D over both.
+    let o = Overrides {
+        defaults: vec![("depth".into(), "4".into())],
+        ..Overrides::default()
+    };
+    assert_eq!(
+        Scene::load(&d.join("t.xml"), &o)
+            .unwrap()
+            .integrator
+            .max_depth,
+        4
+    );
+}

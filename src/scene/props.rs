@@ -124,7 +124,18 @@ impl<'a> Ctx<'a> {
     /// The context of an included file: its own text and lines, the same defaults and
     /// search folders.
     pub fn for_included_file(&self, file: &'a Path, text: &'a str) -> Ctx<'a> {
-        let child = Ctx::new(file, text, self.defaults);
+        self.for_included_file_with(file, text, self.defaults)
+    }
+
+    /// [`Self::for_included_file`] with the included file's own `defaults` (the
+    /// including scene's plus those the included file adds).
+    pub fn for_included_file_with(
+        &self,
+        file: &'a Path,
+        text: &'a str,
+        defaults: &'a HashMap<String, String>,
+    ) -> Ctx<'a> {
+        let child = Ctx::new(file, text, defaults);
         *child.search.borrow_mut() = self.search.borrow().clone();
         child.expanded.set(self.expanded.get());
         child

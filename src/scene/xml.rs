@@ -690,8 +690,10 @@ fn add_search_path(ctx: &Ctx, node: Node) -> Result<(), SceneError> {
 /// `<include filename="...">`: the top-level elements of another scene file, as if
 /// written here (Mitsuba merges the included `<scene>`'s children). The file is looked
 /// up next to the including file first, then as any other file; its `<path>`s stay in
-/// effect afterwards, as with Mitsuba's global file resolver; `$name` defaults are the
-/// including scene's.
+/// effect afterwards, as with Mitsuba's global file resolver. `$name` defaults are the
+/// including scene's, plus the included file's own `<default>`s for names not set yet
+/// (Mitsuba adds them to its parameter list, so the command line and the including
+/// scene win); they hold in the included file and the files it includes.
 fn include(ctx: &Ctx, node: Node, o: &mut Objects, depth: usize) -> Result<(), SceneError> {
     let name = ctx.required_attr(node, "filename")?;
     let path = ctx.resolve_near(&name);
@@ -739,7 +741,25 @@ fn include(ctx: &Ctx, node: Node, o: &mut Objects, depth: usize) -> Result<(), S
     };
     let doc = roxmltree::Document::parse_with_options(&text, options)
         .map_err(|e| SceneError::new(&path, e.pos().row, "xml", format!("malformed XML: {e}")))?;
-    let child = ctx.for_included_file(&path, &text);
+    let mut defaults = ctx.defaults.clone();
+    for d in doc
+        .root_element()
+        .children()
+        .filter(|n| n.has_tag_name("default"))
+    {
+        let own = Ctx::new(&path, &text, ctx.defaults);
+        let name = own.required_attr(d, "name")?;
+        let raw = d.attribute("value").unwrap_or_default();
+        if raw.contains('$') {
+            return Err(own.err(
+                d,
+                format!("the value '{raw}' refers to a default; a <default> value must be literal"),
+            ));
+        }
+        let value = own.required_attr(d, "value")?;
+        defaults.entry(name).or_insert(value);
+    }
+    let child = ctx.for_included_file_with(&path, &text, &defaults);
     if let Some(deep) = limits::too_deep(&doc) {
         return Err(child.err(
             deep,
