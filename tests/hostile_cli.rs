@@ -178,6 +178,8 @@ const CASES: &[Case] = &[
     (&[R, "s.xml", "--out", "n.tstats", "--threads", "100000"], Ours, "--threads 100000: must be at most"),
     (&[R, "s.xml", "--out", "n.tstats", "--seed", "-1"], Ours, "--seed -1: must be between 0 and"),
     (&[R, "s.xml", "--out", "n.tstats", "--max-depth", "-5"], Ours, "--max-depth -5: must be at least -1"),
+    (&[R, "s.xml", "--out", "n.tstats", "-a", "no_such_folder"], Ours, "-a no_such_folder: not a folder"),
+    (&[R, "s.xml", "--out", "n.tstats", "-a", "s.xml"], Ours, "-a s.xml: not a folder"),
     (&[R, "s.xml", "--out", "n.tstats", "--unit-m", "-1"], Ours, "--unit-m -1: must be a positive"),
     (&[R, "s.xml", "--out", "n.tstats", "--unit-m", "nan"], Ours, "--unit-m NaN: must be a positive"),
     (&[R, "s.xml", "--out", "n.tstats", "--start-opl", "inf"], Ours, "--start-opl inf: must be a finite"),
