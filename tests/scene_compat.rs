@@ -899,4 +899,11 @@ fn an_included_files_defaults_hold_in_it_and_the_including_scene_wins() {
             .max_depth,
         4
     );
+    // An included default must be literal, as at the top level.
+    write(
+        d,
+        "parts/integrator.xml",
+        r#"<scene version="3.0.0"><default name="depth" value="$other"/></scene>"#,
+    );
+    assert!(error(d, "s.xml").contains("a <default> value must be literal"));
 }

@@ -69,7 +69,6 @@ pub fn group(prefix: &str, names: &[String], reserved: &[&str]) -> Vec<Descripto
     let mut cur_prefix = String::new();
     let mut cur_postfix = 0usize;
     let mut level = 0usize;
-    let mut cur_fields: Vec<usize> = Vec::new();
     let mut reading = false;
     // Mitsuba takes the channels by name (`PREFIX_` + the family's first `level`
     // suffixes) when it flushes.
@@ -77,8 +76,7 @@ pub fn group(prefix: &str, names: &[String], reserved: &[&str]) -> Vec<Descripto
                  seen: &mut Vec<String>,
                  cur_prefix: &str,
                  cur_postfix: usize,
-                 level: usize,
-                 _: &[usize]| {
+                 level: usize| {
         if level != 1 && level != 3 {
             return;
         }
@@ -104,51 +102,20 @@ pub fn group(prefix: &str, names: &[String], reserved: &[&str]) -> Vec<Descripto
             i += 1;
             continue;
         }
-        let Some(us) = name.rfind('_') else {
+        // No `_`, or a suffix longer than one character: not part of a family.
+        let Some(us) = name.rfind('_').filter(|&us| name.len() - us - 1 == 1) else {
             if reading {
-                flush(
-                    &mut out,
-                    &mut seen,
-                    &cur_prefix,
-                    cur_postfix,
-                    level,
-                    &cur_fields,
-                );
+                flush(&mut out, &mut seen, &cur_prefix, cur_postfix, level);
                 (cur_prefix, cur_postfix, level, reading) = (String::new(), 0, 0, false);
-                cur_fields.clear();
             }
             i += 1;
             continue;
         };
         let postfix = &name[us + 1..];
-        if postfix.len() != 1 {
-            if reading {
-                flush(
-                    &mut out,
-                    &mut seen,
-                    &cur_prefix,
-                    cur_postfix,
-                    level,
-                    &cur_fields,
-                );
-                (cur_prefix, cur_postfix, level, reading) = (String::new(), 0, 0, false);
-                cur_fields.clear();
-            }
-            i += 1;
-            continue;
-        }
         let pre = name[..us].to_string();
         if reading && pre != cur_prefix {
-            flush(
-                &mut out,
-                &mut seen,
-                &cur_prefix,
-                cur_postfix,
-                level,
-                &cur_fields,
-            );
+            flush(&mut out, &mut seen, &cur_prefix, cur_postfix, level);
             (cur_prefix, cur_postfix, level, reading) = (String::new(), 0, 0, false);
-            cur_fields.clear();
         }
         if !reading && seen.contains(&pre) {
             while i < n && names[i].starts_with(&pre) {
@@ -171,7 +138,6 @@ pub fn group(prefix: &str, names: &[String], reserved: &[&str]) -> Vec<Descripto
             cur_prefix = pre;
         } else if level >= 4 || ch != POSTFIXES[level][cur_postfix] {
             (cur_prefix, cur_postfix, level, reading) = (String::new(), 0, 0, false);
-            cur_fields.clear();
             while i < n && names[i].starts_with(&pre) {
                 i += 1;
             }
@@ -180,18 +146,10 @@ pub fn group(prefix: &str, names: &[String], reserved: &[&str]) -> Vec<Descripto
             }
         }
         level += 1;
-        cur_fields.push(i);
         i += 1;
     }
     if reading {
-        flush(
-            &mut out,
-            &mut seen,
-            &cur_prefix,
-            cur_postfix,
-            level,
-            &cur_fields,
-        );
+        flush(&mut out, &mut seen, &cur_prefix, cur_postfix, level);
     }
     out
 }
