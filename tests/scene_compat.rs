@@ -907,3 +907,84 @@ fn an_included_files_defaults_hold_in_it_and_the_including_scene_wins() {
     );
     assert!(error(d, "s.xml").contains("a <default> value must be literal"));
 }
+
+#[test]
+fn max_depth_defaults_to_mitransients_six_for_both_integrators() {
+    // mitransient 1.3.1's integrators take Mitsuba's `ad` default, props.get('max_depth', 6).
+    let d = tempfile::tempdir().unwrap();
+    let d = d.path();
+    write(d, "tri.ply", TRI_PLY);
+    for kind in ["transient_path", "transient_prbvolpath"] {
+        let head = HEAD.replace(
+            r#"<integrator type="transient_path"><integer name="max_depth" value="3"/></integrator>"#,
+            &format!(r#"<integrator type="{kind}"/>"#),
+        );
+        write(
+            d,
+            "s.xml",
+            &format!("{}{SHAPES}</scene>", head.replace("SENSOR", FOV)),
+        );
+        let scene = load(d, "s.xml").unwrap();
+        assert_eq!(scene.integrator.max_depth, 6, "{kind}");
+        assert_eq!(scene.integrator.rr_depth, 5, "{kind}");
+    }
+    // Without an <integrator>, Mitsuba's default `path`: unbounded.
+    let head = HEAD.replace(
+        r#"<integrator type="transient_path"><integer name="max_depth" value="3"/></integrator>"#,
+        "",
+    );
+    write(
+        d,
+        "s.xml",
+        &format!("{}{SHAPES}</scene>", head.replace("SENSOR", FOV)),
+    );
+    assert_eq!(load(d, "s.xml").unwrap().integrator.max_depth, -1);
+}
+
+#[test]
+fn a_default_declared_in_an_included_file_is_visible_after_the_include() {
+    // mitsuba-data's participating-media tests: include/preamble.xml declares `res`
+    // and `spp`, the including scene's film and sampler use them.
+    let d = tempfile::tempdir().unwrap();
+    let d = d.path();
+    write(d, "tri.ply", TRI_PLY);
+    write(
+        d,
+        "include/preamble.xml",
+        r#"<scene version="3.0.0"><default name="res" value="12"/><default name="spp" value="3"/></scene>"#,
+    );
+    let head = HEAD
+        .replace(
+            r#"<integer name="width" value="8"/><integer name="height" value="6"/>"#,
+            r#"<integer name="width" value="$res"/><integer name="height" value="$res"/>"#,
+        )
+        .replace(
+            r#"<integer name="sample_count" value="4"/>"#,
+            r#"<integer name="sample_count" value="$spp"/>"#,
+        )
+        .replace(
+            r#"<scene version="3.0.0">"#,
+            r#"<scene version="3.0.0"><include filename="include/preamble.xml"/>"#,
+        );
+    write(
+        d,
+        "s.xml",
+        &format!("{}{SHAPES}</scene>", head.replace("SENSOR", FOV)),
+    );
+    let scene = load(d, "s.xml").unwrap();
+    assert_eq!(
+        (scene.film.width, scene.film.height, scene.spp),
+        (12, 12, 3)
+    );
+    // The scene's own default still wins.
+    write(
+        d,
+        "t.xml",
+        &format!("{}{SHAPES}</scene>", head.replace("SENSOR", FOV)).replacen(
+            r#"<scene version="3.0.0">"#,
+            r#"<scene version="3.0.0"><default name="res" value="10"/>"#,
+            1,
+        ),
+    );
+    assert_eq!(load(d, "t.xml").unwrap().film.width, 10);
+}

@@ -37,7 +37,7 @@ use std::path::{Path, PathBuf};
 ///
 /// | parameter | type | default | meaning |
 /// |-----------|------|---------|---------|
-/// | max_depth | integer | -1 | longest path in segments; -1 unbounded, 1 = directly visible emitters only |
+/// | max_depth | integer | 6 (mitransient 1.3.1's default; -1 without an `<integrator>`) | longest path in segments; -1 unbounded, 1 = directly visible emitters only |
 /// | rr_depth | integer | 5 | depth from which Russian roulette runs |
 /// | hide_emitters | boolean | false | directly visible emitters render black |
 /// | camera_unwarp | boolean | false | drop the camera segment from the path's OPL |

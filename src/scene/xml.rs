@@ -128,6 +128,17 @@ pub fn load(path: &Path, overrides: &Overrides) -> Result<Scene, SceneError> {
             defaults.insert(name, value);
         }
     }
+    // Mitsuba adds an included file's <default>s to the scene's parameters, so they
+    // hold after the <include> too (mitsuba-data's media tests declare `res` and
+    // `spp` in include/preamble.xml): the command line and the file's own win.
+    let mut from_includes = Vec::new();
+    {
+        let ctx = Ctx::new(path, &text, &defaults).with_search_paths(&overrides.search_paths);
+        included_defaults(&ctx, root, 0, &mut 0, &mut from_includes);
+    }
+    for (name, value) in from_includes {
+        defaults.entry(name).or_insert(value);
+    }
     let ctx = Ctx::new(path, &text, &defaults).with_search_paths(&overrides.search_paths);
     if root.tag_name().name() != "scene" {
         return Err(ctx.err(root, "the root element must be <scene>"));
@@ -687,13 +698,78 @@ fn add_search_path(ctx: &Ctx, node: Node) -> Result<(), SceneError> {
     Ok(())
 }
 
+/// At most this many files are read when gathering included `<default>`s.
+const MAX_INCLUDED_FILES: usize = 4096;
+
+/// The literal `<default>`s of the files `root` includes, recursively, in document
+/// order (a file's own before those of the files it includes). Files that cannot be
+/// read or parsed are skipped here: the walk reports them with their context.
+fn included_defaults(
+    ctx: &Ctx,
+    root: Node,
+    depth: usize,
+    files: &mut usize,
+    out: &mut Vec<(String, String)>,
+) {
+    if depth >= MAX_INCLUDE_DEPTH {
+        return;
+    }
+    for node in root.children().filter(|n| n.has_tag_name("include")) {
+        *files += 1;
+        if *files > MAX_INCLUDED_FILES {
+            return;
+        }
+        let Ok(Some(name)) = ctx.attr(node, "filename") else {
+            continue;
+        };
+        let path = ctx.resolve_near(&name);
+        let Ok(bytes) = crate::io::read_regular(&path, crate::io::MAX_SCENE_BYTES) else {
+            continue;
+        };
+        let Ok(text) = String::from_utf8(bytes) else {
+            continue;
+        };
+        if limits::prescan(&text).is_err() {
+            continue;
+        }
+        let options = roxmltree::ParsingOptions {
+            nodes_limit: limits::MAX_NODES,
+            ..Default::default()
+        };
+        let Ok(doc) = roxmltree::Document::parse_with_options(&text, options) else {
+            continue;
+        };
+        if limits::too_deep(&doc).is_some() {
+            continue;
+        }
+        let mut defaults = ctx.defaults.clone();
+        for d in doc
+            .root_element()
+            .children()
+            .filter(|n| n.has_tag_name("default"))
+        {
+            if let (Some(name), Some(value)) = (d.attribute("name"), d.attribute("value")) {
+                if !value.contains('$') {
+                    out.push((name.to_string(), value.to_string()));
+                    defaults
+                        .entry(name.to_string())
+                        .or_insert(value.to_string());
+                }
+            }
+        }
+        let child = ctx.for_included_file_with(&path, &text, &defaults);
+        included_defaults(&child, doc.root_element(), depth + 1, files, out);
+    }
+}
+
 /// `<include filename="...">`: the top-level elements of another scene file, as if
 /// written here (Mitsuba merges the included `<scene>`'s children). The file is looked
 /// up next to the including file first, then as any other file; its `<path>`s stay in
 /// effect afterwards, as with Mitsuba's global file resolver. `$name` defaults are the
 /// including scene's, plus the included file's own `<default>`s for names not set yet
 /// (Mitsuba adds them to its parameter list, so the command line and the including
-/// scene win); they hold in the included file and the files it includes.
+/// scene win); they hold in the included file, the files it includes and, gathered
+/// before the walk by [`included_defaults`], in the including scene too.
 fn include(ctx: &Ctx, node: Node, o: &mut Objects, depth: usize) -> Result<(), SceneError> {
     let name = ctx.required_attr(node, "filename")?;
     let path = ctx.resolve_near(&name);
@@ -782,6 +858,9 @@ fn include(ctx: &Ctx, node: Node, o: &mut Objects, depth: usize) -> Result<(), S
 /// 8 stddev + 1 bins.
 const MAX_STDDEV_BINS: f64 = 64.0;
 
+/// `max_depth` of a `transient_path` / `transient_prbvolpath` that does not set it.
+pub const MITRANSIENT_DEFAULT_MAX_DEPTH: i64 = 6;
+
 fn parse_integrator(ctx: &Ctx, node: Node) -> Result<IntegratorSettings, SceneError> {
     let kind = ctx.required_attr(node, "type")?;
     if kind != "transient_path" && kind != "transient_prbvolpath" {
@@ -792,7 +871,12 @@ fn parse_integrator(ctx: &Ctx, node: Node) -> Result<IntegratorSettings, SceneEr
     }
     let mut p = Props::parse(ctx, node)?;
     let d = IntegratorSettings::default();
-    let max_depth = p.integer("max_depth")?.unwrap_or(d.max_depth as i64);
+    // mitransient 1.3.1's integrators take Mitsuba's `ad` integrators' default,
+    // `props.get('max_depth', 6)`, for both names (a scene without an <integrator>
+    // keeps -1, as Mitsuba's default `path`).
+    let max_depth = p
+        .integer("max_depth")?
+        .unwrap_or(MITRANSIENT_DEFAULT_MAX_DEPTH);
     if max_depth < -1 || max_depth > i32::MAX as i64 {
         return Err(p.err_at(
             "max_depth",

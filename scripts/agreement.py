@@ -1,0 +1,256 @@
+#!/usr/bin/env python3
+"""The standing agreement suite: tstat against mitransient 1.3.1 on every scene both load.
+
+Scenes: the bundled ones (scenes/*.xml) and every public scene of ../shared/wild-scenes
+(the list of scripts/wild_scenes.py), or the files given on the command line. Each is
+rendered small (a copy with the film WIDTH px wide, as scripts/agree_wild.py makes it):
+mitransient at seeds 1 and 2 (its seed-to-seed spread is the yardstick), tstat at seed 1.
+Per scene (columns of docs/results/agreement.md):
+
+- steady mean ratio tstat / mitransient seed 1, per channel, and mitransient seed 2 / 1;
+- steady 8x8-pixel blocks: largest relative difference, tstat and mitransient seed 2
+  against seed 1 (blocks above 1% of the brightest);
+- space-time blocks (16 x 16 px x 5 bins): 95th percentile of the relative difference;
+- the share of the steady energy each renderer's transient holds.
+
+A row is within the yardstick when every tstat column is within
+max(1.5 x mitransient's own column, floor): steady ratio |r - 1| <= max(3 |r2 - 1|, 0.005),
+block max <= max(1.5 x spread, 0.05), p95 <= max(1.5 x spread, 0.05), and the two
+transient/steady shares within 0.01. A row outside it must carry an explanation
+(EXPLAINED below: a scene-name pattern, the reason, and the test that shows which
+renderer is right); the suite exits non-zero if any row is neither.
+
+Results are cached per scene in a JSON file beside the report (--cache), so an
+interrupted run resumes; --fresh starts over.
+
+    python3 scripts/agreement.py                      # everything, about an hour on 2 cores
+    python3 scripts/agreement.py scenes/cbox.xml      # some scenes (cache kept)
+    python3 scripts/agreement.py --report-only        # rewrite the Markdown from the cache
+
+Needs mitransient 1.3.1 (pip install mitsuba==3.9.1 mitransient==1.3.1; apt-get install
+libllvm19). Not part of CI (a clone has no ../shared, and CI has no mitransient).
+"""
+import argparse
+import json
+import os
+import re
+import subprocess
+import sys
+import tempfile
+import time
+
+import numpy as np
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.dirname(HERE)
+sys.path.insert(0, HERE)
+import agree_wild  # noqa: E402
+import wild_scenes  # noqa: E402
+
+# Rows outside the yardstick, with the reason and the test that decides who is right.
+# (pattern on the scene's name, explanation, test)
+EXPLAINED = [
+    (r"angular",
+     "mitransient 1.3.1's `angulararea` divides its light samples by an extra dist^2",
+     "tests/infinite_emitters.rs / README emitter table (angular_area.rs unit tests: "
+     "light samples and hits agree under MIS)"),
+    (r"(envmap|constant|sky|_env)",
+     "mitransient 1.3.1 does not time light samples of infinitely distant emitters (its "
+     "transient holds only part of the steady energy); the steady images agree",
+     "tests/infinite_emitters.rs"),
+]
+
+
+def scene_list(args):
+    if args.scenes:
+        return [os.path.abspath(s) for s in args.scenes]
+    bundled = sorted(os.path.join(ROOT, "scenes", f) for f in os.listdir(os.path.join(ROOT, "scenes"))
+                     if f.endswith(".xml"))
+    wild = wild_scenes.scenes(args.wild) if os.path.isdir(args.wild) else []
+    return bundled + wild
+
+
+def name_of(path, wild):
+    for base, pre in ((os.path.join(ROOT, "scenes"), "scenes/"), (wild, "")):
+        r = os.path.relpath(path, base)
+        if not r.startswith(".."):
+            return pre + r
+    return path
+
+
+def measure(path, args, tmp):
+    """One scene's row (a dict), or {'skip': reason}."""
+    search = list(args.search)
+    m = re.search(r"^(.*mitsuba-renderer_mitsuba-data)" + re.escape(os.sep), path)
+    if m and os.path.isdir(os.path.join(m.group(1), "common")):
+        search.append(os.path.join(m.group(1), "common"))
+    copy, needed = agree_wild.small_copy(path, args.width, tmp)
+    if copy is None:
+        return {"skip": "film in an included file"}
+    chk = [args.tstat, "check", copy] + sum((["-a", f] for f in search), [])
+    for k, v in needed.items():
+        chk += ["-D", f"{k}={v}"]
+    r = subprocess.run(chk, capture_output=True, text=True)
+    if r.returncode:
+        return {"skip": "tstat: " + wild_scenes.first_error(r.stderr)[:160]}
+    ms = []
+    t0 = time.time()
+    for seed in (1, 2):
+        try:
+            r = subprocess.run([sys.executable, "-c", agree_wild.MIT, copy, str(args.spp), str(seed),
+                                json.dumps(needed), os.path.join(tmp, f"m{seed}"), json.dumps(search)],
+                               capture_output=True, text=True, timeout=args.timeout)
+        except subprocess.TimeoutExpired:
+            return {"skip": f"mitransient: timed out after {args.timeout} s"}
+        if r.returncode:
+            last = (r.stderr.strip().splitlines() or ["(no message)"])[-1]
+            return {"skip": "mitransient: " + last[:160]}
+        ms.append((np.load(os.path.join(tmp, f"m{seed}_steady.npy"))[..., :3],
+                   np.load(os.path.join(tmp, f"m{seed}_transient.npy"))[..., :3]))
+    t_mit = time.time() - t0
+    out = os.path.join(tmp, "t.tstats")
+    cmd = [args.tstat, "render", copy, "--spp", str(args.spp), "--seed", "1", "--out", out, "--force"]
+    for k, v in needed.items():
+        cmd += ["-D", f"{k}={v}"]
+    for f in search:
+        cmd += ["-a", f]
+    t0 = time.time()
+    r = subprocess.run(cmd, capture_output=True, text=True, timeout=args.timeout)
+    if r.returncode:
+        return {"skip": "tstat render: " + wild_scenes.first_error(r.stderr)[:160]}
+    t_tstat = time.time() - t0
+    spp = json.load(open(os.path.join(out, "manifest.json")))["spp"]
+    ts, tt = np.load(os.path.join(out, "steady.npy")), np.load(os.path.join(out, "x1.npy")) / spp
+    (m1s, m1t), (m2s, m2t) = ms
+    if ts.shape != m1s.shape or tt.shape != m1t.shape:
+        return {"skip": f"shapes differ: tstat {ts.shape} {tt.shape}, mitransient {m1s.shape} {m1t.shape}"}
+    den = np.maximum(m1s.mean((0, 1)), 1e-12)
+    sb, mb1, mb2 = (agree_wild.blocks(x, 8, 8) for x in (ts, m1s, m2s))
+    fl = mb1.max() * 0.01
+    st, mt1, mt2 = (agree_wild.blocks(x, 16, 16, 5) for x in (tt, m1t, m2t))
+    ft = mt1.max() * 0.01
+    return {
+        "ratio": (ts.mean((0, 1)) / den).tolist(),
+        "ratio_mit": (m2s.mean((0, 1)) / den).tolist(),
+        "block": float(agree_wild.rel(sb, mb1, fl).max()),
+        "block_mit": float(agree_wild.rel(mb2, mb1, fl).max()),
+        "p95": float(np.percentile(agree_wild.rel(st, mt1, ft), 95)),
+        "p95_mit": float(np.percentile(agree_wild.rel(mt2, mt1, ft), 95)),
+        "energy": float(tt.sum() / max(ts.sum(), 1e-12)),
+        "energy_mit": float(m1t.sum() / max(m1s.sum(), 1e-12)),
+        "seconds_mit": t_mit, "seconds_tstat": t_tstat,
+        "black": bool(m1s.max() <= 0 and ts.max() <= 0),
+    }
+
+
+def verdict(name, row):
+    """('within', '') or ('explained', text) or ('OPEN', what is outside)."""
+    bad = []
+    dev = max(abs(r - 1) for r in row["ratio"])
+    dev_m = max(abs(r - 1) for r in row["ratio_mit"])
+    if dev > max(3 * dev_m, 0.005):
+        bad.append(f"steady ratio off by {dev:.3f} (mit spread {dev_m:.3f})")
+    if row["block"] > max(1.5 * row["block_mit"], 0.05):
+        bad.append("block max")
+    if row["p95"] > max(1.5 * row["p95_mit"], 0.05):
+        bad.append("space-time p95")
+    if abs(row["energy"] - row["energy_mit"]) > 0.01:
+        bad.append("transient share")
+    if not bad:
+        return "within", ""
+    for pat, why, test in EXPLAINED:
+        if re.search(pat, name):
+            return "explained", f"{why} ({test})"
+    return "OPEN", "; ".join(bad)
+
+
+def report(results, args, names_in_order):
+    rows, skipped = [], []
+    counts = {"within": 0, "explained": 0, "OPEN": 0}
+    for name in names_in_order:
+        row = results.get(name)
+        if row is None:
+            continue
+        if "skip" in row:
+            skipped.append((name, row["skip"]))
+            continue
+        v, why = verdict(name, row)
+        counts[v] += 1
+        r, rm = row["ratio"], row["ratio_mit"]
+        rows.append(
+            f"| {name} | {r[0]:.4f} / {r[1]:.4f} / {r[2]:.4f} | {max(abs(x - 1) for x in rm):.4f} | "
+            f"{row['block']:.3f} / {row['block_mit']:.3f} | {row['p95']:.3f} / {row['p95_mit']:.3f} | "
+            f"{row['energy']:.3f} / {row['energy_mit']:.3f} | {v}{': ' + why if why else ''} |")
+    lines = [
+        "# Agreement with mitransient 1.3.1 (standing suite)",
+        "",
+        f"Written by `python3 scripts/agreement.py` ({args.width} px wide, {args.spp} spp; "
+        "mitransient 1.3.1 / Mitsuba 3.9.1 llvm_ad_rgb at seeds 1 and 2, tstat at seed 1). "
+        "Columns: steady mean ratio tstat / mitransient seed 1 (R / G / B); mitransient's own "
+        "steady spread (largest |seed 2 / seed 1 - 1|); largest relative difference of 8x8-pixel "
+        "steady blocks and 95th percentile over 16x16 px x 5 bin space-time blocks, tstat / "
+        "mitransient seed 2 (both against seed 1); share of the steady energy in the transient, "
+        "tstat / mitransient. The verdict rule is in the script's docstring.",
+        "",
+        f"**{counts['within']} within mitransient's seed spread, {counts['explained']} explained, "
+        f"{counts['OPEN']} open; {len(skipped)} not rendered by both.**",
+        "",
+        "| scene | steady ratio (R / G / B) | mit spread | 8x8 block max | space-time p95 | transient / steady | verdict |",
+        "|---|---|---|---|---|---|---|",
+        *rows,
+        "",
+        "## Not rendered by both",
+        "",
+        "| scene | why |",
+        "|---|---|",
+        *[f"| {n} | {w} |" for n, w in skipped],
+        "",
+    ]
+    with open(args.out + ".tmp", "w") as f:
+        f.write("\n".join(lines))
+    os.replace(args.out + ".tmp", args.out)
+    return counts
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("scenes", nargs="*")
+    ap.add_argument("--spp", type=int, default=256)
+    ap.add_argument("--width", type=int, default=32)
+    ap.add_argument("--timeout", type=float, default=600)
+    ap.add_argument("-a", dest="search", action="append", default=[])
+    ap.add_argument("--wild", default=os.path.join(ROOT, "..", "shared", "wild-scenes"))
+    ap.add_argument("--tstat", default=os.path.join(ROOT, "target", "release", "tstat"))
+    ap.add_argument("--out", default=os.path.join(ROOT, "docs", "results", "agreement.md"))
+    ap.add_argument("--cache")
+    ap.add_argument("--fresh", action="store_true")
+    ap.add_argument("--report-only", action="store_true")
+    args = ap.parse_args()
+    args.wild = os.path.abspath(args.wild)
+    cache = args.cache or os.path.splitext(args.out)[0] + ".json"
+    results = {} if args.fresh or not os.path.exists(cache) else json.load(open(cache))
+    files = scene_list(args)
+    names = [name_of(f, args.wild) for f in files]
+    if not args.report_only:
+        for f, name in zip(files, names):
+            if name in results and not args.scenes:
+                continue
+            with tempfile.TemporaryDirectory() as tmp:
+                try:
+                    results[name] = measure(f, args, tmp)
+                except subprocess.TimeoutExpired:
+                    results[name] = {"skip": f"tstat: timed out after {args.timeout} s"}
+            print(name, json.dumps(results[name]), flush=True)
+            with open(cache + ".tmp", "w") as fh:
+                json.dump(results, fh, indent=1, sort_keys=True)
+            os.replace(cache + ".tmp", cache)
+    order = names if args.scenes else sorted(results, key=lambda n: (not n.startswith("scenes/"), n))
+    if args.scenes:
+        order = [n for n in sorted(results, key=lambda n: (not n.startswith("scenes/"), n))]
+    counts = report(results, args, order)
+    print(f"{counts['within']} within, {counts['explained']} explained, {counts['OPEN']} open -> {args.out}")
+    sys.exit(1 if counts["OPEN"] else 0)
+
+
+if __name__ == "__main__":
+    main()
