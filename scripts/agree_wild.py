@@ -44,6 +44,26 @@ if libs: os.environ.setdefault('DRJIT_LIBLLVM_PATH', libs[0])
 import mitsuba as mi
 mi.set_variant('llvm_ad_rgb')
 import mitransient, numpy as np, json
+if os.environ.get('TSTAT_MIT_NEE_FIX'):
+    # Diagnostic only (docs/results/agreement_media.md): mitransient 1.3.1's
+    # transient_prbvolpath restarts a shadow ray past a null surface with Mitsuba's
+    # offset (si.spawn_ray) but keeps the remaining distance measured from the surface,
+    # so the ray ends past the light sample, on the emitter's own surface, and is
+    # blocked. Run with the restart moved 2e-5 along the ray instead: the source is
+    # patched in a temporary copy (dr.syntax re-reads it from its file).
+    import importlib.util, tempfile
+    import mitransient.integrators.transient_prbvolpath as tp
+    src = open(tp.__file__).read()
+    old = "ray[active_surface] = dr.detach(si.spawn_ray(mi.Vector3f(ray.d)))"
+    assert src.count(old) == 1, "mitransient's source changed: no NEE fix applied"
+    src = src.replace(old, "ray[active_surface] = dr.detach(mi.Ray3f(si.p + 2e-5 * ray.d, "
+                           "mi.Vector3f(ray.d), ray.time, ray.wavelengths))")
+    fn = os.path.join(tempfile.mkdtemp(), "transient_prbvolpath_nee_fix.py")
+    open(fn, "w").write(src)
+    spec = importlib.util.spec_from_file_location(tp.__package__ + ".transient_prbvolpath_nee_fix", fn)
+    mod = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = mod
+    spec.loader.exec_module(mod)
 kw = json.loads(sys.argv[4])
 for folder in json.loads(sys.argv[6]):
     mi.Thread.thread().file_resolver().append(folder)

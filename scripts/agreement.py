@@ -14,9 +14,10 @@ Per scene (columns of docs/results/agreement.md):
 - the share of the steady energy each renderer's transient holds.
 
 A row is within the yardstick when every tstat column is within
-max(1.5 x mitransient's own column, floor): steady ratio |r - 1| <= max(3 |r2 - 1|, 0.005),
-block max <= max(1.5 x spread, 0.05), p95 <= max(1.5 x spread, 0.05), and the two
-transient/steady shares within 0.01. A row outside it must carry an explanation
+max(2 x mitransient's own column, floor): steady ratio |r - 1| <= max(3 |r2 - 1|, 0.005),
+block max <= max(2 x spread, 0.05), p95 <= max(2 x spread, 0.05), and the two
+transient/steady shares within 0.01 (tstat at one seed against mitransient at one seed
+holds the noise of both; the spread holds mitransient's twice). A row outside it must carry an explanation
 (EXPLAINED below: a scene-name pattern, the reason, and the test that shows which
 renderer is right); the suite exits non-zero if any row is neither.
 
@@ -150,9 +151,9 @@ def verdict(name, row):
     dev_m = max(abs(r - 1) for r in row["ratio_mit"])
     if dev > max(3 * dev_m, 0.005):
         bad.append(f"steady ratio off by {dev:.3f} (mit spread {dev_m:.3f})")
-    if row["block"] > max(1.5 * row["block_mit"], 0.05):
+    if row["block"] > max(2 * row["block_mit"], 0.05):
         bad.append("block max")
-    if row["p95"] > max(1.5 * row["p95_mit"], 0.05):
+    if row["p95"] > max(2 * row["p95_mit"], 0.05):
         bad.append("space-time p95")
     if abs(row["energy"] - row["energy_mit"]) > 0.01:
         bad.append("transient share")
@@ -215,7 +216,7 @@ def report(results, args, names_in_order):
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("scenes", nargs="*")
-    ap.add_argument("--spp", type=int, default=256)
+    ap.add_argument("--spp", type=int, default=1024)
     ap.add_argument("--width", type=int, default=32)
     ap.add_argument("--timeout", type=float, default=600)
     ap.add_argument("-a", dest="search", action="append", default=[])
