@@ -126,9 +126,12 @@ def measure(path, args, tmp):
     if ts.shape != m1s.shape or tt.shape != m1t.shape:
         return {"skip": f"shapes differ: tstat {ts.shape} {tt.shape}, mitransient {m1s.shape} {m1t.shape}"}
     den = np.maximum(m1s.mean((0, 1)), 1e-12)
-    sb, mb1, mb2 = (agree_wild.blocks(x, 8, 8) for x in (ts, m1s, m2s))
+    # Films smaller than a block (e.g. 32 x 6 px) use the whole height or width.
+    h, w = ts.shape[:2]
+    b8, b16 = (min(8, h), min(8, w)), (min(16, h), min(16, w))
+    sb, mb1, mb2 = (agree_wild.blocks(x, *b8) for x in (ts, m1s, m2s))
     fl = mb1.max() * 0.01
-    st, mt1, mt2 = (agree_wild.blocks(x, 16, 16, 5) for x in (tt, m1t, m2t))
+    st, mt1, mt2 = (agree_wild.blocks(x, *b16, min(5, tt.shape[2])) for x in (tt, m1t, m2t))
     ft = mt1.max() * 0.01
     return {
         "ratio": (ts.mean((0, 1)) / den).tolist(),
@@ -241,6 +244,8 @@ def main():
                     results[name] = measure(f, args, tmp)
                 except subprocess.TimeoutExpired:
                     results[name] = {"skip": f"tstat: timed out after {args.timeout} s"}
+                except Exception as e:  # a broken row must not stop the suite
+                    results[name] = {"skip": f"suite error: {type(e).__name__}: {e}"[:200]}
             print(name, json.dumps(results[name]), flush=True)
             with open(cache + ".tmp", "w") as fh:
                 json.dump(results, fh, indent=1, sort_keys=True)

@@ -548,3 +548,59 @@ fn a_constant_environment_beyond_the_fog() {
         4,
     );
 }
+
+/// The absorbing slab of the surface test: the single-scattering slab's box with
+/// albedo 0 (light reaches the floor only directly, attenuated).
+const ABSORBING_SLAB: &str = r#"
+  <medium type="homogeneous" id="fog">
+    <float name="sigma_t" value="0.8"/>
+    <float name="albedo" value="0"/>
+    <phase type="isotropic"/>
+  </medium>
+  <shape type="cube">
+    <transform name="to_world"><scale x="1" y="0.5" z="1"/><translate y="-0.5"/></transform>
+    <bsdf type="null"/>
+    <ref name="interior" id="fog"/>
+  </shape>"#;
+
+#[test]
+fn a_surface_lit_through_the_fog_by_a_light_beyond_its_boundary() {
+    // A diffuse floor (reflectance 0.5, 6 x 6 at y = -0.5) runs through the absorbing
+    // slab and out of it; a 20 cm light 2 cm above the slab's top face lights it
+    // through the fog (next-event estimation and BSDF-sampled hits, MIS). The camera,
+    // outside the slab, looks down at the floor through the slab's front face.
+    let h = 0.02;
+    let body = format!(
+        r#"{ABSORBING_SLAB}
+  <shape type="rectangle">
+    <transform name="to_world"><scale value="3"/><rotate x="1" angle="-90"/><translate y="-0.5"/></transform>
+    <bsdf type="diffuse"><rgb name="reflectance" value="0.5"/></bsdf>
+  </shape>
+  <shape type="rectangle">
+    <transform name="to_world"><scale value="0.1"/><rotate x="1" angle="90"/><translate y="{h}"/></transform>
+    <emitter type="area"><rgb name="radiance" value="1"/></emitter>
+  </shape>"#
+    );
+    let camera = sensor("16", "0, -0.05, 1.6", "0, -0.5, 0", None, 64);
+    let scene = load(&scene_xml(2, &camera, &body), &Overrides::default());
+    let (lo, hi) = (DVec3::new(-1.0, -1.0, -1.0), DVec3::new(1.0, 0.0, 1.0));
+    let gl = gauss_legendre(24);
+    let reference = pixel_reference(&scene, 4, |o, d| {
+        let t = (-0.5 - o.y) / d.y;
+        let p = o + d * t;
+        if t <= 0.0 || p.x.abs() > 3.0 || p.z.abs() > 3.0 {
+            return [0.0; 3];
+        }
+        let mut e = 0.0;
+        for &(u, wu) in &gl {
+            for &(v, wv) in &gl {
+                let q = DVec3::new(0.1 * u, h, 0.1 * v);
+                let r2 = (q - p).length_squared();
+                let cos = (h - p.y) / r2.sqrt();
+                e += wu * wv * 0.01 * cos * cos / r2 * (-SLAB_SIGMA_T * inside(p, q, lo, hi)).exp();
+            }
+        }
+        [(-SLAB_SIGMA_T * inside(o, p, lo, hi)).exp() * 0.5 / PI * e; 3]
+    });
+    compare("floor lit through the fog", &scene, &reference, 4);
+}
