@@ -299,16 +299,19 @@ fn slab_single_scattering(o: DVec3, d: DVec3, light: &dyn Fn(DVec3) -> f64) -> f
         },
         a,
         b,
-        8,
+        32,
         &gl,
     )
 }
 
-/// Transmittance of the segment from p (in the slab) to q (above it): only the part
-/// below the top face y = 0 is in the fog.
+/// Transmittance of the segment from p to q: only its part inside the slab is in the fog.
 fn slab_shadow(p: DVec3, q: DVec3) -> f64 {
-    let r = (q - p).length();
-    let in_fog = r * (-p.y) / (q.y - p.y);
+    let in_fog = inside(
+        p,
+        q,
+        DVec3::new(-1.0, -1.0, -1.0),
+        DVec3::new(1.0, 0.0, 1.0),
+    );
     (-SLAB_SIGMA_T * in_fog).exp()
 }
 
@@ -371,6 +374,35 @@ fn single_scattering_reaches_a_light_two_centimetres_beyond_the_null_boundary() 
         &reference,
         4,
     );
+
+    // The same area light 3 cm inside the fog (no boundary between it and the
+    // scattering points; the camera 3 cm lower, so it never sees the light).
+    let h = -0.03;
+    let body = format!(
+        r#"{SLAB}
+  <shape type="rectangle">
+    <transform name="to_world"><scale value="0.05"/><rotate x="1" angle="90"/><translate y="{h}"/></transform>
+    <emitter type="area"><rgb name="radiance" value="1"/></emitter>
+  </shape>"#
+    );
+    let camera = sensor("2", "0, -0.13, 4", "0, -0.13, 0", None, 128);
+    let scene = load(&scene_xml(2, &camera, &body), &Overrides::default());
+    let reference = pixel_reference(&scene, 3, |o, d| {
+        let l = slab_single_scattering(o, d, &|p| {
+            let mut e = 0.0;
+            for &(u, wu) in &gl {
+                for &(v, wv) in &gl {
+                    let q = DVec3::new(0.05 * u, h, 0.05 * v);
+                    let r2 = (q - p).length_squared();
+                    let cos_l = ((h - p.y) / r2.sqrt()).max(0.0);
+                    e += wu * wv * 0.0025 * cos_l / r2 * slab_shadow(p, q);
+                }
+            }
+            e
+        });
+        [l; 3]
+    });
+    compare("area light 3 cm inside the fog", &scene, &reference, 4);
 }
 
 const SIGMA_A: [f64; 3] = [0.4, 0.5, 0.6];
@@ -569,9 +601,12 @@ fn a_surface_lit_through_the_fog_by_a_light_beyond_its_boundary() {
     // slab and out of it; a 20 cm light 2 cm above the slab's top face lights it
     // through the fog (next-event estimation and BSDF-sampled hits, MIS). The camera,
     // outside the slab, looks down at the floor through the slab's front face.
-    let h = 0.02;
-    let body = format!(
-        r#"{ABSORBING_SLAB}
+    for (h, name) in [
+        (0.02, "floor lit through the fog, light beyond it"),
+        (-0.05, "floor lit through the fog, light in it"),
+    ] {
+        let body = format!(
+            r#"{ABSORBING_SLAB}
   <shape type="rectangle">
     <transform name="to_world"><scale value="3"/><rotate x="1" angle="-90"/><translate y="-0.5"/></transform>
     <bsdf type="diffuse"><rgb name="reflectance" value="0.5"/></bsdf>
@@ -580,27 +615,29 @@ fn a_surface_lit_through_the_fog_by_a_light_beyond_its_boundary() {
     <transform name="to_world"><scale value="0.1"/><rotate x="1" angle="90"/><translate y="{h}"/></transform>
     <emitter type="area"><rgb name="radiance" value="1"/></emitter>
   </shape>"#
-    );
-    let camera = sensor("16", "0, -0.05, 1.6", "0, -0.5, 0", None, 64);
-    let scene = load(&scene_xml(2, &camera, &body), &Overrides::default());
-    let (lo, hi) = (DVec3::new(-1.0, -1.0, -1.0), DVec3::new(1.0, 0.0, 1.0));
-    let gl = gauss_legendre(24);
-    let reference = pixel_reference(&scene, 4, |o, d| {
-        let t = (-0.5 - o.y) / d.y;
-        let p = o + d * t;
-        if t <= 0.0 || p.x.abs() > 3.0 || p.z.abs() > 3.0 {
-            return [0.0; 3];
-        }
-        let mut e = 0.0;
-        for &(u, wu) in &gl {
-            for &(v, wv) in &gl {
-                let q = DVec3::new(0.1 * u, h, 0.1 * v);
-                let r2 = (q - p).length_squared();
-                let cos = (h - p.y) / r2.sqrt();
-                e += wu * wv * 0.01 * cos * cos / r2 * (-SLAB_SIGMA_T * inside(p, q, lo, hi)).exp();
+        );
+        let camera = sensor("16", "0, -0.05, 1.6", "0, -0.5, 0", None, 256);
+        let scene = load(&scene_xml(2, &camera, &body), &Overrides::default());
+        let (lo, hi) = (DVec3::new(-1.0, -1.0, -1.0), DVec3::new(1.0, 0.0, 1.0));
+        let gl = gauss_legendre(24);
+        let reference = pixel_reference(&scene, 4, |o, d| {
+            let t = (-0.5 - o.y) / d.y;
+            let p = o + d * t;
+            if t <= 0.0 || p.x.abs() > 3.0 || p.z.abs() > 3.0 {
+                return [0.0; 3];
             }
-        }
-        [(-SLAB_SIGMA_T * inside(o, p, lo, hi)).exp() * 0.5 / PI * e; 3]
-    });
-    compare("floor lit through the fog", &scene, &reference, 4);
+            let mut e = 0.0;
+            for &(u, wu) in &gl {
+                for &(v, wv) in &gl {
+                    let q = DVec3::new(0.1 * u, h, 0.1 * v);
+                    let r2 = (q - p).length_squared();
+                    let cos = (h - p.y) / r2.sqrt();
+                    e += wu * wv * 0.01 * cos * cos / r2
+                        * (-SLAB_SIGMA_T * inside(p, q, lo, hi)).exp();
+                }
+            }
+            [(-SLAB_SIGMA_T * inside(o, p, lo, hi)).exp() * 0.5 / PI * e; 3]
+        });
+        compare(name, &scene, &reference, 4);
+    }
 }
