@@ -39,6 +39,7 @@ import subprocess
 import sys
 import tempfile
 import time
+import xml.etree.ElementTree as ET
 
 import numpy as np
 
@@ -79,6 +80,66 @@ def name_of(path, wild):
     return path
 
 
+def film_chain(path, depth=0):
+    """The files from `path` down to the included file that holds the first <film>,
+    each with the index of the <include> followed in it: [(file, include index), ...,
+    (film file, None)], or None."""
+    if depth > 8:
+        return None
+    try:
+        root = ET.fromstring(open(path, encoding="utf-8").read())
+    except (OSError, ET.ParseError):
+        return None
+    if root.find("./sensor/film") is not None:
+        return [(path, None)]
+    for i, inc in enumerate(e for e in root if e.tag == "include"):
+        chain = film_chain(os.path.join(os.path.dirname(path), inc.get("filename", "")), depth + 1)
+        if chain:
+            return [(path, i)] + chain
+    return None
+
+
+def small_copy_included(path, width, out_dir):
+    """A scene whose film sits in an included file: every file on the way to it copied
+    to `out_dir` with a `<path>` back to its own folder and its <include> pointing at
+    the next copy, the film's file with the film shrunk as agree_wild.small_copy does.
+    None when no included file holds a film."""
+    chain = film_chain(path)
+    if not chain:
+        return None, None
+    film_file = chain[-1][0]
+    copy, needed = agree_wild.small_copy(film_file, width, out_dir)
+    if copy is None:
+        return None, None
+    target = os.path.join(out_dir, f"inc{len(chain) - 1}_" + os.path.basename(film_file))
+    os.replace(copy, target)
+    texts = [open(f, encoding="utf-8").read() for f, _ in chain]
+    defaults = {}
+    for t in texts:
+        for k, v in agree_wild.defaults_of(t).items():
+            defaults.setdefault(k, v)
+    for level in range(len(chain) - 2, -1, -1):
+        f, i = chain[level]
+        root = ET.fromstring(texts[level])
+        inc = [e for e in root if e.tag == "include"][i]
+        inc.set("filename", os.path.abspath(target))
+        root.insert(0, ET.Element("path", value=os.path.dirname(os.path.abspath(f))))
+        target = os.path.join(out_dir, (f"inc{level}_" if level else "") + os.path.basename(f))
+        ET.ElementTree(root).write(target)
+    text = "\n".join(texts)
+    needed = {k: v for k, v in agree_wild.PARAMETERS.items() if f"${k}" in text and k not in defaults}
+    return target, needed
+
+
+def check_reason(output):
+    """The first line of `tstat check`'s output that says what is wrong."""
+    lines = [l.strip() for l in output.splitlines() if l.strip()]
+    for l in lines:
+        if ": <" in l or (l.startswith("error:") and "would not render" not in l):
+            return l
+    return lines[-1] if lines else "(no message)"
+
+
 def measure(path, args, tmp):
     """One scene's row (a dict), or {'skip': reason}."""
     search = list(args.search)
@@ -87,13 +148,19 @@ def measure(path, args, tmp):
         search.append(os.path.join(m.group(1), "common"))
     copy, needed = agree_wild.small_copy(path, args.width, tmp)
     if copy is None:
-        return {"skip": "film in an included file"}
+        copy, needed = small_copy_included(path, args.width, tmp)
+    if copy is None:
+        r = subprocess.run([args.tstat, "check", path] + sum((["-a", f] for f in search), []),
+                           capture_output=True, text=True)
+        if r.returncode:
+            return {"skip": "tstat: " + check_reason(r.stdout + "\n" + r.stderr)[:200]}
+        return {"skip": "no <film> in the scene or the files it includes"}
     chk = [args.tstat, "check", copy] + sum((["-a", f] for f in search), [])
     for k, v in needed.items():
         chk += ["-D", f"{k}={v}"]
     r = subprocess.run(chk, capture_output=True, text=True)
     if r.returncode:
-        return {"skip": "tstat: " + wild_scenes.first_error(r.stderr)[:160]}
+        return {"skip": "tstat: " + check_reason(r.stdout + "\n" + r.stderr)[:200]}
     ms = []
     t0 = time.time()
     for seed in (1, 2):
@@ -229,6 +296,7 @@ def main():
     ap.add_argument("--cache")
     ap.add_argument("--fresh", action="store_true")
     ap.add_argument("--report-only", action="store_true")
+    ap.add_argument("--retry-skipped", action="store_true", help="measure again the scenes skipped before")
     args = ap.parse_args()
     args.wild = os.path.abspath(args.wild)
     cache = args.cache or os.path.splitext(args.out)[0] + ".json"
@@ -237,7 +305,8 @@ def main():
     names = [name_of(f, args.wild) for f in files]
     if not args.report_only:
         for f, name in zip(files, names):
-            if name in results and not args.scenes:
+            if name in results and not args.scenes and not (
+                    args.retry_skipped and "skip" in results[name]):
                 continue
             with tempfile.TemporaryDirectory() as tmp:
                 try:

@@ -987,4 +987,14 @@ fn a_default_declared_in_an_included_file_is_visible_after_the_include() {
         ),
     );
     assert_eq!(load(d, "t.xml").unwrap().film.width, 10);
+    // Also when the include is found through a <path> (a copy of the scene elsewhere).
+    let elsewhere = tempfile::tempdir().unwrap();
+    let copy = format!("{}{SHAPES}</scene>", head.replace("SENSOR", FOV)).replacen(
+        r#"<scene version="3.0.0">"#,
+        &format!(r#"<scene version="3.0.0"><path value="{}"/>"#, d.display()),
+        1,
+    );
+    write(elsewhere.path(), "s.xml", &copy);
+    let scene = load(elsewhere.path(), "s.xml").unwrap();
+    assert_eq!((scene.film.width, scene.spp), (12, 3));
 }

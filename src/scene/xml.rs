@@ -714,7 +714,16 @@ fn included_defaults(
     if depth >= MAX_INCLUDE_DEPTH {
         return;
     }
-    for node in root.children().filter(|n| n.has_tag_name("include")) {
+    for node in root.children() {
+        // `<path>`s before an include may be where it is found (the walk adds them
+        // again to the scene's own context).
+        if node.has_tag_name("path") {
+            let _ = add_search_path(ctx, node);
+            continue;
+        }
+        if !node.has_tag_name("include") {
+            continue;
+        }
         *files += 1;
         if *files > MAX_INCLUDED_FILES {
             return;
