@@ -4,7 +4,7 @@
 
 use super::error::SceneError;
 use super::transform::parse_transform;
-use crate::scene::spectrum::{list_to_srgb, uniform_to_srgb, SpectrumUse};
+use crate::scene::spectrum::{list_to_srgb, uniform_to_srgb, SpectrumUse, UNBOUNDED_SPECTRA};
 use glam::{DMat4, Vec3};
 use roxmltree::Node;
 use std::cell::{Cell, RefCell};
@@ -490,6 +490,11 @@ impl<'a, 'i, 'c> Props<'a, 'i, 'c> {
     }
 
     fn colour(&mut self, name: &str, usage: SpectrumUse) -> Result<Option<Vec3>, SceneError> {
+        let usage = if usage == SpectrumUse::Reflectance && UNBOUNDED_SPECTRA.contains(&name) {
+            SpectrumUse::Unbounded
+        } else {
+            usage
+        };
         match self.take(name) {
             None => Ok(None),
             Some((_, Value::Rgb(c))) => Ok(Some(Vec3::new(c[0] as f32, c[1] as f32, c[2] as f32))),

@@ -52,7 +52,13 @@ fn lookup<const N: usize>(table: &[[f32; N]; CIE_SAMPLES], w: f32) -> [f32; N] {
 pub enum SpectrumUse {
     Reflectance,
     Emission,
+    /// Optical constants (`eta`, `k`, `int_ior`, `ext_ior`: Mitsuba 3.9.1's
+    /// `is_unbounded_spectrum`): D65-weighted as reflectances, never clamped.
+    Unbounded,
 }
+
+/// The parameter names Mitsuba 3.9.1 converts as unbounded spectra.
+pub const UNBOUNDED_SPECTRA: [&str; 4] = ["eta", "k", "int_ior", "ext_ior"];
 
 /// Mitsuba's RGB for a `wavelength:value` list (wavelengths increasing, in nm).
 /// Returns the colour and whether it was clamped (out of gamut).
@@ -88,7 +94,7 @@ pub fn list_to_srgb(wavelengths: &[f64], values: &[f64], usage: SpectrumUse) -> 
         };
         let cmf = lookup(&CIE1931_XYZ, w);
         let d65 = match usage {
-            SpectrumUse::Reflectance => lookup(&D65_ROWS, w)[0],
+            SpectrumUse::Reflectance | SpectrumUse::Unbounded => lookup(&D65_ROWS, w)[0],
             SpectrumUse::Emission => 1.0,
         };
         for c in 0..3 {
@@ -106,13 +112,14 @@ pub fn list_to_srgb(wavelengths: &[f64], values: &[f64], usage: SpectrumUse) -> 
             let clamped = rgb.map(|v| v.max(0.0));
             (clamped, clamped != rgb)
         }
+        SpectrumUse::Unbounded => (rgb, false),
     }
 }
 
 /// Mitsuba's RGB for a uniform spectrum of `value`.
 pub fn uniform_to_srgb(value: f64, usage: SpectrumUse) -> [f32; 3] {
     match usage {
-        SpectrumUse::Reflectance => [value as f32; 3],
+        SpectrumUse::Reflectance | SpectrumUse::Unbounded => [value as f32; 3],
         SpectrumUse::Emission => xyz_to_srgb([1.0; 3]).map(|c| c * value as f32),
     }
 }
@@ -530,6 +537,35 @@ mod tests {
             [0.38882970809936523, 0.3621270954608917, 0.22010815143585205],
         ),
     ];
+
+    #[test]
+    fn optical_constants_are_d65_weighted_and_never_clamped() {
+        // Mitsuba 3.9.1, `mi.traverse` of a conductor with these `<spectrum>`s
+        // (docs/scenes/bsdf_blendbsdf.xml's gold): eta and k out of [0, 1] kept.
+        let w = [300.0, 400.0, 500.0, 600.0, 700.0, 800.0];
+        for (v, want) in [
+            (
+                [1.8, 1.65, 0.9, 0.2, 0.16, 0.18],
+                [0.0452341, 0.585709, 1.33692],
+            ),
+            (
+                [1.92, 1.95, 1.95, 2.97, 3.8, 5.12],
+                [3.38869, 2.34904, 1.87516],
+            ),
+        ] {
+            let (got, clamped) = list_to_srgb(&w, &v, SpectrumUse::Unbounded);
+            assert!(!clamped);
+            for c in 0..3 {
+                assert!(
+                    (got[c] - want[c]).abs() <= 2e-5 * want[c].abs().max(1.0),
+                    "{got:?} vs {want:?}"
+                );
+            }
+            // As a reflectance the same list is clamped (Mitsuba's diffuse does so).
+            let (r, clamped) = list_to_srgb(&w, &v, SpectrumUse::Reflectance);
+            assert!(clamped && r.iter().all(|&x| (0.0..=1.0).contains(&x)));
+        }
+    }
 
     #[test]
     fn lists_convert_as_mitsuba_does() {
