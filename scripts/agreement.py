@@ -13,7 +13,9 @@ Per scene (columns of docs/results/agreement.md):
 - space-time blocks (16 x 16 px x 5 bins): 95th percentile of the relative difference;
 - the share of the steady energy each renderer's transient holds.
 
-A row is within the yardstick when every tstat column is within
+A row outside the yardstick at SPP is measured again at 8 x SPP (new seeds' worth of
+samples for both renderers) and that measurement decides. A row is within the
+yardstick when every tstat column is within
 max(2 x mitransient's own column, floor): steady ratio |r - 1| <= max(3 |r2 - 1|, 0.005),
 block max <= max(2 x spread, 0.05), p95 <= max(2 x spread, 0.05), and the two
 transient/steady shares within 0.01 (tstat at one seed against mitransient at one seed
@@ -75,6 +77,16 @@ EXPLAINED = [
      "camera rays",
      "tests/media.rs (single scattering around a camera in an infinite medium) and "
      "tests/media_boundaries.rs (camera in one medium, light in another)"),
+]
+
+
+# Rows still outside the yardstick whose cause is known but not fixed (they stay
+# OPEN): (pattern on the scene's name, diagnosis).
+DIAGNOSED = [
+    (r"staircase/scene\.xml",
+     "JPEG decoding: the `image` crate's decoder (zune-jpeg) and libjpeg (Mitsuba) give "
+     "texel means up to 0.6% (R) and 1.4% (B) apart on this scene's photographs "
+     "(BrushedAluminium.jpg), the same sign and size as the steady offsets"),
 ]
 
 
@@ -264,6 +276,9 @@ def verdict(name, row, path):
     for holds, columns, why, test in EXPLAINED:
         if cols <= columns and re.search(holds, text, re.S):
             return "explained", f"{why} (test: {test})"
+    for pat, why in DIAGNOSED:
+        if re.search(pat, name):
+            return "OPEN", "; ".join(bad) + f" (diagnosed: {why})"
     return "OPEN", "; ".join(bad)
 
 
@@ -284,6 +299,8 @@ def report(results, args, names_in_order):
         v, why = verdict(name, row, path_of(name, args.wild))
         counts[v] += 1
         r, rm = row["ratio"], row["ratio_mit"]
+        if "first" in row:
+            why = (why + "; " if why else "") + f"measured again at {8 * args.spp} spp"
         rows.append(
             f"| {name} | {r[0]:.4f} / {r[1]:.4f} / {r[2]:.4f} | {max(abs(x - 1) for x in rm):.4f} | "
             f"{row['block']:.3f} / {row['block_mit']:.3f} | {row['p95']:.3f} / {row['p95_mit']:.3f} | "
@@ -347,6 +364,18 @@ def main():
             with tempfile.TemporaryDirectory() as tmp:
                 try:
                     results[name] = measure(f, args, tmp)
+                    row = results[name]
+                    # One seed pair at SPP is a noisy yardstick: a row outside it is
+                    # measured again at 8 x SPP, and that measurement decides.
+                    if "skip" not in row and verdict(name, row, f)[0] == "OPEN":
+                        spp = args.spp
+                        args.spp = 8 * spp
+                        with tempfile.TemporaryDirectory() as tmp2:
+                            again = measure(f, args, tmp2)
+                        args.spp = spp
+                        if "skip" not in again:
+                            again["first"] = row
+                            results[name] = again
                 except subprocess.TimeoutExpired:
                     results[name] = {"skip": f"tstat: timed out after {args.timeout} s"}
                 except Exception as e:  # a broken row must not stop the suite
