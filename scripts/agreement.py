@@ -198,6 +198,19 @@ def measure(path, args, tmp):
     for k, v in needed.items():
         chk += ["-D", f"{k}={v}"]
     r = subprocess.run(chk, capture_output=True, text=True)
+    note = None
+    if r.returncode and "integrator 'transient_path' ignores" in r.stdout + r.stderr:
+        # mitsuba-data's media tests render with `volpath`; their mechanical
+        # conversion names `transient_path`, which ignores media (mitransient would
+        # render them without): both renderers get the volumetric integrator.
+        for f in os.listdir(tmp):
+            if f.endswith(".xml"):
+                fp = os.path.join(tmp, f)
+                t = open(fp, encoding="utf-8").read()
+                open(fp, "w", encoding="utf-8").write(
+                    t.replace('<integrator type="transient_path"', '<integrator type="transient_prbvolpath"'))
+        note = "integrator switched to transient_prbvolpath (the scene's own is volpath)"
+        r = subprocess.run(chk, capture_output=True, text=True)
     if r.returncode:
         return {"skip": "tstat: " + check_reason(r.stdout + "\n" + r.stderr)[:200]}
     ms = []
@@ -206,7 +219,8 @@ def measure(path, args, tmp):
         try:
             r = subprocess.run([sys.executable, "-c", agree_wild.MIT, copy, str(args.spp), str(seed),
                                 json.dumps(needed), os.path.join(tmp, f"m{seed}"), json.dumps(search)],
-                               capture_output=True, text=True, timeout=args.timeout)
+                               capture_output=True, text=True, timeout=args.timeout,
+                               env=dict(os.environ, **getattr(args, "mit_env", {})))
         except subprocess.TimeoutExpired:
             return {"skip": f"mitransient: timed out after {args.timeout} s"}
         if r.returncode:
@@ -250,6 +264,7 @@ def measure(path, args, tmp):
         "energy_mit": float(m1t.sum() / max(m1s.sum(), 1e-12)),
         "seconds_mit": t_mit, "seconds_tstat": t_tstat,
         "black": bool(m1s.max() <= 0 and ts.max() <= 0),
+        **({"note": note} if note else {}),
     }
 
 
@@ -273,6 +288,13 @@ def verdict(name, row, path):
     if not bad:
         return "within", ""
     text = scene_text(path)
+    fixed = row.get("nee_fixed")
+    if fixed and verdict(name, {k: v for k, v in fixed.items() if k != "nee_fixed"}, path)[0] == "within":
+        return "explained", (
+            "mitransient 1.3.1 drops light samples whose shadow ray restarts past a null "
+            "boundary near the light; against mitransient with that line fixed "
+            "(TSTAT_MIT_NEE_FIX, 8x spp) the row is within its seed spread (test: "
+            "tests/media_boundaries.rs)")
     for holds, columns, why, test in EXPLAINED:
         if cols <= columns and re.search(holds, text, re.S):
             return "explained", f"{why} (test: {test})"
@@ -301,6 +323,8 @@ def report(results, args, names_in_order):
         r, rm = row["ratio"], row["ratio_mit"]
         if "first" in row:
             why = (why + "; " if why else "") + f"measured again at {8 * args.spp} spp"
+        if row.get("note"):
+            why = (why + "; " if why else "") + row["note"]
         rows.append(
             f"| {name} | {r[0]:.4f} / {r[1]:.4f} / {r[2]:.4f} | {max(abs(x - 1) for x in rm):.4f} | "
             f"{row['block']:.3f} / {row['block_mit']:.3f} | {row['p95']:.3f} / {row['p95_mit']:.3f} | "
@@ -376,6 +400,20 @@ def main():
                         if "skip" not in again:
                             again["first"] = row
                             results[name] = again
+                    # Still outside with media: mitransient 1.3.1's shadow rays past
+                    # null boundaries (tests/media_boundaries.rs) are the first suspect;
+                    # measure once more against mitransient with that line fixed.
+                    row = results[name]
+                    if ("skip" not in row and verdict(name, row, f)[0] == "OPEN"
+                            and "transient_prbvolpath" in scene_text(f) + row.get("note", "")):
+                        spp = args.spp
+                        args.spp = 8 * spp
+                        args.mit_env = {"TSTAT_MIT_NEE_FIX": "1"}
+                        with tempfile.TemporaryDirectory() as tmp2:
+                            fixed = measure(f, args, tmp2)
+                        args.spp, args.mit_env = spp, {}
+                        if "skip" not in fixed:
+                            row["nee_fixed"] = fixed
                 except subprocess.TimeoutExpired:
                     results[name] = {"skip": f"tstat: timed out after {args.timeout} s"}
                 except Exception as e:  # a broken row must not stop the suite

@@ -641,3 +641,76 @@ fn a_surface_lit_through_the_fog_by_a_light_beyond_its_boundary() {
         compare(name, &scene, &reference, 4);
     }
 }
+
+/// Unpolarised Fresnel reflectance of one interface of relative IOR `eta` at the
+/// incident cosine `cos_i` (light arriving from the outside).
+fn fresnel(cos_i: f64, eta: f64) -> f64 {
+    let cos_i = cos_i.abs();
+    let sin_t2 = (1.0 - cos_i * cos_i) / (eta * eta);
+    if sin_t2 >= 1.0 {
+        return 1.0;
+    }
+    let cos_t = (1.0 - sin_t2).sqrt();
+    let rs = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
+    let rp = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
+    0.5 * (rs * rs + rp * rp)
+}
+
+/// A thin pane's transmittance 1 - R', R' = 2R / (1 + R) (its internal reflections).
+fn pane(cos: f64) -> f64 {
+    let r = fresnel(cos, 1.5);
+    1.0 - 2.0 * r / (1.0 + r)
+}
+
+#[test]
+fn a_thin_dielectric_boundary_is_a_null_interface_with_its_transmittance() {
+    // The single-scattering slab bounded by `thindielectric` panes instead of `null`
+    // (Mitsuba 3 flags a pane's transmission `Null`): the camera ray's crossing of the
+    // front pane is no vertex (with `max_depth` 2 the scattering behind it still
+    // samples the light), and the light sample's shadow ray through the top pane
+    // keeps (1 - R') of it; the phase-sampled hits of the light cross the pane the
+    // same way (MIS as for a null boundary).
+    let h = 0.02;
+    let body = format!(
+        r#"
+  <medium type="homogeneous" id="fog">
+    <float name="sigma_t" value="0.8"/>
+    <float name="albedo" value="0.9"/>
+    <phase type="isotropic"/>
+  </medium>
+  <shape type="cube">
+    <transform name="to_world"><scale x="1" y="0.5" z="1"/><translate y="-0.5"/></transform>
+    <bsdf type="thindielectric"><float name="int_ior" value="1.5"/><float name="ext_ior" value="1"/></bsdf>
+    <ref name="interior" id="fog"/>
+  </shape>
+  <shape type="rectangle">
+    <transform name="to_world"><scale value="0.05"/><rotate x="1" angle="90"/><translate y="{h}"/></transform>
+    <emitter type="area"><rgb name="radiance" value="1"/></emitter>
+  </shape>"#
+    );
+    let camera = sensor("2", "0, -0.1, 4", "0, -0.1, 0", None, 128);
+    let scene = load(&scene_xml(2, &camera, &body), &Overrides::default());
+    let gl = gauss_legendre(24);
+    let reference = pixel_reference(&scene, 3, |o, d| {
+        let l = slab_single_scattering(o, d, &|p| {
+            let mut e = 0.0;
+            for &(u, wu) in &gl {
+                for &(v, wv) in &gl {
+                    let q = DVec3::new(0.05 * u, h, 0.05 * v);
+                    let r = (q - p).length();
+                    let cos_l = (h - p.y) / r;
+                    e += wu * wv * 0.0025 * cos_l / (r * r) * slab_shadow(p, q) * pane(cos_l);
+                }
+            }
+            e
+        });
+        // The camera ray enters through the front pane (z = 1).
+        [l * pane(d.z); 3]
+    });
+    compare(
+        "area light beyond a thin dielectric pane",
+        &scene,
+        &reference,
+        4,
+    );
+}

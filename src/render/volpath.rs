@@ -12,12 +12,15 @@
 //!   real scattering vertex, unless a specular chain leads there), next-event
 //!   estimation at lobes with a density (while `depth + 1 < max_depth`), and BSDF
 //!   sampling. A `null` surface is an interface, not a vertex: it neither counts
-//!   towards `max_depth` nor changes the MIS state; any shape with `interior` /
+//!   towards `max_depth` nor changes the MIS state; nor does the transmission of a
+//!   `thindielectric`, which Mitsuba 3 flags `Null` too. Any shape with `interior` /
 //!   `exterior` switches the current medium to the one the new direction enters.
 //!
-//! Shadow rays pass through `null` surfaces (changing medium there) and are blocked by
-//! every other surface; their transmittance is `exp(-sigma_t s)` per homogeneous
-//! medium segment, and a ratio-tracking estimate of it per heterogeneous one.
+//! Shadow rays pass through `null` surfaces (changing medium there) and through
+//! `thindielectric` ones with its null transmission `(1 - R') specular_transmittance`
+//! (Mitsuba's `eval_null_transmission`), and are blocked by every other surface; their
+//! transmittance is `exp(-sigma_t s)` per homogeneous medium segment, and a
+//! ratio-tracking estimate of it per heterogeneous one.
 //!
 //! OPL: a segment of length `s` adds `eta * s`, inside media too (media have no index
 //! of refraction of their own; `eta` is the product of the relative IORs crossed at
@@ -105,6 +108,50 @@ fn medium_shadow_ray(p: Vec3, ls: &crate::lights::LightSample) -> (Vec3, Vec3) {
 #[inline(always)]
 fn is_null(scene: &Scene, shape: &Shape) -> bool {
     matches!(scene.bsdfs[shape.bsdf as usize].bsdf, Bsdf::Null(_))
+}
+
+/// What a shadow ray keeps crossing the surface `h` along `d`: 1 through `null`,
+/// Mitsuba's `eval_null_transmission` through a `thindielectric` (its transmission
+/// is flagged `Null` in Mitsuba 3: `(1 - R') specular_transmittance`, R' the slab's
+/// reflectance at the crossing), `None` for any other surface (blocked).
+#[inline(always)]
+fn null_transmission(
+    scene: &Scene,
+    shape: &Shape,
+    h: &crate::geometry::accel::Hit,
+    d: Vec3,
+) -> Option<Rgb> {
+    let material = &scene.bsdfs[shape.bsdf as usize];
+    match &material.bsdf {
+        Bsdf::Null(_) => Some(Rgb::ONE),
+        Bsdf::ThinDielectric(t) => {
+            let textured;
+            let t = if material.is_plain() {
+                t
+            } else {
+                textured = material.at_point(&shape.tex_point(h.face, h.b1, h.b2, h.surface.p));
+                match &textured {
+                    Bsdf::ThinDielectric(t) => t,
+                    _ => return None,
+                }
+            };
+            let cos = d.dot(h.surface.ns);
+            Some(t.specular_transmittance * (1.0 - t.reflectance(cos)))
+        }
+        _ => None,
+    }
+}
+
+/// Whether a sampled event at `bsdf` is a null interaction in Mitsuba 3's sense (no
+/// vertex: `max_depth`, the MIS state and the specular chain stay): `null`, and the
+/// transmission of a `thindielectric`.
+#[inline(always)]
+fn null_event(bsdf: &Bsdf, lobe: crate::materials::BsdfFlags) -> bool {
+    match bsdf {
+        Bsdf::Null(_) => true,
+        Bsdf::ThinDielectric(_) => lobe == crate::materials::BsdfFlags::DELTA_TRANSMISSION,
+        _ => false,
+    }
 }
 
 /// The spectral MIS state of a path (see the module documentation): channel `h`
@@ -240,7 +287,11 @@ unsafe fn transmittance<const ISA: u8>(
             return tr;
         };
         let shape = &scene.shapes[h.shape as usize];
-        if !is_null(scene, shape) || tr == Rgb::ZERO {
+        match null_transmission(scene, shape, &h, d) {
+            Some(t) => tr *= t,
+            None => return Rgb::ZERO,
+        }
+        if tr == Rgb::ZERO {
             return Rgb::ZERO;
         }
         if shape.is_medium_transition() {
@@ -269,7 +320,15 @@ unsafe fn first_surface<const ISA: u8>(scene: &Scene, mut o: Vec3, d: Vec3) -> f
             return 0.0;
         };
         dist += h.t as f64;
-        if !is_null(scene, &scene.shapes[h.shape as usize]) {
+        let shape = &scene.shapes[h.shape as usize];
+        // mitransient's `first_surface` passes every BSDF with a Null component
+        // (`null`, `thindielectric`).
+        if !is_null(scene, shape)
+            && !matches!(
+                scene.bsdfs[shape.bsdf as usize].bsdf,
+                Bsdf::ThinDielectric(_)
+            )
+        {
             return dist;
         }
         o = offset_origin(h.surface.p, h.surface.ng, d);
@@ -588,7 +647,7 @@ unsafe fn trace_body<const ISA: u8>(
         common *= bs.weight;
         beta = common * spec.weight();
         eta *= bs.eta;
-        if null {
+        if null_event(bsdf, bs.lobe) {
             nulls_in_a_row += 1;
             if nulls_in_a_row > MAX_NULL_CROSSINGS {
                 break;
