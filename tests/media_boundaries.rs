@@ -238,6 +238,18 @@ const FOG_CUBE: &str = r#"
   </medium>
   <shape type="cube"><bsdf type="null"/><ref name="interior" id="fog"/></shape>"#;
 
+/// [`FOG_CUBE`] as a `heterogeneous` medium: a `constvolume` spanning the cube.
+const HETEROGENEOUS_FOG_CUBE: &str = r#"
+  <medium type="heterogeneous" id="fog">
+    <volume type="constvolume" name="sigma_t">
+      <rgb name="value" value="0.3, 0.6, 1.2"/>
+      <transform name="to_world"><scale value="2"/><translate x="-1" y="-1" z="-1"/></transform>
+    </volume>
+    <float name="albedo" value="0.5"/>
+    <phase type="isotropic"/>
+  </medium>
+  <shape type="cube"><bsdf type="null"/><ref name="interior" id="fog"/></shape>"#;
+
 #[test]
 fn an_area_light_beyond_or_inside_the_fog_is_seen_through_it() {
     // A 6 x 6 light facing +z at z = LIGHT fills the view; the camera is outside the
@@ -513,10 +525,21 @@ fn nested_media_with_the_camera_in_one_and_the_light_in_the_other() {
 
 #[test]
 fn a_constant_environment_beyond_the_fog() {
+    environment_beyond(FOG_CUBE, "");
+}
+
+#[test]
+fn a_constant_environment_beyond_a_heterogeneous_fog() {
+    // The same cube as a `heterogeneous` medium (a `constvolume` over the cube): light
+    // samples of the sky cross it by ratio tracking.
+    environment_beyond(HETEROGENEOUS_FOG_CUBE, "heterogeneous: ");
+}
+
+fn environment_beyond(fog: &str, label: &str) {
     // The camera outside the fog cube: every ray enters through its front face (the
     // view's half-width at the front face is 0.8); radiance 1 from every direction.
     let body =
-        format!(r#"{FOG_CUBE}<emitter type="constant"><rgb name="radiance" value="1"/></emitter>"#);
+        format!(r#"{fog}<emitter type="constant"><rgb name="radiance" value="1"/></emitter>"#);
     let (lo, hi) = (DVec3::splat(-1.0), DVec3::splat(1.0));
     let camera = sensor("30", "0, 0, 4", "0, 0, 0", None, 64);
     let scene = load(&scene_xml(1, &camera, &body), &Overrides::default());
@@ -525,7 +548,12 @@ fn a_constant_environment_beyond_the_fog() {
         std::array::from_fn(|c| (-FOG_RGB[c] * chord).exp())
     };
     let reference = pixel_reference(&scene, 4, direct);
-    compare("environment seen through the fog", &scene, &reference, 8);
+    compare(
+        &format!("{label}environment seen through the fog"),
+        &scene,
+        &reference,
+        8,
+    );
 
     // Single scattering: at each point, radiance 1 attenuated along every direction
     // to the cube's boundary, averaged by the isotropic phase function (Gauss-Legendre
@@ -574,7 +602,7 @@ fn a_constant_environment_beyond_the_fog() {
         l
     });
     compare(
-        "single scattering of the environment",
+        &format!("{label}single scattering of the environment"),
         &scene,
         &reference,
         4,
@@ -713,4 +741,54 @@ fn a_thin_dielectric_boundary_is_a_null_interface_with_its_transmittance() {
         &reference,
         4,
     );
+}
+
+#[test]
+fn a_light_seen_through_a_heterogeneous_absorber() {
+    // The chromatic fog cube of the first test as a `heterogeneous` medium (a
+    // `constvolume` spanning the cube: delta tracking against the majorant, spectral
+    // MIS over the null collisions), albedo 0 and 0.5, max_depth 1 and 2 (an absorber
+    // scatters nothing, so both see only Le exp(-sigma_t d)).
+    for (albedo, depth) in [("0", 1), ("0", 2), ("0.5", 1)] {
+        let body = format!(
+            r#"
+  <medium type="heterogeneous" id="fog">
+    <volume type="constvolume" name="sigma_t">
+      <rgb name="value" value="0.3, 0.6, 1.2"/>
+      <transform name="to_world"><scale value="2"/><translate x="-1" y="-1" z="-1"/></transform>
+    </volume>
+    <float name="albedo" value="{albedo}"/>
+    <phase type="isotropic"/>
+  </medium>
+  <shape type="cube"><bsdf type="null"/><ref name="interior" id="fog"/></shape>
+  <shape type="rectangle">
+    <transform name="to_world"><scale value="3"/><translate z="-1.01"/></transform>
+    <emitter type="area"><rgb name="radiance" value="2, 1, 0.5"/></emitter>
+  </shape>"#
+        );
+        let xml = scene_xml(depth, &sensor("30", "0, 0, 4", "0, 0, 0", None, 64), &body);
+        let scene = load(&xml, &Overrides::default());
+        let le = [2.0, 1.0, 0.5];
+        let (lo, hi) = (DVec3::splat(-1.0), DVec3::splat(1.0));
+        let reference = pixel_reference(&scene, 4, |o, d| {
+            let t_light = (-1.01 - o.z) / d.z;
+            let chord = clip(o, d, lo, hi).map_or(0.0, |(a, b)| (b.min(t_light) - a).max(0.0));
+            std::array::from_fn(|c| le[c] * (-FOG_RGB[c] * chord).exp())
+        });
+        if albedo == "0" {
+            compare(
+                &format!("heterogeneous absorber, max_depth {depth}"),
+                &scene,
+                &reference,
+                8,
+            );
+        } else {
+            compare(
+                "heterogeneous fog seen directly, max_depth 1",
+                &scene,
+                &reference,
+                8,
+            );
+        }
+    }
 }
