@@ -792,3 +792,40 @@ fn a_light_seen_through_a_heterogeneous_absorber() {
         }
     }
 }
+
+#[test]
+fn a_heterogeneous_medium_fills_only_its_volumes_box() {
+    // mitsuba-data's test_hetero_spectral_sigmat_no_scattering: the `constvolume`'s box
+    // ([-0.5, 0.5]^3) is smaller than the null cube ([-1, 1]^3) holding the medium;
+    // outside the box the medium is vacuum (Mitsuba's `intersect_aabb`). A chromatic
+    // absorber, seen through: Le exp(-sigma_t d), d the chord through the box alone.
+    let body = r#"
+  <medium type="heterogeneous" id="fog">
+    <volume type="constvolume" name="sigma_t">
+      <rgb name="value" value="0.6, 1.2, 2.4"/>
+      <transform name="to_world"><translate x="-0.5" y="-0.5" z="-0.5"/></transform>
+    </volume>
+    <float name="albedo" value="0"/>
+    <phase type="isotropic"/>
+  </medium>
+  <shape type="cube"><bsdf type="null"/><ref name="interior" id="fog"/></shape>
+  <shape type="rectangle">
+    <transform name="to_world"><scale value="3"/><translate z="-1.01"/></transform>
+    <emitter type="area"><rgb name="radiance" value="2, 1, 0.5"/></emitter>
+  </shape>"#;
+    let xml = scene_xml(2, &sensor("30", "0, 0, 4", "0, 0, 0", None, 64), body);
+    let scene = load(&xml, &Overrides::default());
+    let le = [2.0, 1.0, 0.5];
+    let sigma = [0.6, 1.2, 2.4];
+    let (lo, hi) = (DVec3::splat(-0.5), DVec3::splat(0.5));
+    let reference = pixel_reference(&scene, 4, |o, d| {
+        let chord = clip(o, d, lo, hi).map_or(0.0, |(a, b)| b - a);
+        std::array::from_fn(|c| le[c] * (-sigma[c] * chord).exp())
+    });
+    compare(
+        "absorber in a box inside the null cube",
+        &scene,
+        &reference,
+        4,
+    );
+}
