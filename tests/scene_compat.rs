@@ -998,3 +998,37 @@ fn a_default_declared_in_an_included_file_is_visible_after_the_include() {
     let scene = load(elsewhere.path(), "s.xml").unwrap();
     assert_eq!((scene.film.width, scene.spp), (12, 3));
 }
+
+#[test]
+fn a_fan_out_of_includes_is_refused_in_bounded_time() {
+    // Each of 12 small files includes the next 8 times: 8^12 inclusions within the depth
+    // limit. The total is capped (repeats counted) before any more files are read.
+    let d = tempfile::tempdir().unwrap();
+    let d = d.path();
+    write(d, "f12.xml", r#"<scene version="3.0.0"/>"#);
+    for k in (0..12).rev() {
+        let inc = format!(r#"<include filename="f{}.xml"/>"#, k + 1).repeat(8);
+        write(d, &format!("f{k}.xml"), &format!(r#"<scene version="3.0.0">{inc}</scene>"#));
+    }
+    write(d, "tri.ply", TRI_PLY);
+    let text = format!(
+        r#"{}<include filename="f0.xml"/>{SHAPES}</scene>"#,
+        HEAD.replace("SENSOR", FOV)
+    );
+    write(d, "s.xml", &text);
+    let start = std::time::Instant::now();
+    let Err(err) = load(d, "s.xml") else {
+        panic!("an include fan-out of 8^12 loaded");
+    };
+    assert!(err.contains("<include>s in all"), "{err}");
+    // Bounded: a few thousand tiny files, not 8^12 (generous for a loaded CI machine).
+    assert!(start.elapsed().as_secs() < 30, "{:?}", start.elapsed());
+    // A modest fan-out (8 x 8) still loads.
+    for k in 0..2 {
+        let inc = format!(r#"<include filename="g{}.xml"/>"#, k + 1).repeat(8);
+        write(d, &format!("g{k}.xml"), &format!(r#"<scene version="3.0.0">{inc}</scene>"#));
+    }
+    write(d, "g2.xml", r#"<scene version="3.0.0"/>"#);
+    write(d, "t.xml", &text.replace("f0.xml", "g0.xml"));
+    assert!(load(d, "t.xml").is_ok());
+}

@@ -335,6 +335,9 @@ struct Objects {
     area_emitters: HashMap<String, AreaEmission>,
     /// The files being included, outermost first (to refuse cycles).
     including: Vec<std::path::PathBuf>,
+    /// `<include>`s read so far in all (repeats count: a file included 8 times from
+    /// each of 8 files is read 64 times), bounded by `MAX_INCLUDED_FILES`.
+    included: usize,
     /// `shapegroup`s by id: their shapes (world space of the group) and materials.
     shapegroups: HashMap<String, Vec<(Shape, Material)>>,
     /// Triangles added by instances so far (bounded, `instance::MAX_INSTANCED_TRIANGLES`).
@@ -698,7 +701,8 @@ fn add_search_path(ctx: &Ctx, node: Node) -> Result<(), SceneError> {
     Ok(())
 }
 
-/// At most this many files are read when gathering included `<default>`s.
+/// At most this many `<include>`s are read in all, repeats counted (also when
+/// gathering included `<default>`s).
 const MAX_INCLUDED_FILES: usize = 4096;
 
 /// The literal `<default>`s of the files `root` includes, recursively, in document
@@ -782,6 +786,15 @@ fn included_defaults(
 fn include(ctx: &Ctx, node: Node, o: &mut Objects, depth: usize) -> Result<(), SceneError> {
     let name = ctx.required_attr(node, "filename")?;
     let path = ctx.resolve_near(&name);
+    // Checked before reading: a chain of small files that each include the next
+    // several times stays under the depth limit but multiplies without end.
+    o.included += 1;
+    if o.included > MAX_INCLUDED_FILES {
+        return Err(ctx.err(
+            node,
+            format!("more than {MAX_INCLUDED_FILES} <include>s in all (counting repeats): the includes fan out"),
+        ));
+    }
     if depth + 1 > MAX_INCLUDE_DEPTH {
         return Err(ctx.err(
             node,
