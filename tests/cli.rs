@@ -736,3 +736,23 @@ fn check_says_ok_or_lists_what_is_unsupported() {
     assert_eq!(r.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&r.stderr).contains("-D spp: expected name=value"));
 }
+
+#[test]
+fn a_steady_value_beyond_f32_is_refused_by_export() {
+    // The mean volume had this check; the steady image did not and was written as +inf.
+    let c = case(VALID);
+    let (sc, out) = (c.scene.to_str().unwrap(), c.out.to_str().unwrap());
+    assert!(tstat(&["render", sc, "--out", out]).status.success());
+    let steady = c.out.join("steady.npy");
+    let mut img: ndarray::Array3<f64> = ndarray_npy::read_npy(&steady).unwrap();
+    img[[2, 3, 1]] = 1e39;
+    ndarray_npy::write_npy(&steady, &img).unwrap();
+    for name in ["s.exr", "s.npy"] {
+        let target = c.dir.path().join(name);
+        let r = tstat(&["export", out, "--steady", target.to_str().unwrap()]);
+        assert_eq!(r.status.code(), Some(1));
+        let err = String::from_utf8_lossy(&r.stderr);
+        assert!(err.contains("does not fit in f32") && err.contains("row 2, column 3"), "{err}");
+        assert!(!target.exists());
+    }
+}

@@ -74,7 +74,19 @@ pub fn run(a: ExportArgs) -> anyhow::Result<()> {
         ));
     }
     if let Some(s) = &a.steady {
-        let img = bundle.steady()?.mapv(|v| v as f32);
+        let steady = bundle.steady()?;
+        // As the mean volume: a value f32 cannot hold would be written as infinity.
+        if let Some(((y, x, c), v)) = steady
+            .indexed_iter()
+            .find(|(_, v)| !((**v as f32).is_finite()))
+        {
+            return Err(BundleError::Invalid(
+                a.bundle.join("steady.npy"),
+                format!("steady value {v:e} at row {y}, column {x}, channel {c} does not fit in f32 (the export's type)"),
+            )
+            .into());
+        }
+        let img = steady.mapv(|v| v as f32);
         staged.push((
             stage(s, a.force, |tmp| {
                 if extension(s) == "exr" {
