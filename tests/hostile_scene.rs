@@ -242,6 +242,21 @@ fn nested(depth: usize, open: &str, inner: &str, close: &str) -> String {
 fn cases() -> Vec<Case> {
     let quad = "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n";
     vec![
+        // ---- overflow: colours beyond single precision ----
+        scene_case(
+            "spectrum_reflectance_3e38",
+            scene_with(
+                r#"<shape type="sphere"><bsdf type="diffuse"><spectrum name="reflectance" value="400:3e38, 700:3e38"/></bsdf></shape>"#,
+            ),
+            "beyond single precision",
+        ),
+        scene_case(
+            "uniform_spectrum_radiance_3e38",
+            scene_with(
+                r#"<shape type="sphere"><emitter type="area"><spectrum name="radiance" value="3e38"/></emitter></shape>"#,
+            ),
+            "beyond single precision",
+        ),
         // ---- scene XML: crashes and runaway memory ----
         scene_case(
             "deep_twosided_100k",

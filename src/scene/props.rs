@@ -499,9 +499,24 @@ impl<'a, 'i, 'c> Props<'a, 'i, 'c> {
             None => Ok(None),
             Some((_, Value::Rgb(c))) => Ok(Some(Vec3::new(c[0] as f32, c[1] as f32, c[2] as f32))),
             Some((_, Value::Float(v))) => Ok(Some(Vec3::splat(v as f32))),
-            Some((_, Value::Uniform(v))) => Ok(Some(Vec3::from_array(uniform_to_srgb(v, usage)))),
+            Some((n, Value::Uniform(v))) => {
+                let c = uniform_to_srgb(v, usage);
+                if c.iter().any(|x| !x.is_finite()) {
+                    return Err(self.ctx.err(
+                        n,
+                        format!("spectrum '{name}' converts to a colour beyond single precision ({c:?}): its value is too large"),
+                    ));
+                }
+                Ok(Some(Vec3::from_array(c)))
+            }
             Some((n, Value::Spectrum(w, v))) => {
                 let (c, clamped) = list_to_srgb(&w, &v, usage);
+                if c.iter().any(|x| !x.is_finite()) {
+                    return Err(self.ctx.err(
+                        n,
+                        format!("spectrum '{name}' converts to a colour beyond single precision ({c:?}): its values are too large"),
+                    ));
+                }
                 if clamped {
                     self.ctx.warn(
                         n,
