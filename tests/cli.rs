@@ -752,7 +752,10 @@ fn a_steady_value_beyond_f32_is_refused_by_export() {
         let r = tstat(&["export", out, "--steady", target.to_str().unwrap()]);
         assert_eq!(r.status.code(), Some(1));
         let err = String::from_utf8_lossy(&r.stderr);
-        assert!(err.contains("does not fit in f32") && err.contains("row 2, column 3"), "{err}");
+        assert!(
+            err.contains("does not fit in f32") && err.contains("row 2, column 3"),
+            "{err}"
+        );
         assert!(!target.exists());
     }
 }

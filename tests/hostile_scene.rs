@@ -257,6 +257,16 @@ fn cases() -> Vec<Case> {
             ),
             "beyond single precision",
         ),
+        scene_case(
+            "projector_scale_3e38",
+            scene_with(&projector(r#"<float name="fov" value="30"/><float name="scale" value="3e38"/>"#)),
+            "overflows single precision",
+        ),
+        scene_case(
+            "envmap_scale_3e38",
+            envmap(SKY, r#"<float name="scale" value="3e38"/>"#),
+            "overflows single precision",
+        ),
         // ---- scene XML: crashes and runaway memory ----
         scene_case(
             "deep_twosided_100k",

@@ -1008,7 +1008,11 @@ fn a_fan_out_of_includes_is_refused_in_bounded_time() {
     write(d, "f12.xml", r#"<scene version="3.0.0"/>"#);
     for k in (0..12).rev() {
         let inc = format!(r#"<include filename="f{}.xml"/>"#, k + 1).repeat(8);
-        write(d, &format!("f{k}.xml"), &format!(r#"<scene version="3.0.0">{inc}</scene>"#));
+        write(
+            d,
+            &format!("f{k}.xml"),
+            &format!(r#"<scene version="3.0.0">{inc}</scene>"#),
+        );
     }
     write(d, "tri.ply", TRI_PLY);
     let text = format!(
@@ -1026,7 +1030,11 @@ fn a_fan_out_of_includes_is_refused_in_bounded_time() {
     // A modest fan-out (8 x 8) still loads.
     for k in 0..2 {
         let inc = format!(r#"<include filename="g{}.xml"/>"#, k + 1).repeat(8);
-        write(d, &format!("g{k}.xml"), &format!(r#"<scene version="3.0.0">{inc}</scene>"#));
+        write(
+            d,
+            &format!("g{k}.xml"),
+            &format!(r#"<scene version="3.0.0">{inc}</scene>"#),
+        );
     }
     write(d, "g2.xml", r#"<scene version="3.0.0"/>"#);
     write(d, "t.xml", &text.replace("f0.xml", "g0.xml"));

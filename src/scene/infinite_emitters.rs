@@ -127,6 +127,16 @@ fn parse_envmap(p: &mut Props) -> Result<Emitter, SceneError> {
     }
     let (width, height) = (img.width, img.height);
     drop(img);
+    let peak = rgb
+        .iter()
+        .filter(|c| c.is_finite())
+        .fold(0.0f32, |m, c| m.max(c.max_element()));
+    if !((scale * peak as f64) as f32).is_finite() {
+        return Err(p.err_at(
+            "scale",
+            format!("scale {scale:e} times the image's largest value {peak:e} overflows single precision"),
+        ));
+    }
     let linear = DMat3::from_mat4(to_world);
     let map = EnvMap::new(
         width,

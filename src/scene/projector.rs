@@ -29,6 +29,16 @@ pub(crate) fn non_negative(t: &Texture) -> bool {
     }
 }
 
+/// The largest value the texture takes (0 for mesh attributes, refused here anyway).
+pub(crate) fn max_value(t: &Texture) -> f32 {
+    match t {
+        Texture::Constant(c) => c.max_element(),
+        Texture::Bitmap(b) => b.data.iter().fold(0.0f32, |m, v| m.max(*v)),
+        Texture::Checkerboard(c) => max_value(&c.color0).max(max_value(&c.color1)),
+        Texture::MeshAttribute(_) => 0.0,
+    }
+}
+
 /// Whether the texture is black everywhere.
 pub(crate) fn black(t: &Texture) -> bool {
     match t {
@@ -63,6 +73,18 @@ pub fn parse_projector(
         return Err(p.err_at(
             "scale",
             format!("scale must be finite and non-negative, got {scale}"),
+        ));
+    }
+    // A point facing it at unit distance receives pi * scale * E: that must stay finite
+    // in single precision, or every contribution would be dropped as non-finite.
+    let peak = std::f64::consts::PI * scale * max_value(&irradiance) as f64;
+    if !((peak as f32).is_finite()) {
+        return Err(p.err_at(
+            "scale",
+            format!(
+                "scale {scale:e} times the largest irradiance {:e} overflows single precision",
+                max_value(&irradiance)
+            ),
         ));
     }
     if scale as f32 == 0.0 || black(&irradiance) {
