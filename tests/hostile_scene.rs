@@ -262,6 +262,14 @@ fn cases() -> Vec<Case> {
             scene_with(&projector(r#"<float name="fov" value="30"/><float name="scale" value="3e38"/>"#)),
             "overflows single precision",
         ),
+        case(
+            "envmap_16384_squared_png",
+            vec![
+                ("scene.xml", envmap("big.png", "")),
+                ("big.png", png_header(16384, 16384)),
+            ],
+            "above the limit of 33554432 pixels for an environment map",
+        ),
         scene_case(
             "envmap_scale_3e38",
             envmap(SKY, r#"<float name="scale" value="3e38"/>"#),
@@ -1974,6 +1982,39 @@ fn envmap_and(file: &str, params: &str, more: &str) -> File {
     scene_with(&format!(
         r#"<emitter type="envmap"><string name="filename" value="{file}"/>{params}</emitter>{more}"#
     ))
+}
+
+/// The first bytes of a PNG of `w x h` RGB8 texels: signature and a valid IHDR, no
+/// image data (enough for the header check, which must refuse it before decoding).
+fn png_header(w: u32, h: u32) -> File {
+    fn crc32(bytes: &[u8]) -> u32 {
+        let mut c = 0xFFFF_FFFFu32;
+        for &b in bytes {
+            c ^= b as u32;
+            for _ in 0..8 {
+                c = if c & 1 != 0 {
+                    0xEDB8_8320 ^ (c >> 1)
+                } else {
+                    c >> 1
+                };
+            }
+        }
+        !c
+    }
+    let mut ihdr = b"IHDR".to_vec();
+    ihdr.extend(w.to_be_bytes());
+    ihdr.extend(h.to_be_bytes());
+    ihdr.extend([8, 2, 0, 0, 0]);
+    let mut b = b"\x89PNG\r\n\x1a\n".to_vec();
+    b.extend(13u32.to_be_bytes());
+    b.extend(&ihdr);
+    b.extend(crc32(&ihdr).to_be_bytes());
+    // An IDAT chunk (its data a stub): readers stop the header there.
+    let idat = b"IDAT\x78\x9c\x03\x00\x00\x00\x00\x01".to_vec();
+    b.extend(((idat.len() - 4) as u32).to_be_bytes());
+    b.extend(&idat);
+    b.extend(crc32(&idat).to_be_bytes());
+    File::Bytes(b)
 }
 
 /// An RGB f32 OpenEXR image of `w x h` texels.

@@ -8,13 +8,20 @@ use crate::lights::envmap::{EnvMap, EnvMapError};
 use crate::lights::scene_sphere::SceneSphere;
 use crate::lights::Emitter;
 use crate::math::Rgb;
-use crate::textures::image_file::load_image;
+use crate::textures::image_file::load_image_within;
 use glam::{DMat3, DMat4, DVec3, Vec3};
 use roxmltree::Node;
 use std::sync::Arc;
 
 /// The infinitely distant emitter kinds.
 pub const KINDS: &[&str] = &["envmap", "constant", "directional"];
+
+/// The largest environment map, in texels (8192 x 4096): an envmap keeps about 32
+/// bytes per texel while it is built (the decoded image, its RGB copy and the
+/// sampling tables), so 2^25 texels peak near 1.1 GB. Checked from the image header
+/// before decoding; a 16384 x 16384 map, which aborted on a 3.2 GB allocation, is an
+/// error naming the limit.
+pub const MAX_ENVMAP_TEXELS: u64 = 1 << 25;
 
 pub fn parse_infinite_emitter(ctx: &Ctx, node: Node, kind: &str) -> Result<Emitter, SceneError> {
     let mut p = Props::parse(ctx, node)?;
@@ -103,7 +110,7 @@ fn parse_envmap(p: &mut Props) -> Result<Emitter, SceneError> {
     let mis_compensation = p.boolean_or("mis_compensation", false)?;
     let path = p.ctx.resolve(&name);
     p.ctx.read_mesh_file(&path);
-    let img = load_image(&path, false)
+    let img = load_image_within(&path, false, MAX_ENVMAP_TEXELS, "an environment map")
         .map_err(|e| p.err_at("filename", format!("image '{name}' {e}")))?;
     let rgb: Vec<Vec3> = if img.channels == 1 {
         img.data.iter().map(|&v| Vec3::splat(v)).collect()

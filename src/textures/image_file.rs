@@ -38,21 +38,43 @@ pub fn srgb_to_linear(v: f32) -> f32 {
 /// Reads and decodes an image. `raw`: keep 8/16-bit values as stored (scaled to
 /// [0, 1]) instead of decoding sRGB. The error is a short reason without the path.
 pub fn load_image(path: &Path, raw: bool) -> Result<ImageData, String> {
+    load_image_within(path, raw, MAX_TEXELS, "a texture")
+}
+
+/// [`load_image`] with a smaller texel limit `max_texels` for a use (`what`) that
+/// keeps more per texel, checked from the header before decoding.
+pub fn load_image_within(
+    path: &Path,
+    raw: bool,
+    max_texels: u64,
+    what: &str,
+) -> Result<ImageData, String> {
     let bytes = read_regular(path, MAX_IMAGE_BYTES)?;
+    let limit = Limit {
+        texels: max_texels.min(MAX_TEXELS),
+        what,
+    };
     if bytes.starts_with(&[0x76, 0x2f, 0x31, 0x01]) {
-        decode_exr(&bytes)
+        decode_exr(&bytes, &limit)
     } else {
-        decode_ldr_or_hdr(&bytes, raw)
+        decode_ldr_or_hdr(&bytes, raw, &limit)
     }
 }
 
-fn check_size(width: u64, height: u64) -> Result<(), String> {
+/// The largest image a use accepts.
+struct Limit<'a> {
+    texels: u64,
+    what: &'a str,
+}
+
+fn check_size(width: u64, height: u64, limit: &Limit) -> Result<(), String> {
     if width == 0 || height == 0 {
         return Err(format!("has no pixels ({width} x {height})"));
     }
-    if width.saturating_mul(height) > MAX_TEXELS {
+    if width.saturating_mul(height) > limit.texels {
         return Err(format!(
-            "is {width} x {height} pixels, above the limit of {MAX_TEXELS} pixels for a texture"
+            "is {width} x {height} pixels, above the limit of {} pixels for {}",
+            limit.texels, limit.what
         ));
     }
     Ok(())
@@ -70,7 +92,7 @@ fn texel_buffer(n: usize) -> Result<Vec<f32>, String> {
     Ok(v)
 }
 
-fn decode_ldr_or_hdr(bytes: &[u8], raw: bool) -> Result<ImageData, String> {
+fn decode_ldr_or_hdr(bytes: &[u8], raw: bool, limit: &Limit) -> Result<ImageData, String> {
     use image::{DynamicImage, ImageFormat, ImageReader};
     let reader = || -> Result<ImageReader<Cursor<&[u8]>>, String> {
         let r = ImageReader::new(Cursor::new(bytes))
@@ -89,7 +111,7 @@ fn decode_ldr_or_hdr(bytes: &[u8], raw: bool) -> Result<ImageData, String> {
     let (w, h) = reader()?
         .into_dimensions()
         .map_err(|e| format!("has an unreadable image header: {e}"))?;
-    check_size(w as u64, h as u64)?;
+    check_size(w as u64, h as u64, limit)?;
     let mut r = reader()?;
     let mut limits = image::Limits::default();
     limits.max_image_width = Some(w);
@@ -100,7 +122,7 @@ fn decode_ldr_or_hdr(bytes: &[u8], raw: bool) -> Result<ImageData, String> {
         .decode()
         .map_err(|e| format!("could not be decoded: {e}"))?;
     let (width, height) = (img.width() as usize, img.height() as usize);
-    check_size(width as u64, height as u64)?;
+    check_size(width as u64, height as u64, limit)?;
     let n = width * height;
     // Grey (with or without alpha) stays one channel; everything else becomes RGB,
     // alpha dropped, as Mitsuba's bitmap texture does.
@@ -174,7 +196,7 @@ fn check_values(data: &[f32]) -> Result<(), String> {
     }
 }
 
-fn decode_exr(bytes: &[u8]) -> Result<ImageData, String> {
+fn decode_exr(bytes: &[u8], limit: &Limit) -> Result<ImageData, String> {
     use exr::prelude::*;
     let meta = exr::meta::MetaData::read_from_buffered(Cursor::new(bytes), false)
         .map_err(|e| format!("has an unreadable OpenEXR header: {e}"))?;
@@ -186,7 +208,7 @@ fn decode_exr(bytes: &[u8]) -> Result<ImageData, String> {
         return Err("is a deep OpenEXR image (not supported for textures)".into());
     }
     let size = header.layer_size;
-    check_size(size.width() as u64, size.height() as u64)?;
+    check_size(size.width() as u64, size.height() as u64, limit)?;
     let image = read()
         .no_deep_data()
         .largest_resolution_level()
@@ -197,7 +219,7 @@ fn decode_exr(bytes: &[u8]) -> Result<ImageData, String> {
         .map_err(|e| format!("could not be decoded as OpenEXR: {e}"))?;
     let layer = &image.layer_data;
     let (width, height) = (layer.size.width(), layer.size.height());
-    check_size(width as u64, height as u64)?;
+    check_size(width as u64, height as u64, limit)?;
     let n = width * height;
     let channels = &layer.channel_data.list;
     let find = |name: &str| {
