@@ -1040,3 +1040,52 @@ fn a_fan_out_of_includes_is_refused_in_bounded_time() {
     write(d, "t.xml", &text.replace("f0.xml", "g0.xml"));
     assert!(load(d, "t.xml").is_ok());
 }
+
+#[test]
+fn a_mesh_of_coincident_triangles_builds_its_bvh_in_bounded_time() {
+    // 65,536 copies of one triangle: the BVH builder's nearest-neighbour merges all
+    // tie, which made the build quadratic (minutes). Now it takes a moment, and the
+    // render equals the one of a single copy.
+    let d = tempfile::tempdir().unwrap();
+    let d = d.path();
+    let ply = |n: usize| {
+        let mut s = format!(
+            "ply\nformat ascii 1.0\nelement vertex {}\nproperty float x\nproperty float y\n\
+             property float z\nelement face {n}\nproperty list uchar int vertex_indices\nend_header\n",
+            3 * n
+        );
+        for _ in 0..n {
+            s.push_str("-0.5 -0.5 0.5\n0.5 -0.5 0.5\n0 0.5 0.5\n");
+        }
+        for i in 0..n {
+            s.push_str(&format!("3 {} {} {}\n", 3 * i, 3 * i + 1, 3 * i + 2));
+        }
+        s
+    };
+    write(d, "one.ply", &ply(1));
+    write(d, "many.ply", &ply(65_536));
+    let scene = |mesh: &str| {
+        format!(
+            r#"{}<bsdf type="diffuse" id="grey"><rgb name="reflectance" value="0.4"/></bsdf>
+  <shape type="rectangle"><ref id="grey"/></shape>
+  <shape type="ply"><string name="filename" value="{mesh}"/><ref id="grey"/></shape></scene>"#,
+            HEAD.replace("SENSOR", FOV)
+        )
+    };
+    write(d, "one.xml", &scene("one.ply"));
+    write(d, "many.xml", &scene("many.ply"));
+    let start = std::time::Instant::now();
+    let many = load(d, "many.xml").unwrap();
+    assert!(start.elapsed().as_secs() < 20, "{:?}", start.elapsed());
+    let one = load(d, "one.xml").unwrap();
+    let render = |s: &Scene| {
+        let settings = tstat::render::RenderSettings {
+            spp: 4,
+            seed: 3,
+            transform: tstat::stats::Transform::Identity,
+            pixel_sampling: tstat::render::PixelSampling::Independent,
+        };
+        tstat::render::render(s, &settings, &|_| {}).steady
+    };
+    assert_eq!(render(&many), render(&one));
+}

@@ -53,6 +53,44 @@ struct Boxed {
     hi: Vec3,
 }
 
+/// Build boxes with the repeats of a box spread apart, conservatively.
+///
+/// obvhs's PLOC builder merges mutual nearest neighbours; among many identical boxes
+/// every distance ties, so a pass merges almost nothing and the build turns quadratic
+/// (a 2 kB mesh of 65,536 copies of one triangle took minutes). Each repeat after the
+/// first gets its box moved by a small deterministic offset and grown by as much, so it
+/// still contains its primitive: the builder sees a tiny cloud of distinct boxes and
+/// stays O(n log n). Scenes without repeated boxes are untouched (same BVH, same bits).
+fn spread_coincident(mut boxed: Vec<Boxed>) -> Vec<Boxed> {
+    use std::collections::HashMap;
+    let key = |b: &Boxed| [b.lo.x, b.lo.y, b.lo.z, b.hi.x, b.hi.y, b.hi.z].map(f32::to_bits);
+    let mut seen: HashMap<[u32; 6], u32> = HashMap::with_capacity(boxed.len());
+    for (i, b) in boxed.iter_mut().enumerate() {
+        let repeat = seen.entry(key(b)).or_insert(0);
+        *repeat += 1;
+        if *repeat == 1 {
+            continue;
+        }
+        // Offsets on the scale of the box (or of its position, for a point-like one),
+        // from a hash of the index: distinct and reproducible.
+        let size = (b.hi - b.lo)
+            .max_element()
+            .max(b.lo.abs().max(b.hi.abs()).max_element() * 1e-4);
+        let size = if size > 0.0 && size.is_finite() {
+            size
+        } else {
+            1e-6
+        };
+        let h = (i as u64 + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15);
+        let unit = |k: u32| ((h >> (k * 20)) & 0xFFFFF) as f32 / 1_048_576.0 - 0.5;
+        let d = Vec3::new(unit(0), unit(1), unit(2)) * (size * 1e-3);
+        let grow = d.abs() * 2.0;
+        b.lo = b.lo + d - grow;
+        b.hi = b.hi + d + grow;
+    }
+    boxed
+}
+
 impl Boundable for Boxed {
     fn aabb(&self) -> Aabb {
         Aabb::new(Vec3A::from(self.lo), Vec3A::from(self.hi))
@@ -233,6 +271,7 @@ impl Accel {
                 Boxed { lo, hi }
             })
             .collect();
+        let boxed = spread_coincident(boxed);
         let bvh = obvhs::cwbvh::builder::build_cwbvh(
             &boxed,
             BvhBuildParams::medium_build(),
