@@ -263,6 +263,17 @@ fn cases() -> Vec<Case> {
             "overflows single precision",
         ),
         case(
+            "spectrum_file_65_mib",
+            vec![
+                (
+                    "scene.xml",
+                    scene_with(r#"<shape type="sphere"><bsdf type="diffuse"><spectrum name="reflectance" filename="big.spd"/></bsdf></shape>"#),
+                ),
+                ("big.spd", File::Sparse(65 << 20)),
+            ],
+            "cannot read spectrum file 'big.spd'",
+        ),
+        case(
             "envmap_16384_squared_png",
             vec![
                 ("scene.xml", envmap("big.png", "")),

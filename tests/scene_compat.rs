@@ -1089,3 +1089,25 @@ fn a_mesh_of_coincident_triangles_builds_its_bvh_in_bounded_time() {
     };
     assert_eq!(render(&many), render(&one));
 }
+
+#[test]
+fn a_large_spectrum_file_loads() {
+    // Mitsuba reads .spd files of any size; tstat's limit was an undocumented 1 MiB
+    // (64 MiB now). 200,000 samples, over 2 MiB, of a flat reflectance 0.5.
+    let d = tempfile::tempdir().unwrap();
+    let d = d.path();
+    let mut spd = String::from("# flat\n");
+    for i in 0..200_000 {
+        spd.push_str(&format!("{:.6} 0.5\n", 360.0 + i as f64 * 0.00235));
+    }
+    assert!(spd.len() > 2 << 20);
+    write(d, "flat.spd", &spd);
+    write(d, "tri.ply", TRI_PLY);
+    let text = format!(
+        r#"{}<bsdf type="diffuse" id="grey"><spectrum name="reflectance" filename="flat.spd"/></bsdf>
+  <shape type="rectangle"><ref id="grey"/></shape></scene>"#,
+        HEAD.replace("SENSOR", FOV)
+    );
+    write(d, "s.xml", &text);
+    assert!(load(d, "s.xml").is_ok());
+}

@@ -583,6 +583,10 @@ impl<'a, 'i, 'c> Props<'a, 'i, 'c> {
     }
 }
 
+/// The largest `.spd` file read (Mitsuba has no limit; measured spectra of a few
+/// million samples run to tens of MB): 64 MiB, about 4 million lines.
+pub const MAX_SPECTRUM_FILE_BYTES: u64 = 64 << 20;
+
 /// A `<spectrum>` element: `value="x"` (uniform), `value="r, g, b"` (taken as RGB),
 /// `value="w1:v1, w2:v2, ..."` or `filename="..."` (Mitsuba's `.spd`: one `wavelength
 /// value` pair per line, `#` comments).
@@ -616,7 +620,7 @@ fn parse_spectrum(ctx: &Ctx, node: Node) -> Result<Value, SceneError> {
             .collect::<Result<_, SceneError>>()?,
         (None, Some(f)) => {
             let path = ctx.resolve(&f);
-            let bytes = crate::io::read_regular(&path, 1 << 20)
+            let bytes = crate::io::read_regular(&path, MAX_SPECTRUM_FILE_BYTES)
                 .map_err(|e| bad(format!("cannot read spectrum file '{f}': {e}")))?;
             let text = String::from_utf8_lossy(&bytes);
             let mut pairs = Vec::new();
