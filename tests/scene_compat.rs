@@ -1111,3 +1111,27 @@ fn a_large_spectrum_file_loads() {
     write(d, "s.xml", &text);
     assert!(load(d, "s.xml").is_ok());
 }
+
+#[test]
+fn a_path_naming_a_file_is_accepted_as_mitsuba_does() {
+    // Mitsuba checks only that a <path> exists; one naming a file adds nothing useful.
+    let d = tempfile::tempdir().unwrap();
+    let d = d.path();
+    write(d, "tri.ply", TRI_PLY);
+    let text = format!(
+        r#"{}<path value="tri.ply"/>{SHAPES}</scene>"#,
+        HEAD.replace("SENSOR", FOV)
+    );
+    write(d, "s.xml", &text);
+    assert!(load(d, "s.xml").is_ok());
+    // A path that does not exist is still an error.
+    write(
+        d,
+        "t.xml",
+        &text.replace(r#"<path value="tri.ply"/>"#, r#"<path value="nothing"/>"#),
+    );
+    let Err(err) = load(d, "t.xml") else {
+        panic!("a <path> to nothing loaded");
+    };
+    assert!(err.contains("not found"), "{err}");
+}

@@ -690,11 +690,13 @@ fn add_search_path(ctx: &Ctx, node: Node) -> Result<(), SceneError> {
     let mut dir = std::path::PathBuf::from(&value);
     if dir.is_relative() {
         dir = ctx.dir().join(&value);
-        if !dir.is_dir() {
+        if !dir.exists() {
             dir = ctx.resolve(&value);
         }
     }
-    if !dir.is_dir() {
+    // Mitsuba only checks that the path exists: a `<path>` naming a file is accepted
+    // (nothing is ever found under it).
+    if !dir.exists() {
         return Err(ctx.err(node, format!("folder '{value}' not found")));
     }
     ctx.prepend_search_path(dir);
