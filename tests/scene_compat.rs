@@ -135,7 +135,7 @@ fn bad_includes_and_paths_are_one_clear_error() {
         (r#"<include filename="self.xml"/>"#, "includes itself"),
         (
             r#"<include filename="notscene.xml"/>"#,
-            "root element of an included file must be <scene>",
+            "<foo> is not supported (supported at top level",
         ),
         (r#"<include filename="broken.xml"/>"#, "malformed XML"),
     ];
@@ -144,7 +144,7 @@ fn bad_includes_and_paths_are_one_clear_error() {
         "self.xml",
         r#"<scene version="3.0.0"><include filename="self.xml"/></scene>"#,
     );
-    write(d, "notscene.xml", "<shape type=\"sphere\"/>");
+    write(d, "notscene.xml", "<foo/>");
     write(d, "broken.xml", "<scene><shape></scene>");
     for (body, want) in cases {
         write(d, "s.xml", &scene(FOV, &format!("{body}{SHAPES}")));
@@ -1134,4 +1134,25 @@ fn a_path_naming_a_file_is_accepted_as_mitsuba_does() {
         panic!("a <path> to nothing loaded");
     };
     assert!(err.contains("not found"), "{err}");
+}
+
+#[test]
+fn an_included_file_whose_root_is_one_object_is_that_object() {
+    // Mitsuba parses an included file's root element: a <bsdf> root defines that BSDF.
+    let d = tempfile::tempdir().unwrap();
+    let d = d.path();
+    write(d, "tri.ply", TRI_PLY);
+    write(
+        d,
+        "red.xml",
+        r#"<bsdf type="diffuse" id="red"><rgb name="reflectance" value="0.8, 0.1, 0.1"/></bsdf>"#,
+    );
+    let text = format!(
+        r#"{}<include filename="red.xml"/><shape type="rectangle"><ref id="red"/></shape></scene>"#,
+        HEAD.replace("SENSOR", FOV)
+    );
+    write(d, "s.xml", &text);
+    let scene = load(d, "s.xml").unwrap();
+    assert_eq!(scene.shapes.len(), 1);
+    assert_eq!(scene.bsdfs.len(), 1);
 }

@@ -522,6 +522,13 @@ const MAX_INCLUDE_DEPTH: usize = 16;
 /// The top-level elements of `root` (the scene file's or an included file's), in
 /// document order.
 fn walk(ctx: &Ctx, root: Node, o: &mut Objects, depth: usize) -> Result<(), SceneError> {
+    // A `<scene>`'s children; an included file whose root is one object (a `<bsdf>`,
+    // a `<shape>`, ...) is that object, as Mitsuba parses it.
+    let nodes: Vec<Node> = if root.has_tag_name("scene") {
+        root.children().filter(|n| n.is_element()).collect()
+    } else {
+        vec![root]
+    };
     if o.first_medium.is_none() {
         if let Some(n) = root.descendants().find(|n| n.has_tag_name("medium")) {
             o.first_medium = Some(ctx.err(
@@ -533,7 +540,7 @@ fn walk(ctx: &Ctx, root: Node, o: &mut Objects, depth: usize) -> Result<(), Scen
     // Area emitters declared at this level, attached to shapes by <ref id> anywhere in
     // the file, also before their declaration (Mitsuba resolves references after
     // reading the whole file).
-    for node in root.children().filter(|n| n.has_tag_name("emitter")) {
+    for &node in nodes.iter().filter(|n| n.has_tag_name("emitter")) {
         let Some(kind) = ctx
             .attr(node, "type")?
             .filter(|k| AREA_KINDS.contains(&k.as_str()))
@@ -551,7 +558,7 @@ fn walk(ctx: &Ctx, root: Node, o: &mut Objects, depth: usize) -> Result<(), Scen
             return Err(ctx.err(node, format!("id '{id}' is defined twice")));
         }
     }
-    for node in root.children().filter(|n| n.is_element()) {
+    for &node in &nodes {
         match node.tag_name().name() {
             "default" => {}
             "integrator" => {
@@ -867,9 +874,8 @@ fn include(ctx: &Ctx, node: Node, o: &mut Objects, depth: usize) -> Result<(), S
         ));
     }
     let root = doc.root_element();
-    if root.tag_name().name() != "scene" {
-        return Err(child.err(root, "the root element of an included file must be <scene>"));
-    }
+    // Mitsuba parses an included file's root element: a `<scene>` merges its children,
+    // any other element is one object (the walk refuses what is not top-level).
     check_elements(&child, root)?;
     o.including.push(canonical);
     let walked = walk(&child, root, o, depth + 1);
