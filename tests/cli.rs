@@ -759,3 +759,62 @@ fn a_steady_value_beyond_f32_is_refused_by_export() {
         assert!(!target.exists());
     }
 }
+
+#[test]
+fn merge_refuses_bundles_of_other_d_values_or_other_scene_files() {
+    // The scene file's bytes are the same; what it was rendered with is not.
+    let xml = VALID
+        .replace(
+            r#"<default name="spp" value="4"/>"#,
+            r#"<default name="spp" value="4"/><default name="refl" value="0.5"/>"#,
+        )
+        .replace(
+            r#"<rgb name="reflectance" value="0.5, 0.5, 0.5"/>"#,
+            r#"<float name="reflectance" value="$refl"/>"#,
+        )
+        .replace(
+            r#"<shape type="rectangle"><ref id="grey"/></shape>"#,
+            r#"<shape type="ply"><string name="filename" value="m.ply"/><ref id="grey"/></shape>"#,
+        );
+    let c = case(&xml);
+    let ply = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n\
+               property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n\
+               -1 -1 0\n1 -1 0\n0 1 0\n3 0 1 2\n";
+    let mesh = c.dir.path().join("m.ply");
+    std::fs::write(&mesh, ply).unwrap();
+    let sc = c.scene.to_str().unwrap();
+    let p = |n: &str| s(&c.dir.path().join(n));
+    let render = |out: &str, seed: &str, refl: &str| {
+        let r = tstat(&[
+            "render",
+            sc,
+            "--out",
+            &p(out),
+            "--seed",
+            seed,
+            "-D",
+            &format!("refl={refl}"),
+        ]);
+        assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    };
+    render("a.tstats", "1", "0.8");
+    render("b.tstats", "2", "0.8");
+    render("c.tstats", "3", "0.2");
+    let merge =
+        |x: &str, y: &str| tstat(&["merge", &p(x), &p(y), "--out", &p("m.tstats"), "--force"]);
+    assert!(merge("a.tstats", "b.tstats").status.success());
+    let r = merge("a.tstats", "c.tstats");
+    assert_eq!(r.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&r.stderr);
+    assert!(
+        err.contains("-D refl '0.2' where the first bundle has '0.8'"),
+        "{err}"
+    );
+    // The same -D, but the mesh changed between the renders.
+    std::fs::write(&mesh, ply.replace("0 1 0\n3", "0 0.5 0\n3")).unwrap();
+    render("d.tstats", "4", "0.8");
+    let r = merge("a.tstats", "d.tstats");
+    assert_eq!(r.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&r.stderr);
+    assert!(err.contains("file 'm.ply'"), "{err}");
+}

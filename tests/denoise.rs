@@ -1606,6 +1606,7 @@ fn write_bundle(
         scene: SceneRef {
             path: "synthetic".into(),
             sha256: "0".repeat(64),
+            identity: None,
         },
         max_depth: -1,
         time_filter_stddev_bins: None,

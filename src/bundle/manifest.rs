@@ -14,6 +14,10 @@ pub const C_M_PER_S: f64 = 299_792_458.0;
 pub struct SceneRef {
     pub path: String,
     pub sha256: String,
+    /// The files the scene read (by name, with their SHA-256) and the `-D` values;
+    /// absent in bundles written before it was recorded.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub identity: Option<crate::scene::SceneIdentity>,
 }
 
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]

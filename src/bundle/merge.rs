@@ -30,10 +30,41 @@ fn same_settings(a: &Manifest, b: &Manifest) -> Result<(), String> {
             a.time_filter_stddev_bins == b.time_filter_stddev_bins,
         ),
     ];
-    match checks.iter().find(|c| !c.1) {
-        Some((what, _)) => Err(format!("its {what} differs from the first bundle's")),
-        None => Ok(()),
+    if let Some((what, _)) = checks.iter().find(|c| !c.1) {
+        return Err(format!("its {what} differs from the first bundle's"));
     }
+    // What the scene read and the -D values (bundles from before this was recorded
+    // compare by the scene file alone).
+    if let (Some(x), Some(y)) = (&a.scene.identity, &b.scene.identity) {
+        let dx: std::collections::BTreeMap<_, _> = x.defaults.iter().cloned().collect();
+        let dy: std::collections::BTreeMap<_, _> = y.defaults.iter().cloned().collect();
+        if let Some(k) = dx
+            .keys()
+            .chain(dy.keys())
+            .find(|k| dx.get(*k) != dy.get(*k))
+        {
+            let show = |v: Option<&String>| v.map_or("unset".to_string(), |v| format!("'{v}'"));
+            return Err(format!(
+                "it was rendered with -D {k} {} where the first bundle has {}",
+                show(dy.get(k)),
+                show(dx.get(k))
+            ));
+        }
+        if x.inputs != y.inputs {
+            let fx: std::collections::BTreeMap<_, _> = x.inputs.iter().cloned().collect();
+            let fy: std::collections::BTreeMap<_, _> = y.inputs.iter().cloned().collect();
+            let name = fx
+                .keys()
+                .chain(fy.keys())
+                .find(|k| fx.get(*k) != fy.get(*k))
+                .cloned()
+                .unwrap_or_default();
+            return Err(format!(
+                "the scene's file '{name}' (an include, mesh, image, volume or spectrum) differs from the first bundle's, or only one of them read it"
+            ));
+        }
+    }
+    Ok(())
 }
 
 fn seeds(m: &Manifest) -> Vec<u64> {

@@ -220,6 +220,7 @@ fn manifest(scene: &Scene, meta: &BundleMeta, seconds: f64, dropped_nonfinite: u
         scene: SceneRef {
             path: scene.file.display().to_string(),
             sha256: scene.sha256.clone(),
+            identity: Some(scene.identity.clone()),
         },
         max_depth: scene.integrator.max_depth,
         time_filter_stddev_bins: scene.integrator.time_filter.stddev_bins(),

@@ -115,8 +115,22 @@ pub struct Scene {
     /// area), one line each as `file:line: <element>: message`. The caller prints them
     /// (as `warning: ...` on stderr); loading goes on.
     pub warnings: Vec<String>,
-    /// The mesh files (PLY, OBJ) the scene read: inputs that no output may replace.
+    /// Every file the scene read besides itself (included files, meshes, images,
+    /// volumes, spectra): inputs that no output may replace.
     pub mesh_files: Vec<PathBuf>,
+    /// What the render depends on beyond the scene file's bytes: the SHA-256 of each
+    /// file in `mesh_files` (by file name, sorted) and the `-D` values. Recorded in the
+    /// bundle; `merge` refuses bundles whose identities differ.
+    pub identity: SceneIdentity,
+}
+
+/// See [`Scene::identity`].
+#[derive(Clone, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub struct SceneIdentity {
+    /// (file name, SHA-256 of its bytes), sorted; a file read twice is listed once.
+    pub inputs: Vec<(String, String)>,
+    /// The command line's `-D name=value`s, sorted by name.
+    pub defaults: Vec<(String, String)>,
 }
 
 impl Scene {

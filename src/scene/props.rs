@@ -620,6 +620,7 @@ fn parse_spectrum(ctx: &Ctx, node: Node) -> Result<Value, SceneError> {
             .collect::<Result<_, SceneError>>()?,
         (None, Some(f)) => {
             let path = ctx.resolve(&f);
+            ctx.read_mesh_file(&path);
             let bytes = crate::io::read_regular(&path, MAX_SPECTRUM_FILE_BYTES)
                 .map_err(|e| bad(format!("cannot read spectrum file '{f}': {e}")))?;
             let text = String::from_utf8_lossy(&bytes);

@@ -7,7 +7,7 @@ use super::infinite_emitters;
 use super::limits;
 use super::props::{Ctx, Props, OBJECT_TAGS};
 use super::shapes::{check_world_point, parse_geometry, MAX_COORDINATE};
-use super::{IntegratorSettings, Overrides, Scene};
+use super::{IntegratorSettings, Overrides, Scene, SceneIdentity};
 use crate::geometry::accel::Accel;
 use crate::geometry::shape::{AreaSampler, Shape, ShapeGeom};
 use crate::lights::scene_sphere::SceneSphere;
@@ -287,6 +287,7 @@ pub fn load(path: &Path, overrides: &Overrides) -> Result<Scene, SceneError> {
         ));
     }
     let accel = Accel::build(&shapes);
+    let mesh_files = ctx.take_mesh_files();
     Ok(Scene {
         file: path.to_path_buf(),
         sha256,
@@ -303,8 +304,37 @@ pub fn load(path: &Path, overrides: &Overrides) -> Result<Scene, SceneError> {
         camera_medium: s.medium,
         accel,
         warnings: ctx.take_warnings(),
-        mesh_files: ctx.take_mesh_files(),
+        identity: identity(&mesh_files, overrides)
+            .map_err(|e| SceneError::new(path, 0, "scene", e))?,
+        mesh_files,
     })
+}
+
+/// The scene's identity beyond its own bytes (`Scene::identity`).
+fn identity(files: &[std::path::PathBuf], overrides: &Overrides) -> Result<SceneIdentity, String> {
+    let mut inputs = Vec::new();
+    let mut seen = std::collections::HashSet::new();
+    for f in files {
+        let Ok(canonical) = f.canonicalize() else {
+            continue;
+        };
+        if !seen.insert(canonical.clone()) {
+            continue;
+        }
+        let mut hasher = Sha256::new();
+        let mut file = std::fs::File::open(&canonical)
+            .map_err(|e| format!("cannot read '{}' again to fingerprint it: {e}", f.display()))?;
+        std::io::copy(&mut file, &mut hasher)
+            .map_err(|e| format!("cannot read '{}' again to fingerprint it: {e}", f.display()))?;
+        let name = canonical
+            .file_name()
+            .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
+        inputs.push((name, format!("{:x}", hasher.finalize())));
+    }
+    inputs.sort();
+    let mut defaults = overrides.defaults.clone();
+    defaults.sort();
+    Ok(SceneIdentity { inputs, defaults })
 }
 
 /// Whether `text` refers to the parameter `$key` (not as the prefix of a longer name).
@@ -877,6 +907,7 @@ fn include(ctx: &Ctx, node: Node, o: &mut Objects, depth: usize) -> Result<(), S
     // Mitsuba parses an included file's root element: a `<scene>` merges its children,
     // any other element is one object (the walk refuses what is not top-level).
     check_elements(&child, root)?;
+    ctx.read_mesh_file(&canonical);
     o.including.push(canonical);
     let walked = walk(&child, root, o, depth + 1);
     o.including.pop();
