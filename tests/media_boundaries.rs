@@ -327,6 +327,22 @@ fn slab_shadow(p: DVec3, q: DVec3) -> f64 {
     (-SLAB_SIGMA_T * in_fog).exp()
 }
 
+/// `integral cos_l / r^2 * through(q, cos_l) dA` from p over the 10 cm square light at
+/// height `h` facing down (radiance 1): `gl` x `gl` Gauss-Legendre nodes; `through` is
+/// what the segment p -> q keeps (transmittance, panes).
+fn small_light(p: DVec3, h: f64, gl: &[(f64, f64)], through: impl Fn(DVec3, f64) -> f64) -> f64 {
+    let mut e = 0.0;
+    for &(u, wu) in gl {
+        for &(v, wv) in gl {
+            let q = DVec3::new(0.05 * u, h, 0.05 * v);
+            let r2 = (q - p).length_squared();
+            let cos_l = ((h - p.y) / r2.sqrt()).max(0.0);
+            e += wu * wv * 0.0025 * cos_l / r2 * through(q, cos_l);
+        }
+    }
+    e
+}
+
 #[test]
 fn single_scattering_reaches_a_light_two_centimetres_beyond_the_null_boundary() {
     // The camera looks along -z just under the top face (rays stay within 1.3 cm .. 19
@@ -366,18 +382,7 @@ fn single_scattering_reaches_a_light_two_centimetres_beyond_the_null_boundary() 
     let scene = load(&scene_xml(2, &camera, &body), &Overrides::default());
     let gl = gauss_legendre(24);
     let reference = pixel_reference(&scene, 3, |o, d| {
-        let l = slab_single_scattering(o, d, &|p| {
-            let mut e = 0.0;
-            for &(u, wu) in &gl {
-                for &(v, wv) in &gl {
-                    let q = DVec3::new(0.05 * u, h, 0.05 * v);
-                    let r2 = (q - p).length_squared();
-                    let cos_l = (h - p.y) / r2.sqrt();
-                    e += wu * wv * 0.0025 * cos_l / r2 * slab_shadow(p, q);
-                }
-            }
-            e
-        });
+        let l = slab_single_scattering(o, d, &|p| small_light(p, h, &gl, |q, _| slab_shadow(p, q)));
         [l; 3]
     });
     compare(
@@ -400,18 +405,7 @@ fn single_scattering_reaches_a_light_two_centimetres_beyond_the_null_boundary() 
     let camera = sensor("2", "0, -0.13, 4", "0, -0.13, 0", None, 128);
     let scene = load(&scene_xml(2, &camera, &body), &Overrides::default());
     let reference = pixel_reference(&scene, 3, |o, d| {
-        let l = slab_single_scattering(o, d, &|p| {
-            let mut e = 0.0;
-            for &(u, wu) in &gl {
-                for &(v, wv) in &gl {
-                    let q = DVec3::new(0.05 * u, h, 0.05 * v);
-                    let r2 = (q - p).length_squared();
-                    let cos_l = ((h - p.y) / r2.sqrt()).max(0.0);
-                    e += wu * wv * 0.0025 * cos_l / r2 * slab_shadow(p, q);
-                }
-            }
-            e
-        });
+        let l = slab_single_scattering(o, d, &|p| small_light(p, h, &gl, |q, _| slab_shadow(p, q)));
         [l; 3]
     });
     compare("area light 3 cm inside the fog", &scene, &reference, 4);
@@ -721,16 +715,7 @@ fn a_thin_dielectric_boundary_is_a_null_interface_with_its_transmittance() {
     let gl = gauss_legendre(24);
     let reference = pixel_reference(&scene, 3, |o, d| {
         let l = slab_single_scattering(o, d, &|p| {
-            let mut e = 0.0;
-            for &(u, wu) in &gl {
-                for &(v, wv) in &gl {
-                    let q = DVec3::new(0.05 * u, h, 0.05 * v);
-                    let r = (q - p).length();
-                    let cos_l = (h - p.y) / r;
-                    e += wu * wv * 0.0025 * cos_l / (r * r) * slab_shadow(p, q) * pane(cos_l);
-                }
-            }
-            e
+            small_light(p, h, &gl, |q, cos_l| slab_shadow(p, q) * pane(cos_l))
         });
         // The camera ray enters through the front pane (z = 1).
         [l * pane(d.z); 3]
