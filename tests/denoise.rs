@@ -384,7 +384,8 @@ fn reference_filter(e: &Estimates, f: &Features, p: &FilterParams) -> Reference 
                     }
                 }
                 for c in 0..C {
-                    out[e.idx(j, c, tj as usize)] = num[c] / den;
+                    // The stored means are in units of 2^scale.mean.
+                    out[e.idx(j, c, tj as usize)] = num[c] / den * e.scale.unscale_mean();
                 }
             }
         }
@@ -634,7 +635,7 @@ fn fast_filter_matches_reference_on_random_bundles() {
                     let changed = reference
                         .out
                         .iter()
-                        .zip(&est.mean)
+                        .zip(&est.mean_in_radiance())
                         .filter(|(a, b)| (**a - **b as f64).abs() > 1e-3 * a.abs())
                         .count();
                     assert!(
@@ -796,21 +797,19 @@ fn estimates_match_two_pass_sample_statistics() {
                         };
                         let i = est.idx(y * w + x, c, k);
                         let what = format!("{transform:?} voxel ({y},{x},{k}) c {c}");
-                        let close =
-                            |a: f32, b: f64, scale: f64| (a as f64 - b).abs() <= 1e-6 * scale;
+                        let close = |a: f64, b: f64, scale: f64| (a - b).abs() <= 1e-6 * scale;
+                        let (e_mean, e_theta, e_v) = est.unscaled(i);
                         assert!(
-                            close(est.mean[i], mean, mean.abs()),
-                            "{what}: mean {} vs {mean}",
-                            est.mean[i]
+                            close(e_mean, mean, mean.abs()),
+                            "{what}: mean {e_mean} vs {mean}"
                         );
                         // Stored relative to z(0).
                         let theta = theta - transform.at_zero();
                         assert!(
-                            close(est.theta[i], theta, theta.abs() + vv.sqrt()),
-                            "{what}: theta {} vs {theta}",
-                            est.theta[i]
+                            close(e_theta, theta, theta.abs() + vv.sqrt()),
+                            "{what}: theta {e_theta} vs {theta}"
                         );
-                        assert!(close(est.v[i], vv, vv), "{what}: v {} vs {vv}", est.v[i]);
+                        assert!(close(e_v, vv, vv), "{what}: v {e_v} vs {vv}");
                         if raw.iter().all(|&s| s == raw[0]) {
                             assert_eq!(est.v[i], 0.0, "{what}");
                         }
@@ -891,6 +890,40 @@ fn filter_averages_radiance_whatever_the_transform() {
     assert_eq!(bits(&oa), bits(&ob));
 }
 
+/// Radiance in other units: scaling every sample by 2^k (X1, X2, X3 by 2^k, 2^2k, 2^3k)
+/// scales every method's output by exactly 2^k, also where f32 could not hold the
+/// unscaled variances (2^±90: `v` ~ 2^±180) and the test would accept or reject
+/// everything.
+#[test]
+fn output_scales_exactly_with_the_radiance_unit() {
+    let b = random_bundle(9, 10, 12, 16, Transform::Identity, 23);
+    for params in methods() {
+        let base = denoise_sums(&b.view(), &b.features(), &params, &|_| {}).volume;
+        assert!(base.iter().any(|&v| v > 0.0));
+        for k in [-90, -45, 45, 90] {
+            let f = 2f64.powi(k);
+            let mut s = Bundle::new(b.h, b.w, b.t, b.spp, Transform::Identity);
+            s.nonzero = b.nonzero.clone();
+            s.x1 = b.x1.iter().map(|v| v * f).collect();
+            s.x2 = b.x2.iter().map(|v| v * f * f).collect();
+            s.x3 = b.x3.iter().map(|v| v * f * f * f).collect();
+            s.sum = s.x1.clone();
+            (s.albedo, s.normal) = (b.albedo.clone(), b.normal.clone());
+            (s.depth, s.emitter) = (b.depth.clone(), b.emitter.clone());
+            let out = denoise_sums(&s.view(), &s.features(), &params, &|_| {}).volume;
+            for ((i, &v), &u) in out.indexed_iter().zip(base.iter()) {
+                let want = (f64::from(u) * f) as f32;
+                assert_eq!(
+                    v.to_bits(),
+                    want.to_bits(),
+                    "{:?} 2^{k} at {i:?}: {v:e} vs {want:e}",
+                    params.method
+                );
+            }
+        }
+    }
+}
+
 // ---- 2. properties ----------------------------------------------------------------------
 
 /// A bundle where every voxel's samples all equal `value(y, x, k) * colour` (every path
@@ -957,6 +990,7 @@ fn noise_free_volume_comes_back_unchanged() {
             "{name}: V must be exactly 0"
         );
         assert!(est.mean.contains(&0.0) && est.mean.iter().any(|&m| m != 0.0));
+        let mean = est.mean_in_radiance();
         for kind in [BaseKind::Jbf, BaseKind::Gaussian] {
             // d != 0 with V = 0 fails for any g, however large.
             for g2 in [4.0, 1e6] {
@@ -973,12 +1007,12 @@ fn noise_free_volume_comes_back_unchanged() {
                     let out = run_filter(&est, &b.features(), &p, tiling);
                     if exact {
                         // sum w_i m / sum w_i with m a power of two is exact in f32.
-                        assert_eq!(bits(&out), bits(&est.mean), "{name} {kind:?} {g2}");
+                        assert_eq!(bits(&out), bits(&mean), "{name} {kind:?} {g2}");
                     } else {
                         // Only f32 rounding of the weighted sums (<= 363 terms).
                         assert_close(
                             &out,
-                            &est.mean.iter().map(|&m| m as f64).collect::<Vec<_>>(),
+                            &mean.iter().map(|&m| m as f64).collect::<Vec<_>>(),
                             2e-6,
                             name,
                         );
@@ -993,7 +1027,7 @@ fn noise_free_volume_comes_back_unchanged() {
                 let out = run_filter(&est, &b.features(), &base_only, TILINGS[3]);
                 let moved = out
                     .iter()
-                    .zip(&est.mean)
+                    .zip(&mean)
                     .filter(|(a, m)| (**a - **m).abs() > 1e-3 * m.abs().max(1e-3))
                     .count();
                 assert!(
@@ -1168,7 +1202,7 @@ fn isolated_outlier_is_kept() {
         let out = run_filter(&est, &b.features(), &p, Tiling::default());
         // Every neighbour fails the test, so only the centre counts: out = mean exactly.
         for c in 0..C {
-            assert_eq!(out[o(c)], est.mean[o(c)], "{kind:?} c {c}");
+            assert_eq!(out[o(c)], est.mean_in_radiance()[o(c)], "{kind:?} c {c}");
         }
         // Its neighbours stay within 3 standard errors of 1 * colour.
         for y in oy - 2..=oy + 2 {

@@ -4,7 +4,7 @@
 //! independence, consistency.
 
 use tstat::denoise::base_filter::{BaseFilter, BaseKind, Features, Sigmas};
-use tstat::denoise::estimates::Estimates;
+use tstat::denoise::estimates::{Estimates, Scale};
 use tstat::denoise::filter::{filter, FilterParams, Membership, Tiling};
 use tstat::denoise::tstat::TstatParams;
 use tstat::math::rng::Pcg32;
@@ -46,6 +46,7 @@ impl Volume {
                 spp: 16,
                 stratified: false,
                 rows: 0..h,
+                scale: Scale::UNIT,
                 mean: vec![0.0; n],
                 theta: vec![0.0; n],
                 v: vec![0.0; n],

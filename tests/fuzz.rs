@@ -1,9 +1,10 @@
 //! Fuzzing on the stable toolchain: property tests that mutate valid inputs (scene XML,
-//! PLY, OBJ and `.serialized` bytes, `.npy` files and manifests of a bundle) and require "a clean error
+//! the files a scene reads -- includes, spectra, `.vol` grids, images, curves --, PLY,
+//! OBJ and `.serialized` bytes, `.npy` files and manifests of a bundle) and require "a clean error
 //! or a valid result, never a panic". A panic anywhere (parser, loader, renderer,
 //! reader) fails the property, and proptest shrinks the mutation list to a small case.
 //!
-//! CI runs 1000-3000 cases per target (8000 in all, well under a minute); a developer runs more
+//! CI runs 1000-3000 cases per target (9500 in all, well under a minute); a developer runs more
 //! with `TSTAT_FUZZ_CASES=20000 TSTAT_FUZZ_SEED=$RANDOM cargo test --release --test fuzz`
 //! (README, "Fuzzing"); CI's seed is fixed so its runs are reproducible.
 
@@ -235,6 +236,106 @@ fn mutated_scenes_load_cleanly_or_fail_cleanly() {
             std::fs::write(&file, apply(&bases[k], &muts)).unwrap();
             match Scene::load(&file, &tiny()) {
                 Ok(scene) => render_tiny(&scene)?,
+                Err(e) => {
+                    let msg = e.to_string();
+                    prop_assert!(!msg.is_empty() && !msg.contains('\n'), "{msg:?}");
+                }
+            }
+            Ok(())
+        })
+        .unwrap();
+}
+
+/// A scene that reads one file of each kind beside it: an included XML file, a
+/// spectrum (`.spd`), a grid volume (`.vol`), an environment map (PNG), a curve file
+/// and a PLY mesh.
+const SIDE_SCENE: &str = r#"<scene version="3.0.0">
+  <integrator type="transient_prbvolpath"><integer name="max_depth" value="4"/></integrator>
+  <include filename="inc.xml"/>
+  <sensor type="perspective">
+    <transform name="to_world"><lookat origin="0,0,4" target="0,0,0" up="0,1,0"/></transform>
+    <film type="transient_hdr_film"><integer name="width" value="4"/><integer name="height" value="4"/>
+      <integer name="temporal_bins" value="6"/><float name="bin_width_opl" value="1"/>
+      <float name="start_opl" value="2"/></film>
+  </sensor>
+  <emitter type="envmap"><string name="filename" value="sky.png"/></emitter>
+  <emitter type="point"><point name="position" x="0.5" y="0.5" z="2"/><rgb name="intensity" value="5"/></emitter>
+  <medium type="heterogeneous" id="fog">
+    <volume name="sigma_t" type="gridvolume"><string name="filename" value="grid.vol"/></volume>
+  </medium>
+  <shape type="cube"><bsdf type="null"/><ref name="interior" id="fog"/></shape>
+  <shape type="linearcurve"><string name="filename" value="curve.txt"/></shape>
+  <shape type="ply"><string name="filename" value="quad.ply"/></shape>
+</scene>"#;
+
+/// The files [`SIDE_SCENE`] reads, valid.
+fn side_files() -> Vec<(&'static str, Vec<u8>)> {
+    let mut vol = b"VOL\x03".to_vec();
+    for v in [1i32, 2, 2, 2, 1] {
+        vol.extend(v.to_le_bytes());
+    }
+    for v in [
+        -1f32, -1., -1., 1., 1., 1., 0.5, 1., 0.2, 2., 0., 1., 3., 0.7,
+    ] {
+        vol.extend(v.to_le_bytes());
+    }
+    let quad = b"ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n-2 -2 -2\n2 -2 -2\n2 2 -2\n-2 2 -2\n4 0 1 2 3\n";
+    vec![
+        (
+            "inc.xml",
+            br#"<scene version="3.0.0"><shape type="sphere"><float name="radius" value="0.3"/><bsdf type="diffuse"><spectrum name="reflectance" filename="r.spd"/></bsdf></shape></scene>"#.to_vec(),
+        ),
+        ("r.spd", b"# reflectance\n400 0.2\n550 0.6\n700 0.4\n".to_vec()),
+        ("grid.vol", vol),
+        ("sky.png", std::fs::read(repo("scenes/textures/wall.png")).unwrap()),
+        (
+            "curve.txt",
+            b"0 -1 0 0.05\n0.2 0 0.1 0.05\n0 1 0 0.05\n\n-0.5 0 0 0.02\n0.5 0 0 0.02\n".to_vec(),
+        ),
+        ("quad.ply", quad.to_vec()),
+    ]
+}
+
+/// One file a scene reads mutated at a time (the include, the spectrum, the volume,
+/// the image, the curve, the mesh): a clean one-line error, or a scene that renders
+/// and whose identity covers every file it read.
+#[test]
+fn mutated_side_files_load_cleanly_or_fail_cleanly() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene_path = dir.path().join("scene.xml");
+    std::fs::write(&scene_path, SIDE_SCENE).unwrap();
+    let files = side_files();
+    let write_all = |mutated: Option<(usize, &[Mutation])>| {
+        for (k, (name, bytes)) in files.iter().enumerate() {
+            let bytes = match mutated {
+                Some((m, muts)) if m == k => apply(bytes, muts),
+                _ => bytes.clone(),
+            };
+            std::fs::write(dir.path().join(name), bytes).unwrap();
+        }
+    };
+    // The base is valid and its identity lists its six files (the scene file's own
+    // checksum is recorded beside it).
+    write_all(None);
+    let scene = Scene::load(&scene_path, &tiny()).unwrap();
+    let names: Vec<&str> = scene
+        .identity
+        .inputs
+        .iter()
+        .map(|(n, _)| n.as_str())
+        .collect();
+    let mut want: Vec<&str> = files.iter().map(|(n, _)| *n).collect();
+    want.sort();
+    assert_eq!(names, want);
+    runner(1500)
+        .run(&(0..files.len(), mutations(4)), |(k, muts)| {
+            write_all(Some((k, &muts)));
+            match Scene::load(&scene_path, &tiny()) {
+                Ok(scene) => {
+                    // A mutated include may stop reading the spectrum.
+                    prop_assert!(scene.identity.inputs.len() >= files.len() - 1);
+                    render_tiny(&scene)?;
+                }
                 Err(e) => {
                     let msg = e.to_string();
                     prop_assert!(!msg.is_empty() && !msg.contains('\n'), "{msg:?}");

@@ -8,6 +8,17 @@
 //!   overflow for tiny lambda);
 //! - `v = sigma^2 / n`, the variance of theta's estimate.
 //!
+//! f32 holds about 1e-38..3e38, and `v` is a square: radiance of 1e20 (or 1e-20) would
+//! overflow (or underflow) `v` and the t-test's squared differences, and the filter
+//! would silently accept (or reject) every neighbour. So the values are stored in
+//! units of a power of two ([`Scale`], fixed from the largest magnitudes of the whole
+//! volume, [`Magnitudes::scan`]): `mean` divided by `2^Scale::mean`, `theta` by
+//! `2^Scale::theta` and `v` by its square. Scaling by a power of two is exact in
+//! floating point and the filter is homogeneous (its output is a weighted average of
+//! `mean`, its weights depend on `(theta_i - theta_j)^2 / (v_i + v_j)`), so the output,
+//! multiplied back by `2^Scale::mean`, is bit for bit that of unscaled arithmetic
+//! wherever that does not overflow or underflow, and right where it would.
+//!
 //! Memory: 3 x H x W x T x 3 x 4 bytes for a whole volume (177 MB for 128 x 128 x
 //! 300). A slab of the image holds only its rows (see `slab.rs`): [`Estimates::rows`]
 //! says which, and pixel indices stay those of the whole image.
@@ -31,9 +42,115 @@ pub struct Estimates {
     pub stratified: bool,
     /// The image rows held, `0..height` for a whole volume.
     pub rows: Range<usize>,
+    /// The powers of two `mean`, `theta` and `v` are stored in.
+    pub scale: Scale,
     pub mean: Vec<f32>,
     pub theta: Vec<f32>,
     pub v: Vec<f32>,
+}
+
+/// Bounds on the largest magnitudes of a volume's estimates: `mean` is the largest
+/// `|S / n|`, `theta` the largest root mean square of `z - z(0)` over a voxel's `n`
+/// samples, which bounds `|theta - z(0)|` (within 1.2: the skewness correction is at
+/// most `rms / (6 sqrt(n))`) and `sqrt(v)`. Bounds within a small factor suffice: any
+/// power-of-two scale that neither overflows nor underflows gives the same bits.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Magnitudes {
+    pub mean: f64,
+    pub theta: f64,
+}
+
+impl Magnitudes {
+    /// The bounds over every voxel of `s` (a few operations a value, no estimates).
+    pub fn scan(s: &SumsView) -> Magnitudes {
+        let (nf, c) = (s.spp as f64, s.z0);
+        let per_pixel = CHANNELS * s.bins;
+        let (mean, y2) = (0..s.height * s.width)
+            .into_par_iter()
+            .map(|p| {
+                let (mut mean, mut y2) = (0f64, 0f64);
+                for k in p * per_pixel..(p + 1) * per_pixel {
+                    let mc = f64::from(s.nonzero[k / CHANNELS]) * c;
+                    mean = mean.max((s.sum[k] / nf).abs());
+                    // Sum of (z - c)^2 over the n samples, as in `estimate`.
+                    y2 = y2.max((s.x2[k] - 2.0 * c * s.x1[k] + mc * c).abs());
+                }
+                (mean, y2)
+            })
+            .reduce(|| (0.0, 0.0), |a, b| (a.0.max(b.0), a.1.max(b.1)));
+        Magnitudes {
+            mean,
+            theta: (y2 / nf).sqrt(),
+        }
+    }
+
+    /// The larger of each magnitude (of two parts of one volume).
+    pub fn max(self, o: Magnitudes) -> Magnitudes {
+        Magnitudes {
+            mean: self.mean.max(o.mean),
+            theta: self.theta.max(o.theta),
+        }
+    }
+}
+
+/// The powers of two the f32 estimates are stored in: `mean / 2^mean`,
+/// `(theta - z(0)) / 2^theta` and `v / 2^(2 theta)`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Scale {
+    pub mean: i32,
+    pub theta: i32,
+}
+
+impl Scale {
+    /// No scaling.
+    pub const UNIT: Scale = Scale { mean: 0, theta: 0 };
+
+    /// The scale that brings the largest magnitude of each kind into [1, 2), so that
+    /// nothing overflows and only values 2^-126 below the largest reach f32's
+    /// subnormals.
+    pub fn of(m: Magnitudes) -> Scale {
+        Scale {
+            mean: exponent(m.mean),
+            theta: exponent(m.theta),
+        }
+    }
+
+    /// The factor the filtered means are multiplied by to undo the scale.
+    pub fn unscale_mean(&self) -> f64 {
+        pow2(self.mean)
+    }
+}
+
+/// floor(log2 x) for finite x > 0 (0 otherwise), clamped to +-500 so that `v`'s
+/// factor `2^(-2 theta)` is an exact f64 too.
+fn exponent(x: f64) -> i32 {
+    if x > 0.0 && x.is_finite() {
+        (x.log2().floor() as i32).clamp(-500, 500)
+    } else {
+        0
+    }
+}
+
+/// 2^e, exact for |e| <= 1022.
+fn pow2(e: i32) -> f64 {
+    2f64.powi(e)
+}
+
+/// One voxel-channel's `(S / n, theta - z(0), v)` in f64.
+#[inline]
+fn voxel_estimate(s: &SumsView, voxel: usize, c: usize) -> (f64, f64, f64) {
+    let k = voxel * CHANNELS + c;
+    let e = estimate(
+        Sums {
+            x1: s.x1[k],
+            x2: s.x2[k],
+            x3: s.x3[k],
+        },
+        s.nonzero[voxel],
+        s.spp,
+        s.z0,
+    );
+    (s.sum[k] / s.spp as f64, e.theta - s.z0, e.v)
 }
 
 /// The raw sums of a bundle, (H, W, T, C) row-major, as stored on disk; or of a band
@@ -65,6 +182,26 @@ impl Estimates {
         ((pixel - self.rows.start * self.width) * CHANNELS + c) * self.bins + t
     }
 
+    /// Entry `k` of `mean`, `theta` and `v` in the sums' own units (undoing
+    /// [`Scale`]), in f64.
+    pub fn unscaled(&self, k: usize) -> (f64, f64, f64) {
+        let th = pow2(self.scale.theta);
+        (
+            f64::from(self.mean[k]) * pow2(self.scale.mean),
+            f64::from(self.theta[k]) * th,
+            f64::from(self.v[k]) * th * th,
+        )
+    }
+
+    /// `mean` in radiance units, as the filter outputs it.
+    pub fn mean_in_radiance(&self) -> Vec<f32> {
+        let u = self.scale.unscale_mean();
+        self.mean
+            .iter()
+            .map(|&m| (f64::from(m) * u) as f32)
+            .collect()
+    }
+
     /// Values per image row in each of `mean`, `theta` and `v`.
     pub fn row_len(&self) -> usize {
         self.width * CHANNELS * self.bins
@@ -72,13 +209,14 @@ impl Estimates {
 
     /// The estimates of a whole volume.
     pub fn from_sums(s: &SumsView) -> Estimates {
-        let mut e = Estimates::empty(s.height, s);
+        let mut e = Estimates::empty(s.height, s, Scale::of(Magnitudes::scan(s)));
         e.push_rows(s);
         e
     }
 
-    /// No rows yet of an image `height` rows high with the sizes and sampling of `s`.
-    pub fn empty(height: usize, s: &SumsView) -> Estimates {
+    /// No rows yet of an image `height` rows high with the sizes and sampling of `s`,
+    /// to be stored in `scale` (that of the whole volume's [`Magnitudes`]).
+    pub fn empty(height: usize, s: &SumsView, scale: Scale) -> Estimates {
         Estimates {
             height,
             width: s.width,
@@ -87,6 +225,7 @@ impl Estimates {
             spp: s.spp,
             stratified: s.stratified,
             rows: 0..0,
+            scale,
             mean: Vec::new(),
             theta: Vec::new(),
             v: Vec::new(),
@@ -120,13 +259,15 @@ impl Estimates {
     /// rows held. Each voxel's estimate depends on its own sums alone, so the values
     /// are those of a whole-volume [`Estimates::from_sums`], bit for bit.
     pub fn push_rows(&mut self, s: &SumsView) {
-        let (t_bins, n) = (s.bins, s.spp);
+        let t_bins = s.bins;
         let per_pixel = CHANNELS * t_bins;
         let start = self.mean.len();
         let len = s.height * s.width * per_pixel;
         for a in [&mut self.mean, &mut self.theta, &mut self.v] {
             a.resize(start + len, 0.0);
         }
+        let (to_mean, to_theta) = (pow2(-self.scale.mean), pow2(-self.scale.theta));
+        let to_v = to_theta * to_theta;
         self.mean[start..]
             .par_chunks_mut(per_pixel)
             .zip(self.theta[start..].par_chunks_mut(per_pixel))
@@ -135,23 +276,12 @@ impl Estimates {
             .for_each(|(p, ((mean, theta), v))| {
                 for t in 0..t_bins {
                     let voxel = p * t_bins + t;
-                    let nonzero = s.nonzero[voxel];
                     for c in 0..CHANNELS {
-                        let k = voxel * CHANNELS + c;
-                        let e = estimate(
-                            Sums {
-                                x1: s.x1[k],
-                                x2: s.x2[k],
-                                x3: s.x3[k],
-                            },
-                            nonzero,
-                            n,
-                            s.z0,
-                        );
+                        let (m, th, var) = voxel_estimate(s, voxel, c);
                         let o = c * t_bins + t;
-                        mean[o] = (s.sum[k] / n as f64) as f32;
-                        theta[o] = (e.theta - s.z0) as f32;
-                        v[o] = e.v as f32;
+                        mean[o] = (m * to_mean) as f32;
+                        theta[o] = (th * to_theta) as f32;
+                        v[o] = (var * to_v) as f32;
                     }
                 }
             });

@@ -405,10 +405,12 @@ fn filter_pixel(
             evals += m as u64;
         }
     }
+    // The means were stored in units of 2^scale.mean (see `estimates.rs`).
+    let unscale = e.scale.unscale_mean();
     for (c, num_c) in num.iter().enumerate() {
         let q = c * e.bins + a as usize;
         for ((out, &sum), &d) in out_j[q..q + n].iter_mut().zip(&num_c[..n]).zip(&den[..n]) {
-            *out = sum / d;
+            *out = (f64::from(sum / d) * unscale) as f32;
         }
     }
     evals

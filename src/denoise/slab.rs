@@ -9,8 +9,10 @@
 //! The estimates are a sliding window: before each slab the rows above
 //! `y0 - halo` are dropped and the new rows below are made from the bundle's sums,
 //! read `chunk` rows at a time ([`RowReader`], with every value check of a whole read)
-//! and freed at once. Each row's sums are read once; the filtered slab goes to a sink
-//! (a `.npy` file on disk, at the rows' offset, or a volume in memory).
+//! and freed at once. Each row's sums are read twice: a first pass finds the
+//! volume's largest magnitudes, which fix the power of two the f32 estimates are
+//! stored in (see `estimates.rs`); the filtered slab goes to a sink (a `.npy` file
+//! on disk, at the rows' offset, or a volume in memory).
 //!
 //! Each voxel's estimate depends only on its own sums, and the filter accumulates
 //! each output voxel in the same neighbour order whatever the tiling, so the result
@@ -32,7 +34,7 @@
 //! Per worker thread the filter adds a few bins of scratch and one neighbour list
 //! (at most `(2 r_e + 1)^2` entries of 24 bytes), not counted.
 
-use super::estimates::{Estimates, SumsView};
+use super::estimates::{Estimates, Magnitudes, Scale, SumsView};
 use super::filter::{filter_rows, Tiling};
 use super::gbuffers::GBuffers;
 use super::DenoiseParams;
@@ -221,7 +223,14 @@ pub fn denoise_slabs(
     );
     let reader = bundle.row_reader()?;
     let mut sums = RowSums::default();
-    let mut est = Estimates::empty(h, &sums_view(m, &sums));
+    // A first pass over the sums fixes the estimates' scale from the whole volume,
+    // so that it does not depend on the slabs.
+    let mut magnitudes = Magnitudes::default();
+    for y in (0..h).step_by(plan.chunk.max(1)) {
+        reader.read(y..(y + plan.chunk.max(1)).min(h), &mut sums)?;
+        magnitudes = magnitudes.max(Magnitudes::scan(&sums_view(m, &sums)));
+    }
+    let mut est = Estimates::empty(h, &sums_view(m, &sums), Scale::of(magnitudes));
     est.reserve_rows((rows + 2 * halo).min(h));
     let mut out = vec![0.0f32; rows.min(h) * est.row_len()];
     // Enough bands for every thread: the output does not depend on the tiling.

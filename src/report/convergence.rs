@@ -121,14 +121,24 @@ pub struct ConvergenceResult {
     pub reference_note: String,
 }
 
-/// The noisy mean S / n of a render as an (H, W, T, C) f32 volume.
-pub fn noisy_mean(out: &RenderOutput, spp: u32) -> Array4<f32> {
+/// The noisy mean S / n of a render as an (H, W, T, C) f32 volume; an error names
+/// the first voxel whose mean f32 cannot hold (as a bundle's checks do).
+pub fn noisy_mean(out: &RenderOutput, spp: u32) -> Result<Array4<f32>, String> {
     let a = &out.accum;
     let s = a.sum.as_ref().unwrap_or(&a.x1);
     let n = spp as f64;
-    Array4::from_shape_fn((a.height, a.width, a.bins, CHANNELS), |(y, x, t, c)| {
+    let v = Array4::from_shape_fn((a.height, a.width, a.bins, CHANNELS), |(y, x, t, c)| {
         (s[((y * a.width + x) * a.bins + t) * CHANNELS + c] / n) as f32
-    })
+    });
+    match v.indexed_iter().find(|(_, m)| !m.is_finite()) {
+        Some(((y, x, t, c), _)) => {
+            let m = s[((y * a.width + x) * a.bins + t) * CHANNELS + c] / n;
+            Err(format!(
+                "the render's mean {m:e} at row {y}, column {x}, bin {t}, channel {c} does not fit in f32 (the volumes' type): scale the emitters down"
+            ))
+        }
+        None => Ok(v),
+    }
 }
 
 /// A view of a render's sums for the denoiser.
@@ -219,7 +229,7 @@ fn reference(cfg: &ConvergenceConfig, dir: &Path, log: &dyn Fn(&str)) -> Result<
                 pixel_sampling: cfg.pixel_sampling,
             };
             let out = render(&scene, &settings, &|_| {});
-            let v = noisy_mean(&out, *spp);
+            let v = noisy_mean(&out, *spp)?;
             let em: Array2<f32> = gbuffers(&out).emitter;
             write_npy_atomic(&vol_path, &v)?;
             write_npy_atomic(&em_path, &em)?;
@@ -304,8 +314,11 @@ pub fn run_convergence(
                 ..settings
             };
             let base = render(&scene, &settings, &|_| {});
-            let (error, bins) =
-                compare_regions(noisy_mean(&base, spp).view(), reference.view(), Some(&mask));
+            let (error, bins) = compare_regions(
+                noisy_mean(&base, spp)?.view(),
+                reference.view(),
+                Some(&mask),
+            );
             line += &format!("; {BASELINE} {:.4e}", error.all.rmse);
             rows.push(Row {
                 spp,
@@ -324,7 +337,7 @@ pub fn run_convergence(
         }
         for &(method, params) in &list {
             let (vol, den_s, evals) = match params {
-                None => (noisy_mean(&out, spp), 0.0, 0.0),
+                None => (noisy_mean(&out, spp)?, 0.0, 0.0),
                 Some(p) => {
                     let d = denoise_sums(&view, &features, &p, &|_| {});
                     let rate = d.evaluations as f64 / d.filter_seconds.max(1e-9);
