@@ -45,6 +45,9 @@ pub enum SamplingRecord {
     Stratified,
     /// i.i.d. uniform positions: the statistics' assumption holds exactly.
     Independent,
+    /// Every dimension of each render's paths from one scrambled Sobol' set per pixel
+    /// (the samples are correlated, like `stratified`'s positions).
+    Sobol,
     /// Merged from renders that used different modes.
     Mixed,
 }
@@ -54,6 +57,7 @@ impl From<PixelSampling> for SamplingRecord {
         match p {
             PixelSampling::Stratified => SamplingRecord::Stratified,
             PixelSampling::Independent => SamplingRecord::Independent,
+            PixelSampling::Sobol => SamplingRecord::Sobol,
         }
     }
 }
@@ -77,6 +81,7 @@ impl SamplingRecord {
         match self {
             SamplingRecord::Stratified => "stratified",
             SamplingRecord::Independent => "independent",
+            SamplingRecord::Sobol => "sobol",
             SamplingRecord::Mixed => "mixed",
         }
     }

@@ -52,7 +52,7 @@ pub fn run(a: InfoArgs) -> anyhow::Result<()> {
         m.pixel_sampling,
         match m.pixel_sampling {
             SamplingRecord::Independent => "",
-            SamplingRecord::Stratified if !m.merged_seeds.is_empty() => {
+            SamplingRecord::Stratified | SamplingRecord::Sobol if !m.merged_seeds.is_empty() => {
                 " (per merged render; variances are over-estimates)"
             }
             _ => " (variances are over-estimates)",

@@ -9,7 +9,7 @@ use super::time_filter::{gaussian_shares, TimeFilter};
 use crate::geometry::accel::offset_origin;
 use crate::materials::{Bsdf, BsdfModel, HitGeometry};
 use crate::math::frame::Frame;
-use crate::math::rng::Pcg32;
+use super::sampler::{slot, PathSampler};
 use crate::math::sampling::power_heuristic;
 use crate::math::Rgb;
 use crate::scene::Scene;
@@ -165,10 +165,10 @@ pub(super) fn escape(
 /// Traces one camera path from the pinhole along unit direction `d`, with the tracer
 /// compiled for the instruction set `cpu::current()` chose (same bits at every level).
 #[inline]
-pub fn trace_path(
+pub fn trace_path<S: PathSampler>(
     scene: &Scene,
     d: Vec3,
-    rng: &mut Pcg32,
+    rng: &mut S,
     deposits: &mut PathDeposits,
     tally: &mut PathTally,
 ) -> GSample {
@@ -178,11 +178,11 @@ pub fn trace_path(
 /// Traces one camera path from `o` (where its OPL starts) along unit direction `d`:
 /// the ray `Camera::ray` gives, for every sensor.
 #[inline]
-pub fn trace_ray(
+pub fn trace_ray<S: PathSampler>(
     scene: &Scene,
     o: Vec3,
     d: Vec3,
-    rng: &mut Pcg32,
+    rng: &mut S,
     deposits: &mut PathDeposits,
     tally: &mut PathTally,
 ) -> GSample {
@@ -199,42 +199,42 @@ pub fn trace_ray(
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx512cd")]
 #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
-fn trace_path_avx512(
+fn trace_path_avx512<S: PathSampler>(
     scene: &Scene,
     o: Vec3,
     d: Vec3,
-    rng: &mut Pcg32,
+    rng: &mut S,
     deposits: &mut PathDeposits,
     tally: &mut PathTally,
 ) -> GSample {
     // SAFETY: this wrapper is compiled for (and only called on CPUs with) ISA_AVX512.
-    unsafe { trace_path_body::<ISA_AVX512>(scene, o, d, rng, deposits, tally) }
+    unsafe { trace_path_body::<ISA_AVX512, S>(scene, o, d, rng, deposits, tally) }
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
-fn trace_path_avx2(
+fn trace_path_avx2<S: PathSampler>(
     scene: &Scene,
     o: Vec3,
     d: Vec3,
-    rng: &mut Pcg32,
+    rng: &mut S,
     deposits: &mut PathDeposits,
     tally: &mut PathTally,
 ) -> GSample {
     // SAFETY: this wrapper is compiled for (and only called on CPUs with) ISA_AVX2.
-    unsafe { trace_path_body::<ISA_AVX2>(scene, o, d, rng, deposits, tally) }
+    unsafe { trace_path_body::<ISA_AVX2, S>(scene, o, d, rng, deposits, tally) }
 }
 
-fn trace_path_baseline(
+fn trace_path_baseline<S: PathSampler>(
     scene: &Scene,
     o: Vec3,
     d: Vec3,
-    rng: &mut Pcg32,
+    rng: &mut S,
     deposits: &mut PathDeposits,
     tally: &mut PathTally,
 ) -> GSample {
     // SAFETY: this wrapper is compiled for (and only called on CPUs with) ISA_BASELINE.
-    unsafe { trace_path_body::<ISA_BASELINE>(scene, o, d, rng, deposits, tally) }
+    unsafe { trace_path_body::<ISA_BASELINE, S>(scene, o, d, rng, deposits, tally) }
 }
 
 /// The path tracer itself, inlined into one wrapper per instruction set; `ISA` picks
@@ -243,11 +243,11 @@ fn trace_path_baseline(
 /// # Safety
 /// The CPU must support `ISA`.
 #[inline(always)]
-unsafe fn trace_path_body<const ISA: u8>(
+unsafe fn trace_path_body<const ISA: u8, S: PathSampler>(
     scene: &Scene,
     o: Vec3,
     d: Vec3,
-    rng: &mut Pcg32,
+    rng: &mut S,
     deposits: &mut PathDeposits,
     tally: &mut PathTally,
 ) -> GSample {
@@ -274,6 +274,8 @@ unsafe fn trace_path_body<const ISA: u8>(
     }
 
     loop {
+        // Each vertex draws its numbers from its own dimensions (`sampler.rs`).
+        rng.next_vertex();
         tally.rays += 1;
         // SAFETY: the caller guarantees ISA.
         let hit = unsafe {
@@ -331,8 +333,16 @@ unsafe fn trace_path_body<const ISA: u8>(
                 &material.bsdf
             };
             let mut bsdf = whole;
+            // The first pick has its dimension; nested picks (rare) take the stream.
+            let mut first = true;
             while let Bsdf::Composed(c) = bsdf {
-                bsdf = c.pick(rng.next_f32());
+                let u = if first {
+                    rng.get1(slot::PICK)
+                } else {
+                    rng.stream().next_f32()
+                };
+                first = false;
+                bsdf = c.pick(u);
             }
             let delaying = match bsdf {
                 Bsdf::Separable(s) => Some(s),
@@ -391,9 +401,9 @@ unsafe fn trace_path_body<const ISA: u8>(
 
         // Next-event estimation.
         if !delta {
-            let u_sel = rng.next_f32();
-            let u1 = rng.next_f32();
-            let u2 = rng.next_2d();
+            let u_sel = rng.get1(slot::LIGHT_SELECT);
+            let u1 = rng.get1(slot::LIGHT_1);
+            let u2 = rng.get2(slot::LIGHT_2);
             let idx = ((u_sel * n_emitters as f32) as usize).min(n_emitters - 1);
             let emitter = &scene.emitters[idx];
             if let Some(ls) = emitter.sample(&scene.shapes, sp.p, select_pdf, u1, u2) {
@@ -411,7 +421,7 @@ unsafe fn trace_path_body<const ISA: u8>(
                         } else {
                             power_heuristic(ls.pdf, bsdf.pdf(wo, wi))
                         };
-                        let delay = delaying.map_or(0.0, |s| s.sample_delay(rng.next_f32()));
+                        let delay = delaying.map_or(0.0, |s| s.sample_delay(rng.get1(slot::NEE_DELAY)));
                         // The segment lies in the medium on the light's side: through
                         // rough glass that is the current IOR times the one crossed
                         // (the same f32 product a BSDF-sampled path would carry).
@@ -430,14 +440,14 @@ unsafe fn trace_path_body<const ISA: u8>(
         }
 
         // BSDF sampling.
-        let u1 = rng.next_f32();
-        let u2 = rng.next_2d();
+        let u1 = rng.get1(slot::BSDF_1);
+        let u2 = rng.get2(slot::BSDF_2);
         let Some(bs) = bsdf.sample(wo, u1, u2) else {
             break;
         };
         let wi_world = frame.to_world(bs.wi);
         if let Some(s) = delaying {
-            opl += s.sample_delay(rng.next_f32()) as f64;
+            opl += s.sample_delay(rng.get1(slot::BSDF_DELAY)) as f64;
         }
         beta *= bs.weight;
         eta *= bs.eta;
@@ -449,7 +459,7 @@ unsafe fn trace_path_body<const ISA: u8>(
 
         // Russian roulette (Mitsuba: from rr_depth on, survival min(max(beta) eta^2, 0.95)).
         let beta_max = beta.max_element();
-        let u_rr = rng.next_f32();
+        let u_rr = rng.get1(slot::RR);
         if depth >= settings.rr_depth {
             let q = (beta_max * eta * eta).min(0.95);
             if u_rr >= q {

@@ -22,6 +22,7 @@ pub mod deposits;
 pub mod gbuffer;
 pub mod integrator;
 pub mod pixel_sampling;
+pub mod sampler;
 pub mod sink;
 pub mod time_filter;
 pub mod volpath;
@@ -37,6 +38,7 @@ use gbuffer::{GAccum, GPixel};
 use integrator::{trace_ray, PathTally};
 pub use pixel_sampling::{PixelPattern, PixelSampling};
 use rayon::prelude::*;
+use sampler::{slot, IndependentPath, PathSampler, SobolPath};
 use sink::{MemorySink, Row, RowSink};
 use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 use std::sync::{Mutex, PoisonError};
@@ -58,7 +60,7 @@ pub fn pixel_positions(settings: &RenderSettings, pixel: u64) -> Vec<[f32; 2]> {
     (0..settings.spp)
         .map(|s| {
             let mut rng = Pcg32::for_path(settings.seed, pixel, s as u64);
-            pattern.position(s, &mut rng)
+            pattern.position(s, &mut rng, settings.seed, pixel)
         })
         .collect()
 }
@@ -67,6 +69,8 @@ pub fn pixel_positions(settings: &RenderSettings, pixel: u64) -> Vec<[f32; 2]> {
 enum PixelPositions {
     Independent,
     Stratified(PixelPattern),
+    /// The path's own [`SobolPath`] gives the position.
+    Sobol,
 }
 
 impl PixelPositions {
@@ -76,17 +80,20 @@ impl PixelPositions {
             PixelSampling::Stratified => {
                 PixelPositions::Stratified(PixelPattern::new(settings.seed, pixel, settings.spp))
             }
+            PixelSampling::Sobol => PixelPositions::Sobol,
         }
     }
 
     /// The position of sample `s`. Always draws two numbers from the path's `rng`, so
-    /// the rest of the path sees the same stream in both modes.
+    /// the rest of the path sees the same stream in the independent and stratified
+    /// modes.
     #[inline]
-    fn position(&self, s: u32, rng: &mut Pcg32) -> [f32; 2] {
+    fn position(&self, s: u32, rng: &mut Pcg32, seed: u64, pixel: u64) -> [f32; 2] {
         let jitter = rng.next_2d();
         match self {
             PixelPositions::Independent => jitter,
             PixelPositions::Stratified(p) => p.position(s),
+            PixelPositions::Sobol => SobolPath::new(seed, pixel, 0, s, rng.clone()).get2(slot::PIXEL),
         }
     }
 }
@@ -202,16 +209,27 @@ fn render_row(
         let positions = PixelPositions::new(settings, pixel);
         for s in 0..settings.spp {
             let mut rng = Pcg32::for_path(settings.seed, pixel, s as u64);
-            let [u, v] = positions.position(s, &mut rng);
+            let [u, v] = positions.position(s, &mut rng, settings.seed, pixel);
             let (o, d) = scene.camera.ray(x as f32 + u, y as f32 + v, || {
                 Pcg32::for_path(settings.seed ^ LENS_STREAM_SALT, pixel, s as u64).next_2d()
             });
-            // The volumetric tracer is a separate function: surface-only scenes run the
-            // same code as before it existed.
-            let gs = if scene.integrator.volumetric {
-                volpath::trace_volpath(scene, o, d, &mut rng, &mut deposits, &mut tally)
-            } else {
-                trace_ray(scene, o, d, &mut rng, &mut deposits, &mut tally)
+            let gs = match positions {
+                PixelPositions::Sobol => trace(
+                    scene,
+                    o,
+                    d,
+                    &mut SobolPath::new(settings.seed, pixel, 0, s, rng),
+                    &mut deposits,
+                    &mut tally,
+                ),
+                _ => trace(
+                    scene,
+                    o,
+                    d,
+                    &mut IndependentPath(rng),
+                    &mut deposits,
+                    &mut tally,
+                ),
             };
             g.add(&gs);
             result.voxel_samples += deposits.len() as u64;
@@ -228,6 +246,24 @@ fn render_row(
         result.rays += tally.rays;
     }
     result
+}
+
+/// Traces one camera path with the tracer the scene needs. The volumetric tracer is a
+/// separate function: surface-only scenes run the same code as before it existed.
+#[inline]
+fn trace<S: PathSampler>(
+    scene: &Scene,
+    o: glam::Vec3,
+    d: glam::Vec3,
+    sampler: &mut S,
+    deposits: &mut PathDeposits,
+    tally: &mut PathTally,
+) -> gbuffer::GSample {
+    if scene.integrator.volumetric {
+        volpath::trace_volpath(scene, o, d, sampler, deposits, tally)
+    } else {
+        trace_ray(scene, o, d, sampler, deposits, tally)
+    }
 }
 
 /// Renders `scene` with the statistics of `settings`, handing every finished row to

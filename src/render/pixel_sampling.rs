@@ -66,6 +66,10 @@ pub enum PixelSampling {
     Stratified,
     /// Each sample uniform and independent of the others (the original sampler).
     Independent,
+    /// Every dimension of every path (sub-pixel position, light, BSDF, phase, delay,
+    /// roulette, free flight) from a padded, scrambled Sobol' set over the pixel's
+    /// samples (`render::sampler`); each sample still uniform.
+    Sobol,
 }
 
 impl PixelSampling {
@@ -73,6 +77,7 @@ impl PixelSampling {
         match self {
             PixelSampling::Stratified => "stratified",
             PixelSampling::Independent => "independent",
+            PixelSampling::Sobol => "sobol",
         }
     }
 }

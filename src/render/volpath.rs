@@ -57,7 +57,7 @@ use crate::geometry::accel::offset_origin;
 use crate::geometry::shape::Shape;
 use crate::materials::{Bsdf, BsdfModel};
 use crate::math::frame::Frame;
-use crate::math::rng::Pcg32;
+use super::sampler::{slot, PathSampler};
 use crate::math::sampling::power_heuristic;
 use crate::math::Rgb;
 use crate::media::heterogeneous::Tracked;
@@ -78,16 +78,16 @@ const MAX_NULL_CROSSINGS: u32 = 256;
 /// inlining them into the surface tracer (`integrator.rs`), which cost scenes without
 /// media 1% more instructions per path (measured with callgrind on `cbox.xml`).
 #[inline(never)]
-pub fn trace_volpath(
+pub fn trace_volpath<S: PathSampler>(
     scene: &Scene,
     o: Vec3,
     d: Vec3,
-    rng: &mut Pcg32,
+    rng: &mut S,
     deposits: &mut PathDeposits,
     tally: &mut PathTally,
 ) -> GSample {
     // SAFETY: the baseline instruction set runs on every CPU.
-    unsafe { trace_body::<ISA_BASELINE>(scene, o, d, rng, deposits, tally) }
+    unsafe { trace_body::<ISA_BASELINE, S>(scene, o, d, rng, deposits, tally) }
 }
 
 /// The shadow ray of a light sample from a point `p` inside a medium (no surface to
@@ -209,24 +209,24 @@ enum Flight {
 /// `spec.h`'s extinction (one number), in a heterogeneous one by delta tracking
 /// (`media/heterogeneous.rs`).
 #[inline(always)]
-fn free_flight(
+fn free_flight<S: PathSampler>(
     m: &Medium,
     o: Vec3,
     d: Vec3,
     s_surf: f32,
-    rng: &mut Pcg32,
+    rng: &mut S,
     spec: &mut Spectral,
 ) -> Flight {
     let m = match m {
         Medium::Homogeneous(m) => m,
         Medium::Heterogeneous(m) => {
-            return match m.track(o, d, s_surf, spec.h, rng, |f, p| spec.update(f, p)) {
+            return match m.track(o, d, s_surf, spec.h, rng.stream(), |f, p| spec.update(f, p)) {
                 Tracked::Real { t } => Flight::Scatter { t },
                 Tracked::Through => Flight::Surface,
             }
         }
     };
-    let u = rng.next_f32();
+    let u = rng.get1(slot::FLIGHT);
     let st = m.sigma_t;
     let sh = st[spec.h];
     let t = if sh > 0.0 {
@@ -264,7 +264,7 @@ unsafe fn transmittance<const ISA: u8>(
     target: Vec3,
     target_eps: f32,
     mut medium: Option<u32>,
-    rng: &mut Pcg32,
+    rng: &mut crate::math::rng::Pcg32,
     tally: &mut PathTally,
 ) -> Rgb {
     let mut tr = Rgb::ONE;
@@ -341,11 +341,11 @@ unsafe fn first_surface<const ISA: u8>(scene: &Scene, mut o: Vec3, d: Vec3) -> f
 /// # Safety
 /// The CPU must support `ISA`.
 #[inline(always)]
-unsafe fn trace_body<const ISA: u8>(
+unsafe fn trace_body<const ISA: u8, S: PathSampler>(
     scene: &Scene,
     o: Vec3,
     d: Vec3,
-    rng: &mut Pcg32,
+    rng: &mut S,
     deposits: &mut PathDeposits,
     tally: &mut PathTally,
 ) -> GSample {
@@ -373,7 +373,7 @@ unsafe fn trace_body<const ISA: u8>(
     };
     // The throughput is `common * spec.weight()`: `common` holds the BSDF and phase
     // weights and Russian roulette, `spec` the free flights (spectral MIS).
-    let mut spec = Spectral::new(rng.next_f32());
+    let mut spec = Spectral::new(rng.get1(slot::CHANNEL));
     let mut common = Rgb::ONE;
     let mut beta = Rgb::ONE;
     let mut eta = 1.0f32;
@@ -384,8 +384,11 @@ unsafe fn trace_body<const ISA: u8>(
     let mut nulls_in_a_row = 0u32;
 
     loop {
+        // Each vertex (null crossings included) draws its numbers from its own
+        // dimensions (`sampler.rs`).
+        rng.next_vertex();
         // Russian roulette (Mitsuba's volpath: after rr_depth real interactions).
-        let u_rr = rng.next_f32();
+        let u_rr = rng.get1(slot::RR);
         if depth > settings.rr_depth {
             let q = (beta.max_element() * eta * eta).min(0.95);
             if u_rr >= q {
@@ -434,9 +437,9 @@ unsafe fn trace_body<const ISA: u8>(
                     // Next-event estimation with the phase function.
                     if m.sample_emitters() {
                         specular_chain = false;
-                        let u_sel = rng.next_f32();
-                        let u1 = rng.next_f32();
-                        let u2 = rng.next_2d();
+                        let u_sel = rng.get1(slot::LIGHT_SELECT);
+                        let u1 = rng.get1(slot::LIGHT_1);
+                        let u2 = rng.get2(slot::LIGHT_2);
                         let idx = ((u_sel * n_emitters as f32) as usize).min(n_emitters - 1);
                         let emitter = &scene.emitters[idx];
                         if let Some(ls) = emitter.sample(&scene.shapes, p, select_pdf, u1, u2) {
@@ -446,7 +449,14 @@ unsafe fn trace_body<const ISA: u8>(
                                 // SAFETY: the caller guarantees ISA.
                                 let tr = unsafe {
                                     transmittance::<ISA>(
-                                        scene, p, dir, target, 0.0, medium, rng, tally,
+                                        scene,
+                                        p,
+                                        dir,
+                                        target,
+                                        0.0,
+                                        medium,
+                                        rng.stream(),
+                                        tally,
                                     )
                                 };
                                 if tr != Rgb::ZERO {
@@ -470,7 +480,7 @@ unsafe fn trace_body<const ISA: u8>(
                         specular_chain = true;
                     }
                     // Phase sampling (weight 1).
-                    let ps = m.phase().sample(wi, rng.next_2d());
+                    let ps = m.phase().sample(wi, rng.get2(slot::PHASE));
                     if ps.pdf.is_nan() || ps.pdf <= 0.0 {
                         break;
                     }
@@ -522,8 +532,16 @@ unsafe fn trace_body<const ISA: u8>(
                 &material.bsdf
             };
             let mut bsdf = whole;
+            // The first pick has its dimension; nested picks (rare) take the stream.
+            let mut first = true;
             while let Bsdf::Composed(c) = bsdf {
-                bsdf = c.pick(rng.next_f32());
+                let u = if first {
+                    rng.get1(slot::PICK)
+                } else {
+                    rng.stream().next_f32()
+                };
+                first = false;
+                bsdf = c.pick(u);
             }
             let delaying = match bsdf {
                 Bsdf::Separable(s) => Some(s),
@@ -584,9 +602,9 @@ unsafe fn trace_body<const ISA: u8>(
 
         // Next-event estimation (through null interfaces and media).
         if !delta && depth + 1 < max_depth {
-            let u_sel = rng.next_f32();
-            let u1 = rng.next_f32();
-            let u2 = rng.next_2d();
+            let u_sel = rng.get1(slot::LIGHT_SELECT);
+            let u1 = rng.get1(slot::LIGHT_1);
+            let u2 = rng.get2(slot::LIGHT_2);
             let idx = ((u_sel * n_emitters as f32) as usize).min(n_emitters - 1);
             let emitter = &scene.emitters[idx];
             if let Some(ls) = emitter.sample(&scene.shapes, sp.p, select_pdf, u1, u2) {
@@ -609,7 +627,7 @@ unsafe fn trace_body<const ISA: u8>(
                             target,
                             0.0,
                             shadow_medium,
-                            rng,
+                            rng.stream(),
                             tally,
                         )
                     };
@@ -619,7 +637,7 @@ unsafe fn trace_body<const ISA: u8>(
                         } else {
                             power_heuristic(ls.pdf, bsdf.pdf(wo, wi))
                         };
-                        let delay = delaying.map_or(0.0, |s| s.sample_delay(rng.next_f32()));
+                        let delay = delaying.map_or(0.0, |s| s.sample_delay(rng.get1(slot::NEE_DELAY)));
                         let eta_light = eta * bsdf.eta(wo, wi);
                         let arrival = opl + delay as f64 + eta_light as f64 * ls.dist as f64;
                         contribute(
@@ -635,14 +653,14 @@ unsafe fn trace_body<const ISA: u8>(
         }
 
         // BSDF sampling.
-        let u1 = rng.next_f32();
-        let u2 = rng.next_2d();
+        let u1 = rng.get1(slot::BSDF_1);
+        let u2 = rng.get2(slot::BSDF_2);
         let Some(bs) = bsdf.sample(wo, u1, u2) else {
             break;
         };
         let wi_world = frame.to_world(bs.wi);
         if let Some(s) = delaying {
-            opl += s.sample_delay(rng.next_f32()) as f64;
+            opl += s.sample_delay(rng.get1(slot::BSDF_DELAY)) as f64;
         }
         common *= bs.weight;
         beta = common * spec.weight();
