@@ -196,7 +196,7 @@ const CASES: &[Case] = &[
     (&[R, "s.xml", "--out", "n.tstats", "--transform", "box-cox:nan"], Ours, "--transform"),
     // clap's usage errors: exit 2, the whole complaint on the first line.
     (&[R, "s.xml", "--out", "n.tstats", "--seed", "0x10"], Usage, "invalid value '0x10' for '--seed"),
-    (&[R, "s.xml", "--out", "n.tstats", "--pixel-sampling", "foo"], Usage, "[possible values: stratified, independent]"),
+    (&[R, "s.xml", "--out", "n.tstats", "--pixel-sampling", "foo"], Usage, "[possible values: stratified, independent, sobol]"),
     (&[R], Usage, "required arguments were not provided: --out <OUT> <SCENE>"),
     (&[R, "s.xml", "--out", ""], Usage, "a value is required for '--out <OUT>'"),
     (&["rendr", "s.xml"], Usage, "unrecognized subcommand 'rendr'"),

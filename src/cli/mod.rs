@@ -124,6 +124,6 @@ mod tests {
             "error: the following required arguments were not provided: --out <OUT> <SCENE>"
         );
         assert!(first(&["tstat", "render", "s.xml", "--out", "o", "--pixel-sampling", "x"])
-            .contains("'x' for '--pixel-sampling <PIXEL_SAMPLING>' [possible values: stratified, independent]"));
+            .contains("'x' for '--pixel-sampling <PIXEL_SAMPLING>' [possible values: stratified, independent, sobol]"));
     }
 }

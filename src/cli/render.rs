@@ -42,10 +42,13 @@ pub struct SceneArgs {
     /// textures, includes), after the scene's own folder (Mitsuba's -a; repeatable).
     #[arg(short = 'a', value_name = "DIR")]
     pub search_paths: Vec<std::path::PathBuf>,
-    /// Sub-pixel positions of the primary rays. Stratified lowers the error at edges; the
-    /// variances the denoiser estimates then over-estimate the true ones (conservative).
-    /// Independent gives i.i.d. samples, exactly what the statistics assume.
-    #[arg(long, value_enum, default_value_t = PixelSampling::Stratified)]
+    /// How each path draws its numbers (alias --sampler). stratified (alias
+    /// stratified-pixel): only the sub-pixel positions form a stratified set; sobol:
+    /// every dimension of the first vertices (position, light, BSDF, phase, delay,
+    /// free flight) from a scrambled Sobol' set; independent: i.i.d. samples, exactly
+    /// what the statistics assume. Under the first two the variances the denoiser
+    /// estimates over-estimate the true ones (conservative).
+    #[arg(long, alias = "sampler", value_enum, default_value_t = PixelSampling::Stratified)]
     pub pixel_sampling: PixelSampling,
 }
 

@@ -378,6 +378,13 @@ impl Shape {
     }
 }
 
+/// Meshes of at most this many triangles choose the triangle with the 2D number
+/// ([`AreaSampler::pick_face`]).
+pub const REMAP_FACES: usize = 16;
+
+/// The largest f32 below 1.
+const ONE_MINUS_EPSILON: f32 = 1.0 - f32::EPSILON / 2.0;
+
 /// Uniform-by-area sampling of a shape's surface (for area lights).
 #[derive(Clone, Debug)]
 pub struct AreaSampler {
@@ -422,14 +429,35 @@ impl AreaSampler {
         }
     }
 
+    /// The triangle a sample lands on, and the 2D number for the point in it. A mesh of
+    /// at most [`REMAP_FACES`] triangles (a `rectangle` is two, a `cube` twelve) picks
+    /// the triangle with `u2[0]` and rescales it to [0, 1) within the triangle's share,
+    /// so that a stratified `u2` stays stratified over the whole surface (with `u1`
+    /// picking, a low-discrepancy `u2` is split between the triangles at random); the
+    /// rescaled number keeps at least 20 of its 24 bits. Larger meshes pick with `u1`.
+    #[inline(always)]
+    fn pick_face(&self, u1: f32, u2: [f32; 2]) -> (usize, [f32; 2]) {
+        let last = self.cdf.len() - 1;
+        if self.cdf.len() <= REMAP_FACES {
+            let face = self.cdf.partition_point(|&c| c <= u2[0]).min(last);
+            let lo = if face == 0 { 0.0 } else { self.cdf[face - 1] };
+            let share = self.cdf[face] - lo;
+            let u = if share > 0.0 {
+                ((u2[0] - lo) / share).clamp(0.0, ONE_MINUS_EPSILON)
+            } else {
+                0.0
+            };
+            (face, [u, u2[1]])
+        } else {
+            (self.cdf.partition_point(|&c| c <= u1).min(last), u2)
+        }
+    }
+
     /// [`Self::sample`] and the point's uv (`Shape::uv`), for textured lights.
     pub fn sample_with_uv(&self, shape: &Shape, u1: f32, u2: [f32; 2]) -> (SurfacePoint, Vec2) {
         match &shape.geom {
             ShapeGeom::Mesh { .. } => {
-                let face = self
-                    .cdf
-                    .partition_point(|&c| c <= u1)
-                    .min(self.cdf.len() - 1);
+                let (face, u2) = self.pick_face(u1, u2);
                 let [b1, b2] = uniform_triangle(u2);
                 let s = shape.surface_of(&self.tris[face], face as u32, b1, b2);
                 (s, shape.uv(face as u32, b1, b2, s.p))
@@ -446,10 +474,7 @@ impl AreaSampler {
     pub fn sample(&self, shape: &Shape, u1: f32, u2: [f32; 2]) -> SurfacePoint {
         match &shape.geom {
             ShapeGeom::Mesh { .. } => {
-                let face = self
-                    .cdf
-                    .partition_point(|&c| c <= u1)
-                    .min(self.cdf.len() - 1);
+                let (face, u2) = self.pick_face(u1, u2);
                 let [b1, b2] = uniform_triangle(u2);
                 shape.surface_of(&self.tris[face], face as u32, b1, b2)
             }

@@ -5,11 +5,11 @@
 use super::cpu::{Isa, ISA_AVX2, ISA_AVX512, ISA_BASELINE};
 use super::deposits::PathDeposits;
 use super::gbuffer::GSample;
+use super::sampler::{slot, PathSampler};
 use super::time_filter::{gaussian_shares, TimeFilter};
 use crate::geometry::accel::offset_origin;
 use crate::materials::{Bsdf, BsdfModel, HitGeometry};
 use crate::math::frame::Frame;
-use super::sampler::{slot, PathSampler};
 use crate::math::sampling::power_heuristic;
 use crate::math::Rgb;
 use crate::scene::Scene;
@@ -421,7 +421,8 @@ unsafe fn trace_path_body<const ISA: u8, S: PathSampler>(
                         } else {
                             power_heuristic(ls.pdf, bsdf.pdf(wo, wi))
                         };
-                        let delay = delaying.map_or(0.0, |s| s.sample_delay(rng.get1(slot::NEE_DELAY)));
+                        let delay =
+                            delaying.map_or(0.0, |s| s.sample_delay(rng.get1(slot::NEE_DELAY)));
                         // The segment lies in the medium on the light's side: through
                         // rough glass that is the current IOR times the one crossed
                         // (the same f32 product a BSDF-sampled path would carry).

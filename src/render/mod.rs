@@ -38,7 +38,7 @@ use gbuffer::{GAccum, GPixel};
 use integrator::{trace_ray, PathTally};
 pub use pixel_sampling::{PixelPattern, PixelSampling};
 use rayon::prelude::*;
-use sampler::{slot, IndependentPath, PathSampler, SobolPath};
+use sampler::{replicate_key, slot, PathSampler, SobolPath};
 use sink::{MemorySink, Row, RowSink};
 use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 use std::sync::{Mutex, PoisonError};
@@ -56,11 +56,11 @@ pub struct RenderSettings {
 /// the order the renderer uses them (for tests and tools; `render` computes them the
 /// same way).
 pub fn pixel_positions(settings: &RenderSettings, pixel: u64) -> Vec<[f32; 2]> {
-    let pattern = PixelPositions::new(settings, pixel);
+    let positions = PixelPositions::new(settings, pixel);
     (0..settings.spp)
         .map(|s| {
-            let mut rng = Pcg32::for_path(settings.seed, pixel, s as u64);
-            pattern.position(s, &mut rng, settings.seed, pixel)
+            let rng = Pcg32::for_path(settings.seed, pixel, s as u64);
+            PathNumbers::new(&positions, s, settings.spp, rng).1
         })
         .collect()
 }
@@ -69,8 +69,8 @@ pub fn pixel_positions(settings: &RenderSettings, pixel: u64) -> Vec<[f32; 2]> {
 enum PixelPositions {
     Independent,
     Stratified(PixelPattern),
-    /// The path's own [`SobolPath`] gives the position.
-    Sobol,
+    /// The path's own [`SobolPath`] gives the position; the pixel's key.
+    Sobol(u64),
 }
 
 impl PixelPositions {
@@ -80,20 +80,37 @@ impl PixelPositions {
             PixelSampling::Stratified => {
                 PixelPositions::Stratified(PixelPattern::new(settings.seed, pixel, settings.spp))
             }
-            PixelSampling::Sobol => PixelPositions::Sobol,
+            PixelSampling::Sobol => PixelPositions::Sobol(replicate_key(settings.seed, pixel, 0)),
         }
     }
+}
 
-    /// The position of sample `s`. Always draws two numbers from the path's `rng`, so
-    /// the rest of the path sees the same stream in the independent and stratified
-    /// modes.
+/// A path's sampler: how its sub-pixel position and every other number are drawn.
+enum PathNumbers {
+    Independent(Pcg32),
+    Sobol(SobolPath),
+}
+
+impl PathNumbers {
+    /// The sampler of sample `s` (of `n`) of a pixel, and its sub-pixel position. The
+    /// independent and stratified modes always draw the position's two numbers from
+    /// the path's stream, so the rest of the path sees the same stream in both.
     #[inline]
-    fn position(&self, s: u32, rng: &mut Pcg32, seed: u64, pixel: u64) -> [f32; 2] {
-        let jitter = rng.next_2d();
-        match self {
-            PixelPositions::Independent => jitter,
-            PixelPositions::Stratified(p) => p.position(s),
-            PixelPositions::Sobol => SobolPath::new(seed, pixel, 0, s, rng.clone()).get2(slot::PIXEL),
+    fn new(positions: &PixelPositions, s: u32, n: u32, mut rng: Pcg32) -> (Self, [f32; 2]) {
+        match positions {
+            PixelPositions::Sobol(key) => {
+                let mut p = SobolPath::with_key(*key, s, n, rng);
+                let uv = p.get2(slot::PIXEL);
+                (PathNumbers::Sobol(p), uv)
+            }
+            PixelPositions::Independent => {
+                let uv = rng.next_2d();
+                (PathNumbers::Independent(rng), uv)
+            }
+            PixelPositions::Stratified(pattern) => {
+                rng.next_2d();
+                (PathNumbers::Independent(rng), pattern.position(s))
+            }
         }
     }
 }
@@ -208,28 +225,14 @@ fn render_row(
         let mut tally = PathTally::default();
         let positions = PixelPositions::new(settings, pixel);
         for s in 0..settings.spp {
-            let mut rng = Pcg32::for_path(settings.seed, pixel, s as u64);
-            let [u, v] = positions.position(s, &mut rng, settings.seed, pixel);
+            let rng = Pcg32::for_path(settings.seed, pixel, s as u64);
+            let (mut numbers, [u, v]) = PathNumbers::new(&positions, s, settings.spp, rng);
             let (o, d) = scene.camera.ray(x as f32 + u, y as f32 + v, || {
                 Pcg32::for_path(settings.seed ^ LENS_STREAM_SALT, pixel, s as u64).next_2d()
             });
-            let gs = match positions {
-                PixelPositions::Sobol => trace(
-                    scene,
-                    o,
-                    d,
-                    &mut SobolPath::new(settings.seed, pixel, 0, s, rng),
-                    &mut deposits,
-                    &mut tally,
-                ),
-                _ => trace(
-                    scene,
-                    o,
-                    d,
-                    &mut IndependentPath(rng),
-                    &mut deposits,
-                    &mut tally,
-                ),
+            let gs = match &mut numbers {
+                PathNumbers::Sobol(p) => trace(scene, o, d, p, &mut deposits, &mut tally),
+                PathNumbers::Independent(p) => trace(scene, o, d, p, &mut deposits, &mut tally),
             };
             g.add(&gs);
             result.voxel_samples += deposits.len() as u64;

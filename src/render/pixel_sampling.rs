@@ -63,6 +63,7 @@ pub enum PixelSampling {
     /// Per pixel, a randomised low-discrepancy set: one sample per 1/n strip in u (in v too
     /// when n is a power of two); each sample still uniform over the pixel.
     #[default]
+    #[value(alias = "stratified-pixel")]
     Stratified,
     /// Each sample uniform and independent of the others (the original sampler).
     Independent,

@@ -53,11 +53,11 @@ use super::cpu::ISA_BASELINE;
 use super::deposits::PathDeposits;
 use super::gbuffer::GSample;
 use super::integrator::{contribute, escape, light_target, shadow_ray, PathTally};
+use super::sampler::{slot, PathSampler};
 use crate::geometry::accel::offset_origin;
 use crate::geometry::shape::Shape;
 use crate::materials::{Bsdf, BsdfModel};
 use crate::math::frame::Frame;
-use super::sampler::{slot, PathSampler};
 use crate::math::sampling::power_heuristic;
 use crate::math::Rgb;
 use crate::media::heterogeneous::Tracked;
@@ -637,7 +637,8 @@ unsafe fn trace_body<const ISA: u8, S: PathSampler>(
                         } else {
                             power_heuristic(ls.pdf, bsdf.pdf(wo, wi))
                         };
-                        let delay = delaying.map_or(0.0, |s| s.sample_delay(rng.get1(slot::NEE_DELAY)));
+                        let delay =
+                            delaying.map_or(0.0, |s| s.sample_delay(rng.get1(slot::NEE_DELAY)));
                         let eta_light = eta * bsdf.eta(wo, wi);
                         let arrival = opl + delay as f64 + eta_light as f64 * ls.dist as f64;
                         contribute(
