@@ -58,6 +58,7 @@ fn bench_denoise(c: &mut Criterion) {
         x3: &x3,
         sum: &x1,
         nonzero: &nonzero,
+        replicates: None,
     });
     let albedo: Vec<f32> = (0..h * w * 3)
         .map(|i| ((i / 3) % 7) as f32 / 10.0)

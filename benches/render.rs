@@ -35,6 +35,7 @@ fn settings(scene: &Scene, transform: Transform) -> RenderSettings {
         seed: 1,
         transform,
         pixel_sampling: PixelSampling::default(),
+        replicates: 0,
     }
 }
 

@@ -37,6 +37,10 @@ def main():
     ap.add_argument("--modes", default="stratified,sobol")
     ap.add_argument("--film", default="64,150,0.08")
     ap.add_argument("--no-denoise", action="store_true")
+    ap.add_argument("--denoise-args", default="",
+                    help="extra arguments for tstat denoise, e.g. '--t2-max 9'")
+    ap.add_argument("--replicates", default="0",
+                    help="comma-separated replicate counts B to try with each mode (0: none)")
     a = ap.parse_args()
     res, bins, width = a.film.split(",")
     film = ["-D", f"res={res}", "-D", f"temporal_bins={bins}", "-D", f"bin_width_opl={width}"]
@@ -50,23 +54,23 @@ def main():
     x2 = np.load(os.path.join(a.reference, "x2.npy"))
     ref_var = np.maximum(x2 / n - (x1 / n) ** 2, 0) / (n - 1)
     kinds = ["noisy"] + ([] if a.no_denoise else ["denoised"])
-    for mode in a.modes.split(","):
+    for mode, reps in [(m, r) for m in a.modes.split(",") for r in a.replicates.split(",")]:
         for kind in kinds:
             mse = {"all": [], "light": [], "rest": []}
             for seed in range(1, a.seeds + 1):
                 b = os.path.join(tmp, "t.tstats")
                 out = os.path.join(tmp, "t.npy")
                 run("render", a.scene, "--out", b, "-D", f"spp={a.spp}", *film,
-                    "--pixel-sampling", mode, "--seed", str(seed), "--force")
+                    "--pixel-sampling", mode, "--replicates", reps, "--seed", str(seed), "--force")
                 if kind == "noisy":
                     run("export", b, "--out", out, "--force")
                 else:
-                    run("denoise", b, "--out", out, "--force")
+                    run("denoise", b, "--out", out, "--force", *a.denoise_args.split())
                 d = (np.load(out).astype(np.float64) - R) ** 2 - ref_var
                 mse["all"].append(d.mean())
                 mse["light"].append(d[light].mean())
                 mse["rest"].append(d[~light].mean())
-            print(mode, kind, a.spp, " ".join(
+            print(mode, f"B={reps}", kind, a.spp, " ".join(
                 f"{k} {np.sqrt(max(np.mean(v), 0)):.3e}" for k, v in mse.items()))
 
 

@@ -818,3 +818,80 @@ fn merge_refuses_bundles_of_other_d_values_or_other_scene_files() {
     let err = String::from_utf8_lossy(&r.stderr);
     assert!(err.contains("file 'm.ply'"), "{err}");
 }
+
+/// Replicates through the command line: `--replicates` must divide spp; a bundle with
+/// replicates holds `r2.npy` and says so in `info`; bundles with replicates of equal
+/// size merge by adding R2 and B (and denoise), other sizes (or none) are refused.
+#[test]
+fn replicates_render_merge_and_refuse_mismatches() {
+    let c = case(VALID);
+    let sc = c.scene.to_str().unwrap();
+    let p = |n: &str| c.dir.path().join(n).display().to_string();
+    let render = |name: &str, seed: &str, spp: &str, reps: &str| {
+        tstat(&[
+            "render",
+            sc,
+            "--out",
+            &p(name),
+            "--seed",
+            seed,
+            "--spp",
+            spp,
+            "--sampler",
+            "sobol",
+            "--replicates",
+            reps,
+        ])
+    };
+    for reps in ["3", "1"] {
+        let r = render("bad.tstats", "1", "8", reps);
+        assert!(!r.status.success());
+        let err = String::from_utf8_lossy(&r.stderr);
+        assert!(err.contains(&format!("--replicates {reps}")), "{err}");
+        assert!(!c.dir.path().join("bad.tstats").exists());
+    }
+    for (name, seed, spp, reps) in [
+        ("a.tstats", "1", "8", "4"),
+        ("b.tstats", "2", "16", "8"),
+        ("c.tstats", "3", "8", "2"),
+        ("d.tstats", "4", "8", "0"),
+    ] {
+        let r = render(name, seed, spp, reps);
+        assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    }
+    let info = String::from_utf8_lossy(&tstat(&["info", &p("a.tstats")]).stdout).to_string();
+    assert!(info.contains("replicates  4 of 2 samples"), "{info}");
+    assert!(c.dir.path().join("a.tstats/r2.npy").exists());
+    assert!(!c.dir.path().join("d.tstats/r2.npy").exists());
+    let r = tstat(&[
+        "merge",
+        &p("a.tstats"),
+        &p("b.tstats"),
+        "--out",
+        &p("m.tstats"),
+    ]);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let m: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(c.dir.path().join("m.tstats/manifest.json")).unwrap(),
+    )
+    .unwrap();
+    assert_eq!(
+        (m["spp"].as_u64(), m["replicates"].as_u64()),
+        (Some(24), Some(12))
+    );
+    let load = |d: &str| -> ndarray::ArrayD<f64> {
+        ndarray_npy::read_npy(c.dir.path().join(d).join("r2.npy")).unwrap()
+    };
+    assert_eq!(load("m.tstats"), load("a.tstats") + load("b.tstats"));
+    let r = tstat(&["denoise", &p("m.tstats"), "--out", &p("m.npy")]);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    for other in ["c.tstats", "d.tstats"] {
+        let r = tstat(&["merge", &p("a.tstats"), &p(other), "--out", &p("x.tstats")]);
+        assert!(!r.status.success());
+        let err = String::from_utf8_lossy(&r.stderr);
+        assert!(
+            err.contains("only bundles with replicates of equal size"),
+            "{err}"
+        );
+    }
+}

@@ -146,6 +146,7 @@ impl Bundle {
                 &self.sum
             },
             nonzero: &self.nonzero,
+            replicates: None,
         }
     }
 
@@ -1499,6 +1500,7 @@ fn end_to_end_cbox_denoising_beats_the_noisy_render() {
             seed,
             transform: Transform::Identity,
             pixel_sampling: PixelSampling::Independent,
+            replicates: 0,
         };
         render(&scene, &settings, &|_| {})
     };
@@ -1523,6 +1525,7 @@ fn end_to_end_cbox_denoising_beats_the_noisy_render() {
         x3: &noisy.accum.x3,
         sum: &noisy.accum.x1,
         nonzero: &noisy.accum.nonzero,
+        replicates: None,
     };
     let d = denoise_sums(&view, &g.features(), &DenoiseParams::default(), &|_| {});
     let truth: Vec<f64> = reference
@@ -1634,6 +1637,7 @@ fn write_bundle(
         bin_width_seconds: b.bin_width / c,
         transform: b.transform,
         pixel_sampling: sampling,
+        replicates: None,
         media: false,
         seed: 1,
         merged_seeds: Vec::new(),

@@ -44,6 +44,7 @@ impl Volume {
                 bins: t,
                 bin_width,
                 spp: 16,
+                replicates: None,
                 stratified: false,
                 rows: 0..h,
                 scale: Scale::UNIT,

@@ -203,6 +203,7 @@ fn render_tiny(scene: &Scene) -> Result<(), TestCaseError> {
             seed: 1,
             transform: Transform::Identity,
             pixel_sampling: PixelSampling::Stratified,
+            replicates: 0,
         },
         &|_| {},
     );

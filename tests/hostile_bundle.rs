@@ -440,6 +440,20 @@ fn cases() -> Vec<Case> {
             want: &["manifest.json", "seed 3 twice"],
         },
         Case {
+            name: "replicates that do not divide spp",
+            make: |_, b| edit_manifest(b, |v| v["replicates"] = serde_json::json!(3)),
+            bundle: true,
+            cmds: BUNDLE,
+            want: &["manifest.json", "replicates = 3", "divide spp"],
+        },
+        Case {
+            name: "replicates without r2.npy",
+            make: |_, b| edit_manifest(b, |v| v["replicates"] = serde_json::json!(2)),
+            bundle: true,
+            cmds: BUNDLE,
+            want: &["r2"],
+        },
+        Case {
             name: "array at an absolute path",
             make: |_, b| edit_manifest(b, |v| array_entry(v, "x1")["file"] = "/etc/passwd".into()),
             bundle: true,

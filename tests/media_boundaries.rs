@@ -146,6 +146,7 @@ fn replicates(scene: &Scene) -> Vec<Vec<f64>> {
                 seed,
                 transform: Transform::Identity,
                 pixel_sampling: PixelSampling::Independent,
+                replicates: 0,
             };
             let out = render(scene, &settings, &|_| {});
             assert_eq!(out.dropped_nonfinite, 0);

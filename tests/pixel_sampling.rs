@@ -64,6 +64,7 @@ fn settings(spp: u32, seed: u64, pixel_sampling: PixelSampling) -> RenderSetting
         seed,
         transform: Transform::Identity,
         pixel_sampling,
+        replicates: 0,
     }
 }
 

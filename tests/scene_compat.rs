@@ -63,6 +63,7 @@ fn steady(s: &Scene) -> Vec<f64> {
         seed: 1,
         transform: Transform::Identity,
         pixel_sampling: PixelSampling::Independent,
+        replicates: 0,
     };
     render(s, &settings, &|_| {}).steady
 }
@@ -1084,6 +1085,7 @@ fn a_mesh_of_coincident_triangles_builds_its_bvh_in_bounded_time() {
             seed: 3,
             transform: tstat::stats::Transform::Identity,
             pixel_sampling: tstat::render::PixelSampling::Independent,
+            replicates: 0,
         };
         tstat::render::render(s, &settings, &|_| {}).steady
     };

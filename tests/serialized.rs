@@ -504,6 +504,7 @@ fn steady(s: &Scene) -> Vec<f64> {
         seed: 3,
         transform: Transform::Identity,
         pixel_sampling: PixelSampling::Independent,
+        replicates: 0,
     };
     render(s, &settings, &|_| {}).steady
 }

@@ -32,6 +32,7 @@ fn settings(scene: &Scene, transform: Transform) -> RenderSettings {
         seed: 5,
         transform,
         pixel_sampling: PixelSampling::Stratified,
+        replicates: 0,
     }
 }
 
@@ -41,6 +42,7 @@ fn meta(s: &RenderSettings) -> BundleMeta {
         transform: s.transform,
         unit_m: 1.0,
         pixel_sampling: s.pixel_sampling,
+        replicates: s.replicates,
     }
 }
 

@@ -116,6 +116,11 @@ pub struct Manifest {
     /// the sums over-estimate the variance of the mean (see `render::pixel_sampling`).
     #[serde(default = "SamplingRecord::legacy")]
     pub pixel_sampling: SamplingRecord,
+    /// Replicates per pixel B (SPEC 4-5): each pixel's spp in B independently
+    /// randomised sets of spp / B samples, and `r2.npy` holds `R2 = sum_b m_b^2`.
+    /// Absent: no replicates.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub replicates: Option<u64>,
     /// The scene has participating media (rendered by `transient_prbvolpath`): the
     /// bundle then also holds `medium.npy`, and `denoise` defaults to the Gaussian base
     /// filter. Absent (false) in bundles of surface-only scenes.

@@ -33,6 +33,19 @@ fn same_settings(a: &Manifest, b: &Manifest) -> Result<(), String> {
     if let Some((what, _)) = checks.iter().find(|c| !c.1) {
         return Err(format!("its {what} differs from the first bundle's"));
     }
+    // Replicates add up only with equal sizes (SPEC 5): R2 and B sum.
+    let size = |m: &Manifest| m.replicates.map(|b| m.spp / b);
+    if size(a) != size(b) {
+        let show = |m: &Manifest| match size(m) {
+            Some(k) => format!("replicates of {k} samples"),
+            None => "no replicates".to_string(),
+        };
+        return Err(format!(
+            "it has {} where the first bundle has {}: only bundles with replicates of equal size (or none) merge",
+            show(b),
+            show(a)
+        ));
+    }
     // What the scene read and the -D values (bundles from before this was recorded
     // compare by the scene file alone).
     if let (Some(x), Some(y)) = (&a.scene.identity, &b.scene.identity) {
@@ -115,6 +128,7 @@ pub fn merge_bundles(inputs: &[PathBuf], out: &Path, force: bool) -> Result<Mani
     let mut x2 = x1.clone();
     let mut x3 = x1.clone();
     let mut sum = (!first.transform.is_identity()).then(|| x1.clone());
+    let mut r2 = first.replicates.map(|_| x1.clone());
     let mut nonzero = Array3::<u32>::zeros((h, w, t));
     let mut steady = Array3::<f64>::zeros((h, w, 3));
     let mut albedo = Array3::<f64>::zeros((h, w, 3));
@@ -129,6 +143,9 @@ pub fn merge_bundles(inputs: &[PathBuf], out: &Path, force: bool) -> Result<Mani
         x3 += &b.sum_array(SumArray::X3, &counts)?;
         if let Some(s) = sum.as_mut() {
             *s += &b.sum_array(SumArray::Radiance, &counts)?;
+        }
+        if let Some(r) = r2.as_mut() {
+            *r += &b.sum_array(SumArray::R2, &counts)?;
         }
         // Counts are u32 on disk: a merge of more than 2^32 - 1 samples per pixel
         // could wrap them, so refuse it where it happens.
@@ -167,6 +184,9 @@ pub fn merge_bundles(inputs: &[PathBuf], out: &Path, force: bool) -> Result<Mani
     }
     let mut manifest = first.clone();
     manifest.spp = total_spp;
+    manifest.replicates = first
+        .replicates
+        .map(|_| bundles.iter().filter_map(|b| b.manifest.replicates).sum());
     manifest.seed = all_seeds[0];
     manifest.pixel_sampling = bundles
         .iter()
@@ -185,6 +205,9 @@ pub fn merge_bundles(inputs: &[PathBuf], out: &Path, force: bool) -> Result<Mani
         npy(dir, "x3", "<f8", &x3, arrays)?;
         if let Some(s) = &sum {
             npy(dir, "sum", "<f8", s, arrays)?;
+        }
+        if let Some(r) = &r2 {
+            npy(dir, "r2", "<f8", r, arrays)?;
         }
         npy(dir, "nonzero", "<u4", &nonzero, arrays)?;
         npy(dir, "albedo", "<f4", &f32s(albedo), arrays)?;

@@ -63,6 +63,8 @@ pub enum SumArray {
     X3,
     /// Raw radiance sums S (X1 itself for the identity transform).
     Radiance,
+    /// Replicate statistics R2 = sum_b m_b^2 (bundles with replicates).
+    R2,
 }
 
 const AXES4: [&str; 4] = ["y", "x", "t", "c"];
@@ -84,7 +86,10 @@ pub fn required_arrays(m: &Manifest) -> Vec<(&'static str, &'static str, Vec<usi
         ("x3", f64::DTYPE, s4.clone()),
     ];
     if !m.transform.is_identity() {
-        v.push(("sum", f64::DTYPE, s4));
+        v.push(("sum", f64::DTYPE, s4.clone()));
+    }
+    if m.replicates.is_some() {
+        v.push(("r2", f64::DTYPE, s4));
     }
     v.extend([
         ("nonzero", u32::DTYPE, vec![h, w, t]),
@@ -137,6 +142,14 @@ pub fn validate(m: &Manifest) -> Result<(), String> {
         ));
     }
     check_spp(m.spp)?;
+    if let Some(b) = m.replicates {
+        if b < 2 || b > m.spp || !m.spp.is_multiple_of(b) {
+            return Err(format!(
+                "replicates = {b} with spp = {}: replicates are at least 2 and divide spp",
+                m.spp
+            ));
+        }
+    }
     let finite_positive = |v: f64| v > 0.0 && v.is_finite();
     if !(finite_positive(m.bin_width_opl) && finite_positive(m.unit_m) && m.start_opl.is_finite()) {
         return Err(
@@ -386,6 +399,10 @@ impl Bundle {
             } else {
                 Some(sum(SumArray::Radiance)?)
             },
+            r2: match m.replicates {
+                Some(_) => Some(sum(SumArray::R2)?),
+                None => None,
+            },
         })
     }
 
@@ -422,6 +439,7 @@ impl Bundle {
             SumArray::X3 => "x3",
             SumArray::Radiance if self.manifest.transform.is_identity() => "x1",
             SumArray::Radiance => "sum",
+            SumArray::R2 => "r2",
         }
     }
 
@@ -436,7 +454,7 @@ impl Bundle {
         let radiance = "radiance is never negative".to_string();
         let name = self.sum_name(which);
         let rule = match which {
-            SumArray::X2 => Some("a sum of squares cannot be negative".into()),
+            SumArray::X2 | SumArray::R2 => Some("a sum of squares cannot be negative".into()),
             SumArray::X1 | SumArray::X3 if m.transform.at_zero() == 0.0 => {
                 Some(if m.transform.is_identity() {
                     radiance
@@ -462,6 +480,9 @@ impl Bundle {
             f64::MAX
         };
         let ok = move |v: f64| v.is_finite() && (!nonneg || v >= 0.0) && v <= max;
+        // A voxel no sample reached has zero sums, except R2 under a transform with
+        // z(0) != 0: its replicate means are z(0).
+        let any_empty = which == SumArray::R2 && m.transform.at_zero() != 0.0;
         let check = move |start: usize, block: &[f64]| {
             // Blocks start at a voxel's first channel (npy::BLOCK_ELEMS is a multiple
             // of 3): check whole voxels against their counts, branch-free; look for
@@ -472,7 +493,7 @@ impl Bundle {
                 acc & ok(v[0])
                     & ok(v[1])
                     & ok(v[2])
-                    & ((k != 0) | ((v[0] == 0.0) & (v[1] == 0.0) & (v[2] == 0.0)))
+                    & ((k != 0) | any_empty | ((v[0] == 0.0) & (v[1] == 0.0) & (v[2] == 0.0)))
             });
             if all_ok {
                 return None;
@@ -480,7 +501,9 @@ impl Bundle {
             let i = block
                 .iter()
                 .enumerate()
-                .position(|(i, &v)| !ok(v) || (v != 0.0 && counts[k0 + i / CHANNELS] == 0))
+                .position(|(i, &v)| {
+                    !ok(v) || (v != 0.0 && !any_empty && counts[k0 + i / CHANNELS] == 0)
+                })
                 .expect("a failing value");
             let v = block[i];
             let why = if !v.is_finite() {
@@ -621,6 +644,7 @@ pub struct RowReader<'a> {
     nonzero: (PathBuf, npy::NpyFile),
     sums: [SumFile; 3],
     radiance: Option<SumFile>,
+    r2: Option<SumFile>,
 }
 
 /// An open sum array.
@@ -642,6 +666,8 @@ pub struct RowSums {
     /// Raw radiance sums, only for transforms other than the identity (else X1).
     pub sum: Vec<f64>,
     pub nonzero: Vec<u32>,
+    /// R2, only for bundles with replicates (else empty).
+    pub r2: Vec<f64>,
 }
 
 impl RowReader<'_> {
@@ -662,6 +688,7 @@ impl RowReader<'_> {
             x3,
             sum,
             nonzero,
+            r2,
         } = into;
         *held = rows.start..rows.start;
         let (path, f) = &self.nonzero;
@@ -675,6 +702,10 @@ impl RowReader<'_> {
         match &self.radiance {
             Some(r) => arrays.push((r, sum)),
             None => sum.clear(),
+        }
+        match &self.r2 {
+            Some(r) => arrays.push((r, r2)),
+            None => r2.clear(),
         }
         for (a, out) in arrays {
             let (_, check) = b.sum_check(a.which, nonzero);

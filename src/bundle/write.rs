@@ -33,6 +33,8 @@ pub struct BundleMeta {
     pub transform: Transform,
     pub unit_m: f64,
     pub pixel_sampling: crate::render::PixelSampling,
+    /// Replicates per pixel B (0: none; then no `r2.npy`).
+    pub replicates: u32,
 }
 
 /// Refuses an existing output unless `force`; call before spending time on a render.
@@ -214,6 +216,7 @@ fn manifest(scene: &Scene, meta: &BundleMeta, seconds: f64, dropped_nonfinite: u
         bin_width_seconds: film.bin_width_opl * meta.unit_m / super::manifest::C_M_PER_S,
         transform: meta.transform,
         pixel_sampling: meta.pixel_sampling.into(),
+        replicates: (meta.replicates >= 2).then_some(u64::from(meta.replicates)),
         media: !scene.media.is_empty(),
         seed: meta.seed,
         merged_seeds: Vec::new(),
@@ -350,6 +353,15 @@ pub fn write_bundle(
                 arrays,
             )?;
         }
+        if let Some(r2) = acc.r2 {
+            npy(
+                dir,
+                "r2",
+                "<f8",
+                &Array4::from_shape_vec(shape4, r2).map_err(shape_err)?,
+                arrays,
+            )?;
+        }
         npy(
             dir,
             "nonzero",
@@ -366,7 +378,10 @@ pub fn write_bundle(
 
 /// The volume arrays of a bundle, in manifest order: name, dtype, whether it has the
 /// channel axis, and its element size.
-fn volume_arrays(transform: &Transform) -> Vec<(&'static str, &'static str, bool, usize)> {
+fn volume_arrays(
+    transform: &Transform,
+    replicates: bool,
+) -> Vec<(&'static str, &'static str, bool, usize)> {
     let mut v = vec![
         ("x1", "<f8", true, 8),
         ("x2", "<f8", true, 8),
@@ -374,6 +389,9 @@ fn volume_arrays(transform: &Transform) -> Vec<(&'static str, &'static str, bool
     ];
     if !transform.is_identity() {
         v.push(("sum", "<f8", true, 8));
+    }
+    if replicates {
+        v.push(("r2", "<f8", true, 8));
     }
     v.push(("nonzero", "<u4", false, 4));
     v
@@ -393,8 +411,13 @@ fn npy_header<A: WritableElement>(shape: &[usize]) -> Result<Vec<u8>, String> {
 /// Bytes on disk of the bundle of a film rendered with `transform` (saturating): the
 /// `.npy` files exactly, plus 64 KiB for the manifest.
 pub fn bundle_bytes(film: &Film, transform: &Transform, media: bool) -> u64 {
+    bundle_bytes_with(film, transform, media, false)
+}
+
+/// [`bundle_bytes`] with or without the replicates' `r2.npy`.
+pub fn bundle_bytes_with(film: &Film, transform: &Transform, media: bool, replicates: bool) -> u64 {
     let (h, w, t) = (film.height, film.width, film.bins);
-    let mut files: Vec<(Vec<usize>, usize)> = volume_arrays(transform)
+    let mut files: Vec<(Vec<usize>, usize)> = volume_arrays(transform, replicates)
         .into_iter()
         .map(|(_, _, rgb, size)| {
             let shape = if rgb {
@@ -519,10 +542,21 @@ impl BundleWriter {
         film: &Film,
         transform: &Transform,
     ) -> Result<Self, BundleError> {
+        Self::create_with(out, force, film, transform, false)
+    }
+
+    /// [`BundleWriter::create`] for a render with or without replicates (`r2.npy`).
+    pub fn create_with(
+        out: &Path,
+        force: bool,
+        film: &Film,
+        transform: &Transform,
+        replicates: bool,
+    ) -> Result<Self, BundleError> {
         let staged = stage(out, force, |dir| {
             std::fs::create_dir(dir).map_err(|e| BundleError::Io(dir.to_path_buf(), e.to_string()))
         })?;
-        let arrays = volume_arrays(transform)
+        let arrays = volume_arrays(transform, replicates)
             .into_iter()
             .map(|spec| StreamedArray::create(staged.path(), film, spec))
             .collect::<Result<_, _>>()?;
@@ -584,6 +618,9 @@ impl RowSink for BundleWriter {
         if let Some(sum) = &s.sum {
             volumes.push(bytemuck::cast_slice(sum));
         }
+        if let Some(r2) = &s.r2 {
+            volumes.push(bytemuck::cast_slice(r2));
+        }
         volumes.push(bytemuck::cast_slice(&s.nonzero));
         if volumes.len() != self.arrays.len() {
             return Err(BundleError::Io(
@@ -627,6 +664,7 @@ mod tests {
             seed: 1,
             transform: Transform::Identity,
             pixel_sampling: PixelSampling::Stratified,
+            replicates: 0,
         };
         let out = dir.path().join("b.tstats");
         let mut writer =

@@ -51,6 +51,7 @@ pub fn run(a: InfoArgs) -> anyhow::Result<()> {
         "pixels      {} sub-pixel sampling{}",
         m.pixel_sampling,
         match m.pixel_sampling {
+            _ if m.replicates.is_some() => "",
             SamplingRecord::Independent => "",
             SamplingRecord::Stratified | SamplingRecord::Sobol if !m.merged_seeds.is_empty() => {
                 " (per merged render; variances are over-estimates)"
@@ -58,6 +59,13 @@ pub fn run(a: InfoArgs) -> anyhow::Result<()> {
             _ => " (variances are over-estimates)",
         }
     );
+    if let Some(b) = m.replicates {
+        say!(
+            "replicates  {b} of {} samples per pixel (variances from the replicates, {} degrees of freedom)",
+            m.spp / b,
+            b - 1
+        );
+    }
     say!(
         "render      {:.3} s, {} non-finite contributions dropped",
         m.render_seconds,

@@ -7,7 +7,7 @@ use super::denoise::FilterArgs;
 use super::frames::axis_of;
 use super::render::SceneArgs;
 use super::util::{arg, check_outputs, human_bytes, int_flag, seed, threads, with_threads, Kind};
-use crate::bundle::write::{bundle_bytes, write_atomically, BundleMeta, BundleWriter};
+use crate::bundle::write::{write_atomically, BundleMeta, BundleWriter};
 use crate::bundle::{Bundle, BundleError};
 use crate::denoise::denoise_bundle;
 use crate::render::{render_into, RenderSettings, StreamingMemory};
@@ -131,15 +131,24 @@ fn job(
     super::util::check_mesh_inputs(&scene, &[arg("--out", &a.out)])?;
     super::util::print_scene_warnings(&scene);
     let film = &scene.film;
-    let memory = StreamingMemory::new(film, &transform, super::render::pool_size(o.threads));
+    RenderSettings::check_replicates(scene.spp, a.scene_args.replicates)
+        .map_err(|e| anyhow::anyhow!(e))?;
+    let replicates = a.scene_args.replicates >= 2;
+    let memory = StreamingMemory::new(film, &transform, super::render::pool_size(o.threads))
+        .with_replicates(replicates, film);
     super::render::check_memory(&memory, None)?;
     // The bundle, then the noisy and the denoised f32 volumes (the frames are small).
     let volume = (film.pixels() as u64)
         .saturating_mul(film.bins as u64)
         .saturating_mul(CHANNELS as u64 * 4)
         .saturating_add(4096);
-    let disk = bundle_bytes(film, &transform, !scene.media.is_empty())
-        .saturating_add(volume.saturating_mul(2));
+    let disk = crate::bundle::write::bundle_bytes_with(
+        film,
+        &transform,
+        !scene.media.is_empty(),
+        replicates,
+    )
+    .saturating_add(volume.saturating_mul(2));
     super::render::check_disk(&a.out, disk, "the run's output")?;
     eprintln!(
         "{}: {}x{} px, {} bins, {} spp ({}); memory {}, {} on disk",
@@ -157,9 +166,10 @@ fn job(
         seed: o.seed.unwrap_or(scene.seed),
         transform,
         pixel_sampling: a.scene_args.pixel_sampling,
+        replicates: a.scene_args.replicates,
     };
     let bundle_path = dir.join("scene.tstats");
-    let writer = BundleWriter::create(&bundle_path, false, film, &transform)
+    let writer = BundleWriter::create_with(&bundle_path, false, film, &transform, replicates)
         .context("writing the bundle")?;
     let summary = with_threads(o.threads, || {
         render_into(&scene, &settings, &writer, &|_| {})
@@ -176,6 +186,7 @@ fn job(
         transform,
         unit_m: 1.0,
         pixel_sampling: settings.pixel_sampling,
+        replicates: settings.replicates,
     };
     // The bundled scene sits in the temporary directory until that is renamed: the
     // manifest records where it will be.

@@ -24,7 +24,7 @@
 //! says which, and pixel indices stay those of the whole image.
 
 use crate::stats::accumulators::CHANNELS;
-use crate::stats::estimators::{estimate, Sums};
+use crate::stats::estimators::{estimate, estimate_replicates, Sums};
 use rayon::prelude::*;
 use std::ops::Range;
 
@@ -37,6 +37,8 @@ pub struct Estimates {
     pub bin_width: f64,
     /// Samples per pixel behind the estimates.
     pub spp: u64,
+    /// Replicates B behind `v` (SPEC 5), if the bundle has them.
+    pub replicates: Option<u64>,
     /// Sub-pixel positions were stratified: `v` over-estimates the variance of the
     /// mean (most at edges, where coverage noise dominates).
     pub stratified: bool,
@@ -140,6 +142,10 @@ fn pow2(e: i32) -> f64 {
 #[inline]
 fn voxel_estimate(s: &SumsView, voxel: usize, c: usize) -> (f64, f64, f64) {
     let k = voxel * CHANNELS + c;
+    if let Some((b, r2)) = s.replicates {
+        let e = estimate_replicates(s.x1[k], r2[k], s.nonzero[voxel], s.spp, b, s.z0);
+        return (s.sum[k] / s.spp as f64, e.theta - s.z0, e.v);
+    }
     let e = estimate(
         Sums {
             x1: s.x1[k],
@@ -172,6 +178,8 @@ pub struct SumsView<'a> {
     /// Raw radiance sums; X1 for the identity transform.
     pub sum: &'a [f64],
     pub nonzero: &'a [u32],
+    /// Replicate statistics: B and R2 (SPEC 5); then V comes from the replicates.
+    pub replicates: Option<(u64, &'a [f64])>,
 }
 
 impl Estimates {
@@ -223,6 +231,7 @@ impl Estimates {
             bins: s.bins,
             bin_width: s.bin_width,
             spp: s.spp,
+            replicates: s.replicates.map(|(b, _)| b),
             stratified: s.stratified,
             rows: 0..0,
             scale,

@@ -108,7 +108,9 @@ impl DenoiseParams {
         self.sigmas.validate()
     }
 
-    /// The filter's parameters for a bundle of `spp` samples per pixel.
+    /// The filter's parameters for a bundle of `spp` samples per pixel (its number of
+    /// replicates when it has them: the published test's degrees of freedom are then
+    /// `2 B - 2`, SPEC 8).
     pub fn filter_params(&self, spp: u64) -> FilterParams {
         FilterParams {
             radius: self.radius,
@@ -167,7 +169,7 @@ pub fn denoise_estimates(
     progress: &(dyn Fn(u64) + Sync),
 ) -> Denoised {
     let start = std::time::Instant::now();
-    let fp = params.filter_params(spp);
+    let fp = params.filter_params(est.replicates.unwrap_or(spp));
     let (planar, evaluations) = filter(&est, features, &fp, params.tiling, progress);
     let filter_seconds = start.elapsed().as_secs_f64();
     let (h, w, t) = (est.height, est.width, est.bins);
@@ -190,6 +192,7 @@ pub struct LoadedSums {
     x2: ndarray::Array4<f64>,
     x3: ndarray::Array4<f64>,
     sum: Option<ndarray::Array4<f64>>,
+    r2: Option<ndarray::Array4<f64>>,
     nonzero: ndarray::Array3<u32>,
     pub gbuffers: GBuffers,
 }
@@ -210,6 +213,10 @@ impl LoadedSums {
             } else {
                 Some(bundle.sum_array(SumArray::Radiance, &nonzero)?)
             },
+            r2: match m.replicates {
+                Some(_) => Some(bundle.sum_array(SumArray::R2, &nonzero)?),
+                None => None,
+            },
             nonzero,
             gbuffers: GBuffers::read(bundle)?,
         })
@@ -223,13 +230,14 @@ impl LoadedSums {
             bins: m.bins,
             bin_width: m.bin_width_opl,
             spp: m.spp,
-            stratified: m.pixel_sampling != crate::bundle::manifest::SamplingRecord::Independent,
+            stratified: slab::stratified(m),
             z0: m.transform.at_zero(),
             x1: std_slice(&self.x1),
             x2: std_slice(&self.x2),
             x3: std_slice(&self.x3),
             sum: std_slice(self.sum.as_ref().unwrap_or(&self.x1)),
             nonzero: std_slice(&self.nonzero),
+            replicates: m.replicates.zip(self.r2.as_ref().map(std_slice)),
         }
     }
 

@@ -152,12 +152,15 @@ pub fn halo(bundle: &Bundle, params: &DenoiseParams) -> Result<usize, BundleErro
     let m = &bundle.manifest;
     let emitter = bundle.emitter()?;
     Ok(params
-        .filter_params(m.spp)
+        .filter_params(m.replicates.unwrap_or(m.spp))
         .reach(stratified(m), super::std_slice(&emitter)))
 }
 
-fn stratified(m: &Manifest) -> bool {
+/// Whether the bundle's V over-estimates the variance of the mean: correlated
+/// (stratified or Sobol') samples without replicates.
+pub fn stratified(m: &Manifest) -> bool {
     m.pixel_sampling != crate::bundle::manifest::SamplingRecord::Independent
+        && m.replicates.is_none()
 }
 
 /// The sums of the rows read, as the estimates take them.
@@ -179,6 +182,7 @@ fn sums_view<'a>(m: &Manifest, s: &'a RowSums) -> SumsView<'a> {
             &s.sum
         },
         nonzero: &s.nonzero,
+        replicates: m.replicates.map(|b| (b, &s.r2[..])),
     }
 }
 
@@ -214,7 +218,7 @@ pub fn denoise_slabs(
     let rows = plan.rows.max(1);
     let gbuffers = GBuffers::read(bundle)?;
     let features = gbuffers.features();
-    let fp = params.filter_params(m.spp);
+    let fp = params.filter_params(m.replicates.unwrap_or(m.spp));
     let halo = fp.reach(stratified(m), features.emitter);
     assert!(
         plan.halo >= halo,

@@ -27,7 +27,7 @@ pub mod sink;
 pub mod time_filter;
 pub mod volpath;
 
-use crate::math::rng::Pcg32;
+use crate::math::rng::{mix64, Pcg32};
 use crate::scene::camera::LENS_STREAM_SALT;
 use crate::scene::film::Film;
 use crate::scene::Scene;
@@ -50,17 +50,49 @@ pub struct RenderSettings {
     pub transform: Transform,
     /// How primary rays choose their sub-pixel positions.
     pub pixel_sampling: PixelSampling,
+    /// Replicates B per pixel (SPEC 4-5): the spp split into B independently
+    /// randomised sets of spp / B samples, with `R2 = sum_b m_b^2` accumulated per
+    /// voxel; 0: none.
+    pub replicates: u32,
+}
+
+impl RenderSettings {
+    /// The replicates and their size: `(B, spp / B)`, or `(1, spp)` without replicates.
+    /// [`RenderSettings::check_replicates`] makes sure B divides spp.
+    pub fn replicate_split(&self) -> (u32, u32) {
+        if self.replicates >= 2 {
+            (self.replicates, self.spp / self.replicates)
+        } else {
+            (1, self.spp)
+        }
+    }
+
+    /// Whether `replicates` can split `spp`: 0 (none) or at least 2, dividing spp.
+    pub fn check_replicates(spp: u32, replicates: u32) -> Result<(), String> {
+        if replicates == 1 {
+            return Err("--replicates 1: a variance needs at least 2 replicates (0: none)".into());
+        }
+        if replicates >= 2 && (!spp.is_multiple_of(replicates) || replicates > spp) {
+            return Err(format!(
+                "--replicates {replicates} does not divide spp {spp}: replicates need equal sizes"
+            ));
+        }
+        Ok(())
+    }
 }
 
 /// The sub-pixel positions of `pixel`'s samples `0..settings.spp`, in `[0, 1)^2`, in
 /// the order the renderer uses them (for tests and tools; `render` computes them the
 /// same way).
 pub fn pixel_positions(settings: &RenderSettings, pixel: u64) -> Vec<[f32; 2]> {
-    let positions = PixelPositions::new(settings, pixel);
-    (0..settings.spp)
-        .map(|s| {
-            let rng = Pcg32::for_path(settings.seed, pixel, s as u64);
-            PathNumbers::new(&positions, s, settings.spp, rng).1
+    let (reps, k) = settings.replicate_split();
+    (0..reps)
+        .flat_map(|b| {
+            let positions = PixelPositions::new(settings, pixel, b, k);
+            (0..k).map(move |i| {
+                let rng = Pcg32::for_path(settings.seed, pixel, (b * k + i) as u64);
+                PathNumbers::new(&positions, i, k, rng).1
+            })
         })
         .collect()
 }
@@ -74,13 +106,21 @@ enum PixelPositions {
 }
 
 impl PixelPositions {
-    fn new(settings: &RenderSettings, pixel: u64) -> Self {
+    /// The positions of replicate `b` (of `k` samples) of `pixel`; without replicates
+    /// `b = 0` and `k = spp`.
+    fn new(settings: &RenderSettings, pixel: u64, b: u32, k: u32) -> Self {
         match settings.pixel_sampling {
             PixelSampling::Independent => PixelPositions::Independent,
             PixelSampling::Stratified => {
-                PixelPositions::Stratified(PixelPattern::new(settings.seed, pixel, settings.spp))
+                // Replicates are randomised independently: each its own pattern.
+                let seed = if b == 0 {
+                    settings.seed
+                } else {
+                    mix64(settings.seed ^ mix64(u64::from(b) ^ 0x7265_706c_6963_6174))
+                };
+                PixelPositions::Stratified(PixelPattern::new(seed, pixel, k))
             }
-            PixelSampling::Sobol => PixelPositions::Sobol(replicate_key(settings.seed, pixel, 0)),
+            PixelSampling::Sobol => PixelPositions::Sobol(replicate_key(settings.seed, pixel, b)),
         }
     }
 }
@@ -153,10 +193,17 @@ struct RowScratch {
 }
 
 impl RowScratch {
-    fn new(film: &Film, transform: &Transform) -> Self {
+    fn new(film: &Film, transform: &Transform, replicates: bool) -> Self {
+        let (mut sums, mut pixel) = (
+            Accumulators::new(1, film.width, film.bins, transform),
+            PixelSums::new(film.bins, transform),
+        );
+        if replicates {
+            (sums, pixel) = (sums.with_r2(), pixel.with_replicates());
+        }
         RowScratch {
-            sums: Accumulators::new(1, film.width, film.bins, transform),
-            pixel: PixelSums::new(film.bins, transform),
+            sums,
+            pixel,
             gbuffer: vec![GPixel::default(); film.width],
             steady: vec![0.0; film.width * CHANNELS],
         }
@@ -192,6 +239,17 @@ impl StreamingMemory {
         }
     }
 
+    /// The same with replicates (`R2` in every row scratch: a row's `R2` and the
+    /// pixel's replicate sums).
+    pub fn with_replicates(mut self, replicates: bool, film: &Film) -> Self {
+        if replicates {
+            let extra = Accumulators::r2_bytes(1, film.width, film.bins)
+                .saturating_add((film.bins as u64).saturating_mul(7 * 8));
+            self.per_row = self.per_row.saturating_add(extra);
+        }
+        self
+    }
+
     /// The total (saturating).
     pub fn bytes(&self) -> u64 {
         (self.threads as u64)
@@ -217,28 +275,34 @@ fn render_row(
 ) -> RowTally {
     let width = scene.film.width;
     let n = settings.spp as f64;
+    let z0 = settings.transform.at_zero();
     let mut deposits = PathDeposits::default();
     let mut result = RowTally::default();
     for x in 0..width {
         let pixel = (y * width + x) as u64;
         let mut g = GAccum::default();
         let mut tally = PathTally::default();
-        let positions = PixelPositions::new(settings, pixel);
-        for s in 0..settings.spp {
-            let rng = Pcg32::for_path(settings.seed, pixel, s as u64);
-            let (mut numbers, [u, v]) = PathNumbers::new(&positions, s, settings.spp, rng);
-            let (o, d) = scene.camera.ray(x as f32 + u, y as f32 + v, || {
-                Pcg32::for_path(settings.seed ^ LENS_STREAM_SALT, pixel, s as u64).next_2d()
-            });
-            let gs = match &mut numbers {
-                PathNumbers::Sobol(p) => trace(scene, o, d, p, &mut deposits, &mut tally),
-                PathNumbers::Independent(p) => trace(scene, o, d, p, &mut deposits, &mut tally),
-            };
-            g.add(&gs);
-            result.voxel_samples += deposits.len() as u64;
-            for (bin, c) in deposits.drain() {
-                row.pixel.add_sample(z, bin as usize, c);
+        let (reps, k) = settings.replicate_split();
+        for b in 0..reps {
+            let positions = PixelPositions::new(settings, pixel, b, k);
+            for i in 0..k {
+                let s = b * k + i;
+                let rng = Pcg32::for_path(settings.seed, pixel, s as u64);
+                let (mut numbers, [u, v]) = PathNumbers::new(&positions, i, k, rng);
+                let (o, d) = scene.camera.ray(x as f32 + u, y as f32 + v, || {
+                    Pcg32::for_path(settings.seed ^ LENS_STREAM_SALT, pixel, s as u64).next_2d()
+                });
+                let gs = match &mut numbers {
+                    PathNumbers::Sobol(p) => trace(scene, o, d, p, &mut deposits, &mut tally),
+                    PathNumbers::Independent(p) => trace(scene, o, d, p, &mut deposits, &mut tally),
+                };
+                g.add(&gs);
+                result.voxel_samples += deposits.len() as u64;
+                for (bin, c) in deposits.drain() {
+                    row.pixel.add_sample(z, bin as usize, c);
+                }
             }
+            row.pixel.end_replicate(k, z0);
         }
         row.pixel.flush_into(&mut row.sums, x);
         for c in 0..CHANNELS {
@@ -338,7 +402,11 @@ impl<S: RowSink> Driver<'_, S> {
             .pop();
         let mut row = taken.unwrap_or_else(|| {
             self.allocated.fetch_add(1, Ordering::Relaxed);
-            RowScratch::new(&self.scene.film, &self.settings.transform)
+            RowScratch::new(
+                &self.scene.film,
+                &self.settings.transform,
+                self.settings.replicates >= 2,
+            )
         });
         let tally = render_row(self.scene, self.settings, y, &mut row, z);
         self.sink.put_row(&Row {
@@ -370,6 +438,9 @@ pub fn render(
 ) -> RenderOutput {
     let film = &scene.film;
     let sink = MemorySink::new(film.height, film.width, film.bins, &settings.transform);
+    if settings.replicates >= 2 {
+        sink.enable_r2();
+    }
     let summary = match render_into(scene, settings, &sink, progress) {
         Ok(s) => s,
         Err(never) => match never {},

@@ -88,6 +88,19 @@ impl MemorySink {
         }
     }
 
+    /// Keeps replicate statistics (`R2`) too.
+    pub fn enable_r2(&self) {
+        let mut film = self
+            .film
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        let sums = std::mem::replace(
+            &mut film.0,
+            Accumulators::new(0, 0, 0, &Transform::Identity),
+        );
+        film.0 = sums.with_r2();
+    }
+
     /// The sums and the per-pixel images.
     pub fn into_parts(self) -> (Accumulators, PixelImages) {
         self.film

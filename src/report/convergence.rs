@@ -163,6 +163,7 @@ pub fn sums_view<'a>(
         x3: &a.x3,
         sum: a.sum.as_deref().unwrap_or(&a.x1),
         nonzero: &a.nonzero,
+        replicates: None,
     }
 }
 
@@ -227,6 +228,7 @@ fn reference(cfg: &ConvergenceConfig, dir: &Path, log: &dyn Fn(&str)) -> Result<
                 seed: cfg.seed.wrapping_add(1_000_003),
                 transform: Transform::Identity,
                 pixel_sampling: cfg.pixel_sampling,
+                replicates: 0,
             };
             let out = render(&scene, &settings, &|_| {});
             let v = noisy_mean(&out, *spp)?;
@@ -292,6 +294,7 @@ pub fn run_convergence(
             seed: cfg.seed.wrapping_add(1 + k as u64),
             transform: cfg.transform,
             pixel_sampling: cfg.pixel_sampling,
+            replicates: 0,
         };
         let out = render(&scene, &settings, &|_| {});
         let g = gbuffers(&out);

@@ -33,6 +33,9 @@ pub struct Accumulators {
     /// Raw radiance sums; `None` for the identity transform (S = X1).
     pub sum: Option<Vec<f64>>,
     pub nonzero: Vec<u32>,
+    /// Replicate statistics `R2 = sum_b m_b^2` (SPEC 5), when the render has
+    /// replicates ([`Accumulators::with_r2`]).
+    pub r2: Option<Vec<f64>>,
 }
 
 /// The f64 sum arrays a transform needs: X1, X2, X3, and S unless it is the identity.
@@ -65,7 +68,20 @@ impl Accumulators {
             x3: vec![0.0; n],
             sum: (!transform.is_identity()).then(|| vec![0.0; n]),
             nonzero: vec![0u32; height * width * bins],
+            r2: None,
         }
+    }
+
+    /// The same sums with an `R2` array (replicates).
+    pub fn with_r2(mut self) -> Self {
+        self.r2 = Some(vec![0.0; self.x1.len()]);
+        self
+    }
+
+    /// Bytes of the `R2` array of a film of this size (saturating).
+    pub fn r2_bytes(height: usize, width: usize, bins: usize) -> u64 {
+        let b = height as u128 * width as u128 * bins as u128 * CHANNELS as u128 * 8;
+        u64::try_from(b).unwrap_or(u64::MAX)
     }
 
     /// Copies `row` (the sums of one image row: height 1, same width, bins and arrays)
@@ -92,6 +108,11 @@ impl Accumulators {
         }
         let m = self.width * self.bins;
         self.nonzero[y * m..(y + 1) * m].copy_from_slice(&row.nonzero);
+        match (self.r2.as_mut(), row.r2.as_ref()) {
+            (Some(dst), Some(src)) => sums(dst, src),
+            (None, None) => {}
+            _ => panic!("a row with and a film without R2 (or the reverse)"),
+        }
     }
 }
 
@@ -104,6 +125,9 @@ pub struct PixelSums {
     stride: usize,
     raw: bool,
     records: Vec<f64>,
+    /// With replicates: per bin the current replicate's `[sum z rgb, count]`, and the
+    /// pixel's `R2 rgb` so far.
+    replicate: Option<(Vec<f64>, Vec<f64>)>,
 }
 
 impl PixelSums {
@@ -114,6 +138,33 @@ impl PixelSums {
             stride,
             raw: !transform.is_identity(),
             records: vec![0.0; bins * stride],
+            replicate: None,
+        }
+    }
+
+    /// The same records, also accumulating replicate statistics.
+    pub fn with_replicates(mut self) -> Self {
+        self.replicate = Some((vec![0.0; self.bins * 4], vec![0.0; self.bins * CHANNELS]));
+        self
+    }
+
+    /// Ends a replicate of `k` samples: per bin and channel its mean of z, zero
+    /// samples included (`m_b = (sum z + (k - count) z0) / k`), squared into R2.
+    pub fn end_replicate(&mut self, k: u32, z0: f64) {
+        let Some((current, r2)) = self.replicate.as_mut() else {
+            return;
+        };
+        let kf = f64::from(k);
+        for (cur, r) in current
+            .chunks_exact_mut(4)
+            .zip(r2.chunks_exact_mut(CHANNELS))
+        {
+            let zeros = kf - cur[3];
+            for c in 0..CHANNELS {
+                let m = (cur[c] + zeros * z0) / kf;
+                r[c] += m * m;
+            }
+            cur.fill(0.0);
         }
     }
 
@@ -140,6 +191,13 @@ impl PixelSums {
             }
         }
         r[self.stride - 1] += 1.0;
+        if let Some((current, _)) = self.replicate.as_mut() {
+            let cur = &mut current[bin * 4..bin * 4 + 4];
+            for (c, &xc) in x.iter().enumerate() {
+                cur[c] += z(xc);
+            }
+            cur[3] += 1.0;
+        }
     }
 
     /// Moves the pixel's sums into pixel `px` of `row` (height 1), overwriting what was
@@ -162,6 +220,10 @@ impl PixelSums {
             deinterleave::<10>(&self.records, out);
         }
         self.records.fill(0.0);
+        if let (Some((_, r2)), Some(dst)) = (self.replicate.as_mut(), row.r2.as_mut()) {
+            dst[px * t * CHANNELS..(px + 1) * t * CHANNELS].copy_from_slice(r2);
+            r2.fill(0.0);
+        }
     }
 }
 
@@ -273,5 +335,47 @@ mod tests {
             film.nonzero,
             [0, 0, 0, 0, 0, 0, 0, 0, 5, 5, 5, 5, 5, 5, 5, 5, 0, 0, 0, 0, 0, 0, 0, 0]
         );
+    }
+
+    /// R2 from the interleaved records: per replicate the mean of z over its k samples
+    /// (zeros as z(0)), squared and summed, against a plain computation.
+    #[test]
+    fn replicate_r2_is_the_sum_of_squared_replicate_means() {
+        for t in [Transform::Identity, Transform::BoxCox { lambda: 0.5 }] {
+            let (w, bins, reps, k) = (2usize, 4usize, 3u32, 5u32);
+            let z0 = t.at_zero();
+            let mut row = Accumulators::new(1, w, bins, &t).with_r2();
+            let mut p = PixelSums::new(bins, &t).with_replicates();
+            let z = |x: f64| t.apply(x);
+            let mut want = vec![0.0; w * bins * 3];
+            for px in 0..w {
+                for b in 0..reps {
+                    let mut sums = vec![0.0; bins * 3];
+                    let mut counts = vec![0u32; bins];
+                    for s in 0..k {
+                        let bin = ((b * 7 + s * 3) as usize + px) % bins;
+                        if bin == 2 {
+                            continue;
+                        }
+                        let x = [0.3 * s as f64, 1.0 + b as f64, (s % 2) as f64];
+                        p.add_sample(z, bin, x);
+                        counts[bin] += 1;
+                        for c in 0..3 {
+                            sums[bin * 3 + c] += z(x[c]);
+                        }
+                    }
+                    p.end_replicate(k, z0);
+                    for bin in 0..bins {
+                        for c in 0..3 {
+                            let m = (sums[bin * 3 + c] + f64::from(k - counts[bin]) * z0)
+                                / f64::from(k);
+                            want[(px * bins + bin) * 3 + c] += m * m;
+                        }
+                    }
+                }
+                p.flush_into(&mut row, px);
+            }
+            assert_eq!(row.r2.as_ref().unwrap(), &want, "{t:?}");
+        }
     }
 }

@@ -233,6 +233,43 @@ pub fn estimate(sums: Sums, nonzero: u32, n: u64, z0: f64) -> Estimate {
     }
 }
 
+/// Replicate statistics (SPEC 5): the voxel's n samples form `b` replicates of
+/// `k = n / b`, and `r2 = sum_b m_b^2` over the replicates' means of z (zero samples
+/// included). Then `mu = (X1 + (n - nonzero) z0) / n` (the mean of the replicate
+/// means), `V = (r2 / b - mu^2) / (b - 1)`, clamped at 0 and set to exactly 0 at or
+/// below its rounding floor, with `b - 1` degrees of freedom; `theta = mu` (no
+/// skewness correction: the replicate means are close to normal), `sigma2 = n V` (the
+/// per-sample variance it implies) and `m3 = 0`. Valid whatever the correlation
+/// between the samples of a replicate (stratified or low-discrepancy sets), as long
+/// as the replicates are independent.
+///
+/// The floor: `r2 / b` and `mu^2` each carry a relative rounding error of at most
+/// `(b + n + 4) EPSILON` (b squares and additions in r2; n additions in X1, doubled
+/// by squaring), so a difference below `(2 b + 2 n + 8) EPSILON r2 / b` is noise.
+/// When every replicate mean is equal, V is exactly 0.
+#[inline]
+pub fn estimate_replicates(x1: f64, r2: f64, nonzero: u32, n: u64, b: u64, z0: f64) -> Estimate {
+    assert!(
+        b >= 2 && n >= b,
+        "estimate_replicates: {b} replicates of {n} samples (need 2 <= b <= n)"
+    );
+    let (nf, bf) = (n as f64, b as f64);
+    let mu = (x1 + (nf - f64::from(nonzero)) * z0) / nf;
+    let mean_sq = r2 / bf;
+    let raw = mean_sq - mu * mu;
+    let floor = (2.0 * bf + 2.0 * nf + 8.0) * f64::EPSILON * mean_sq;
+    // `>` is false for NaN: NaN goes to 0 as well.
+    let s2 = if raw > floor { raw } else { 0.0 };
+    let v = s2 / (bf - 1.0);
+    Estimate {
+        mu,
+        sigma2: v * nf,
+        m3: 0.0,
+        theta: mu,
+        v,
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::super::transform::Transform;
@@ -1028,5 +1065,98 @@ mod tests {
                 x3: 7.125
             }
         );
+    }
+
+    // ---- replicate statistics ----
+
+    /// R2, X1 and the count of a voxel from its samples `z` (zeros as `None`) split
+    /// into `b` consecutive replicates, as the renderer accumulates them.
+    fn replicate_sums(z: &[Option<f64>], b: usize, z0: f64) -> (f64, f64, u32) {
+        let k = z.len() / b;
+        let (mut x1, mut r2, mut nonzero) = (0.0, 0.0, 0u32);
+        for rep in z.chunks(k) {
+            let (mut s, mut c) = (0.0, 0.0);
+            for v in rep.iter().flatten() {
+                s += v;
+                c += 1.0;
+                x1 += v;
+                nonzero += 1;
+            }
+            let m = (s + (k as f64 - c) * z0) / k as f64;
+            r2 += m * m;
+        }
+        (x1, r2, nonzero)
+    }
+
+    /// Against a two-pass computation: the sample variance of the replicate means
+    /// (explicit zeros become z0) over B, in f64 with compensated sums.
+    #[test]
+    fn replicate_variance_matches_two_pass() {
+        let mut rng = crate::math::rng::Pcg32::new(7, 11);
+        for t in transforms() {
+            let z0 = t.at_zero();
+            for (n, b) in [(64usize, 8usize), (32, 2), (48, 16), (1000, 10)] {
+                let z: Vec<Option<f64>> = (0..n)
+                    .map(|_| {
+                        let u = rng.next_f32() as f64;
+                        (u > 0.4).then(|| t.apply(3.0 * u * u))
+                    })
+                    .collect();
+                let (x1, r2, nonzero) = replicate_sums(&z, b, z0);
+                let e = estimate_replicates(x1, r2, nonzero, n as u64, b as u64, z0);
+                let k = n / b;
+                let means: Vec<f64> = z
+                    .chunks(k)
+                    .map(|r| accurate_sum(r.iter().map(|v| v.unwrap_or(z0))) / k as f64)
+                    .collect();
+                let mu = accurate_sum(means.iter().copied()) / b as f64;
+                let var =
+                    accurate_sum(means.iter().map(|m| (m - mu) * (m - mu))) / (b as f64 - 1.0);
+                let ctx = format!("{t:?} n {n} b {b}");
+                assert!(
+                    close(e.mu, mu, 1e-12, mu.abs().max(1.0)),
+                    "{ctx}: mu {} vs {mu}",
+                    e.mu
+                );
+                assert_eq!(e.theta, e.mu, "{ctx}");
+                assert!(
+                    close(e.v, var / b as f64, 1e-9, var / b as f64 + mu * mu * 1e-12),
+                    "{ctx}: v {} vs {}",
+                    e.v,
+                    var / b as f64
+                );
+            }
+        }
+    }
+
+    /// Equal replicate means (however the samples inside differ) give exactly V = 0;
+    /// so do all-zero voxels under every transform.
+    #[test]
+    fn equal_replicate_means_give_exactly_zero_variance() {
+        for t in transforms() {
+            let z0 = t.at_zero();
+            for (n, b) in [(64usize, 8usize), (2, 2), (1 << 16, 16)] {
+                // Each replicate: the same multiset of values in another order.
+                let k = n / b;
+                let z: Vec<Option<f64>> = (0..n)
+                    .map(|i| {
+                        let j = (i % k + i / k) % k;
+                        (j % 3 != 0).then(|| t.apply(0.1 + j as f64 * 0.37))
+                    })
+                    .collect();
+                let (x1, r2, nonzero) = replicate_sums(&z, b, z0);
+                let e = estimate_replicates(x1, r2, nonzero, n as u64, b as u64, z0);
+                assert_eq!(e.v, 0.0, "{t:?} n {n} b {b}: v {}", e.v);
+                assert_no_nan(&e, "equal");
+                let empty = estimate_replicates(0.0, b as f64 * z0 * z0, 0, n as u64, b as u64, z0);
+                assert_eq!((empty.v, empty.mu), (0.0, z0), "{t:?}: empty voxel");
+            }
+        }
+    }
+
+    #[test]
+    #[should_panic(expected = "need 2 <= b <= n")]
+    fn one_replicate_is_refused() {
+        estimate_replicates(1.0, 1.0, 1, 4, 1, 0.0);
     }
 }

@@ -20,6 +20,7 @@ pub fn run(scene: &Scene, seed: u64) -> RenderOutput {
         seed,
         transform: Transform::Identity,
         pixel_sampling: PixelSampling::Independent,
+        replicates: 0,
     };
     render(scene, &settings, &|_| {})
 }
