@@ -325,13 +325,19 @@ fn recorded(bundle: &Path) -> String {
         .to_string()
 }
 
-/// Stratified renders (the default, and at an spp that is not a power of two) are
-/// bit-identical with 1 and 2 threads; independent renders repeat bit for bit too; and
-/// the flag changes the result.
+/// Stratified renders (at an spp that is not a power of two) are bit-identical with 1
+/// and 2 threads, and so are Sobol' renders (the default); independent renders repeat
+/// bit for bit too; and the flag changes the result.
 #[test]
 fn renders_are_deterministic_in_both_modes() {
     let d = Dir::new(EDGES);
-    let t1 = d.render("t1.tstats", &["--threads", "1", "--seed", "9"]);
+    let s1 = d.render("s1.tstats", &["--threads", "1", "--seed", "9"]);
+    let s2 = d.render("s2.tstats", &["--threads", "2", "--seed", "9"]);
+    assert!(same_arrays(&s1, &s2), "sobol: 1 and 2 threads differ");
+    let t1 = d.render(
+        "t1.tstats",
+        &["--threads", "1", "--seed", "9", "--sampler", "stratified"],
+    );
     let t2 = d.render(
         "t2.tstats",
         &[
@@ -374,8 +380,16 @@ fn renders_are_deterministic_in_both_modes() {
 #[test]
 fn the_manifest_records_the_mode_and_merge_and_info_carry_it() {
     let d = Dir::new(EDGES);
-    let strat = d.render("s.tstats", &["--seed", "1"]);
-    let strat2 = d.render("s2.tstats", &["--seed", "2"]);
+    let strat = d.render(
+        "s.tstats",
+        &["--seed", "1", "--pixel-sampling", "stratified"],
+    );
+    let strat2 = d.render(
+        "s2.tstats",
+        &["--seed", "2", "--sampler", "stratified-pixel"],
+    );
+    let sobol = d.render("sobol.tstats", &["--seed", "4"]);
+    assert_eq!(recorded(&sobol), "sobol", "the default");
     let indep = d.render(
         "i.tstats",
         &["--seed", "3", "--pixel-sampling", "independent"],
@@ -457,7 +471,7 @@ fn run_takes_the_flag_and_records_it() {
 
 /// The scene's `<sampler>` type does not choose the sub-pixel sampling (the flag does):
 /// Mitsuba's stratified-like samplers load as plain spp/seed requests and give the same
-/// bits as `independent`; other types are refused with a pointer to the flag.
+/// bits as the flag's default; other types are refused with a pointer to the flag.
 #[test]
 fn the_xml_sampler_type_does_not_choose_the_pixel_sampling() {
     let d = Dir::new(EDGES);
@@ -466,7 +480,7 @@ fn the_xml_sampler_type_does_not_choose_the_pixel_sampling() {
         let def = format!("sampler={kind}");
         let out = d.render(&format!("{kind}.tstats"), &["--seed", "5", "-D", &def]);
         assert!(same_arrays(&base, &out), "sampler {kind}");
-        assert_eq!(recorded(&out), "stratified", "sampler {kind}");
+        assert_eq!(recorded(&out), "sobol", "sampler {kind}");
     }
     let r = tstat(&[
         "render",

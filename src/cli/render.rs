@@ -42,13 +42,14 @@ pub struct SceneArgs {
     /// textures, includes), after the scene's own folder (Mitsuba's -a; repeatable).
     #[arg(short = 'a', value_name = "DIR")]
     pub search_paths: Vec<std::path::PathBuf>,
-    /// How each path draws its numbers (alias --sampler). stratified (alias
-    /// stratified-pixel): only the sub-pixel positions form a stratified set; sobol:
-    /// every dimension of the first vertices (position, light, BSDF, phase, delay,
-    /// free flight) from a scrambled Sobol' set; independent: i.i.d. samples, exactly
-    /// what the statistics assume. Under the first two the variances the denoiser
-    /// estimates over-estimate the true ones (conservative).
-    #[arg(long, alias = "sampler", value_enum, default_value_t = PixelSampling::Stratified)]
+    /// How each path draws its numbers (alias --sampler). sobol (default): every
+    /// dimension of the camera and first-hit vertices (position, light, BSDF, phase,
+    /// delay, free flight) from a scrambled Sobol' set; stratified (alias
+    /// stratified-pixel): only the sub-pixel positions form a stratified set;
+    /// independent: i.i.d. samples, exactly what the statistics assume. Under the first
+    /// two the variances the denoiser estimates over-estimate the true ones
+    /// (conservative) unless --replicates is given.
+    #[arg(long, alias = "sampler", value_enum, default_value_t = PixelSampling::Sobol)]
     pub pixel_sampling: PixelSampling,
     /// Split each pixel's spp into B independently randomised replicates of spp / B
     /// samples and keep R2 (their squared means) per voxel: a variance of the mean that

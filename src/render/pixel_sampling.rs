@@ -62,14 +62,14 @@ use serde::{Deserialize, Serialize};
 pub enum PixelSampling {
     /// Per pixel, a randomised low-discrepancy set: one sample per 1/n strip in u (in v too
     /// when n is a power of two); each sample still uniform over the pixel.
-    #[default]
     #[value(alias = "stratified-pixel")]
     Stratified,
     /// Each sample uniform and independent of the others (the original sampler).
     Independent,
     /// Every dimension of every path (sub-pixel position, light, BSDF, phase, delay,
     /// roulette, free flight) from a padded, scrambled Sobol' set over the pixel's
-    /// samples (`render::sampler`); each sample still uniform.
+    /// samples (`render::sampler`); each sample still uniform. The default.
+    #[default]
     Sobol,
 }
 

@@ -1,0 +1,191 @@
+#!/usr/bin/env python3
+"""Time to a given error: tstat's pipelines against mitransient under each of Mitsuba's
+samplers, on one scene, against one reference bundle.
+
+    python3 scripts/peer_samplers.py SCENE.xml REFERENCE.tstats \
+        [--spp 16,64,256] [--seeds 2] [--film 64,150,0.08] [--out docs/results/peer_X.md]
+
+- mitransient 1.3.1 (Mitsuba 3.9.1, llvm_ad_rgb, 2 threads) renders a copy of SCENE
+  whose `<sampler>` is each of independent, stratified, multijitter, ldsampler and
+  orthogonal, at every spp and seed. One process per sampler: an untimed warm-up
+  render first (Dr.Jit's kernels are then cached), then each render is timed from
+  `integrator.render` until its images are evaluated.
+- tstat renders the same scene file with `--sampler sobol` and `stratified`, each noisy
+  (`tstat export`) and denoised (`tstat denoise`, its default method); its time is the
+  manifest's render_seconds plus the denoiser's own seconds.
+- Errors: RMSE over all voxels, the pixels that see the light (the reference's emitter
+  G-buffer > 0) and the rest, against the reference's mean, with the reference's own
+  variance of the mean (from its X1, X2: use an independent-sampling reference)
+  subtracted from each squared error.
+- Equal-error speed-up of a tstat pipeline over a mitransient sampler at spp s: the time
+  mitransient took at s over the time tstat needs for mitransient's error there,
+  interpolated log-log along tstat's spp curve (">" / "<" when outside tstat's
+  range: the bound is then its nearest end).
+
+Not part of CI (needs mitransient: `pip install mitransient==1.3.1`, and libLLVM,
+`apt-get install -y libllvm19`; see scripts/compare_mitransient.py).
+"""
+import argparse
+import glob
+import json
+import os
+import re
+import subprocess
+import sys
+import tempfile
+import time
+
+import numpy as np
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+TSTAT = os.path.join(ROOT, "target", "release", "tstat")
+MI_SAMPLERS = ["independent", "stratified", "multijitter", "ldsampler", "orthogonal"]
+MARK = "peer_samplers result: "
+
+WORKER = r"""
+import os, sys, glob, json, time
+libs = glob.glob('/usr/lib/x86_64-linux-gnu/libLLVM-19.so*') + glob.glob('/usr/lib/llvm-19/lib/libLLVM*.so*')
+if libs: os.environ.setdefault('DRJIT_LIBLLVM_PATH', libs[0])
+import drjit as dr, mitsuba as mi
+mi.set_variant('llvm_ad_rgb')
+import mitransient, numpy as np
+dr.set_thread_count(2)
+scene_file, params, jobs, out = sys.argv[1], json.loads(sys.argv[2]), json.loads(sys.argv[3]), sys.argv[4]
+scene = mi.load_file(scene_file, **params)
+s, t = scene.integrator().render(scene, spp=4, seed=999)
+dr.eval(s, t); dr.sync_thread()
+for spp, seed in jobs:
+    t0 = time.perf_counter()
+    s, t = scene.integrator().render(scene, spp=spp, seed=seed)
+    dr.eval(s, t); dr.sync_thread()
+    dt = time.perf_counter() - t0
+    np.save(f"{out}_{spp}_{seed}.npy", np.array(t)[..., :3])
+    print("MARK" + json.dumps({"spp": spp, "seed": seed, "seconds": dt}), flush=True)
+""".replace("MARK", MARK)
+
+
+def errors(vol, ref, ref_var, light):
+    d = (vol.astype(np.float64) - ref) ** 2 - ref_var
+    return {"all": d.mean(), "light": d[light].mean(), "rest": d[~light].mean()}
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("scene")
+    ap.add_argument("reference")
+    ap.add_argument("--spp", default="16,64,256")
+    ap.add_argument("--seeds", type=int, default=2)
+    ap.add_argument("--film", default="64,150,0.08")
+    ap.add_argument("--out")
+    a = ap.parse_args()
+    spps = [int(s) for s in a.spp.split(",")]
+    res, bins, width = a.film.split(",")
+    params = {"res": res, "temporal_bins": bins, "bin_width_opl": width}
+    tmp = tempfile.mkdtemp()
+
+    ref_npy = os.path.join(tmp, "ref.npy")
+    subprocess.run([TSTAT, "export", a.reference, "--out", ref_npy], check=True, capture_output=True)
+    ref = np.load(ref_npy).astype(np.float64)
+    light = np.load(os.path.join(a.reference, "emitter.npy")) > 0
+    n = json.load(open(os.path.join(a.reference, "manifest.json")))["spp"]
+    x1 = np.load(os.path.join(a.reference, "x1.npy"))
+    x2 = np.load(os.path.join(a.reference, "x2.npy"))
+    ref_var = np.maximum(x2 / n - (x1 / n) ** 2, 0) / (n - 1)
+
+    # curves[name][spp] = (seconds, {region: mse}) averaged over seeds
+    curves = {}
+
+    def add(name, spp, secs, err):
+        c = curves.setdefault(name, {}).setdefault(spp, [[], {"all": [], "light": [], "rest": []}])
+        c[0].append(secs)
+        for k, v in err.items():
+            c[1][k].append(v)
+
+    text = open(a.scene, encoding="utf-8").read()
+    for sampler in MI_SAMPLERS:
+        copy = os.path.join(tmp, f"mi_{sampler}.xml")
+        t2 = re.sub(r'<sampler type="[a-z_]+"', f'<sampler type="{sampler}"', text)
+        t2 = t2.replace("<scene version=\"3.0.0\">",
+                        f"<scene version=\"3.0.0\"><path value=\"{os.path.dirname(os.path.abspath(a.scene))}\"/>", 1)
+        open(copy, "w").write(t2)
+        jobs = [(s, seed) for s in spps for seed in range(1, a.seeds + 1)]
+        out = os.path.join(tmp, f"mi_{sampler}")
+        r = subprocess.run([sys.executable, "-c", WORKER, copy, json.dumps(params), json.dumps(jobs), out],
+                           capture_output=True, text=True)
+        results = [json.loads(l.split(MARK, 1)[1]) for l in r.stdout.splitlines() if MARK in l]
+        if r.returncode != 0 or len(results) != len(jobs):
+            print(f"mitransient {sampler} failed: {(r.stderr.strip().splitlines() or ['?'])[-1]}", file=sys.stderr)
+            continue
+        for res_ in results:
+            vol = np.load(f"{out}_{res_['spp']}_{res_['seed']}.npy")
+            add(f"mitransient {sampler}", res_["spp"], res_["seconds"], errors(vol, ref, ref_var, light))
+        print(f"mitransient {sampler}: done", file=sys.stderr)
+
+    film = ["-D", f"res={res}", "-D", f"temporal_bins={bins}", "-D", f"bin_width_opl={width}"]
+    for mode in ["sobol", "stratified"]:
+        for spp in spps:
+            for seed in range(1, a.seeds + 1):
+                b = os.path.join(tmp, "t.tstats")
+                subprocess.run([TSTAT, "render", a.scene, "--out", b, "-D", f"spp={spp}", *film,
+                                "--sampler", mode, "--seed", str(seed), "--force"],
+                               check=True, capture_output=True)
+                rs = json.load(open(os.path.join(b, "manifest.json")))["render_seconds"]
+                out = os.path.join(tmp, "t.npy")
+                subprocess.run([TSTAT, "export", b, "--out", out, "--force"], check=True, capture_output=True)
+                add(f"tstat {mode} noisy", spp, rs, errors(np.load(out), ref, ref_var, light))
+                r = subprocess.run([TSTAT, "denoise", b, "--out", out, "--force"],
+                                   check=True, capture_output=True, text=True)
+                ds = float(re.search(r" in ([0-9.]+) s", r.stderr.splitlines()[-1]).group(1))
+                add(f"tstat {mode} denoised", spp, rs + ds, errors(np.load(out), ref, ref_var, light))
+        print(f"tstat {mode}: done", file=sys.stderr)
+
+    def point(name, spp, region):
+        secs, err = curves[name][spp]
+        return float(np.mean(secs)), float(np.sqrt(max(np.mean(err[region]), 0)))
+
+    lines = [f"# Time to error: tstat against mitransient's samplers, {os.path.basename(a.scene)}", "",
+             f"Film {res}x{res}, {bins} bins of {width} OPL; {a.seeds} seeds per point; reference "
+             f"`{os.path.basename(a.reference)}` ({n} spp, its variance subtracted). Generated by",
+             f"`python3 scripts/peer_samplers.py {os.path.basename(a.scene)} REF --spp {a.spp} --seeds {a.seeds} --film {a.film}`.",
+             "", "## RMSE and time", "", "| pipeline | spp | seconds | RMSE all | light | rest |", "|---|---|---|---|---|---|"]
+    for name in curves:
+        for spp in spps:
+            if spp in curves[name]:
+                t = point(name, spp, "all")[0]
+                e = [point(name, spp, r)[1] for r in ("all", "light", "rest")]
+                lines.append(f"| {name} | {spp} | {t:.3f} | {e[0]:.3e} | {e[1]:.3e} | {e[2]:.3e} |")
+
+    def speedup(tst, mi_name, spp, region):
+        t_mi, e_mi = point(mi_name, spp, region)
+        pts = sorted((point(tst, s, region) for s in spps if s in curves[tst]), key=lambda p: p[0])
+        lt = np.log([p[0] for p in pts])
+        le = np.log([max(p[1], 1e-30) for p in pts])
+        target = np.log(max(e_mi, 1e-30))
+        # Along tstat's curve error falls with time: find where it crosses the target.
+        for i in range(len(pts) - 1):
+            if (le[i] - target) * (le[i + 1] - target) <= 0 and le[i] != le[i + 1]:
+                f = (target - le[i]) / (le[i + 1] - le[i])
+                return f"{t_mi / np.exp(lt[i] + f * (lt[i + 1] - lt[i])):.2f}x"
+        if target > le[0]:  # tstat's cheapest point is already better
+            return f">{t_mi / pts[0][0]:.2f}x"
+        return f"<{t_mi / pts[-1][0]:.2f}x"
+
+    for tst in ["tstat sobol denoised", "tstat sobol noisy", "tstat stratified denoised"]:
+        if tst not in curves:
+            continue
+        lines += ["", f"## Equal-error speed-up of {tst} (above 1: tstat is faster)", "",
+                  "| spp (mitransient) | region | " + " | ".join(s for s in MI_SAMPLERS) + " |",
+                  "|---|---|" + "---|" * len(MI_SAMPLERS)]
+        for spp in spps:
+            for region in ("all", "light", "rest"):
+                cells = [speedup(tst, f"mitransient {s}", spp, region) if f"mitransient {s}" in curves
+                         and spp in curves[f"mitransient {s}"] else "-" for s in MI_SAMPLERS]
+                lines.append(f"| {spp} | {region} | " + " | ".join(cells) + " |")
+    report = "\n".join(lines) + "\n"
+    print(report)
+    if a.out:
+        open(a.out, "w").write(report)
+
+
+if __name__ == "__main__":
+    main()
