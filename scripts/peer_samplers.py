@@ -76,6 +76,8 @@ def main():
     ap.add_argument("--spp", default="16,64,256")
     ap.add_argument("--seeds", type=int, default=2)
     ap.add_argument("--film", default="64,150,0.08")
+    ap.add_argument("--tstat-extra", default="4,8",
+                    help="extra (lower) spp for tstat's curves, so that equal errors are interpolated")
     ap.add_argument("--out")
     a = ap.parse_args()
     spps = [int(s) for s in a.spp.split(",")]
@@ -122,8 +124,9 @@ def main():
         print(f"mitransient {sampler}: done", file=sys.stderr)
 
     film = ["-D", f"res={res}", "-D", f"temporal_bins={bins}", "-D", f"bin_width_opl={width}"]
+    tstat_spps = sorted(set(spps) | {int(x) for x in a.tstat_extra.split(",") if x})
     for mode in ["sobol", "stratified"]:
-        for spp in spps:
+        for spp in tstat_spps:
             for seed in range(1, a.seeds + 1):
                 b = os.path.join(tmp, "t.tstats")
                 subprocess.run([TSTAT, "render", a.scene, "--out", b, "-D", f"spp={spp}", *film,
@@ -135,7 +138,8 @@ def main():
                 add(f"tstat {mode} noisy", spp, rs, errors(np.load(out), ref, ref_var, light))
                 r = subprocess.run([TSTAT, "denoise", b, "--out", out, "--force"],
                                    check=True, capture_output=True, text=True)
-                ds = float(re.search(r" in ([0-9.]+) s", r.stderr.splitlines()[-1]).group(1))
+                said = re.search(r"denoised .* in ([0-9.]+) s", r.stdout + r.stderr)
+                ds = float(said.group(1))
                 add(f"tstat {mode} denoised", spp, rs + ds, errors(np.load(out), ref, ref_var, light))
         print(f"tstat {mode}: done", file=sys.stderr)
 
@@ -149,15 +153,15 @@ def main():
              f"`python3 scripts/peer_samplers.py {os.path.basename(a.scene)} REF --spp {a.spp} --seeds {a.seeds} --film {a.film}`.",
              "", "## RMSE and time", "", "| pipeline | spp | seconds | RMSE all | light | rest |", "|---|---|---|---|---|---|"]
     for name in curves:
-        for spp in spps:
-            if spp in curves[name]:
+        for spp in sorted(curves[name]):
+            if True:
                 t = point(name, spp, "all")[0]
                 e = [point(name, spp, r)[1] for r in ("all", "light", "rest")]
                 lines.append(f"| {name} | {spp} | {t:.3f} | {e[0]:.3e} | {e[1]:.3e} | {e[2]:.3e} |")
 
     def speedup(tst, mi_name, spp, region):
         t_mi, e_mi = point(mi_name, spp, region)
-        pts = sorted((point(tst, s, region) for s in spps if s in curves[tst]), key=lambda p: p[0])
+        pts = sorted((point(tst, s, region) for s in curves[tst]), key=lambda p: p[0])
         lt = np.log([p[0] for p in pts])
         le = np.log([max(p[1], 1e-30) for p in pts])
         target = np.log(max(e_mi, 1e-30))
