@@ -262,6 +262,9 @@ const CASES: &[Case] = &[
     (&["report", "convergence", "s.xml", "--out", "cv", "--spp", "2,-3"], Ours, "--spp -3: must be at least 2"),
     (&["report", "convergence", "s.xml", "--out", "cv", "--spp", "4", "--reference-spp", "-1"], Ours, "--reference-spp -1: must be at least 2"),
     (&["report", "convergence", "s.xml", "--out", "cv", "--spp", "4", "--seed", "-1"], Ours, "--seed -1"),
+    (&["report", "convergence", "s.xml", "--out", "cv", "--spp", "8,12", "--replicates", "8"], Ours, "--replicates 8 does not divide spp 12"),
+    (&[R, "s.xml", "--out", "n.tstats", "--spp", "8", "--replicates", "16"], Ours, "--replicates 16 does not divide spp 8"),
+    (&["run", "s.xml", "--out", "r", "--spp", "8", "--replicates", "1"], Ours, "--replicates 1: a variance needs at least 2"),
     // Report commands that fail: no output directory left behind, and an existing one
     // keeps exactly what it held (the convergence cases fail after creating it).
     (&["report", "compare", "--reference", "b.tstats", "--input", "a=missing.npy", "--out", "cmp"], Ours, "missing.npy"),

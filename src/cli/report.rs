@@ -344,6 +344,10 @@ fn run_conv(a: ConvergenceArgs) -> anyhow::Result<()> {
         bail!("--spp {s}: must be at least 2 (below 2 samples per pixel no variance can be estimated)");
     }
     let spp_list: Vec<u32> = spp_list.into_iter().map(|s| s as u32).collect();
+    for &spp in &spp_list {
+        crate::render::RenderSettings::check_replicates(spp, a.scene_args.replicates)
+            .map_err(|e| anyhow!("{e} (in --spp)"))?;
+    }
     let base_seed = seed(Some(a.seed))?.unwrap_or(0);
     let transform: Transform = a
         .transform
@@ -357,6 +361,7 @@ fn run_conv(a: ConvergenceArgs) -> anyhow::Result<()> {
         seed: base_seed,
         transform,
         pixel_sampling: a.scene_args.pixel_sampling,
+        replicates: a.scene_args.replicates,
         denoise: a.filter.params()?,
         method_radii: a.filter.radius.is_none(),
         base_by_scene: a.filter.base.base.is_none(),

@@ -37,6 +37,8 @@ pub struct ConvergenceConfig {
     pub transform: Transform,
     /// Sub-pixel sampling of the renders and of a rendered reference.
     pub pixel_sampling: PixelSampling,
+    /// Replicates of the renders (0: none; see `RenderSettings::replicates`).
+    pub replicates: u32,
     pub denoise: DenoiseParams,
     /// Each method at its own default spatial radius ([`Method::default_radius`])
     /// instead of `denoise.radius` (when the user did not choose one).
@@ -148,22 +150,29 @@ pub fn sums_view<'a>(
     transform: &Transform,
     bin_width: f64,
     pixel_sampling: PixelSampling,
+    replicates: u32,
 ) -> SumsView<'a> {
     let a = &out.accum;
+    let replicates =
+        a.r2.as_deref()
+            .filter(|_| replicates >= 2)
+            .map(|r2| (u64::from(replicates), r2));
     SumsView {
         height: a.height,
         width: a.width,
         bins: a.bins,
         bin_width,
         spp: spp as u64,
-        stratified: pixel_sampling == PixelSampling::Stratified,
+        // As a bundle's manifest says (`denoise::slab::stratified`): correlated samples
+        // without replicates over-state V.
+        stratified: pixel_sampling != PixelSampling::Independent && replicates.is_none(),
         z0: transform.at_zero(),
         x1: &a.x1,
         x2: &a.x2,
         x3: &a.x3,
         sum: a.sum.as_deref().unwrap_or(&a.x1),
         nonzero: &a.nonzero,
-        replicates: None,
+        replicates,
     }
 }
 
@@ -294,7 +303,7 @@ pub fn run_convergence(
             seed: cfg.seed.wrapping_add(1 + k as u64),
             transform: cfg.transform,
             pixel_sampling: cfg.pixel_sampling,
-            replicates: 0,
+            replicates: cfg.replicates,
         };
         let out = render(&scene, &settings, &|_| {});
         let g = gbuffers(&out);
@@ -308,11 +317,13 @@ pub fn run_convergence(
             &cfg.transform,
             scene.film.bin_width_opl,
             cfg.pixel_sampling,
+            cfg.replicates,
         );
         let mut line = format!("spp {spp}: render {:.2} s", out.seconds);
-        if cfg.pixel_sampling == PixelSampling::Stratified {
+        if cfg.pixel_sampling != PixelSampling::Independent {
             let settings = RenderSettings {
                 pixel_sampling: PixelSampling::Independent,
+                replicates: 0,
                 seed: cfg.seed.wrapping_add(500_001 + k as u64),
                 ..settings
             };
@@ -368,7 +379,7 @@ pub fn run_convergence(
     }
     fill_speedups(&mut rows);
     let mut methods: Vec<&'static str> = list.iter().map(|m| m.0).collect();
-    if cfg.pixel_sampling == PixelSampling::Stratified {
+    if cfg.pixel_sampling != PixelSampling::Independent {
         methods.insert(1, BASELINE);
     }
     Ok(ConvergenceResult {
