@@ -37,6 +37,9 @@ import time
 
 import numpy as np
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from sampler_error import load_reference  # noqa: E402
+
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 TSTAT = os.path.join(ROOT, "target", "release", "tstat")
 MI_SAMPLERS = ["independent", "stratified", "multijitter", "ldsampler", "orthogonal"]
@@ -85,14 +88,8 @@ def main():
     params = {"res": res, "temporal_bins": bins, "bin_width_opl": width}
     tmp = tempfile.mkdtemp()
 
-    ref_npy = os.path.join(tmp, "ref.npy")
-    subprocess.run([TSTAT, "export", a.reference, "--out", ref_npy], check=True, capture_output=True)
-    ref = np.load(ref_npy).astype(np.float64)
-    light = np.load(os.path.join(a.reference, "emitter.npy")) > 0
+    ref, light, ref_var = load_reference(a.reference, tmp)
     n = json.load(open(os.path.join(a.reference, "manifest.json")))["spp"]
-    x1 = np.load(os.path.join(a.reference, "x1.npy"))
-    x2 = np.load(os.path.join(a.reference, "x2.npy"))
-    ref_var = np.maximum(x2 / n - (x1 / n) ** 2, 0) / (n - 1)
 
     # curves[name][spp] = (seconds, {region: mse}) averaged over seeds
     curves = {}

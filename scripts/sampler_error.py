@@ -28,6 +28,19 @@ def run(*args):
     subprocess.run([TSTAT, *args], check=True, capture_output=True)
 
 
+def load_reference(bundle, tmp):
+    """The reference's mean volume (f64), its emitter mask and its own variance of the
+    mean per voxel (from X1 and X2: valid for an independent-sampling reference)."""
+    ref_npy = os.path.join(tmp, "ref.npy")
+    run("export", bundle, "--out", ref_npy, "--force")
+    mean = np.load(ref_npy).astype(np.float64)
+    light = np.load(os.path.join(bundle, "emitter.npy")) > 0
+    n = json.load(open(os.path.join(bundle, "manifest.json")))["spp"]
+    x1 = np.load(os.path.join(bundle, "x1.npy"))
+    x2 = np.load(os.path.join(bundle, "x2.npy"))
+    return mean, light, np.maximum(x2 / n - (x1 / n) ** 2, 0) / (n - 1)
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("scene")
@@ -45,14 +58,7 @@ def main():
     res, bins, width = a.film.split(",")
     film = ["-D", f"res={res}", "-D", f"temporal_bins={bins}", "-D", f"bin_width_opl={width}"]
     tmp = tempfile.mkdtemp()
-    ref_npy = os.path.join(tmp, "ref.npy")
-    run("export", a.reference, "--out", ref_npy)
-    R = np.load(ref_npy).astype(np.float64)
-    light = np.load(os.path.join(a.reference, "emitter.npy")) > 0
-    n = json.load(open(os.path.join(a.reference, "manifest.json")))["spp"]
-    x1 = np.load(os.path.join(a.reference, "x1.npy"))
-    x2 = np.load(os.path.join(a.reference, "x2.npy"))
-    ref_var = np.maximum(x2 / n - (x1 / n) ** 2, 0) / (n - 1)
+    R, light, ref_var = load_reference(a.reference, tmp)
     kinds = ["noisy"] + ([] if a.no_denoise else ["denoised"])
     for mode, reps in [(m, r) for m in a.modes.split(",") for r in a.replicates.split(",")]:
         for kind in kinds:

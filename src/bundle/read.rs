@@ -143,7 +143,7 @@ pub fn validate(m: &Manifest) -> Result<(), String> {
     }
     check_spp(m.spp)?;
     if let Some(b) = m.replicates {
-        if b < 2 || b > m.spp || !m.spp.is_multiple_of(b) {
+        if b < 2 || !m.spp.is_multiple_of(b) {
             return Err(format!(
                 "replicates = {b} with spp = {}: replicates are at least 2 and divide spp",
                 m.spp

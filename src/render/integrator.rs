@@ -5,7 +5,7 @@
 use super::cpu::{Isa, ISA_AVX2, ISA_AVX512, ISA_BASELINE};
 use super::deposits::PathDeposits;
 use super::gbuffer::GSample;
-use super::sampler::{slot, PathSampler};
+use super::sampler::{pick_scattering, slot, PathSampler};
 use super::time_filter::{gaussian_shares, TimeFilter};
 use crate::geometry::accel::offset_origin;
 use crate::materials::{Bsdf, BsdfModel, HitGeometry};
@@ -332,18 +332,7 @@ unsafe fn trace_path_body<const ISA: u8, S: PathSampler>(
             } else {
                 &material.bsdf
             };
-            let mut bsdf = whole;
-            // The first pick has its dimension; nested picks (rare) take the stream.
-            let mut first = true;
-            while let Bsdf::Composed(c) = bsdf {
-                let u = if first {
-                    rng.get1(slot::PICK)
-                } else {
-                    rng.stream().next_f32()
-                };
-                first = false;
-                bsdf = c.pick(u);
-            }
+            let bsdf = pick_scattering(whole, rng);
             let delaying = match bsdf {
                 Bsdf::Separable(s) => Some(s),
                 _ => None,

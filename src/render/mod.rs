@@ -72,7 +72,7 @@ impl RenderSettings {
         if replicates == 1 {
             return Err("--replicates 1: a variance needs at least 2 replicates (0: none)".into());
         }
-        if replicates >= 2 && (!spp.is_multiple_of(replicates) || replicates > spp) {
+        if replicates >= 2 && !spp.is_multiple_of(replicates) {
             return Err(format!(
                 "--replicates {replicates} does not divide spp {spp}: replicates need equal sizes"
             ));
@@ -437,9 +437,9 @@ pub fn render(
     progress: &(dyn Fn(u64) + Sync),
 ) -> RenderOutput {
     let film = &scene.film;
-    let sink = MemorySink::new(film.height, film.width, film.bins, &settings.transform);
+    let mut sink = MemorySink::new(film.height, film.width, film.bins, &settings.transform);
     if settings.replicates >= 2 {
-        sink.enable_r2();
+        sink = sink.with_r2();
     }
     let summary = match render_into(scene, settings, &sink, progress) {
         Ok(s) => s,

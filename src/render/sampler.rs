@@ -35,6 +35,7 @@
 //! One 64-bit hash and about ten integer operations per number (the stream's PCG32 step
 //! is three): noise next to the ray casts of a path.
 
+use crate::materials::Bsdf;
 use crate::math::rng::{mix64, Pcg32};
 
 /// What a number is for, at one vertex of a path. 2D slots take two consecutive values.
@@ -65,6 +66,25 @@ pub mod slot {
     pub const PIXEL: u32 = 14;
     /// The hero channel of spectral MIS in media (vertex 0).
     pub const CHANNEL: u32 = 16;
+}
+
+/// The child of a (possibly nested) `Composed` material that scatters at a vertex:
+/// the first pick has its slot, nested picks (rare) take the stream. Any other
+/// material is itself.
+#[inline(always)]
+pub fn pick_scattering<'a, S: PathSampler>(whole: &'a Bsdf, rng: &mut S) -> &'a Bsdf {
+    let mut bsdf = whole;
+    let mut first = true;
+    while let Bsdf::Composed(c) = bsdf {
+        let u = if first {
+            rng.get1(slot::PICK)
+        } else {
+            rng.stream().next_f32()
+        };
+        first = false;
+        bsdf = c.pick(u);
+    }
+    bsdf
 }
 
 /// The numbers of one path.
@@ -288,17 +308,11 @@ pub fn sobol_1(mut i: u32) -> u32 {
 /// keeps the set's stratification; the shift makes each point exactly uniform.
 #[inline(always)]
 pub fn randomise(x: u32, h: u64) -> u32 {
-    let seed = h as u32;
-    let mut v = x.reverse_bits();
-    v ^= v.wrapping_mul(0x3d20_adea);
-    v = v.wrapping_add(seed);
-    v = v.wrapping_mul((seed >> 16) | 1);
-    v ^= v.wrapping_mul(0x0552_6c56);
-    v ^= v.wrapping_mul(0x53a2_2864);
-    v.reverse_bits() ^ (h >> 32) as u32
+    scramble_index(x.reverse_bits(), h)
 }
 
-/// `randomise(van_der_corput(i), h)` with the two bit reversals that cancel left out.
+/// `randomise(van_der_corput(i), h)`: the scramble works on the reversed digits, so
+/// the radical inverse's reversal and the scramble's cancel.
 #[inline(always)]
 fn scramble_index(i: u32, h: u64) -> u32 {
     let seed = h as u32;

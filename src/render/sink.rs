@@ -88,17 +88,12 @@ impl MemorySink {
         }
     }
 
-    /// Keeps replicate statistics (`R2`) too.
-    pub fn enable_r2(&self) {
-        let mut film = self
-            .film
-            .lock()
-            .unwrap_or_else(std::sync::PoisonError::into_inner);
-        let sums = std::mem::replace(
-            &mut film.0,
-            Accumulators::new(0, 0, 0, &Transform::Identity),
-        );
-        film.0 = sums.with_r2();
+    /// The same sink, keeping replicate statistics (`R2`) too.
+    pub fn with_r2(self) -> Self {
+        let (sums, images) = self.into_parts();
+        MemorySink {
+            film: Mutex::new((sums.with_r2(), images)),
+        }
     }
 
     /// The sums and the per-pixel images.

@@ -53,7 +53,7 @@ use super::cpu::ISA_BASELINE;
 use super::deposits::PathDeposits;
 use super::gbuffer::GSample;
 use super::integrator::{contribute, escape, light_target, shadow_ray, PathTally};
-use super::sampler::{slot, PathSampler};
+use super::sampler::{pick_scattering, slot, PathSampler};
 use crate::geometry::accel::offset_origin;
 use crate::geometry::shape::Shape;
 use crate::materials::{Bsdf, BsdfModel};
@@ -531,18 +531,7 @@ unsafe fn trace_body<const ISA: u8, S: PathSampler>(
             } else {
                 &material.bsdf
             };
-            let mut bsdf = whole;
-            // The first pick has its dimension; nested picks (rare) take the stream.
-            let mut first = true;
-            while let Bsdf::Composed(c) = bsdf {
-                let u = if first {
-                    rng.get1(slot::PICK)
-                } else {
-                    rng.stream().next_f32()
-                };
-                first = false;
-                bsdf = c.pick(u);
-            }
+            let bsdf = pick_scattering(whole, rng);
             let delaying = match bsdf {
                 Bsdf::Separable(s) => Some(s),
                 _ => None,

@@ -178,8 +178,8 @@ impl PixelSums {
     #[inline]
     pub fn add_sample(&mut self, z: impl Fn(f64) -> f64, bin: usize, x: [f64; CHANNELS]) {
         let r = &mut self.records[bin * self.stride..(bin + 1) * self.stride];
-        for (c, &xc) in x.iter().enumerate() {
-            let zc = z(xc);
+        let zs = x.map(z);
+        for (c, &zc) in zs.iter().enumerate() {
             let z2 = zc * zc;
             r[c] += zc;
             r[CHANNELS + c] += z2;
@@ -193,8 +193,8 @@ impl PixelSums {
         r[self.stride - 1] += 1.0;
         if let Some((current, _)) = self.replicate.as_mut() {
             let cur = &mut current[bin * 4..bin * 4 + 4];
-            for (c, &xc) in x.iter().enumerate() {
-                cur[c] += z(xc);
+            for (c, &zc) in zs.iter().enumerate() {
+                cur[c] += zc;
             }
             cur[3] += 1.0;
         }
