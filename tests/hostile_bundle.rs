@@ -97,6 +97,8 @@ struct Fixture {
     good2: PathBuf,
     /// Seed 0 with Box-Cox(0.5) (sums of negative transformed values are legal).
     boxcox: PathBuf,
+    /// Seed 0 with 2 replicates (`r2.npy`).
+    replicates: PathBuf,
     /// `good`'s noisy mean, f32 (8, 8, 10, 3).
     volume: PathBuf,
 }
@@ -138,6 +140,11 @@ fn fixture() -> Fixture {
         "boxcox.tstats",
         &["--seed", "0", "--transform", "box-cox:0.5"],
     );
+    let replicates = render(
+        &root,
+        "replicates.tstats",
+        &["--seed", "0", "--replicates", "2"],
+    );
     let volume = root.join("volume.npy");
     let r = tstat(
         &["export".into(), s(&good), "--out".into(), s(&volume)],
@@ -147,6 +154,7 @@ fn fixture() -> Fixture {
     Fixture {
         _dir: dir,
         root,
+        replicates,
         good,
         good2,
         boxcox,
@@ -735,6 +743,29 @@ fn cases() -> Vec<Case> {
                 "x2.npy",
                 "is -0.001, but a sum of squares cannot be negative",
             ],
+        },
+        Case {
+            name: "negative R2",
+            make: |f, b| {
+                std::fs::remove_dir_all(b).unwrap();
+                copy_dir(&f.replicates, b);
+                let [y, x, t] = lit_voxel(b);
+                poke_f64(b, "r2.npy", [y, x, t, 0], -0.5)
+            },
+            bundle: true,
+            cmds: &[Cmd::Denoise],
+            want: &["r2.npy", "is -0.5, but a sum of squares cannot be negative"],
+        },
+        Case {
+            name: "R2 in a voxel no sample reached",
+            make: |f, b| {
+                std::fs::remove_dir_all(b).unwrap();
+                copy_dir(&f.replicates, b);
+                poke_f64(b, "r2.npy", [0, 0, 0, 1], 0.25)
+            },
+            bundle: true,
+            cmds: &[Cmd::Denoise],
+            want: &["r2.npy"],
         },
         Case {
             name: "negative X1 under the identity",
