@@ -87,7 +87,13 @@ fn bench_denoise(c: &mut Criterion) {
     group.throughput(Throughput::Elements((h * w * t) as u64 * 121 * 3));
     for (name, membership) in [
         ("tstat", Membership::Tstat(TstatParams::default())),
-        ("published", Membership::Welch { g2: 4.0 }),
+        (
+            "published",
+            Membership::Welch {
+                g2: 4.0,
+                alpha: None,
+            },
+        ),
         ("base-only", Membership::None),
     ] {
         let params = FilterParams {

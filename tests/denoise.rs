@@ -25,6 +25,7 @@ use tstat::denoise::estimates::{Estimates, SumsView};
 use tstat::denoise::filter::{filter, FilterParams, Membership, Tiling};
 use tstat::denoise::gbuffers::GBuffers;
 use tstat::denoise::membership::passes;
+use tstat::denoise::pair_dof::{welch_satterthwaite, PairDof};
 use tstat::denoise::slab::{self, denoise_bundle_to_npy, denoise_slabs, Dims, SlabPlan};
 use tstat::denoise::{denoise_sums, DenoiseParams, LoadedSums, Method};
 use tstat::math::rng::Pcg32;
@@ -319,6 +320,13 @@ fn reference_filter(e: &Estimates, f: &Features, p: &FilterParams) -> Reference 
         BaseKind::Jbf => true,
         BaseKind::Gaussian => false,
     };
+    // On estimates from replicates, a `--alpha` test takes g per pair at its
+    // Welch-Satterthwaite degrees of freedom (the table is checked against the exact
+    // quantile in `pair_dof.rs` and below).
+    let pair = match (p.membership, e.replicates) {
+        (Membership::Welch { alpha: Some(a), .. }, Some(b)) => Some(PairDof::new(b, a)),
+        _ => None,
+    };
     let mut out = vec![0.0f64; e.mean.len()];
     let (mut members, mut pairs) = (0u64, 0u64);
     for yj in 0..h {
@@ -340,13 +348,14 @@ fn reference_filter(e: &Estimates, f: &Features, p: &FilterParams) -> Reference 
                             let member = match p.membership {
                                 Membership::None => true,
                                 _ if centre => true,
-                                Membership::Welch { g2 } => (0..C).all(|c| {
+                                Membership::Welch { g2, .. } => (0..C).all(|c| {
+                                    let (vi, vj) = (e.v[e.idx(i, c, ti)], e.v[e.idx(j, c, tj)]);
                                     passes(
                                         e.theta[e.idx(i, c, ti)],
                                         e.theta[e.idx(j, c, tj)],
-                                        e.v[e.idx(i, c, ti)],
-                                        e.v[e.idx(j, c, tj)],
-                                        g2 as f32,
+                                        vi,
+                                        vj,
+                                        pair.as_ref().map_or(g2 as f32, |pd| pd.g2(vi, vj)),
                                     )
                                 }),
                                 Membership::Tstat(_) => {
@@ -429,7 +438,7 @@ fn assert_close(fast: &[f32], reference: &[f64], rel: f64, what: &str) -> f64 {
 
 /// The published filter's membership with this g^2, or the base filter alone.
 fn welch(g2: Option<f64>) -> Membership {
-    g2.map_or(Membership::None, |g2| Membership::Welch { g2 })
+    g2.map_or(Membership::None, |g2| Membership::Welch { g2, alpha: None })
 }
 
 fn pool(threads: usize) -> rayon::ThreadPool {
@@ -663,6 +672,67 @@ fn fast_filter_matches_reference_on_random_bundles() {
         }
     }
     eprintln!("largest relative difference to the reference: {worst:e}");
+}
+
+/// On estimates from B replicates, the published test with `--alpha` takes each pair's
+/// critical value at its Welch-Satterthwaite degrees of freedom: the fast filter equals
+/// the reference, the per-pair values change which pairs are members (against the
+/// single `2 B - 2` value), and the table decides like the exact quantile on all but
+/// a negligible share of pairs.
+#[test]
+fn published_test_takes_each_pairs_degrees_of_freedom_on_replicates() {
+    let (b_reps, alpha) = (4u64, 0.05);
+    let bundle = random_bundle(12, 11, 20, 16, Transform::Identity, 4242);
+    let mut est = bundle.estimates();
+    est.replicates = Some(b_reps);
+    let features = bundle.features();
+    let params = |alpha: Option<f64>| FilterParams {
+        radius: 3,
+        temporal_radius: 1,
+        base: BaseFilter {
+            kind: BaseKind::Jbf,
+            sigmas: Sigmas::default(),
+        },
+        membership: Membership::Welch {
+            g2: Threshold::Alpha(0.05).g2(b_reps),
+            alpha,
+        },
+    };
+    let per_pair = reference_filter(&est, &features, &params(Some(alpha)));
+    let fixed = reference_filter(&est, &features, &params(None));
+    let frac = per_pair.members as f64 / per_pair.pairs as f64;
+    assert!((0.05..0.95).contains(&frac), "member fraction {frac}");
+    // nu <= 2B - 2, so the per-pair values are at least the fixed one: more members.
+    assert!(
+        per_pair.members as f64 > 1.02 * fixed.members as f64,
+        "members: per pair {}, fixed 2B - 2 {}",
+        per_pair.members,
+        fixed.members
+    );
+    for tiling in TILINGS {
+        let out = run_filter(&est, &features, &params(Some(alpha)), tiling);
+        assert_close(&out, &per_pair.out, 1e-5, &format!("{tiling:?}"));
+    }
+    // The table against the exact quantile, on every neighbouring pair of voxels.
+    let table = PairDof::new(b_reps, alpha);
+    let (mut differ, mut total) = (0u64, 0u64);
+    for k in 0..est.v.len() - 1 {
+        let (vi, vj) = (est.v[k], est.v[k + 1]);
+        let d2 = (est.theta[k] as f64 - est.theta[k + 1] as f64).powi(2);
+        if vi + vj > 0.0 {
+            let nu = welch_satterthwaite(vi as f64, vj as f64, b_reps);
+            let exact = tstat::denoise::critical::student_t_quantile(1.0 - alpha / 2.0, nu);
+            let g2 = table.g2(vi, vj) as f64;
+            assert!((g2 / (exact * exact) - 1.0).abs() < 1e-4, "{vi} {vj}");
+            total += 1;
+            let v = (vi + vj) as f64;
+            differ += ((d2 <= g2 * v) != (d2 <= exact * exact * v)) as u64;
+        }
+    }
+    assert!(
+        total > 1000 && differ * 1000 <= total,
+        "{differ} of {total} decisions differ"
+    );
 }
 
 /// One non-zero voxel in one channel (at the corners and inside): the voxels whose
@@ -1002,7 +1072,7 @@ fn noise_free_volume_comes_back_unchanged() {
                         kind,
                         sigmas: Sigmas::default(),
                     },
-                    membership: Membership::Welch { g2 },
+                    membership: Membership::Welch { g2, alpha: None },
                 };
                 for tiling in [TILINGS[0], TILINGS[3]] {
                     let out = run_filter(&est, &b.features(), &p, tiling);
@@ -1089,6 +1159,7 @@ fn step_edge_does_not_leak() {
             },
             membership: Membership::Welch {
                 g2: Threshold::Gamma(0.1).g2(spp),
+                alpha: None,
             },
         };
         let out = run_filter(&est, &b.features(), &p, Tiling::default());
@@ -1198,7 +1269,10 @@ fn isolated_outlier_is_kept() {
                 kind,
                 sigmas: Sigmas::default(),
             },
-            membership: Membership::Welch { g2: 4.0 },
+            membership: Membership::Welch {
+                g2: 4.0,
+                alpha: None,
+            },
         };
         let out = run_filter(&est, &b.features(), &p, Tiling::default());
         // Every neighbour fails the test, so only the centre counts: out = mean exactly.
@@ -1262,7 +1336,10 @@ fn mirrored_inputs_give_mirrored_outputs() {
                 kind,
                 sigmas: Sigmas::default(),
             },
-            membership: Membership::Welch { g2: 4.0 },
+            membership: Membership::Welch {
+                g2: 4.0,
+                alpha: None,
+            },
         };
         let out = run_filter(&est, &b.features(), &p, TILINGS[1]);
         for (name, map, flip) in &maps {

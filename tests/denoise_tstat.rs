@@ -3,9 +3,11 @@
 //! camera-depth alignment, patch test, no invented detail, thread and tiling
 //! independence, consistency.
 
+use statrs::function::erf::erfc;
 use tstat::denoise::base_filter::{BaseFilter, BaseKind, Features, Sigmas};
 use tstat::denoise::estimates::{Estimates, Scale};
 use tstat::denoise::filter::{filter, FilterParams, Membership, Tiling};
+use tstat::denoise::pair_dof::PairDof;
 use tstat::denoise::tstat::TstatParams;
 use tstat::math::rng::Pcg32;
 
@@ -147,7 +149,10 @@ impl Volume {
 /// depth_p) / h) (0 if either depth is 0) compares bin t of p with t + dt + k of q;
 /// s(t) = max_c (theta_q - theta_p)^2 / (V_q + V_p) (0 if both are 0, inf if only V is);
 /// member iff s(t) <= t2_max and s(t-1) + s(t) + s(t+1) <= 3 t2_patch, where a side
-/// whose voxels do not both exist repeats s(t).
+/// whose voxels do not both exist repeats s(t). On estimates from B replicates each
+/// channel's s is first multiplied by t2_max / g^2(nu), g^2(nu) the pair's critical value
+/// at its Welch-Satterthwaite degrees of freedom and the tail level of t2_max
+/// (`PairDof`, whose table tests/unit tests check against the exact quantile).
 fn reference(vol: &Volume, p: &FilterParams, tp: &TstatParams) -> (Vec<f64>, u64, u64) {
     let e = &vol.e;
     let (h, w, t) = (e.height as i64, e.width as i64, e.bins as i64);
@@ -159,18 +164,26 @@ fn reference(vol: &Volume, p: &FilterParams, tp: &TstatParams) -> (Vec<f64>, u64
     let mut out = vec![0.0f64; e.mean.len()];
     let (mut members, mut pairs) = (0u64, 0u64);
     let at = |px: usize, c: usize, k: i64| e.idx(px, c, k as usize);
+    let pair = e
+        .replicates
+        .map(|b| PairDof::new(b, erfc((tp.t2_max / 2.0).sqrt())));
     let stat = |i: usize, j: usize, ti: i64, tj: i64| -> f32 {
         let mut m = 0.0f32;
         for c in 0..C {
             let d = e.theta[at(i, c, ti)] - e.theta[at(j, c, tj)];
-            let v = e.v[at(i, c, ti)] + e.v[at(j, c, tj)];
-            let q = if v > 0.0 {
-                d * d / v
-            } else if d == 0.0 {
-                0.0
-            } else {
-                f32::INFINITY
-            };
+            let (vi, vj) = (e.v[at(i, c, ti)], e.v[at(j, c, tj)]);
+            let v = vi + vj;
+            let dof = pair
+                .as_ref()
+                .map_or(1.0, |pd| tp.t2_max as f32 / pd.g2(vi, vj));
+            let q = dof
+                * if v > 0.0 {
+                    d * d / v
+                } else if d == 0.0 {
+                    0.0
+                } else {
+                    f32::INFINITY
+                };
             m = m.max(q);
         }
         m
@@ -380,12 +393,16 @@ fn fast_filter_matches_the_definition() {
         (5, 5, 3, 0.5, 4, 1, None, 4.0, 1.5, true, BaseKind::Jbf),
         // The first case again on stratified estimates (default r_e becomes 0).
         (9, 11, 17, 0.08, 2, 1, None, 4.0, 1.5, true, BaseKind::Jbf),
+        // And on estimates from 4 replicates (per-pair degrees of freedom).
+        (9, 11, 17, 0.08, 2, 1, None, 4.0, 1.5, true, BaseKind::Jbf),
     ];
+    let mut members_by_case = Vec::new();
     for (n, &(h, w, t, hw, r, rt, re, t2_max, t2_patch, depth_align, kind)) in
         cases.iter().enumerate()
     {
         let mut vol = Volume::random(h, w, t, hw, 100 + n as u64);
-        vol.e.stratified = n == cases.len() - 1;
+        vol.e.stratified = n == cases.len() - 2;
+        vol.e.replicates = (n == cases.len() - 1).then_some(4);
         let tp = TstatParams {
             t2_max,
             t2_patch,
@@ -403,7 +420,15 @@ fn fast_filter_matches_the_definition() {
             let fast = run(&vol, &p, tiling);
             assert_close(&fast, &expected, &format!("case {n} {tiling:?}"));
         }
+        members_by_case.push(members);
     }
+    // With 3-6 degrees of freedom per pair the critical values grow, so the replicate
+    // case (the first case's volume) keeps clearly more neighbours.
+    let (plain, replicated) = (members_by_case[0], members_by_case[cases.len() - 1]);
+    assert!(
+        replicated as f64 > 1.1 * plain as f64,
+        "members: {plain} with i.i.d. estimates, {replicated} with replicates"
+    );
 }
 
 /// Same bits with 1 and 2 threads and with any tiling.
@@ -458,7 +483,10 @@ fn emitter_and_other_pixels_are_kept_apart() {
     }
     // The published test mixes them (the contrast of this check).
     let mut pp = p;
-    pp.membership = Membership::Welch { g2: 4.0 };
+    pp.membership = Membership::Welch {
+        g2: 4.0,
+        alpha: None,
+    };
     let out = run(&vol, &pp, Tiling::default());
     assert!(out[vol.e.idx(3, 0, 2)] > 1.0 && out[vol.e.idx(3, 3, 2)] > 1.0);
 }

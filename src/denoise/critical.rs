@@ -3,7 +3,8 @@
 //!
 //! - from `gamma` (the literature's threshold on 1 - w*): `g^2 = 1 / (2 gamma) - 1`;
 //! - from `alpha` (two-sided significance): g = the (1 - alpha/2) quantile of Student's
-//!   t with `2n - 2` degrees of freedom. statrs's quantile is accurate to ~1e-13 up to
+//!   t with `2n - 2` degrees of freedom (on estimates from replicates, each pair's
+//!   Welch-Satterthwaite value instead: `pair_dof.rs`). statrs's quantile is accurate to ~1e-13 up to
 //!   ~1e5 degrees of freedom but degrades above and never returns at 1e8, so above
 //!   [`CF_DOF`] we use the normal quantile with the Cornish-Fisher expansion
 //!   (Abramowitz & Stegun 26.7.5), accurate to ~1e-14 there.
@@ -47,6 +48,14 @@ impl Threshold {
                 Err(format!("--alpha {a}: must be in (0, 1)"))
             }
             _ => Ok(()),
+        }
+    }
+
+    /// The two-sided level, when g comes from one.
+    pub fn alpha(&self) -> Option<f64> {
+        match *self {
+            Threshold::Alpha(a) => Some(a),
+            _ => None,
         }
     }
 

@@ -19,17 +19,21 @@
 use super::base_filter::{BaseFilter, Features};
 use super::estimates::Estimates;
 use super::membership::passes;
+use super::pair_dof::PairDof;
 use super::tstat::{depth_shift, same_coverage, sees_emitter, statistic, TstatParams};
 use crate::stats::accumulators::CHANNELS;
 use rayon::prelude::*;
+use statrs::function::erf::erfc;
 
 /// Which membership test m the filter applies.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Membership {
     /// The base filter alone (m = 1).
     None,
-    /// The published per-voxel Welch test with this g^2.
-    Welch { g2: f64 },
+    /// The published per-voxel Welch test with this g^2. `alpha`: the two-sided level
+    /// g came from, if any; on estimates from replicates g is then taken per pair at its
+    /// Welch-Satterthwaite degrees of freedom (`pair_dof.rs`) instead.
+    Welch { g2: f64, alpha: Option<f64> },
     /// tstat's classes, depth alignment and patch test.
     Tstat(TstatParams),
 }
@@ -144,6 +148,34 @@ fn accumulate<const MEMBERSHIP: bool>(
     }
 }
 
+/// The published test with g^2 per pair (estimates from replicates, `--alpha`).
+#[allow(clippy::too_many_arguments)]
+fn accumulate_pair(
+    n: usize,
+    w: f32,
+    pair: &PairDof,
+    theta_i: [&[f32]; 3],
+    theta_j: [&[f32]; 3],
+    v_i: [&[f32]; 3],
+    v_j: [&[f32]; 3],
+    mean_i: [&[f32]; 3],
+    num: [&mut [f32]; 3],
+    den: &mut [f32],
+) {
+    let [n0, n1, n2] = num;
+    for k in 0..n {
+        let m = (0..3).all(|c| {
+            let (vi, vj) = (v_i[c][k], v_j[c][k]);
+            passes(theta_i[c][k], theta_j[c][k], vi, vj, pair.g2(vi, vj))
+        });
+        let wk = if m { w } else { 0.0 };
+        n0[k] += wk * mean_i[0][k];
+        n1[k] += wk * mean_i[1][k];
+        n2[k] += wk * mean_i[2][k];
+        den[k] += wk;
+    }
+}
+
 /// tstat's statistic over `n` contiguous bins: `out[k] = max_c s_c`.
 #[inline(always)]
 fn statistics(
@@ -164,6 +196,31 @@ fn statistics(
         let s1 = statistic(ti1[k], tj1[k], vi1[k], vj1[k]);
         let s2 = statistic(ti2[k], tj2[k], vi2[k], vj2[k]);
         out[k] = s0.max(s1).max(s2);
+    }
+}
+
+/// [`statistics`] for estimates from replicates: each channel's `s_c` is put on the
+/// scale of infinite degrees of freedom, `s_c t2_max / g^2(nu)` with `g^2(nu)` the
+/// pair's critical value at the tail level of `t2_max` (so `s_c <= g^2(nu)` exactly when
+/// the scaled value is `<= t2_max`; the patch mean uses the same scaled values).
+#[allow(clippy::too_many_arguments)]
+fn statistics_pair(
+    n: usize,
+    pair: &PairDof,
+    t2_max: f32,
+    theta_i: [&[f32]; 3],
+    theta_j: [&[f32]; 3],
+    v_i: [&[f32]; 3],
+    v_j: [&[f32]; 3],
+    out: &mut [f32],
+) {
+    for (k, o) in out[..n].iter_mut().enumerate() {
+        *o = (0..3)
+            .map(|c| {
+                let (vi, vj) = (v_i[c][k], v_j[c][k]);
+                statistic(theta_i[c][k], theta_j[c][k], vi, vj) * (t2_max / pair.g2(vi, vj))
+            })
+            .fold(0.0f32, f32::max);
     }
 }
 
@@ -225,6 +282,8 @@ struct Shared<'a> {
     pt: Vec<f64>,
     g2: f32,
     kernel: Kernel,
+    /// Per-pair critical values, for estimates from replicates (see [`Membership`]).
+    pair: Option<PairDof>,
 }
 
 /// One neighbour pixel of an output pixel.
@@ -352,6 +411,18 @@ fn filter_pixel(
             let [n0, n1, n2] = &mut *num;
             let acc = [&mut n0[off..], &mut n1[off..], &mut n2[off..]];
             match &s.tstat {
+                None if s.pair.is_some() => accumulate_pair(
+                    m,
+                    wt,
+                    s.pair.as_ref().unwrap(),
+                    oi.map(|q| &e.theta[q..q + m]),
+                    oj.map(|q| &e.theta[q..q + m]),
+                    oi.map(|q| &e.v[q..q + m]),
+                    oj.map(|q| &e.v[q..q + m]),
+                    oi.map(|q| &e.mean[q..q + m]),
+                    acc,
+                    &mut den[off..],
+                ),
                 None => (s.kernel)(
                     m,
                     wt,
@@ -376,14 +447,16 @@ fn filter_pixel(
                     let first = if lo < ts { 0 } else { 1 };
                     let si: [usize; 3] = std::array::from_fn(|c| e.idx(i, c, (lo + o) as usize));
                     let sj: [usize; 3] = std::array::from_fn(|c| e.idx(j, c, lo as usize));
-                    statistics(
-                        len,
+                    let (ti, tj) = (
                         si.map(|q| &e.theta[q..q + len]),
                         sj.map(|q| &e.theta[q..q + len]),
-                        si.map(|q| &e.v[q..q + len]),
-                        sj.map(|q| &e.v[q..q + len]),
-                        &mut stat[first..first + len],
                     );
+                    let (vi, vj) = (si.map(|q| &e.v[q..q + len]), sj.map(|q| &e.v[q..q + len]));
+                    let out = &mut stat[first..first + len];
+                    match &s.pair {
+                        None => statistics(len, ti, tj, vi, vj, out),
+                        Some(pd) => statistics_pair(len, pd, tp.t2_max as f32, ti, tj, vi, vj, out),
+                    }
                     if first == 1 {
                         stat[0] = stat[1];
                     }
@@ -474,8 +547,17 @@ pub fn filter_rows(
         active: active_ranges(e),
         pt: params.base.time_weights(params.temporal_radius),
         g2: match params.membership {
-            Membership::Welch { g2 } => g2 as f32,
+            Membership::Welch { g2, .. } => g2 as f32,
             _ => 0.0,
+        },
+        pair: match (params.membership, e.replicates) {
+            (Membership::Welch { alpha: Some(a), .. }, Some(b)) if b >= 2 => {
+                Some(PairDof::new(b, a))
+            }
+            (Membership::Tstat(tp), Some(b)) if b >= 2 => {
+                Some(PairDof::new(b, erfc((tp.t2_max / 2.0).sqrt())))
+            }
+            _ => None,
         },
         kernel: match params.membership {
             Membership::Welch { .. } => accumulate::<true>,

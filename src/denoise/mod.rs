@@ -8,6 +8,7 @@ pub mod estimates;
 pub mod filter;
 pub mod gbuffers;
 pub mod membership;
+pub mod pair_dof;
 pub mod slab;
 pub mod tstat;
 
@@ -109,8 +110,8 @@ impl DenoiseParams {
     }
 
     /// The filter's parameters for a bundle of `spp` samples per pixel (its number of
-    /// replicates when it has them: the published test's degrees of freedom are then
-    /// `2 B - 2`, SPEC 8).
+    /// replicates when it has them; the filter then takes each pair's critical value at
+    /// its Welch-Satterthwaite degrees of freedom, SPEC 8, see `pair_dof.rs`).
     pub fn filter_params(&self, spp: u64) -> FilterParams {
         FilterParams {
             radius: self.radius,
@@ -121,7 +122,10 @@ impl DenoiseParams {
             },
             membership: match self.method {
                 Method::Tstat(t) => Membership::Tstat(t),
-                Method::Published(t) => Membership::Welch { g2: t.g2(spp) },
+                Method::Published(t) => Membership::Welch {
+                    g2: t.g2(spp),
+                    alpha: t.alpha(),
+                },
                 Method::BaseOnly => Membership::None,
             },
         }
