@@ -1718,6 +1718,7 @@ fn write_bundle(
         media: false,
         seed: 1,
         merged_seeds: Vec::new(),
+        shard: None,
         scene: SceneRef {
             path: "synthetic".into(),
             sha256: "0".repeat(64),

@@ -43,6 +43,7 @@ fn meta(s: &RenderSettings) -> BundleMeta {
         unit_m: 1.0,
         pixel_sampling: s.pixel_sampling,
         replicates: s.replicates,
+        job: None,
     }
 }
 

@@ -130,6 +130,9 @@ pub struct Manifest {
     /// Seeds of every render summed into this bundle by `tstat merge` (empty otherwise).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub merged_seeds: Vec<u64>,
+    /// The job and shards of a render with `--shard` (see `shard.rs`); absent otherwise.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub shard: Option<super::shard::ShardRecord>,
     pub scene: SceneRef,
     pub max_depth: i32,
     /// The temporal Gaussian's standard deviation in bins (`temporal_filter`

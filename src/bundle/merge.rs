@@ -1,15 +1,24 @@
-//! Merging bundles rendered separately (other machines, other seeds) into one: the sums
-//! and counts add exactly; the G-buffers and the steady image, which are means, are
-//! averaged weighted by spp (normals renormalised). Only bundles of the same scene file
-//! and settings with different seeds merge: equal seeds would repeat the same paths.
-//! Bundles of different pixel sampling modes merge too (every sample of either mode is
-//! marginally uniform over its pixel, so the sum stays unbiased); the result records
-//! the common mode, or "mixed" when they differ.
+//! Merging bundles rendered separately (other machines, other seeds, the shards of one
+//! job) into one: the sums and counts add exactly; the G-buffers and the steady image,
+//! which are means, are averaged weighted by spp (normals renormalised). Only bundles of
+//! the same scene file and settings with different seeds merge: equal seeds would
+//! repeat the same paths. Shards of a job must all be there (`shard.rs`). Bundles of
+//! different pixel sampling modes merge too (every sample of either mode is marginally
+//! uniform over its pixel, so the sum stays unbiased); the result records the common
+//! mode, or "mixed" when they differ.
+//!
+//! Streamed: the volume arrays are summed a band of image rows at a time, each input's
+//! files opened for the band and closed after it, so memory is two bands (the sum and
+//! one input's rows, sized by [`MergeOptions::memory`]) plus the per-pixel images,
+//! whatever the number of inputs, and at most one input's files are open at once. The
+//! inputs are summed in a canonical order (by their smallest seed), so the same set of
+//! bundles merges to the same bits whatever order the command line gives them in.
 
 use super::manifest::Manifest;
-use super::write::{npy, write_atomically};
-use super::{Bundle, BundleError, SumArray};
-use ndarray::{Array2, Array3, Array4, Zip};
+use super::shard::merge_records;
+use super::write::{npy, write_atomically, VolumeArrays};
+use super::{Bundle, BundleError, RowSums};
+use ndarray::{Array2, Array3};
 use std::path::{Path, PathBuf};
 
 fn same_settings(a: &Manifest, b: &Manifest) -> Result<(), String> {
@@ -88,22 +97,102 @@ fn seeds(m: &Manifest) -> Vec<u64> {
     }
 }
 
+/// How to merge.
+#[derive(Clone, Copy, Debug)]
+pub struct MergeOptions {
+    /// Replace an existing output.
+    pub force: bool,
+    /// Allow a job's shards to be incomplete (a partial merge, e.g. one level of a
+    /// tree of merges); repeated shards are refused all the same.
+    pub partial: bool,
+    /// Bytes for the two bands of rows in memory (at least one row is used).
+    pub memory: u64,
+}
+
+impl Default for MergeOptions {
+    fn default() -> Self {
+        MergeOptions {
+            force: false,
+            partial: false,
+            memory: 256 << 20,
+        }
+    }
+}
+
+/// Bytes one image row takes in the band buffers (the sum and one input's rows).
+pub fn row_bytes(m: &Manifest) -> u64 {
+    let volumes = 3 + u64::from(!m.transform.is_identity()) + u64::from(m.replicates.is_some());
+    let voxels = (m.width * m.bins) as u64;
+    2 * voxels * (volumes * 3 * 8 + 4)
+}
+
+/// Adds `b` into `a` (same arrays), refusing counts that would leave the u32 range.
+fn add_band(a: &mut RowSums, b: &RowSums, m: &Manifest, dir: &Path) -> Result<(), BundleError> {
+    let add = |x: &mut Vec<f64>, y: &Vec<f64>| {
+        if x.is_empty() {
+            x.clone_from(y);
+        } else {
+            x.iter_mut().zip(y).for_each(|(p, q)| *p += q);
+        }
+    };
+    add(&mut a.x1, &b.x1);
+    add(&mut a.x2, &b.x2);
+    add(&mut a.x3, &b.x3);
+    add(&mut a.sum, &b.sum);
+    add(&mut a.r2, &b.r2);
+    if a.nonzero.is_empty() {
+        a.nonzero.clone_from(&b.nonzero);
+    } else if let Some(i) =
+        a.nonzero
+            .iter_mut()
+            .zip(&b.nonzero)
+            .position(|(p, q)| match p.checked_add(*q) {
+                Some(v) => {
+                    *p = v;
+                    false
+                }
+                None => true,
+            })
+    {
+        let plane = m.width * m.bins;
+        let (y, x, k) = (b.rows.start + i / plane, i % plane / m.bins, i % m.bins);
+        return Err(BundleError::Invalid(
+            dir.join("nonzero.npy"),
+            format!(
+                "voxel (y {y}, x {x}, t {k}): the merged count exceeds the u32 range of nonzero.npy"
+            ),
+        ));
+    }
+    a.rows = b.rows.clone();
+    Ok(())
+}
+
 /// Merges `inputs` (at least two) into a new bundle at `out`; returns its manifest.
-pub fn merge_bundles(inputs: &[PathBuf], out: &Path, force: bool) -> Result<Manifest, BundleError> {
+pub fn merge_bundles(
+    inputs: &[PathBuf],
+    out: &Path,
+    opts: MergeOptions,
+) -> Result<Manifest, BundleError> {
     if inputs.len() < 2 {
         return Err(BundleError::Io(
             out.to_path_buf(),
             "merge needs at least two bundles".into(),
         ));
     }
-    let bundles: Vec<Bundle> = inputs
+    let mut bundles: Vec<Bundle> = inputs
         .iter()
         .map(|p| Bundle::open(p))
         .collect::<Result<_, _>>()?;
-    let first = &bundles[0].manifest;
+    for b in &bundles {
+        same_settings(&bundles[0].manifest, &b.manifest)
+            .map_err(|e| BundleError::Invalid(b.dir.clone(), e))?;
+    }
+    // Shards before seeds: a repeated shard is named as such.
+    let records: Vec<_> = bundles.iter().map(|b| b.manifest.shard.as_ref()).collect();
+    let shard = merge_records(&records, opts.partial)
+        .map_err(|e| BundleError::Invalid(out.to_path_buf(), e))?;
     let mut all_seeds: Vec<u64> = Vec::new();
     for b in &bundles {
-        same_settings(first, &b.manifest).map_err(|e| BundleError::Invalid(b.dir.clone(), e))?;
         for s in seeds(&b.manifest) {
             if all_seeds.contains(&s) {
                 return Err(BundleError::Invalid(
@@ -114,6 +203,9 @@ pub fn merge_bundles(inputs: &[PathBuf], out: &Path, force: bool) -> Result<Mani
             all_seeds.push(s);
         }
     }
+    // The canonical order: seeds are unique across the inputs.
+    bundles.sort_by_key(|b| seeds(&b.manifest).into_iter().min());
+    let first = bundles[0].manifest.clone();
     let (h, w, t) = (first.height, first.width, first.bins);
     let total_spp = bundles
         .iter()
@@ -124,12 +216,7 @@ pub fn merge_bundles(inputs: &[PathBuf], out: &Path, force: bool) -> Result<Mani
                 "the merged spp would overflow a 64-bit count".into(),
             )
         })?;
-    let mut x1 = Array4::<f64>::zeros((h, w, t, 3));
-    let mut x2 = x1.clone();
-    let mut x3 = x1.clone();
-    let mut sum = (!first.transform.is_identity()).then(|| x1.clone());
-    let mut r2 = first.replicates.map(|_| x1.clone());
-    let mut nonzero = Array3::<u32>::zeros((h, w, t));
+    // Per-pixel images: small (H W), summed whole.
     let mut steady = Array3::<f64>::zeros((h, w, 3));
     let mut albedo = Array3::<f64>::zeros((h, w, 3));
     let mut normal = Array3::<f64>::zeros((h, w, 3));
@@ -137,35 +224,6 @@ pub fn merge_bundles(inputs: &[PathBuf], out: &Path, force: bool) -> Result<Mani
     let mut emitter = Array2::<f64>::zeros((h, w));
     let mut medium = first.media.then(|| Array2::<f64>::zeros((h, w)));
     for b in &bundles {
-        let counts = b.nonzero()?;
-        x1 += &b.sum_array(SumArray::X1, &counts)?;
-        x2 += &b.sum_array(SumArray::X2, &counts)?;
-        x3 += &b.sum_array(SumArray::X3, &counts)?;
-        if let Some(s) = sum.as_mut() {
-            *s += &b.sum_array(SumArray::Radiance, &counts)?;
-        }
-        if let Some(r) = r2.as_mut() {
-            *r += &b.sum_array(SumArray::R2, &counts)?;
-        }
-        // Counts are u32 on disk: a merge of more than 2^32 - 1 samples per pixel
-        // could wrap them, so refuse it where it happens.
-        let mut overflow = None;
-        Zip::indexed(&mut nonzero)
-            .and(&counts)
-            .for_each(|i, a, &k| match a.checked_add(k) {
-                Some(v) => *a = v,
-                None => {
-                    overflow.get_or_insert(i);
-                }
-            });
-        if let Some((y, x, k)) = overflow {
-            return Err(BundleError::Invalid(
-                b.dir.join("nonzero.npy"),
-                format!(
-                    "voxel (y {y}, x {x}, t {k}): the merged count exceeds the u32 range of nonzero.npy"
-                ),
-            ));
-        }
         let wgt = b.manifest.spp as f64 / total_spp as f64;
         steady.scaled_add(wgt, &b.steady()?);
         albedo.scaled_add(wgt, &b.albedo()?.mapv(f64::from));
@@ -187,29 +245,42 @@ pub fn merge_bundles(inputs: &[PathBuf], out: &Path, force: bool) -> Result<Mani
     manifest.replicates = first
         .replicates
         .map(|_| bundles.iter().filter_map(|b| b.manifest.replicates).sum());
+    all_seeds.sort_unstable();
     manifest.seed = all_seeds[0];
     manifest.pixel_sampling = bundles
         .iter()
         .map(|b| b.manifest.pixel_sampling)
         .fold(first.pixel_sampling, |a, b| a.merged(b));
     manifest.merged_seeds = all_seeds;
+    manifest.shard = shard;
     manifest.render_seconds = bundles.iter().map(|b| b.manifest.render_seconds).sum();
     manifest.dropped_nonfinite = bundles.iter().map(|b| b.manifest.dropped_nonfinite).sum();
     manifest.arrays.clear();
+    let band = usize::try_from(opts.memory / row_bytes(&first).max(1))
+        .unwrap_or(usize::MAX)
+        .clamp(1, h.max(1));
     let f32s = |a: Array3<f64>| a.mapv(|v| v as f32);
-    write_atomically(out, force, |dir| {
+    write_atomically(out, opts.force, |dir| {
         std::fs::create_dir(dir).map_err(|e| BundleError::Io(dir.to_path_buf(), e.to_string()))?;
+        let volumes =
+            VolumeArrays::create(dir, (h, w, t), &first.transform, first.replicates.is_some())?;
+        let (mut acc, mut rows) = (RowSums::default(), RowSums::default());
+        for y0 in (0..h).step_by(band) {
+            let y1 = (y0 + band).min(h);
+            for (n, b) in bundles.iter().enumerate() {
+                // Opened for this band only: one input's files are open at a time.
+                b.row_reader()?.read(y0..y1, &mut rows)?;
+                if n == 0 {
+                    std::mem::swap(&mut acc, &mut rows);
+                } else {
+                    add_band(&mut acc, &rows, &first, &b.dir)?;
+                }
+            }
+            volumes.put(&acc)?;
+        }
         let arrays = &mut manifest.arrays;
-        npy(dir, "x1", "<f8", &x1, arrays)?;
-        npy(dir, "x2", "<f8", &x2, arrays)?;
-        npy(dir, "x3", "<f8", &x3, arrays)?;
-        if let Some(s) = &sum {
-            npy(dir, "sum", "<f8", s, arrays)?;
-        }
-        if let Some(r) = &r2 {
-            npy(dir, "r2", "<f8", r, arrays)?;
-        }
-        npy(dir, "nonzero", "<u4", &nonzero, arrays)?;
+        arrays.extend(volumes.infos());
+        drop(volumes);
         npy(dir, "albedo", "<f4", &f32s(albedo), arrays)?;
         npy(dir, "normal", "<f4", &f32s(normal), arrays)?;
         npy(dir, "depth", "<f4", &depth.mapv(|v| v as f32), arrays)?;

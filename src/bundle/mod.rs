@@ -5,6 +5,7 @@ pub mod manifest;
 pub mod merge;
 pub mod npy;
 pub mod read;
+pub mod shard;
 pub mod write;
 
 pub use manifest::Manifest;

@@ -7,7 +7,7 @@
 //! Linux/Unix), so a film larger than memory streams to disk.
 
 use super::manifest::{ArrayInfo, Manifest, Program, SceneRef, FORMAT, VERSION};
-use super::BundleError;
+use super::{BundleError, RowSums};
 use crate::render::gbuffer::GPixel;
 use crate::render::sink::{PixelImages, Row, RowSink};
 use crate::render::{RenderOutput, RenderSummary};
@@ -34,6 +34,18 @@ pub struct BundleMeta {
     pub unit_m: f64,
     pub pixel_sampling: crate::render::PixelSampling,
     /// Replicates per pixel B (0: none; then no `r2.npy`).
+    pub replicates: u32,
+    /// The job this render is a shard of (`--shard`), if any.
+    pub job: Option<JobShard>,
+}
+
+/// A shard's job: the shard, and the job's own seed, spp and replicates (the render's
+/// are the shard's share).
+#[derive(Clone, Copy, Debug)]
+pub struct JobShard {
+    pub shard: super::shard::Shard,
+    pub seed: u64,
+    pub spp: u64,
     pub replicates: u32,
 }
 
@@ -201,7 +213,7 @@ pub(crate) fn npy<A: WritableElement, D: ndarray::Dimension>(
 /// The manifest of a render of `scene`, without its array list.
 fn manifest(scene: &Scene, meta: &BundleMeta, seconds: f64, dropped_nonfinite: u64) -> Manifest {
     let film = &scene.film;
-    Manifest {
+    let mut m = Manifest {
         format: FORMAT.into(),
         version: VERSION,
         width: film.width,
@@ -234,6 +246,30 @@ fn manifest(scene: &Scene, meta: &BundleMeta, seconds: f64, dropped_nonfinite: u
             version: env!("CARGO_PKG_VERSION").into(),
         },
         arrays: Vec::new(),
+        shard: None,
+    };
+    if let Some(j) = &meta.job {
+        m.shard = Some(job_record(&m, j));
+    }
+    m
+}
+
+/// The record of shard `j` of the job whose shard renders `m`: the job's identity is a
+/// hash of `m` with the job's seed, spp and replicates in place of the shard's, without
+/// what may differ between its shards (the scene's path, times), and with N.
+fn job_record(m: &Manifest, j: &JobShard) -> super::shard::ShardRecord {
+    let mut key = m.clone();
+    key.seed = j.seed;
+    key.spp = j.spp;
+    key.replicates = (j.replicates >= 2).then_some(u64::from(j.replicates));
+    key.scene.path = String::new();
+    key.render_seconds = 0.0;
+    key.dropped_nonfinite = 0;
+    let json = serde_json::to_string(&key).expect("manifest serialises");
+    super::shard::ShardRecord {
+        job: super::shard::job_id(&format!("{json}\nshards {}", j.shard.count)),
+        count: j.shard.count,
+        indices: vec![j.shard.index],
     }
 }
 
@@ -463,11 +499,11 @@ struct StreamedArray {
 impl StreamedArray {
     fn create(
         dir: &Path,
-        film: &Film,
+        (height, width, bins): (usize, usize, usize),
         spec: (&str, &str, bool, usize),
     ) -> Result<Self, BundleError> {
         let (name, dtype, rgb, size) = spec;
-        let mut shape = vec![film.height, film.width, film.bins];
+        let mut shape = vec![height, width, bins];
         if rgb {
             shape.push(CHANNELS);
         }
@@ -483,7 +519,7 @@ impl StreamedArray {
         let row_bytes = (shape[1..].iter().product::<usize>() * size) as u64;
         let file = File::create_new(&path).map_err(|e| io(e.to_string()))?;
         file.write_all_at(&header, 0)
-            .and_then(|()| file.set_len(header.len() as u64 + film.height as u64 * row_bytes))
+            .and_then(|()| file.set_len(header.len() as u64 + height as u64 * row_bytes))
             .map_err(|e| io(e.to_string()))?;
         Ok(StreamedArray {
             info: ArrayInfo {
@@ -499,14 +535,15 @@ impl StreamedArray {
         })
     }
 
-    /// Writes row `y`'s values (`bytes` long: one row).
-    fn put(&self, y: usize, bytes: &[u8]) -> Result<(), BundleError> {
-        if bytes.len() as u64 != self.row_bytes {
+    /// Writes the values of rows `y..y + rows` (`bytes` long: exactly those rows).
+    fn put(&self, y: usize, rows: usize, bytes: &[u8]) -> Result<(), BundleError> {
+        if bytes.len() as u64 != rows as u64 * self.row_bytes {
             return Err(BundleError::Io(
                 self.path.clone(),
                 format!(
-                    "a row of {} bytes, expected {}",
+                    "a row of {} bytes, expected {} ({rows} rows of {})",
                     bytes.len(),
+                    rows as u64 * self.row_bytes,
                     self.row_bytes
                 ),
             ));
@@ -514,6 +551,52 @@ impl StreamedArray {
         self.file
             .write_all_at(bytes, self.header + y as u64 * self.row_bytes)
             .map_err(|e| BundleError::Io(self.path.clone(), e.to_string()))
+    }
+}
+
+/// The volume arrays of a bundle written band by band by `merge`: preallocated like
+/// [`BundleWriter`]'s in `dir` (a staged directory), filled from [`RowSums`].
+pub struct VolumeArrays {
+    arrays: Vec<StreamedArray>,
+}
+
+impl VolumeArrays {
+    pub fn create(
+        dir: &Path,
+        dims: (usize, usize, usize),
+        transform: &Transform,
+        replicates: bool,
+    ) -> Result<Self, BundleError> {
+        let arrays = volume_arrays(transform, replicates)
+            .into_iter()
+            .map(|spec| StreamedArray::create(dir, dims, spec))
+            .collect::<Result<_, _>>()?;
+        Ok(VolumeArrays { arrays })
+    }
+
+    /// Writes the band of rows `s.rows` (every array this bundle has must be filled).
+    pub fn put(&self, s: &RowSums) -> Result<(), BundleError> {
+        let mut volumes: Vec<&[u8]> = vec![
+            bytemuck::cast_slice(&s.x1),
+            bytemuck::cast_slice(&s.x2),
+            bytemuck::cast_slice(&s.x3),
+        ];
+        for a in &self.arrays[3..] {
+            match a.info.name.as_str() {
+                "sum" => volumes.push(bytemuck::cast_slice(&s.sum)),
+                "r2" => volumes.push(bytemuck::cast_slice(&s.r2)),
+                _ => volumes.push(bytemuck::cast_slice(&s.nonzero)),
+            }
+        }
+        for (array, bytes) in self.arrays.iter().zip(volumes) {
+            array.put(s.rows.start, s.rows.len(), bytes)?;
+        }
+        Ok(())
+    }
+
+    /// The arrays' manifest entries.
+    pub fn infos(&self) -> Vec<ArrayInfo> {
+        self.arrays.iter().map(|a| a.info.clone()).collect()
     }
 }
 
@@ -558,7 +641,9 @@ impl BundleWriter {
         })?;
         let arrays = volume_arrays(transform, replicates)
             .into_iter()
-            .map(|spec| StreamedArray::create(staged.path(), film, spec))
+            .map(|spec| {
+                StreamedArray::create(staged.path(), (film.height, film.width, film.bins), spec)
+            })
             .collect::<Result<_, _>>()?;
         Ok(BundleWriter {
             staged,
@@ -629,7 +714,7 @@ impl RowSink for BundleWriter {
             ));
         }
         for (array, bytes) in self.arrays.iter().zip(volumes) {
-            array.put(row.y, bytes)?;
+            array.put(row.y, 1, bytes)?;
         }
         self.images
             .lock()

@@ -4,7 +4,8 @@ use super::util::{
     arg, check_outputs, disk_size, finite, human_bytes, opt_int, parse_bytes, physical_memory,
     positive, seed, threads, with_threads, Kind, MAX_FILM_SIDE,
 };
-use crate::bundle::write::{bundle_bytes_with, BundleMeta, BundleWriter};
+use crate::bundle::shard::{shard_seed, Shard, PLACEHOLDER};
+use crate::bundle::write::{bundle_bytes_with, BundleMeta, BundleWriter, JobShard};
 use crate::render::{render_into, PixelSampling, RenderSettings, StreamingMemory};
 use crate::scene::{Overrides, Scene};
 use crate::stats::Transform;
@@ -127,9 +128,61 @@ pub struct RenderArgs {
     /// Rows stream to disk: the need is threads x one row's buffers, plus the G-buffers.
     #[arg(long, allow_hyphen_values = true)]
     pub max_memory: Option<String>,
+    /// Render shard I of N of this job (I/N), or take I from the scheduler (auto/N:
+    /// SLURM_ARRAY_TASK_ID, else JOB_COMPLETION_INDEX). The shard renders spp / N
+    /// samples per pixel (and replicates / N) with its own seed derived from --seed;
+    /// `{shard}` in --out becomes I (required with auto). `tstat merge` of the N
+    /// bundles is the job's bundle.
+    #[arg(long, value_name = "I/N")]
+    pub shard: Option<String>,
     /// Replace an existing output.
     #[arg(long)]
     pub force: bool,
+}
+
+/// The shard of `--shard` and the output path with `{shard}` filled in.
+fn shard_and_out(spec: Option<&str>, out: &Path) -> anyhow::Result<(Option<Shard>, PathBuf)> {
+    let Some(spec) = spec else {
+        return Ok((None, out.to_path_buf()));
+    };
+    let shard = Shard::parse(spec, |k| std::env::var(k).ok()).map_err(|e| anyhow!(e))?;
+    let text = out.to_str().ok_or_else(|| {
+        anyhow!(
+            "--out {}: with --shard the path must be UTF-8",
+            out.display()
+        )
+    })?;
+    anyhow::ensure!(
+        text.contains(PLACEHOLDER) || !spec.trim_start().starts_with("auto"),
+        "--out {text}: with --shard auto/N every task needs its own output; put {PLACEHOLDER} in the path (it becomes the shard's index)"
+    );
+    Ok((Some(shard), PathBuf::from(shard.out_path(text))))
+}
+
+/// A shard's share of the job's spp and replicates, checked.
+fn shard_share(shard: &Shard, spp: u32, replicates: u32) -> anyhow::Result<(u32, u32)> {
+    let spp_share = shard
+        .share(u64::from(spp), "the job's spp")
+        .map_err(|e| anyhow!(e))?;
+    anyhow::ensure!(
+        spp_share >= 2,
+        "the job's spp {spp} over {} shards leaves {spp_share} per shard; each needs at least 2",
+        shard.count
+    );
+    let reps = if replicates >= 2 {
+        let r = shard
+            .share(u64::from(replicates), "--replicates")
+            .map_err(|e| anyhow!(e))?;
+        anyhow::ensure!(
+            r >= 2,
+            "--replicates {replicates} over {} shards leaves {r} per shard; each needs at least 2",
+            shard.count
+        );
+        r as u32
+    } else {
+        replicates
+    };
+    Ok((spp_share as u32, reps))
 }
 
 pub fn run(a: RenderArgs) -> anyhow::Result<()> {
@@ -145,23 +198,50 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
         Some(s) => Some(parse_bytes(s).map_err(|e| anyhow::anyhow!("--max-memory: {e}"))?),
         None => None,
     };
+    let (shard, out) = shard_and_out(a.shard.as_deref(), &a.out)?;
     check_outputs(
         &[arg("scene", &a.scene)],
-        &[(arg("--out", &a.out), Kind::Dir)],
+        &[(arg("--out", &out), Kind::Dir)],
         a.force,
     )?;
-    let scene = Scene::load(&a.scene, &overrides)?;
-    super::util::check_mesh_inputs(&scene, &[arg("--out", &a.out)])?;
+    let mut scene = Scene::load(&a.scene, &overrides)?;
+    super::util::check_mesh_inputs(&scene, &[arg("--out", &out)])?;
     super::util::print_scene_warnings(&scene);
+    let job_seed = seed.unwrap_or(scene.seed);
+    let (job, replicate_count) = match &shard {
+        None => (None, a.scene_args.replicates),
+        Some(s) => {
+            let (spp, reps) = shard_share(s, scene.spp, a.scene_args.replicates)?;
+            let job = JobShard {
+                shard: *s,
+                seed: job_seed,
+                spp: u64::from(scene.spp),
+                replicates: a.scene_args.replicates,
+            };
+            scene.spp = spp;
+            (Some(job), reps)
+        }
+    };
     let film = &scene.film;
 
-    RenderSettings::check_replicates(scene.spp, a.scene_args.replicates).map_err(|e| anyhow!(e))?;
-    let replicates = a.scene_args.replicates >= 2;
+    RenderSettings::check_replicates(scene.spp, replicate_count).map_err(|e| anyhow!(e))?;
+    let replicates = replicate_count >= 2;
     let memory = StreamingMemory::new(film, &transform, pool_size(threads))
         .with_replicates(replicates, film);
     check_memory(&memory, limit)?;
     let disk = bundle_bytes_with(film, &transform, !scene.media.is_empty(), replicates);
-    check_disk(&a.out, disk, "the bundle")?;
+    check_disk(&out, disk, "the bundle")?;
+    if let Some(j) = &job {
+        eprintln!(
+            "shard {} of {} (indices 0-{}): {} of the job's {} spp, seed {}",
+            j.shard.index,
+            j.shard.count,
+            j.shard.count - 1,
+            scene.spp,
+            j.spp,
+            shard_seed(j.seed, j.shard.index)
+        );
+    }
     eprintln!(
         "{}: {}x{} px, {} bins, {} spp ({}), {} primitives; memory {}, bundle {} on disk",
         a.scene.display(),
@@ -177,10 +257,13 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
 
     let settings = RenderSettings {
         spp: scene.spp,
-        seed: seed.unwrap_or(scene.seed),
+        seed: match &job {
+            Some(j) => shard_seed(job_seed, j.shard.index),
+            None => job_seed,
+        },
         transform,
         pixel_sampling: a.scene_args.pixel_sampling,
-        replicates: a.scene_args.replicates,
+        replicates: replicate_count,
     };
     let total = film.pixels() as u64 * scene.spp as u64;
     let bar = ProgressBar::new(total).with_style(
@@ -191,7 +274,7 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
     );
     // Rows go straight into the bundle's files in a temporary directory; an error (or
     // an interrupted render) leaves nothing that looks like a bundle.
-    let writer = BundleWriter::create_with(&a.out, a.force, film, &transform, replicates)
+    let writer = BundleWriter::create_with(&out, a.force, film, &transform, replicates)
         .context("writing the bundle")?;
     let summary = with_threads(threads, || {
         render_into(&scene, &settings, &writer, &|n| bar.inc(n))
@@ -205,6 +288,7 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
         unit_m: a.unit_m,
         pixel_sampling: settings.pixel_sampling,
         replicates: settings.replicates,
+        job,
     };
     writer
         .finish(&scene, &meta, &summary)
@@ -212,11 +296,11 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
     let seconds = summary.seconds;
     say!(
         "rendered {} in {:.2} s: {:.2} M paths/s, {:.2} M rays/s; bundle {} ({}){}",
-        a.out.display(),
+        out.display(),
         seconds,
         summary.paths as f64 / seconds / 1e6,
         summary.rays as f64 / seconds / 1e6,
-        human_bytes(disk_size(&a.out)),
+        human_bytes(disk_size(&out)),
         transform,
         if summary.dropped_nonfinite > 0 {
             format!(

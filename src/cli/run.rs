@@ -187,6 +187,7 @@ fn job(
         unit_m: 1.0,
         pixel_sampling: settings.pixel_sampling,
         replicates: settings.replicates,
+        job: None,
     };
     // The bundled scene sits in the temporary directory until that is renamed: the
     // manifest records where it will be.

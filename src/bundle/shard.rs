@@ -1,0 +1,290 @@
+//! Shards of one render job (SPEC 12): `tstat render ... --shard I/N` renders shard I
+//! of N, and `tstat merge` puts the N bundles back together, refusing a job with
+//! shards missing, repeated or from another job.
+//!
+//! - The job's spp S and replicates B are split evenly: each shard renders S / N
+//!   samples per pixel (and B / N replicates), so N must divide both.
+//! - Shard I's seed is [`shard_seed`]`(seed, I)`, a hash of the job's seed and I: the N
+//!   shards draw different paths, and the same job always draws the same ones.
+//! - Every shard records the job's identity (`job`, a hash of everything the job
+//!   renders: scene, film, settings, seed, S, B and N; not the scene's path, which may
+//!   differ between nodes), N and its index. A merged bundle records the union of the
+//!   indices.
+//! - `--shard auto/N` takes I from the scheduler: `SLURM_ARRAY_TASK_ID` (Slurm job
+//!   arrays, `--array=0-(N-1)`), else `JOB_COMPLETION_INDEX` (Kubernetes indexed Jobs).
+
+use serde::{Deserialize, Serialize};
+use sha2::{Digest, Sha256};
+
+/// The scheduler variables `--shard auto/N` reads, in order.
+pub const INDEX_VARIABLES: [&str; 2] = ["SLURM_ARRAY_TASK_ID", "JOB_COMPLETION_INDEX"];
+
+/// The placeholder of `--out` replaced by the shard's index.
+pub const PLACEHOLDER: &str = "{shard}";
+
+/// Shard `index` of `count`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Shard {
+    pub index: u64,
+    pub count: u64,
+}
+
+/// What a bundle records of the job it belongs to (`shard` in the manifest).
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq, Eq)]
+pub struct ShardRecord {
+    /// Hex hash of the job's identity.
+    pub job: String,
+    /// The job's number of shards N.
+    pub count: u64,
+    /// The shards this bundle holds (one for a shard, the union after a merge), sorted.
+    pub indices: Vec<u64>,
+}
+
+impl Shard {
+    /// Parses `I/N` or `auto/N`; `env` looks up a variable (the process environment
+    /// in the CLI).
+    pub fn parse(spec: &str, env: impl Fn(&str) -> Option<String>) -> Result<Shard, String> {
+        let bad = || format!("--shard {spec:?}: expected I/N or auto/N, e.g. 3/16");
+        let (i, n) = spec.split_once('/').ok_or_else(bad)?;
+        let count: u64 = n.trim().parse().map_err(|_| bad())?;
+        if count == 0 {
+            return Err(format!(
+                "--shard {spec}: the number of shards must be at least 1"
+            ));
+        }
+        let (index, from) = if i.trim() == "auto" {
+            let (var, value) = INDEX_VARIABLES
+                .iter()
+                .find_map(|v| env(v).map(|x| (*v, x)))
+                .ok_or_else(|| {
+                    format!(
+                        "--shard {spec}: neither {} is set (run it as a Slurm array task or a Kubernetes indexed Job, or give the index: --shard I/{count})",
+                        INDEX_VARIABLES.join(" nor ")
+                    )
+                })?;
+            let index = value
+                .trim()
+                .parse::<u64>()
+                .map_err(|_| format!("--shard {spec}: {var}={value:?} is not a shard index"))?;
+            (index, format!(" ({var})"))
+        } else {
+            (i.trim().parse::<u64>().map_err(|_| bad())?, String::new())
+        };
+        if index >= count {
+            return Err(format!(
+                "--shard {spec}: index {index}{from} is not below the number of shards {count} (indices run from 0 to {}; a Slurm array is then --array=0-{})",
+                count - 1,
+                count - 1
+            ));
+        }
+        Ok(Shard { index, count })
+    }
+
+    /// The shard's share of the job's `total` (spp or replicates); N must divide it.
+    pub fn share(&self, total: u64, what: &str) -> Result<u64, String> {
+        if total % self.count != 0 {
+            return Err(format!(
+                "{what} {total} is not a multiple of the number of shards {}: every shard renders an equal share",
+                self.count
+            ));
+        }
+        Ok(total / self.count)
+    }
+
+    /// `out` with [`PLACEHOLDER`] replaced by the index, zero-padded to the width of N - 1.
+    pub fn out_path(&self, out: &str) -> String {
+        let width = (self.count - 1).to_string().len();
+        out.replace(PLACEHOLDER, &format!("{:0width$}", self.index))
+    }
+}
+
+/// SplitMix64's finaliser: a bijection of u64 that mixes every bit.
+fn mix(mut z: u64) -> u64 {
+    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+    z ^ (z >> 31)
+}
+
+/// Shard `index`'s seed in a job of seed `seed`: different for every index of one job.
+pub fn shard_seed(seed: u64, index: u64) -> u64 {
+    // For a fixed seed, index -> mix(...) is a bijection, so no two shards share a seed.
+    mix(mix(seed) ^ index.wrapping_mul(0x9e37_79b9_7f4a_7c15))
+}
+
+/// The job's identity: a hex hash of `key` (a canonical description of what it
+/// renders, see `write.rs`).
+pub fn job_id(key: &str) -> String {
+    let h = Sha256::digest(key.as_bytes());
+    h[..8].iter().map(|b| format!("{b:02x}")).collect()
+}
+
+/// Checks that `records` (one per bundle to merge, `None` for bundles rendered without
+/// `--shard`) hold no shard twice and, unless `partial`, every shard of every job.
+/// Returns the merged bundle's record: the union when all come from one job.
+pub fn merge_records(
+    records: &[Option<&ShardRecord>],
+    partial: bool,
+) -> Result<Option<ShardRecord>, String> {
+    let mut jobs: Vec<ShardRecord> = Vec::new();
+    for r in records.iter().flatten() {
+        let job = match jobs.iter_mut().find(|j| j.job == r.job) {
+            Some(j) => j,
+            None => {
+                jobs.push(ShardRecord {
+                    job: r.job.clone(),
+                    count: r.count,
+                    indices: Vec::new(),
+                });
+                jobs.last_mut().unwrap()
+            }
+        };
+        if job.count != r.count {
+            return Err(format!(
+                "job {} has bundles of {} and of {} shards",
+                r.job, job.count, r.count
+            ));
+        }
+        for &i in &r.indices {
+            if i >= r.count {
+                return Err(format!(
+                    "job {}: shard {i} of {} does not exist",
+                    r.job, r.count
+                ));
+            }
+            if job.indices.contains(&i) {
+                return Err(format!(
+                    "job {}: shard {i} of {} is given twice: merging would count its paths twice",
+                    r.job, r.count
+                ));
+            }
+            job.indices.push(i);
+        }
+    }
+    for j in &mut jobs {
+        j.indices.sort_unstable();
+        if !partial && j.indices.len() as u64 != j.count {
+            let missing: Vec<u64> = (0..j.count).filter(|i| !j.indices.contains(i)).collect();
+            let shown: Vec<String> = missing.iter().take(20).map(|i| i.to_string()).collect();
+            return Err(format!(
+                "job {}: {} of its {} shards are missing: {}{} (render them, or merge with --partial)",
+                j.job,
+                missing.len(),
+                j.count,
+                shown.join(", "),
+                if missing.len() > 20 { ", ..." } else { "" }
+            ));
+        }
+    }
+    let all_sharded = records.iter().all(Option::is_some);
+    Ok(match (jobs.len(), all_sharded) {
+        (1, true) => jobs.pop(),
+        _ => None,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn env<'a>(vars: &'a [(&'a str, &'a str)]) -> impl Fn(&str) -> Option<String> + 'a {
+        move |k| {
+            vars.iter()
+                .find(|(n, _)| *n == k)
+                .map(|(_, v)| v.to_string())
+        }
+    }
+
+    #[test]
+    fn parses_explicit_and_scheduler_indices() {
+        let none = env(&[]);
+        assert_eq!(
+            Shard::parse("3/16", &none),
+            Ok(Shard {
+                index: 3,
+                count: 16
+            })
+        );
+        assert_eq!(Shard::parse("0/1", &none), Ok(Shard { index: 0, count: 1 }));
+        let slurm = env(&[("SLURM_ARRAY_TASK_ID", "7"), ("JOB_COMPLETION_INDEX", "2")]);
+        assert_eq!(Shard::parse("auto/8", &slurm).unwrap().index, 7);
+        let k8s = env(&[("JOB_COMPLETION_INDEX", "2")]);
+        assert_eq!(Shard::parse("auto/8", &k8s).unwrap().index, 2);
+        for (spec, vars, needle) in [
+            ("16/16", &[][..], "not below"),
+            ("3", &[][..], "expected I/N"),
+            ("a/4", &[][..], "expected I/N"),
+            ("1/0", &[][..], "at least 1"),
+            ("-1/4", &[][..], "expected I/N"),
+            (
+                "auto/4",
+                &[][..],
+                "neither SLURM_ARRAY_TASK_ID nor JOB_COMPLETION_INDEX",
+            ),
+            (
+                "auto/4",
+                &[("SLURM_ARRAY_TASK_ID", "4")][..],
+                "(SLURM_ARRAY_TASK_ID)",
+            ),
+            (
+                "auto/4",
+                &[("SLURM_ARRAY_TASK_ID", "x")][..],
+                "is not a shard index",
+            ),
+        ] {
+            let e = Shard::parse(spec, env(vars)).unwrap_err();
+            assert!(e.contains(needle), "{spec}: {e}");
+        }
+    }
+
+    #[test]
+    fn shares_seeds_and_paths() {
+        let s = Shard {
+            index: 5,
+            count: 16,
+        };
+        assert_eq!(s.share(1024, "spp"), Ok(64));
+        assert!(s.share(1000, "spp").unwrap_err().contains("not a multiple"));
+        assert_eq!(s.out_path("d/shard-{shard}.tstats"), "d/shard-05.tstats");
+        assert_eq!(Shard { index: 7, count: 8 }.out_path("{shard}"), "7");
+        assert_eq!(
+            Shard {
+                index: 3,
+                count: 1000
+            }
+            .out_path("{shard}"),
+            "003"
+        );
+        let seeds: std::collections::BTreeSet<u64> = (0..4096).map(|i| shard_seed(9, i)).collect();
+        assert_eq!(seeds.len(), 4096);
+        assert_ne!(shard_seed(9, 0), shard_seed(10, 0));
+        assert_eq!(shard_seed(9, 3), shard_seed(9, 3));
+    }
+
+    #[test]
+    fn records_merge_only_when_complete() {
+        let rec = |job: &str, n, idx: &[u64]| ShardRecord {
+            job: job.into(),
+            count: n,
+            indices: idx.to_vec(),
+        };
+        let (a0, a1, a2) = (rec("a", 3, &[0]), rec("a", 3, &[1]), rec("a", 3, &[2]));
+        let all = merge_records(&[Some(&a2), Some(&a0), Some(&a1)], false).unwrap();
+        assert_eq!(all, Some(rec("a", 3, &[0, 1, 2])));
+        let e = merge_records(&[Some(&a0), Some(&a2)], false).unwrap_err();
+        assert!(e.contains("1 of its 3 shards are missing: 1 "), "{e}");
+        assert_eq!(
+            merge_records(&[Some(&a0), Some(&a2)], true).unwrap(),
+            Some(rec("a", 3, &[0, 2]))
+        );
+        let e = merge_records(&[Some(&a0), Some(&a0), Some(&a1), Some(&a2)], false).unwrap_err();
+        assert!(e.contains("shard 0 of 3 is given twice"), "{e}");
+        let b = rec("b", 4, &[0, 1, 2, 3]);
+        assert_eq!(
+            merge_records(&[Some(&all.clone().unwrap()), Some(&b)], false),
+            Ok(None)
+        );
+        assert_eq!(merge_records(&[Some(&b), None], false), Ok(None));
+        let e = merge_records(&[Some(&a0), Some(&rec("a", 4, &[1]))], true).unwrap_err();
+        assert!(e.contains("bundles of 3 and of 4 shards"), "{e}");
+    }
+}

@@ -1,0 +1,316 @@
+//! Shards of one render job (`render --shard`) and their merge: the shards split the
+//! job's spp and seeds, the scheduler's index variables work, merge streams in bounded
+//! memory to the same bits whatever the order or band size, and refuses a job with
+//! shards missing, repeated or mixed with another job's.
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+fn tstat(args: &[&str], env: &[(&str, &str)]) -> Output {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_tstat"));
+    c.args(args)
+        .env_remove("SLURM_ARRAY_TASK_ID")
+        .env_remove("JOB_COMPLETION_INDEX");
+    for (k, v) in env {
+        c.env(k, v);
+    }
+    c.output().unwrap()
+}
+
+fn ok(r: &Output) -> String {
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    String::from_utf8_lossy(&r.stderr).into_owned()
+}
+
+fn fails(r: &Output, needle: &str) {
+    let e = String::from_utf8_lossy(&r.stderr);
+    assert!(!r.status.success(), "expected a failure naming {needle:?}");
+    assert!(e.contains(needle), "expected {needle:?} in: {e}");
+    assert!(!e.contains("panicked"), "{e}");
+}
+
+fn cbox() -> String {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("scenes/cbox.xml")
+        .display()
+        .to_string()
+}
+
+const FILM: &[&str] = &["--width", "12", "--bins", "24"];
+
+fn render(out: &str, extra: &[&str], env: &[(&str, &str)]) -> Output {
+    let sc = cbox();
+    let mut args = vec!["render", sc.as_str(), "--out", out];
+    args.extend_from_slice(FILM);
+    // spp 8 and seed 5 unless `extra` says otherwise.
+    for (flag, default) in [("--spp", "8"), ("--seed", "5")] {
+        if !extra.contains(&flag) {
+            args.extend_from_slice(&[flag, default]);
+        }
+    }
+    args.extend_from_slice(extra);
+    tstat(&args, env)
+}
+
+fn manifest(dir: &Path) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(dir.join("manifest.json")).unwrap()).unwrap()
+}
+
+/// Every array file of a bundle, bytes (the manifest aside: it holds times).
+fn arrays(dir: &Path) -> Vec<(String, Vec<u8>)> {
+    let mut v: Vec<_> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "npy"))
+        .map(|p| {
+            (
+                p.file_name().unwrap().to_string_lossy().into_owned(),
+                std::fs::read(&p).unwrap(),
+            )
+        })
+        .collect();
+    v.sort();
+    v
+}
+
+#[test]
+fn shards_render_their_share_and_merge_to_the_same_bits_in_any_order() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = |n: &str| dir.path().join(n).display().to_string();
+    for i in 0..4 {
+        ok(&render(
+            &p(&format!("s{i}.tstats")),
+            &["--shard", &format!("{i}/4")],
+            &[],
+        ));
+    }
+    let m: Vec<_> = (0..4)
+        .map(|i| manifest(&dir.path().join(format!("s{i}.tstats"))))
+        .collect();
+    let job = m[0]["shard"]["job"].as_str().unwrap().to_string();
+    let mut seeds = std::collections::BTreeSet::new();
+    for (i, mi) in m.iter().enumerate() {
+        assert_eq!(mi["spp"], 2, "each shard renders 8 / 4 spp");
+        assert_eq!(mi["shard"]["job"], job.as_str(), "one job");
+        assert_eq!(mi["shard"]["count"], 4);
+        assert_eq!(mi["shard"]["indices"], serde_json::json!([i]));
+        seeds.insert(mi["seed"].as_u64().unwrap());
+    }
+    assert_eq!(seeds.len(), 4, "every shard has its own seed");
+    // Rendering shard 2 again gives the same bits (and the same job).
+    ok(&render(&p("again.tstats"), &["--shard", "2/4"], &[]));
+    assert_eq!(
+        arrays(&dir.path().join("again.tstats")),
+        arrays(&dir.path().join("s2.tstats"))
+    );
+    assert_eq!(
+        manifest(&dir.path().join("again.tstats"))["shard"]["job"],
+        job.as_str()
+    );
+
+    // Merge in two orders, and with one-row bands: the same bits.
+    let merge = |order: [usize; 4], out: &str, extra: &[&str]| {
+        let names: Vec<String> = order.iter().map(|i| p(&format!("s{i}.tstats"))).collect();
+        let mut args: Vec<&str> = vec!["merge"];
+        args.extend(names.iter().map(String::as_str));
+        let o = p(out);
+        args.extend_from_slice(&["--out", &o]);
+        args.extend_from_slice(extra);
+        tstat(&args, &[])
+    };
+    ok(&merge([0, 1, 2, 3], "m1.tstats", &[]));
+    ok(&merge([3, 1, 0, 2], "m2.tstats", &[]));
+    ok(&merge([2, 0, 3, 1], "m3.tstats", &["--max-memory", "1"]));
+    let a = arrays(&dir.path().join("m1.tstats"));
+    assert_eq!(a, arrays(&dir.path().join("m2.tstats")));
+    assert_eq!(a, arrays(&dir.path().join("m3.tstats")));
+    let mm = manifest(&dir.path().join("m1.tstats"));
+    assert_eq!(mm["spp"], 8);
+    assert_eq!(mm["shard"]["indices"], serde_json::json!([0, 1, 2, 3]));
+    // The merged sums are the shards' sums (in the canonical order, exactly).
+    let x1 = |d: &str| -> ndarray::ArrayD<f64> {
+        ndarray_npy::read_npy(dir.path().join(d).join("x1.npy")).unwrap()
+    };
+    let mut order: Vec<usize> = (0..4).collect();
+    order.sort_by_key(|&i| m[i]["seed"].as_u64().unwrap());
+    let mut sum = x1(&format!("s{}.tstats", order[0]));
+    for &i in &order[1..] {
+        sum = sum + x1(&format!("s{i}.tstats"));
+    }
+    assert_eq!(x1("m1.tstats"), sum);
+    // The merged job is a bundle like any other: it denoises.
+    ok(&tstat(
+        &["denoise", &p("m1.tstats"), "--out", &p("m1.npy")],
+        &[],
+    ));
+
+    // Missing, repeated, and another job's shards.
+    let three = |a: &str, b: &str, c: &str, extra: &[&str]| {
+        let (a, b, c, o) = (p(a), p(b), p(c), p("bad.tstats"));
+        let mut args = vec![
+            "merge",
+            a.as_str(),
+            b.as_str(),
+            c.as_str(),
+            "--out",
+            o.as_str(),
+        ];
+        args.extend_from_slice(extra);
+        tstat(&args, &[])
+    };
+    fails(
+        &three("s0.tstats", "s1.tstats", "s3.tstats", &[]),
+        "1 of its 4 shards are missing: 2 (render them, or merge with --partial)",
+    );
+    assert!(!dir.path().join("bad.tstats").exists());
+    ok(&three(
+        "s0.tstats",
+        "s1.tstats",
+        "s3.tstats",
+        &["--partial"],
+    ));
+    assert_eq!(
+        manifest(&dir.path().join("bad.tstats"))["shard"]["indices"],
+        serde_json::json!([0, 1, 3])
+    );
+    fails(
+        &three(
+            "s0.tstats",
+            "s2.tstats",
+            "again.tstats",
+            &["--partial", "--force"],
+        ),
+        "shard 2 of 4 is given twice",
+    );
+    // A partial merge and the missing shard complete the job.
+    let (b, s2, full) = (p("bad.tstats"), p("s2.tstats"), p("full.tstats"));
+    ok(&tstat(&["merge", &b, &s2, "--out", &full], &[]));
+    assert_eq!(
+        manifest(&dir.path().join("full.tstats"))["shard"]["indices"],
+        serde_json::json!([0, 1, 2, 3])
+    );
+    // Shard 1 of a job with another seed is another job.
+    ok(&render(
+        &p("other1.tstats"),
+        &["--shard", "1/4", "--seed", "6"],
+        &[],
+    ));
+    let other = manifest(&dir.path().join("other1.tstats"));
+    assert_ne!(other["shard"]["job"], job.as_str());
+    fails(
+        &three("s0.tstats", "other1.tstats", "s2.tstats", &["--force"]),
+        "shards are missing",
+    );
+}
+
+#[test]
+fn the_scheduler_gives_the_index() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = |n: &str| dir.path().join(n).display().to_string();
+    let pattern = p("shard-{shard}.tstats");
+    ok(&render(
+        &pattern,
+        &["--shard", "auto/4"],
+        &[("SLURM_ARRAY_TASK_ID", "2")],
+    ));
+    ok(&render(
+        &pattern,
+        &["--shard", "auto/4"],
+        &[("JOB_COMPLETION_INDEX", "3")],
+    ));
+    ok(&render(&p("explicit.tstats"), &["--shard", "2/4"], &[]));
+    assert_eq!(
+        arrays(&dir.path().join("shard-2.tstats")),
+        arrays(&dir.path().join("explicit.tstats"))
+    );
+    assert_eq!(
+        manifest(&dir.path().join("shard-3.tstats"))["shard"]["indices"],
+        serde_json::json!([3])
+    );
+    // Two digits for 16 shards.
+    ok(&render(
+        &pattern,
+        &["--shard", "auto/16", "--spp", "32"],
+        &[("SLURM_ARRAY_TASK_ID", "7"), ("JOB_COMPLETION_INDEX", "1")],
+    ));
+    assert!(dir.path().join("shard-07.tstats").is_dir());
+    fails(
+        &render(
+            &p("x.tstats"),
+            &["--shard", "auto/4"],
+            &[("SLURM_ARRAY_TASK_ID", "1")],
+        ),
+        "put {shard} in the path",
+    );
+    fails(
+        &render(&pattern, &["--shard", "auto/4"], &[]),
+        "neither SLURM_ARRAY_TASK_ID nor JOB_COMPLETION_INDEX is set",
+    );
+    fails(
+        &render(
+            &pattern,
+            &["--shard", "auto/4"],
+            &[("SLURM_ARRAY_TASK_ID", "4")],
+        ),
+        "index 4 (SLURM_ARRAY_TASK_ID) is not below the number of shards 4",
+    );
+    fails(
+        &render(&p("y.tstats"), &["--shard", "4/4"], &[]),
+        "is not below",
+    );
+    fails(
+        &render(&p("y.tstats"), &["--shard", "1/3"], &[]),
+        "the job's spp 8 is not a multiple of the number of shards 3",
+    );
+    fails(
+        &render(&p("y.tstats"), &["--shard", "1/8"], &[]),
+        "leaves 1 per shard",
+    );
+    fails(
+        &render(
+            &p("y.tstats"),
+            &["--shard", "1/2", "--replicates", "2"],
+            &[],
+        ),
+        "--replicates 2 over 2 shards leaves 1 per shard",
+    );
+    fails(
+        &render(&p("y.tstats"), &["--shard", "two/4"], &[]),
+        "expected I/N or auto/N",
+    );
+    assert!(!dir.path().join("y.tstats").exists());
+}
+
+/// With replicates, each shard renders B / N of them and the merge adds them back.
+#[test]
+fn replicates_split_over_shards_and_add_back() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = |n: &str| dir.path().join(n).display().to_string();
+    for i in 0..2 {
+        ok(&render(
+            &p(&format!("r{i}.tstats")),
+            &["--shard", &format!("{i}/2"), "--replicates", "4"],
+            &[],
+        ));
+        let m = manifest(&dir.path().join(format!("r{i}.tstats")));
+        assert_eq!(
+            (m["spp"].as_u64(), m["replicates"].as_u64()),
+            (Some(4), Some(2))
+        );
+    }
+    ok(&tstat(
+        &[
+            "merge",
+            &p("r0.tstats"),
+            &p("r1.tstats"),
+            "--out",
+            &p("r.tstats"),
+        ],
+        &[],
+    ));
+    let m = manifest(&dir.path().join("r.tstats"));
+    assert_eq!(
+        (m["spp"].as_u64(), m["replicates"].as_u64()),
+        (Some(8), Some(4))
+    );
+}
