@@ -82,7 +82,7 @@ impl Shard {
 
     /// The shard's share of the job's `total` (spp or replicates); N must divide it.
     pub fn share(&self, total: u64, what: &str) -> Result<u64, String> {
-        if total % self.count != 0 {
+        if !total.is_multiple_of(self.count) {
             return Err(format!(
                 "{what} {total} is not a multiple of the number of shards {}: every shard renders an equal share",
                 self.count
