@@ -9,6 +9,7 @@ macro_rules! say {
 }
 
 mod check;
+mod cluster;
 mod denoise;
 mod export;
 mod frames;
@@ -52,6 +53,8 @@ pub enum Command {
     Info(info::InfoArgs),
     /// List every unsupported feature of Mitsuba scenes (file:line), or "ok".
     Check(check::CheckArgs),
+    /// Recipes that run one render's shards on Slurm or Kubernetes, then merge them.
+    Cluster(cluster::ClusterArgs),
 }
 
 pub fn run(cli: Cli) -> anyhow::Result<()> {
@@ -59,6 +62,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Run(a) => run::run(a),
         Command::Render(a) => render::run(a),
         Command::Check(a) => check::run(a),
+        Command::Cluster(a) => cluster::run(a),
         Command::Denoise(a) => denoise::run(a),
         Command::Export(a) => export::run(a),
         Command::Frames(a) => frames::run(a),
