@@ -441,6 +441,28 @@ fn cases() -> Vec<Case> {
             want: &["manifest.json", "not a SHA-256"],
         },
         Case {
+            name: "shard index not below the shard count",
+            make: |_, b| {
+                edit_manifest(b, |v| {
+                    v["shard"] = serde_json::json!({"job": "0123456789abcdef", "count": 4, "indices": [1, 4]})
+                })
+            },
+            bundle: true,
+            cmds: BUNDLE,
+            want: &["manifest.json", "increasing indices below count"],
+        },
+        Case {
+            name: "shard job that is not a job identity",
+            make: |_, b| {
+                edit_manifest(b, |v| {
+                    v["shard"] = serde_json::json!({"job": "x\u{1b}[2J", "count": 4, "indices": [1]})
+                })
+            },
+            bundle: true,
+            cmds: BUNDLE,
+            want: &["manifest.json"],
+        },
+        Case {
             name: "merged seeds listed twice",
             make: |_, b| edit_manifest(b, |v| v["merged_seeds"] = serde_json::json!([0, 3, 3])),
             bundle: true,

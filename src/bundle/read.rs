@@ -190,6 +190,21 @@ pub fn validate(m: &Manifest) -> Result<(), String> {
             m.merged_seeds[i]
         ));
     }
+    if let Some(s) = &m.shard {
+        let hex = s.job.len() == 16 && s.job.bytes().all(|b| b.is_ascii_hexdigit());
+        let ordered = s.indices.windows(2).all(|w| w[0] < w[1]);
+        if !hex
+            || s.count == 0
+            || s.indices.is_empty()
+            || !ordered
+            || s.indices.iter().any(|&i| i >= s.count)
+        {
+            return Err(format!(
+                "shard {{job {:?}, count {}, indices {:?}}}: expected a 16-digit hexadecimal job and increasing indices below count",
+                s.job, s.count, s.indices
+            ));
+        }
+    }
     Ok(())
 }
 
