@@ -443,9 +443,10 @@ fn cases() -> Vec<Case> {
         Case {
             name: "shard index not below the shard count",
             make: |_, b| {
-                edit_manifest(b, |v| {
-                    v["shard"] = serde_json::json!({"job": "0123456789abcdef", "count": 4, "indices": [1, 4]})
-                })
+                edit_manifest(
+                    b,
+                    |v| v["shard"] = serde_json::json!({"job": "0123456789abcdef", "count": 4, "indices": [1, 4]}),
+                )
             },
             bundle: true,
             cmds: BUNDLE,
@@ -455,7 +456,8 @@ fn cases() -> Vec<Case> {
             name: "shard job that is not a job identity",
             make: |_, b| {
                 edit_manifest(b, |v| {
-                    v["shard"] = serde_json::json!({"job": "x\u{1b}[2J", "count": 4, "indices": [1]})
+                    v["shard"] =
+                        serde_json::json!({"job": "x\u{1b}[2J", "count": 4, "indices": [1]})
                 })
             },
             bundle: true,

@@ -138,6 +138,13 @@ fn shards_render_their_share_and_merge_to_the_same_bits_in_any_order() {
         sum = sum + x1(&format!("s{i}.tstats"));
     }
     assert_eq!(x1("m1.tstats"), sum);
+    let info = tstat(&["info", &p("m1.tstats")], &[]);
+    assert!(
+        String::from_utf8_lossy(&info.stdout)
+            .contains(&format!("job         {job} (all 4 shards)")),
+        "{}",
+        String::from_utf8_lossy(&info.stdout)
+    );
     // The merged job is a bundle like any other: it denoises.
     ok(&tstat(
         &["denoise", &p("m1.tstats"), "--out", &p("m1.npy")],
@@ -312,5 +319,169 @@ fn replicates_split_over_shards_and_add_back() {
     assert_eq!(
         (m["spp"].as_u64(), m["replicates"].as_u64()),
         (Some(8), Some(4))
+    );
+}
+
+/// `tstat cluster slurm` writes scripts that work: run here by bash with the variables
+/// Slurm would set, they render every shard and merge them into the job's bundle, the
+/// same bytes as a local render and merge of the same shards. Bad options are refused
+/// before anything is written.
+#[test]
+fn slurm_recipes_run_as_slurm_would_run_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path().join("job");
+    let ds = d.display().to_string();
+    let sc = cbox();
+    let opts = [
+        "--", "--spp", "8", "--width", "12", "--bins", "24", "--seed", "5",
+    ];
+    let cluster = |extra: &[&str], opts: &[&str]| {
+        let mut a = vec![
+            "cluster",
+            "slurm",
+            sc.as_str(),
+            "--shards",
+            "4",
+            "--out",
+            ds.as_str(),
+            "--cpus",
+            "1",
+            "--denoise",
+        ];
+        a.extend_from_slice(extra);
+        a.extend_from_slice(opts);
+        tstat(&a, &[])
+    };
+    fails(
+        &cluster(&[], &["--", "--spp", "6"]),
+        "the job's spp 6 is not a multiple of the number of shards 4",
+    );
+    fails(
+        &cluster(&[], &["--", "--out", "x"]),
+        "--out among the render options",
+    );
+    fails(
+        &cluster(&[], &["--", "--spp", "8", "--wat"]),
+        "do not parse as tstat render's",
+    );
+    fails(
+        &cluster(&["--time", "2h"], &opts),
+        "expected a Slurm time limit",
+    );
+    assert!(!d.exists(), "nothing written on refusal");
+    ok(&cluster(&[], &opts));
+    fails(&cluster(&[], &opts), "render.sbatch: already exists");
+    ok(&cluster(&["--force"], &opts));
+    let script = std::fs::read_to_string(d.join("render.sbatch")).unwrap();
+    assert!(
+        script.contains("#SBATCH --array=0-3\n") && script.contains("--shard auto/4"),
+        "{script}"
+    );
+    if Command::new("bash").arg("--version").output().is_err() {
+        return; // no bash to run the scripts with
+    }
+    for i in 0..4 {
+        let r = Command::new("bash")
+            .arg(d.join("render.sbatch"))
+            .env("SLURM_ARRAY_TASK_ID", i.to_string())
+            .env("SLURM_CPUS_PER_TASK", "1")
+            .env("PATH", std::env::var("PATH").unwrap_or_default())
+            .output()
+            .unwrap();
+        ok(&r);
+    }
+    ok(&Command::new("bash")
+        .arg(d.join("merge.sbatch"))
+        .output()
+        .unwrap());
+    assert!(d.join("denoised.npy").is_file());
+    let merged = manifest(&d.join("merged.tstats"));
+    assert_eq!(merged["shard"]["indices"], serde_json::json!([0, 1, 2, 3]));
+    // The same shards rendered and merged by hand.
+    let p = |n: &str| dir.path().join(n).display().to_string();
+    for i in 0..4 {
+        ok(&render(
+            &p(&format!("l{i}.tstats")),
+            &["--shard", &format!("{i}/4"), "--threads", "2"],
+            &[],
+        ));
+    }
+    ok(&tstat(
+        &[
+            "merge",
+            &p("l2.tstats"),
+            &p("l0.tstats"),
+            &p("l3.tstats"),
+            &p("l1.tstats"),
+            "--out",
+            &p("local.tstats"),
+        ],
+        &[],
+    ));
+    assert_eq!(
+        arrays(&d.join("merged.tstats")),
+        arrays(&dir.path().join("local.tstats"))
+    );
+}
+
+/// `tstat cluster k8s` writes an indexed Job whose pods see the scene and the output
+/// through the claim, and refuses paths outside the mount.
+#[test]
+fn k8s_recipes_are_indexed_jobs_on_the_shared_volume() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path().join("job");
+    let ds = d.display().to_string();
+    let root = env!("CARGO_MANIFEST_DIR");
+    let sc = cbox();
+    let k8s = |mount: &str| {
+        tstat(
+            &[
+                "cluster",
+                "k8s",
+                &sc,
+                "--shards",
+                "2",
+                "--out",
+                &ds,
+                "--image",
+                "reg/tstat:1",
+                "--claim",
+                "data",
+                "--mount",
+                mount,
+                "--",
+                "--spp",
+                "4",
+            ],
+            &[],
+        )
+    };
+    fails(
+        &k8s("/nowhere"),
+        "is not under the volume's mount point /nowhere",
+    );
+    fails(&k8s("relative"), "an absolute path inside the pods");
+    // Both the scene and DIR must be under the mount: use their common ancestor.
+    let common = Path::new(root)
+        .ancestors()
+        .find(|a| d.starts_with(a))
+        .unwrap()
+        .display()
+        .to_string();
+    ok(&k8s(&common));
+    let job: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(d.join("render-job.json")).unwrap()).unwrap();
+    assert_eq!(job["spec"]["completionMode"], "Indexed");
+    assert_eq!(job["spec"]["completions"], 2);
+    let cmd = &job["spec"]["template"]["spec"]["containers"][0]["command"];
+    assert_eq!(cmd[1], "render");
+    assert_eq!(cmd[4], "auto/2");
+    let merge: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(d.join("merge-job.json")).unwrap()).unwrap();
+    assert!(
+        merge["spec"]["template"]["spec"]["containers"][0]["command"][2]
+            .as_str()
+            .unwrap()
+            .contains(" merge ")
     );
 }

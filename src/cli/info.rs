@@ -46,6 +46,16 @@ pub fn run(a: InfoArgs) -> anyhow::Result<()> {
     if !m.merged_seeds.is_empty() {
         say!("merged      from renders with seeds {:?}", m.merged_seeds);
     }
+    if let Some(s) = &m.shard {
+        let held = if s.indices.len() as u64 == s.count {
+            format!("all {} shards", s.count)
+        } else if s.indices.len() == 1 {
+            format!("shard {} of {}", s.indices[0], s.count)
+        } else {
+            format!("shards {:?} of {}", s.indices, s.count)
+        };
+        say!("job         {} ({held})", s.job);
+    }
     say!("transform   {}", m.transform);
     say!(
         "pixels      {} sub-pixel sampling{}",
