@@ -204,16 +204,19 @@ fn reference(cfg: &ConvergenceConfig, dir: &Path, log: &dyn Fn(&str)) -> Result<
         }
         ReferenceSource::Render { spp } => {
             let scene = load_scene(cfg, *spp)?;
+            // Everything the image depends on (scene, files it read, overrides, camera,
+            // program) and how the reference is rendered.
             let mut h = Sha256::new();
-            h.update(scene.sha256.as_bytes());
             h.update(
                 format!(
-                    "{:?}|{:?}|{}|{}|{}",
-                    scene.film, scene.integrator, spp, cfg.seed, cfg.pixel_sampling
+                    "{}|{}|{}|{}",
+                    scene.fingerprint(),
+                    spp,
+                    cfg.seed,
+                    cfg.pixel_sampling
                 )
                 .as_bytes(),
             );
-            hash_loaded_scene(&mut h, &scene, &cfg.overrides);
             let key = format!("{:x}", h.finalize());
             let key = &key[..16];
             let vol_path = dir.join(format!("reference-{key}.npy"));
@@ -446,116 +449,4 @@ fn write_npy_atomic<A: ndarray_npy::WritableElement, D: ndarray::Dimension>(
             .map_err(|e| crate::bundle::BundleError::Io(path.to_path_buf(), e.to_string()))
     })
     .map_err(|e| e.to_string())
-}
-
-/// Feeds what was loaded into the cache key: `-D` overrides and the files a scene reads
-/// (meshes) change the scene without changing its XML.
-fn hash_loaded_scene(h: &mut Sha256, scene: &Scene, overrides: &Overrides) {
-    use crate::geometry::shape::ShapeGeom;
-    use crate::lights::Emitter;
-    let f32s = |h: &mut Sha256, v: &[f32]| {
-        for x in v {
-            h.update(x.to_le_bytes());
-        }
-    };
-    let mut defaults = overrides.defaults.clone();
-    defaults.sort();
-    h.update(format!("{defaults:?}|{:?}", scene.bsdfs).as_bytes());
-    for shape in &scene.shapes {
-        h.update(
-            format!(
-                "{}|{}|{}|{:?}",
-                shape.name, shape.flip_normals, shape.bsdf, shape.emitter
-            )
-            .as_bytes(),
-        );
-        match &shape.geom {
-            ShapeGeom::Mesh {
-                positions,
-                triangles,
-                attributes,
-                ..
-            } => {
-                if let Some(a) = attributes {
-                    h.update(format!("{a:?}").as_bytes());
-                }
-                for p in positions {
-                    f32s(h, &p.to_array());
-                }
-                for t in triangles {
-                    for i in t {
-                        h.update(i.to_le_bytes());
-                    }
-                }
-            }
-            ShapeGeom::Sphere(s, _) => f32s(h, &[s.center.x, s.center.y, s.center.z, s.radius]),
-            ShapeGeom::Disk(g) => {
-                f32s(h, &g.m.to_cols_array());
-                f32s(h, &g.c.to_array());
-            }
-            ShapeGeom::Cylinder(g) => {
-                f32s(h, &g.m.to_cols_array());
-                f32s(h, &g.c.to_array());
-            }
-            ShapeGeom::Curve(g) => {
-                h.update(g.kind.name().as_bytes());
-                for p in &g.points {
-                    f32s(h, &p.to_array());
-                }
-                for &s in &g.segments {
-                    h.update(s.to_le_bytes());
-                }
-            }
-            ShapeGeom::Sdf(g) => {
-                h.update(format!("{:?}|{}", g.grid.res, g.smooth).as_bytes());
-                f32s(h, &g.to_world.as_mat4().to_cols_array());
-                f32s(h, &g.grid.values);
-            }
-        }
-    }
-    for e in &scene.emitters {
-        match e {
-            Emitter::Area { radiance, .. } => f32s(h, &radiance.to_array()),
-            Emitter::Point {
-                position,
-                intensity,
-                spot,
-            } => {
-                f32s(h, &position.to_array());
-                f32s(h, &intensity.to_array());
-                if let Some(s) = spot {
-                    f32s(h, &[s.axis.x, s.axis.y, s.axis.z, s.cutoff, s.beam_width]);
-                }
-            }
-            Emitter::AngularArea {
-                radiance, falloff, ..
-            } => {
-                f32s(h, &radiance.to_array());
-                f32s(h, &[falloff.cutoff, falloff.beam_width]);
-            }
-            // Its texture's texels are in its Debug text.
-            Emitter::Projector(p) => h.update(format!("{p:?}").as_bytes()),
-            Emitter::TexturedArea(t) => {
-                h.update(format!("textured area {}|{:?}", t.shape, t.radiance).as_bytes())
-            }
-            Emitter::TexturedSpot(t) => h.update(format!("{t:?}").as_bytes()),
-            Emitter::Envmap { map, .. } => {
-                h.update(b"envmap");
-                f32s(h, &map.key_values().collect::<Vec<_>>());
-            }
-            Emitter::Constant { radiance, .. } => {
-                h.update(b"constant");
-                f32s(h, &radiance.to_array());
-            }
-            Emitter::Directional {
-                direction,
-                irradiance,
-                ..
-            } => {
-                h.update(b"directional");
-                f32s(h, &direction.to_array());
-                f32s(h, &irradiance.to_array());
-            }
-        }
-    }
 }

@@ -8,6 +8,7 @@ pub mod check;
 pub mod curves;
 pub mod error;
 pub mod film;
+mod fingerprint;
 pub mod infinite_emitters;
 pub mod instance;
 pub mod limits;
