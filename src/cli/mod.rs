@@ -19,6 +19,7 @@ mod render;
 mod report;
 mod run;
 pub mod util;
+mod view;
 
 use clap::{Parser, Subcommand};
 
@@ -55,6 +56,9 @@ pub enum Command {
     Check(check::CheckArgs),
     /// Recipes that run one render's shards on Slurm or Kubernetes, then merge them.
     Cluster(cluster::ClusterArgs),
+    /// One self-contained HTML page to look at a volume: time slider, side-by-side
+    /// volumes, a pixel's transient with its confidence band.
+    View(view::ViewArgs),
 }
 
 pub fn run(cli: Cli) -> anyhow::Result<()> {
@@ -63,6 +67,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Render(a) => render::run(a),
         Command::Check(a) => check::run(a),
         Command::Cluster(a) => cluster::run(a),
+        Command::View(a) => view::run(a),
         Command::Denoise(a) => denoise::run(a),
         Command::Export(a) => export::run(a),
         Command::Frames(a) => frames::run(a),
