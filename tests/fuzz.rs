@@ -6,7 +6,7 @@
 //!
 //! CI runs 1000-3000 cases per target (9500 in all, well under a minute); a developer runs more
 //! with `TSTAT_FUZZ_CASES=20000 TSTAT_FUZZ_SEED=$RANDOM cargo test --release --test fuzz`
-//! (README, "Fuzzing"); CI's seed is fixed so its runs are reproducible.
+//! (docs/hostile-input.md, "Fuzzing"); CI's seed is fixed so its runs are reproducible.
 
 use proptest::prelude::*;
 use proptest::test_runner::{Config, RngAlgorithm, TestCaseError, TestRng, TestRunner};

@@ -238,7 +238,7 @@ fn run_gives_a_new_user_everything_in_one_command() {
         ["noisy", "0", "0", "inf", "0", "0", "inf", "0", "0", "inf"]
     );
     // The denoised volume differs from the noisy one off the light; on a stratified
-    // render the light pixels have no neighbours by default (see the README), so there
+    // render the light pixels have no neighbours by default (see docs/commands.md), so there
     // it equals the noisy mean.
     let v = |k: usize| -> f64 { cells[2][k].parse().unwrap_or_else(|_| panic!("{csv}")) };
     assert!(v(1) > 0.0 && v(7) > 0.0 && v(4) == 0.0, "{csv}");

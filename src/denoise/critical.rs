@@ -28,7 +28,7 @@ pub enum Threshold {
 /// 100 bins of 0.06 OPL, r = 5, r_t = 1, three seeds, 8192-spp references): with few
 /// samples the variance estimates are too uncertain for a permissive test, and bright
 /// single-path outliers (e.g. a light's edge) leak into truly dark neighbours; the
-/// best gamma falls from 0.25 at 8 spp to 0.1 at 64 spp and above (README, "Choosing
+/// best gamma falls from 0.25 at 8 spp to 0.1 at 64 spp and above (docs/denoiser.md, "Choosing
 /// the denoiser's defaults").
 pub fn auto_gamma(spp: u64) -> f64 {
     match spp {

@@ -46,7 +46,7 @@ use rayon::prelude::*;
 use std::path::{Path, PathBuf};
 
 /// The default memory budget of `tstat denoise` (`--max-memory`): 1 GB. Slabs cost
-/// no measurable time (see the README), so the default is small.
+/// no measurable time (see docs/commands.md), so the default is small.
 pub const DEFAULT_BUDGET: u64 = 1_000_000_000;
 
 /// Target bytes of one sum array's chunk: reads of a few MB run at disk speed.

@@ -4,8 +4,8 @@
 //! and never ask for uv.
 //!
 //! Every colour or float parameter that Mitsuba 3 reads as a texture accepts one here
-//! (the [`Param`]s below; which model has which is in each model's file and in the
-//! README). A binding names the parameter and the path to the model that owns it
+//! (the [`Param`]s below; which model has which is in each model's file and in
+//! docs/scenes.md). A binding names the parameter and the path to the model that owns it
 //! (through `twosided`'s sides and `mask`'s nested BSDF).
 //!
 //! Values read from a texture are kept physical at the hit: colours are clamped to be

@@ -50,7 +50,7 @@
 //! *at most* the i.i.d. one for the integrands that matter here (edges, smooth
 //! regions); `V` therefore over-estimates it. The Welch membership test then sees
 //! larger variances than the truth: it rejects fewer neighbours, i.e. it is more
-//! permissive (more averaging) than calibrated, never stricter. The README gives the
+//! permissive (more averaging) than calibrated, never stricter. docs/commands.md gives the
 //! measured effect on the final error.
 
 use crate::math::rng::{mix64, Pcg32};
