@@ -885,6 +885,34 @@ fn replicates_render_merge_and_refuse_mismatches() {
     assert_eq!(load("m.tstats"), load("a.tstats") + load("b.tstats"));
     let r = tstat(&["denoise", &p("m.tstats"), "--out", &p("m.npy")]);
     assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    // Extreme thresholds on replicate estimates (per-pair critical values at levels
+    // that round to 0 or 1) denoise to finite volumes, never a panic.
+    for extra in [
+        &["--t2-max", "2000"][..],
+        &["--t2-max", "1e-40"],
+        &["--method", "published", "--alpha", "1e-17"],
+        &["--method", "published", "--alpha", "0.999999999999"],
+    ] {
+        let mut args = vec![
+            "denoise",
+            &p("m.tstats") as &str,
+            "--out",
+            &p("x.npy") as &str,
+            "--force",
+        ]
+        .into_iter()
+        .map(String::from)
+        .collect::<Vec<_>>();
+        args.extend(extra.iter().map(|s| s.to_string()));
+        let r = tstat(&args.iter().map(String::as_str).collect::<Vec<_>>());
+        assert!(
+            r.status.success(),
+            "{extra:?}: {}",
+            String::from_utf8_lossy(&r.stderr)
+        );
+        let v: ndarray::ArrayD<f32> = ndarray_npy::read_npy(c.dir.path().join("x.npy")).unwrap();
+        assert!(v.iter().all(|x| x.is_finite()), "{extra:?}");
+    }
     for other in ["c.tstats", "d.tstats"] {
         let r = tstat(&["merge", &p("a.tstats"), &p(other), "--out", &p("x.tstats")]);
         assert!(!r.status.success());

@@ -184,6 +184,8 @@ fn reference(vol: &Volume, p: &FilterParams, tp: &TstatParams) -> (Vec<f64>, u64
                 } else {
                     f32::INFINITY
                 };
+            // inf * 0 (an infinite critical value against V = 0, d != 0) fails.
+            let q = if q.is_nan() { f32::INFINITY } else { q };
             m = m.max(q);
         }
         m

@@ -368,9 +368,64 @@ fn slurm_recipes_run_as_slurm_would_run_them() {
         &cluster(&["--time", "2h"], &opts),
         "expected a Slurm time limit",
     );
+    fails(
+        &cluster(&[], &["--", "--spp", "8", "--unit-m", "0"]),
+        "--unit-m",
+    );
+    fails(
+        &cluster(&[], &["--", "--spp", "8", "--max-memory", "lots"]),
+        "--max-memory",
+    );
+    fails(
+        &cluster(&["--merge-mem", "70Mi"], &opts),
+        "per-pixel images",
+    );
     assert!(!d.exists(), "nothing written on refusal");
+    let spaced = dir.path().join("run 1").display().to_string();
+    fails(
+        &tstat(
+            &[
+                "cluster",
+                "slurm",
+                sc.as_str(),
+                "--shards",
+                "4",
+                "--out",
+                &spaced,
+                "--",
+                "--spp",
+                "8",
+            ],
+            &[],
+        ),
+        "Slurm directive lines take no spaces",
+    );
     ok(&cluster(&[], &opts));
     fails(&cluster(&[], &opts), "render.sbatch: already exists");
+    // A relative search folder becomes absolute: the tasks run in another folder.
+    let repo = env!("CARGO_MANIFEST_DIR");
+    let r = Command::new(env!("CARGO_BIN_EXE_tstat"))
+        .current_dir(repo)
+        .args([
+            "cluster",
+            "slurm",
+            sc.as_str(),
+            "--shards",
+            "4",
+            "--out",
+            ds.as_str(),
+            "--cpus",
+            "1",
+            "--denoise",
+            "--force",
+        ])
+        .args(opts)
+        .args(["-a", "scenes"])
+        .output()
+        .unwrap();
+    ok(&r);
+    let script = std::fs::read_to_string(d.join("render.sbatch")).unwrap();
+    assert!(script.contains(&format!(" -a {repo}/scenes")), "{script}");
     ok(&cluster(&["--force"], &opts));
     let script = std::fs::read_to_string(d.join("render.sbatch")).unwrap();
     assert!(
@@ -461,6 +516,40 @@ fn k8s_recipes_are_indexed_jobs_on_the_shared_volume() {
         "is not under the volume's mount point /nowhere",
     );
     fails(&k8s("relative"), "an absolute path inside the pods");
+    // `..` cannot lead out of the mount.
+    let mount = dir.path().display().to_string();
+    let inside = dir.path().join("cbox.xml");
+    std::fs::copy(&sc, &inside).unwrap();
+    let sneaky = format!("{mount}/../x");
+    let r = tstat(
+        &[
+            "cluster",
+            "k8s",
+            inside.to_str().unwrap(),
+            "--shards",
+            "2",
+            "--out",
+            &sneaky,
+            "--image",
+            "i",
+            "--claim",
+            "c",
+            "--mount",
+            &mount,
+            "--",
+            "--spp",
+            "4",
+        ],
+        &[],
+    );
+    let outside = dir.path().parent().unwrap().join("x");
+    fails(
+        &r,
+        &format!(
+            "--out {} is not under the volume's mount point",
+            outside.display()
+        ),
+    );
     // Both the scene and DIR must be under the mount: use their common ancestor.
     let common = Path::new(root)
         .ancestors()

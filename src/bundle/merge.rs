@@ -253,8 +253,15 @@ pub fn merge_bundles(
         .fold(first.pixel_sampling, |a, b| a.merged(b));
     manifest.merged_seeds = all_seeds;
     manifest.shard = shard;
-    manifest.render_seconds = bundles.iter().map(|b| b.manifest.render_seconds).sum();
-    manifest.dropped_nonfinite = bundles.iter().map(|b| b.manifest.dropped_nonfinite).sum();
+    // Saturating: a merged manifest must stay readable (finite, in range).
+    manifest.render_seconds = bundles
+        .iter()
+        .map(|b| b.manifest.render_seconds)
+        .sum::<f64>()
+        .min(f64::MAX);
+    manifest.dropped_nonfinite = bundles
+        .iter()
+        .fold(0u64, |a, b| a.saturating_add(b.manifest.dropped_nonfinite));
     manifest.arrays.clear();
     let band = usize::try_from(opts.memory / row_bytes(&first).max(1))
         .unwrap_or(usize::MAX)

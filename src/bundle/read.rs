@@ -107,6 +107,9 @@ pub fn required_arrays(m: &Manifest) -> Vec<(&'static str, &'static str, Vec<usi
 
 /// The manifest's own fields (after the format and version are known): sizes,
 /// sample count, time axis, transform, metadata. The error is a short reason.
+/// The most shards a job may have (`--shard I/N` refuses more too).
+pub const MAX_SHARDS: u64 = 1 << 32;
+
 pub fn validate(m: &Manifest) -> Result<(), String> {
     m.transform
         .validate()
@@ -195,12 +198,13 @@ pub fn validate(m: &Manifest) -> Result<(), String> {
         let ordered = s.indices.windows(2).all(|w| w[0] < w[1]);
         if !hex
             || s.count == 0
+            || s.count > MAX_SHARDS
             || s.indices.is_empty()
             || !ordered
             || s.indices.iter().any(|&i| i >= s.count)
         {
             return Err(format!(
-                "shard {{job {:?}, count {}, indices {:?}}}: expected a 16-digit hexadecimal job and increasing indices below count",
+                "shard {{job {:?}, count {}, indices {:?}}}: expected a 16-digit hexadecimal job, a count of at most 2^32 and increasing indices below count",
                 s.job, s.count, s.indices
             ));
         }

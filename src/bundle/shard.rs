@@ -47,9 +47,9 @@ impl Shard {
         let bad = || format!("--shard {spec:?}: expected I/N or auto/N, e.g. 3/16");
         let (i, n) = spec.split_once('/').ok_or_else(bad)?;
         let count: u64 = n.trim().parse().map_err(|_| bad())?;
-        if count == 0 {
+        if count == 0 || count > super::read::MAX_SHARDS {
             return Err(format!(
-                "--shard {spec}: the number of shards must be at least 1"
+                "--shard {spec}: the number of shards must be from 1 to 2^32"
             ));
         }
         let (index, from) = if i.trim() == "auto" {
@@ -163,15 +163,20 @@ pub fn merge_records(
     for j in &mut jobs {
         j.indices.sort_unstable();
         if !partial && j.indices.len() as u64 != j.count {
-            let missing: Vec<u64> = (0..j.count).filter(|i| !j.indices.contains(i)).collect();
-            let shown: Vec<String> = missing.iter().take(20).map(|i| i.to_string()).collect();
+            // The indices are distinct and below count: count - len are missing. The
+            // first 20 are found lazily (count may be large).
+            let missing = j.count - j.indices.len() as u64;
+            let shown: Vec<String> = (0..j.count)
+                .filter(|i| j.indices.binary_search(i).is_err())
+                .take(20)
+                .map(|i| i.to_string())
+                .collect();
             return Err(format!(
-                "job {}: {} of its {} shards are missing: {}{} (render them, or merge with --partial)",
+                "job {}: {missing} of its {} shards are missing: {}{} (render them, or merge with --partial)",
                 j.job,
-                missing.len(),
                 j.count,
                 shown.join(", "),
-                if missing.len() > 20 { ", ..." } else { "" }
+                if missing > 20 { ", ..." } else { "" }
             ));
         }
     }
@@ -213,7 +218,8 @@ mod tests {
             ("16/16", &[][..], "not below"),
             ("3", &[][..], "expected I/N"),
             ("a/4", &[][..], "expected I/N"),
-            ("1/0", &[][..], "at least 1"),
+            ("1/0", &[][..], "from 1 to 2^32"),
+            ("1/4294967297", &[][..], "from 1 to 2^32"),
             ("-1/4", &[][..], "expected I/N"),
             (
                 "auto/4",

@@ -8,7 +8,7 @@ use super::render::RenderArgs;
 use super::util::{human_bytes, parse_bytes};
 use crate::bundle::shard::Shard;
 use crate::bundle::write::bundle_bytes_with;
-use crate::cluster::{k8s, slurm, Job};
+use crate::cluster::{check_path, k8s, normalize, slurm, Job};
 use crate::render::{RenderSettings, StreamingMemory};
 use crate::scene::Scene;
 use crate::stats::Transform;
@@ -48,12 +48,13 @@ pub struct Common {
     /// CPUs of one task (its render threads).
     #[arg(long, default_value_t = 4)]
     pub cpus: u32,
-    /// Memory of one render task (e.g. 4G; default: twice the render's own estimate
-    /// at --cpus threads, at least 1G).
+    /// Memory of one render task (e.g. 4Gi; 4G is 4e9 bytes; default: twice the
+    /// render's own estimate at --cpus threads, at least 1Gi).
     #[arg(long)]
     pub mem: Option<String>,
-    /// Memory of the merge task (its band buffers take half; default 2G).
-    #[arg(long, default_value = "2G")]
+    /// Memory of the merge (and denoise) task; the merge's per-pixel images take about
+    /// 160 bytes a pixel plus 64Mi, its bands and the denoiser the rest.
+    #[arg(long, default_value = "2Gi")]
     pub merge_mem: String,
     /// Also denoise the merged bundle into DIR/denoised.npy.
     #[arg(long)]
@@ -128,8 +129,9 @@ fn render_args(c: &Common) -> anyhow::Result<RenderArgs> {
     }
 }
 
-/// Checks the job and makes its description (scene loaded, shares, memory).
-fn plan(c: &Common, binary: String) -> anyhow::Result<Job> {
+/// Checks the job and makes its description (scene loaded, shares, memory); also
+/// returns the search folders (`-a`, absolute) the tasks will read.
+fn plan(c: &Common, binary: String, search_folders: &mut Vec<PathBuf>) -> anyhow::Result<Job> {
     anyhow::ensure!(
         c.shards >= 2,
         "--shards {}: at least 2 (one shard is a plain `tstat render`)",
@@ -141,10 +143,16 @@ fn plan(c: &Common, binary: String) -> anyhow::Result<Job> {
         c.cpus
     );
     let r = render_args(c)?;
+    // Everything `tstat render` checks before loading, so no task fails on it.
     let transform: Transform = r
         .transform
         .parse()
         .map_err(|e: String| anyhow!("--transform: {e}"))?;
+    super::util::positive("--unit-m", r.unit_m)?;
+    super::util::seed(r.seed)?;
+    if let Some(s) = &r.max_memory {
+        parse_bytes(s).map_err(|e| anyhow!("--max-memory: {e}"))?;
+    }
     let overrides = r.scene_args.overrides(r.spp)?;
     let scene = Scene::load(&r.scene, &overrides)?;
     let shard = Shard {
@@ -180,8 +188,18 @@ fn plan(c: &Common, binary: String) -> anyhow::Result<Job> {
         None => mib(memory.bytes().saturating_mul(2)).max(1024),
     };
     let merge_mib = mib(parse_bytes(&c.merge_mem).map_err(|e| anyhow!("--merge-mem: {e}"))?);
-    anyhow::ensure!(render_mib >= 64, "--mem {render_mib}M: at least 64M");
-    anyhow::ensure!(merge_mib >= 64, "--merge-mem {merge_mib}M: at least 64M");
+    anyhow::ensure!(render_mib >= 64, "--mem {render_mib}Mi: at least 64Mi");
+    // The merge holds its bands (its --max-memory) plus the per-pixel images: the
+    // output's f64 sums of steady, albedo, normal, depth, emitter, medium (96 bytes a
+    // pixel) and one input's arrays (about 64): 160 bytes a pixel, and 64 MiB of slack.
+    let images_mib = mib(film.pixels() as u64 * 160) + 64;
+    let band_mib = merge_mib.saturating_sub(images_mib);
+    anyhow::ensure!(
+        band_mib >= 16,
+        "--merge-mem {merge_mib}Mi: the merge of a {}x{} film needs about {images_mib}Mi for its per-pixel images plus at least 16Mi for its bands",
+        film.width,
+        film.height
+    );
     let shard_bytes = bundle_bytes_with(film, &transform, !scene.media.is_empty(), shard_reps >= 2);
     eprintln!(
         "{}: {}x{} px, {} bins; {} shards of {} spp; each task {} CPUs, {} MiB; disk {} per shard, {} in all with the merged bundle",
@@ -197,18 +215,46 @@ fn plan(c: &Common, binary: String) -> anyhow::Result<Job> {
         human_bytes(shard_bytes.saturating_mul(c.shards + 1))
     );
     let absolute = |p: &Path, what: &str| {
-        std::path::absolute(p).with_context(|| format!("{what} {}", p.display()))
+        std::path::absolute(p)
+            .map(|a| normalize(&a))
+            .with_context(|| format!("{what} {}", p.display()))
     };
+    let scene = absolute(&r.scene, "the scene")?;
+    let dir = absolute(&c.out, "--out")?;
+    check_path(&scene, "the scene", false).map_err(|e| anyhow!(e))?;
+    check_path(&dir, "--out", true).map_err(|e| anyhow!(e))?;
+    // Search folders (-a) as absolute paths: tasks run elsewhere.
+    let mut render_options = Vec::with_capacity(c.render_options.len());
+    let mut it = c.render_options.iter();
+    while let Some(o) = it.next() {
+        let folder = if o == "-a" {
+            render_options.push(o.clone());
+            it.next().cloned()
+        } else if let Some(v) = o.strip_prefix("-a") {
+            render_options.push("-a".into());
+            Some(v.strip_prefix('=').unwrap_or(v).to_string())
+        } else {
+            render_options.push(o.clone());
+            None
+        };
+        if let Some(f) = folder {
+            let a = absolute(Path::new(&f), "-a")?;
+            check_path(&a, "-a", false).map_err(|e| anyhow!(e))?;
+            search_folders.push(a.clone());
+            render_options.push(a.display().to_string());
+        }
+    }
     Ok(Job {
         binary,
-        scene: absolute(&r.scene, "the scene")?,
-        dir: absolute(&c.out, "--out")?,
+        scene,
+        dir,
         shards: c.shards,
-        render_options: c.render_options.clone(),
+        render_options,
         denoise: c.denoise,
         cpus: c.cpus,
         render_mib,
         merge_mib,
+        band_mib,
     })
 }
 
@@ -252,7 +298,8 @@ pub fn run(a: ClusterArgs) -> anyhow::Result<()> {
             let exe = std::env::current_exe()
                 .and_then(|p| p.canonicalize())
                 .context("finding the tstat binary")?;
-            let job = plan(&s.common, exe.display().to_string())?;
+            check_path(&exe, "the tstat binary", false).map_err(|e| anyhow!(e))?;
+            let job = plan(&s.common, exe.display().to_string(), &mut Vec::new())?;
             let p = s.partition.as_deref();
             write_recipes(
                 &job,
@@ -280,9 +327,14 @@ pub fn run(a: ClusterArgs) -> anyhow::Result<()> {
             ] {
                 anyhow::ensure!(!v.trim().is_empty(), "{what}: empty");
             }
-            let job = plan(&k.common, k.binary.clone())?;
-            k8s::check_under(&job.scene, &k.mount, "the scene").map_err(|e| anyhow!(e))?;
-            k8s::check_under(&job.dir, &k.mount, "--out").map_err(|e| anyhow!(e))?;
+            let mut folders = Vec::new();
+            let job = plan(&k.common, k.binary.clone(), &mut folders)?;
+            let mount = normalize(Path::new(&k.mount)).display().to_string();
+            k8s::check_under(&job.scene, &mount, "the scene").map_err(|e| anyhow!(e))?;
+            k8s::check_under(&job.dir, &mount, "--out").map_err(|e| anyhow!(e))?;
+            for f in &folders {
+                k8s::check_under(f, &mount, "the search folder (-a)").map_err(|e| anyhow!(e))?;
+            }
             let stem = job
                 .scene
                 .file_stem()

@@ -25,6 +25,20 @@ pub fn human_bytes(b: u64) -> String {
 pub fn parse_bytes(s: &str) -> Result<u64, String> {
     let t = s.trim().to_ascii_uppercase();
     let t = t.strip_suffix('B').unwrap_or(&t);
+    // Binary units: Ki, Mi, Gi, Ti (KiB ...).
+    if let Some(head) = t.strip_suffix('I') {
+        let (num, shift) = match head.chars().last() {
+            Some('K') => (&head[..head.len() - 1], 10),
+            Some('M') => (&head[..head.len() - 1], 20),
+            Some('G') => (&head[..head.len() - 1], 30),
+            Some('T') => (&head[..head.len() - 1], 40),
+            _ => return Err(format!("'{s}' is not a size such as 512M, 8G or 4Gi")),
+        };
+        return match num.trim().parse::<f64>() {
+            Ok(v) if v.is_finite() && v > 0.0 => Ok((v * (1u64 << shift) as f64) as u64),
+            _ => Err(format!("'{s}' is not a size such as 512M, 8G or 4Gi")),
+        };
+    }
     let (num, mult) = match t.chars().last() {
         Some('K') => (&t[..t.len() - 1], 1e3),
         Some('M') => (&t[..t.len() - 1], 1e6),
@@ -559,6 +573,10 @@ mod tests {
         assert_eq!(parse_bytes("8g"), Ok(8_000_000_000));
         assert_eq!(parse_bytes("1.5GB"), Ok(1_500_000_000));
         assert_eq!(parse_bytes("1000"), Ok(1000));
+        assert_eq!(parse_bytes("512Mi"), Ok(512 << 20));
+        assert_eq!(parse_bytes("4GiB"), Ok(4 << 30));
+        assert_eq!(parse_bytes("2ki"), Ok(2048));
+        assert!(parse_bytes("4i").is_err());
         assert!(parse_bytes("-1G").is_err());
         assert!(parse_bytes("lots").is_err());
     }

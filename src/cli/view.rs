@@ -65,10 +65,12 @@ pub fn run(a: ViewArgs) -> anyhow::Result<()> {
         || a.bundle.display().to_string(),
         |n| n.to_string_lossy().into_owned(),
     );
+    // The default denoiser's test (tstat's method, its default radius and t2_max).
+    let tp = crate::denoise::tstat::TstatParams::default();
     let shown = MembershipShown {
-        radius: 5,
-        t2_max: 4.0,
-        depth_align: true,
+        radius: crate::denoise::Method::Tstat(tp).default_radius(),
+        t2_max: tp.t2_max,
+        depth_align: tp.depth_align,
     };
     let (page, s) = build_page(&bundle, &name, &extras, shown, budget as usize)?;
     // check_outputs refused an existing output without --force.

@@ -91,17 +91,18 @@ pub fn render_job(c: &Cluster, job: &Job) -> Value {
 pub fn merge_job(c: &Cluster, job: &Job) -> Value {
     let b = quote(&job.binary);
     let mut script = format!(
-        "set -eu; {b} merge {}/shard-*.tstats --out {} --max-memory {}M",
+        "set -eu; {b} merge {}/shard-*.tstats --out {} --max-memory {}Mi",
         quote(&job.dir.join("shards").display().to_string()),
         quote(&job.merged().display().to_string()),
-        job.merge_mib / 2
+        job.band_mib
     );
     if job.denoise {
         script += &format!(
-            " && {b} denoise {} --out {} --threads {}",
+            " && {b} denoise {} --out {} --threads {} --max-memory {}Mi",
             quote(&job.merged().display().to_string()),
             quote(&job.denoised().display().to_string()),
-            job.cpus
+            job.cpus,
+            job.band_mib
         );
     }
     json!({
@@ -133,6 +134,7 @@ mod tests {
             cpus: 2,
             render_mib: 1500,
             merge_mib: 1024,
+            band_mib: 800,
         };
         let c = Cluster {
             name: job_name("My Scene_v2.xml"),

@@ -29,7 +29,13 @@ pub struct Job {
     /// Memory of one render task and of the merge task, in MiB.
     pub render_mib: u64,
     pub merge_mib: u64,
+    /// The merge's and the denoiser's `--max-memory` in MiB (the merge task's memory
+    /// less the per-pixel images and a margin).
+    pub band_mib: u64,
 }
+
+/// The variable the Slurm render task takes its threads from.
+pub const SLURM_THREADS: &str = "${SLURM_CPUS_PER_TASK:-1}";
 
 impl Job {
     /// `DIR/shards/shard-{shard}.tstats`: each task's output (tstat fills in the index).
@@ -63,6 +69,44 @@ impl Job {
     }
 }
 
+/// `path` with `.` and `..` resolved lexically (no file system access; the path may
+/// not exist yet), so that prefix checks see where it really points.
+pub fn normalize(path: &std::path::Path) -> PathBuf {
+    use std::path::Component;
+    let mut out = PathBuf::new();
+    for c in path.components() {
+        match c {
+            Component::ParentDir => {
+                out.pop();
+            }
+            Component::CurDir => {}
+            other => out.push(other),
+        }
+    }
+    out
+}
+
+/// Refuses a path the recipes cannot carry safely: control characters always, and for
+/// paths in `#SBATCH` lines (`directive`) also whitespace, quotes and `%` (Slurm reads
+/// directive values up to whitespace and `%` as a file name pattern).
+pub fn check_path(path: &std::path::Path, what: &str, directive: bool) -> Result<(), String> {
+    let s = path
+        .to_str()
+        .ok_or_else(|| format!("{what} {}: not UTF-8", path.display()))?;
+    let bad = |c: char| c.is_control() || (directive && (c.is_whitespace() || "%\"'".contains(c)));
+    match s.chars().find(|&c| bad(c)) {
+        Some(c) => Err(format!(
+            "{what} {s:?}: the character {c:?} cannot go into the recipes{}",
+            if directive {
+                " (Slurm directive lines take no spaces, quotes or %)"
+            } else {
+                ""
+            }
+        )),
+        None => Ok(()),
+    }
+}
+
 /// One argument quoted for bash: single quotes, with `'` written as `'\''`.
 pub fn quote(s: &str) -> String {
     if !s.is_empty()
@@ -78,6 +122,20 @@ pub fn quote(s: &str) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn paths_are_normalized_and_checked() {
+        use std::path::Path;
+        assert_eq!(
+            normalize(Path::new("/data/../scratch/./x")),
+            Path::new("/scratch/x")
+        );
+        assert_eq!(normalize(Path::new("/a/b/../../..")), Path::new("/"));
+        assert!(check_path(Path::new("/scratch/run 1"), "--out", true).is_err());
+        assert!(check_path(Path::new("/scratch/run%j"), "--out", true).is_err());
+        assert!(check_path(Path::new("/scratch/run 1"), "the scene", false).is_ok());
+        assert!(check_path(Path::new("/scratch/a\nb"), "the scene", false).is_err());
+    }
 
     #[test]
     fn quoting_survives_bash() {

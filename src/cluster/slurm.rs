@@ -5,7 +5,10 @@
 //! Every path is absolute, so both can be submitted from any folder; Slurm does not
 //! create the log folder, so `tstat cluster` does.
 
-use super::{quote, Job};
+use super::{quote, Job, SLURM_THREADS};
+
+/// Where `Job::render_args` puts the threads value.
+const THREADS_AT: usize = 8;
 
 /// `#SBATCH` time limit, `D-HH:MM:SS` or `HH:MM:SS` or minutes.
 pub fn check_time(t: &str) -> Result<(), String> {
@@ -80,11 +83,13 @@ pub fn render_script(job: &Job, time: &str, partition: Option<&str>) -> String {
         job.dir.join("merge.sbatch").display()
     );
     s += "set -euo pipefail\n";
+    // Every argument single-quoted but the threads variable (at its own place).
     let args: Vec<String> = job
-        .render_args("${SLURM_CPUS_PER_TASK:-1}")
+        .render_args(SLURM_THREADS)
         .iter()
-        .map(|a| {
-            if a.starts_with("${") {
+        .enumerate()
+        .map(|(i, a)| {
+            if i == THREADS_AT {
                 format!("\"{a}\"")
             } else {
                 quote(a)
@@ -115,16 +120,17 @@ pub fn merge_script(job: &Job, time: &str, partition: Option<&str>) -> String {
     s += "set -euo pipefail\n";
     let b = quote(&job.binary);
     s += &format!(
-        "{b} merge {}/shard-*.tstats --out {} --max-memory {}M\n",
+        "{b} merge {}/shard-*.tstats --out {} --max-memory {}Mi\n",
         quote(&job.dir.join("shards").display().to_string()),
         quote(&job.merged().display().to_string()),
-        job.merge_mib / 2
+        job.band_mib
     );
     if job.denoise {
         s += &format!(
-            "{b} denoise {} --out {} --threads \"${{SLURM_CPUS_PER_TASK:-1}}\"\n",
+            "{b} denoise {} --out {} --threads \"{SLURM_THREADS}\" --max-memory {}Mi\n",
             quote(&job.merged().display().to_string()),
-            quote(&job.denoised().display().to_string())
+            quote(&job.denoised().display().to_string()),
+            job.band_mib
         );
     }
     s
@@ -139,13 +145,21 @@ mod tests {
         Job {
             binary: "/opt/tstat bin/tstat".into(),
             scene: PathBuf::from("/data/it's/cbox.xml"),
-            dir: PathBuf::from("/scratch/run 1"),
+            dir: PathBuf::from("/scratch/run1"),
             shards: 16,
-            render_options: vec!["--spp".into(), "1024".into(), "-D".into(), "res=$x".into()],
+            render_options: vec![
+                "--spp".into(),
+                "1024".into(),
+                "-D".into(),
+                "res=$x".into(),
+                "--seed".into(),
+                "${X:-$(id)}".into(),
+            ],
             denoise: true,
             cpus: 4,
             render_mib: 2048,
             merge_mib: 1024,
+            band_mib: 512,
         }
     }
 
@@ -158,17 +172,15 @@ mod tests {
             "#SBATCH --mem=2048M\n",
             "#SBATCH --time=02:00:00\n",
             "#SBATCH --partition=gpu-less\n",
-            "#SBATCH --output=/scratch/run 1/logs/render-%A_%a.log\n",
-            "exec '/opt/tstat bin/tstat' render '/data/it'\\''s/cbox.xml' --shard auto/16 --out '/scratch/run 1/shards/shard-{shard}.tstats' --threads \"${SLURM_CPUS_PER_TASK:-1}\" --spp 1024 -D 'res=$x'\n",
+            "#SBATCH --output=/scratch/run1/logs/render-%A_%a.log\n",
+            "exec '/opt/tstat bin/tstat' render '/data/it'\\''s/cbox.xml' --shard auto/16 --out '/scratch/run1/shards/shard-{shard}.tstats' --threads \"${SLURM_CPUS_PER_TASK:-1}\" --spp 1024 -D 'res=$x' --seed '${X:-$(id)}'\n",
         ] {
             assert!(r.contains(line), "{line:?} not in:\n{r}");
         }
         let m = merge_script(&job(), "01:00:00", None);
-        assert!(m.contains("'/opt/tstat bin/tstat' merge '/scratch/run 1/shards'/shard-*.tstats --out '/scratch/run 1/merged.tstats' --max-memory 512M\n"), "{m}");
+        assert!(m.contains("'/opt/tstat bin/tstat' merge /scratch/run1/shards/shard-*.tstats --out /scratch/run1/merged.tstats --max-memory 512Mi\n"), "{m}");
         assert!(
-            m.contains(
-                " denoise '/scratch/run 1/merged.tstats' --out '/scratch/run 1/denoised.npy'"
-            ),
+            m.contains(" denoise /scratch/run1/merged.tstats --out /scratch/run1/denoised.npy"),
             "{m}"
         );
         assert!(!m.contains("--array"), "{m}");

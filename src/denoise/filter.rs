@@ -218,7 +218,14 @@ fn statistics_pair(
         *o = (0..3)
             .map(|c| {
                 let (vi, vj) = (v_i[c][k], v_j[c][k]);
-                statistic(theta_i[c][k], theta_j[c][k], vi, vj) * (t2_max / pair.g2(vi, vj))
+                let s =
+                    statistic(theta_i[c][k], theta_j[c][k], vi, vj) * (t2_max / pair.g2(vi, vj));
+                // inf * 0 (V = 0 with d != 0 at an infinite critical value) fails.
+                if s.is_nan() {
+                    f32::INFINITY
+                } else {
+                    s
+                }
             })
             .fold(0.0f32, f32::max);
     }

@@ -17,6 +17,10 @@ use super::critical::student_t_quantile;
 /// Grid intervals over r in [1/2, 1].
 const INTERVALS: usize = 512;
 
+/// The smallest two-sided level used (smaller ones give the same, effectively infinite,
+/// critical values).
+pub const MIN_LEVEL: f64 = 1e-30;
+
 /// `g^2` at each pair's Welch-Satterthwaite degrees of freedom.
 #[derive(Clone, Debug)]
 pub struct PairDof {
@@ -33,15 +37,19 @@ pub fn welch_satterthwaite(v_i: f64, v_j: f64, replicates: u64) -> f64 {
 }
 
 impl PairDof {
-    /// The table for B = `replicates` (at least 2) and two-sided level `p` in (0, 1).
+    /// The table for B = `replicates` (at least 2) and two-sided level `p`. The
+    /// quantile is taken from the lower tail (`-t_{p/2}`), so tiny levels do not round
+    /// `1 - p/2` to 1; levels are clamped to [`MIN_LEVEL`, 1 - 1e-9] (an extreme
+    /// `t2_max` gives 0 or 1 in floating point): critical values of ~1e20 or ~0, as the
+    /// limits are, and statrs' inverse stays in its working range.
     pub fn new(replicates: u64, p: f64) -> Self {
         assert!(replicates >= 2, "replicate statistics need B >= 2");
-        assert!(p > 0.0 && p < 1.0, "two-sided level {p}");
+        let p = if p.is_nan() { 1.0 } else { p }.clamp(MIN_LEVEL, 1.0 - 1e-9);
         let k = replicates as f64 - 1.0;
         let g2 = (0..=INTERVALS)
             .map(|i| {
                 let r = 0.5 + i as f64 / (2 * INTERVALS) as f64;
-                let g = student_t_quantile(1.0 - p / 2.0, k / r);
+                let g = -student_t_quantile(p / 2.0, k / r);
                 (g * g) as f32
             })
             .collect();
@@ -56,8 +64,10 @@ impl PairDof {
     /// variances (the test then only asks d = 0, whatever g is).
     #[inline(always)]
     pub fn g2(&self, v_i: f32, v_j: f32) -> f32 {
-        // a from the smaller variance, so that the value is symmetric in i and j.
-        let a = v_i.min(v_j) / (v_i + v_j);
+        // a = min / (min + max) from q = min / max, symmetric in i and j and without
+        // overflow in the sum.
+        let q = v_i.min(v_j) / v_i.max(v_j);
+        let a = q / (1.0 + q);
         let r = a * a + (1.0 - a) * (1.0 - a);
         // NaN (V = 0) becomes 0 through `max`.
         let x = ((r - 0.5) * (2 * INTERVALS) as f32)
@@ -108,6 +118,27 @@ mod tests {
                 assert_eq!(t.g2(0.0, 0.0), t.g2(1.0, 1.0));
             }
         }
+    }
+
+    #[test]
+    fn extreme_levels_and_variances_stay_defined() {
+        // Levels that round to 0 or 1 (t2_max of 2000 or 1e-40; alpha 1e-17).
+        for (b, p) in [2u64, 4, 1 << 20]
+            .into_iter()
+            .flat_map(|b| [0.0, 1e-320, 1e-17, 1.0, f64::NAN].map(|p| (b, p)))
+        {
+            let t = PairDof::new(b, p);
+            for (vi, vj) in [(1.0f32, 1.0f32), (1.0, 0.0), (3e38, 3e38)] {
+                let g2 = t.g2(vi, vj);
+                assert!(!g2.is_nan() && g2 >= 0.0, "p {p}: {g2}");
+            }
+        }
+        assert!(PairDof::new(4, 1e-17).g2(1.0, 1.0) > 1e6);
+        assert!(PairDof::new(4, 1.0).g2(1.0, 1.0) < 1e-6);
+        // Huge variances: the same degrees of freedom as small ones.
+        let t = PairDof::new(8, 0.01);
+        assert_eq!(t.g2(3e38, 3e38), t.g2(1.0, 1.0));
+        assert_eq!(t.g2(3e38, 1.5e38), t.g2(2.0, 1.0));
     }
 
     #[test]

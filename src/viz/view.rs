@@ -226,10 +226,11 @@ pub fn build_page(
         "depth": encode_f32(depth.iter().copied()),
         "emitter": encode_f32(emitter.iter().copied()),
     });
-    // `</` cannot appear inside the script block (JSON never needs it escaped).
+    // No `<` inside the script block (`</script>` or `<!--` would end or change it):
+    // JSON may write it as \u003c in strings, and it occurs nowhere else.
     let text = serde_json::to_string(&data)
         .expect("page data serialise")
-        .replace("</", "<\\/");
+        .replace('<', "\\u003c");
     let page = PAGE.replacen("/*DATA*/", &text, 1);
     let summary = PageSummary {
         bytes: page.len(),
