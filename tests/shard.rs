@@ -335,19 +335,20 @@ fn slurm_recipes_run_as_slurm_would_run_them() {
     let opts = [
         "--", "--spp", "8", "--width", "12", "--bins", "24", "--seed", "5",
     ];
+    let base = [
+        "cluster",
+        "slurm",
+        sc.as_str(),
+        "--shards",
+        "4",
+        "--out",
+        ds.as_str(),
+        "--cpus",
+        "1",
+        "--denoise",
+    ];
     let cluster = |extra: &[&str], opts: &[&str]| {
-        let mut a = vec![
-            "cluster",
-            "slurm",
-            sc.as_str(),
-            "--shards",
-            "4",
-            "--out",
-            ds.as_str(),
-            "--cpus",
-            "1",
-            "--denoise",
-        ];
+        let mut a = base.to_vec();
         a.extend_from_slice(extra);
         a.extend_from_slice(opts);
         tstat(&a, &[])
@@ -406,19 +407,8 @@ fn slurm_recipes_run_as_slurm_would_run_them() {
     let repo = env!("CARGO_MANIFEST_DIR");
     let r = Command::new(env!("CARGO_BIN_EXE_tstat"))
         .current_dir(repo)
-        .args([
-            "cluster",
-            "slurm",
-            sc.as_str(),
-            "--shards",
-            "4",
-            "--out",
-            ds.as_str(),
-            "--cpus",
-            "1",
-            "--denoise",
-            "--force",
-        ])
+        .args(base)
+        .arg("--force")
         .args(opts)
         .args(["-a", "scenes"])
         .output()
