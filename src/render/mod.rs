@@ -91,7 +91,7 @@ pub fn pixel_positions(settings: &RenderSettings, pixel: u64) -> Vec<[f32; 2]> {
             let positions = PixelPositions::new(settings, pixel, b, k);
             (0..k).map(move |i| {
                 let rng = Pcg32::for_path(settings.seed, pixel, (b * k + i) as u64);
-                PathNumbers::new(&positions, i, k, rng).1
+                PathNumbers::new(&positions, i, k, rng, sampler::LD_VERTICES).1
             })
         })
         .collect()
@@ -136,10 +136,16 @@ impl PathNumbers {
     /// independent and stratified modes always draw the position's two numbers from
     /// the path's stream, so the rest of the path sees the same stream in both.
     #[inline]
-    fn new(positions: &PixelPositions, s: u32, n: u32, mut rng: Pcg32) -> (Self, [f32; 2]) {
+    fn new(
+        positions: &PixelPositions,
+        s: u32,
+        n: u32,
+        mut rng: Pcg32,
+        ld_vertices: u64,
+    ) -> (Self, [f32; 2]) {
         match positions {
             PixelPositions::Sobol(key) => {
-                let mut p = SobolPath::with_key(*key, s, n, rng);
+                let mut p = SobolPath::with_depth(*key, s, n, rng, ld_vertices);
                 let uv = p.get2(slot::PIXEL);
                 (PathNumbers::Sobol(p), uv)
             }
@@ -283,12 +289,18 @@ fn render_row(
         let mut g = GAccum::default();
         let mut tally = PathTally::default();
         let (reps, k) = settings.replicate_split();
+        // Volumetric paths keep more low-discrepancy vertices (see `sampler.rs`).
+        let ld_vertices = if scene.integrator.volumetric {
+            sampler::LD_VERTICES_VOLUMETRIC
+        } else {
+            sampler::LD_VERTICES
+        };
         for b in 0..reps {
             let positions = PixelPositions::new(settings, pixel, b, k);
             for i in 0..k {
                 let s = b * k + i;
                 let rng = Pcg32::for_path(settings.seed, pixel, s as u64);
-                let (mut numbers, [u, v]) = PathNumbers::new(&positions, i, k, rng);
+                let (mut numbers, [u, v]) = PathNumbers::new(&positions, i, k, rng, ld_vertices);
                 let (o, d) = scene.camera.ray(x as f32 + u, y as f32 + v, || {
                     Pcg32::for_path(settings.seed ^ LENS_STREAM_SALT, pixel, s as u64).next_2d()
                 });
