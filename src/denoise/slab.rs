@@ -250,7 +250,11 @@ pub fn denoise_slabs(
         est.drop_rows_before(need.start);
         while est.rows.end < need.end {
             let next = est.rows.end..(est.rows.end + plan.chunk.max(1)).min(need.end);
-            reader.read(next, &mut sums)?;
+            // The first pass's last chunk is still held when it is the one needed
+            // (a volume read in one chunk is then read once).
+            if sums.rows != next {
+                reader.read(next, &mut sums)?;
+            }
             est.push_rows(&sums_view(m, &sums));
         }
         let slab = &mut out[..(y1 - y0) * est.row_len()];
