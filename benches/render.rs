@@ -18,7 +18,7 @@ mod dense_scene;
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use std::path::{Path, PathBuf};
 use std::time::Duration;
-use tstat::render::cpu::{self, Isa};
+use tstat::cpu::{self, Isa};
 use tstat::render::{render, PixelSampling, RenderSettings};
 use tstat::scene::{Overrides, Scene};
 use tstat::stats::Transform;
@@ -94,7 +94,7 @@ fn bench_scenes(c: &mut Criterion) {
     group.finish();
 }
 
-/// The same render at each instruction-set level this CPU has (`render::cpu`): what the
+/// The same render at each instruction-set level this CPU has (`cpu`): what the
 /// run-time dispatch buys. Every level computes the same bits (tests/isa.rs).
 fn bench_isa(c: &mut Criterion) {
     let overrides = Overrides {

@@ -7,6 +7,7 @@
 pub mod bundle;
 pub mod cli;
 pub mod cluster;
+pub mod cpu;
 pub mod denoise;
 pub mod geometry;
 pub mod io;

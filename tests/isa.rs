@@ -1,11 +1,11 @@
-//! The tracer is compiled once per instruction set (`render::cpu`): every level this
+//! The tracer is compiled once per instruction set (`cpu`): every level this
 //! CPU has must trace every path to the same bits as the portable baseline, on a flat
 //! scene (triangle packets), one with spheres, one with a BVH (the bunny) and one with
 //! anisotropic materials (frames from dp/du on a cube and a sphere).
 //! A separate test binary, since it switches the process-wide level.
 
+use tstat::cpu::{self, Isa};
 use tstat::math::rng::Pcg32;
-use tstat::render::cpu::{self, Isa};
 use tstat::render::deposits::PathDeposits;
 use tstat::render::integrator::{trace_path, PathTally};
 use tstat::scene::{Overrides, Scene};

@@ -2,9 +2,9 @@
 //! `focal_length`, `focus_distance`, mitransient's `temporal_filter`.
 
 use std::path::Path;
-use tstat::render::time_filter::TimeFilter;
 use tstat::render::{render, PixelSampling, RenderSettings};
 use tstat::scene::check::{check, Verdict};
+use tstat::scene::time_filter::TimeFilter;
 use tstat::scene::{Overrides, Scene};
 use tstat::stats::Transform;
 

@@ -11,7 +11,7 @@ use super::sdfgrid::SdfGeom;
 use super::shape::{Shape, ShapeGeom, SurfacePoint};
 use super::sphere::SphereGeom;
 use super::triangle::TriangleGeom;
-use crate::render::cpu::ISA_BASELINE;
+use crate::cpu::ISA_BASELINE;
 use glam::{UVec2, Vec3, Vec3A};
 use obvhs::aabb::Aabb;
 use obvhs::cwbvh::CwBvh;
@@ -335,7 +335,7 @@ impl Accel {
         unsafe { self.intersect_with::<ISA_BASELINE>(shapes, o, d, tmax) }
     }
 
-    /// [`Self::intersect`] with the kernels for `ISA` (`render::cpu` codes).
+    /// [`Self::intersect`] with the kernels for `ISA` (`cpu` codes).
     ///
     /// # Safety
     /// The CPU must support `ISA`.
@@ -430,7 +430,7 @@ impl Accel {
         unsafe { self.occluded_with::<ISA_BASELINE>(o, d, tmax) }
     }
 
-    /// [`Self::occluded`] with the kernels for `ISA` (`render::cpu` codes).
+    /// [`Self::occluded`] with the kernels for `ISA` (`cpu` codes).
     ///
     /// # Safety
     /// The CPU must support `ISA`.

@@ -1,7 +1,7 @@
 //! Tiny scenes (a Cornell box has 36 triangles) are intersected without a tree: the
 //! triangles are tested sixteen at a time in structure-of-arrays packets that the
 //! compiler vectorises (one AVX-512 register per component, two AVX2 or four SSE ones;
-//! `render::cpu` compiles the tracer once per instruction set). For such scenes this
+//! `cpu` compiles the tracer once per instruction set). For such scenes this
 //! beats walking the BVH; bigger scenes use the BVH.
 //!
 //! Packets hold whole groups (shapes) where they fit, and each packet has a bounding box:
@@ -204,7 +204,7 @@ impl FlatTriangles {
         Self::reduce(self.lanes(o, d, tmax), tmax)
     }
 
-    /// [`Self::intersect`] with the kernel for `ISA` (`render::cpu` codes); the same
+    /// [`Self::intersect`] with the kernel for `ISA` (`cpu` codes); the same
     /// answer, bit for bit, at every level.
     ///
     /// # Safety
@@ -218,7 +218,7 @@ impl FlatTriangles {
     ) -> Option<(usize, f32, f32, f32)> {
         #[cfg(target_arch = "x86_64")]
         {
-            use crate::render::cpu::{ISA_AVX2, ISA_AVX512};
+            use crate::cpu::{ISA_AVX2, ISA_AVX512};
             if ISA == ISA_AVX512 {
                 // SAFETY: the caller guarantees AVX-512.
                 return unsafe { flat_simd::intersect_avx512(self, o, d, tmax) };
@@ -239,7 +239,7 @@ impl FlatTriangles {
     pub unsafe fn occluded_with<const ISA: u8>(&self, o: Vec3, d: Vec3, tmax: f32) -> bool {
         #[cfg(target_arch = "x86_64")]
         {
-            use crate::render::cpu::{ISA_AVX2, ISA_AVX512};
+            use crate::cpu::{ISA_AVX2, ISA_AVX512};
             if ISA == ISA_AVX512 {
                 // SAFETY: the caller guarantees AVX-512.
                 return unsafe { flat_simd::occluded_avx512(self, o, d, tmax) };
@@ -325,8 +325,8 @@ impl FlatTriangles {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::cpu::{Isa, ISA_AVX2, ISA_AVX512};
     use crate::math::rng::Pcg32;
-    use crate::render::cpu::{Isa, ISA_AVX2, ISA_AVX512};
 
     #[test]
     fn matches_the_scalar_test_on_random_rays() {

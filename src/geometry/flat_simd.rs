@@ -6,7 +6,7 @@
 //! tests compare both on random rays.
 //!
 //! Callers must have checked that the CPU supports the instruction set
-//! (`render::cpu::Isa::supported`).
+//! (`cpu::Isa::supported`).
 
 #![cfg(target_arch = "x86_64")]
 

@@ -2,16 +2,16 @@
 //! (power heuristic), Russian roulette and Mitsuba's `max_depth`, keeping each path's
 //! optical path length (OPL) so every contribution lands in its time bin (SPEC 4).
 
-use super::cpu::{Isa, ISA_AVX2, ISA_AVX512, ISA_BASELINE};
 use super::deposits::PathDeposits;
 use super::gbuffer::GSample;
 use super::sampler::{pick_scattering, slot, PathSampler};
-use super::time_filter::{gaussian_shares, TimeFilter};
+use crate::cpu::{Isa, ISA_AVX2, ISA_AVX512, ISA_BASELINE};
 use crate::geometry::accel::offset_origin;
 use crate::materials::{Bsdf, BsdfModel, HitGeometry};
 use crate::math::frame::Frame;
 use crate::math::sampling::power_heuristic;
 use crate::math::Rgb;
+use crate::scene::time_filter::{gaussian_shares, TimeFilter};
 use crate::scene::Scene;
 use glam::Vec3;
 
@@ -186,7 +186,7 @@ pub fn trace_ray<S: PathSampler>(
     deposits: &mut PathDeposits,
     tally: &mut PathTally,
 ) -> GSample {
-    match super::cpu::current() {
+    match crate::cpu::current() {
         // SAFETY: `cpu::current` returns a level only when the CPU supports it.
         #[cfg(target_arch = "x86_64")]
         Isa::Avx512 => unsafe { trace_path_avx512(scene, o, d, rng, deposits, tally) },

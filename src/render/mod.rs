@@ -17,14 +17,12 @@
 //! two numbers are drawn for the position, so everything after the primary ray uses
 //! the same random numbers in both modes, and independent renders are unchanged.
 
-pub mod cpu;
 pub mod deposits;
 pub mod gbuffer;
 pub mod integrator;
 pub mod pixel_sampling;
 pub mod sampler;
 pub mod sink;
-pub mod time_filter;
 pub mod volpath;
 
 use crate::math::rng::{mix64, Pcg32};

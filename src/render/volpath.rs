@@ -49,11 +49,11 @@
 //! first real interaction is a medium scattering records the medium's albedo there, a zero
 //! normal and `medium = true`; depth is the distance to that first interaction.
 
-use super::cpu::ISA_BASELINE;
 use super::deposits::PathDeposits;
 use super::gbuffer::GSample;
 use super::integrator::{contribute, escape, light_target, shadow_ray, PathTally};
 use super::sampler::{pick_scattering, slot, PathSampler};
+use crate::cpu::ISA_BASELINE;
 use crate::geometry::accel::offset_origin;
 use crate::geometry::shape::Shape;
 use crate::materials::{Bsdf, BsdfModel};

@@ -21,6 +21,7 @@ pub mod serialized;
 pub mod shapes;
 pub mod spectrum;
 pub mod textures;
+pub mod time_filter;
 pub mod transform;
 mod xml;
 
@@ -43,7 +44,7 @@ use std::path::{Path, PathBuf};
 /// | hide_emitters | boolean | false | directly visible emitters render black |
 /// | camera_unwarp | boolean | false | drop the camera segment from the path's OPL |
 /// | discard_direct_light | boolean | false | as `hide_emitters` (mitransient 1.3.1 also drops the BSDF-sampled share of every later emitter hit; tstat keeps it) |
-/// | temporal_filter | string | box | `box`, or `gaussian`: each contribution split over the nearby bins (`render/time_filter.rs`) |
+/// | temporal_filter | string | box | `box`, or `gaussian`: each contribution split over the nearby bins (`scene/time_filter.rs`) |
 /// | gaussian_stddev | float | 2.0 | the Gaussian's standard deviation in bins |
 /// | temporal_bins, exposure, initial_time, progressive | | | mitransient before 1.0's time window and filter schedule: checked, and the film's window used (a warning) |
 /// | samples_per_pass | integer | | Mitsuba's pass size: no effect |
@@ -57,7 +58,7 @@ pub struct IntegratorSettings {
     /// transparent to shadow rays).
     pub volumetric: bool,
     /// mitransient's `temporal_filter`: how a contribution reaches the time bins.
-    pub time_filter: crate::render::time_filter::TimeFilter,
+    pub time_filter: crate::scene::time_filter::TimeFilter,
 }
 
 impl Default for IntegratorSettings {
@@ -68,7 +69,7 @@ impl Default for IntegratorSettings {
             hide_emitters: false,
             camera_unwarp: false,
             volumetric: false,
-            time_filter: crate::render::time_filter::TimeFilter::Box,
+            time_filter: crate::scene::time_filter::TimeFilter::Box,
         }
     }
 }
