@@ -588,8 +588,21 @@ impl VolumeArrays {
                 _ => volumes.push(bytemuck::cast_slice(&s.nonzero)),
             }
         }
+        self.put_bytes(s.rows.start, s.rows.len(), &volumes)
+    }
+
+    /// Writes rows `y..y + rows` of every array, given as bytes in the arrays' order
+    /// (x1, x2, x3, then sum and r2 when the bundle has them, nonzero).
+    fn put_bytes(&self, y: usize, rows: usize, volumes: &[&[u8]]) -> Result<(), BundleError> {
+        if volumes.len() != self.arrays.len() {
+            let dir = self.arrays[0].path.parent().unwrap_or(Path::new("."));
+            return Err(BundleError::Io(
+                dir.to_path_buf(),
+                "a row's arrays do not match the bundle's (transform)".into(),
+            ));
+        }
         for (array, bytes) in self.arrays.iter().zip(volumes) {
-            array.put(s.rows.start, s.rows.len(), bytes)?;
+            array.put(y, rows, bytes)?;
         }
         Ok(())
     }
@@ -612,7 +625,7 @@ impl VolumeArrays {
 pub struct BundleWriter {
     staged: Staged,
     film: Film,
-    arrays: Vec<StreamedArray>,
+    volumes: VolumeArrays,
     images: Mutex<PixelImages>,
 }
 
@@ -639,16 +652,16 @@ impl BundleWriter {
         let staged = stage(out, force, |dir| {
             std::fs::create_dir(dir).map_err(|e| BundleError::Io(dir.to_path_buf(), e.to_string()))
         })?;
-        let arrays = volume_arrays(transform, replicates)
-            .into_iter()
-            .map(|spec| {
-                StreamedArray::create(staged.path(), (film.height, film.width, film.bins), spec)
-            })
-            .collect::<Result<_, _>>()?;
+        let volumes = VolumeArrays::create(
+            staged.path(),
+            (film.height, film.width, film.bins),
+            transform,
+            replicates,
+        )?;
         Ok(BundleWriter {
             staged,
             film: film.clone(),
-            arrays,
+            volumes,
             images: Mutex::new(PixelImages::new(film.height, film.width)),
         })
     }
@@ -673,8 +686,8 @@ impl BundleWriter {
             ));
         }
         let mut manifest = manifest(scene, meta, summary.seconds, summary.dropped_nonfinite);
-        manifest.arrays = self.arrays.iter().map(|a| a.info.clone()).collect();
-        drop(self.arrays);
+        manifest.arrays = self.volumes.infos();
+        drop(self.volumes);
         let hw = (self.film.height, self.film.width);
         write_pixel_arrays(
             &dir,
@@ -707,15 +720,7 @@ impl RowSink for BundleWriter {
             volumes.push(bytemuck::cast_slice(r2));
         }
         volumes.push(bytemuck::cast_slice(&s.nonzero));
-        if volumes.len() != self.arrays.len() {
-            return Err(BundleError::Io(
-                self.staged.path().to_path_buf(),
-                "a row's arrays do not match the bundle's (transform)".into(),
-            ));
-        }
-        for (array, bytes) in self.arrays.iter().zip(volumes) {
-            array.put(row.y, 1, bytes)?;
-        }
+        self.volumes.put_bytes(row.y, 1, &volumes)?;
         self.images
             .lock()
             .unwrap_or_else(PoisonError::into_inner)
@@ -754,7 +759,7 @@ mod tests {
         let out = dir.path().join("b.tstats");
         let mut writer =
             BundleWriter::create(&out, false, &scene.film, &settings.transform).unwrap();
-        let x2 = &mut writer.arrays[1];
+        let x2 = &mut writer.volumes.arrays[1];
         x2.file = File::open(&x2.path).unwrap();
         let e = render_into(&scene, &settings, &writer, &|_| {}).unwrap_err();
         assert!(e.to_string().contains("x2.npy: Bad file descriptor"), "{e}");

@@ -159,24 +159,9 @@ fn plan(c: &Common, binary: String, search_folders: &mut Vec<PathBuf>) -> anyhow
         index: 0,
         count: c.shards,
     };
-    let spp = shard
-        .share(u64::from(scene.spp), "the job's spp")
-        .map_err(|e| anyhow!(e))?;
-    anyhow::ensure!(
-        spp >= 2,
-        "the job's spp {} over {} shards leaves {spp} per shard; each needs at least 2",
-        scene.spp,
-        c.shards
-    );
-    let replicates = r.scene_args.replicates;
-    let shard_reps = if replicates >= 2 {
-        shard
-            .share(u64::from(replicates), "--replicates")
-            .map_err(|e| anyhow!(e))? as u32
-    } else {
-        replicates
-    };
-    RenderSettings::check_replicates(spp as u32, shard_reps).map_err(|e| anyhow!(e))?;
+    // The same split and checks as each task's `tstat render --shard`.
+    let (spp, shard_reps) = super::render::shard_share(&shard, scene.spp, r.scene_args.replicates)?;
+    RenderSettings::check_replicates(spp, shard_reps).map_err(|e| anyhow!(e))?;
     let film = &scene.film;
     let memory = StreamingMemory::new(film, &transform, c.cpus as usize)
         .with_replicates(shard_reps >= 2, film);

@@ -160,7 +160,7 @@ fn shard_and_out(spec: Option<&str>, out: &Path) -> anyhow::Result<(Option<Shard
 }
 
 /// A shard's share of the job's spp and replicates, checked.
-fn shard_share(shard: &Shard, spp: u32, replicates: u32) -> anyhow::Result<(u32, u32)> {
+pub(super) fn shard_share(shard: &Shard, spp: u32, replicates: u32) -> anyhow::Result<(u32, u32)> {
     let spp_share = shard
         .share(u64::from(spp), "the job's spp")
         .map_err(|e| anyhow!(e))?;

@@ -9,7 +9,7 @@
 //! `tstat cluster k8s` ran, e.g. a shared file system mounted at the same place), and
 //! the image must hold the tstat binary (`binary`, default `tstat` on its PATH).
 
-use super::{quote, Job};
+use super::{merge_commands, Job};
 use serde_json::{json, Value};
 use std::path::Path;
 
@@ -89,22 +89,10 @@ pub fn render_job(c: &Cluster, job: &Job) -> Value {
 
 /// `merge-job.json`: one pod; the shell expands the shards' glob.
 pub fn merge_job(c: &Cluster, job: &Job) -> Value {
-    let b = quote(&job.binary);
-    let mut script = format!(
-        "set -eu; {b} merge {}/shard-*.tstats --out {} --max-memory {}Mi",
-        quote(&job.dir.join("shards").display().to_string()),
-        quote(&job.merged().display().to_string()),
-        job.band_mib
+    let script = format!(
+        "set -eu; {}",
+        merge_commands(job, &job.cpus.to_string()).join(" && ")
     );
-    if job.denoise {
-        script += &format!(
-            " && {b} denoise {} --out {} --threads {} --max-memory {}Mi",
-            quote(&job.merged().display().to_string()),
-            quote(&job.denoised().display().to_string()),
-            job.cpus,
-            job.band_mib
-        );
-    }
     json!({
         "apiVersion": "batch/v1",
         "kind": "Job",

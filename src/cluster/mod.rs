@@ -69,6 +69,28 @@ impl Job {
     }
 }
 
+/// The merge task's shell commands (POSIX sh): the merge of every shard (the glob left
+/// to the shell), then with `denoise` the denoiser with `threads` (a number or a
+/// variable the shell expands, double-quoted).
+pub fn merge_commands(job: &Job, threads: &str) -> Vec<String> {
+    let b = quote(&job.binary);
+    let mut v = vec![format!(
+        "{b} merge {}/shard-*.tstats --out {} --max-memory {}Mi",
+        quote(&job.dir.join("shards").display().to_string()),
+        quote(&job.merged().display().to_string()),
+        job.band_mib
+    )];
+    if job.denoise {
+        v.push(format!(
+            "{b} denoise {} --out {} --threads \"{threads}\" --max-memory {}Mi",
+            quote(&job.merged().display().to_string()),
+            quote(&job.denoised().display().to_string()),
+            job.band_mib
+        ));
+    }
+    v
+}
+
 /// `path` with `.` and `..` resolved lexically (no file system access; the path may
 /// not exist yet), so that prefix checks see where it really points.
 pub fn normalize(path: &std::path::Path) -> PathBuf {

@@ -5,7 +5,7 @@
 //! Every path is absolute, so both can be submitted from any folder; Slurm does not
 //! create the log folder, so `tstat cluster` does.
 
-use super::{quote, Job, SLURM_THREADS};
+use super::{merge_commands, quote, Job, SLURM_THREADS};
 
 /// Where `Job::render_args` puts the threads value.
 const THREADS_AT: usize = 8;
@@ -118,20 +118,9 @@ pub fn merge_script(job: &Job, time: &str, partition: Option<&str>) -> String {
         job.scene.display()
     );
     s += "set -euo pipefail\n";
-    let b = quote(&job.binary);
-    s += &format!(
-        "{b} merge {}/shard-*.tstats --out {} --max-memory {}Mi\n",
-        quote(&job.dir.join("shards").display().to_string()),
-        quote(&job.merged().display().to_string()),
-        job.band_mib
-    );
-    if job.denoise {
-        s += &format!(
-            "{b} denoise {} --out {} --threads \"{SLURM_THREADS}\" --max-memory {}Mi\n",
-            quote(&job.merged().display().to_string()),
-            quote(&job.denoised().display().to_string()),
-            job.band_mib
-        );
+    for line in merge_commands(job, SLURM_THREADS) {
+        s += &line;
+        s.push('\n');
     }
     s
 }

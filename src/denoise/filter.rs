@@ -108,10 +108,10 @@ fn active_ranges(e: &Estimates) -> Vec<(usize, usize)> {
 /// The inner loop: one neighbour pixel at one bin offset, over `n` contiguous bins.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
-fn accumulate<const MEMBERSHIP: bool>(
+fn accumulate<const MEMBERSHIP: bool, G: Critical>(
     n: usize,
     w: f32,
-    g2: f32,
+    g2: &G,
     theta_i: [&[f32]; 3],
     theta_j: [&[f32]; 3],
     v_i: [&[f32]; 3],
@@ -130,9 +130,9 @@ fn accumulate<const MEMBERSHIP: bool>(
     for k in 0..n {
         let wk = if MEMBERSHIP {
             // membership::passes on every channel, written out so it vectorises.
-            let m = passes(ti0[k], tj0[k], vi0[k], vj0[k], g2)
-                & passes(ti1[k], tj1[k], vi1[k], vj1[k], g2)
-                & passes(ti2[k], tj2[k], vi2[k], vj2[k], g2);
+            let m = passes(ti0[k], tj0[k], vi0[k], vj0[k], g2.g2(vi0[k], vj0[k]))
+                & passes(ti1[k], tj1[k], vi1[k], vj1[k], g2.g2(vi1[k], vj1[k]))
+                & passes(ti2[k], tj2[k], vi2[k], vj2[k], g2.g2(vi2[k], vj2[k]));
             if m {
                 w
             } else {
@@ -148,31 +148,23 @@ fn accumulate<const MEMBERSHIP: bool>(
     }
 }
 
-/// The published test with g^2 per pair (estimates from replicates, `--alpha`).
-#[allow(clippy::too_many_arguments)]
-fn accumulate_pair(
-    n: usize,
-    w: f32,
-    pair: &PairDof,
-    theta_i: [&[f32]; 3],
-    theta_j: [&[f32]; 3],
-    v_i: [&[f32]; 3],
-    v_j: [&[f32]; 3],
-    mean_i: [&[f32]; 3],
-    num: [&mut [f32]; 3],
-    den: &mut [f32],
-) {
-    let [n0, n1, n2] = num;
-    for k in 0..n {
-        let m = (0..3).all(|c| {
-            let (vi, vj) = (v_i[c][k], v_j[c][k]);
-            passes(theta_i[c][k], theta_j[c][k], vi, vj, pair.g2(vi, vj))
-        });
-        let wk = if m { w } else { 0.0 };
-        n0[k] += wk * mean_i[0][k];
-        n1[k] += wk * mean_i[1][k];
-        n2[k] += wk * mean_i[2][k];
-        den[k] += wk;
+/// The critical value g^2 of the published test for a pair of voxels: one value, or
+/// each pair's own on estimates from replicates (`pair_dof.rs`).
+trait Critical {
+    fn g2(&self, v_i: f32, v_j: f32) -> f32;
+}
+
+impl Critical for f32 {
+    #[inline(always)]
+    fn g2(&self, _: f32, _: f32) -> f32 {
+        *self
+    }
+}
+
+impl Critical for PairDof {
+    #[inline(always)]
+    fn g2(&self, v_i: f32, v_j: f32) -> f32 {
+        PairDof::g2(self, v_i, v_j)
     }
 }
 
@@ -263,7 +255,7 @@ fn accumulate_patch(
 type Kernel = fn(
     usize,
     f32,
-    f32,
+    &f32,
     [&[f32]; 3],
     [&[f32]; 3],
     [&[f32]; 3],
@@ -418,7 +410,7 @@ fn filter_pixel(
             let [n0, n1, n2] = &mut *num;
             let acc = [&mut n0[off..], &mut n1[off..], &mut n2[off..]];
             match &s.tstat {
-                None if s.pair.is_some() => accumulate_pair(
+                None if s.pair.is_some() => accumulate::<true, PairDof>(
                     m,
                     wt,
                     s.pair.as_ref().unwrap(),
@@ -433,7 +425,7 @@ fn filter_pixel(
                 None => (s.kernel)(
                     m,
                     wt,
-                    s.g2,
+                    &s.g2,
                     oi.map(|q| &e.theta[q..q + m]),
                     oj.map(|q| &e.theta[q..q + m]),
                     oi.map(|q| &e.v[q..q + m]),
@@ -567,8 +559,8 @@ pub fn filter_rows(
             _ => None,
         },
         kernel: match params.membership {
-            Membership::Welch { .. } => accumulate::<true>,
-            _ => accumulate::<false>,
+            Membership::Welch { .. } => accumulate::<true, f32>,
+            _ => accumulate::<false, f32>,
         },
     };
     let (band_rows, cols, bins) = (tiling.rows.max(1), tiling.cols.max(1), tiling.bins.max(1));
