@@ -166,6 +166,17 @@ fn the_page_is_self_contained_and_fits_its_budget() {
         "at least 1K",
     );
     fails(
+        &tstat(&[
+            "view",
+            &p("b.tstats"),
+            "--max-bytes",
+            "lots",
+            "--out",
+            &p("x.html"),
+        ]),
+        "--max-bytes",
+    );
+    fails(
         &tstat(&["view", &p("nope.tstats"), "--out", &p("x.html")]),
         "nope.tstats",
     );
