@@ -244,6 +244,40 @@ impl Emitter {
         )
     }
 
+    /// A laser's position and axis (to_world's origin and +z) for NLOS captures:
+    /// `projector` and `spot` lights; `None` for every other kind.
+    pub fn laser_frame(&self) -> Option<(Vec3, Vec3)> {
+        match self {
+            Emitter::Projector(p) => Some((p.position, p.axis)),
+            Emitter::Point {
+                position,
+                spot: Some(s),
+                ..
+            } => Some((*position, s.axis)),
+            Emitter::TexturedSpot(t) => Some((t.position, t.spot.axis)),
+            _ => None,
+        }
+    }
+
+    /// A projector's position and world axes (to_world's x, y, z columns), for
+    /// mitransient's exhaustive laser scan; `None` for every other kind.
+    pub fn laser_axes(&self) -> Option<(Vec3, [Vec3; 3])> {
+        match self {
+            Emitter::Projector(p) => {
+                let m = p.to_local.inverse();
+                Some((
+                    p.position,
+                    [
+                        m.transform_vector3(Vec3::X),
+                        m.transform_vector3(Vec3::Y),
+                        m.transform_vector3(Vec3::Z),
+                    ],
+                ))
+            }
+            _ => None,
+        }
+    }
+
     /// Whether a ray that leaves the scene sees this emitter (`envmap`, `constant`).
     pub fn is_environment(&self) -> bool {
         matches!(self, Emitter::Envmap { .. } | Emitter::Constant { .. })

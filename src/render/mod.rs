@@ -20,6 +20,7 @@
 pub mod deposits;
 pub mod gbuffer;
 pub mod integrator;
+pub mod nlos;
 pub mod pixel_sampling;
 pub mod sampler;
 pub mod sink;
@@ -282,7 +283,14 @@ fn render_row(
     let z0 = settings.transform.at_zero();
     let mut deposits = PathDeposits::default();
     let mut result = RowTally::default();
+    // NLOS captures: the laser point and sensor row of this film row.
+    let nlos = scene.nlos.as_ref().zip(scene.integrator.nlos.as_ref());
+    let (laser, sensor_row) = nlos.map_or((0, y), |(s, _)| s.row(y));
     for x in 0..width {
+        let target = match nlos {
+            Some((s, n)) if n.laser_sampling => s.target(n.capture, x, sensor_row, laser),
+            _ => glam::Vec3::NAN,
+        };
         let pixel = (y * width + x) as u64;
         let mut g = GAccum::default();
         let mut tally = PathTally::default();
@@ -303,8 +311,12 @@ fn render_row(
                     Pcg32::for_path(settings.seed ^ LENS_STREAM_SALT, pixel, s as u64).next_2d()
                 });
                 let gs = match &mut numbers {
-                    PathNumbers::Sobol(p) => trace(scene, o, d, p, &mut deposits, &mut tally),
-                    PathNumbers::Independent(p) => trace(scene, o, d, p, &mut deposits, &mut tally),
+                    PathNumbers::Sobol(p) => {
+                        trace(scene, o, d, target, p, &mut deposits, &mut tally)
+                    }
+                    PathNumbers::Independent(p) => {
+                        trace(scene, o, d, target, p, &mut deposits, &mut tally)
+                    }
                 };
                 g.add(&gs);
                 result.voxel_samples += deposits.len() as u64;
@@ -325,18 +337,22 @@ fn render_row(
     result
 }
 
-/// Traces one camera path with the tracer the scene needs. The volumetric tracer is a
-/// separate function: surface-only scenes run the same code as before it existed.
+/// Traces one camera path with the tracer the scene needs. The volumetric and NLOS
+/// tracers are separate functions: surface-only scenes run the same code as before
+/// they existed. `target` is the NLOS tracer's lit point.
 #[inline]
 fn trace<S: PathSampler>(
     scene: &Scene,
     o: glam::Vec3,
     d: glam::Vec3,
+    target: glam::Vec3,
     sampler: &mut S,
     deposits: &mut PathDeposits,
     tally: &mut PathTally,
 ) -> gbuffer::GSample {
-    if scene.integrator.volumetric {
+    if scene.integrator.nlos.is_some() {
+        nlos::trace_nlos(scene, o, d, target, sampler, deposits, tally)
+    } else if scene.integrator.volumetric {
         volpath::trace_volpath(scene, o, d, sampler, deposits, tally)
     } else {
         trace_ray(scene, o, d, sampler, deposits, tally)

@@ -66,6 +66,8 @@ pub mod slot {
     pub const PIXEL: u32 = 14;
     /// The hero channel of spectral MIS in media (vertex 0).
     pub const CHANNEL: u32 = 16;
+    /// NLOS paths: the coin flip between hidden-geometry and BSDF sampling.
+    pub const NLOS_STRATEGY: u32 = 17;
 }
 
 /// The child of a (possibly nested) `Composed` material that scatters at a vertex:

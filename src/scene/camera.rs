@@ -69,6 +69,14 @@ pub enum Projection {
     /// `extent` holds the world images of the local x and y axes (to_world's columns,
     /// with their scale), so local (sx, sy, 0) is `origin + extent[0] sx + extent[1] sy`.
     Orthographic { extent: [Vec3; 2] },
+    /// `nlos_capture_meter`: from `Camera::origin` (`sensor_origin`) towards the centre
+    /// of the relay wall's grid cell of the film position (`scene/nlos.rs`); film row
+    /// `r` is sensor row `r % grid_height` (exhaustive scans stack one image per laser
+    /// point).
+    Meter {
+        wall: crate::scene::nlos::Wall,
+        grid_height: usize,
+    },
 }
 
 /// Salt of the seed for the thin lens's aperture stream (see the module notes).
@@ -149,6 +157,25 @@ impl Camera {
         cam
     }
 
+    /// An `nlos_capture_meter` at `origin` measuring a `width` x `grid_height` grid of
+    /// `wall`, in a film `height` rows tall.
+    pub fn meter(
+        origin: Vec3,
+        wall: crate::scene::nlos::Wall,
+        width: usize,
+        height: usize,
+        grid_height: usize,
+    ) -> Self {
+        Camera {
+            origin,
+            axes: [Vec3::X, Vec3::Y, Vec3::Z],
+            tan_half: [1.0, 1.0],
+            width,
+            height,
+            projection: Projection::Meter { wall, grid_height },
+        }
+    }
+
     /// Unit direction of the pinhole ray through film position (x, y) in pixels (x
     /// right, y down).
     #[inline]
@@ -173,6 +200,13 @@ impl Camera {
                 let sx = 1.0 - 2.0 * x / self.width as f32;
                 let sy = (1.0 - 2.0 * y / self.height as f32) * self.tan_half[1];
                 (self.origin + extent[0] * sx + extent[1] * sy, self.axes[2])
+            }
+            Projection::Meter { wall, grid_height } => {
+                // mitransient's meter: the cell's centre, whatever the sub-pixel sample.
+                let px = (x.max(0.0) as usize).min(self.width - 1);
+                let py = (y.max(0.0) as usize).min(self.height - 1) % grid_height;
+                let p = wall.grid_point(px, py, self.width, grid_height);
+                (self.origin, (p - self.origin).normalize())
             }
         }
     }

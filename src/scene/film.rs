@@ -7,6 +7,7 @@
 //! | start_opl | float | 0 | OPL of the start of bin 0 (t0, scene units) |
 //! | bin_width_opl | float | required | bin width h in OPL (scene units) |
 //! | rfilter | nested | box | only `box` (mitransient's transient block supports only it) |
+//! | exhaustive_scan, laser_scan_width, laser_scan_height | boolean, integer | false, 0 | an `nlos_capture_meter`'s exhaustive laser grid (`nlos.rs`) |
 //!
 //! A contribution with path OPL `o` lands in bin `k = floor((o - t0) / h)` when
 //! `0 <= k < T` and in no bin otherwise (it still counts in the steady image).
@@ -96,6 +97,24 @@ impl Film {
     }
 
     pub fn parse(ctx: &Ctx, node: Node) -> Result<Film, SceneError> {
+        Ok(Self::parse_with_scan(ctx, node, false)?.0)
+    }
+
+    /// The film of an `nlos_capture_meter`: also `exhaustive_scan` (boolean, default
+    /// false) with `laser_scan_width` and `laser_scan_height` (the laser grid of an
+    /// exhaustive capture, returned when `exhaustive_scan` is true).
+    pub fn parse_for_meter(
+        ctx: &Ctx,
+        node: Node,
+    ) -> Result<(Film, Option<[usize; 2]>), SceneError> {
+        Self::parse_with_scan(ctx, node, true)
+    }
+
+    fn parse_with_scan(
+        ctx: &Ctx,
+        node: Node,
+        meter: bool,
+    ) -> Result<(Film, Option<[usize; 2]>), SceneError> {
         let kind = ctx.required_attr(node, "type")?;
         if kind != "transient_hdr_film" {
             return Err(ctx.err(
@@ -129,6 +148,26 @@ impl Film {
         }
         // mitransient film flags that do not change what is computed here.
         p.ignore("auto_detect_bins");
+        let mut scan = None;
+        if p.peek("exhaustive_scan").is_some() || p.peek("laser_scan_width").is_some() {
+            if !meter {
+                return Err(p.err_at("exhaustive_scan", "exhaustive_scan and laser_scan_width/height belong to the film of an nlos_capture_meter"));
+            }
+            let on = p.boolean_or("exhaustive_scan", false)?;
+            let lw = p.integer("laser_scan_width")?.unwrap_or(0);
+            let lh = p.integer("laser_scan_height")?.unwrap_or(0);
+            if on {
+                for (name, v) in [("laser_scan_width", lw), ("laser_scan_height", lh)] {
+                    if !(1..=1 << 16).contains(&v) {
+                        return Err(p.err_at(
+                            name,
+                            format!("an exhaustive scan needs {name} in 1..=65536, got {v}"),
+                        ));
+                    }
+                }
+                scan = Some([lw as usize, lh as usize]);
+            }
+        }
         for obj in std::mem::take(&mut p.objects) {
             match (obj.tag_name().name(), ctx.attr(obj, "type")?.as_deref()) {
                 ("rfilter", Some("box")) => Props::parse(ctx, obj)?.finish()?,
@@ -139,13 +178,14 @@ impl Film {
             }
         }
         p.finish()?;
-        Ok(Film {
+        let film = Film {
             width,
             height,
             bins,
             start_opl,
             bin_width_opl,
-        })
+        };
+        Ok((film, scan))
     }
 }
 

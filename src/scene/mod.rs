@@ -13,6 +13,7 @@ pub mod infinite_emitters;
 pub mod instance;
 pub mod limits;
 pub mod mesh;
+pub mod nlos;
 pub mod ply_attributes;
 pub mod projector;
 pub mod props;
@@ -34,8 +35,9 @@ pub use error::SceneError;
 use film::Film;
 use std::path::{Path, PathBuf};
 
-/// `transient_path` (surfaces only) and `transient_prbvolpath` (participating media,
-/// `render/volpath.rs`), mitransient's names; both take these parameters.
+/// `transient_path` (surfaces only), `transient_prbvolpath` (participating media,
+/// `render/volpath.rs`) and `transient_nlos_path` (NLOS captures, `nlos.rs`),
+/// mitransient's names; all take these parameters.
 ///
 /// | parameter | type | default | meaning |
 /// |-----------|------|---------|---------|
@@ -59,6 +61,8 @@ pub struct IntegratorSettings {
     pub volumetric: bool,
     /// mitransient's `temporal_filter`: how a contribution reaches the time bins.
     pub time_filter: crate::scene::time_filter::TimeFilter,
+    /// `transient_nlos_path`: the NLOS tracer (`render/nlos.rs`) and its settings.
+    pub nlos: Option<nlos::NlosSettings>,
 }
 
 impl Default for IntegratorSettings {
@@ -70,6 +74,7 @@ impl Default for IntegratorSettings {
             camera_unwarp: false,
             volumetric: false,
             time_filter: crate::scene::time_filter::TimeFilter::Box,
+            nlos: None,
         }
     }
 }
@@ -112,6 +117,8 @@ pub struct Scene {
     pub media: Vec<crate::media::Medium>,
     /// The medium the camera sits in.
     pub camera_medium: Option<u32>,
+    /// An NLOS capture's geometry (`transient_nlos_path`), prepared at load.
+    pub nlos: Option<nlos::NlosSetup>,
     pub accel: Accel,
     /// Legal but suspicious input (an emitter that contributes nothing, a shape with no
     /// area), one line each as `file:line: <element>: message`. The caller prints them

@@ -53,6 +53,8 @@ enum SensorProjection {
         focus_distance: f32,
     },
     Orthographic,
+    /// `nlos_capture_meter` on a relay wall.
+    Meter(super::nlos::CaptureMeter),
 }
 
 pub fn load(path: &Path, overrides: &Overrides) -> Result<Scene, SceneError> {
@@ -186,6 +188,26 @@ pub fn load(path: &Path, overrides: &Overrides) -> Result<Scene, SceneError> {
     check_extent(&ctx, root, &shapes)?;
     let s = sensor.ok_or_else(|| ctx.err(root, "the scene has no <sensor>"))?;
     let mut integrator = integrator.unwrap_or_default();
+    let meter = match &s.projection {
+        SensorProjection::Meter(m) => Some(m.clone()),
+        _ => None,
+    };
+    if integrator.nlos.is_some() {
+        if !media.is_empty() {
+            return Err(ctx.err(root, "transient_nlos_path traces surfaces only (as mitransient 1.3.1's): the scene has participating media"));
+        }
+        if let Some(i) = bsdfs.iter().position(|m| m.bsdf.delays()) {
+            return Err(ctx.err(
+                root,
+                format!("transient_nlos_path does not model delays (SPEC 6); material #{i} delays"),
+            ));
+        }
+    } else if meter.is_some() {
+        return Err(ctx.err(
+            root,
+            "an nlos_capture_meter needs <integrator type=\"transient_nlos_path\">",
+        ));
+    }
     // Mitsuba's `path` integrator ignores media; a scene that has them means the
     // volumetric integrator, so rendering it without would be silently wrong.
     if let (Some(e), false) = (first_medium, integrator.volumetric) {
@@ -246,8 +268,23 @@ pub fn load(path: &Path, overrides: &Overrides) -> Result<Scene, SceneError> {
     if emitters.is_empty() {
         return Err(ctx.err(root, "the scene has no emitter; it would render black"));
     }
+    // An exhaustive capture stacks one sensor image per laser point (`nlos.rs`).
+    let grid = [film.width, film.height];
+    if let Some([lw, lh]) = meter.as_ref().and_then(|m| m.laser_scan) {
+        if integrator.nlos.as_ref().map(|n| n.capture) == Some(super::nlos::CaptureType::Exhaustive)
+        {
+            film.height = lh
+                .checked_mul(lw)
+                .and_then(|l| l.checked_mul(film.height))
+                .ok_or_else(|| {
+                    whole("the exhaustive scan's film is too large to address".into())
+                })?;
+            film.validate().map_err(whole)?;
+        }
+    }
     let (w, h) = (film.width, film.height);
     let (camera, fov) = match s.projection {
+        SensorProjection::Meter(ref m) => (Camera::meter(m.origin, m.wall, w, h, grid[1]), None),
         SensorProjection::Perspective { fov, fov_axis } => {
             (Camera::new(s.to_world, fov, fov_axis, w, h), Some(fov))
         }
@@ -287,6 +324,26 @@ pub fn load(path: &Path, overrides: &Overrides) -> Result<Scene, SceneError> {
         ));
     }
     let accel = Accel::build(&shapes);
+    let nlos = match &integrator.nlos {
+        Some(settings) => {
+            let mut warnings = Vec::new();
+            let setup = super::nlos::prepare(
+                settings,
+                meter,
+                grid,
+                &shapes,
+                &emitters,
+                &accel,
+                &mut |w| warnings.push(w),
+            )
+            .map_err(|e| SceneError::new(path, s.line, format!("sensor type=\"{}\"", s.kind), e))?;
+            for w in warnings {
+                ctx.warn(root, w);
+            }
+            Some(setup)
+        }
+        None => None,
+    };
     let mesh_files = ctx.take_mesh_files();
     Ok(Scene {
         file: path.to_path_buf(),
@@ -302,6 +359,7 @@ pub fn load(path: &Path, overrides: &Overrides) -> Result<Scene, SceneError> {
         environment,
         media,
         camera_medium: s.medium,
+        nlos,
         accel,
         warnings: ctx.take_warnings(),
         identity: identity(&mesh_files, overrides)
@@ -459,7 +517,7 @@ fn parse_shapegroup(ctx: &Ctx, node: Node, o: &mut Objects) -> Result<(), SceneE
             bsdfs: &o.named_bsdfs,
             textures: &o.named_textures,
         };
-        let (shape, bsdf, emission) = parse_shape(
+        let (shape, bsdf, emission, sensor) = parse_shape(
             ctx,
             child,
             members.len() as u32,
@@ -470,6 +528,9 @@ fn parse_shapegroup(ctx: &Ctx, node: Node, o: &mut Objects) -> Result<(), SceneE
         )?;
         if emission.is_some() {
             return Err(ctx.err(child, "instancing of emitters is not supported (as Mitsuba): a shape in a shapegroup cannot emit"));
+        }
+        if let Some(obj) = sensor {
+            return Err(ctx.err(obj, "a relay wall in a shapegroup cannot hold the capture meter: attach it to a shape of the scene"));
         }
         members.push((shape, bsdf));
     }
@@ -661,7 +722,7 @@ fn walk(ctx: &Ctx, root: Node, o: &mut Objects, depth: usize) -> Result<(), Scen
                     bsdfs: &o.named_bsdfs,
                     textures: &o.named_textures,
                 };
-                let (shape, bsdf, emission) = parse_shape(
+                let (shape, bsdf, emission, sensor) = parse_shape(
                     ctx,
                     node,
                     index,
@@ -670,6 +731,12 @@ fn walk(ctx: &Ctx, root: Node, o: &mut Objects, depth: usize) -> Result<(), Scen
                     &mut o.media,
                     &o.named_media,
                 )?;
+                if let Some(obj) = sensor {
+                    if o.sensor.is_some() {
+                        return Err(ctx.err(obj, "only one <sensor> is supported"));
+                    }
+                    o.sensor = Some(parse_meter(ctx, obj, &o.named_samplers, index, &shape)?);
+                }
                 add_shape(o, shape, bsdf, emission);
             }
             // Area emitters declared here were read before the walk (below).
@@ -924,10 +991,13 @@ pub const MITRANSIENT_DEFAULT_MAX_DEPTH: i64 = 6;
 
 fn parse_integrator(ctx: &Ctx, node: Node) -> Result<IntegratorSettings, SceneError> {
     let kind = ctx.required_attr(node, "type")?;
-    if kind != "transient_path" && kind != "transient_prbvolpath" {
+    if !matches!(
+        kind.as_str(),
+        "transient_path" | "transient_prbvolpath" | "transient_nlos_path"
+    ) {
         return Err(ctx.err(
             node,
-            format!("integrator '{kind}' is not supported (use transient_path, or transient_prbvolpath for media)"),
+            format!("integrator '{kind}' is not supported (use transient_path, transient_prbvolpath for media, or transient_nlos_path for NLOS captures)"),
         ));
     }
     let mut p = Props::parse(ctx, node)?;
@@ -979,6 +1049,14 @@ fn parse_integrator(ctx: &Ctx, node: Node) -> Result<IntegratorSettings, SceneEr
     legacy_time_window(&mut p)?;
     // Mitsuba's samples per rendering pass: no effect on what is computed.
     p.ignore("samples_per_pass");
+    let nlos = if kind == "transient_nlos_path" {
+        if p.peek("camera_unwarp").is_some() && p.boolean_or("camera_unwarp", false)? {
+            return Err(p.err_at("camera_unwarp", "transient_nlos_path does not take camera_unwarp (as mitransient 1.3.1): use account_first_and_last_bounces"));
+        }
+        Some(super::nlos::parse_settings(&mut p, max_depth)?)
+    } else {
+        None
+    };
     let s = IntegratorSettings {
         max_depth: max_depth as i32,
         rr_depth: rr_depth as u32,
@@ -991,6 +1069,7 @@ fn parse_integrator(ctx: &Ctx, node: Node) -> Result<IntegratorSettings, SceneEr
         camera_unwarp: p.boolean_or("camera_unwarp", false)?,
         volumetric: kind == "transient_prbvolpath",
         time_filter,
+        nlos,
     };
     if let Some(&obj) = p.objects.first() {
         return Err(ctx.err(obj, "unexpected nested element in <integrator>"));
@@ -1176,6 +1255,71 @@ fn check_sensor_transform(kind: &str, m: &DMat4) -> Result<(), String> {
     Ok(())
 }
 
+/// An `nlos_capture_meter` nested in shape `index` (`nlos.rs`).
+fn parse_meter(
+    ctx: &Ctx,
+    node: Node,
+    named_samplers: &HashMap<String, (u32, u64)>,
+    index: u32,
+    shape: &Shape,
+) -> Result<Sensor, SceneError> {
+    let mut p = Props::parse(ctx, node)?;
+    let origin = super::nlos::parse_meter_origin(&mut p)?;
+    check_world_point(origin.as_dvec3())
+        .map_err(|e| p.err_at("sensor_origin", format!("sensor_origin: {e}")))?;
+    let wall = super::nlos::Wall::of_rectangle(shape)
+        .ok_or_else(|| ctx.err(node, "the relay wall is not a rectangle"))?;
+    if !(wall.normal.is_finite() && wall.du.length() > 0.0 && wall.dv.length() > 0.0) {
+        return Err(ctx.err(
+            node,
+            "the relay wall's rectangle is degenerate (its to_world collapses it)",
+        ));
+    }
+    let mut film = None;
+    let (mut spp, mut seed) = (4u32, 0u64);
+    let mut seen_sampler = false;
+    for obj in std::mem::take(&mut p.objects) {
+        match obj.tag_name().name() {
+            "film" if film.is_some() => return Err(ctx.err(obj, "a sensor has one <film>")),
+            "sampler" | "ref" if seen_sampler => {
+                return Err(ctx.err(obj, "a sensor has one <sampler>"))
+            }
+            "film" => film = Some(Film::parse_for_meter(ctx, obj)?),
+            "sampler" => {
+                seen_sampler = true;
+                (spp, seed) = parse_sampler(ctx, obj)?;
+            }
+            "ref" if named_samplers.contains_key(&ctx.required_attr(obj, "id")?) => {
+                seen_sampler = true;
+                (spp, seed) = named_samplers[&ctx.required_attr(obj, "id")?];
+            }
+            other => {
+                return Err(ctx.err(
+                    obj,
+                    format!("unexpected <{other}> inside <sensor type=\"nlos_capture_meter\"> (it takes a film and a sampler; the laser is a top-level emitter)"),
+                ))
+            }
+        }
+    }
+    p.finish()?;
+    let (film, laser_scan) = film.ok_or_else(|| ctx.err(node, "the sensor has no <film>"))?;
+    Ok(Sensor {
+        line: ctx.line(node),
+        kind: "nlos_capture_meter".into(),
+        to_world: DMat4::from_translation(origin.as_dvec3()),
+        projection: SensorProjection::Meter(super::nlos::CaptureMeter {
+            origin,
+            shape: index,
+            wall,
+            laser_scan,
+        }),
+        film,
+        spp,
+        seed,
+        medium: None,
+    })
+}
+
 fn parse_sensor(
     ctx: &Ctx,
     node: Node,
@@ -1187,7 +1331,7 @@ fn parse_sensor(
     if !matches!(kind.as_str(), "perspective" | "thinlens" | "orthographic") {
         return Err(ctx.err(
             node,
-            format!("sensor '{kind}' is not supported (use perspective, thinlens or orthographic)"),
+            format!("sensor '{kind}' is not supported (use perspective, thinlens or orthographic; an nlos_capture_meter goes inside its relay wall's <shape>)"),
         ));
     }
     let mut p = Props::parse(ctx, node)?;
@@ -1359,7 +1503,9 @@ fn check_volumetric_materials(ctx: &Ctx, root: Node, bsdfs: &[Material]) -> Resu
     Ok(())
 }
 
-type ParsedShape = (Shape, Material, Option<AreaEmission>);
+/// A shape, its material, its area emission and the `<sensor>` nested in it (an
+/// `nlos_capture_meter`, read by the caller).
+type ParsedShape<'a, 'i> = (Shape, Material, Option<AreaEmission>, Option<Node<'a, 'i>>);
 
 /// The diagonal of the box around all shapes, in world units.
 fn extent(shapes: &[Shape]) -> Option<f32> {
@@ -1541,15 +1687,15 @@ fn parse_area_emitter(
     Ok((radiance, None))
 }
 
-fn parse_shape(
+fn parse_shape<'a, 'i>(
     ctx: &Ctx,
-    node: Node,
+    node: Node<'a, 'i>,
     index: u32,
     named: &Named,
     area_emitters: &HashMap<String, AreaEmission>,
     media: &mut Vec<Medium>,
     named_media: &HashMap<String, u32>,
-) -> Result<ParsedShape, SceneError> {
+) -> Result<ParsedShape<'a, 'i>, SceneError> {
     let kind = ctx.required_attr(node, "type")?;
     let mut p = Props::parse(ctx, node)?;
     let geom = parse_geometry(&kind, &mut p)?;
@@ -1561,6 +1707,7 @@ fn parse_shape(
     let flip_normals = !no_flip && p.boolean_or("flip_normals", false)?;
     let mut bsdf = None;
     let mut emission = None;
+    let mut sensor = None;
     let (mut interior, mut exterior) = (None, None);
     for obj in std::mem::take(&mut p.objects) {
         let slot_name = ctx.attr(obj, "name")?;
@@ -1607,10 +1754,23 @@ fn parse_shape(
                 }
                 emission = Some((parse_area_emission(ctx, obj, &k, named.textures)?, obj));
             }
+            "sensor" if sensor.is_some() => {
+                return Err(ctx.err(obj, "a shape has at most one sensor"));
+            }
+            "sensor" => {
+                let k = ctx.required_attr(obj, "type")?;
+                if k != "nlos_capture_meter" {
+                    return Err(ctx.err(obj, format!("sensor '{k}' cannot be attached to a shape (only nlos_capture_meter, on a relay wall)")));
+                }
+                if kind != "rectangle" {
+                    return Err(ctx.err(obj, format!("nlos_capture_meter is attached to a {kind}: tstat supports relay walls that are a rectangle (its grid maps the rectangle's uv square)")));
+                }
+                sensor = Some(obj);
+            }
             other => {
                 return Err(ctx.err(
                     obj,
-                    format!("<{other}> inside <shape> is not supported (a shape takes a bsdf, an emitter and interior/exterior media)"),
+                    format!("<{other}> inside <shape> is not supported (a shape takes a bsdf, an emitter, interior/exterior media and an nlos_capture_meter sensor)"),
                 ))
             }
         }
@@ -1678,7 +1838,7 @@ fn parse_shape(
             ));
         }
     }
-    Ok((shape, bsdf, emission.map(|(e, _)| e)))
+    Ok((shape, bsdf, emission.map(|(e, _)| e), sensor))
 }
 
 fn parse_point_emitter(

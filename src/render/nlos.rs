@@ -1,0 +1,403 @@
+//! `transient_nlos_path`: mitransient 1.3.1's NLOS path tracer (`transientnlospath.py`,
+//! after [Royo2022] "Non-line-of-sight transient rendering"), transcribed for one path
+//! at a time. The scene's setup (lit points, laser, hidden geometry) is
+//! `scene/nlos.rs`.
+//!
+//! A path starts at the sensor (the capture meter's `sensor_origin`, or a camera) and
+//! at each surface vertex x_d (depth d, 0 at the first hit) with a non-delta lobe:
+//!
+//! - **laser sampling** (`nlos_laser_sampling`): connects x_d to the lit point x_l
+//!   (visible from x_d, the surface there facing x_d), with the area-to-solid-angle
+//!   density `|x_l - x_d|^2 / cos_l`, then x_l to the laser:
+//!   `beta f_d(x_d -> x_l) cos_l / |x_l - x_d|^2 * f_l(x_l -> laser) I / r^2`, of depth
+//!   d + 2, at OPL `opl + eta |x_l - x_d|` (plus `eta r` with
+//!   `account_first_and_last_bounces`). In confocal and exhaustive captures the laser
+//!   is re-aimed at x_l: I is its on-axis intensity;
+//! - otherwise **next-event estimation** to the laser from x_d (depth d);
+//!
+//! then continues by **hidden-geometry sampling** (a uniform point of the hidden
+//! geometry, density converted to solid angle; `nlos_hidden_geometry_sampling`, with its
+//! depth limit and its optional coin flip against BSDF sampling) or BSDF sampling, and
+//! Russian roulette from `rr_depth` on (at the vertex's depth, as mitransient). The
+//! first segment (sensor to wall) counts in the OPL only with
+//! `account_first_and_last_bounces`. `filter_depth` and `discard_direct_paths` act on
+//! the light-sample contributions' depth. The laser, a delta light, is never hit.
+
+use super::deposits::PathDeposits;
+use super::gbuffer::GSample;
+use super::integrator::{contribute, perturbed_at, PathTally};
+use super::sampler::{slot, PathSampler};
+use crate::cpu::{Isa, ISA_AVX2, ISA_AVX512, ISA_BASELINE};
+use crate::geometry::accel::{offset_origin, Hit};
+use crate::materials::{Bsdf, BsdfModel};
+use crate::math::frame::Frame;
+use crate::math::Rgb;
+use crate::scene::nlos::{CaptureType, NlosSettings, NlosSetup};
+use crate::scene::Scene;
+use glam::Vec3;
+use std::borrow::Cow;
+
+/// Dr.Jit's `epsilon(Float)`: mitransient's thresholds on cosines, densities and BSDF
+/// values.
+const EPS: f32 = f32::EPSILON / 2.0;
+
+/// Traces one NLOS path from `o` along unit `d`; `target` is the point laser sampling
+/// aims at (ignored without it; NaN: a lit point that does not exist).
+#[inline]
+pub fn trace_nlos<S: PathSampler>(
+    scene: &Scene,
+    o: Vec3,
+    d: Vec3,
+    target: Vec3,
+    rng: &mut S,
+    deposits: &mut PathDeposits,
+    tally: &mut PathTally,
+) -> GSample {
+    match crate::cpu::current() {
+        // SAFETY: `cpu::current` returns a level only when the CPU supports it.
+        #[cfg(target_arch = "x86_64")]
+        Isa::Avx512 => unsafe { nlos_avx512(scene, o, d, target, rng, deposits, tally) },
+        #[cfg(target_arch = "x86_64")]
+        Isa::Avx2 => unsafe { nlos_avx2(scene, o, d, target, rng, deposits, tally) },
+        // SAFETY: the baseline runs on every CPU.
+        _ => unsafe { body::<ISA_BASELINE, S>(scene, o, d, target, rng, deposits, tally) },
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx512cd")]
+#[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
+fn nlos_avx512<S: PathSampler>(
+    scene: &Scene,
+    o: Vec3,
+    d: Vec3,
+    target: Vec3,
+    rng: &mut S,
+    deposits: &mut PathDeposits,
+    tally: &mut PathTally,
+) -> GSample {
+    // SAFETY: compiled for (and only called on CPUs with) ISA_AVX512.
+    unsafe { body::<ISA_AVX512, S>(scene, o, d, target, rng, deposits, tally) }
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
+fn nlos_avx2<S: PathSampler>(
+    scene: &Scene,
+    o: Vec3,
+    d: Vec3,
+    target: Vec3,
+    rng: &mut S,
+    deposits: &mut PathDeposits,
+    tally: &mut PathTally,
+) -> GSample {
+    // SAFETY: compiled for (and only called on CPUs with) ISA_AVX2.
+    unsafe { body::<ISA_AVX2, S>(scene, o, d, target, rng, deposits, tally) }
+}
+
+/// A surface vertex: where it is and what scatters there.
+struct Vertex<'a> {
+    p: Vec3,
+    ng: Vec3,
+    frame: Frame,
+    /// The direction back along the arriving ray, in `frame`.
+    wo: Vec3,
+    bsdf: Cow<'a, Bsdf>,
+}
+
+impl<'a> Vertex<'a> {
+    /// The vertex at `hit` of a ray along `d` (textures resolved at the hit).
+    #[inline(always)]
+    fn at(scene: &'a Scene, hit: &Hit, d: Vec3) -> Self {
+        let shape = &scene.shapes[hit.shape as usize];
+        let sp = hit.surface;
+        let material = &scene.bsdfs[shape.bsdf as usize];
+        let frame = if material.is_anisotropic() {
+            Frame::from_normal_tangent(sp.ns, shape.dpdu(hit.face, hit.b1, hit.b2, sp.p))
+        } else {
+            Frame::from_normal(sp.ns)
+        };
+        let wo = frame.to_local(-d);
+        let bsdf = if material.is_plain() {
+            Cow::Borrowed(&material.bsdf)
+        } else if material.perturbs() {
+            Cow::Owned(perturbed_at(material, shape, hit, &sp, &frame, wo))
+        } else if material.is_textured() {
+            Cow::Owned(material.at_point(&shape.tex_point(hit.face, hit.b1, hit.b2, sp.p)))
+        } else {
+            Cow::Borrowed(&material.bsdf)
+        };
+        Vertex {
+            p: sp.p,
+            ng: sp.ng,
+            frame,
+            wo,
+            bsdf,
+        }
+    }
+}
+
+/// The path's fixed context.
+struct Ctx<'a> {
+    scene: &'a Scene,
+    n: &'a NlosSettings,
+    setup: &'a NlosSetup,
+    /// Re-aim the laser at each lit point (confocal and exhaustive laser sampling).
+    focus: bool,
+}
+
+impl Ctx<'_> {
+    /// Light-sample contribution from vertex `v` to the laser (mitransient's
+    /// `emitter_nee_sample`), of depth `depth`, the path having OPL `opl` at `v`.
+    ///
+    /// # Safety
+    /// The CPU must support `ISA`.
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    unsafe fn laser_nee<const ISA: u8>(
+        &self,
+        v: &Vertex,
+        depth: u32,
+        beta: Rgb,
+        opl: f64,
+        eta: f32,
+        deposits: &mut PathDeposits,
+        tally: &mut PathTally,
+    ) {
+        let n = self.n;
+        if n.filter_depth != -1 && i64::from(depth) != n.filter_depth {
+            return;
+        }
+        if n.discard_direct_paths && depth <= 2 {
+            return;
+        }
+        let scene = self.scene;
+        let pos = self.setup.laser_origin;
+        let to_laser = pos - v.p;
+        let dist = to_laser.length();
+        if !(dist > 0.0) {
+            return;
+        }
+        let dir = to_laser / dist;
+        // The emitter's value: at a point on its axis at the same distance when it is
+        // re-aimed, else from the vertex itself (delta lights draw no numbers).
+        let at = if self.focus {
+            pos + self.setup.laser_axis * dist
+        } else {
+            v.p
+        };
+        let laser = &scene.emitters[self.setup.laser as usize];
+        let Some(ls) = laser.sample(&scene.shapes, at, 1.0, 0.0, [0.0; 2]) else {
+            return;
+        };
+        let f = v.bsdf.eval(v.wo, v.frame.to_local(dir));
+        if f == Rgb::ZERO {
+            return;
+        }
+        let origin = offset_origin(v.p, v.ng, dir);
+        let tmax = (pos - origin).length() * (1.0 - 1e-4);
+        tally.rays += 1;
+        // SAFETY: the caller guarantees ISA.
+        if unsafe { scene.accel.occluded_with::<ISA>(origin, dir, tmax) } {
+            return;
+        }
+        let last = if n.account_first_and_last_bounces {
+            eta as f64 * dist as f64
+        } else {
+            0.0
+        };
+        contribute(scene, deposits, tally, opl + last, beta * f * ls.li);
+    }
+
+    /// Laser sampling from vertex `v` of depth `depth` through the lit point `target`
+    /// (mitransient's `emitter_laser_targets_sample`).
+    ///
+    /// # Safety
+    /// The CPU must support `ISA`.
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    unsafe fn laser_sample<const ISA: u8>(
+        &self,
+        v: &Vertex,
+        target: Vec3,
+        depth: u32,
+        beta: Rgb,
+        opl: f64,
+        eta: f32,
+        deposits: &mut PathDeposits,
+        tally: &mut PathTally,
+    ) {
+        let scene = self.scene;
+        let to_target = target - v.p;
+        let dist = to_target.length();
+        if !(dist > 0.0) {
+            // Also a NaN target: a lit point that does not exist.
+            return;
+        }
+        let dir = to_target / dist;
+        let f = v.bsdf.eval(v.wo, v.frame.to_local(dir));
+        if !(f.max_element() > EPS) {
+            return;
+        }
+        let origin = offset_origin(v.p, v.ng, dir);
+        tally.rays += 1;
+        // One closest-hit ray does mitransient's occlusion test to the lit point and its
+        // search for the surface there: something nearer blocks it.
+        // SAFETY: the caller guarantees ISA.
+        let Some(hit) = (unsafe {
+            scene
+                .accel
+                .intersect_with::<ISA>(&scene.shapes, origin, dir, f32::INFINITY)
+        }) else {
+            return;
+        };
+        if hit.t < (target - origin).length() * (1.0 - 1e-4) {
+            return;
+        }
+        let lit = Vertex::at(scene, &hit, dir);
+        let cos_l = lit.wo.z;
+        if !(cos_l > 0.0) {
+            return;
+        }
+        let beta = beta * f * (cos_l / (dist * dist));
+        // SAFETY: the caller guarantees ISA.
+        unsafe {
+            self.laser_nee::<ISA>(
+                &lit,
+                depth + 2,
+                beta,
+                opl + eta as f64 * dist as f64,
+                eta,
+                deposits,
+                tally,
+            )
+        };
+    }
+}
+
+/// The tracer, inlined into one wrapper per instruction set.
+///
+/// # Safety
+/// The CPU must support `ISA`.
+#[inline(always)]
+unsafe fn body<const ISA: u8, S: PathSampler>(
+    scene: &Scene,
+    o: Vec3,
+    d: Vec3,
+    target: Vec3,
+    rng: &mut S,
+    deposits: &mut PathDeposits,
+    tally: &mut PathTally,
+) -> GSample {
+    let settings = &scene.integrator;
+    let (Some(n), Some(setup)) = (settings.nlos.as_ref(), scene.nlos.as_ref()) else {
+        unreachable!("the NLOS tracer runs only on scenes loaded with transient_nlos_path");
+    };
+    let ctx = Ctx {
+        scene,
+        n,
+        setup,
+        focus: n.laser_sampling && n.capture != CaptureType::Single,
+    };
+    let mut g = GSample::default();
+    let (mut o, mut d) = (o, d);
+    let mut opl = 0.0f64;
+    let mut beta = Rgb::ONE;
+    let mut eta = 1.0f32;
+    let mut depth: u32 = 0;
+    let max_depth = settings.max_depth;
+    if max_depth == 0 {
+        return g;
+    }
+    loop {
+        rng.next_vertex();
+        tally.rays += 1;
+        // SAFETY: the caller guarantees ISA.
+        let Some(hit) = (unsafe {
+            scene
+                .accel
+                .intersect_with::<ISA>(&scene.shapes, o, d, f32::INFINITY)
+        }) else {
+            break;
+        };
+        if n.account_first_and_last_bounces || depth > 0 {
+            opl += eta as f64 * hit.t as f64;
+        }
+        let v = Vertex::at(scene, &hit, d);
+        if depth == 0 {
+            g.depth = Some(hit.t);
+            g.albedo = v.bsdf.albedo(v.wo);
+            let ns = hit.surface.ns;
+            g.normal = if ns.dot(d) <= 0.0 { ns } else { -ns };
+        }
+        if max_depth >= 0 && depth as i64 + 1 >= max_depth as i64 {
+            break;
+        }
+        if v.bsdf.flags(v.wo).has_non_delta() {
+            // SAFETY: the caller guarantees ISA.
+            unsafe {
+                if n.laser_sampling {
+                    ctx.laser_sample::<ISA>(&v, target, depth, beta, opl, eta, deposits, tally);
+                } else {
+                    ctx.laser_nee::<ISA>(&v, depth, beta, opl, eta, deposits, tally);
+                }
+            }
+        }
+
+        // The continuation: hidden-geometry or BSDF sampling.
+        let hg_here =
+            setup.hidden.is_some() && (n.hg_max_depth == -1 || (depth as i64) < n.hg_max_depth);
+        let (use_hg, pdf_method) = if !hg_here {
+            (false, 1.0)
+        } else if n.hg_rroulette {
+            (rng.get1(slot::NLOS_STRATEGY) < 0.5, 0.5)
+        } else {
+            (true, 1.0)
+        };
+        let u1 = rng.get1(slot::BSDF_1);
+        let u2 = rng.get2(slot::BSDF_2);
+        let (wi_world, weight, bs_eta) = if use_hg {
+            let hidden = setup.hidden.as_ref().expect("hg_here");
+            let (p, nh) = hidden.sample(&scene.shapes, u1, u2);
+            let to_p = p - v.p;
+            let dist = to_p.length();
+            let dir = to_p / dist;
+            let cos_i = v.ng.dot(dir);
+            let cos_g = nh.dot(-dir);
+            if !(cos_i > EPS && cos_g > EPS) {
+                break;
+            }
+            let pdf = dist * dist / (hidden.total_area * cos_g);
+            if !(pdf > EPS) || !pdf.is_finite() {
+                break;
+            }
+            let f = v.bsdf.eval(v.wo, v.frame.to_local(dir));
+            (dir, f * (1.0 / pdf), 1.0)
+        } else {
+            let Some(bs) = v.bsdf.sample(v.wo, u1, u2) else {
+                break;
+            };
+            (v.frame.to_world(bs.wi).normalize(), bs.weight, bs.eta)
+        };
+        beta *= weight * (1.0 / pdf_method);
+        eta *= bs_eta;
+        o = offset_origin(v.p, v.ng, wi_world);
+        d = wi_world;
+
+        // Russian roulette at this vertex's depth (mitransient: min(max(beta) eta^2, 0.95)).
+        let beta_max = beta.max_element();
+        if !(beta_max > 0.0) {
+            break;
+        }
+        let q = (beta_max * eta * eta).min(0.95);
+        let u_rr = rng.get1(slot::RR);
+        if depth >= settings.rr_depth {
+            if u_rr >= q {
+                break;
+            }
+            beta /= q;
+        }
+        depth += 1;
+    }
+    g
+}

@@ -1,0 +1,561 @@
+//! Non-line-of-sight captures (SPEC 11): mitransient 1.3.1's `transient_nlos_path`
+//! integrator and `nlos_capture_meter` sensor, read from the scene and prepared at load
+//! (the relay wall's grid, the laser and the points it lights, the hidden geometry's
+//! area distribution). The path tracer is `render/nlos.rs`.
+//!
+//! `transient_nlos_path` takes `transient_path`'s parameters (max_depth, rr_depth,
+//! temporal_filter, gaussian_stddev, hide_emitters) and these:
+//!
+//! | parameter | type | default | meaning |
+//! |-----------|------|---------|---------|
+//! | capture_type | integer or string | single | 1/`single`: one laser point (where the laser's axis meets the scene); 2/`confocal`: the laser lights the sensor point itself; 3/`exhaustive`: every point of the laser grid, one image each |
+//! | nlos_laser_sampling | boolean | false | connect each vertex to the lit point, then the lit point to the laser ([Royo2022]'s laser sampling); false: next-event estimation to the laser |
+//! | nlos_hidden_geometry_sampling | boolean | false | continue paths towards a uniform point of the hidden geometry (every shape but the relay wall) instead of sampling the BSDF |
+//! | nlos_hidden_geometry_sampling_max_depth | integer | -1 | only at vertices of depth below this (-1: all) |
+//! | nlos_hidden_geometry_sampling_do_rroulette | boolean | false | choose hidden-geometry or BSDF sampling with probability 1/2 each |
+//! | nlos_hidden_geometry_sampling_includes_relay_wall | boolean | false | the relay wall is hidden geometry too |
+//! | account_first_and_last_bounces | boolean | false | count the sensor-to-wall and wall-to-laser segments in the OPL |
+//! | filter_depth / filter_bounces | integer | -1 | keep only light-sample contributions of this depth (bounces: depth - 1) |
+//! | discard_direct_paths | boolean | false | drop light-sample contributions of depth <= 2 |
+//! | force_equal_illumination_scanning | boolean | true | exhaustive: the laser grid is the sensor grid |
+//! | illumination_scan_fov | float | 20 | exhaustive without equal grids: see below |
+//! | block_size | integer | | Mitsuba's block size: no effect |
+//!
+//! The depth of a light-sample contribution is mitransient's: the vertex's depth (0 at
+//! the first hit) for next-event estimation, that plus 2 through laser sampling.
+//!
+//! `nlos_capture_meter`, nested in the relay wall's `<shape type="rectangle">`:
+//! `sensor_origin` (point, default 0) and a `transient_hdr_film` whose width x height
+//! is the grid of points measured on the wall. Grid point (column x, row y) is the
+//! rectangle's uv point ((x + 1/2) / W, (y + 1/2) / H), i.e. its local
+//! (2u - 1, 2v - 1, 0) (Mitsuba's `sample_position`): row 0 lies along the local -y
+//! edge. A path starts at `sensor_origin` towards that point. For exhaustive scans the
+//! film also sets `exhaustive_scan` and `laser_scan_width`/`laser_scan_height`, and the
+//! render is one image per laser point, stacked: film row `l H + y` is sensor row `y`
+//! lit by laser point `l` (row-major in the laser grid, as sensor pixels are).
+//!
+//! Legacy meter parameters of mitransient's older scenes (`confocal`, `laser_origin`,
+//! `laser_lookat_pixel`, `account_first_and_last_bounces`) are checked for their type
+//! and ignored with one warning, as mitransient 1.3.1 does (the laser is the scene's
+//! emitter; `account_first_and_last_bounces` belongs to the integrator).
+//!
+//! The laser is the scene's only emitter, a `projector` or a `spot`. With laser
+//! sampling in confocal and exhaustive captures it is re-aimed at each lit point
+//! (mitransient's `focus_laser`): the point receives the on-axis radiant intensity
+//! over its squared distance, along the real direction to the laser.
+
+use super::error::SceneError;
+use super::props::Props;
+use crate::geometry::accel::Accel;
+use crate::geometry::shape::{AreaSampler, Shape, ShapeGeom};
+use crate::lights::Emitter;
+use glam::Vec3;
+
+/// What the laser lights (mitransient's `capture_type`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum CaptureType {
+    Single,
+    Confocal,
+    Exhaustive,
+}
+
+impl CaptureType {
+    pub fn name(self) -> &'static str {
+        match self {
+            CaptureType::Single => "single",
+            CaptureType::Confocal => "confocal",
+            CaptureType::Exhaustive => "exhaustive",
+        }
+    }
+}
+
+/// `transient_nlos_path`'s own parameters (see the module notes).
+#[derive(Clone, Debug, PartialEq)]
+pub struct NlosSettings {
+    pub capture: CaptureType,
+    pub laser_sampling: bool,
+    pub hg_sampling: bool,
+    /// -1: no limit.
+    pub hg_max_depth: i64,
+    pub hg_rroulette: bool,
+    pub hg_includes_relay_wall: bool,
+    pub account_first_and_last_bounces: bool,
+    /// -1: every depth.
+    pub filter_depth: i64,
+    pub discard_direct_paths: bool,
+    pub force_equal_grids: bool,
+    pub illumination_scan_fov: f64,
+}
+
+/// Reads `transient_nlos_path`'s own parameters from `p`.
+pub fn parse_settings(p: &mut Props, max_depth: i64) -> Result<NlosSettings, SceneError> {
+    let capture = match p.peek("capture_type") {
+        None => CaptureType::Single,
+        Some(super::props::Value::Integer(_)) => match p.integer("capture_type")? {
+            Some(1) => CaptureType::Single,
+            Some(2) => CaptureType::Confocal,
+            Some(3) => CaptureType::Exhaustive,
+            other => {
+                return Err(p.err_at(
+                    "capture_type",
+                    format!(
+                        "capture_type {} is not 1 (single), 2 (confocal) or 3 (exhaustive)",
+                        other.unwrap_or_default()
+                    ),
+                ))
+            }
+        },
+        Some(_) => {
+            let s = p.string("capture_type")?.unwrap_or_default();
+            match s.to_ascii_lowercase().as_str() {
+                "single" => CaptureType::Single,
+                "confocal" => CaptureType::Confocal,
+                "exhaustive" => CaptureType::Exhaustive,
+                _ => {
+                    return Err(p.err_at(
+                        "capture_type",
+                        format!("capture_type '{s}' is not one of: single, confocal, exhaustive"),
+                    ))
+                }
+            }
+        }
+    };
+    let filter_depth = p.integer("filter_depth")?.unwrap_or(-1);
+    let filter_bounces = p.integer("filter_bounces")?.unwrap_or(-1);
+    if filter_depth != -1 && filter_bounces != -1 {
+        return Err(p.err_at(
+            "filter_bounces",
+            "set only one of filter_depth and filter_bounces",
+        ));
+    }
+    for (name, v) in [
+        ("filter_depth", filter_depth),
+        ("filter_bounces", filter_bounces),
+    ] {
+        if v < -1 || v > i32::MAX as i64 {
+            return Err(p.err_at(name, format!("{name} must be -1 or >= 0, got {v}")));
+        }
+    }
+    let filter_depth = if filter_bounces != -1 {
+        filter_bounces + 1
+    } else {
+        filter_depth
+    };
+    if filter_depth != -1 && max_depth != -1 && filter_depth >= max_depth {
+        p.warn_at(
+            "filter_depth",
+            format!("filter_depth {filter_depth} >= max_depth {max_depth}: every contribution is filtered out, the capture is all zero"),
+        );
+    }
+    let hg_sampling = p.boolean_or("nlos_hidden_geometry_sampling", false)?;
+    let hg_max_depth = p
+        .integer("nlos_hidden_geometry_sampling_max_depth")?
+        .unwrap_or(-1);
+    if hg_max_depth == 0 || hg_max_depth < -1 {
+        return Err(p.err_at(
+            "nlos_hidden_geometry_sampling_max_depth",
+            format!("nlos_hidden_geometry_sampling_max_depth must be -1 or positive, got {hg_max_depth}"),
+        ));
+    }
+    let hg_rroulette = p.boolean_or("nlos_hidden_geometry_sampling_do_rroulette", false)?;
+    let hg_wall = p.boolean_or("nlos_hidden_geometry_sampling_includes_relay_wall", false)?;
+    let fov = p.float_or("illumination_scan_fov", 20.0)?;
+    if !(fov > 0.0 && fov < 180.0) {
+        return Err(p.err_at(
+            "illumination_scan_fov",
+            format!("illumination_scan_fov must be in (0, 180) degrees, got {fov}"),
+        ));
+    }
+    // Mitsuba's image block size: how work is split, not what is computed.
+    p.ignore("block_size");
+    Ok(NlosSettings {
+        capture,
+        laser_sampling: p.boolean_or("nlos_laser_sampling", false)?,
+        hg_sampling,
+        hg_max_depth,
+        hg_rroulette: hg_rroulette && hg_sampling,
+        hg_includes_relay_wall: hg_wall && hg_sampling,
+        account_first_and_last_bounces: p.boolean_or("account_first_and_last_bounces", false)?,
+        filter_depth,
+        discard_direct_paths: p.boolean_or("discard_direct_paths", false)?,
+        force_equal_grids: p.boolean_or("force_equal_illumination_scanning", true)?,
+        illumination_scan_fov: fov,
+    })
+}
+
+/// The relay wall's rectangle: `p(u, v) = corner + du u + dv v` for uv in [0, 1]^2.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Wall {
+    pub corner: Vec3,
+    pub du: Vec3,
+    pub dv: Vec3,
+    /// Unit normal: the rectangle's geometric normal (local +z, or -z with flip_normals).
+    pub normal: Vec3,
+}
+
+impl Wall {
+    /// The wall of a `rectangle` shape (its mesh: local (-1, -1), (1, -1), (1, 1),
+    /// (-1, 1) mapped by to_world).
+    pub fn of_rectangle(shape: &Shape) -> Option<Wall> {
+        let ShapeGeom::Mesh { positions, .. } = &shape.geom else {
+            return None;
+        };
+        let [a, b, _, d] = <[Vec3; 4]>::try_from(positions.as_slice()).ok()?;
+        let normal = shape.surface(0, 0.25, 0.25, a).ng;
+        Some(Wall {
+            corner: a,
+            du: b - a,
+            dv: d - a,
+            normal,
+        })
+    }
+
+    /// The centre of grid cell (x, y) of a `w` x `h` grid.
+    #[inline]
+    pub fn grid_point(&self, x: usize, y: usize, w: usize, h: usize) -> Vec3 {
+        let u = (x as f32 + 0.5) / w as f32;
+        let v = (y as f32 + 0.5) / h as f32;
+        self.corner + self.du * u + self.dv * v
+    }
+}
+
+/// A parsed `nlos_capture_meter`.
+#[derive(Clone, Debug)]
+pub struct CaptureMeter {
+    pub origin: Vec3,
+    /// The relay wall's shape index.
+    pub shape: u32,
+    pub wall: Wall,
+    /// The film's `exhaustive_scan` laser grid (width, height).
+    pub laser_scan: Option<[usize; 2]>,
+}
+
+/// Reads an `nlos_capture_meter`'s own parameters (the film and sampler are read by
+/// the caller). Legacy parameters: see the module notes.
+pub fn parse_meter_origin(p: &mut Props) -> Result<Vec3, SceneError> {
+    let origin = p.point("sensor_origin")?.unwrap_or([0.0; 3]);
+    let mut legacy = Vec::new();
+    if p.peek("confocal").is_some() {
+        p.boolean_or("confocal", false)?;
+        legacy.push("confocal");
+    }
+    for name in ["laser_origin", "laser_lookat_pixel"] {
+        if p.peek(name).is_some() {
+            p.point(name)?;
+            legacy.push(name);
+        }
+    }
+    if p.peek("account_first_and_last_bounces").is_some() {
+        p.boolean_or("account_first_and_last_bounces", false)?;
+        legacy.push("account_first_and_last_bounces");
+    }
+    if let Some(first) = legacy.first() {
+        p.warn_at(
+            first,
+            format!("{} on nlos_capture_meter: parameters of older mitransient versions, ignored as mitransient 1.3.1 does (the laser is the scene's emitter; capture_type and account_first_and_last_bounces belong to <integrator type=\"transient_nlos_path\">)", legacy.join(", ")),
+        );
+    }
+    for name in ["original_film_width", "original_film_height"] {
+        if p.peek(name).is_some() {
+            return Err(p.err_at(name, format!("{name}: mitransient's one-point-per-render confocal mode is driven from Python (y-tal moves the laser between renders); use capture_type confocal with the whole grid as the film")));
+        }
+    }
+    let o = Vec3::from_array(origin.map(|v| v as f32));
+    if !o.is_finite() {
+        return Err(p.err_at("sensor_origin", "sensor_origin must be finite"));
+    }
+    Ok(o)
+}
+
+/// The hidden geometry a path may aim at (hidden-geometry sampling): shapes chosen by
+/// area, then a uniform point on the chosen one, so each point has density 1 / area.
+#[derive(Clone, Debug)]
+pub struct HiddenGeometry {
+    pub shapes: Vec<u32>,
+    /// Cumulative areas, normalised to end at 1.
+    pub cdf: Vec<f32>,
+    pub samplers: Vec<AreaSampler>,
+    pub total_area: f32,
+}
+
+impl HiddenGeometry {
+    /// A uniform point of the hidden geometry: (point, geometric normal); density
+    /// `1 / total_area`. `u1` picks the shape, `u2` the point.
+    #[inline]
+    pub fn sample(&self, shapes: &[Shape], u1: f32, u2: [f32; 2]) -> (Vec3, Vec3) {
+        let i = self
+            .cdf
+            .partition_point(|&c| c <= u1)
+            .min(self.cdf.len() - 1);
+        let shape = &shapes[self.shapes[i] as usize];
+        // A second uniform for the triangle of a large mesh: the shape choice's own
+        // number, rescaled within its share.
+        let lo = if i == 0 { 0.0 } else { self.cdf[i - 1] };
+        let share = self.cdf[i] - lo;
+        let u_tri = if share > 0.0 {
+            ((u1 - lo) / share).clamp(0.0, 1.0 - f32::EPSILON / 2.0)
+        } else {
+            0.0
+        };
+        let s = self.samplers[i].sample(shape, u_tri, u2);
+        (s.p, s.ng)
+    }
+}
+
+/// What a scene with `transient_nlos_path` renders with, prepared at load.
+#[derive(Clone, Debug)]
+pub struct NlosSetup {
+    /// The laser: the scene's only emitter.
+    pub laser: u32,
+    pub laser_origin: Vec3,
+    /// The laser's axis (to_world's +z, unit).
+    pub laser_axis: Vec3,
+    /// The capture meter, when the sensor is one.
+    pub meter: Option<CaptureMeter>,
+    /// Sensor grid (width, height): the meter's film, or the camera's.
+    pub sensor_grid: [usize; 2],
+    /// Laser grid (width, height): 1 x 1 but for exhaustive scans.
+    pub laser_grid: [usize; 2],
+    /// The lit points: single: one; confocal: one per sensor point (row-major);
+    /// exhaustive: one per laser grid point (row-major). Empty without laser sampling;
+    /// NaN where the ray that finds a point meets nothing (it lights nothing).
+    pub laser_targets: Vec<Vec3>,
+    pub hidden: Option<HiddenGeometry>,
+}
+
+impl NlosSetup {
+    /// Laser point and sensor row of film row `row`.
+    #[inline]
+    pub fn row(&self, row: usize) -> (usize, usize) {
+        let h = self.sensor_grid[1];
+        (row / h, row % h)
+    }
+
+    /// The point laser sampling aims at for sensor point (x, y) under laser point `l`.
+    #[inline]
+    pub fn target(&self, capture: CaptureType, x: usize, y: usize, l: usize) -> Vec3 {
+        match capture {
+            CaptureType::Single => self.laser_targets[0],
+            CaptureType::Confocal => self.laser_targets[y * self.sensor_grid[0] + x],
+            CaptureType::Exhaustive => self.laser_targets[l],
+        }
+    }
+
+    /// The laser points' nominal world positions for the capture's record: the lit
+    /// points (exhaustive and single), none for confocal (the sensor grid).
+    pub fn laser_points(&self) -> &[Vec3] {
+        &self.laser_targets
+    }
+}
+
+/// The world point where the ray (o, d) first meets the scene.
+fn first_hit(accel: &Accel, shapes: &[Shape], o: Vec3, d: Vec3) -> Option<Vec3> {
+    accel
+        .intersect(shapes, o, d, f32::INFINITY)
+        .map(|h| h.surface.p)
+}
+
+/// Prepares a `transient_nlos_path` render: checks the emitters and sensor the
+/// settings need and computes the lit points and the hidden geometry. `grid` is the
+/// sensor grid (the film's width and height before exhaustive stacking).
+pub fn prepare(
+    settings: &NlosSettings,
+    meter: Option<CaptureMeter>,
+    grid: [usize; 2],
+    shapes: &[Shape],
+    emitters: &[Emitter],
+    accel: &Accel,
+    warn: &mut dyn FnMut(String),
+) -> Result<NlosSetup, String> {
+    if emitters.len() != 1 {
+        return Err(format!(
+            "transient_nlos_path needs exactly one emitter, the laser (a projector or spot), as mitransient 1.3.1; the scene has {}",
+            emitters.len()
+        ));
+    }
+    let (laser_origin, axis) = emitters[0].laser_frame().ok_or_else(|| {
+        "transient_nlos_path: the laser must be a projector or a spot emitter (a positioned light with an axis)".to_string()
+    })?;
+    let laser_axis = axis.normalize();
+    if !laser_axis.is_finite() {
+        return Err("transient_nlos_path: the laser's to_world maps its axis to zero".into());
+    }
+    let capture = settings.capture;
+    if capture != CaptureType::Single && meter.is_none() {
+        return Err(format!(
+            "capture_type {} needs an nlos_capture_meter sensor on the relay wall",
+            capture.name()
+        ));
+    }
+    if capture == CaptureType::Exhaustive && !settings.laser_sampling {
+        return Err("capture_type exhaustive needs nlos_laser_sampling (without it mitransient 1.3.1 files every path under laser point 0)".into());
+    }
+    let laser_grid = match (capture, meter.as_ref().and_then(|m| m.laser_scan)) {
+        (CaptureType::Exhaustive, None) => {
+            return Err("capture_type exhaustive needs the film's exhaustive_scan with laser_scan_width and laser_scan_height".into())
+        }
+        (CaptureType::Exhaustive, Some(g)) => g,
+        (_, Some(_)) => {
+            return Err(format!(
+                "the film has exhaustive_scan but capture_type is {}",
+                capture.name()
+            ))
+        }
+        (_, None) => [1, 1],
+    };
+    if capture == CaptureType::Exhaustive && settings.force_equal_grids && laser_grid != grid {
+        return Err(format!(
+            "force_equal_illumination_scanning (the default) needs laser_scan_width x laser_scan_height ({}x{}) equal to the film's {}x{}",
+            laser_grid[0], laser_grid[1], grid[0], grid[1]
+        ));
+    }
+    // The points the sensor measures: where its rays first meet the scene.
+    let mut sensor_targets = |m: &CaptureMeter| -> Result<Vec<Vec3>, String> {
+        let mut missed = 0usize;
+        let mut out = Vec::with_capacity(grid[0] * grid[1]);
+        for y in 0..grid[1] {
+            for x in 0..grid[0] {
+                let p = m.wall.grid_point(x, y, grid[0], grid[1]);
+                let d = (p - m.origin).normalize();
+                match first_hit(accel, shapes, m.origin, d) {
+                    Some(hit) => out.push(hit),
+                    None => {
+                        missed += 1;
+                        out.push(Vec3::NAN)
+                    }
+                }
+            }
+        }
+        if missed == out.len() {
+            return Err("no ray from sensor_origin towards the relay wall's grid meets the scene: aim the capture meter at its wall".into());
+        }
+        if missed > 0 {
+            warn(format!("{missed} of the capture meter's {} rays meet nothing: those points measure nothing and, as lit points, light nothing", out.len()));
+        }
+        Ok(out)
+    };
+    let laser_targets = if !settings.laser_sampling {
+        Vec::new()
+    } else {
+        match capture {
+            CaptureType::Single => {
+                let p = first_hit(accel, shapes, laser_origin, laser_axis).ok_or(
+                    "nlos_laser_sampling: the laser's axis (its to_world's +z) meets nothing in the scene; aim it at the relay wall",
+                )?;
+                vec![p]
+            }
+            CaptureType::Confocal => sensor_targets(meter.as_ref().expect("checked"))?,
+            CaptureType::Exhaustive if settings.force_equal_grids => {
+                sensor_targets(meter.as_ref().expect("checked"))?
+            }
+            CaptureType::Exhaustive => scan_targets(
+                emitters,
+                settings.illumination_scan_fov,
+                laser_grid,
+                shapes,
+                accel,
+                warn,
+            )?,
+        }
+    };
+    let hidden = if settings.hg_sampling {
+        let wall = meter.as_ref().map(|m| m.shape);
+        let mut ids = Vec::new();
+        let mut areas = Vec::new();
+        for (i, s) in shapes.iter().enumerate() {
+            if Some(i as u32) == wall && !settings.hg_includes_relay_wall {
+                continue;
+            }
+            if matches!(s.geom, ShapeGeom::Curve(_) | ShapeGeom::Sdf(_)) {
+                return Err(format!(
+                    "nlos_hidden_geometry_sampling samples points on every shape by area; shape '{}' (a curve or an SDF grid) has no area to sample",
+                    s.name
+                ));
+            }
+            ids.push(i as u32);
+            areas.push(s.area());
+        }
+        let total: f64 = areas.iter().sum();
+        if ids.is_empty() || !(total > 0.0 && total.is_finite()) {
+            return Err("nlos_hidden_geometry_sampling: the hidden geometry (every shape but the relay wall) has no area".into());
+        }
+        let mut acc = 0.0;
+        let cdf = areas
+            .iter()
+            .map(|a| {
+                acc += a;
+                (acc / total) as f32
+            })
+            .collect();
+        Some(HiddenGeometry {
+            samplers: ids
+                .iter()
+                .map(|&i| AreaSampler::new(&shapes[i as usize]))
+                .collect(),
+            shapes: ids,
+            cdf,
+            total_area: total as f32,
+        })
+    } else {
+        None
+    };
+    Ok(NlosSetup {
+        laser: 0,
+        laser_origin,
+        laser_axis,
+        meter,
+        sensor_grid: grid,
+        laser_grid,
+        laser_targets,
+        hidden,
+    })
+}
+
+/// Exhaustive scans without equal grids: mitransient aims a projector of
+/// `illumination_scan_fov` degrees with the laser's to_world at the grid
+/// (i / Lw, j / Lh), i, j from 0 (the corners of the cells, not their centres, as its
+/// `linspace(..., endpoint=False)`), and lights where those rays meet the scene.
+fn scan_targets(
+    emitters: &[Emitter],
+    fov: f64,
+    grid: [usize; 2],
+    shapes: &[Shape],
+    accel: &Accel,
+    warn: &mut dyn FnMut(String),
+) -> Result<Vec<Vec3>, String> {
+    let (origin, axes) = emitters[0]
+        .laser_axes()
+        .ok_or("illumination_scan_fov needs a projector or spot laser")?;
+    let t = (0.5 * fov.to_radians()).tan() as f32;
+    let aspect = grid[0] as f32 / grid[1] as f32;
+    let mut out = Vec::with_capacity(grid[0] * grid[1]);
+    let mut missed = 0;
+    for j in 0..grid[1] {
+        for i in 0..grid[0] {
+            // Mitsuba's perspective mapping of film point (u, v): u = 0 on local +x.
+            let u = i as f32 / grid[0] as f32;
+            let v = j as f32 / grid[1] as f32;
+            let sx = (1.0 - 2.0 * u) * t;
+            let sy = (1.0 - 2.0 * v) * t / aspect;
+            let d = (axes[0] * sx + axes[1] * sy + axes[2]).normalize();
+            match first_hit(accel, shapes, origin, d) {
+                Some(p) => out.push(p),
+                None => {
+                    missed += 1;
+                    out.push(Vec3::NAN)
+                }
+            }
+        }
+    }
+    if missed == out.len() {
+        return Err("the laser's scan (illumination_scan_fov) meets nothing in the scene".into());
+    }
+    if missed > 0 {
+        warn(format!(
+            "{missed} of the laser scan's {} rays meet nothing: those laser points light nothing",
+            out.len()
+        ));
+    }
+    Ok(out)
+}
