@@ -15,6 +15,7 @@ pub mod lights;
 pub mod materials;
 pub mod math;
 pub mod media;
+pub mod nlos;
 pub mod render;
 pub mod report;
 pub mod scene;

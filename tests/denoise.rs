@@ -1719,6 +1719,7 @@ fn write_bundle(
         seed: 1,
         merged_seeds: Vec::new(),
         shard: None,
+        nlos: None,
         scene: SceneRef {
             path: "synthetic".into(),
             sha256: "0".repeat(64),

@@ -130,6 +130,10 @@ pub struct Manifest {
     /// Seeds of every render summed into this bundle by `tstat merge` (empty otherwise).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub merged_seeds: Vec<u64>,
+    /// An NLOS capture's geometry (`capture.rs`): its sensor grid, laser points and
+    /// relay wall; absent for camera renders.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub nlos: Option<super::capture::CaptureRecord>,
     /// The job and shards of a render with `--shard` (see `shard.rs`); absent otherwise.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub shard: Option<super::shard::ShardRecord>,

@@ -22,7 +22,7 @@ use ndarray::{Array2, Array3};
 use std::path::{Path, PathBuf};
 
 fn same_settings(a: &Manifest, b: &Manifest) -> Result<(), String> {
-    let checks: [(&str, bool); 12] = [
+    let checks: [(&str, bool); 13] = [
         ("channels", a.channels == b.channels),
         ("scene (SHA-256)", a.scene.sha256 == b.scene.sha256),
         ("width", a.width == b.width),
@@ -38,6 +38,7 @@ fn same_settings(a: &Manifest, b: &Manifest) -> Result<(), String> {
             "temporal filter",
             a.time_filter_stddev_bins == b.time_filter_stddev_bins,
         ),
+        ("NLOS capture", a.nlos == b.nlos),
     ];
     if let Some((what, _)) = checks.iter().find(|c| !c.1) {
         return Err(format!("its {what} differs from the first bundle's"));

@@ -132,6 +132,9 @@ pub fn validate(m: &Manifest) -> Result<(), String> {
                 m.width, m.height, m.bins
             )
         })?;
+    if let Some(n) = &m.nlos {
+        n.validate(m.width, m.height)?;
+    }
     if m.channels != ["R", "G", "B"] {
         return Err(format!(
             "channels {:?}: the format holds [\"R\", \"G\", \"B\"]",

@@ -247,6 +247,7 @@ fn manifest(scene: &Scene, meta: &BundleMeta, seconds: f64, dropped_nonfinite: u
         },
         arrays: Vec::new(),
         shard: None,
+        nlos: super::capture::CaptureRecord::of_scene(scene),
     };
     if let Some(j) = &meta.job {
         m.shard = Some(job_record(&m, j));

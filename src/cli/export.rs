@@ -1,4 +1,5 @@
-//! `tstat export NAME.tstats --out noisy.npy [--steady steady.exr|.npy]`.
+//! `tstat export NAME.tstats --out noisy.npy [--steady steady.exr|.npy]
+//! [--tal capture.hdf5 [--max-memory BYTES]]`.
 
 use super::util::{arg, check_outputs, Kind};
 use crate::bundle::write::stage;
@@ -18,10 +19,22 @@ pub struct ExportArgs {
     /// Steady-state image, .exr or .npy (f32 (H, W, C)).
     #[arg(long)]
     pub steady: Option<PathBuf>,
+    /// An NLOS capture as y-tal's HDF5 capture (`tal.io.read_capture`): H (the noisy
+    /// mean summed over R, G, B, time first) with its grids, origins and times.
+    #[arg(long)]
+    pub tal: Option<PathBuf>,
+    /// With --tal: the most of H held at once (e.g. 512Mi; default 1Gi); a larger
+    /// capture is written a block of time bins at a time, reading the bundle once per
+    /// block.
+    #[arg(long, value_name = "BYTES")]
+    pub max_memory: Option<String>,
     /// Replace existing outputs.
     #[arg(long)]
     pub force: bool,
 }
+
+/// `--max-memory`'s default for `--tal`.
+const TAL_MEMORY: u64 = 1 << 30;
 
 fn extension(p: &Path) -> String {
     p.extension()
@@ -39,9 +52,24 @@ pub fn write_exr_rgb(path: &Path, img: &Array3<f32>) -> Result<(), BundleError> 
 }
 
 pub fn run(a: ExportArgs) -> anyhow::Result<()> {
-    if a.out.is_none() && a.steady.is_none() {
-        bail!("nothing to export: give --out VOLUME.npy and/or --steady IMAGE.exr|.npy");
+    if a.out.is_none() && a.steady.is_none() && a.tal.is_none() {
+        bail!("nothing to export: give --out VOLUME.npy, --steady IMAGE.exr|.npy and/or --tal CAPTURE.hdf5");
     }
+    if let Some(t) = &a.tal {
+        if !matches!(extension(t).as_str(), "hdf5" | "h5") {
+            bail!(
+                "--tal {}: y-tal's captures are .hdf5 (or .h5) files",
+                t.display()
+            );
+        }
+    }
+    let tal_memory = match (&a.max_memory, &a.tal) {
+        (Some(_), None) => bail!("--max-memory bounds the --tal export; give --tal"),
+        (Some(s), Some(_)) => {
+            super::util::parse_bytes(s).map_err(|e| anyhow::anyhow!("--max-memory: {e}"))?
+        }
+        (None, _) => TAL_MEMORY,
+    };
     if let Some(out) = &a.out {
         if extension(out) != "npy" {
             bail!("--out {}: the volume is written as .npy", out.display());
@@ -59,8 +87,17 @@ pub fn run(a: ExportArgs) -> anyhow::Result<()> {
     if let Some(s) = &a.steady {
         outputs.push((arg("--steady", s), Kind::File));
     }
+    if let Some(t) = &a.tal {
+        outputs.push((arg("--tal", t), Kind::File));
+    }
     check_outputs(&[arg("bundle", &a.bundle)], &outputs, a.force)?;
     let bundle = Bundle::open(&a.bundle)?;
+    if a.tal.is_some() && bundle.manifest.nlos.is_none() {
+        bail!(
+            "--tal: {} is not an NLOS capture (its scene's sensor is no nlos_capture_meter)",
+            a.bundle.display()
+        );
+    }
     // Every output is written completely before any is put in place.
     let mut staged = Vec::new();
     if let Some(out) = &a.out {
@@ -97,6 +134,27 @@ pub fn run(a: ExportArgs) -> anyhow::Result<()> {
                 }
             })?,
             format!("wrote {} (f32 {:?})", s.display(), img.shape()),
+        ));
+    }
+    if let Some(t) = &a.tal {
+        let mut written = None;
+        let file = stage(t, a.force, |tmp| {
+            written = Some(crate::nlos::tal::write_capture(&bundle, tmp, tal_memory)?);
+            Ok(())
+        })?;
+        let w = written.expect("staged");
+        staged.push((
+            file,
+            format!(
+                "wrote {} (y-tal capture, H f32 {:?}{})",
+                t.display(),
+                w.h_shape,
+                if w.blocks > 1 {
+                    format!(", in {} blocks of time bins", w.blocks)
+                } else {
+                    String::new()
+                }
+            ),
         ));
     }
     let mut lines = Vec::new();

@@ -259,6 +259,20 @@ impl Emitter {
         }
     }
 
+    /// Moves and re-aims a projector to `to_world` (the legacy `laser_origin` of an
+    /// `nlos_capture_meter`); false for every other kind.
+    pub fn set_projector_frame(&mut self, to_world: glam::DMat4) -> bool {
+        match self {
+            Emitter::Projector(p) => {
+                p.position = to_world.transform_point3(glam::DVec3::ZERO).as_vec3();
+                p.to_local = to_world.inverse().as_mat4();
+                p.axis = to_world.transform_vector3(glam::DVec3::Z).as_vec3();
+                true
+            }
+            _ => false,
+        }
+    }
+
     /// A projector's position and world axes (to_world's x, y, z columns), for
     /// mitransient's exhaustive laser scan; `None` for every other kind.
     pub fn laser_axes(&self) -> Option<(Vec3, [Vec3; 3])> {

@@ -34,10 +34,13 @@
 //! render is one image per laser point, stacked: film row `l H + y` is sensor row `y`
 //! lit by laser point `l` (row-major in the laser grid, as sensor pixels are).
 //!
-//! Legacy meter parameters of mitransient's older scenes (`confocal`, `laser_origin`,
-//! `laser_lookat_pixel`, `account_first_and_last_bounces`) are checked for their type
-//! and ignored with one warning, as mitransient 1.3.1 does (the laser is the scene's
-//! emitter; `account_first_and_last_bounces` belongs to the integrator).
+//! Legacy meter parameters of mitransient <= 1.1's scenes (which 1.3.1 refuses to
+//! load) are checked and named in one warning: `laser_origin` with
+//! `laser_lookat_pixel` (uv = pixel / film size, when both are positive) or
+//! `laser_lookat_3d` move and aim the scene's projector as those versions did; a
+//! `<emitter>` nested in the meter is the scene's laser; a box `<rfilter>` there is
+//! the film's; `confocal` = false and `account_first_and_last_bounces` (an integrator
+//! setting in 1.3.1) are ignored.
 //!
 //! The laser is the scene's only emitter, a `projector` or a `spot`. With laser
 //! sampling in confocal and exhaustive captures it is re-aimed at each lit point
@@ -229,20 +232,64 @@ pub struct CaptureMeter {
     pub wall: Wall,
     /// The film's `exhaustive_scan` laser grid (width, height).
     pub laser_scan: Option<[usize; 2]>,
+    /// mitransient's older (<= 1.1) laser placement, when the meter gives one.
+    pub legacy_laser: Option<LegacyLaser>,
+}
+
+/// mitransient <= 1.1 placed the laser from the meter: at `laser_origin`, looking at
+/// the wall point of film position `laser_lookat_pixel` (uv = pixel / film size, used
+/// when both coordinates are positive) or at `laser_lookat_3d`, up +y.
+#[derive(Clone, Copy, Debug)]
+pub struct LegacyLaser {
+    pub origin: Vec3,
+    pub lookat_pixel: Option<[f64; 2]>,
+    pub lookat_3d: Option<Vec3>,
+}
+
+impl LegacyLaser {
+    /// The laser's to_world on a `w` x `h` grid of `wall`, if it looks somewhere.
+    pub fn to_world(&self, wall: &Wall, w: usize, h: usize) -> Option<glam::DMat4> {
+        let target = match (self.lookat_pixel, self.lookat_3d) {
+            (Some([px, py]), _) if px > 0.0 && py > 0.0 => {
+                wall.corner + wall.du * (px / w as f64) as f32 + wall.dv * (py / h as f64) as f32
+            }
+            (_, Some(t)) => t,
+            _ => return None,
+        };
+        super::transform::look_at(self.origin.as_dvec3(), target.as_dvec3(), glam::DVec3::Y)
+    }
 }
 
 /// Reads an `nlos_capture_meter`'s own parameters (the film and sampler are read by
-/// the caller). Legacy parameters: see the module notes.
-pub fn parse_meter_origin(p: &mut Props) -> Result<Vec3, SceneError> {
+/// the caller): `sensor_origin`, and the legacy laser. Legacy parameters: see the
+/// module notes.
+pub fn parse_meter_params(p: &mut Props) -> Result<(Vec3, Option<LegacyLaser>), SceneError> {
     let origin = p.point("sensor_origin")?.unwrap_or([0.0; 3]);
     let mut legacy = Vec::new();
     if p.peek("confocal").is_some() {
-        p.boolean_or("confocal", false)?;
+        if p.boolean_or("confocal", false)? {
+            return Err(p.err_at("confocal", "confocal = true: mitransient's older confocal switch; use <string name=\"capture_type\" value=\"confocal\"/> in <integrator type=\"transient_nlos_path\">"));
+        }
         legacy.push("confocal");
     }
-    for name in ["laser_origin", "laser_lookat_pixel"] {
-        if p.peek(name).is_some() {
-            p.point(name)?;
+    let point = |p: &mut Props, name: &str| -> Result<Option<Vec3>, SceneError> {
+        let v = p
+            .point(name)?
+            .map(|v| Vec3::from_array(v.map(|x| x as f32)));
+        if v.is_some_and(|v| !v.is_finite()) {
+            return Err(p.err_at(name, format!("{name} must be finite")));
+        }
+        Ok(v)
+    };
+    let laser_origin = point(p, "laser_origin")?;
+    let lookat_pixel = point(p, "laser_lookat_pixel")?;
+    let lookat_3d = point(p, "laser_lookat_3d")?;
+    for (name, v) in [
+        ("laser_origin", laser_origin),
+        ("laser_lookat_pixel", lookat_pixel),
+        ("laser_lookat_3d", lookat_3d),
+    ] {
+        if v.is_some() {
             legacy.push(name);
         }
     }
@@ -253,9 +300,14 @@ pub fn parse_meter_origin(p: &mut Props) -> Result<Vec3, SceneError> {
     if let Some(first) = legacy.first() {
         p.warn_at(
             first,
-            format!("{} on nlos_capture_meter: parameters of older mitransient versions, ignored as mitransient 1.3.1 does (the laser is the scene's emitter; capture_type and account_first_and_last_bounces belong to <integrator type=\"transient_nlos_path\">)", legacy.join(", ")),
+            format!("{} on nlos_capture_meter: parameters of mitransient <= 1.1, which 1.3.1 refuses; tstat places the laser (the scene's projector) at laser_origin looking at laser_lookat_pixel / laser_lookat_3d as those versions did, and ignores the rest (account_first_and_last_bounces belongs to <integrator type=\"transient_nlos_path\">)", legacy.join(", ")),
         );
     }
+    let legacy_laser = laser_origin.map(|origin| LegacyLaser {
+        origin,
+        lookat_pixel: lookat_pixel.map(|v| [v.x as f64, v.y as f64]),
+        lookat_3d,
+    });
     for name in ["original_film_width", "original_film_height"] {
         if p.peek(name).is_some() {
             return Err(p.err_at(name, format!("{name}: mitransient's one-point-per-render confocal mode is driven from Python (y-tal moves the laser between renders); use capture_type confocal with the whole grid as the film")));
@@ -265,7 +317,7 @@ pub fn parse_meter_origin(p: &mut Props) -> Result<Vec3, SceneError> {
     if !o.is_finite() {
         return Err(p.err_at("sensor_origin", "sensor_origin must be finite"));
     }
-    Ok(o)
+    Ok((o, legacy_laser))
 }
 
 /// The hidden geometry a path may aim at (hidden-geometry sampling): shapes chosen by

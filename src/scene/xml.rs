@@ -38,6 +38,8 @@ struct Sensor {
     seed: u64,
     /// The medium the camera sits in (Mitsuba's sensor `medium`).
     medium: Option<u32>,
+    /// A laser nested in an `nlos_capture_meter` (mitransient <= 1.1).
+    laser: Option<Emitter>,
 }
 
 /// What the sensor plugin needs besides `to_world` and the film.
@@ -202,11 +204,19 @@ pub fn load(path: &Path, overrides: &Overrides) -> Result<Scene, SceneError> {
                 format!("transient_nlos_path does not model delays (SPEC 6); material #{i} delays"),
             ));
         }
-    } else if meter.is_some() {
-        return Err(ctx.err(
-            root,
-            "an nlos_capture_meter needs <integrator type=\"transient_nlos_path\">",
-        ));
+    }
+    if let Some(m) = &meter {
+        if let Some(to_world) = m
+            .legacy_laser
+            .and_then(|l| l.to_world(&m.wall, s.film.width, s.film.height))
+        {
+            let [laser] = emitters.as_mut_slice() else {
+                return Err(ctx.err(root, format!("the capture meter's legacy laser_origin places the scene's one projector; the scene has {} emitters", emitters.len())));
+            };
+            if !laser.set_projector_frame(to_world) {
+                return Err(ctx.err(root, "the capture meter's legacy laser_origin places a projector; the scene's emitter is not one"));
+            }
+        }
     }
     // Mitsuba's `path` integrator ignores media; a scene that has them means the
     // volumetric integrator, so rendering it without would be silently wrong.
@@ -735,7 +745,16 @@ fn walk(ctx: &Ctx, root: Node, o: &mut Objects, depth: usize) -> Result<(), Scen
                     if o.sensor.is_some() {
                         return Err(ctx.err(obj, "only one <sensor> is supported"));
                     }
-                    o.sensor = Some(parse_meter(ctx, obj, &o.named_samplers, index, &shape)?);
+                    let mut meter = parse_meter(
+                        ctx,
+                        obj,
+                        &o.named_samplers,
+                        &o.named_textures,
+                        index,
+                        &shape,
+                    )?;
+                    o.emitters.extend(meter.laser.take());
+                    o.sensor = Some(meter);
                 }
                 add_shape(o, shape, bsdf, emission);
             }
@@ -1260,11 +1279,12 @@ fn parse_meter(
     ctx: &Ctx,
     node: Node,
     named_samplers: &HashMap<String, (u32, u64)>,
+    named_textures: &NamedTextures,
     index: u32,
     shape: &Shape,
 ) -> Result<Sensor, SceneError> {
     let mut p = Props::parse(ctx, node)?;
-    let origin = super::nlos::parse_meter_origin(&mut p)?;
+    let (origin, legacy_laser) = super::nlos::parse_meter_params(&mut p)?;
     check_world_point(origin.as_dvec3())
         .map_err(|e| p.err_at("sensor_origin", format!("sensor_origin: {e}")))?;
     let wall = super::nlos::Wall::of_rectangle(shape)
@@ -1276,6 +1296,7 @@ fn parse_meter(
         ));
     }
     let mut film = None;
+    let mut laser = None;
     let (mut spp, mut seed) = (4u32, 0u64);
     let mut seen_sampler = false;
     for obj in std::mem::take(&mut p.objects) {
@@ -1293,10 +1314,22 @@ fn parse_meter(
                 seen_sampler = true;
                 (spp, seed) = named_samplers[&ctx.required_attr(obj, "id")?];
             }
+            // mitransient <= 1.1: the laser nested in the meter, the filter beside the film.
+            "emitter" if laser.is_some() => {
+                return Err(ctx.err(obj, "a capture meter holds at most one (legacy) laser"))
+            }
+            "emitter" if ctx.attr(obj, "type")?.as_deref() == Some("projector") => {
+                ctx.warn(obj, "a laser nested in nlos_capture_meter (mitransient <= 1.1's layout, which 1.3.1 refuses): it is the scene's emitter");
+                laser = Some(super::projector::parse_projector(ctx, obj, named_textures)?);
+            }
+            "rfilter" if ctx.attr(obj, "type")?.as_deref() == Some("box") => {
+                ctx.warn(obj, "an <rfilter> in nlos_capture_meter (mitransient <= 1.1's layout): the film's box filter");
+                Props::parse(ctx, obj)?.finish()?;
+            }
             other => {
                 return Err(ctx.err(
                     obj,
-                    format!("unexpected <{other}> inside <sensor type=\"nlos_capture_meter\"> (it takes a film and a sampler; the laser is a top-level emitter)"),
+                    format!("unexpected <{other}> inside <sensor type=\"nlos_capture_meter\"> (it takes a film and a sampler; the laser is a top-level projector)"),
                 ))
             }
         }
@@ -1312,11 +1345,13 @@ fn parse_meter(
             shape: index,
             wall,
             laser_scan,
+            legacy_laser,
         }),
         film,
         spp,
         seed,
         medium: None,
+        laser,
     })
 }
 
@@ -1458,6 +1493,7 @@ fn parse_sensor(
         spp,
         seed,
         medium,
+        laser: None,
     })
 }
 

@@ -1,0 +1,173 @@
+//! `nlos` in a bundle's manifest: where an NLOS capture's sensor and laser points lie,
+//! so that the bundle alone can be exported (`nlos/tal.rs`) or reconstructed.
+//!
+//! The film of a capture is the sensor grid (Sx = width columns, Sy rows); an
+//! exhaustive capture stacks one such image per laser point: film row `l Sy + sy`
+//! is sensor row `sy` lit by laser point `l = ly Lx + lx`. Positions are in scene
+//! units.
+
+use crate::scene::camera::Projection;
+use crate::scene::nlos::{CaptureType, Wall};
+use crate::scene::Scene;
+use glam::Vec3;
+use serde::{Deserialize, Serialize};
+
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct CaptureRecord {
+    pub capture: CaptureType,
+    /// (Sx, Sy): the grid of points measured on the relay wall.
+    pub sensor_grid: [usize; 2],
+    /// (Lx, Ly): 1 x 1 for single and confocal captures.
+    pub laser_grid: [usize; 2],
+    pub sensor_origin: [f64; 3],
+    /// The laser's position; NaN when the scene has no positioned laser.
+    pub laser_origin: [f64; 3],
+    /// The relay wall: grid point (sx, sy) is `corner + du (sx + 1/2) / Sx + dv (sy +
+    /// 1/2) / Sy`; `normal` its unit normal.
+    pub wall_corner: [f64; 3],
+    pub wall_du: [f64; 3],
+    pub wall_dv: [f64; 3],
+    pub wall_normal: [f64; 3],
+    /// The lit points, row-major over the laser grid; empty when they are the sensor
+    /// grid's points (confocal captures, exhaustive ones with equal grids).
+    pub laser_points: Vec<[f64; 3]>,
+    /// Whether times include the sensor-to-wall and wall-to-laser segments.
+    pub account_first_and_last_bounces: bool,
+}
+
+fn arr(v: Vec3) -> [f64; 3] {
+    v.as_dvec3().to_array()
+}
+
+impl CaptureRecord {
+    /// The record of a scene whose sensor is an `nlos_capture_meter`; `None` otherwise.
+    pub fn of_scene(scene: &Scene) -> Option<CaptureRecord> {
+        let Projection::Meter { wall, grid_height } = scene.camera.projection else {
+            return None;
+        };
+        let sensor_grid = [scene.camera.width, grid_height];
+        let (capture, laser_grid, laser_origin, laser_points, account) =
+            match (&scene.integrator.nlos, &scene.nlos) {
+                (Some(n), Some(setup)) => {
+                    let equal = n.capture == CaptureType::Confocal
+                        || (n.capture == CaptureType::Exhaustive && n.force_equal_grids);
+                    let points = if equal {
+                        Vec::new()
+                    } else {
+                        setup.laser_targets.iter().map(|&p| arr(p)).collect()
+                    };
+                    (
+                        n.capture,
+                        setup.laser_grid,
+                        arr(setup.laser_origin),
+                        points,
+                        n.account_first_and_last_bounces,
+                    )
+                }
+                // `transient_path` with a meter: one laser (if the scene's only
+                // emitter is positioned), every segment timed.
+                _ => {
+                    let frame = match scene.emitters.as_slice() {
+                        [e] => e.laser_frame(),
+                        _ => None,
+                    };
+                    let (origin, points) = match frame {
+                        Some((o, axis)) => {
+                            let hit = scene
+                                .accel
+                                .intersect(&scene.shapes, o, axis.normalize(), f32::INFINITY)
+                                .map_or(Vec3::NAN, |h| h.surface.p);
+                            (arr(o), vec![arr(hit)])
+                        }
+                        None => ([f64::NAN; 3], vec![[f64::NAN; 3]]),
+                    };
+                    (
+                        CaptureType::Single,
+                        [1, 1],
+                        origin,
+                        points,
+                        !scene.integrator.camera_unwarp,
+                    )
+                }
+            };
+        Some(CaptureRecord {
+            capture,
+            sensor_grid,
+            laser_grid,
+            sensor_origin: arr(scene.camera.origin),
+            laser_origin,
+            wall_corner: arr(wall.corner),
+            wall_du: arr(wall.du),
+            wall_dv: arr(wall.dv),
+            wall_normal: arr(wall.normal),
+            laser_points,
+            account_first_and_last_bounces: account,
+        })
+    }
+
+    /// The relay wall as rendered.
+    pub fn wall(&self) -> Wall {
+        let v = |a: [f64; 3]| glam::DVec3::from_array(a).as_vec3();
+        Wall {
+            corner: v(self.wall_corner),
+            du: v(self.wall_du),
+            dv: v(self.wall_dv),
+            normal: v(self.wall_normal),
+        }
+    }
+
+    /// Sensor grid point (sx, sy).
+    pub fn sensor_point(&self, sx: usize, sy: usize) -> [f64; 3] {
+        let [w, h] = self.sensor_grid;
+        let c = glam::DVec3::from_array(self.wall_corner);
+        let du = glam::DVec3::from_array(self.wall_du);
+        let dv = glam::DVec3::from_array(self.wall_dv);
+        (c + du * ((sx as f64 + 0.5) / w as f64) + dv * ((sy as f64 + 0.5) / h as f64)).to_array()
+    }
+
+    /// Laser grid point (lx, ly).
+    pub fn laser_point(&self, lx: usize, ly: usize) -> [f64; 3] {
+        if self.laser_points.is_empty() {
+            self.sensor_point(lx, ly)
+        } else {
+            self.laser_points[ly * self.laser_grid[0] + lx]
+        }
+    }
+
+    /// Checks a record read from a manifest against the film it describes.
+    pub fn validate(&self, width: usize, height: usize) -> Result<(), String> {
+        let [sx, sy] = self.sensor_grid;
+        let [lx, ly] = self.laser_grid;
+        let images = lx.checked_mul(ly).ok_or("nlos.laser_grid overflows")?;
+        if sx != width || sy == 0 || sy.checked_mul(images) != Some(height) {
+            return Err(format!(
+                "nlos: a {sx}x{sy} sensor grid with a {lx}x{ly} laser grid does not make a film of {width}x{height}"
+            ));
+        }
+        if self.capture != CaptureType::Exhaustive && images != 1 {
+            return Err(format!(
+                "nlos: a {} capture has one laser point, not {lx}x{ly}",
+                self.capture.name()
+            ));
+        }
+        if !self.laser_points.is_empty() && self.laser_points.len() != images {
+            return Err(format!(
+                "nlos: {} laser points for a {lx}x{ly} laser grid",
+                self.laser_points.len()
+            ));
+        }
+        let finite = [
+            self.sensor_origin,
+            self.wall_corner,
+            self.wall_du,
+            self.wall_dv,
+            self.wall_normal,
+        ]
+        .iter()
+        .all(|v| v.iter().all(|x| x.is_finite()));
+        if !finite {
+            return Err("nlos: the sensor origin and the relay wall must be finite".into());
+        }
+        Ok(())
+    }
+}

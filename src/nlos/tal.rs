@@ -1,0 +1,319 @@
+//! y-tal's HDF5 capture format (`tal.io.read_capture` of y-tal 0.20, SPEC 11),
+//! written with the pure-Rust `hdf5-pure` crate: `tstat export BUNDLE --tal OUT.hdf5`.
+//!
+//! Root datasets (y-tal refuses any other name), positions and times in metres
+//! (scene units times the bundle's `unit_m`):
+//!
+//! | name | type | shape | value |
+//! |------|------|-------|-------|
+//! | `H` | f32 | (T, Sx, Sy), exhaustive (T, Lx, Ly, Sx, Sy) | the noisy mean S / n summed over R, G, B |
+//! | `H_format` | enum i32 | (1,) | T_Sx_Sy = 1, T_Lx_Ly_Sx_Sy = 2 |
+//! | `sensor_grid_xyz`, `sensor_grid_normals` | f32 | (Sx, Sy, 3) | the relay wall's grid points and normal |
+//! | `sensor_grid_format`, `laser_grid_format` | enum i32 | (1,) | X_Y_3 = 2 |
+//! | `laser_grid_xyz`, `laser_grid_normals` | f32 | (Lx, Ly, 3) | confocal: the sensor grid; single: (1, 1, 3) |
+//! | `sensor_xyz`, `laser_xyz` | f32 | (3,) | sensor_origin, the laser's position (absent if unknown) |
+//! | `delta_t`, `t_start` | f64 | () | bin width and start of bin 0, OPL |
+//! | `t_accounts_first_and_last_bounces` | bool (enum i8) | () | `account_first_and_last_bounces` |
+//! | `scene_info` | variable-length UTF-8 string | () | YAML (a JSON mapping): tstat's version, capture, spp, scene |
+//!
+//! Grid point (sx, sy) is film column sx, sensor row sy (mitransient's film and y-tal's
+//! `tal render` agree: column along the wall's u, row along v, no flip).
+//!
+//! Memory: H is written straight into the file. The file is first laid out with H as
+//! a hole (zero pages never touched), then H is filled a block of time bins at a
+//! time: each block, (bins x laser points x sensor points) f32, at most `max_bytes`,
+//! is summed from the bundle's rows and written in one piece. A block smaller than
+//! the whole capture reads the bundle once per block.
+
+use crate::bundle::capture::CaptureRecord;
+use crate::bundle::read::RowSums;
+use crate::bundle::{Bundle, BundleError};
+use crate::scene::nlos::CaptureType;
+use hdf5_pure::{
+    make_f32_type, make_i8_type, Datatype, EnumTypeBuilder, File, FileBuilder, Layout,
+};
+use std::io::{Seek, SeekFrom, Write};
+use std::path::Path;
+
+/// Bytes of bundle rows read at once (one band of the sums).
+const BAND_BYTES: usize = 64 << 20;
+
+fn enum_type(values: &[(&str, i32)]) -> Datatype {
+    let mut b = EnumTypeBuilder::i32_based();
+    for &(name, v) in values {
+        b = b.value(name, v);
+    }
+    b.build().expect("a valid enum type")
+}
+
+/// `tal.enums.HFormat`.
+fn h_format_type() -> Datatype {
+    enum_type(&[
+        ("UNKNOWN", 0),
+        ("T_Sx_Sy", 1),
+        ("T_Lx_Ly_Sx_Sy", 2),
+        ("T_Si", 3),
+        ("T_Li_Si", 4),
+    ])
+}
+
+/// `tal.enums.GridFormat`.
+fn grid_format_type() -> Datatype {
+    enum_type(&[("UNKNOWN", 0), ("N_3", 1), ("X_Y_3", 2)])
+}
+
+/// numpy's bool as h5py stores it: an enum {FALSE, TRUE} over int8.
+fn bool_type() -> Datatype {
+    EnumTypeBuilder::with_base(make_i8_type())
+        .value("FALSE", 0)
+        .value("TRUE", 1)
+        .build()
+        .expect("a valid enum type")
+}
+
+/// The shape of H and its element count.
+fn h_shape(rec: &CaptureRecord, bins: usize) -> Vec<u64> {
+    let [sx, sy] = rec.sensor_grid.map(|v| v as u64);
+    let [lx, ly] = rec.laser_grid.map(|v| v as u64);
+    if rec.capture == CaptureType::Exhaustive {
+        vec![bins as u64, lx, ly, sx, sy]
+    } else {
+        vec![bins as u64, sx, sy]
+    }
+}
+
+/// A grid of points (X, Y, 3) row-major, f32, scaled by `unit`.
+fn grid(nx: usize, ny: usize, unit: f64, point: impl Fn(usize, usize) -> [f64; 3]) -> Vec<f32> {
+    let mut out = Vec::with_capacity(nx * ny * 3);
+    for x in 0..nx {
+        for y in 0..ny {
+            out.extend(point(x, y).map(|v| (v * unit) as f32));
+        }
+    }
+    out
+}
+
+/// Everything but H.
+fn stage_meta(b: &mut FileBuilder, bundle: &Bundle, rec: &CaptureRecord) {
+    let m = &bundle.manifest;
+    let unit = m.unit_m;
+    let exhaustive = rec.capture == CaptureType::Exhaustive;
+    b.create_dataset("H_format")
+        .with_enum_i32_data(h_format_type(), &[if exhaustive { 2 } else { 1 }]);
+    let [sx, sy] = rec.sensor_grid;
+    let normal = rec.wall_normal;
+    b.create_dataset("sensor_grid_xyz")
+        .with_f32_data(&grid(sx, sy, unit, |x, y| rec.sensor_point(x, y)))
+        .with_shape(&[sx as u64, sy as u64, 3]);
+    b.create_dataset("sensor_grid_normals")
+        .with_f32_data(&grid(sx, sy, 1.0, |_, _| normal))
+        .with_shape(&[sx as u64, sy as u64, 3]);
+    b.create_dataset("sensor_grid_format")
+        .with_enum_i32_data(grid_format_type(), &[2]);
+    let (lx, ly, laser): (usize, usize, Box<dyn Fn(usize, usize) -> [f64; 3]>) = match rec.capture {
+        CaptureType::Confocal => (sx, sy, Box::new(|x, y| rec.sensor_point(x, y))),
+        _ => (
+            rec.laser_grid[0],
+            rec.laser_grid[1],
+            Box::new(|x, y| rec.laser_point(x, y)),
+        ),
+    };
+    b.create_dataset("laser_grid_xyz")
+        .with_f32_data(&grid(lx, ly, unit, laser))
+        .with_shape(&[lx as u64, ly as u64, 3]);
+    b.create_dataset("laser_grid_normals")
+        .with_f32_data(&grid(lx, ly, 1.0, |_, _| normal))
+        .with_shape(&[lx as u64, ly as u64, 3]);
+    b.create_dataset("laser_grid_format")
+        .with_enum_i32_data(grid_format_type(), &[2]);
+    let point = |p: [f64; 3]| p.map(|v| (v * unit) as f32);
+    b.create_dataset("sensor_xyz")
+        .with_f32_data(&point(rec.sensor_origin));
+    if rec.laser_origin.iter().all(|v| v.is_finite()) {
+        b.create_dataset("laser_xyz")
+            .with_f32_data(&point(rec.laser_origin));
+    }
+    b.create_dataset("delta_t")
+        .with_f64_data(&[m.bin_width_opl * unit])
+        .with_shape(&[]);
+    b.create_dataset("t_start")
+        .with_f64_data(&[m.start_opl * unit])
+        .with_shape(&[]);
+    b.create_dataset("t_accounts_first_and_last_bounces")
+        .with_raw_data(
+            bool_type(),
+            vec![u8::from(rec.account_first_and_last_bounces)],
+            1,
+        )
+        .with_shape(&[]);
+    let info = serde_json::json!({
+        "tstat": {
+            "version": env!("CARGO_PKG_VERSION"),
+            "capture_type": rec.capture.name(),
+            "spp": m.spp,
+            "scene": m.scene.path,
+            "scene_sha256": m.scene.sha256,
+        }
+    });
+    b.create_dataset("scene_info")
+        .with_vlen_strings(&[info.to_string().as_str()])
+        .with_shape(&[]);
+}
+
+/// A write sink that turns long all-zero writes into holes: the file is new, so a
+/// hole reads back as the zeros skipped.
+struct SparseSink {
+    file: std::fs::File,
+    len: u64,
+}
+
+impl Write for SparseSink {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        if buf.len() >= 4096 && buf.iter().all(|&b| b == 0) {
+            self.file.seek(SeekFrom::Current(buf.len() as i64))?;
+        } else {
+            self.file.write_all(buf)?;
+        }
+        self.len += buf.len() as u64;
+        Ok(buf.len())
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.file.flush()
+    }
+}
+
+/// `n` zero bytes from the allocator's zeroed pages (never touched, so not resident),
+/// or an error when the address space cannot hold them.
+fn zeroed(n: usize) -> Result<Vec<u8>, String> {
+    if n == 0 {
+        return Ok(Vec::new());
+    }
+    let layout = std::alloc::Layout::array::<u8>(n).map_err(|e| e.to_string())?;
+    // SAFETY: the layout has a non-zero size; a non-null pointer owns n zeroed bytes
+    // with u8's alignment, which `Vec::from_raw_parts` takes over with that capacity.
+    unsafe {
+        let p = std::alloc::alloc_zeroed(layout);
+        if p.is_null() {
+            return Err(format!(
+                "cannot reserve {n} bytes of address space to lay out H"
+            ));
+        }
+        Ok(Vec::from_raw_parts(p, n, n))
+    }
+}
+
+/// What [`write_capture`] wrote.
+pub struct Written {
+    pub h_shape: Vec<u64>,
+    /// Blocks of time bins (passes over the bundle).
+    pub blocks: usize,
+}
+
+/// Writes `bundle`'s capture to `path` (a new file) as y-tal's HDF5 capture, holding at
+/// most `max_bytes` of H at a time (at least one time bin's worth).
+pub fn write_capture(bundle: &Bundle, path: &Path, max_bytes: u64) -> Result<Written, BundleError> {
+    let m = &bundle.manifest;
+    let bad = |e: String| BundleError::Invalid(bundle.dir.clone(), e);
+    let io = |e: String| BundleError::Io(path.to_path_buf(), e);
+    let rec = m.nlos.as_ref().ok_or_else(|| {
+        bad("not an NLOS capture: its scene's sensor is no nlos_capture_meter (y-tal's format holds relay-wall captures)".into())
+    })?;
+    if rec.account_first_and_last_bounces && !rec.laser_origin.iter().all(|v| v.is_finite()) {
+        return Err(bad("its times include the laser's segment, but the scene has no positioned laser (a projector or spot) to record as laser_xyz".into()));
+    }
+    let shape = h_shape(rec, m.bins);
+    let n = shape
+        .iter()
+        .try_fold(1u64, |a, &d| a.checked_mul(d))
+        .unwrap_or(u64::MAX);
+    let bytes = usize::try_from(n.saturating_mul(4))
+        .ok()
+        .filter(|&b| b <= isize::MAX as usize)
+        .ok_or_else(|| bad(format!("H of {n} values does not fit the address space")))?;
+    let mut b = FileBuilder::new();
+    b.create_dataset("H")
+        .with_raw_data(make_f32_type(), zeroed(bytes).map_err(bad)?, n)
+        .with_shape(&shape);
+    stage_meta(&mut b, bundle, rec);
+    let file = std::fs::File::create(path).map_err(|e| io(e.to_string()))?;
+    let mut sink = SparseSink { file, len: 0 };
+    b.finish_to(&mut sink).map_err(|e| io(e.to_string()))?;
+    sink.file.set_len(sink.len).map_err(|e| io(e.to_string()))?;
+    let file = sink.file;
+    let offset = match File::open_streaming(path)
+        .and_then(|f| f.dataset("H")?.layout())
+        .map_err(|e| io(e.to_string()))?
+    {
+        Layout::Contiguous {
+            address: Some(a),
+            size,
+        } if size == n * 4 => a,
+        other => {
+            return Err(io(format!(
+                "H was laid out as {other:?}, not one contiguous block"
+            )))
+        }
+    };
+    let blocks = fill_h(bundle, rec, &file, offset, max_bytes)?;
+    file.sync_all().map_err(|e| io(e.to_string()))?;
+    Ok(Written {
+        h_shape: shape,
+        blocks,
+    })
+}
+
+/// Sums the bundle's noisy means over the channels into H, a block of time bins at a
+/// time, each block written at its place (H is time first, so a block is contiguous).
+fn fill_h(
+    bundle: &Bundle,
+    rec: &CaptureRecord,
+    file: &std::fs::File,
+    offset: u64,
+    max_bytes: u64,
+) -> Result<usize, BundleError> {
+    use std::os::unix::fs::FileExt;
+    let m = &bundle.manifest;
+    let (w, h, t) = (m.width, m.height, m.bins);
+    let c = m.channels.len();
+    let [sx_n, sy_n] = rec.sensor_grid;
+    let [lx_n, ly_n] = rec.laser_grid;
+    let per_bin = (lx_n * ly_n * sx_n * sy_n) as u64;
+    let block = ((max_bytes / (per_bin * 4)).max(1) as usize).min(t);
+    let band = (BAND_BYTES / (w * t * c * 8 * 4).max(1)).clamp(1, h);
+    let n = m.spp as f64;
+    let reader = bundle.row_reader()?;
+    let mut sums = RowSums::default();
+    let mut buf = vec![0f32; block * per_bin as usize];
+    let mut blocks = 0;
+    for t0 in (0..t).step_by(block) {
+        let t1 = (t0 + block).min(t);
+        buf[..(t1 - t0) * per_bin as usize].fill(0.0);
+        for r0 in (0..h).step_by(band) {
+            let r1 = (r0 + band).min(h);
+            reader.read(r0..r1, &mut sums)?;
+            let s = if sums.sum.is_empty() {
+                &sums.x1
+            } else {
+                &sums.sum
+            };
+            for r in r0..r1 {
+                let (l, sy) = (r / sy_n, r % sy_n);
+                let (lx, ly) = (l % lx_n, l / lx_n);
+                for sx in 0..sx_n {
+                    let base = ((r - r0) * w + sx) * t;
+                    let sensor = sx * sy_n + sy;
+                    for k in t0..t1 {
+                        let v: f64 = s[(base + k) * c..(base + k + 1) * c].iter().sum();
+                        let i = (((k - t0) * lx_n + lx) * ly_n + ly) * (sx_n * sy_n) + sensor;
+                        buf[i] = (v / n) as f32;
+                    }
+                }
+            }
+        }
+        let bytes: &[u8] = bytemuck::cast_slice(&buf[..(t1 - t0) * per_bin as usize]);
+        file.write_all_at(bytes, offset + t0 as u64 * per_bin * 4)
+            .map_err(|e| BundleError::Io(std::path::PathBuf::from("H"), e.to_string()))?;
+        blocks += 1;
+    }
+    Ok(blocks)
+}
