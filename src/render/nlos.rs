@@ -18,7 +18,9 @@
 //! then continues by **hidden-geometry sampling** (a uniform point of the hidden
 //! geometry, density converted to solid angle; `nlos_hidden_geometry_sampling`, with its
 //! depth limit and its optional coin flip against BSDF sampling) or BSDF sampling, and
-//! Russian roulette from `rr_depth` on (at the vertex's depth, as mitransient). The
+//! Russian roulette from `rr_depth` on (at the vertex's depth, as mitransient).
+//! Segments are timed between the vertices themselves (not from the offset origins of
+//! the rays, which would shorten each by up to 1e-4 of the scene's scale). The
 //! first segment (sensor to wall) counts in the OPL only with
 //! `account_first_and_last_bounces`. `filter_depth` and `discard_direct_paths` act on
 //! the light-sample contributions' depth. The laser, a delta light, is never hit.
@@ -301,6 +303,8 @@ unsafe fn body<const ISA: u8, S: PathSampler>(
     };
     let mut g = GSample::default();
     let (mut o, mut d) = (o, d);
+    // The last vertex (where the current ray left the surface).
+    let mut prev = o;
     let mut opl = 0.0f64;
     let mut beta = Rgb::ONE;
     let mut eta = 1.0f32;
@@ -320,8 +324,14 @@ unsafe fn body<const ISA: u8, S: PathSampler>(
         }) else {
             break;
         };
-        if n.account_first_and_last_bounces || depth > 0 {
-            opl += eta as f64 * hit.t as f64;
+        // Segments are timed vertex to vertex, not from the offset ray origins (a
+        // ray offset is 1e-4 of the scene's scale, a tenth of a typical NLOS bin).
+        if depth == 0 {
+            if n.account_first_and_last_bounces {
+                opl += eta as f64 * hit.t as f64;
+            }
+        } else {
+            opl += eta as f64 * (hit.surface.p - prev).length() as f64;
         }
         let v = Vertex::at(scene, &hit, d);
         if depth == 0 {
@@ -383,6 +393,7 @@ unsafe fn body<const ISA: u8, S: PathSampler>(
         eta *= bs_eta;
         o = offset_origin(v.p, v.ng, wi_world);
         d = wi_world;
+        prev = v.p;
 
         // Russian roulette at this vertex's depth (mitransient: min(max(beta) eta^2, 0.95)).
         let beta_max = beta.max_element();

@@ -1,0 +1,335 @@
+#!/usr/bin/env python3
+"""Agreement study: tstat's NLOS captures against mitransient 1.3.1 (transient_nlos_path +
+nlos_capture_meter), on the same scene files, with mitransient at two seeds as the
+yardstick for Monte Carlo noise.
+
+usage: python3 scripts/nlos_agree.py [--spp N] [--tstat BIN] [--only KEY[,KEY..]]
+                                     [--work DIR] [--keep]
+
+For every case below, renders
+  * tstat  (`BIN render ... --pixel-sampling independent`) at seeds 1 and 2,
+  * mitransient (scripts/nlos_mitransient.py) at seeds 1 (timed after a --warmup) and 2,
+all at the same spp (the case's default, or --spp N for every case), converts tstat's
+bundle mean x1/spp into mitransient's native layout (exhaustive: tstat row (ly*Lw+lx)*Sy+sy
+-> mit[sy, sx, ly, lx]) and prints a Markdown table:
+
+  E t/m1, E m2/m1  total energy ratios (sum over everything)
+  zE               (E_t1 - E_m1) / sqrt(var_t + var_m); each variance is estimated from
+                   the two seeds per independent sensor pixel, var = 1/2 sum_p (a_p - b_p)^2
+                   (many degrees of freedom, so a stable yardstick, unlike |m2/m1 - 1|)
+  bins t-m1, m2-m1 max over time bins holding > 1% of m1's peak bin of |a - b| / b of the
+                   per-bin energy (sum over pixels, laser points and channels)
+  blk95 t-m1, m2-m1 95th percentile over space-time blocks above 1% of m1's brightest
+                   block of |a - b| / b (block sizes per case, listed in the second table)
+  nz bins          first-last non-zero bin of t1 / m1 / m2
+  times            tstat: manifest render_seconds (seed 1) and process wall;
+                   mitransient: render wall time after a warm-up render (seed 1)
+  verdict          "agrees" when |zE| <= 3, bins <= 1.5x and blk95 <= 1.5x mitransient's own
+                   seed spread, and t1's first non-zero bin lies within 2 bins of m1/m2's;
+                   otherwise the failing criteria are listed.
+
+Scene variants are written to --work (default /tmp/nlos_agree_work): nlos_T.xml as single /
+exhaustive / NEE (wide projector) / no-HGS / afalb captures, nlos-z-simple.xml with
+absolute mesh paths and a 32x32 film. The legacy examples/transient-nlos/nlos_Z.xml is
+given unchanged to both (tstat converts the legacy meter parameters itself;
+nlos_mitransient.py --legacy convert does the same for mitransient).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import re
+import shutil
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parent.parent
+MITR = ROOT / 'scripts' / 'nlos_mitransient.py'
+NLOS_T = ROOT / 'scenes' / 'nlos_T.xml'
+PEER = Path('/tmp/nlos_peer')
+EX = Path('/work/shared/wild-scenes/diegoroyo_mitransient/examples/transient-nlos')
+
+
+# ---------------------------------------------------------------- scene variants
+def sub1(text, old, new):
+    assert text.count(old) == 1, (old, text.count(old))
+    return text.replace(old, new)
+
+
+def t_variant(work, name, capture=None, exhaustive=False, laser_sampling=None, hgs=None,
+              afalb=None, fov=None, start_opl=None, bin_width=None):
+    x = NLOS_T.read_text()
+    if capture:
+        x = sub1(x, '<string name="capture_type" value="confocal"/>',
+                 f'<string name="capture_type" value="{capture}"/>')
+    if exhaustive:
+        x = sub1(x, '<rfilter type="box"/>',
+                 '<boolean name="exhaustive_scan" value="true"/>\n'
+                 '                <integer name="laser_scan_width" value="$res"/>\n'
+                 '                <integer name="laser_scan_height" value="$res"/>\n'
+                 '                <rfilter type="box"/>')
+    if laser_sampling is not None:
+        x = sub1(x, '<boolean name="nlos_laser_sampling" value="true"/>',
+                 f'<boolean name="nlos_laser_sampling" value="{str(laser_sampling).lower()}"/>')
+    if hgs is not None:
+        x = sub1(x, '<boolean name="nlos_hidden_geometry_sampling" value="true"/>',
+                 f'<boolean name="nlos_hidden_geometry_sampling" value="{str(hgs).lower()}"/>')
+    if afalb is not None:
+        x = sub1(x, '<boolean name="account_first_and_last_bounces" value="false"/>',
+                 f'<boolean name="account_first_and_last_bounces" value="{str(afalb).lower()}"/>')
+    if fov is not None:
+        x = sub1(x, '<float name="fov" value="0.2"/>', f'<float name="fov" value="{fov}"/>')
+    if start_opl is not None:
+        x = sub1(x, '<float name="start_opl" value="1.9"/>',
+                 f'<float name="start_opl" value="{start_opl}"/>')
+    if bin_width is not None:
+        x = sub1(x, '<float name="bin_width_opl" value="0.004"/>',
+                 f'<float name="bin_width_opl" value="{bin_width}"/>')
+    p = work / f'{name}.xml'
+    p.write_text(x)
+    return p
+
+
+def z_simple(work):
+    x = (EX / 'nlos-z-simple.xml').read_text()
+    x = sub1(x, '<integer name="width" value="32"/>', '<integer name="width" value="$w"/>')
+    x = sub1(x, '<integer name="height" value="32"/>', '<integer name="height" value="$h"/>')
+    x = re.sub(r'value="(meshes/[^"]+)"', lambda m: f'value="{EX / m.group(1)}"', x)
+    x = sub1(x, '<scene version="2.1.0">',
+             '<scene version="2.1.0">\n\t<default name="w" value="32"/>\n'
+             '\t<default name="h" value="32"/>')
+    p = work / 'nlos-z-simple_abs.xml'
+    p.write_text(x)
+    return p
+
+
+# Each case: key, label, scene builder, -D defines (both renderers), default spp,
+# block sizes (one per non-time axis of mitransient's layout, then time).
+CASES = [
+    dict(key='T_confocal', label='nlos_T confocal 16x16, 512 bins',
+         scene=lambda w: NLOS_T, defines=dict(res=16, bins=512), spp=256,
+         block=(4, 4, 16)),
+    dict(key='T_single', label='nlos_T single 16x16, 512 bins',
+         scene=lambda w: t_variant(w, 'T_single', capture='single'),
+         defines=dict(res=16, bins=512), spp=256, block=(4, 4, 16)),
+    dict(key='T_exhaustive', label='nlos_T exhaustive 8x8 x 8x8 laser, 512 bins',
+         scene=lambda w: t_variant(w, 'T_exhaustive', capture='exhaustive', exhaustive=True),
+         defines=dict(res=8, bins=512), spp=256, block=(4, 4, 4, 4, 32)),
+    dict(key='T_nee_wide', label='nlos_T confocal, NEE (no laser sampling), fov 60, no HGS',
+         scene=lambda w: t_variant(w, 'T_nee_wide', laser_sampling=False, hgs=False, fov=60),
+         defines=dict(res=16, bins=512), spp=4096, block=(4, 4, 16)),
+    dict(key='T_nee_wide_hgs', label='nlos_T confocal, NEE, fov 60, HGS on',
+         scene=lambda w: t_variant(w, 'T_nee_wide_hgs', laser_sampling=False, fov=60),
+         defines=dict(res=16, bins=512), spp=256, block=(4, 4, 16)),
+    dict(key='T_nee_narrow', label='nlos_T confocal, NEE, fov 0.2, no HGS',
+         scene=lambda w: t_variant(w, 'T_nee_narrow', laser_sampling=False, hgs=False),
+         defines=dict(res=16, bins=512), spp=256, block=(4, 4, 16)),
+    dict(key='T_nohgs', label='nlos_T confocal, laser sampling, no HGS',
+         scene=lambda w: t_variant(w, 'T_nohgs', hgs=False),
+         defines=dict(res=16, bins=512), spp=4096, block=(4, 4, 16)),
+    dict(key='T_afalb', label='nlos_T confocal, account_first_and_last_bounces, start 6.4',
+         scene=lambda w: t_variant(w, 'T_afalb', afalb=True, start_opl=6.4, bin_width=0.008),
+         defines=dict(res=16, bins=512), spp=256, block=(4, 4, 16)),
+    dict(key='Z_confocal', label='peer nlos_Z_confocal 8x8, 200 bins',
+         scene=lambda w: PEER / 'nlos_Z_confocal.xml', defines={}, spp=1024,
+         block=(2, 2, 10)),
+    dict(key='Z_exhaustive', label='peer nlos_Z_exhaustive 8x8 x 8x8, 200 bins',
+         scene=lambda w: PEER / 'nlos_Z_exhaustive.xml', defines={}, spp=256,
+         block=(4, 4, 4, 4, 10)),
+    dict(key='z_simple', label='nlos-z-simple (perspective, single) 32x32, 300 bins',
+         scene=z_simple, defines={}, spp=1024, block=(8, 8, 15)),
+    dict(key='Z_legacy', label='legacy nlos_Z.xml (single) 64x64, 300 bins',
+         scene=lambda w: EX / 'nlos_Z.xml', defines={}, spp=256, block=(16, 16, 15)),
+]
+
+
+# ---------------------------------------------------------------- rendering
+def run(cmd, log):
+    t0 = time.perf_counter()
+    r = subprocess.run(cmd, capture_output=True, text=True)
+    wall = time.perf_counter() - t0
+    with open(log, 'a') as f:
+        f.write('$ ' + ' '.join(map(str, cmd)) + '\n' + r.stdout + r.stderr + '\n')
+    if r.returncode != 0:
+        sys.exit(f'failed ({r.returncode}): {" ".join(map(str, cmd))}\n{r.stdout}\n{r.stderr}')
+    return r.stdout + r.stderr, wall
+
+
+def render_tstat(tstat, scene, defines, spp, seed, out, log):
+    cmd = [tstat, 'render', str(scene), '--out', str(out), '--spp', str(spp),
+           '--seed', str(seed), '--pixel-sampling', 'independent', '--force']
+    for k, v in defines.items():
+        cmd += ['-D', f'{k}={v}']
+    _, wall = run(cmd, log)
+    man = json.loads((out / 'manifest.json').read_text())
+    x = np.load(out / 'x1.npy') / man['spp']
+    nl = man.get('nlos') or {}
+    if nl.get('capture') == 'exhaustive':
+        lw, lh = nl['laser_grid']
+        rows, sx, t, c = x.shape
+        sy = rows // (lw * lh)
+        # bundle row (ly*Lw+lx)*Sy + sy  ->  mit[sy, sx, ly, lx]
+        x = x.reshape(lh, lw, sy, sx, t, c).transpose(2, 3, 0, 1, 4, 5)
+    return x, man['render_seconds'], wall
+
+
+def render_mitr(scene, defines, spp, seed, out, log, warmup):
+    cmd = [sys.executable, str(MITR), str(scene), '--out', str(out), '--spp', str(spp),
+           '--seed', str(seed)]
+    for k, v in defines.items():
+        cmd += ['-D', f'{k}={v}']
+    if warmup:
+        cmd.append('--warmup')
+    txt, wall = run(cmd, log)
+    m = re.search(r'(?<!warm-up )render wall time: ([0-9.]+) s', txt)
+    return np.load(out).astype(np.float64), float(m.group(1)), wall
+
+
+# ---------------------------------------------------------------- metrics
+def per_bin(a):
+    return a.reshape(-1, a.shape[-2], a.shape[-1]).sum(axis=(0, 2))
+
+
+def blocks(a, bs):
+    a = a.sum(axis=-1)                      # channels
+    assert len(bs) == a.ndim, (bs, a.shape)
+    shp = []
+    for n, b in zip(a.shape, bs):
+        assert n % b == 0, (a.shape, bs)
+        shp += [n // b, b]
+    return a.reshape(shp).sum(axis=tuple(range(1, len(shp), 2))).ravel()
+
+
+def rel(a, b, mask):
+    return np.abs(a[mask] - b[mask]) / b[mask]
+
+
+def nz_range(a):
+    e = per_bin(a)
+    nz = np.nonzero(e)[0]
+    return (int(nz[0]), int(nz[-1])) if len(nz) else (None, None)
+
+
+def pixel_totals(a):
+    # independent unit: the sensor pixel (axes 0, 1 of mitransient's layout)
+    return a.reshape(a.shape[0], a.shape[1], -1).sum(axis=-1)
+
+
+def metrics(t1, t2, m1, m2, bs):
+    out = {}
+    Et, Et2, Em1, Em2 = (float(x.sum()) for x in (t1, t2, m1, m2))
+    out['E'] = (Et, Et2, Em1, Em2)
+    if Em1 == 0.0:
+        out['zero'] = True
+        return out
+    out['zero'] = False
+    out['Et_m1'] = Et / Em1
+    out['Em2_m1'] = Em2 / Em1
+    out['Et2_t1'] = Et2 / Et if Et else float('nan')
+    var_t = 0.5 * float(((pixel_totals(t1) - pixel_totals(t2)) ** 2).sum())
+    var_m = 0.5 * float(((pixel_totals(m1) - pixel_totals(m2)) ** 2).sum())
+    out['zE'] = (Et - Em1) / np.sqrt(var_t + var_m) if var_t + var_m > 0 else float('nan')
+    out['seE_rel'] = np.sqrt(var_m) / Em1
+    bt, b1, b2 = per_bin(t1), per_bin(m1), per_bin(m2)
+    mask = b1 > 0.01 * b1.max()
+    out['bins_t'] = float(rel(bt, b1, mask).max())
+    out['bins_m'] = float(rel(b2, b1, mask).max())
+    out['nbins'] = int(mask.sum())
+    kt, k1, k2 = blocks(t1, bs), blocks(m1, bs), blocks(m2, bs)
+    mask = k1 > 0.01 * k1.max()
+    out['blk_t'] = float(np.percentile(rel(kt, k1, mask), 95))
+    out['blk_m'] = float(np.percentile(rel(k2, k1, mask), 95))
+    out['nblk'] = (int(mask.sum()), int(k1.size))
+    out['nz'] = (nz_range(t1), nz_range(m1), nz_range(m2))
+    fails = []
+    if not abs(out['zE']) <= 3:
+        fails.append(f"zE={out['zE']:.1f}")
+    if out['bins_t'] > 1.5 * out['bins_m']:
+        fails.append('bins')
+    if out['blk_t'] > 1.5 * out['blk_m']:
+        fails.append('blk95')
+    f_t, f_1, f_2 = out['nz'][0][0], out['nz'][1][0], out['nz'][2][0]
+    if f_t is None or f_t < min(f_1, f_2) - 2 or f_t > max(f_1, f_2) + 2:
+        fails.append('first bin')
+    out['verdict'] = 'agrees' if not fails else 'DIFFERS: ' + ', '.join(fails)
+    return out
+
+
+# ---------------------------------------------------------------- main
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
+    ap.add_argument('--spp', type=int, default=0, help='spp for every case (0: per-case default)')
+    ap.add_argument('--tstat', default='/tmp/tstat_nlos')
+    ap.add_argument('--only', default='', help='comma-separated case keys')
+    ap.add_argument('--work', default='/tmp/nlos_agree_work')
+    ap.add_argument('--keep', action='store_true', help='keep bundles and .npy files')
+    ap.add_argument('--json', default='', help='also write the raw metrics here')
+    a = ap.parse_args()
+
+    work = Path(a.work)
+    work.mkdir(parents=True, exist_ok=True)
+    log = work / 'runs.log'
+    log.write_text('')
+    only = set(filter(None, a.only.split(',')))
+    results = []
+    for case in CASES:
+        if only and case['key'] not in only:
+            continue
+        spp = a.spp or case['spp']
+        scene = case['scene'](work)
+        d = work / case['key']
+        d.mkdir(exist_ok=True)
+        print(f"[{case['key']}] {scene} spp {spp}", file=sys.stderr, flush=True)
+        t1, tsec, twall = render_tstat(a.tstat, scene, case['defines'], spp, 1, d / 't1.tstats', log)
+        t2, _, _ = render_tstat(a.tstat, scene, case['defines'], spp, 2, d / 't2.tstats', log)
+        m1, msec, mwall = render_mitr(scene, case['defines'], spp, 1, d / 'm1.npy', log, True)
+        m2, _, _ = render_mitr(scene, case['defines'], spp, 2, d / 'm2.npy', log, False)
+        assert t1.shape == m1.shape, (case['key'], t1.shape, m1.shape)
+        r = metrics(t1, t2, m1, m2, case['block'])
+        r.update(key=case['key'], label=case['label'], spp=spp, shape=list(m1.shape),
+                 block=list(case['block']), scene=str(scene), defines=case['defines'],
+                 t_sec=tsec, t_wall=twall, m_sec=msec, m_wall=mwall)
+        results.append(r)
+        if not a.keep:
+            shutil.rmtree(d)
+
+    def f(x, n=3):
+        return f'{x:.{n}f}'
+
+    print('| case | spp | E t/m1 | E m2/m1 | zE | bins t-m1 | bins m2-m1 | blk95 t-m1 '
+          '| blk95 m2-m1 | verdict |')
+    print('|---|---|---|---|---|---|---|---|---|---|')
+    for r in results:
+        if r['zero']:
+            print(f"| {r['label']} | {r['spp']} | sums t {r['E'][0]:.3g}, m1 {r['E'][2]:.3g}, "
+                  f"m2 {r['E'][3]:.3g} | | | | | | | "
+                  f"{'agrees (all zero)' if r['E'][0] == 0 else 'DIFFERS (mit zero)'} |")
+            continue
+        print(f"| {r['label']} | {r['spp']} | {f(r['Et_m1'], 4)} | {f(r['Em2_m1'], 4)} | "
+              f"{r['zE']:+.2f} | {f(r['bins_t'])} | {f(r['bins_m'])} | {f(r['blk_t'])} | "
+              f"{f(r['blk_m'])} | {r['verdict']} |")
+    print()
+    print('| case | shape (mit layout) | block | bins>1% / blocks>1% | nz bins t1 / m1 / m2 '
+          '| sum m1 | tstat render (process) s | mitransient render s |')
+    print('|---|---|---|---|---|---|---|---|')
+    for r in results:
+        shape = 'x'.join(map(str, r['shape']))
+        blk = 'x'.join(map(str, r['block']))
+        if r['zero']:
+            cnt, nz = '-', '-'
+        else:
+            cnt = f"{r['nbins']} / {r['nblk'][0]} of {r['nblk'][1]}"
+            nz = ' / '.join(f'{x[0]}-{x[1]}' for x in r['nz'])
+        print(f"| {r['key']} | {shape} | {blk} | {cnt} | {nz} | {r['E'][2]:.5g} | "
+              f"{r['t_sec']:.2f} ({r['t_wall']:.2f}) | {r['m_sec']:.2f} |")
+    if a.json:
+        Path(a.json).write_text(json.dumps(results, indent=1, default=str))
+
+
+if __name__ == '__main__':
+    main()

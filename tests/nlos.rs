@@ -1,0 +1,484 @@
+//! NLOS captures (SPEC 11): `transient_nlos_path` on an `nlos_capture_meter`.
+//!
+//! - A small hidden diffuse patch facing a one-point confocal capture: every bin
+//!   against the closed-form three-bounce transient (a quadrature over the patch of
+//!   `(rho_w / pi)^2 (rho_h / pi) I cos_l / r^2 * cos_p^2 cos_g^2 / d^4`, arriving at
+//!   `2 d`, plus `2 r` with `account_first_and_last_bounces`), by a t-test per bin;
+//! - exhaustive scans: the image of laser point l at sensor point l is the confocal
+//!   capture's (two-sample t-tests per bin), and the rest obey the reciprocity of the
+//!   diffuse three-bounce integral (`H[l][j] r_l^2 / cos_l` symmetric in l and j);
+//! - the same bits at 1 and 2 threads;
+//! - `export --tal`: the HDF5 file read back (H, shapes, grids, times) against the
+//!   bundle;
+//! - bad scenes and commands: one clear error.
+
+mod common;
+
+use std::path::Path;
+use std::process::Command;
+use tstat::render::{render, PixelSampling, RenderOutput, RenderSettings};
+use tstat::scene::{Overrides, Scene};
+use tstat::stats::Transform;
+
+const RHO_W: f64 = 0.8;
+const RHO_H: f64 = 0.6;
+/// The projector's `irradiance` E: on-axis intensity I = pi E.
+const E: f64 = 2.0;
+/// Laser and sensor position.
+const L: [f64; 3] = [0.3, 0.2, 0.5];
+/// The patch's half side; it lies at z = 1 facing the wall.
+const A: f64 = 0.1;
+
+/// A relay wall [-1, 1]^2 at z = 0 measured on a `res` x `res` grid, a patch of half
+/// side `half` at (0, 0, 1) facing it, a projector laser at `L`.
+fn patch_scene(
+    capture: &str,
+    res: usize,
+    half: f64,
+    account: bool,
+    bins: (f64, f64, usize),
+    spp: u32,
+) -> String {
+    let exhaustive = if capture == "exhaustive" {
+        format!(
+            r#"<boolean name="exhaustive_scan" value="true"/><integer name="laser_scan_width" value="{res}"/><integer name="laser_scan_height" value="{res}"/>"#
+        )
+    } else {
+        String::new()
+    };
+    let [lx, ly, lz] = L;
+    let (start, width, n) = bins;
+    format!(
+        r#"<scene version="3.0.0">
+  <integrator type="transient_nlos_path">
+    <string name="capture_type" value="{capture}"/>
+    <boolean name="nlos_laser_sampling" value="true"/>
+    <boolean name="nlos_hidden_geometry_sampling" value="true"/>
+    <boolean name="account_first_and_last_bounces" value="{account}"/>
+    <integer name="max_depth" value="-1"/>
+  </integrator>
+  <emitter type="projector">
+    <rgb name="irradiance" value="{E}"/>
+    <float name="fov" value="5"/>
+    <transform name="to_world"><lookat origin="{lx}, {ly}, {lz}" target="0, 0, 0" up="0, 1, 0"/></transform>
+  </emitter>
+  <shape type="rectangle" id="wall">
+    <bsdf type="diffuse"><rgb name="reflectance" value="{RHO_W}"/></bsdf>
+    <sensor type="nlos_capture_meter">
+      <point name="sensor_origin" x="{lx}" y="{ly}" z="{lz}"/>
+      <sampler type="independent"><integer name="sample_count" value="{spp}"/></sampler>
+      <film type="transient_hdr_film">
+        <integer name="width" value="{res}"/>
+        <integer name="height" value="{res}"/>
+        <integer name="temporal_bins" value="{n}"/>
+        <float name="start_opl" value="{start}"/>
+        <float name="bin_width_opl" value="{width}"/>
+        {exhaustive}
+      </film>
+    </sensor>
+  </shape>
+  <shape type="rectangle" id="patch">
+    <bsdf type="diffuse"><rgb name="reflectance" value="{RHO_H}"/></bsdf>
+    <transform name="to_world">
+      <scale x="{half}" y="{half}"/>
+      <rotate y="1" angle="180"/>
+      <translate z="1"/>
+    </transform>
+  </shape>
+</scene>"#
+    )
+}
+
+fn settings(scene: &Scene, seed: u64) -> RenderSettings {
+    RenderSettings {
+        spp: scene.spp,
+        seed,
+        transform: Transform::Identity,
+        pixel_sampling: PixelSampling::Independent,
+        replicates: 0,
+    }
+}
+
+fn run(scene: &Scene, seed: u64) -> RenderOutput {
+    render(scene, &settings(scene, seed), &|_| {})
+}
+
+/// Mean and standard error of the mean of voxel (pixel, bin), channel 0.
+fn mean_se(out: &RenderOutput, n: f64, pixel: usize, bin: usize) -> (f64, f64) {
+    let a = &out.accum;
+    let i = (pixel * a.bins + bin) * 3;
+    let mean = a.x1[i] / n;
+    let var = ((a.x2[i] / n - mean * mean) * n / (n - 1.0)).max(0.0);
+    (mean, (var / n).sqrt())
+}
+
+/// The closed-form transient of the patch (per bin), by a midpoint quadrature.
+fn closed_form(bins: (f64, f64, usize), shift: f64) -> Vec<f64> {
+    let (start, width, n) = bins;
+    let r2 = L.iter().map(|v| v * v).sum::<f64>();
+    let cos_l = L[2] / r2.sqrt();
+    let pi = std::f64::consts::PI;
+    let k = (RHO_W / pi).powi(2) * (RHO_H / pi) * (pi * E) * cos_l / r2;
+    let mut out = vec![0.0; n];
+    let m = 1000;
+    let h = 2.0 * A / m as f64;
+    for i in 0..m {
+        for j in 0..m {
+            let x = -A + (i as f64 + 0.5) * h;
+            let y = -A + (j as f64 + 0.5) * h;
+            let d2 = x * x + y * y + 1.0;
+            // cos_p = cos_g = 1 / d: integrand K cos_p^2 cos_g^2 / d^4 = K / d^8.
+            let v = k / (d2 * d2 * d2 * d2) * h * h;
+            let t = 2.0 * d2.sqrt() + shift;
+            let b = ((t - start) / width).floor();
+            if b >= 0.0 && (b as usize) < n {
+                out[b as usize] += v;
+            }
+        }
+    }
+    out
+}
+
+fn check_patch(account: bool) {
+    let r = L.iter().map(|v| v * v).sum::<f64>().sqrt();
+    let shift = if account { 2.0 * r } else { 0.0 };
+    let bins = (1.996 + shift, 0.0025, 12);
+    let spp = 1 << 18;
+    let scene = common::load(
+        &patch_scene("confocal", 1, A, account, bins, spp),
+        &Overrides::default(),
+    );
+    let out = run(&scene, 7);
+    let expected = closed_form(bins, shift);
+    let n = spp as f64;
+    let mut total = (0.0, 0.0);
+    for (bin, &want) in expected.iter().enumerate() {
+        let (mean, se) = mean_se(&out, n, 0, bin);
+        total.0 += mean;
+        total.1 += want;
+        if want == 0.0 {
+            assert_eq!(mean, 0.0, "bin {bin}: nothing arrives there, got {mean:e}");
+            continue;
+        }
+        let t = (mean - want) / se;
+        assert!(
+            t.abs() < 5.0,
+            "bin {bin}: render {mean:e} +- {se:e}, closed form {want:e} (t = {t:.1})"
+        );
+    }
+    // The whole echo: every bin and the steady image hold it, to 0.3%.
+    assert!(expected.iter().filter(|&&v| v > 0.0).count() >= 6);
+    let rel = (total.0 - total.1).abs() / total.1;
+    assert!(
+        rel < 3e-3,
+        "echo energy {:e} vs closed form {:e}",
+        total.0,
+        total.1
+    );
+    let steady = out.steady[0];
+    assert!(
+        ((steady - total.1) / total.1).abs() < 3e-3,
+        "steady {steady:e} vs {:e}",
+        total.1
+    );
+}
+
+#[test]
+fn hidden_patch_matches_the_closed_form_three_bounce_transient() {
+    check_patch(false);
+}
+
+#[test]
+fn first_and_last_bounces_shift_the_echo_by_both_laser_and_sensor_segments() {
+    check_patch(true);
+}
+
+/// Welch's t between two renders' voxels (pixel, bin), channel 0.
+fn welch(a: &RenderOutput, pa: usize, b: &RenderOutput, pb: usize, n: f64, bin: usize) -> f64 {
+    let (ma, sa) = mean_se(a, n, pa, bin);
+    let (mb, sb) = mean_se(b, n, pb, bin);
+    let se = (sa * sa + sb * sb).sqrt();
+    if se == 0.0 {
+        assert_eq!(ma, mb, "bin {bin}: zero variance but different means");
+        return 0.0;
+    }
+    (ma - mb) / se
+}
+
+#[test]
+fn exhaustive_scans_hold_the_confocal_capture_on_their_diagonal_and_are_reciprocal() {
+    let bins = (1.9, 0.02, 40);
+    let spp = 1 << 14;
+    let ex = common::load(
+        &patch_scene("exhaustive", 2, 0.3, false, bins, spp),
+        &Overrides::default(),
+    );
+    let co = common::load(
+        &patch_scene("confocal", 2, 0.3, false, bins, spp),
+        &Overrides::default(),
+    );
+    // 4 laser points, each a 2 x 2 sensor image, stacked.
+    assert_eq!((ex.film.width, ex.film.height), (2, 8));
+    assert_eq!((co.film.width, co.film.height), (2, 2));
+    let (e, c) = (run(&ex, 3), run(&co, 4));
+    let n = spp as f64;
+    // Sensor j = (x, y) is confocal pixel y * 2 + x; under laser l it is exhaustive
+    // pixel (l * 2 + y) * 2 + x.
+    let exhaustive_pixel = |l: usize, j: usize| (l * 2 + j / 2) * 2 + j % 2;
+    let mut worst: f64 = 0.0;
+    for j in 0..4 {
+        for bin in 0..bins.2 {
+            worst = worst.max(welch(&e, exhaustive_pixel(j, j), &c, j, n, bin).abs());
+        }
+    }
+    assert!(worst < 5.0, "diagonal vs confocal: worst |t| = {worst:.1}");
+    // Reciprocity: H[l][j] r_l^2 / cos_l is symmetric (sums over the echo).
+    let grid = [[-0.5, -0.5], [0.5, -0.5], [-0.5, 0.5], [0.5, 0.5]];
+    let weight = |l: usize| {
+        let d = [L[0] - grid[l][0], L[1] - grid[l][1], L[2]];
+        let r2 = d.iter().map(|v| v * v).sum::<f64>();
+        r2 / (d[2] / r2.sqrt())
+    };
+    let total = |l: usize, j: usize| -> (f64, f64) {
+        (0..bins.2).fold((0.0, 0.0), |(m, v), bin| {
+            let (mean, se) = mean_se(&e, n, exhaustive_pixel(l, j), bin);
+            (m + mean, v + se * se)
+        })
+    };
+    let mut checked = 0;
+    for l in 0..4 {
+        for j in (l + 1)..4 {
+            let (a, va) = total(l, j);
+            let (b, vb) = total(j, l);
+            assert!(a > 0.0 && b > 0.0, "no echo between points {l} and {j}");
+            let (a, b) = (a * weight(l), b * weight(j));
+            let se = (va * weight(l).powi(2) + vb * weight(j).powi(2)).sqrt();
+            let t = (a - b) / se;
+            assert!(
+                t.abs() < 5.0,
+                "H[{l}][{j}] and H[{j}][{l}] weighted: {a:e} vs {b:e} (t = {t:.1})"
+            );
+            // The laser falloff is not symmetric: without the weights they differ.
+            checked += 1;
+        }
+    }
+    assert_eq!(checked, 6);
+}
+
+#[test]
+fn captures_are_the_same_bits_at_one_and_two_threads() {
+    let xml = patch_scene("exhaustive", 2, 0.3, false, (1.9, 0.02, 40), 64);
+    let scene = common::load(&xml, &Overrides::default());
+    let at = |threads: usize| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(|| run(&scene, 11))
+    };
+    let (a, b) = (at(1), at(2));
+    assert!(a.accum.x1.iter().any(|&v| v > 0.0));
+    assert_eq!(a.accum.x1, b.accum.x1);
+    assert_eq!(a.accum.x2, b.accum.x2);
+    assert_eq!(a.accum.nonzero, b.accum.nonzero);
+    assert_eq!(a.steady, b.steady);
+}
+
+fn tstat(args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_tstat"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+fn write(dir: &Path, name: &str, text: &str) -> String {
+    let p = dir.join(name);
+    std::fs::write(&p, text).unwrap();
+    p.display().to_string()
+}
+
+#[test]
+fn tal_export_holds_the_bundle_means_time_first_with_the_grids() {
+    let dir = tempfile::tempdir().unwrap();
+    let bins = (1.9, 0.02, 40);
+    for (capture, res) in [("confocal", 3), ("exhaustive", 2)] {
+        let xml = write(
+            dir.path(),
+            &format!("{capture}.xml"),
+            &patch_scene(capture, res, 0.3, true, (bins.0 + 1.0, bins.1, bins.2), 32),
+        );
+        let bundle = dir.path().join(format!("{capture}.tstats"));
+        let out = tstat(&["render", &xml, "--out", bundle.to_str().unwrap()]);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let h5 = dir.path().join(format!("{capture}.hdf5"));
+        // Blocks of 7 bins: the streamed path writes H in 6 pieces.
+        let out = tstat(&[
+            "export",
+            bundle.to_str().unwrap(),
+            "--tal",
+            h5.to_str().unwrap(),
+            "--max-memory",
+            &format!("{}", 7 * 4 * res.pow(4)),
+        ]);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let file = hdf5_pure::File::open(&h5).unwrap();
+        let names = file.root().datasets().unwrap();
+        for want in [
+            "H",
+            "H_format",
+            "sensor_grid_xyz",
+            "sensor_grid_normals",
+            "sensor_grid_format",
+            "laser_grid_xyz",
+            "laser_grid_normals",
+            "laser_grid_format",
+            "sensor_xyz",
+            "laser_xyz",
+            "delta_t",
+            "t_start",
+            "t_accounts_first_and_last_bounces",
+            "scene_info",
+        ] {
+            assert!(
+                names.iter().any(|n| n == want),
+                "{capture}: no {want} in {names:?}"
+            );
+        }
+        assert_eq!(names.len(), 14, "y-tal refuses unknown datasets: {names:?}");
+        let h = file.dataset("H").unwrap();
+        let shape = h.shape().unwrap();
+        let hv = h.read_f32().unwrap();
+        let x1: ndarray::Array4<f64> = ndarray_npy::read_npy(bundle.join("x1.npy")).unwrap();
+        let spp = 32.0;
+        let (t, s) = (bins.2, res);
+        let (lx_n, ly_n) = if capture == "exhaustive" {
+            (res, res)
+        } else {
+            (1, 1)
+        };
+        if capture == "exhaustive" {
+            assert_eq!(
+                shape,
+                vec![t as u64, res as u64, res as u64, s as u64, s as u64]
+            );
+        } else {
+            assert_eq!(shape, vec![t as u64, s as u64, s as u64]);
+        }
+        let mut nonzero = 0;
+        for k in 0..t {
+            for ly in 0..ly_n {
+                for lx in 0..lx_n {
+                    for sy in 0..s {
+                        for sx in 0..s {
+                            let row = (ly * lx_n + lx) * s + sy;
+                            let want: f64 = (0..3).map(|c| x1[[row, sx, k, c]]).sum::<f64>() / spp;
+                            let i = (((k * lx_n + lx) * ly_n + ly) * s + sx) * s + sy;
+                            assert_eq!(
+                                hv[i], want as f32,
+                                "{capture}: H[{k}, {lx}, {ly}, {sx}, {sy}]"
+                            );
+                            nonzero += usize::from(want > 0.0);
+                        }
+                    }
+                }
+            }
+        }
+        assert!(nonzero > 10, "{capture}: an echo was rendered");
+        let grid = file.dataset("sensor_grid_xyz").unwrap();
+        assert_eq!(grid.shape().unwrap(), vec![s as u64, s as u64, 3]);
+        let g = grid.read_f32().unwrap();
+        // (sx, sy) = (0, 1): u = 1/2s, v = 3/2s on the wall [-1, 1]^2.
+        let p = &g[3..6];
+        let want = [-1.0 + 1.0 / s as f32, -1.0 + 3.0 / s as f32, 0.0];
+        assert!(
+            p.iter().zip(want).all(|(a, b)| (a - b).abs() < 1e-6),
+            "{p:?} vs {want:?}"
+        );
+        let laser = file.dataset("laser_grid_xyz").unwrap();
+        assert_eq!(laser.shape().unwrap(), vec![s as u64, s as u64, 3]);
+        assert_eq!(laser.read_f32().unwrap(), g, "{capture}: equal grids");
+        assert_eq!(
+            file.dataset("delta_t").unwrap().read_f64().unwrap(),
+            vec![bins.1]
+        );
+        assert_eq!(
+            file.dataset("t_start").unwrap().read_f64().unwrap(),
+            vec![bins.0 + 1.0]
+        );
+        let xyz = file.dataset("laser_xyz").unwrap().read_f32().unwrap();
+        assert_eq!(xyz, L.map(|v| v as f32).to_vec());
+    }
+}
+
+#[test]
+fn bad_nlos_scenes_and_exports_fail_with_one_clear_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let good = patch_scene("confocal", 2, 0.3, false, (1.9, 0.02, 40), 4);
+    let cases: Vec<(String, &str)> = vec![
+        (good.replace(r#"<shape type="rectangle" id="wall">"#, r#"<shape type="sphere" id="wall">"#), "attached to a sphere"),
+        (good.replace("</scene>", r#"<emitter type="point"><point name="position" x="0" y="0" z="3"/></emitter></scene>"#), "exactly one emitter"),
+        (good.replace(r#"value="confocal""#, r#"value="sideways""#), "capture_type 'sideways'"),
+        (good.replace(r#"value="confocal""#, r#"value="exhaustive""#), "exhaustive_scan"),
+        (good.replace(r#"<point name="sensor_origin""#, r#"<boolean name="confocal" value="true"/><point name="sensor_origin""#), "capture_type"),
+        (good.replace(r#"value="confocal""#, r#"value="single""#).replace(r#"target="0, 0, 0""#, r#"target="3, 3, 0.5""#), "meets nothing"),
+        (good.replace(r#"<boolean name="nlos_hidden_geometry_sampling" value="true"/>"#, r#"<boolean name="nlos_hidden_geometry_sampling" value="true"/><integer name="nlos_hidden_geometry_sampling_max_depth" value="0"/>"#), "must be -1 or positive"),
+        (good.replace(r#"<integer name="max_depth" value="-1"/>"#, r#"<integer name="max_depth" value="-1"/><boolean name="camera_unwarp" value="true"/>"#), "camera_unwarp"),
+    ];
+    for (i, (xml, want)) in cases.iter().enumerate() {
+        let path = write(dir.path(), &format!("bad{i}.xml"), xml);
+        let out = dir.path().join(format!("bad{i}.tstats"));
+        let r = tstat(&["render", &path, "--out", out.to_str().unwrap()]);
+        let err = String::from_utf8_lossy(&r.stderr);
+        assert!(!r.status.success(), "case {i} rendered");
+        assert!(err.contains(want), "case {i}: wanted '{want}' in: {err}");
+        assert_eq!(
+            err.trim()
+                .lines()
+                .filter(|l| l.starts_with("error"))
+                .count(),
+            1,
+            "{err}"
+        );
+        assert!(!out.exists(), "case {i} left an output");
+    }
+    // --tal on a camera render, a wrong extension, --max-memory without --tal.
+    let bundle = dir.path().join("cbox.tstats");
+    let cbox = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cbox.xml");
+    let r = tstat(&[
+        "render",
+        cbox.to_str().unwrap(),
+        "--out",
+        bundle.to_str().unwrap(),
+        "--spp",
+        "2",
+        "--width",
+        "8",
+    ]);
+    assert!(r.status.success());
+    let b = bundle.to_str().unwrap();
+    let h5 = dir.path().join("x.hdf5");
+    for (args, want) in [
+        (
+            vec!["export", b, "--tal", h5.to_str().unwrap()],
+            "not an NLOS capture",
+        ),
+        (vec!["export", b, "--tal", "x.npy"], ".hdf5"),
+        (
+            vec!["export", b, "--out", "x.npy", "--max-memory", "1Mi"],
+            "--max-memory bounds the --tal export",
+        ),
+    ] {
+        let r = tstat(&args);
+        let err = String::from_utf8_lossy(&r.stderr);
+        assert!(!r.status.success() && err.contains(want), "{args:?}: {err}");
+    }
+    assert!(!h5.exists());
+}
