@@ -110,13 +110,15 @@ fn stage_meta(b: &mut FileBuilder, bundle: &Bundle, rec: &CaptureRecord) {
         .with_shape(&[sx as u64, sy as u64, 3]);
     b.create_dataset("sensor_grid_format")
         .with_enum_i32_data(grid_format_type(), &[2]);
-    let (lx, ly, laser): (usize, usize, Box<dyn Fn(usize, usize) -> [f64; 3]>) = match rec.capture {
-        CaptureType::Confocal => (sx, sy, Box::new(|x, y| rec.sensor_point(x, y))),
-        _ => (
-            rec.laser_grid[0],
-            rec.laser_grid[1],
-            Box::new(|x, y| rec.laser_point(x, y)),
-        ),
+    // Confocal: y-tal pairs each sensor point with the laser at the same point.
+    let confocal = rec.capture == CaptureType::Confocal;
+    let [lx, ly] = if confocal { [sx, sy] } else { rec.laser_grid };
+    let laser = |x, y| {
+        if confocal {
+            rec.sensor_point(x, y)
+        } else {
+            rec.laser_point(x, y)
+        }
     };
     b.create_dataset("laser_grid_xyz")
         .with_f32_data(&grid(lx, ly, unit, laser))

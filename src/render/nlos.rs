@@ -43,6 +43,12 @@ use std::borrow::Cow;
 /// values.
 const EPS: f32 = f32::EPSILON / 2.0;
 
+/// `x > t`, false for NaN (mitransient's masks drop NaN lanes).
+#[inline(always)]
+fn above(x: f32, t: f32) -> bool {
+    x > t
+}
+
 /// Traces one NLOS path from `o` along unit `d`; `target` is the point laser sampling
 /// aims at (ignored without it; NaN: a lit point that does not exist).
 #[inline]
@@ -177,7 +183,7 @@ impl Ctx<'_> {
         let pos = self.setup.laser_origin;
         let to_laser = pos - v.p;
         let dist = to_laser.length();
-        if !(dist > 0.0) {
+        if !above(dist, 0.0) {
             return;
         }
         let dir = to_laser / dist;
@@ -232,13 +238,13 @@ impl Ctx<'_> {
         let scene = self.scene;
         let to_target = target - v.p;
         let dist = to_target.length();
-        if !(dist > 0.0) {
+        if !above(dist, 0.0) {
             // Also a NaN target: a lit point that does not exist.
             return;
         }
         let dir = to_target / dist;
         let f = v.bsdf.eval(v.wo, v.frame.to_local(dir));
-        if !(f.max_element() > EPS) {
+        if !above(f.max_element(), EPS) {
             return;
         }
         let origin = offset_origin(v.p, v.ng, dir);
@@ -258,7 +264,7 @@ impl Ctx<'_> {
         }
         let lit = Vertex::at(scene, &hit, dir);
         let cos_l = lit.wo.z;
-        if !(cos_l > 0.0) {
+        if !above(cos_l, 0.0) {
             return;
         }
         let beta = beta * f * (cos_l / (dist * dist));
@@ -374,11 +380,11 @@ unsafe fn body<const ISA: u8, S: PathSampler>(
             let dir = to_p / dist;
             let cos_i = v.ng.dot(dir);
             let cos_g = nh.dot(-dir);
-            if !(cos_i > EPS && cos_g > EPS) {
+            if !(above(cos_i, EPS) && above(cos_g, EPS)) {
                 break;
             }
             let pdf = dist * dist / (hidden.total_area * cos_g);
-            if !(pdf > EPS) || !pdf.is_finite() {
+            if !above(pdf, EPS) || !pdf.is_finite() {
                 break;
             }
             let f = v.bsdf.eval(v.wo, v.frame.to_local(dir));
@@ -397,7 +403,7 @@ unsafe fn body<const ISA: u8, S: PathSampler>(
 
         // Russian roulette at this vertex's depth (mitransient: min(max(beta) eta^2, 0.95)).
         let beta_max = beta.max_element();
-        if !(beta_max > 0.0) {
+        if !above(beta_max, 0.0) {
             break;
         }
         let q = (beta_max * eta * eta).min(0.95);

@@ -75,7 +75,15 @@ pub const SUPPORTED: &[(&str, &[&str])] = &[
             "directional",
         ],
     ),
-    ("sensor", &["perspective", "thinlens", "orthographic"]),
+    (
+        "sensor",
+        &[
+            "perspective",
+            "thinlens",
+            "orthographic",
+            "nlos_capture_meter",
+        ],
+    ),
     ("film", &["transient_hdr_film"]),
     (
         "sampler",
@@ -88,7 +96,14 @@ pub const SUPPORTED: &[(&str, &[&str])] = &[
         ],
     ),
     ("rfilter", &["box"]),
-    ("integrator", &["transient_path", "transient_prbvolpath"]),
+    (
+        "integrator",
+        &[
+            "transient_path",
+            "transient_prbvolpath",
+            "transient_nlos_path",
+        ],
+    ),
     (
         "TemporalProfile",
         &["ConstantTP", "ExponentialTP", "EpanechnikovTP", "PosEpanTP"],
