@@ -4,7 +4,10 @@ nlos_capture_meter), on the same scene files, with mitransient at two seeds as t
 yardstick for Monte Carlo noise.
 
 usage: python3 scripts/nlos_agree.py [--spp N] [--tstat BIN] [--only KEY[,KEY..]]
-                                     [--work DIR] [--keep]
+                                     [--work DIR] [--keep] [--json OUT.json]
+       python3 scripts/nlos_agree.py --probe [--tstat BIN]
+
+Results and conclusions: docs/results/nlos_agreement.md.
 
 For every case below, renders
   * tstat  (`BIN render ... --pixel-sampling independent`) at seeds 1 and 2,
@@ -33,12 +36,15 @@ exhaustive / NEE (wide projector) / no-HGS / afalb captures, nlos-z-simple.xml w
 absolute mesh paths and a 32x32 film. The legacy examples/transient-nlos/nlos_Z.xml is
 given unchanged to both (tstat converts the legacy meter parameters itself;
 nlos_mitransient.py --legacy convert does the same for mitransient).
+
+--probe measures the one disagreement found (tstat's laser sampling drops every lit
+point seen more than asin(sqrt(h / (1 + max abs coord))) from the hidden vertex's
+normal, h = its height above the wall): a tiny hidden patch, bisection of the angle.
 """
 from __future__ import annotations
 
 import argparse
 import json
-import os
 import re
 import shutil
 import subprocess
@@ -62,8 +68,12 @@ def sub1(text, old, new):
 
 
 def t_variant(work, name, capture=None, exhaustive=False, laser_sampling=None, hgs=None,
-              afalb=None, fov=None, start_opl=None, bin_width=None):
+              afalb=None, fov=None, start_opl=None, bin_width=None, tz=None):
     x = NLOS_T.read_text()
+    if tz is not None:   # move the hidden T away from the wall (z = 1 in nlos_T.xml)
+        x = sub1(x, '<translate x="0" y="0.32" z="1"/>', f'<translate x="0" y="0.32" z="{tz}"/>')
+        x = sub1(x, '<translate x="0" y="-0.16" z="1"/>',
+                 f'<translate x="0" y="-0.16" z="{tz}"/>')
     if capture:
         x = sub1(x, '<string name="capture_type" value="confocal"/>',
                  f'<string name="capture_type" value="{capture}"/>')
@@ -135,6 +145,22 @@ CASES = [
     dict(key='T_afalb', label='nlos_T confocal, account_first_and_last_bounces, start 6.4',
          scene=lambda w: t_variant(w, 'T_afalb', afalb=True, start_opl=6.4, bin_width=0.008),
          defines=dict(res=16, bins=512), spp=256, block=(4, 4, 16)),
+    # The same captures with the T at z = 2 (twice as far): every hidden point then sees
+    # every lit point within 46 degrees of its normal (see docs/results/nlos_agreement.md).
+    dict(key='T_confocal_far', label='nlos_T confocal, T at z=2, start 3.9',
+         scene=lambda w: t_variant(w, 'T_confocal_far', tz=2, start_opl=3.9),
+         defines=dict(res=16, bins=512), spp=256, block=(4, 4, 16)),
+    dict(key='T_exhaustive_far', label='nlos_T exhaustive 8x8 x 8x8, T at z=2, start 3.9',
+         scene=lambda w: t_variant(w, 'T_exhaustive_far', capture='exhaustive',
+                                   exhaustive=True, tz=2, start_opl=3.9),
+         defines=dict(res=8, bins=512), spp=256, block=(4, 4, 4, 4, 32)),
+    dict(key='T_nohgs_far', label='nlos_T confocal, no HGS, T at z=2, start 3.9',
+         scene=lambda w: t_variant(w, 'T_nohgs_far', hgs=False, tz=2, start_opl=3.9),
+         defines=dict(res=16, bins=512), spp=4096, block=(4, 4, 16)),
+    dict(key='T_afalb_far', label='nlos_T confocal, afalb, T at z=2, start 8.3',
+         scene=lambda w: t_variant(w, 'T_afalb_far', afalb=True, tz=2, start_opl=8.3,
+                                   bin_width=0.01),
+         defines=dict(res=16, bins=512), spp=256, block=(4, 4, 16)),
     dict(key='Z_confocal', label='peer nlos_Z_confocal 8x8, 200 bins',
          scene=lambda w: PEER / 'nlos_Z_confocal.xml', defines={}, spp=1024,
          block=(2, 2, 10)),
@@ -146,6 +172,81 @@ CASES = [
     dict(key='Z_legacy', label='legacy nlos_Z.xml (single) 64x64, 300 bins',
          scene=lambda w: EX / 'nlos_Z.xml', defines={}, spp=256, block=(16, 16, 15)),
 ]
+
+
+# ---------------------------------------------------------------- --probe
+PROBE_XML = """<scene version="3.0.0">
+    <default name="cx" value="0"/> <default name="cz" value="1"/>
+    <default name="tx" value="0"/> <default name="ws" value="3"/>
+    <integrator type="transient_nlos_path">
+        <string name="capture_type" value="single"/>
+        <boolean name="nlos_laser_sampling" value="true"/>
+        <boolean name="nlos_hidden_geometry_sampling" value="true"/>
+        <string name="temporal_filter" value="box"/>
+    </integrator>
+    <emitter type="projector">
+        <rgb name="irradiance" value="1.0"/> <float name="fov" value="0.2"/>
+        <transform name="to_world"><lookat origin="-2, 0, 2" target="$tx, 0, 0" up="0, 1, 0"/></transform>
+    </emitter>
+    <shape type="rectangle" id="relay_wall">
+        <transform name="to_world"><scale x="$ws" y="$ws"/></transform>
+        <bsdf type="diffuse"><rgb name="reflectance" value="1.0"/></bsdf>
+        <sensor type="nlos_capture_meter">
+            <point name="sensor_origin" x="-2" y="0" z="2"/>
+            <sampler type="independent"><integer name="sample_count" value="16"/></sampler>
+            <film type="transient_hdr_film">
+                <integer name="width" value="4"/> <integer name="height" value="4"/>
+                <integer name="temporal_bins" value="2000"/>
+                <float name="start_opl" value="0"/> <float name="bin_width_opl" value="0.01"/>
+                <rfilter type="box"/>
+            </film>
+        </sensor>
+    </shape>
+    <shape type="rectangle" id="patch">
+        <bsdf type="diffuse"><rgb name="reflectance" value="1.0"/></bsdf>
+        <transform name="to_world">
+            <scale x="0.002" y="0.002"/> <rotate y="1" angle="180"/>
+            <translate x="$cx" y="0" z="$cz"/>
+        </transform>
+    </shape>
+</scene>
+"""
+
+
+def probe(tstat, work):
+    """Single capture, a 4 mm hidden patch at (cx, 0, cz) facing the wall z = 0, the laser
+    spot at (tx, 0, 0): bisects the angle theta at the patch (normal to laser spot) beyond
+    which tstat's transient is exactly zero, against the prediction of the offset-ray test
+    in laser sampling, sin^2(theta) = cz / (1 + max|x|) (ray_epsilon = 1e-4 (1 + max|x|)),
+    and shows mitransient's value 3 degrees beyond it."""
+    import math
+    xml = work / 'probe_patch.xml'
+    xml.write_text(PROBE_XML)
+    log = work / 'probe.log'
+
+    def t_sum(d):
+        cmd = [tstat, 'render', str(xml), '--out', str(work / 'probe.tstats'), '--seed', '1',
+               '--pixel-sampling', 'independent', '--force']
+        for k, v in d.items():
+            cmd += ['-D', f'{k}={v}']
+        run(cmd, log)
+        return float(np.load(work / 'probe.tstats' / 'x1.npy').sum()) / 16
+
+    print('| patch (cx, cz) | tstat zero beyond (deg) | predicted asin(sqrt(cz / (1 + max abs coord))) '
+          '| tstat sum at +3 deg | mitransient sum at +3 deg |')
+    print('|---|---|---|---|---|')
+    for cz, cx in [(0.5, 0.0), (1.0, 0.0), (2.0, 0.0), (1.0, 2.0)]:
+        geo = lambda a: dict(cz=cz, cx=cx, tx=cx + cz * math.tan(math.radians(a)),
+                             ws=max(3.0, cx + cz * math.tan(math.radians(a)) + 1))
+        lo, hi = 5.0, 80.0
+        for _ in range(12):
+            mid = 0.5 * (lo + hi)
+            lo, hi = (mid, hi) if t_sum(geo(mid)) > 0 else (lo, mid)
+        pred = math.degrees(math.asin(math.sqrt(cz / (1 + max(abs(cx), cz)))))
+        d = geo(pred + 3)
+        ts = t_sum(d)
+        m, _, _ = render_mitr(xml, d, 16, 1, work / 'probe_m.npy', log, False)
+        print(f'| ({cx:g}, {cz:g}) | {lo:.2f} | {pred:.2f} | {ts:.3g} | {m.sum():.3g} |')
 
 
 # ---------------------------------------------------------------- rendering
@@ -269,10 +370,15 @@ def main():
     ap.add_argument('--work', default='/tmp/nlos_agree_work')
     ap.add_argument('--keep', action='store_true', help='keep bundles and .npy files')
     ap.add_argument('--json', default='', help='also write the raw metrics here')
+    ap.add_argument('--probe', action='store_true',
+                    help='only measure the laser-sampling angle cut-off (see probe())')
     a = ap.parse_args()
 
     work = Path(a.work)
     work.mkdir(parents=True, exist_ok=True)
+    if a.probe:
+        probe(a.tstat, work)
+        return
     log = work / 'runs.log'
     log.write_text('')
     only = set(filter(None, a.only.split(',')))

@@ -287,10 +287,9 @@ fn render_row(
     let nlos = scene.nlos.as_ref().zip(scene.integrator.nlos.as_ref());
     let (laser, sensor_row) = nlos.map_or((0, y), |(s, _)| s.row(y));
     for x in 0..width {
-        let target = match nlos {
-            Some((s, n)) if n.laser_sampling => s.target(n.capture, x, sensor_row, laser),
-            _ => glam::Vec3::NAN,
-        };
+        let ends = nlos.map_or_else(Default::default, |(s, n)| {
+            s.ends(n.capture, x, sensor_row, laser)
+        });
         let pixel = (y * width + x) as u64;
         let mut g = GAccum::default();
         let mut tally = PathTally::default();
@@ -311,11 +310,9 @@ fn render_row(
                     Pcg32::for_path(settings.seed ^ LENS_STREAM_SALT, pixel, s as u64).next_2d()
                 });
                 let gs = match &mut numbers {
-                    PathNumbers::Sobol(p) => {
-                        trace(scene, o, d, target, p, &mut deposits, &mut tally)
-                    }
+                    PathNumbers::Sobol(p) => trace(scene, o, d, ends, p, &mut deposits, &mut tally),
                     PathNumbers::Independent(p) => {
-                        trace(scene, o, d, target, p, &mut deposits, &mut tally)
+                        trace(scene, o, d, ends, p, &mut deposits, &mut tally)
                     }
                 };
                 g.add(&gs);
@@ -339,19 +336,19 @@ fn render_row(
 
 /// Traces one camera path with the tracer the scene needs. The volumetric and NLOS
 /// tracers are separate functions: surface-only scenes run the same code as before
-/// they existed. `target` is the NLOS tracer's lit point.
+/// they existed. `ends` are the NLOS tracer's known surfaces.
 #[inline]
 fn trace<S: PathSampler>(
     scene: &Scene,
     o: glam::Vec3,
     d: glam::Vec3,
-    target: glam::Vec3,
+    ends: crate::scene::nlos::PathEnds,
     sampler: &mut S,
     deposits: &mut PathDeposits,
     tally: &mut PathTally,
 ) -> gbuffer::GSample {
     if scene.integrator.nlos.is_some() {
-        nlos::trace_nlos(scene, o, d, target, sampler, deposits, tally)
+        nlos::trace_nlos(scene, o, d, ends, sampler, deposits, tally)
     } else if scene.integrator.volumetric {
         volpath::trace_volpath(scene, o, d, sampler, deposits, tally)
     } else {

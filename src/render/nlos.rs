@@ -34,7 +34,7 @@ use crate::geometry::accel::{offset_origin, Hit};
 use crate::materials::{Bsdf, BsdfModel};
 use crate::math::frame::Frame;
 use crate::math::Rgb;
-use crate::scene::nlos::{CaptureType, NlosSettings, NlosSetup};
+use crate::scene::nlos::{CaptureType, NlosSettings, NlosSetup, PathEnds};
 use crate::scene::Scene;
 use glam::Vec3;
 use std::borrow::Cow;
@@ -49,14 +49,14 @@ fn above(x: f32, t: f32) -> bool {
     x > t
 }
 
-/// Traces one NLOS path from `o` along unit `d`; `target` is the point laser sampling
-/// aims at (ignored without it; NaN: a lit point that does not exist).
+/// Traces one NLOS path from `o` along unit `d`; `ends` holds the surface laser
+/// sampling aims at and, for a capture meter, the ray's known first hit.
 #[inline]
 pub fn trace_nlos<S: PathSampler>(
     scene: &Scene,
     o: Vec3,
     d: Vec3,
-    target: Vec3,
+    ends: PathEnds,
     rng: &mut S,
     deposits: &mut PathDeposits,
     tally: &mut PathTally,
@@ -64,11 +64,11 @@ pub fn trace_nlos<S: PathSampler>(
     match crate::cpu::current() {
         // SAFETY: `cpu::current` returns a level only when the CPU supports it.
         #[cfg(target_arch = "x86_64")]
-        Isa::Avx512 => unsafe { nlos_avx512(scene, o, d, target, rng, deposits, tally) },
+        Isa::Avx512 => unsafe { nlos_avx512(scene, o, d, ends, rng, deposits, tally) },
         #[cfg(target_arch = "x86_64")]
-        Isa::Avx2 => unsafe { nlos_avx2(scene, o, d, target, rng, deposits, tally) },
+        Isa::Avx2 => unsafe { nlos_avx2(scene, o, d, ends, rng, deposits, tally) },
         // SAFETY: the baseline runs on every CPU.
-        _ => unsafe { body::<ISA_BASELINE, S>(scene, o, d, target, rng, deposits, tally) },
+        _ => unsafe { body::<ISA_BASELINE, S>(scene, o, d, ends, rng, deposits, tally) },
     }
 }
 
@@ -79,13 +79,13 @@ fn nlos_avx512<S: PathSampler>(
     scene: &Scene,
     o: Vec3,
     d: Vec3,
-    target: Vec3,
+    ends: PathEnds,
     rng: &mut S,
     deposits: &mut PathDeposits,
     tally: &mut PathTally,
 ) -> GSample {
     // SAFETY: compiled for (and only called on CPUs with) ISA_AVX512.
-    unsafe { body::<ISA_AVX512, S>(scene, o, d, target, rng, deposits, tally) }
+    unsafe { body::<ISA_AVX512, S>(scene, o, d, ends, rng, deposits, tally) }
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -94,13 +94,13 @@ fn nlos_avx2<S: PathSampler>(
     scene: &Scene,
     o: Vec3,
     d: Vec3,
-    target: Vec3,
+    ends: PathEnds,
     rng: &mut S,
     deposits: &mut PathDeposits,
     tally: &mut PathTally,
 ) -> GSample {
     // SAFETY: compiled for (and only called on CPUs with) ISA_AVX2.
-    unsafe { body::<ISA_AVX2, S>(scene, o, d, target, rng, deposits, tally) }
+    unsafe { body::<ISA_AVX2, S>(scene, o, d, ends, rng, deposits, tally) }
 }
 
 /// A surface vertex: where it is and what scatters there.
@@ -217,8 +217,10 @@ impl Ctx<'_> {
         contribute(scene, deposits, tally, opl + last, beta * f * ls.li);
     }
 
-    /// Laser sampling from vertex `v` of depth `depth` through the lit point `target`
-    /// (mitransient's `emitter_laser_targets_sample`).
+    /// Laser sampling from vertex `v` of depth `depth` through the lit surface `lit`
+    /// (mitransient's `emitter_laser_targets_sample`: it tests visibility to the lit
+    /// point, then finds the surface there by a second ray; the surface is known, so a
+    /// shadow ray does both).
     ///
     /// # Safety
     /// The CPU must support `ISA`.
@@ -227,7 +229,7 @@ impl Ctx<'_> {
     unsafe fn laser_sample<const ISA: u8>(
         &self,
         v: &Vertex,
-        target: Vec3,
+        lit: &Hit,
         depth: u32,
         beta: Rgb,
         opl: f64,
@@ -236,6 +238,7 @@ impl Ctx<'_> {
         tally: &mut PathTally,
     ) {
         let scene = self.scene;
+        let target = lit.surface.p;
         let to_target = target - v.p;
         let dist = to_target.length();
         if !above(dist, 0.0) {
@@ -248,21 +251,13 @@ impl Ctx<'_> {
             return;
         }
         let origin = offset_origin(v.p, v.ng, dir);
+        let tmax = (target - origin).length() * (1.0 - 1e-4);
         tally.rays += 1;
-        // One closest-hit ray does mitransient's occlusion test to the lit point and its
-        // search for the surface there: something nearer blocks it.
         // SAFETY: the caller guarantees ISA.
-        let Some(hit) = (unsafe {
-            scene
-                .accel
-                .intersect_with::<ISA>(&scene.shapes, origin, dir, f32::INFINITY)
-        }) else {
-            return;
-        };
-        if hit.t < (target - origin).length() * (1.0 - 1e-4) {
+        if unsafe { scene.accel.occluded_with::<ISA>(origin, dir, tmax) } {
             return;
         }
-        let lit = Vertex::at(scene, &hit, dir);
+        let lit = Vertex::at(scene, lit, dir);
         let cos_l = lit.wo.z;
         if !above(cos_l, 0.0) {
             return;
@@ -292,7 +287,7 @@ unsafe fn body<const ISA: u8, S: PathSampler>(
     scene: &Scene,
     o: Vec3,
     d: Vec3,
-    target: Vec3,
+    ends: PathEnds,
     rng: &mut S,
     deposits: &mut PathDeposits,
     tally: &mut PathTally,
@@ -321,13 +316,18 @@ unsafe fn body<const ISA: u8, S: PathSampler>(
     }
     loop {
         rng.next_vertex();
-        tally.rays += 1;
-        // SAFETY: the caller guarantees ISA.
-        let Some(hit) = (unsafe {
-            scene
-                .accel
-                .intersect_with::<ISA>(&scene.shapes, o, d, f32::INFINITY)
-        }) else {
+        // A capture meter's first hit is known (the same ray every sample).
+        let known = if depth == 0 { ends.first } else { None };
+        let hit = known.unwrap_or_else(|| {
+            tally.rays += 1;
+            // SAFETY: the caller guarantees ISA.
+            unsafe {
+                scene
+                    .accel
+                    .intersect_with::<ISA>(&scene.shapes, o, d, f32::INFINITY)
+            }
+        });
+        let Some(hit) = hit else {
             break;
         };
         // Segments are timed vertex to vertex, not from the offset ray origins (a
@@ -353,7 +353,9 @@ unsafe fn body<const ISA: u8, S: PathSampler>(
             // SAFETY: the caller guarantees ISA.
             unsafe {
                 if n.laser_sampling {
-                    ctx.laser_sample::<ISA>(&v, target, depth, beta, opl, eta, deposits, tally);
+                    if let Some(lit) = &ends.lit {
+                        ctx.laser_sample::<ISA>(&v, lit, depth, beta, opl, eta, deposits, tally);
+                    }
                 } else {
                     ctx.laser_nee::<ISA>(&v, depth, beta, opl, eta, deposits, tally);
                 }

@@ -49,7 +49,7 @@
 
 use super::error::SceneError;
 use super::props::Props;
-use crate::geometry::accel::Accel;
+use crate::geometry::accel::{Accel, Hit};
 use crate::geometry::shape::{AreaSampler, Shape, ShapeGeom};
 use crate::lights::Emitter;
 use glam::Vec3;
@@ -373,6 +373,13 @@ pub struct NlosSetup {
     /// exhaustive: one per laser grid point (row-major). Empty without laser sampling;
     /// NaN where the ray that finds a point meets nothing (it lights nothing).
     pub laser_targets: Vec<Vec3>,
+    /// The surface at each lit point (`None` where there is none), as the ray that
+    /// found it met it: laser sampling connects to it with a shadow ray.
+    pub laser_hits: Vec<Option<Hit>>,
+    /// With a capture meter: the first hit of each sensor point's ray (row-major),
+    /// which every path of that point starts from (the ray does not depend on the
+    /// sample).
+    pub sensor_hits: Vec<Option<Hit>>,
     pub hidden: Option<HiddenGeometry>,
 }
 
@@ -384,28 +391,35 @@ impl NlosSetup {
         (row / h, row % h)
     }
 
-    /// The point laser sampling aims at for sensor point (x, y) under laser point `l`.
+    /// The ends of the paths of sensor point (x, y) under laser point `l`: the
+    /// surface laser sampling aims at (when it runs) and the first hit, when the
+    /// sensor is a capture meter (`Some(None)`: its ray meets nothing).
     #[inline]
-    pub fn target(&self, capture: CaptureType, x: usize, y: usize, l: usize) -> Vec3 {
-        match capture {
-            CaptureType::Single => self.laser_targets[0],
-            CaptureType::Confocal => self.laser_targets[y * self.sensor_grid[0] + x],
-            CaptureType::Exhaustive => self.laser_targets[l],
+    pub fn ends(&self, capture: CaptureType, x: usize, y: usize, l: usize) -> PathEnds {
+        let pixel = y * self.sensor_grid[0] + x;
+        let lit = match capture {
+            _ if self.laser_hits.is_empty() => None,
+            CaptureType::Single => self.laser_hits[0],
+            CaptureType::Confocal => self.laser_hits[pixel],
+            CaptureType::Exhaustive => self.laser_hits[l],
+        };
+        PathEnds {
+            lit,
+            first: self.sensor_hits.get(pixel).copied(),
         }
-    }
-
-    /// The laser points' nominal world positions for the capture's record: the lit
-    /// points (exhaustive and single), none for confocal (the sensor grid).
-    pub fn laser_points(&self) -> &[Vec3] {
-        &self.laser_targets
     }
 }
 
-/// The world point where the ray (o, d) first meets the scene.
-fn first_hit(accel: &Accel, shapes: &[Shape], o: Vec3, d: Vec3) -> Option<Vec3> {
-    accel
-        .intersect(shapes, o, d, f32::INFINITY)
-        .map(|h| h.surface.p)
+/// See [`NlosSetup::ends`].
+#[derive(Clone, Copy, Debug, Default)]
+pub struct PathEnds {
+    pub lit: Option<Hit>,
+    pub first: Option<Option<Hit>>,
+}
+
+/// Where the ray (o, d) first meets the scene.
+fn first_hit(accel: &Accel, shapes: &[Shape], o: Vec3, d: Vec3) -> Option<Hit> {
+    accel.intersect(shapes, o, d, f32::INFINITY)
 }
 
 /// Prepares a `transient_nlos_path` render: checks the emitters and sensor the
@@ -462,45 +476,45 @@ pub fn prepare(
             laser_grid[0], laser_grid[1], grid[0], grid[1]
         ));
     }
-    // The points the sensor measures: where its rays first meet the scene.
-    let mut sensor_targets = |m: &CaptureMeter| -> Result<Vec<Vec3>, String> {
-        let mut missed = 0usize;
-        let mut out = Vec::with_capacity(grid[0] * grid[1]);
-        for y in 0..grid[1] {
-            for x in 0..grid[0] {
-                let p = m.wall.grid_point(x, y, grid[0], grid[1]);
-                let d = (p - m.origin).normalize();
-                match first_hit(accel, shapes, m.origin, d) {
-                    Some(hit) => out.push(hit),
-                    None => {
-                        missed += 1;
-                        out.push(Vec3::NAN)
-                    }
+    // The points the sensor measures: where its rays first meet the scene (the rays
+    // of `Camera::ray`, bit for bit).
+    let sensor_hits = match &meter {
+        None => Vec::new(),
+        Some(m) => {
+            let mut out = Vec::with_capacity(grid[0] * grid[1]);
+            for y in 0..grid[1] {
+                for x in 0..grid[0] {
+                    let p = m.wall.grid_point(x, y, grid[0], grid[1]);
+                    out.push(first_hit(
+                        accel,
+                        shapes,
+                        m.origin,
+                        (p - m.origin).normalize(),
+                    ));
                 }
             }
+            let missed = out.iter().filter(|h| h.is_none()).count();
+            if missed == out.len() {
+                return Err("no ray from sensor_origin towards the relay wall's grid meets the scene: aim the capture meter at its wall".into());
+            }
+            if missed > 0 {
+                warn(format!("{missed} of the capture meter's {} rays meet nothing: those points measure nothing and, as lit points, light nothing", out.len()));
+            }
+            out
         }
-        if missed == out.len() {
-            return Err("no ray from sensor_origin towards the relay wall's grid meets the scene: aim the capture meter at its wall".into());
-        }
-        if missed > 0 {
-            warn(format!("{missed} of the capture meter's {} rays meet nothing: those points measure nothing and, as lit points, light nothing", out.len()));
-        }
-        Ok(out)
     };
-    let laser_targets = if !settings.laser_sampling {
+    let laser_hits = if !settings.laser_sampling {
         Vec::new()
     } else {
         match capture {
             CaptureType::Single => {
-                let p = first_hit(accel, shapes, laser_origin, laser_axis).ok_or(
+                let hit = first_hit(accel, shapes, laser_origin, laser_axis).ok_or(
                     "nlos_laser_sampling: the laser's axis (its to_world's +z) meets nothing in the scene; aim it at the relay wall",
                 )?;
-                vec![p]
+                vec![Some(hit)]
             }
-            CaptureType::Confocal => sensor_targets(meter.as_ref().expect("checked"))?,
-            CaptureType::Exhaustive if settings.force_equal_grids => {
-                sensor_targets(meter.as_ref().expect("checked"))?
-            }
+            CaptureType::Confocal => sensor_hits.clone(),
+            CaptureType::Exhaustive if settings.force_equal_grids => sensor_hits.clone(),
             CaptureType::Exhaustive => scan_targets(
                 emitters,
                 settings.illumination_scan_fov,
@@ -559,15 +573,23 @@ pub fn prepare(
         meter,
         sensor_grid: grid,
         laser_grid,
-        laser_targets,
+        laser_targets: laser_hits
+            .iter()
+            .map(|h| h.map_or(Vec3::NAN, |h| h.surface.p))
+            .collect(),
+        laser_hits,
+        sensor_hits,
         hidden,
     })
 }
 
 /// Exhaustive scans without equal grids: mitransient aims a projector of
-/// `illumination_scan_fov` degrees with the laser's to_world at the grid
-/// (i / Lw, j / Lh), i, j from 0 (the corners of the cells, not their centres, as its
-/// `linspace(..., endpoint=False)`), and lights where those rays meet the scene.
+/// `illumination_scan_fov` degrees (on x; its constant irradiance makes it square)
+/// with the laser's to_world at the grid (i / Lw, j / Lh), i, j from 0 (the corners
+/// of the cells, not their centres, as its `linspace(..., endpoint=False)`): the ray of
+/// film point (u, v) leaves along local ((1 - 2u) t, (1 - 2v) t, 1), t = tan(fov / 2)
+/// (Mitsuba's `projector.sample_ray`, checked with mitsuba 3.9.1), and lights where
+/// it meets the scene.
 fn scan_targets(
     emitters: &[Emitter],
     fov: f64,
@@ -575,12 +597,11 @@ fn scan_targets(
     shapes: &[Shape],
     accel: &Accel,
     warn: &mut dyn FnMut(String),
-) -> Result<Vec<Vec3>, String> {
+) -> Result<Vec<Option<Hit>>, String> {
     let (origin, axes) = emitters[0]
         .laser_axes()
         .ok_or("illumination_scan_fov needs a projector or spot laser")?;
     let t = (0.5 * fov.to_radians()).tan() as f32;
-    let aspect = grid[0] as f32 / grid[1] as f32;
     let mut out = Vec::with_capacity(grid[0] * grid[1]);
     let mut missed = 0;
     for j in 0..grid[1] {
@@ -589,15 +610,11 @@ fn scan_targets(
             let u = i as f32 / grid[0] as f32;
             let v = j as f32 / grid[1] as f32;
             let sx = (1.0 - 2.0 * u) * t;
-            let sy = (1.0 - 2.0 * v) * t / aspect;
+            let sy = (1.0 - 2.0 * v) * t;
             let d = (axes[0] * sx + axes[1] * sy + axes[2]).normalize();
-            match first_hit(accel, shapes, origin, d) {
-                Some(p) => out.push(p),
-                None => {
-                    missed += 1;
-                    out.push(Vec3::NAN)
-                }
-            }
+            let hit = first_hit(accel, shapes, origin, d);
+            missed += usize::from(hit.is_none());
+            out.push(hit);
         }
     }
     if missed == out.len() {
