@@ -246,7 +246,8 @@ def probe(tstat, work):
         d = geo(pred + 3)
         ts = t_sum(d)
         m, _, _ = render_mitr(xml, d, 16, 1, work / 'probe_m.npy', log, False)
-        print(f'| ({cx:g}, {cz:g}) | {lo:.2f} | {pred:.2f} | {ts:.3g} | {m.sum():.3g} |')
+        cut = f'{lo:.2f}' if lo < 79.9 else 'none below 80'
+        print(f'| ({cx:g}, {cz:g}) | {cut} | {pred:.2f} | {ts:.3g} | {m.sum():.3g} |')
 
 
 # ---------------------------------------------------------------- rendering

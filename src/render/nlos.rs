@@ -155,6 +155,26 @@ struct Ctx<'a> {
 }
 
 impl Ctx<'_> {
+    /// Whether something lies between `from` and `to` (the segment's last 1e-4 left
+    /// out, as Mitsuba's shadow rays).
+    ///
+    /// # Safety
+    /// The CPU must support `ISA`.
+    #[inline(always)]
+    unsafe fn blocked<const ISA: u8>(&self, from: Vec3, to: Vec3) -> bool {
+        let seg = to - from;
+        let len = seg.length();
+        if !above(len, 0.0) {
+            return false;
+        }
+        // SAFETY: the caller guarantees ISA.
+        unsafe {
+            self.scene
+                .accel
+                .occluded_with::<ISA>(from, seg / len, len * (1.0 - 1e-4))
+        }
+    }
+
     /// Light-sample contribution from vertex `v` to the laser (mitransient's
     /// `emitter_nee_sample`), of depth `depth`, the path having OPL `opl` at `v`.
     ///
@@ -202,11 +222,9 @@ impl Ctx<'_> {
         if f == Rgb::ZERO {
             return;
         }
-        let origin = offset_origin(v.p, v.ng, dir);
-        let tmax = (pos - origin).length() * (1.0 - 1e-4);
         tally.rays += 1;
         // SAFETY: the caller guarantees ISA.
-        if unsafe { scene.accel.occluded_with::<ISA>(origin, dir, tmax) } {
+        if unsafe { self.blocked::<ISA>(offset_origin(v.p, v.ng, dir), pos) } {
             return;
         }
         let last = if n.account_first_and_last_bounces {
@@ -250,11 +268,13 @@ impl Ctx<'_> {
         if !above(f.max_element(), EPS) {
             return;
         }
-        let origin = offset_origin(v.p, v.ng, dir);
-        let tmax = (target - origin).length() * (1.0 - 1e-4);
+        // Both ends moved off their surfaces, towards each other, and the ray between
+        // them: a ray from the moved origin along `dir` would run beside the segment
+        // and meet the lit point's own surface short of it at grazing angles.
+        let end = offset_origin(target, lit.surface.ng, -dir);
         tally.rays += 1;
         // SAFETY: the caller guarantees ISA.
-        if unsafe { scene.accel.occluded_with::<ISA>(origin, dir, tmax) } {
+        if unsafe { self.blocked::<ISA>(offset_origin(v.p, v.ng, dir), end) } {
             return;
         }
         let lit = Vertex::at(scene, lit, dir);
