@@ -226,7 +226,7 @@ pub fn load(path: &Path, overrides: &Overrides) -> Result<Scene, SceneError> {
     if integrator.volumetric {
         check_volumetric_materials(&ctx, root, &bsdfs)?;
     }
-    let mut film = s.film;
+    let mut film = s.film.clone();
     match (overrides.width, overrides.height) {
         (Some(w), Some(h)) => (film.width, film.height) = (w, h),
         (Some(w), None) => {
@@ -278,8 +278,16 @@ pub fn load(path: &Path, overrides: &Overrides) -> Result<Scene, SceneError> {
     if emitters.is_empty() {
         return Err(ctx.err(root, "the scene has no emitter; it would render black"));
     }
-    // An exhaustive capture stacks one sensor image per laser point (`nlos.rs`).
+    // An exhaustive capture stacks one sensor image per laser point (`nlos.rs`). With
+    // equal grids (the default) a film resized on the command line resizes both.
     let grid = [film.width, film.height];
+    let mut meter = meter;
+    if let (Some(m), Some(n)) = (meter.as_mut(), integrator.nlos.as_ref()) {
+        let resized = [s.film.width, s.film.height] != grid;
+        if resized && n.force_equal_grids && m.laser_scan == Some([s.film.width, s.film.height]) {
+            m.laser_scan = Some(grid);
+        }
+    }
     if let Some([lw, lh]) = meter.as_ref().and_then(|m| m.laser_scan) {
         if integrator.nlos.as_ref().map(|n| n.capture) == Some(super::nlos::CaptureType::Exhaustive)
         {
