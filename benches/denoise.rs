@@ -52,6 +52,7 @@ fn bench_denoise(c: &mut Criterion) {
         bin_width: 0.08,
         spp,
         stratified: false,
+        image_rows: h,
         z0: 0.0,
         x1: &x1,
         x2: &x2,

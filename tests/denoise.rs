@@ -135,6 +135,7 @@ impl Bundle {
             bin_width: self.bin_width,
             spp: self.spp,
             stratified: false,
+            image_rows: self.h,
             z0: self.transform.at_zero(),
             x1: &self.x1,
             x2: &self.x2,
@@ -1596,6 +1597,7 @@ fn end_to_end_cbox_denoising_beats_the_noisy_render() {
         bin_width: 0.1,
         spp: 32,
         stratified: false, // rendered with independent positions
+        image_rows: h,
         z0: 0.0,
         x1: &noisy.accum.x1,
         x2: &noisy.accum.x2,

@@ -76,6 +76,23 @@ pub fn run(a: InfoArgs) -> anyhow::Result<()> {
             b - 1
         );
     }
+    if let Some(n) = &m.nlos {
+        let [sx, sy] = n.sensor_grid;
+        let [lx, ly] = n.laser_grid;
+        let p = |v: [f64; 3]| format!("({}, {}, {})", v[0], v[1], v[2]);
+        let lasers = if lx * ly > 1 {
+            format!(" under each of {lx} x {ly} laser points (one image each, stacked)")
+        } else {
+            String::new()
+        };
+        say!(
+            "nlos        {} capture: {sx} x {sy} relay-wall points{lasers}; sensor at {}, laser at {}; times {} the sensor and laser segments",
+            n.capture.name(),
+            p(n.sensor_origin),
+            p(n.laser_origin),
+            if n.account_first_and_last_bounces { "include" } else { "exclude" }
+        );
+    }
     say!(
         "render      {:.3} s, {} non-finite contributions dropped",
         m.render_seconds,

@@ -42,6 +42,8 @@ pub struct Estimates {
     /// Sub-pixel positions were stratified: `v` over-estimates the variance of the
     /// mean (most at edges, where coverage noise dominates).
     pub stratified: bool,
+    /// Rows per independent image (see [`SumsView::image_rows`]).
+    pub image_rows: usize,
     /// The image rows held, `0..height` for a whole volume.
     pub rows: Range<usize>,
     /// The powers of two `mean`, `theta` and `v` are stored in.
@@ -170,6 +172,9 @@ pub struct SumsView<'a> {
     pub spp: u64,
     /// Sub-pixel positions were stratified (the renders' `pixel_sampling`).
     pub stratified: bool,
+    /// Rows per independent image: `height` but for an exhaustive NLOS capture, whose
+    /// film stacks one image per laser point (no neighbourhood crosses an image's edge).
+    pub image_rows: usize,
     /// z(0) of the transform the sums were taken with.
     pub z0: f64,
     pub x1: &'a [f64],
@@ -233,6 +238,7 @@ impl Estimates {
             spp: s.spp,
             replicates: s.replicates.map(|(b, _)| b),
             stratified: s.stratified,
+            image_rows: s.image_rows,
             rows: 0..0,
             scale,
             mean: Vec::new(),

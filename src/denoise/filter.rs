@@ -325,7 +325,12 @@ impl Shared<'_> {
             }
         }
         out.clear();
-        for yi in (yj as i64 - r).max(0)..=(yj as i64 + r).min(h - 1) {
+        // Neighbours stay within pixel j's image (an exhaustive NLOS capture's film
+        // stacks one image per laser point).
+        let ir = self.e.image_rows.max(1) as i64;
+        let top = yj as i64 / ir * ir;
+        let bottom = (top + ir - 1).min(h - 1);
+        for yi in (yj as i64 - r).max(top)..=(yj as i64 + r).min(bottom) {
             for xi in (xj as i64 - r).max(0)..=(xj as i64 + r).min(w - 1) {
                 let i = (yi * w + xi) as usize;
                 let mut shift = 0;

@@ -235,6 +235,7 @@ impl LoadedSums {
             bin_width: m.bin_width_opl,
             spp: m.spp,
             stratified: slab::stratified(m),
+            image_rows: slab::image_rows(m),
             z0: m.transform.at_zero(),
             x1: std_slice(&self.x1),
             x2: std_slice(&self.x2),

@@ -163,6 +163,15 @@ pub fn stratified(m: &Manifest) -> bool {
         && m.replicates.is_none()
 }
 
+/// Rows per independent image of a bundle: an exhaustive NLOS capture's sensor
+/// images (one per laser point, stacked), else the whole film.
+pub fn image_rows(m: &Manifest) -> usize {
+    match &m.nlos {
+        Some(n) if n.laser_grid[0] * n.laser_grid[1] > 1 => n.sensor_grid[1],
+        _ => m.height,
+    }
+}
+
 /// The sums of the rows read, as the estimates take them.
 fn sums_view<'a>(m: &Manifest, s: &'a RowSums) -> SumsView<'a> {
     SumsView {
@@ -172,6 +181,7 @@ fn sums_view<'a>(m: &Manifest, s: &'a RowSums) -> SumsView<'a> {
         bin_width: m.bin_width_opl,
         spp: m.spp,
         stratified: stratified(m),
+        image_rows: image_rows(m),
         z0: m.transform.at_zero(),
         x1: &s.x1,
         x2: &s.x2,

@@ -151,6 +151,7 @@ pub fn sums_view<'a>(
     bin_width: f64,
     pixel_sampling: PixelSampling,
     replicates: u32,
+    image_rows: usize,
 ) -> SumsView<'a> {
     let a = &out.accum;
     let replicates =
@@ -166,6 +167,7 @@ pub fn sums_view<'a>(
         // As a bundle's manifest says (`denoise::slab::stratified`): correlated samples
         // without replicates over-state V.
         stratified: pixel_sampling != PixelSampling::Independent && replicates.is_none(),
+        image_rows,
         z0: transform.at_zero(),
         x1: &a.x1,
         x2: &a.x2,
@@ -321,6 +323,7 @@ pub fn run_convergence(
             scene.film.bin_width_opl,
             cfg.pixel_sampling,
             cfg.replicates,
+            scene.image_rows(),
         );
         let mut line = format!("spp {spp}: render {:.2} s", out.seconds);
         if cfg.pixel_sampling != PixelSampling::Independent {

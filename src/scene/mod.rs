@@ -147,4 +147,13 @@ impl Scene {
     pub fn load(path: &Path, overrides: &Overrides) -> Result<Scene, SceneError> {
         xml::load(path, overrides)
     }
+
+    /// Rows per independent image of the film: an exhaustive NLOS capture stacks one
+    /// sensor image per laser point; any other film is one image.
+    pub fn image_rows(&self) -> usize {
+        match &self.nlos {
+            Some(n) if n.laser_grid[0] * n.laser_grid[1] > 1 => n.sensor_grid[1],
+            _ => self.film.height,
+        }
+    }
 }
