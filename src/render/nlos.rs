@@ -34,7 +34,9 @@ use crate::geometry::accel::{offset_origin, Hit};
 use crate::materials::{Bsdf, BsdfModel};
 use crate::math::frame::Frame;
 use crate::math::Rgb;
-use crate::scene::nlos::{CaptureType, NlosSettings, NlosSetup, PathEnds};
+use crate::scene::nlos::{
+    laser_light, shadow_segment, CaptureType, LaserLight, NlosSettings, NlosSetup, PathEnds,
+};
 use crate::scene::Scene;
 use glam::Vec3;
 use std::borrow::Cow;
@@ -162,21 +164,17 @@ impl Ctx<'_> {
     /// The CPU must support `ISA`.
     #[inline(always)]
     unsafe fn blocked<const ISA: u8>(&self, from: Vec3, to: Vec3) -> bool {
-        let seg = to - from;
-        let len = seg.length();
-        if !above(len, 0.0) {
+        let Some((o, d, tmax)) = shadow_segment(from, to) else {
             return false;
-        }
+        };
         // SAFETY: the caller guarantees ISA.
-        unsafe {
-            self.scene
-                .accel
-                .occluded_with::<ISA>(from, seg / len, len * (1.0 - 1e-4))
-        }
+        unsafe { self.scene.accel.occluded_with::<ISA>(o, d, tmax) }
     }
 
     /// Light-sample contribution from vertex `v` to the laser (mitransient's
-    /// `emitter_nee_sample`), of depth `depth`, the path having OPL `opl` at `v`.
+    /// `emitter_nee_sample`), of depth `depth`, the path having OPL `opl` at `v`;
+    /// `light` is the laser's light at `v` when it is known (a lit point), else it is
+    /// found here with a shadow ray.
     ///
     /// # Safety
     /// The CPU must support `ISA`.
@@ -185,6 +183,7 @@ impl Ctx<'_> {
     unsafe fn laser_nee<const ISA: u8>(
         &self,
         v: &Vertex,
+        light: Option<Option<LaserLight>>,
         depth: u32,
         beta: Rgb,
         opl: f64,
@@ -200,39 +199,34 @@ impl Ctx<'_> {
             return;
         }
         let scene = self.scene;
-        let pos = self.setup.laser_origin;
-        let to_laser = pos - v.p;
-        let dist = to_laser.length();
-        if !above(dist, 0.0) {
+        let light = light.unwrap_or_else(|| {
+            laser_light(
+                self.setup,
+                &scene.emitters,
+                &scene.shapes,
+                v.p,
+                v.ng,
+                self.focus,
+                |o, d, tmax| {
+                    tally.rays += 1;
+                    // SAFETY: the caller guarantees ISA.
+                    unsafe { scene.accel.occluded_with::<ISA>(o, d, tmax) }
+                },
+            )
+        });
+        let Some(light) = light else {
             return;
-        }
-        let dir = to_laser / dist;
-        // The emitter's value: at a point on its axis at the same distance when it is
-        // re-aimed, else from the vertex itself (delta lights draw no numbers).
-        let at = if self.focus {
-            pos + self.setup.laser_axis * dist
-        } else {
-            v.p
         };
-        let laser = &scene.emitters[self.setup.laser as usize];
-        let Some(ls) = laser.sample(&scene.shapes, at, 1.0, 0.0, [0.0; 2]) else {
-            return;
-        };
-        let f = v.bsdf.eval(v.wo, v.frame.to_local(dir));
+        let f = v.bsdf.eval(v.wo, v.frame.to_local(light.dir));
         if f == Rgb::ZERO {
             return;
         }
-        tally.rays += 1;
-        // SAFETY: the caller guarantees ISA.
-        if unsafe { self.blocked::<ISA>(offset_origin(v.p, v.ng, dir), pos) } {
-            return;
-        }
         let last = if n.account_first_and_last_bounces {
-            eta as f64 * dist as f64
+            eta as f64 * light.dist as f64
         } else {
             0.0
         };
-        contribute(scene, deposits, tally, opl + last, beta * f * ls.li);
+        contribute(scene, deposits, tally, opl + last, beta * f * light.li);
     }
 
     /// Laser sampling from vertex `v` of depth `depth` through the lit surface `lit`
@@ -248,6 +242,7 @@ impl Ctx<'_> {
         &self,
         v: &Vertex,
         lit: &Hit,
+        lit_light: Option<LaserLight>,
         depth: u32,
         beta: Rgb,
         opl: f64,
@@ -287,6 +282,7 @@ impl Ctx<'_> {
         unsafe {
             self.laser_nee::<ISA>(
                 &lit,
+                Some(lit_light),
                 depth + 2,
                 beta,
                 opl + eta as f64 * dist as f64,
@@ -373,11 +369,21 @@ unsafe fn body<const ISA: u8, S: PathSampler>(
             // SAFETY: the caller guarantees ISA.
             unsafe {
                 if n.laser_sampling {
-                    if let Some(lit) = &ends.lit {
-                        ctx.laser_sample::<ISA>(&v, lit, depth, beta, opl, eta, deposits, tally);
+                    if let (Some(lit), Some(light)) = (&ends.lit, ends.lit_light) {
+                        ctx.laser_sample::<ISA>(
+                            &v,
+                            lit,
+                            Some(light),
+                            depth,
+                            beta,
+                            opl,
+                            eta,
+                            deposits,
+                            tally,
+                        );
                     }
                 } else {
-                    ctx.laser_nee::<ISA>(&v, depth, beta, opl, eta, deposits, tally);
+                    ctx.laser_nee::<ISA>(&v, None, depth, beta, opl, eta, deposits, tally);
                 }
             }
         }

@@ -376,6 +376,8 @@ pub struct NlosSetup {
     /// The surface at each lit point (`None` where there is none), as the ray that
     /// found it met it: laser sampling connects to it with a shadow ray.
     pub laser_hits: Vec<Option<Hit>>,
+    /// The laser's light at each lit point, aligned with `laser_hits`.
+    pub lit_light: Vec<Option<LaserLight>>,
     /// With a capture meter: the first hit of each sensor point's ray (row-major),
     /// which every path of that point starts from (the ray does not depend on the
     /// sample).
@@ -397,14 +399,14 @@ impl NlosSetup {
     #[inline]
     pub fn ends(&self, capture: CaptureType, x: usize, y: usize, l: usize) -> PathEnds {
         let pixel = y * self.sensor_grid[0] + x;
-        let lit = match capture {
-            _ if self.laser_hits.is_empty() => None,
-            CaptureType::Single => self.laser_hits[0],
-            CaptureType::Confocal => self.laser_hits[pixel],
-            CaptureType::Exhaustive => self.laser_hits[l],
+        let i = match capture {
+            CaptureType::Single => 0,
+            CaptureType::Confocal => pixel,
+            CaptureType::Exhaustive => l,
         };
         PathEnds {
-            lit,
+            lit: self.laser_hits.get(i).copied().flatten(),
+            lit_light: self.lit_light.get(i).copied().flatten(),
             first: self.sensor_hits.get(pixel).copied(),
         }
     }
@@ -414,7 +416,67 @@ impl NlosSetup {
 #[derive(Clone, Copy, Debug, Default)]
 pub struct PathEnds {
     pub lit: Option<Hit>,
+    /// The laser's light at the lit point (the same for every path; `None`: blocked
+    /// or dark, the lit point contributes nothing).
+    pub lit_light: Option<LaserLight>,
     pub first: Option<Option<Hit>>,
+}
+
+/// The laser's light at a surface point: the unit direction and distance to the
+/// laser, and the radiance arriving (`LightSample::li`).
+#[derive(Clone, Copy, Debug)]
+pub struct LaserLight {
+    pub dir: Vec3,
+    pub dist: f32,
+    pub li: crate::math::Rgb,
+}
+
+/// The shadow ray between `from` and `to` (from moved off its surface, the last 1e-4
+/// left out, as Mitsuba's): origin, unit direction, length; `None` when they coincide.
+#[inline(always)]
+pub fn shadow_segment(from: Vec3, to: Vec3) -> Option<(Vec3, Vec3, f32)> {
+    let seg = to - from;
+    let len = seg.length();
+    (len > 0.0).then(|| (from, seg / len, len * (1.0 - 1e-4)))
+}
+
+/// The laser's light at point `p` (geometric normal `ng`), `None` where the laser is
+/// hidden (`occluded(origin, dir, tmax)`) or dark. `focus`: the laser is re-aimed at
+/// `p` (it sends its on-axis intensity, mitransient's `focus_laser`).
+#[inline(always)]
+pub fn laser_light(
+    setup: &NlosSetup,
+    emitters: &[Emitter],
+    shapes: &[Shape],
+    p: Vec3,
+    ng: Vec3,
+    focus: bool,
+    occluded: impl FnOnce(Vec3, Vec3, f32) -> bool,
+) -> Option<LaserLight> {
+    let pos = setup.laser_origin;
+    let to_laser = pos - p;
+    let dist = to_laser.length();
+    if dist.is_nan() || dist <= 0.0 {
+        return None;
+    }
+    let dir = to_laser / dist;
+    // At a point on the laser's axis at the same distance when it is re-aimed, else
+    // at p itself (delta lights draw no numbers).
+    let at = if focus {
+        pos + setup.laser_axis * dist
+    } else {
+        p
+    };
+    let ls = emitters[setup.laser as usize].sample(shapes, at, 1.0, 0.0, [0.0; 2])?;
+    let (o, d, tmax) = shadow_segment(crate::geometry::accel::offset_origin(p, ng, dir), pos)?;
+    if occluded(o, d, tmax) {
+        return None;
+    }
+    Some(LaserLight {
+        dir,
+        dist,
+        li: ls.li,
+    })
 }
 
 /// Where the ray (o, d) first meets the scene.
@@ -566,7 +628,7 @@ pub fn prepare(
     } else {
         None
     };
-    Ok(NlosSetup {
+    let mut setup = NlosSetup {
         laser: 0,
         laser_origin,
         laser_axis,
@@ -578,9 +640,23 @@ pub fn prepare(
             .map(|h| h.map_or(Vec3::NAN, |h| h.surface.p))
             .collect(),
         laser_hits,
+        lit_light: Vec::new(),
         sensor_hits,
         hidden,
-    })
+    };
+    // What the laser sends each lit point is the same for every path: found once.
+    let focus = capture != CaptureType::Single;
+    setup.lit_light = setup
+        .laser_hits
+        .iter()
+        .map(|h| {
+            let s = h.as_ref()?.surface;
+            laser_light(&setup, emitters, shapes, s.p, s.ng, focus, |o, d, t| {
+                accel.occluded(o, d, t)
+            })
+        })
+        .collect();
+    Ok(setup)
 }
 
 /// Exhaustive scans without equal grids: mitransient aims a projector of
