@@ -509,3 +509,58 @@ fn bad_nlos_scenes_and_exports_fail_with_one_clear_error() {
     }
     assert!(!h5.exists());
 }
+
+#[test]
+fn captures_merge_and_the_merged_bundle_exports() {
+    let dir = tempfile::tempdir().unwrap();
+    let xml = write(
+        dir.path(),
+        "ex.xml",
+        &patch_scene("exhaustive", 2, 0.3, false, (1.9, 0.02, 40), 16),
+    );
+    let mut parts = Vec::new();
+    for seed in ["1", "2"] {
+        let out = dir.path().join(format!("s{seed}.tstats"));
+        let r = tstat(&[
+            "render",
+            &xml,
+            "--out",
+            out.to_str().unwrap(),
+            "--seed",
+            seed,
+        ]);
+        assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+        parts.push(out);
+    }
+    let merged = dir.path().join("m.tstats");
+    let r = tstat(&[
+        "merge",
+        parts[0].to_str().unwrap(),
+        parts[1].to_str().unwrap(),
+        "--out",
+        merged.to_str().unwrap(),
+    ]);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let m: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(merged.join("manifest.json")).unwrap())
+            .unwrap();
+    assert_eq!(m["spp"], 32);
+    assert_eq!(m["nlos"]["capture"], "exhaustive");
+    assert_eq!(m["nlos"]["laser_grid"], serde_json::json!([2, 2]));
+    let h5 = dir.path().join("m.hdf5");
+    let r = tstat(&[
+        "export",
+        merged.to_str().unwrap(),
+        "--tal",
+        h5.to_str().unwrap(),
+    ]);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let info = tstat(&["info", merged.to_str().unwrap()]);
+    let text = String::from_utf8_lossy(&info.stdout);
+    assert!(
+        text.contains(
+            "exhaustive capture: 2 x 2 relay-wall points under each of 2 x 2 laser points"
+        ),
+        "{text}"
+    );
+}
