@@ -564,3 +564,52 @@ fn captures_merge_and_the_merged_bundle_exports() {
         "{text}"
     );
 }
+
+/// The rectangle's two triangles share the diagonal u = v, and rays aimed exactly at
+/// grid points on it could slip between them (nlos_T's wall moved to x = 0.7: points
+/// (6, 6) and (16, 16) of its 32 x 32 grid measured nothing): the relay wall is also
+/// met analytically, so every point measures its echo.
+#[test]
+fn grid_points_on_the_relay_walls_diagonal_are_measured() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/nlos_T.xml");
+    let text = std::fs::read_to_string(path).unwrap();
+    for offset in ["0.7", "0.3", "-0.45"] {
+        let xml = text.replace(
+            r#"<shape type="rectangle" id="relay_wall">"#,
+            &format!(
+                r#"<shape type="rectangle" id="relay_wall"><transform name="to_world"><translate x="{offset}"/></transform>"#
+            ),
+        );
+        let overrides = Overrides {
+            spp: Some(8),
+            bins: Some(64),
+            bin_width_opl: Some(0.05),
+            ..Overrides::default()
+        };
+        let scene = common::load(&xml, &overrides);
+        assert!(
+            !scene.warnings.iter().any(|w| w.contains("meet nothing")),
+            "wall at x = {offset}: {:?}",
+            scene.warnings
+        );
+        let setup = scene.nlos.as_ref().unwrap();
+        let missed: Vec<usize> = (0..32 * 32)
+            .filter(|&p| setup.sensor_hits[p].is_none())
+            .collect();
+        assert!(missed.is_empty(), "wall at x = {offset}: missed {missed:?}");
+        // The diagonal's points the letter does not hide lie on the wall, where the
+        // grid put them.
+        let meter = setup.meter.as_ref().unwrap();
+        let mut on_wall = 0;
+        for i in 0..32 {
+            let h = setup.sensor_hits[i * 32 + i].unwrap();
+            if h.shape == meter.shape {
+                let want = meter.wall.grid_point(i, i, 32, 32);
+                let p = h.surface.p;
+                assert!((p - want).length() < 1e-5, "{p:?} vs {want:?}");
+                on_wall += 1;
+            }
+        }
+        assert!(on_wall >= 24, "wall at x = {offset}: {on_wall} of 32");
+    }
+}

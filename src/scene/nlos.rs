@@ -214,6 +214,50 @@ impl Wall {
         })
     }
 
+    /// Where the ray (o, d) meets the rectangle: (t, u, v), t > 0, uv in [0, 1]^2.
+    pub fn intersect(&self, o: Vec3, d: Vec3) -> Option<(f32, f32, f32)> {
+        let n = self.du.cross(self.dv);
+        let denom = n.dot(d);
+        if denom == 0.0 || !denom.is_finite() {
+            return None;
+        }
+        let t = n.dot(self.corner - o) / denom;
+        if !(t > 0.0 && t.is_finite()) {
+            return None;
+        }
+        // (u, v) of the point by the normal equations of corner + du u + dv v.
+        let r = o + d * t - self.corner;
+        let (a, b, c) = (
+            self.du.dot(self.du),
+            self.du.dot(self.dv),
+            self.dv.dot(self.dv),
+        );
+        let det = a * c - b * b;
+        let (ru, rv) = (r.dot(self.du), r.dot(self.dv));
+        let u = (c * ru - b * rv) / det;
+        let v = (a * rv - b * ru) / det;
+        ((0.0..=1.0).contains(&u) && (0.0..=1.0).contains(&v)).then_some((t, u, v))
+    }
+
+    /// The hit at (u, v) of the rectangle `shape` (shape index `index`), at distance
+    /// t and point p: the triangle and barycentrics of the rectangle's mesh (triangles
+    /// (0, 1, 2) and (2, 3, 0) over the corners uv (0, 0), (1, 0), (1, 1), (0, 1)).
+    pub fn hit(&self, shape: &Shape, index: u32, t: f32, u: f32, v: f32, p: Vec3) -> Hit {
+        let (face, b1, b2) = if u >= v {
+            (0, u - v, v)
+        } else {
+            (1, v - u, 1.0 - v)
+        };
+        Hit {
+            t,
+            shape: index,
+            surface: shape.surface(face, b1, b2, p),
+            face,
+            b1,
+            b2,
+        }
+    }
+
     /// The centre of grid cell (x, y) of a `w` x `h` grid.
     #[inline]
     pub fn grid_point(&self, x: usize, y: usize, w: usize, h: usize) -> Vec3 {
@@ -479,9 +523,30 @@ pub fn laser_light(
     })
 }
 
-/// Where the ray (o, d) first meets the scene.
-fn first_hit(accel: &Accel, shapes: &[Shape], o: Vec3, d: Vec3) -> Option<Hit> {
-    accel.intersect(shapes, o, d, f32::INFINITY)
+/// Where the ray (o, d) first meets the scene. The relay wall (`wall`: the meter's
+/// rectangle and its shape index) is also met analytically, as Mitsuba's rectangle:
+/// its two triangles share the diagonal u = v, and a ray aimed exactly at a point of
+/// it (the meter's grid points on the diagonal, the laser aimed at the wall's centre)
+/// can slip between them in single precision.
+fn first_hit(
+    accel: &Accel,
+    shapes: &[Shape],
+    wall: Option<(&Wall, u32)>,
+    o: Vec3,
+    d: Vec3,
+) -> Option<Hit> {
+    let hit = accel.intersect(shapes, o, d, f32::INFINITY);
+    let Some((w, index)) = wall else {
+        return hit;
+    };
+    let Some((t, u, v)) = w.intersect(o, d) else {
+        return hit;
+    };
+    match hit {
+        // Something nearer (or the wall itself, found by the triangles) comes first.
+        Some(h) if h.t <= t * (1.0 + 1e-6) => Some(h),
+        _ => Some(w.hit(&shapes[index as usize], index, t, u, v, o + d * t)),
+    }
 }
 
 /// Prepares a `transient_nlos_path` render: checks the emitters and sensor the
@@ -550,6 +615,7 @@ pub fn prepare(
                     out.push(first_hit(
                         accel,
                         shapes,
+                        Some((&m.wall, m.shape)),
                         m.origin,
                         (p - m.origin).normalize(),
                     ));
@@ -570,7 +636,8 @@ pub fn prepare(
     } else {
         match capture {
             CaptureType::Single => {
-                let hit = first_hit(accel, shapes, laser_origin, laser_axis).ok_or(
+                let wall = meter.as_ref().map(|m| (&m.wall, m.shape));
+                let hit = first_hit(accel, shapes, wall, laser_origin, laser_axis).ok_or(
                     "nlos_laser_sampling: the laser's axis (its to_world's +z) meets nothing in the scene; aim it at the relay wall",
                 )?;
                 vec![Some(hit)]
@@ -579,6 +646,7 @@ pub fn prepare(
             CaptureType::Exhaustive if settings.force_equal_grids => sensor_hits.clone(),
             CaptureType::Exhaustive => scan_targets(
                 emitters,
+                meter.as_ref().map(|m| (&m.wall, m.shape)),
                 settings.illumination_scan_fov,
                 laser_grid,
                 shapes,
@@ -668,6 +736,7 @@ pub fn prepare(
 /// it meets the scene.
 fn scan_targets(
     emitters: &[Emitter],
+    wall: Option<(&Wall, u32)>,
     fov: f64,
     grid: [usize; 2],
     shapes: &[Shape],
@@ -688,7 +757,7 @@ fn scan_targets(
             let sx = (1.0 - 2.0 * u) * t;
             let sy = (1.0 - 2.0 * v) * t;
             let d = (axes[0] * sx + axes[1] * sy + axes[2]).normalize();
-            let hit = first_hit(accel, shapes, origin, d);
+            let hit = first_hit(accel, shapes, wall, origin, d);
             missed += usize::from(hit.is_none());
             out.push(hit);
         }
