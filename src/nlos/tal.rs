@@ -93,6 +93,27 @@ fn grid(nx: usize, ny: usize, unit: f64, point: impl Fn(usize, usize) -> [f64; 3
     out
 }
 
+/// `{name}_grid_xyz`, `{name}_grid_normals` (X, Y, 3) and `{name}_grid_format`
+/// (X_Y_3) of an `nx` x `ny` grid of points on a wall of normal `normal`.
+fn grid_datasets(
+    b: &mut FileBuilder,
+    name: &str,
+    [nx, ny]: [usize; 2],
+    unit: f64,
+    normal: [f64; 3],
+    point: impl Fn(usize, usize) -> [f64; 3],
+) {
+    let shape = [nx as u64, ny as u64, 3];
+    b.create_dataset(&format!("{name}_grid_xyz"))
+        .with_f32_data(&grid(nx, ny, unit, point))
+        .with_shape(&shape);
+    b.create_dataset(&format!("{name}_grid_normals"))
+        .with_f32_data(&grid(nx, ny, 1.0, |_, _| normal))
+        .with_shape(&shape);
+    b.create_dataset(&format!("{name}_grid_format"))
+        .with_enum_i32_data(grid_format_type(), &[2]);
+}
+
 /// Everything but H.
 fn stage_meta(b: &mut FileBuilder, bundle: &Bundle, rec: &CaptureRecord) {
     let m = &bundle.manifest;
@@ -101,33 +122,19 @@ fn stage_meta(b: &mut FileBuilder, bundle: &Bundle, rec: &CaptureRecord) {
     b.create_dataset("H_format")
         .with_enum_i32_data(h_format_type(), &[if exhaustive { 2 } else { 1 }]);
     let [sx, sy] = rec.sensor_grid;
-    let normal = rec.wall_normal;
-    b.create_dataset("sensor_grid_xyz")
-        .with_f32_data(&grid(sx, sy, unit, |x, y| rec.sensor_point(x, y)))
-        .with_shape(&[sx as u64, sy as u64, 3]);
-    b.create_dataset("sensor_grid_normals")
-        .with_f32_data(&grid(sx, sy, 1.0, |_, _| normal))
-        .with_shape(&[sx as u64, sy as u64, 3]);
-    b.create_dataset("sensor_grid_format")
-        .with_enum_i32_data(grid_format_type(), &[2]);
+    grid_datasets(b, "sensor", [sx, sy], unit, rec.wall_normal, |x, y| {
+        rec.sensor_point(x, y)
+    });
     // Confocal: y-tal pairs each sensor point with the laser at the same point.
     let confocal = rec.capture == CaptureType::Confocal;
-    let [lx, ly] = if confocal { [sx, sy] } else { rec.laser_grid };
-    let laser = |x, y| {
+    let laser_grid = if confocal { [sx, sy] } else { rec.laser_grid };
+    grid_datasets(b, "laser", laser_grid, unit, rec.wall_normal, |x, y| {
         if confocal {
             rec.sensor_point(x, y)
         } else {
             rec.laser_point(x, y)
         }
-    };
-    b.create_dataset("laser_grid_xyz")
-        .with_f32_data(&grid(lx, ly, unit, laser))
-        .with_shape(&[lx as u64, ly as u64, 3]);
-    b.create_dataset("laser_grid_normals")
-        .with_f32_data(&grid(lx, ly, 1.0, |_, _| normal))
-        .with_shape(&[lx as u64, ly as u64, 3]);
-    b.create_dataset("laser_grid_format")
-        .with_enum_i32_data(grid_format_type(), &[2]);
+    });
     let point = |p: [f64; 3]| p.map(|v| (v * unit) as f32);
     b.create_dataset("sensor_xyz")
         .with_f32_data(&point(rec.sensor_origin));
