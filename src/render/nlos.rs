@@ -17,7 +17,13 @@
 //!
 //! then continues by **hidden-geometry sampling** (a uniform point of the hidden
 //! geometry, density converted to solid angle; `nlos_hidden_geometry_sampling`, with its
-//! depth limit and its optional coin flip against BSDF sampling) or BSDF sampling, and
+//! depth limit) or BSDF sampling. With the coin flip between them
+//! (`nlos_hidden_geometry_sampling_do_rroulette`, each with probability 1/2) a sample
+//! is weighted by the balance heuristic over both densities, `f / (pdf_hg / 2 +
+//! pdf_bsdf / 2)`, the hidden-geometry density of a BSDF-sampled direction taken where
+//! its ray first meets the hidden geometry. mitransient 1.3.1 divides each technique's
+//! own estimate by 1/2 instead, which counts every path both can reach twice (twice the
+//! energy, measured: `tests/nlos.rs`); tstat does not copy that. Then
 //! Russian roulette from `rr_depth` on (at the vertex's depth, as mitransient).
 //! Segments are timed between the vertices themselves (not from the offset origins of
 //! the rays, which would shorten each by up to 1e-4 of the scene's scale). The
@@ -40,6 +46,10 @@ use crate::scene::nlos::{
 use crate::scene::Scene;
 use glam::Vec3;
 use std::borrow::Cow;
+
+/// The probability of hidden-geometry sampling against BSDF sampling with
+/// `nlos_hidden_geometry_sampling_do_rroulette` (mitransient's).
+const HG_SHARE: f32 = 0.5;
 
 /// Dr.Jit's `epsilon(Float)`: mitransient's thresholds on cosines, densities and BSDF
 /// values.
@@ -326,14 +336,16 @@ unsafe fn body<const ISA: u8, S: PathSampler>(
     let mut beta = Rgb::ONE;
     let mut eta = 1.0f32;
     let mut depth: u32 = 0;
+    let mut next = ends.first;
     let max_depth = settings.max_depth;
     if max_depth == 0 {
         return g;
     }
     loop {
         rng.next_vertex();
-        // A capture meter's first hit is known (the same ray every sample).
-        let known = if depth == 0 { ends.first } else { None };
+        // A capture meter's first hit is known (the same ray every sample), and so is
+        // the hit of a ray traced ahead for its MIS weight.
+        let known = next.take();
         let hit = known.unwrap_or_else(|| {
             tally.rays += 1;
             // SAFETY: the caller guarantees ISA.
@@ -388,20 +400,23 @@ unsafe fn body<const ISA: u8, S: PathSampler>(
             }
         }
 
-        // The continuation: hidden-geometry or BSDF sampling.
-        let hg_here =
-            setup.hidden.is_some() && (n.hg_max_depth == -1 || (depth as i64) < n.hg_max_depth);
-        let (use_hg, pdf_method) = if !hg_here {
-            (false, 1.0)
-        } else if n.hg_rroulette {
-            (rng.get1(slot::NLOS_STRATEGY) < 0.5, 0.5)
-        } else {
-            (true, 1.0)
+        // The continuation: hidden-geometry sampling, BSDF sampling, or (with the coin
+        // flip) one of them, each with probability 1/2, weighted by the balance
+        // heuristic over both densities (one-sample MIS; see the module notes).
+        let hidden = setup
+            .hidden
+            .as_ref()
+            .filter(|_| n.hg_max_depth == -1 || (depth as i64) < n.hg_max_depth);
+        let c = match hidden {
+            None => 0.0,
+            Some(_) if n.hg_rroulette => HG_SHARE,
+            Some(_) => 1.0,
         };
+        let use_hg = c == 1.0 || (c > 0.0 && rng.get1(slot::NLOS_STRATEGY) < c);
         let u1 = rng.get1(slot::BSDF_1);
         let u2 = rng.get2(slot::BSDF_2);
         let (wi_world, weight, bs_eta) = if use_hg {
-            let hidden = setup.hidden.as_ref().expect("hg_here");
+            let hidden = hidden.expect("c > 0");
             let (p, nh) = hidden.sample(&scene.shapes, u1, u2);
             let to_p = p - v.p;
             let dist = to_p.length();
@@ -415,15 +430,42 @@ unsafe fn body<const ISA: u8, S: PathSampler>(
             if !above(pdf, EPS) || !pdf.is_finite() {
                 break;
             }
-            let f = v.bsdf.eval(v.wo, v.frame.to_local(dir));
-            (dir, f * (1.0 / pdf), 1.0)
+            let wi = v.frame.to_local(dir);
+            let f = v.bsdf.eval(v.wo, wi);
+            let density = if c < 1.0 {
+                c * pdf + (1.0 - c) * v.bsdf.pdf(v.wo, wi)
+            } else {
+                pdf
+            };
+            (dir, f * (1.0 / density), 1.0)
         } else {
             let Some(bs) = v.bsdf.sample(v.wo, u1, u2) else {
                 break;
             };
-            (v.frame.to_world(bs.wi).normalize(), bs.weight, bs.eta)
+            let dir = v.frame.to_world(bs.wi).normalize();
+            match hidden {
+                // The hidden-geometry density of this direction: where its ray first
+                // meets the hidden geometry, traced now and kept for the next vertex.
+                Some(hidden) if c > 0.0 && !bs.lobe.is_delta() => {
+                    tally.rays += 1;
+                    // SAFETY: the caller guarantees ISA.
+                    let h = unsafe {
+                        scene.accel.intersect_with::<ISA>(
+                            &scene.shapes,
+                            offset_origin(v.p, v.ng, dir),
+                            dir,
+                            f32::INFINITY,
+                        )
+                    };
+                    let pdf_hg = h.as_ref().map_or(0.0, |h| hidden.pdf(v.p, v.ng, h, dir));
+                    next = Some(h);
+                    let density = c * pdf_hg + (1.0 - c) * bs.pdf;
+                    (dir, bs.weight * (bs.pdf / density), bs.eta)
+                }
+                _ => (dir, bs.weight * (1.0 / (1.0 - c)), bs.eta),
+            }
         };
-        beta *= weight * (1.0 / pdf_method);
+        beta *= weight;
         eta *= bs_eta;
         o = offset_origin(v.p, v.ng, wi_world);
         d = wi_world;

@@ -369,6 +369,8 @@ pub fn parse_meter_params(p: &mut Props) -> Result<(Vec3, Option<LegacyLaser>), 
 #[derive(Clone, Debug)]
 pub struct HiddenGeometry {
     pub shapes: Vec<u32>,
+    /// Per scene shape: whether it is hidden geometry.
+    pub member: Vec<bool>,
     /// Cumulative areas, normalised to end at 1.
     pub cdf: Vec<f32>,
     pub samplers: Vec<AreaSampler>,
@@ -376,6 +378,25 @@ pub struct HiddenGeometry {
 }
 
 impl HiddenGeometry {
+    /// The solid-angle density with which [`HiddenGeometry::sample`] picks direction
+    /// `dir` from point `p` (geometric normal `ng`), taken at `hit`, where the ray
+    /// first meets the scene: 0 unless that is hidden geometry facing `p` and `p`'s
+    /// normal faces it (mitransient's validity test of a sample).
+    #[inline]
+    pub fn pdf(&self, p: Vec3, ng: Vec3, hit: &Hit, dir: Vec3) -> f32 {
+        if !self.member[hit.shape as usize] {
+            return 0.0;
+        }
+        let cos_i = ng.dot(dir);
+        let cos_g = hit.surface.ng.dot(-dir);
+        let eps = f32::EPSILON / 2.0;
+        if !(cos_i > eps && cos_g > eps) {
+            return 0.0;
+        }
+        let d2 = (hit.surface.p - p).length_squared();
+        d2 / (self.total_area * cos_g)
+    }
+
     /// A uniform point of the hidden geometry: (point, geometric normal); density
     /// `1 / total_area`. `u1` picks the shape, `u2` the point.
     #[inline]
@@ -684,7 +705,12 @@ pub fn prepare(
                 (acc / total) as f32
             })
             .collect();
+        let mut member = vec![false; shapes.len()];
+        for &i in &ids {
+            member[i as usize] = true;
+        }
         Some(HiddenGeometry {
+            member,
             samplers: ids
                 .iter()
                 .map(|&i| AreaSampler::new(&shapes[i as usize]))
