@@ -475,6 +475,7 @@ fn bad_nlos_scenes_and_exports_fail_with_one_clear_error() {
         (good.replace(r#"<shape type="rectangle" id="wall">"#, r#"<shape type="sphere" id="wall">"#), "attached to a sphere"),
         (good.replace("</scene>", r#"<emitter type="point"><point name="position" x="0" y="0" z="3"/></emitter></scene>"#), "exactly one emitter"),
         (good.replace(r#"value="confocal""#, r#"value="sideways""#), "capture_type 'sideways'"),
+        (good.replace(r#"<integer name="width" value="2"/>"#, r#"<integer name="width" value="3000"/>"#).replace(r#"<integer name="height" value="2"/>"#, r#"<integer name="height" value="3000"/>"#), "more than the 4194304 points"),
         (good.replace(r#"value="confocal""#, r#"value="exhaustive""#), "exhaustive_scan"),
         (good.replace(r#"<point name="sensor_origin""#, r#"<boolean name="confocal" value="true"/><point name="sensor_origin""#), "capture_type"),
         (good.replace(r#"value="confocal""#, r#"value="single""#).replace(r#"target="0, 0, 0""#, r#"target="3, 3, 0.5""#), "meets nothing"),

@@ -570,6 +570,11 @@ fn first_hit(
     }
 }
 
+/// The most sensor (and laser) grid points a capture may have: each keeps its first
+/// hit and its laser light, about 100 bytes (420 MB at this bound). NLOS captures are
+/// at most a few hundred points on a side.
+pub const MAX_GRID_POINTS: usize = 1 << 22;
+
 /// Prepares a `transient_nlos_path` render: checks the emitters and sensor the
 /// settings need and computes the lit points and the hidden geometry. `grid` is the
 /// sensor grid (the film's width and height before exhaustive stacking).
@@ -596,6 +601,13 @@ pub fn prepare(
         return Err("transient_nlos_path: the laser's to_world maps its axis to zero".into());
     }
     let capture = settings.capture;
+    let points = |[w, h]: [usize; 2]| w.saturating_mul(h);
+    if meter.is_some() && points(grid) > MAX_GRID_POINTS {
+        return Err(format!(
+            "the capture meter's {}x{} grid has more than the {MAX_GRID_POINTS} points tstat prepares",
+            grid[0], grid[1]
+        ));
+    }
     if capture != CaptureType::Single && meter.is_none() {
         return Err(format!(
             "capture_type {} needs an nlos_capture_meter sensor on the relay wall",
@@ -618,6 +630,12 @@ pub fn prepare(
         }
         (_, None) => [1, 1],
     };
+    if points(laser_grid) > MAX_GRID_POINTS {
+        return Err(format!(
+            "the {}x{} laser grid has more than the {MAX_GRID_POINTS} points tstat prepares",
+            laser_grid[0], laser_grid[1]
+        ));
+    }
     if capture == CaptureType::Exhaustive && settings.force_equal_grids && laser_grid != grid {
         return Err(format!(
             "force_equal_illumination_scanning (the default) needs laser_scan_width x laser_scan_height ({}x{}) equal to the film's {}x{}",
