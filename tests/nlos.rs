@@ -636,3 +636,294 @@ fn grid_points_on_the_relay_walls_diagonal_are_measured() {
         assert!(on_wall >= 24, "wall at x = {offset}: {on_wall} of 32");
     }
 }
+
+/// A synthetic capture of a point scatterer at `p`: H = 1 at the bin of each (laser,
+/// sensor) path's length |l - p| + |p - s| (laser points `lasers`, or, paired, the
+/// sensor points).
+fn point_capture(
+    p: [f32; 3],
+    lasers: Vec<[f32; 3]>,
+    paired: bool,
+) -> tstat::nlos::capture::Capture {
+    let grid = |n: usize| -> Vec<[f32; 3]> {
+        (0..n)
+            .flat_map(|i| (0..n).map(move |j| (i, j)))
+            .map(|(i, j)| {
+                let c = |k: usize| -1.0 + (2.0 * k as f32 + 1.0) / n as f32;
+                [c(i), c(j), 0.0]
+            })
+            .collect()
+    };
+    let sensors = grid(9);
+    let (t_start, delta_t, bins) = (0.5, 0.01, 300);
+    let nl = if paired { 1 } else { lasers.len() };
+    let mut h = vec![0f32; bins * nl * sensors.len()];
+    let d = |a: [f32; 3], b: [f32; 3]| {
+        ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
+    };
+    for l in 0..nl {
+        for (s, &sp) in sensors.iter().enumerate() {
+            let lp = if paired { sp } else { lasers[l] };
+            let len = d(lp, p) as f64 + d(p, sp) as f64;
+            let t = ((len - t_start) / delta_t) as usize;
+            h[(t * nl + l) * sensors.len() + s] = 1.0;
+        }
+    }
+    tstat::nlos::capture::Capture {
+        bins,
+        lasers: nl,
+        sensors: sensors.len(),
+        h,
+        laser_grid: if paired { sensors.clone() } else { lasers },
+        sensor_grid: sensors,
+        paired,
+        laser_xyz: None,
+        sensor_xyz: None,
+        t_start,
+        delta_t,
+        accounts_first_and_last_bounces: false,
+    }
+}
+
+/// Backprojection of a point scatterer: at the scatterer's voxel every (laser, sensor)
+/// pair adds its 1 (the maximum, L S), and the peak lies there; confocal and exhaustive.
+#[test]
+fn backprojection_of_a_point_scatterer_peaks_at_its_voxel() {
+    use tstat::nlos::bp::{backproject, VoxelGrid};
+    let grid = VoxelGrid {
+        first: [-0.5, -0.5, 0.5],
+        last: [0.5, 0.5, 1.0],
+        n: [21, 21, 11],
+    };
+    // (0.2, -0.1, 0.8) is voxel (14, 8, 6).
+    let p = [0.2, -0.1, 0.8];
+    let lasers = vec![[-0.5, 0.5, 0.0], [0.5, 0.5, 0.0], [0.0, -0.5, 0.0]];
+    for (capture, pairs) in [
+        (point_capture(p, Vec::new(), true), 81.0),
+        (point_capture(p, lasers, false), 243.0),
+    ] {
+        let v = backproject(&capture, &grid);
+        let at = |i: usize, j: usize, k: usize| v[(i * 21 + j) * 11 + k];
+        assert_eq!(
+            at(14, 8, 6),
+            pairs,
+            "every pair meets the scatterer's voxel"
+        );
+        let (best, _) = v
+            .iter()
+            .enumerate()
+            .fold((0, f32::MIN), |b, (i, &x)| if x > b.1 { (i, x) } else { b });
+        let (i, j, k) = (best / (21 * 11), best / 11 % 21, best % 11);
+        assert_eq!((i, j, k), (14, 8, 6), "peak at voxel {:?}", (i, j, k));
+        // Away from the scatterer the pairs disagree on the bin.
+        assert!(at(4, 16, 2) < 0.3 * pairs);
+    }
+}
+
+#[test]
+fn reconstruct_reads_bundles_and_tal_files_alike_and_refuses_bad_input() {
+    let dir = tempfile::tempdir().unwrap();
+    let xml = write(
+        dir.path(),
+        "c.xml",
+        &patch_scene("confocal", 4, 0.3, false, (1.9, 0.02, 40), 16),
+    );
+    let bundle = dir.path().join("c.tstats");
+    let b = bundle.to_str().unwrap();
+    assert!(tstat(&["render", &xml, "--out", b]).status.success());
+    let h5 = dir.path().join("c.hdf5");
+    assert!(tstat(&["export", b, "--tal", h5.to_str().unwrap()])
+        .status
+        .success());
+    let mut outs = Vec::new();
+    for (i, src) in [b, h5.to_str().unwrap()].into_iter().enumerate() {
+        let out = dir.path().join(format!("v{i}.npy"));
+        let r = tstat(&[
+            "nlos",
+            "reconstruct",
+            src,
+            "--method",
+            "bp",
+            "--volume=-0.5,0.5,-0.5,0.5,0.6,1.4",
+            "--voxels",
+            "11,11,9",
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+        let v: ndarray::Array3<f32> = ndarray_npy::read_npy(&out).unwrap();
+        assert_eq!(v.shape(), &[11, 11, 9]);
+        assert!(v.iter().any(|&x| x > 0.0));
+        outs.push(v);
+    }
+    assert_eq!(outs[0], outs[1], "bundle and export reconstruct alike");
+    let out = dir.path().join("bad.npy");
+    let o = out.to_str().unwrap();
+    let cbox = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cbox.xml");
+    let cb = dir.path().join("cbox.tstats");
+    assert!(tstat(&[
+        "render",
+        cbox.to_str().unwrap(),
+        "--out",
+        cb.to_str().unwrap(),
+        "--spp",
+        "2",
+        "--width",
+        "8"
+    ])
+    .status
+    .success());
+    for (args, want) in [
+        (
+            vec![
+                "nlos",
+                "reconstruct",
+                b,
+                "--method",
+                "bp",
+                "--volume",
+                "0,1,0,1,0",
+                "--voxels",
+                "2,2,2",
+                "--out",
+                o,
+            ],
+            "6 comma-separated",
+        ),
+        (
+            vec![
+                "nlos",
+                "reconstruct",
+                b,
+                "--method",
+                "bp",
+                "--volume",
+                "0,1,0,1,0,1",
+                "--voxels",
+                "2,0,2",
+                "--out",
+                o,
+            ],
+            "at least one voxel",
+        ),
+        (
+            vec![
+                "nlos",
+                "reconstruct",
+                b,
+                "--method",
+                "bp",
+                "--volume",
+                "0,1,0,1,0,inf",
+                "--voxels",
+                "2,2,2",
+                "--out",
+                o,
+            ],
+            "finite",
+        ),
+        (
+            vec![
+                "nlos",
+                "reconstruct",
+                b,
+                "--method",
+                "bp",
+                "--volume",
+                "0,1,0,1,0,1",
+                "--voxels",
+                "100000,100000,100",
+                "--out",
+                o,
+            ],
+            "more than",
+        ),
+        (
+            vec![
+                "nlos",
+                "reconstruct",
+                b,
+                "--method",
+                "lct",
+                "--volume",
+                "0,1,0,1,0,1",
+                "--voxels",
+                "2,2,2",
+                "--out",
+                o,
+            ],
+            "invalid value",
+        ),
+        (
+            vec![
+                "nlos",
+                "reconstruct",
+                cb.to_str().unwrap(),
+                "--method",
+                "bp",
+                "--volume",
+                "0,1,0,1,0,1",
+                "--voxels",
+                "2,2,2",
+                "--out",
+                o,
+            ],
+            "not an NLOS capture",
+        ),
+        (
+            vec![
+                "nlos",
+                "reconstruct",
+                "missing.hdf5",
+                "--method",
+                "bp",
+                "--volume",
+                "0,1,0,1,0,1",
+                "--voxels",
+                "2,2,2",
+                "--out",
+                o,
+            ],
+            "missing.hdf5",
+        ),
+        (
+            vec![
+                "nlos",
+                "reconstruct",
+                xml.as_str(),
+                "--method",
+                "bp",
+                "--volume",
+                "0,1,0,1,0,1",
+                "--voxels",
+                "2,2,2",
+                "--out",
+                o,
+            ],
+            "bundle directory or a y-tal",
+        ),
+    ] {
+        let r = tstat(&args);
+        let err = String::from_utf8_lossy(&r.stderr);
+        assert!(!r.status.success() && err.contains(want), "{args:?}: {err}");
+        assert!(!out.exists());
+    }
+    // An existing output is kept without --force.
+    let kept = dir.path().join("v0.npy");
+    let before = std::fs::read(&kept).unwrap();
+    let r = tstat(&[
+        "nlos",
+        "reconstruct",
+        b,
+        "--method",
+        "bp",
+        "--volume",
+        "0,1,0,1,0,1",
+        "--voxels",
+        "2,2,2",
+        "--out",
+        kept.to_str().unwrap(),
+    ]);
+    assert!(!r.status.success());
+    assert_eq!(std::fs::read(&kept).unwrap(), before);
+}

@@ -15,6 +15,7 @@ mod export;
 mod frames;
 mod info;
 mod merge;
+mod nlos;
 mod render;
 mod report;
 mod run;
@@ -59,6 +60,8 @@ pub enum Command {
     /// One self-contained HTML page to look at a volume: time slider, side-by-side
     /// volumes, a pixel's transient with its confidence band.
     View(view::ViewArgs),
+    /// NLOS captures: reconstruct the hidden scene.
+    Nlos(nlos::NlosArgs),
 }
 
 pub fn run(cli: Cli) -> anyhow::Result<()> {
@@ -68,6 +71,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Check(a) => check::run(a),
         Command::Cluster(a) => cluster::run(a),
         Command::View(a) => view::run(a),
+        Command::Nlos(a) => nlos::run(a),
         Command::Denoise(a) => denoise::run(a),
         Command::Export(a) => export::run(a),
         Command::Frames(a) => frames::run(a),

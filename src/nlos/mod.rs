@@ -1,5 +1,9 @@
 //! What follows an NLOS capture's render (SPEC 11): its export to y-tal's HDF5 capture
-//! format (`tal.rs`). Rendering the capture is `scene/nlos.rs` and `render/nlos.rs`;
-//! the bundle records its geometry (`bundle/capture.rs`).
+//! format (`tal.rs`), the capture in memory in y-tal's terms (`capture.rs`, from a
+//! bundle or a y-tal file) and reconstructions of the hidden scene (`bp.rs`).
+//! Rendering the capture is `scene/nlos.rs` and `render/nlos.rs`; the bundle records its
+//! geometry (`bundle/capture.rs`).
 
+pub mod bp;
+pub mod capture;
 pub mod tal;

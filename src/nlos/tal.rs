@@ -281,48 +281,72 @@ fn fill_h(
     max_bytes: u64,
 ) -> Result<usize, BundleError> {
     use std::os::unix::fs::FileExt;
+    let t = bundle.manifest.bins;
+    let per_bin = h_per_bin(rec);
+    let block = ((max_bytes / (per_bin as u64 * 4)).max(1) as usize).min(t);
+    let mut buf = vec![0f32; block * per_bin];
+    let mut blocks = 0;
+    for t0 in (0..t).step_by(block) {
+        let t1 = (t0 + block).min(t);
+        let part = &mut buf[..(t1 - t0) * per_bin];
+        h_block(bundle, rec, t0..t1, part)?;
+        let bytes: &[u8] = bytemuck::cast_slice(part);
+        file.write_all_at(bytes, offset + (t0 * per_bin) as u64 * 4)
+            .map_err(|e| BundleError::Io(std::path::PathBuf::from("H"), e.to_string()))?;
+        blocks += 1;
+    }
+    Ok(blocks)
+}
+
+/// Values of H per time bin: laser points x sensor points.
+pub fn h_per_bin(rec: &CaptureRecord) -> usize {
+    let [sx, sy] = rec.sensor_grid;
+    let [lx, ly] = rec.laser_grid;
+    lx * ly * sx * sy
+}
+
+/// Bins `bins` of H from the bundle's rows into `out` ((bins, Lx, Ly, Sx, Sy) row-major,
+/// y-tal's order; the laser axes are 1 x 1 but for exhaustive scans): the noisy mean
+/// summed over the channels.
+pub fn h_block(
+    bundle: &Bundle,
+    rec: &CaptureRecord,
+    bins: std::ops::Range<usize>,
+    out: &mut [f32],
+) -> Result<(), BundleError> {
     let m = &bundle.manifest;
     let (w, h, t) = (m.width, m.height, m.bins);
     let c = m.channels.len();
     let [sx_n, sy_n] = rec.sensor_grid;
     let [lx_n, ly_n] = rec.laser_grid;
-    let per_bin = (lx_n * ly_n * sx_n * sy_n) as u64;
-    let block = ((max_bytes / (per_bin * 4)).max(1) as usize).min(t);
+    let per_bin = h_per_bin(rec);
+    assert_eq!(out.len(), bins.len() * per_bin);
     let band = (BAND_BYTES / (w * t * c * 8 * 4).max(1)).clamp(1, h);
     let n = m.spp as f64;
     let reader = bundle.row_reader()?;
     let mut sums = RowSums::default();
-    let mut buf = vec![0f32; block * per_bin as usize];
-    let mut blocks = 0;
-    for t0 in (0..t).step_by(block) {
-        let t1 = (t0 + block).min(t);
-        buf[..(t1 - t0) * per_bin as usize].fill(0.0);
-        for r0 in (0..h).step_by(band) {
-            let r1 = (r0 + band).min(h);
-            reader.read(r0..r1, &mut sums)?;
-            let s = if sums.sum.is_empty() {
-                &sums.x1
-            } else {
-                &sums.sum
-            };
-            for r in r0..r1 {
-                let (l, sy) = (r / sy_n, r % sy_n);
-                let (lx, ly) = (l % lx_n, l / lx_n);
-                for sx in 0..sx_n {
-                    let base = ((r - r0) * w + sx) * t;
-                    let sensor = sx * sy_n + sy;
-                    for k in t0..t1 {
-                        let v: f64 = s[(base + k) * c..(base + k + 1) * c].iter().sum();
-                        let i = (((k - t0) * lx_n + lx) * ly_n + ly) * (sx_n * sy_n) + sensor;
-                        buf[i] = (v / n) as f32;
-                    }
+    out.fill(0.0);
+    for r0 in (0..h).step_by(band) {
+        let r1 = (r0 + band).min(h);
+        reader.read(r0..r1, &mut sums)?;
+        let s = if sums.sum.is_empty() {
+            &sums.x1
+        } else {
+            &sums.sum
+        };
+        for r in r0..r1 {
+            let (l, sy) = (r / sy_n, r % sy_n);
+            let (lx, ly) = (l % lx_n, l / lx_n);
+            for sx in 0..sx_n {
+                let base = ((r - r0) * w + sx) * t;
+                let sensor = sx * sy_n + sy;
+                for k in bins.clone() {
+                    let v: f64 = s[(base + k) * c..(base + k + 1) * c].iter().sum();
+                    let i = (((k - bins.start) * lx_n + lx) * ly_n + ly) * (sx_n * sy_n) + sensor;
+                    out[i] = (v / n) as f32;
                 }
             }
         }
-        let bytes: &[u8] = bytemuck::cast_slice(&buf[..(t1 - t0) * per_bin as usize]);
-        file.write_all_at(bytes, offset + t0 as u64 * per_bin * 4)
-            .map_err(|e| BundleError::Io(std::path::PathBuf::from("H"), e.to_string()))?;
-        blocks += 1;
     }
-    Ok(blocks)
+    Ok(())
 }

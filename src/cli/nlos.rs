@@ -1,0 +1,157 @@
+//! `tstat nlos reconstruct CAPTURE --method bp --volume X0,X1,Y0,Y1,Z0,Z1
+//! --voxels NX,NY,NZ --out VOLUME.npy`: a reconstruction of the hidden scene from an
+//! NLOS capture (a tstat bundle or a y-tal HDF5 capture), as y-tal computes it.
+
+use super::util::{arg, check_outputs, Kind};
+use crate::bundle::write::stage;
+use crate::bundle::{Bundle, BundleError};
+use crate::nlos::bp::{backproject, VoxelGrid};
+use crate::nlos::capture::Capture;
+use anyhow::{anyhow, bail};
+use clap::{Args, Subcommand, ValueEnum};
+use std::path::{Path, PathBuf};
+
+#[derive(Args, Debug)]
+pub struct NlosArgs {
+    #[command(subcommand)]
+    pub command: NlosCommand,
+}
+
+#[derive(Subcommand, Debug)]
+pub enum NlosCommand {
+    /// Reconstruct the hidden scene on a voxel grid (f32 (NX, NY, NZ) .npy).
+    Reconstruct(ReconstructArgs),
+}
+
+#[derive(Clone, Copy, Debug, ValueEnum)]
+pub enum Method {
+    /// Backprojection (y-tal's `tal.reconstruct.bp`, camera system DIRECT_LIGHT).
+    Bp,
+}
+
+#[derive(Args, Debug)]
+pub struct ReconstructArgs {
+    /// A capture: a tstat bundle of an NLOS scene, or a y-tal HDF5 capture (.hdf5, .h5).
+    pub capture: PathBuf,
+    #[arg(long, value_enum)]
+    pub method: Method,
+    /// The volume: X0,X1,Y0,Y1,Z0,Z1, the first and last voxel centres on each axis
+    /// (world coordinates, scene units; for y-tal files, its units).
+    #[arg(long, allow_hyphen_values = true)]
+    pub volume: String,
+    /// Voxels per axis: NX,NY,NZ (centres spaced as numpy.linspace).
+    #[arg(long)]
+    pub voxels: String,
+    /// The reconstruction, f32 (NX, NY, NZ) .npy.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Replace an existing output.
+    #[arg(long)]
+    pub force: bool,
+}
+
+/// The most voxels a reconstruction holds (1 GiB of f32).
+const MAX_VOXELS: usize = 1 << 28;
+
+fn numbers<T: std::str::FromStr>(flag: &str, s: &str, n: usize) -> anyhow::Result<Vec<T>> {
+    let v: Vec<T> = s
+        .split(',')
+        .map(|x| x.trim().parse::<T>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| anyhow!("{flag} {s}: expected {n} comma-separated numbers"))?;
+    if v.len() != n {
+        bail!(
+            "{flag} {s}: expected {n} comma-separated numbers, got {}",
+            v.len()
+        );
+    }
+    Ok(v)
+}
+
+/// The voxel grid of `--volume` and `--voxels`.
+pub fn voxel_grid(volume: &str, voxels: &str) -> anyhow::Result<VoxelGrid> {
+    let b: Vec<f64> = numbers("--volume", volume, 6)?;
+    let n: Vec<usize> = numbers("--voxels", voxels, 3)?;
+    if b.iter().any(|v| !v.is_finite()) {
+        bail!("--volume {volume}: the bounds must be finite");
+    }
+    if n.iter().any(|&k| k == 0) {
+        bail!("--voxels {voxels}: every axis needs at least one voxel");
+    }
+    if n.iter()
+        .try_fold(1usize, |a, &k| a.checked_mul(k))
+        .is_none_or(|t| t > MAX_VOXELS)
+    {
+        bail!("--voxels {voxels}: more than {MAX_VOXELS} voxels");
+    }
+    for a in 0..3 {
+        if n[a] == 1 && b[2 * a] != b[2 * a + 1] {
+            bail!("--volume {volume}: an axis of one voxel needs its first and last centre equal");
+        }
+    }
+    Ok(VoxelGrid {
+        first: [b[0], b[2], b[4]],
+        last: [b[1], b[3], b[5]],
+        n: [n[0], n[1], n[2]],
+    })
+}
+
+fn load(path: &Path) -> anyhow::Result<Capture> {
+    if path.is_dir() {
+        let bundle = Bundle::open(path)?;
+        return Capture::from_bundle(&bundle).map_err(|e| anyhow!(e));
+    }
+    let ext = path
+        .extension()
+        .map(|e| e.to_string_lossy().to_lowercase())
+        .unwrap_or_default();
+    if ext == "hdf5" || ext == "h5" {
+        if !path.is_file() {
+            bail!("{}: no such capture file", path.display());
+        }
+        return Capture::from_tal(path).map_err(|e| anyhow!(e));
+    }
+    bail!(
+        "{}: a capture is a tstat bundle directory or a y-tal .hdf5 / .h5 file",
+        path.display()
+    )
+}
+
+pub fn run(a: NlosArgs) -> anyhow::Result<()> {
+    let NlosCommand::Reconstruct(r) = a.command;
+    let grid = voxel_grid(&r.volume, &r.voxels)?;
+    if r.out.extension().is_none_or(|e| e != "npy") {
+        bail!(
+            "--out {}: the reconstruction is written as .npy",
+            r.out.display()
+        );
+    }
+    check_outputs(
+        &[arg("capture", &r.capture)],
+        &[(arg("--out", &r.out), Kind::File)],
+        r.force,
+    )?;
+    let capture = load(&r.capture)?;
+    let start = std::time::Instant::now();
+    let volume = match r.method {
+        Method::Bp => backproject(&capture, &grid),
+    };
+    let seconds = start.elapsed().as_secs_f64();
+    let shape = (grid.n[0], grid.n[1], grid.n[2]);
+    let array = ndarray::Array3::from_shape_vec(shape, volume).expect("NX NY NZ voxels");
+    stage(&r.out, r.force, |tmp| {
+        ndarray_npy::write_npy(tmp, &array)
+            .map_err(|e| BundleError::Io(r.out.clone(), e.to_string()))
+    })?
+    .commit()?;
+    say!(
+        "wrote {} (f32 {:?}, {:?} in {seconds:.2} s: {} laser x {} sensor points, {} bins)",
+        r.out.display(),
+        array.shape(),
+        r.method,
+        capture.lasers,
+        capture.sensors,
+        capture.bins
+    );
+    Ok(())
+}

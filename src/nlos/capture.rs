@@ -1,0 +1,205 @@
+//! An NLOS capture in memory, in y-tal's terms, for reconstructions: H as (T, L, S)
+//! (time, laser point, sensor point; y-tal's `convert_to_N_3` order: a grid's point
+//! (i, j) of an X x Y grid is `i Y + j`), the grids, the origins and the time axis. It
+//! comes from a tstat bundle of a capture or from a y-tal HDF5 capture.
+//!
+//! Memory: H is held whole, `T L S` f32 (a 64 x 64 confocal scan of 512 bins: 8 MB;
+//! an exhaustive 16^4 of 512 bins: 134 MB).
+
+use crate::bundle::Bundle;
+use crate::scene::nlos::CaptureType;
+use std::path::Path;
+
+pub struct Capture {
+    pub bins: usize,
+    /// Laser points of H's laser axis (1 for single and confocal captures).
+    pub lasers: usize,
+    pub sensors: usize,
+    /// (T, L, S) row-major.
+    pub h: Vec<f32>,
+    /// One point per laser of H's laser axis, or, when `paired`, one per sensor point.
+    pub laser_grid: Vec<[f32; 3]>,
+    pub sensor_grid: Vec<[f32; 3]>,
+    /// Confocal: sensor point s is lit by laser point s.
+    pub paired: bool,
+    pub laser_xyz: Option<[f32; 3]>,
+    pub sensor_xyz: Option<[f32; 3]>,
+    /// OPL of the start of bin 0 and the bin width (y-tal's `t_start`, `delta_t`).
+    pub t_start: f64,
+    pub delta_t: f64,
+    pub accounts_first_and_last_bounces: bool,
+}
+
+fn f32x3(p: [f64; 3]) -> [f32; 3] {
+    p.map(|v| v as f32)
+}
+
+impl Capture {
+    /// The capture of a tstat bundle (its `nlos` record), in scene units.
+    pub fn from_bundle(bundle: &Bundle) -> Result<Capture, String> {
+        let m = &bundle.manifest;
+        let rec = m.nlos.as_ref().ok_or_else(|| {
+            format!(
+                "{} is not an NLOS capture (its scene's sensor is no nlos_capture_meter)",
+                bundle.dir.display()
+            )
+        })?;
+        let [sx, sy] = rec.sensor_grid;
+        let [lx, ly] = rec.laser_grid;
+        let per_bin = super::tal::h_per_bin(rec);
+        let len = per_bin
+            .checked_mul(m.bins)
+            .ok_or("the capture's H does not fit the address space")?;
+        let mut h = Vec::new();
+        h.try_reserve_exact(len)
+            .map_err(|_| format!("cannot hold H ({len} values) in memory"))?;
+        h.resize(len, 0.0);
+        super::tal::h_block(bundle, rec, 0..m.bins, &mut h).map_err(|e| e.to_string())?;
+        let sensor_grid = (0..sx)
+            .flat_map(|i| (0..sy).map(move |j| (i, j)))
+            .map(|(i, j)| f32x3(rec.sensor_point(i, j)))
+            .collect::<Vec<_>>();
+        let paired = rec.capture == CaptureType::Confocal;
+        let laser_grid = if paired {
+            sensor_grid.clone()
+        } else {
+            (0..lx)
+                .flat_map(|i| (0..ly).map(move |j| (i, j)))
+                .map(|(i, j)| f32x3(rec.laser_point(i, j)))
+                .collect()
+        };
+        let finite = |p: [f64; 3]| p.iter().all(|v| v.is_finite()).then(|| f32x3(p));
+        Ok(Capture {
+            bins: m.bins,
+            lasers: lx * ly,
+            sensors: sx * sy,
+            h,
+            laser_grid,
+            sensor_grid,
+            paired,
+            laser_xyz: finite(rec.laser_origin),
+            sensor_xyz: finite(rec.sensor_origin),
+            t_start: m.start_opl,
+            delta_t: m.bin_width_opl,
+            accounts_first_and_last_bounces: rec.account_first_and_last_bounces,
+        })
+    }
+
+    /// A y-tal HDF5 capture (`tal.io.write_capture`'s layout, or `tstat export --tal`):
+    /// H formats T_Sx_Sy and T_Lx_Ly_Sx_Sy, grids X_Y_3 or N_3.
+    pub fn from_tal(path: &Path) -> Result<Capture, String> {
+        let err = |what: &str, e: hdf5_pure::Error| format!("{}: {what}: {e}", path.display());
+        let file = hdf5_pure::File::open(path).map_err(|e| err("not an HDF5 file", e))?;
+        let ds = |name: &str| file.dataset(name).map_err(|e| err(name, e));
+        let h_ds = ds("H")?;
+        let shape = h_ds.shape().map_err(|e| err("H", e))?;
+        let format = match file.dataset("H_format") {
+            Ok(f) => f
+                .read_i32()
+                .map_err(|e| err("H_format", e))?
+                .first()
+                .copied(),
+            Err(_) => None,
+        };
+        let shape: Vec<usize> = shape.iter().map(|&d| d as usize).collect();
+        let (bins, lasers, sensors) = match (format, shape.as_slice()) {
+            (Some(1) | None, &[t, sx, sy]) => (t, 1, sx * sy),
+            (Some(2) | None, &[t, lx, ly, sx, sy]) => (t, lx * ly, sx * sy),
+            (f, s) => {
+                return Err(format!(
+                    "{}: H of shape {s:?} (H_format {f:?}): tstat reads T_Sx_Sy (1) and T_Lx_Ly_Sx_Sy (2) captures",
+                    path.display()
+                ))
+            }
+        };
+        let h = h_ds.read_f32().map_err(|e| err("H", e))?;
+        if h.len() != bins * lasers * sensors || bins == 0 || sensors == 0 {
+            return Err(format!(
+                "{}: H holds {} values for shape {shape:?}",
+                path.display(),
+                h.len()
+            ));
+        }
+        let points = |name: &str| -> Result<Vec<[f32; 3]>, String> {
+            let v = ds(name)?.read_f32().map_err(|e| err(name, e))?;
+            if v.len() % 3 != 0 || v.iter().any(|x| !x.is_finite()) {
+                return Err(format!(
+                    "{}: {name} is not a grid of finite 3D points",
+                    path.display()
+                ));
+            }
+            Ok(v.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect())
+        };
+        let sensor_grid = points("sensor_grid_xyz")?;
+        let laser_grid = points("laser_grid_xyz")?;
+        if sensor_grid.len() != sensors {
+            return Err(format!(
+                "{}: {} sensor grid points for H's {sensors}",
+                path.display(),
+                sensor_grid.len()
+            ));
+        }
+        // y-tal's `is_laser_paired_to_sensor`: a laser grid as large as the sensor's
+        // with one laser axis entry.
+        let paired = lasers == 1 && laser_grid.len() == sensors && sensors > 1;
+        if !paired && laser_grid.len() != lasers {
+            return Err(format!(
+                "{}: {} laser grid points for H's {lasers}",
+                path.display(),
+                laser_grid.len()
+            ));
+        }
+        let scalar = |name: &str| -> Result<f64, String> {
+            ds(name)?
+                .read_f64()
+                .map_err(|e| err(name, e))?
+                .first()
+                .copied()
+                .filter(|v| v.is_finite())
+                .ok_or_else(|| format!("{}: {name} is not a finite number", path.display()))
+        };
+        let point = |name: &str| -> Option<[f32; 3]> {
+            let v = file.dataset(name).ok()?.read_f32().ok()?;
+            (v.len() == 3).then(|| [v[0], v[1], v[2]])
+        };
+        let accounts = match file.dataset("t_accounts_first_and_last_bounces") {
+            Ok(d) => d
+                .read_i8()
+                .map_err(|e| err("t_accounts_first_and_last_bounces", e))?
+                .first()
+                .is_some_and(|&v| v != 0),
+            Err(_) => false,
+        };
+        let delta_t = scalar("delta_t")?;
+        if delta_t <= 0.0 {
+            return Err(format!(
+                "{}: delta_t must be positive, got {delta_t}",
+                path.display()
+            ));
+        }
+        let c = Capture {
+            bins,
+            lasers,
+            sensors,
+            h,
+            laser_grid,
+            sensor_grid,
+            paired,
+            laser_xyz: point("laser_xyz"),
+            sensor_xyz: point("sensor_xyz"),
+            t_start: scalar("t_start")?,
+            delta_t,
+            accounts_first_and_last_bounces: accounts,
+        };
+        if accounts && (c.laser_xyz.is_none() || c.sensor_xyz.is_none()) {
+            return Err(format!("{}: its times include the first and last bounces, but laser_xyz or sensor_xyz is missing", path.display()));
+        }
+        Ok(c)
+    }
+
+    /// H at (bin, laser, sensor).
+    #[inline]
+    pub fn at(&self, t: usize, l: usize, s: usize) -> f32 {
+        self.h[(t * self.lasers + l) * self.sensors + s]
+    }
+}
