@@ -75,7 +75,7 @@ pub fn voxel_grid(volume: &str, voxels: &str) -> anyhow::Result<VoxelGrid> {
     if b.iter().any(|v| !v.is_finite()) {
         bail!("--volume {volume}: the bounds must be finite");
     }
-    if n.iter().any(|&k| k == 0) {
+    if n.contains(&0) {
         bail!("--voxels {voxels}: every axis needs at least one voxel");
     }
     if n.iter()

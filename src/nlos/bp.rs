@@ -87,12 +87,12 @@ pub fn backproject(c: &Capture, grid: &VoxelGrid) -> Vec<f32> {
             let v = [xs[i], ys[j], zs[k]];
             let mut acc = 0f64;
             for l in 0..c.lasers {
-                for s in 0..c.sensors {
+                for (s, (&sp, &d4s)) in c.sensor_grid.iter().zip(&d4).enumerate() {
                     let lp = laser(l, s);
                     let li = if c.paired { s } else { l };
-                    let (d2, d3) = (dist(lp, v), dist(v, c.sensor_grid[s]));
+                    let (d2, d3) = (dist(lp, v), dist(v, sp));
                     let bin = if accounts {
-                        let d = d1[li] + d2 + d3 + d4[s];
+                        let d = d1[li] + d2 + d3 + d4s;
                         ((d - c.t_start as f32) / c.delta_t as f32) as i64
                     } else {
                         let d = d2 as f64 + d3 as f64;
