@@ -60,13 +60,6 @@ pub fn backproject(c: &Capture, grid: &VoxelGrid) -> Vec<f32> {
     let axis = |a: usize, n: usize| (0..n).map(|i| grid.coordinate(a, i)).collect::<Vec<_>>();
     let (xs, ys, zs) = (axis(0, nx), axis(1, ny), axis(2, nz));
     let accounts = c.accounts_first_and_last_bounces;
-    let laser = |l: usize, s: usize| {
-        if c.paired {
-            c.laser_grid[s]
-        } else {
-            c.laser_grid[l]
-        }
-    };
     // The voxel-independent segments: laser to laser point, sensor point to sensor.
     let d1: Vec<f32> = (0..c.laser_grid.len())
         .map(|i| match (accounts, c.laser_xyz) {
@@ -81,30 +74,36 @@ pub fn backproject(c: &Capture, grid: &VoxelGrid) -> Vec<f32> {
         })
         .collect();
     let mut out = vec![0f32; nx * ny * nz];
-    out.par_chunks_mut(nz).enumerate().for_each(|(ij, col)| {
-        let (i, j) = (ij / ny, ij % ny);
-        for (k, o) in col.iter_mut().enumerate() {
-            let v = [xs[i], ys[j], zs[k]];
-            let mut acc = 0f64;
-            for l in 0..c.lasers {
-                for (s, (&sp, &d4s)) in c.sensor_grid.iter().zip(&d4).enumerate() {
-                    let lp = laser(l, s);
-                    let li = if c.paired { s } else { l };
-                    let (d2, d3) = (dist(lp, v), dist(v, sp));
-                    let bin = if accounts {
-                        let d = d1[li] + d2 + d3 + d4s;
-                        ((d - c.t_start as f32) / c.delta_t as f32) as i64
-                    } else {
-                        let d = d2 as f64 + d3 as f64;
-                        ((d - c.t_start) / c.delta_t) as i64
-                    };
-                    if bin >= 0 && (bin as usize) < c.bins {
-                        acc += c.at(bin as usize, l, s) as f64;
+    out.par_chunks_mut(nz).enumerate().for_each_init(
+        || (Vec::new(), Vec::new()),
+        |(d2, d3), (ij, col)| {
+            let (i, j) = (ij / ny, ij % ny);
+            for (k, o) in col.iter_mut().enumerate() {
+                let v = [xs[i], ys[j], zs[k]];
+                // The voxel's distances to every laser point and sensor point, once.
+                d2.clear();
+                d2.extend(c.laser_grid.iter().map(|&lp| dist(lp, v)));
+                d3.clear();
+                d3.extend(c.sensor_grid.iter().map(|&sp| dist(v, sp)));
+                let mut acc = 0f64;
+                for l in 0..c.lasers {
+                    for s in 0..c.sensors {
+                        let li = if c.paired { s } else { l };
+                        let bin = if accounts {
+                            let d = d1[li] + d2[li] + d3[s] + d4[s];
+                            ((d - c.t_start as f32) / c.delta_t as f32) as i64
+                        } else {
+                            let d = d2[li] as f64 + d3[s] as f64;
+                            ((d - c.t_start) / c.delta_t) as i64
+                        };
+                        if bin >= 0 && (bin as usize) < c.bins {
+                            acc += c.at(bin as usize, l, s) as f64;
+                        }
                     }
                 }
+                *o = acc as f32;
             }
-            *o = acc as f32;
-        }
-    });
+        },
+    );
     out
 }
