@@ -720,6 +720,49 @@ fn backprojection_of_a_point_scatterer_peaks_at_its_voxel() {
     }
 }
 
+/// Filtered backprojection of the same scatterer: the magnitude peaks at its voxel
+/// (confocal and exhaustive), and the phasor-field filter of an impulse is the pulse,
+/// its envelope's peak at the impulse's bin, linear in the input.
+#[test]
+fn filtered_backprojection_of_a_point_scatterer_peaks_at_its_voxel() {
+    use tstat::nlos::bp::{filtered_backproject, VoxelGrid};
+    use tstat::nlos::filter::pf_filter;
+    let grid = VoxelGrid {
+        first: [-0.5, -0.5, 0.5],
+        last: [0.5, 0.5, 1.0],
+        n: [21, 21, 11],
+    };
+    let p = [0.2, -0.1, 0.8];
+    let lasers = vec![[-0.5, 0.5, 0.0], [0.5, 0.5, 0.0], [0.0, -0.5, 0.0]];
+    for capture in [
+        point_capture(p, Vec::new(), true),
+        point_capture(p, lasers, false),
+    ] {
+        let v = filtered_backproject(&capture, &grid, 0.2, 0.2 / 2f64.sqrt());
+        let best = (0..v.len()).max_by(|&a, &b| v[a].total_cmp(&v[b])).unwrap();
+        let (i, j, k) = (best / (21 * 11), best / 11 % 21, best % 11);
+        assert_eq!((i, j, k), (14, 8, 6));
+    }
+    // One series with an impulse at bin 140 (and twice the impulse at bin 40).
+    let mut c = point_capture(p, Vec::new(), true);
+    c.h.iter_mut().for_each(|x| *x = 0.0);
+    let series = c.lasers * c.sensors;
+    c.h[140 * series] = 1.0;
+    let one = pf_filter(&c, 0.2, 0.2 / 2f64.sqrt());
+    let mag =
+        |f: &tstat::nlos::filter::Filtered, t: usize| f.re[t * series].hypot(f.im[t * series]);
+    let peak = (0..c.bins)
+        .max_by(|&a, &b| mag(&one, a).total_cmp(&mag(&one, b)))
+        .unwrap();
+    assert_eq!(peak, 140);
+    assert!(mag(&one, 140) > 0.0 && mag(&one, 40) < 1e-6 * mag(&one, 140));
+    c.h[40 * series] = 2.0;
+    let two = pf_filter(&c, 0.2, 0.2 / 2f64.sqrt());
+    assert!((mag(&two, 40) - 2.0 * mag(&one, 140)).abs() < 1e-5 * mag(&one, 140));
+    // Other series stay zero.
+    assert!(two.re[140 * series + 1] == 0.0 && two.im[140 * series + 1] == 0.0);
+}
+
 #[test]
 fn reconstruct_reads_bundles_and_tal_files_alike_and_refuses_bad_input() {
     let dir = tempfile::tempdir().unwrap();
@@ -781,6 +824,7 @@ fn reconstruct_reads_bundles_and_tal_files_alike_and_refuses_bad_input() {
         (b, "bp", "0,1,0,1,0,inf", "2,2,2", "finite"),
         (b, "bp", "0,1,0,1,0,1", "100000,100000,100", "more than"),
         (b, "lct", "0,1,0,1,0,1", "2,2,2", "invalid value"),
+        (b, "fbp", "0,1,0,1,0,1", "2,2,2", "needs --wl-mean"),
         (
             cbox_bundle,
             "bp",

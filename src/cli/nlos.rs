@@ -1,11 +1,11 @@
-//! `tstat nlos reconstruct CAPTURE --method bp --volume X0,X1,Y0,Y1,Z0,Z1
-//! --voxels NX,NY,NZ --out VOLUME.npy`: a reconstruction of the hidden scene from an
+//! `tstat nlos reconstruct CAPTURE --method bp|fbp [--wl-mean W [--wl-sigma S]]
+//! --volume X0,X1,Y0,Y1,Z0,Z1 --voxels NX,NY,NZ --out VOLUME.npy`: a reconstruction of the hidden scene from an
 //! NLOS capture (a tstat bundle or a y-tal HDF5 capture), as y-tal computes it.
 
 use super::util::{arg, check_outputs, Kind};
 use crate::bundle::write::stage;
 use crate::bundle::{Bundle, BundleError};
-use crate::nlos::bp::{backproject, VoxelGrid};
+use crate::nlos::bp::{backproject, filtered_backproject, VoxelGrid};
 use crate::nlos::capture::Capture;
 use anyhow::{anyhow, bail};
 use clap::{Args, Subcommand, ValueEnum};
@@ -27,6 +27,10 @@ pub enum NlosCommand {
 pub enum Method {
     /// Backprojection (y-tal's `tal.reconstruct.bp`, camera system DIRECT_LIGHT).
     Bp,
+    /// Filtered backprojection (y-tal's `tal.reconstruct.fbp`, border 'zero'): the
+    /// capture filtered by a complex pulse of wavelength --wl-mean, backprojected;
+    /// written as the magnitude.
+    Fbp,
 }
 
 #[derive(Args, Debug)]
@@ -42,6 +46,12 @@ pub struct ReconstructArgs {
     /// Voxels per axis: NX,NY,NZ (centres spaced as numpy.linspace).
     #[arg(long)]
     pub voxels: String,
+    /// fbp: the filter's wavelength (OPL units, e.g. 8 voxel widths).
+    #[arg(long)]
+    pub wl_mean: Option<f64>,
+    /// fbp: the width of its Gaussian envelope (default wl_mean / sqrt(2), as y-tal).
+    #[arg(long)]
+    pub wl_sigma: Option<f64>,
     /// The reconstruction, f32 (NX, NY, NZ) .npy.
     #[arg(long)]
     pub out: PathBuf,
@@ -120,6 +130,18 @@ fn load(path: &Path) -> anyhow::Result<Capture> {
 pub fn run(a: NlosArgs) -> anyhow::Result<()> {
     let NlosCommand::Reconstruct(r) = a.command;
     let grid = voxel_grid(&r.volume, &r.voxels)?;
+    let wavelengths = match (r.method, r.wl_mean, r.wl_sigma) {
+        (Method::Bp, None, None) => None,
+        (Method::Bp, _, _) => bail!("--wl-mean and --wl-sigma belong to --method fbp"),
+        (Method::Fbp, None, _) => bail!("--method fbp needs --wl-mean (the filter's wavelength)"),
+        (Method::Fbp, Some(m), sigma) => {
+            let s = sigma.unwrap_or(m / std::f64::consts::SQRT_2);
+            if !(m > 0.0 && m.is_finite() && s > 0.0 && s.is_finite()) {
+                bail!("--wl-mean {m} and --wl-sigma {s} must be positive and finite");
+            }
+            Some((m, s))
+        }
+    };
     if r.out.extension().is_none_or(|e| e != "npy") {
         bail!(
             "--out {}: the reconstruction is written as .npy",
@@ -132,9 +154,20 @@ pub fn run(a: NlosArgs) -> anyhow::Result<()> {
         r.force,
     )?;
     let capture = load(&r.capture)?;
+    if let Some((_, s)) = wavelengths {
+        // The filter's padded series must stay addressable.
+        let (n, _) = crate::nlos::filter::padding(capture.bins, s, capture.delta_t);
+        if s / capture.delta_t > 1e6 || n > 1 << 26 {
+            bail!(
+                "--wl-sigma {s} spans {:.0} bins: the filter would pad each series to {n} samples",
+                s / capture.delta_t
+            );
+        }
+    }
     let start = std::time::Instant::now();
-    let volume = match r.method {
-        Method::Bp => backproject(&capture, &grid),
+    let volume = match (r.method, wavelengths) {
+        (Method::Fbp, Some((m, s))) => filtered_backproject(&capture, &grid, m, s),
+        _ => backproject(&capture, &grid),
     };
     let seconds = start.elapsed().as_secs_f64();
     let shape = (grid.n[0], grid.n[1], grid.n[2]);

@@ -13,7 +13,8 @@
 //! single), and truncated towards zero.
 //!
 //! Cost: voxels x laser points x sensor points, parallel over voxels (rayon); memory:
-//! the output, NX NY NZ f32.
+//! the output, NX NY NZ f32 (twice, and the complex filtered capture, for the filtered
+//! backprojection).
 
 use super::capture::Capture;
 use rayon::prelude::*;
@@ -56,6 +57,25 @@ fn dist(a: [f32; 3], b: [f32; 3]) -> f32 {
 
 /// The backprojection of `c` on `grid`, (NX, NY, NZ) row-major.
 pub fn backproject(c: &Capture, grid: &VoxelGrid) -> Vec<f32> {
+    backproject_planes(c, grid, &[&c.h]).remove(0)
+}
+
+/// y-tal's filtered backprojection (`tal.reconstruct.fbp`): the capture filtered by
+/// `filter::pf_filter`, backprojected (complex), and its magnitude.
+pub fn filtered_backproject(
+    c: &Capture,
+    grid: &VoxelGrid,
+    wl_mean: f64,
+    wl_sigma: f64,
+) -> Vec<f32> {
+    let f = super::filter::pf_filter(c, wl_mean, wl_sigma);
+    let [re, im] = <[Vec<f32>; 2]>::try_from(backproject_planes(c, grid, &[&f.re, &f.im]))
+        .expect("two planes");
+    re.iter().zip(&im).map(|(&a, &b)| a.hypot(b)).collect()
+}
+
+/// Backprojects each of `planes` (values laid out as `Capture::h`) at the same bins.
+fn backproject_planes(c: &Capture, grid: &VoxelGrid, planes: &[&[f32]]) -> Vec<Vec<f32>> {
     let [nx, ny, nz] = grid.n;
     let axis = |a: usize, n: usize| (0..n).map(|i| grid.coordinate(a, i)).collect::<Vec<_>>();
     let (xs, ys, zs) = (axis(0, nx), axis(1, ny), axis(2, nz));
@@ -73,19 +93,21 @@ pub fn backproject(c: &Capture, grid: &VoxelGrid) -> Vec<f32> {
             _ => 0.0,
         })
         .collect();
-    let mut out = vec![0f32; nx * ny * nz];
-    out.par_chunks_mut(nz).enumerate().for_each_init(
-        || (Vec::new(), Vec::new()),
-        |(d2, d3), (ij, col)| {
+    let np = planes.len();
+    let mut out = vec![0f32; nx * ny * nz * np];
+    out.par_chunks_mut(nz * np).enumerate().for_each_init(
+        || (Vec::new(), Vec::new(), Vec::new()),
+        |(d2, d3, acc), (ij, col)| {
             let (i, j) = (ij / ny, ij % ny);
-            for (k, o) in col.iter_mut().enumerate() {
+            for (k, o) in col.chunks_mut(np).enumerate() {
                 let v = [xs[i], ys[j], zs[k]];
                 // The voxel's distances to every laser point and sensor point, once.
                 d2.clear();
                 d2.extend(c.laser_grid.iter().map(|&lp| dist(lp, v)));
                 d3.clear();
                 d3.extend(c.sensor_grid.iter().map(|&sp| dist(v, sp)));
-                let mut acc = 0f64;
+                acc.clear();
+                acc.resize(np, 0f64);
                 for l in 0..c.lasers {
                     for s in 0..c.sensors {
                         let li = if c.paired { s } else { l };
@@ -97,13 +119,20 @@ pub fn backproject(c: &Capture, grid: &VoxelGrid) -> Vec<f32> {
                             ((d - c.t_start) / c.delta_t) as i64
                         };
                         if bin >= 0 && (bin as usize) < c.bins {
-                            acc += c.at(bin as usize, l, s) as f64;
+                            let at = (bin as usize * c.lasers + l) * c.sensors + s;
+                            for (a, p) in acc.iter_mut().zip(planes) {
+                                *a += p[at] as f64;
+                            }
                         }
                     }
                 }
-                *o = acc as f32;
+                for (o, a) in o.iter_mut().zip(acc.iter()) {
+                    *o = *a as f32;
+                }
             }
         },
     );
-    out
+    (0..np)
+        .map(|q| out.iter().skip(q).step_by(np).copied().collect())
+        .collect()
 }
