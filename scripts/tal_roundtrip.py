@@ -12,8 +12,9 @@ scenes/nlos_T_exhaustive.xml, 8 x 8 sensor x 8 x 8 laser points; 512 bins of 0.0
    volume of x, y in [-1, 1], z in [0.5, 1.5] (0.05 voxels): the maximum must lie at
    the letter's depth (z = 1, within one voxel) and over the letter; the
    maximum-intensity projections along z are saved as PNG;
-4. `tstat nlos reconstruct --method bp` on the same volume, from the bundle and from
-   the HDF5 file: within 1e-3 (relative to the maximum) of y-tal's bp, with both times.
+4. `tstat nlos reconstruct --method bp` and `--method fbp` on the same volume, from
+   the bundle and from the HDF5 file: within 1e-3 (relative to the maximum) of y-tal's
+   bp and of the magnitude of its fbp, with both times.
    A third capture, confocal with `account_first_and_last_bounces` (the bins shifted by
    the laser and sensor segments), checks that path too.
 
@@ -105,6 +106,7 @@ def main():
         V = tal.reconstruct.get_volume_min_max_resolution(np.array([-1.0, -1.0, 0.5]), np.array([1.0, 1.0, 1.5]), 0.05)
         results = {}
         ytal_bp = None
+        ytal_fbp = None
         for method in ["bp", "fbp"]:
             t0 = time.time()
             if method == "bp":
@@ -118,6 +120,8 @@ def main():
             secs = time.time() - t0
             if method == "bp":
                 ytal_bp = (rec, secs)
+            else:
+                ytal_fbp = (np.abs(rec), secs)
             r = np.abs(rec)
             i = np.unravel_index(r.argmax(), r.shape)
             peak = V[i]
@@ -140,18 +144,19 @@ def main():
         lo, hi, n = V.reshape(-1, 3).min(0), V.reshape(-1, 3).max(0), V.shape[:3]
         vol = ",".join(f"{v:.6f}" for pair in zip(lo, hi) for v in pair)
         vox = ",".join(str(k) for k in n)
-        diffs, tsecs = [], []
-        for src_path in [bundle, h5]:
-            out = os.path.join(tmp, capture + "_bp.npy")
-            t0 = time.time()
-            run([a.tstat, "nlos", "reconstruct", src_path, "--method", "bp", f"--volume={vol}",
-                 "--voxels", vox, "--out", out, "--force"])
-            tsecs.append(time.time() - t0)
-            mine = np.load(out)
-            ref = ytal_bp[0]
-            diffs.append(float(np.abs(mine - ref).max() / np.abs(ref).max()))
-        checks["tstat bp = y-tal bp"] = max(diffs) <= 1e-3
-        results["tstat_bp"] = (max(diffs), max(tsecs), ytal_bp[1])
+        for method, ref, extra in [("bp", ytal_bp, []),
+                                   ("fbp", ytal_fbp, ["--wl-mean", f"{8 * 0.05}"])]:
+            diffs, tsecs = [], []
+            for src_path in [bundle, h5]:
+                out = os.path.join(tmp, f"{capture}_{method}.npy")
+                t0 = time.time()
+                run([a.tstat, "nlos", "reconstruct", src_path, "--method", method, *extra,
+                     f"--volume={vol}", "--voxels", vox, "--out", out, "--force"])
+                tsecs.append(time.time() - t0)
+                mine = np.load(out)
+                diffs.append(float(np.abs(mine - ref[0]).max() / np.abs(ref[0]).max()))
+            checks[f"tstat {method} = y-tal {method}"] = max(diffs) <= 1e-3
+            results[f"tstat_{method}"] = (max(diffs), max(tsecs), ref[1])
         for k, v in checks.items():
             if not v:
                 failures.append(f"{capture}: {k}")
@@ -159,16 +164,18 @@ def main():
 
     lines = ["# tstat captures in y-tal", "",
              f"Command: `python3 scripts/tal_roundtrip.py --spp {a.spp}` (y-tal {tal.__version__}).", "",
-             "| capture | scene | H shape | max rel. diff. H vs bundle | bp peak (x, y, z) | fbp peak (x, y, z) | tstat bp vs y-tal bp (max rel. diff.) | bp s: tstat / y-tal | render s | export s | checks |",
-             "|---|---|---|---|---|---|---|---|---|---|---|"]
+             "| capture | scene | H shape | max rel. diff. H vs bundle | bp peak (x, y, z) | fbp peak (x, y, z) | tstat vs y-tal, bp / fbp (max rel. diff.) | bp s: tstat / y-tal | fbp s: tstat / y-tal | render s | export s | checks |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for capture, name, shape, h_err, res, tr, te, checks in rows:
         fmt = lambda p: "(" + ", ".join(f"{v:.2f}" for v in p) + ")"
         diff, t_mine, t_ytal = res["tstat_bp"]
-        lines.append(f"| {capture} | {os.path.basename(name)} | {tuple(shape)} | {h_err:.1e} | {fmt(res['bp'][0])} | {fmt(res['fbp'][0])} | {diff:.1e} | {t_mine:.2f} / {t_ytal:.2f} | {tr:.2f} | {te:.2f} | "
+        fdiff, ft_mine, ft_ytal = res["tstat_fbp"]
+        lines.append(f"| {capture} | {os.path.basename(name)} | {tuple(shape)} | {h_err:.1e} | {fmt(res['bp'][0])} | {fmt(res['fbp'][0])} | {diff:.1e} / {fdiff:.1e} | {t_mine:.2f} / {t_ytal:.2f} | {ft_mine:.2f} / {ft_ytal:.2f} | {tr:.2f} | {te:.2f} | "
                      + ("all pass" if all(checks.values()) else "FAIL: " + ", ".join(k for k, v in checks.items() if not v)) + " |")
     lines += ["", "The letter T lies at z = 1 (bar |x| <= 0.4, y in [0.24, 0.4]; stem |x| <= 0.08, y in [-0.56, 0.24]);",
               "a peak passes within one voxel (0.05) of that depth and over the letter.",
-              "tstat's bp time is the whole `tstat nlos reconstruct` process (reading the capture included).",
+              "tstat's times are the whole `tstat nlos reconstruct` process (reading the capture included);",
+              "fbp uses wl_mean = 8 voxels = 0.4, wl_sigma = wl_mean / sqrt(2), and tstat writes its magnitude (y-tal's |complex|).",
               "Maximum-intensity projections: `tal_roundtrip_{confocal,exhaustive,confocal_afalb}_{bp,fbp}.png`."]
     text = "\n".join(lines) + "\n"
     os.makedirs(os.path.dirname(a.out), exist_ok=True)
