@@ -685,23 +685,33 @@ fn point_capture(
     }
 }
 
-/// Backprojection of a point scatterer: at the scatterer's voxel every (laser, sensor)
-/// pair adds its 1 (the maximum, L S), and the peak lies there; confocal and exhaustive.
-#[test]
-fn backprojection_of_a_point_scatterer_peaks_at_its_voxel() {
-    use tstat::nlos::bp::{backproject, VoxelGrid};
-    let grid = VoxelGrid {
+/// The scatterer at (0.2, -0.1, 0.8), voxel (14, 8, 6) of the 21 x 21 x 11 grid, with its
+/// confocal capture (81 pairs) and an exhaustive one of 3 laser points (243 pairs).
+fn scatterer_cases() -> (
+    tstat::nlos::bp::VoxelGrid,
+    Vec<(tstat::nlos::capture::Capture, f32)>,
+) {
+    let grid = tstat::nlos::bp::VoxelGrid {
         first: [-0.5, -0.5, 0.5],
         last: [0.5, 0.5, 1.0],
         n: [21, 21, 11],
     };
-    // (0.2, -0.1, 0.8) is voxel (14, 8, 6).
     let p = [0.2, -0.1, 0.8];
     let lasers = vec![[-0.5, 0.5, 0.0], [0.5, 0.5, 0.0], [0.0, -0.5, 0.0]];
-    for (capture, pairs) in [
+    let cases = vec![
         (point_capture(p, Vec::new(), true), 81.0),
         (point_capture(p, lasers, false), 243.0),
-    ] {
+    ];
+    (grid, cases)
+}
+
+/// Backprojection of a point scatterer: at the scatterer's voxel every (laser, sensor)
+/// pair adds its 1 (the maximum, L S), and the peak lies there; confocal and exhaustive.
+#[test]
+fn backprojection_of_a_point_scatterer_peaks_at_its_voxel() {
+    use tstat::nlos::bp::backproject;
+    let (grid, cases) = scatterer_cases();
+    for (capture, pairs) in cases {
         let v = backproject(&capture, &grid);
         let at = |i: usize, j: usize, k: usize| v[(i * 21 + j) * 11 + k];
         assert_eq!(
@@ -725,26 +735,17 @@ fn backprojection_of_a_point_scatterer_peaks_at_its_voxel() {
 /// its envelope's peak at the impulse's bin, linear in the input.
 #[test]
 fn filtered_backprojection_of_a_point_scatterer_peaks_at_its_voxel() {
-    use tstat::nlos::bp::{filtered_backproject, VoxelGrid};
+    use tstat::nlos::bp::filtered_backproject;
     use tstat::nlos::filter::pf_filter;
-    let grid = VoxelGrid {
-        first: [-0.5, -0.5, 0.5],
-        last: [0.5, 0.5, 1.0],
-        n: [21, 21, 11],
-    };
-    let p = [0.2, -0.1, 0.8];
-    let lasers = vec![[-0.5, 0.5, 0.0], [0.5, 0.5, 0.0], [0.0, -0.5, 0.0]];
-    for capture in [
-        point_capture(p, Vec::new(), true),
-        point_capture(p, lasers, false),
-    ] {
+    let (grid, cases) = scatterer_cases();
+    for (capture, _) in cases {
         let v = filtered_backproject(&capture, &grid, 0.2, 0.2 / 2f64.sqrt());
         let best = (0..v.len()).max_by(|&a, &b| v[a].total_cmp(&v[b])).unwrap();
         let (i, j, k) = (best / (21 * 11), best / 11 % 21, best % 11);
         assert_eq!((i, j, k), (14, 8, 6));
     }
     // One series with an impulse at bin 140 (and twice the impulse at bin 40).
-    let mut c = point_capture(p, Vec::new(), true);
+    let mut c = point_capture([0.2, -0.1, 0.8], Vec::new(), true);
     c.h.iter_mut().for_each(|x| *x = 0.0);
     let series = c.lasers * c.sensors;
     c.h[140 * series] = 1.0;

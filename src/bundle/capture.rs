@@ -54,7 +54,10 @@ impl CaptureRecord {
                     let points = if equal {
                         Vec::new()
                     } else {
-                        setup.laser_targets.iter().map(|&p| arr(p)).collect()
+                        let point = |h: &Option<crate::geometry::accel::Hit>| {
+                            h.map_or([f64::NAN; 3], |h| arr(h.surface.p))
+                        };
+                        setup.laser_hits.iter().map(point).collect()
                     };
                     (
                         n.capture,

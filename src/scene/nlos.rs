@@ -423,8 +423,7 @@ impl HiddenGeometry {
 /// What a scene with `transient_nlos_path` renders with, prepared at load.
 #[derive(Clone, Debug)]
 pub struct NlosSetup {
-    /// The laser: the scene's only emitter.
-    pub laser: u32,
+    /// The laser's position (the scene's only emitter, `emitters[0]`).
     pub laser_origin: Vec3,
     /// The laser's axis (to_world's +z, unit).
     pub laser_axis: Vec3,
@@ -434,12 +433,10 @@ pub struct NlosSetup {
     pub sensor_grid: [usize; 2],
     /// Laser grid (width, height): 1 x 1 but for exhaustive scans.
     pub laser_grid: [usize; 2],
-    /// The lit points: single: one; confocal: one per sensor point (row-major);
-    /// exhaustive: one per laser grid point (row-major). Empty without laser sampling;
-    /// NaN where the ray that finds a point meets nothing (it lights nothing).
-    pub laser_targets: Vec<Vec3>,
-    /// The surface at each lit point (`None` where there is none), as the ray that
-    /// found it met it: laser sampling connects to it with a shadow ray.
+    /// The surface at each lit point, as the ray that found it met it (laser sampling
+    /// connects to it with a shadow ray): single: one; confocal: one per sensor point
+    /// (row-major); exhaustive: one per laser grid point (row-major). Empty without
+    /// laser sampling; `None` where the ray meets nothing (that point lights nothing).
     pub laser_hits: Vec<Option<Hit>>,
     /// The laser's light at each lit point, aligned with `laser_hits`.
     pub lit_light: Vec<Option<LaserLight>>,
@@ -532,7 +529,7 @@ pub fn laser_light(
     } else {
         p
     };
-    let ls = emitters[setup.laser as usize].sample(shapes, at, 1.0, 0.0, [0.0; 2])?;
+    let ls = emitters[0].sample(shapes, at, 1.0, 0.0, [0.0; 2])?;
     let (o, d, tmax) = shadow_segment(crate::geometry::accel::offset_origin(p, ng, dir), pos)?;
     if occluded(o, d, tmax) {
         return None;
@@ -741,16 +738,11 @@ pub fn prepare(
         None
     };
     let mut setup = NlosSetup {
-        laser: 0,
         laser_origin,
         laser_axis,
         meter,
         sensor_grid: grid,
         laser_grid,
-        laser_targets: laser_hits
-            .iter()
-            .map(|h| h.map_or(Vec3::NAN, |h| h.surface.p))
-            .collect(),
         laser_hits,
         lit_light: Vec::new(),
         sensor_hits,
