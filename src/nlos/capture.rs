@@ -15,6 +15,13 @@ pub struct Capture {
     /// Laser points of H's laser axis (1 for single and confocal captures).
     pub lasers: usize,
     pub sensors: usize,
+    /// The grids' shapes (X, Y) when they are X x Y grids (point (i, j) is `i Y + j`);
+    /// (N, 1) for a y-tal N_3 grid.
+    pub sensor_dims: [usize; 2],
+    pub laser_dims: [usize; 2],
+    /// The relay wall's unit normal, towards the hidden scene (a y-tal file's first
+    /// `sensor_grid_normals` entry; +z when it has none).
+    pub normal: [f32; 3],
     /// (T, L, S) row-major.
     pub h: Vec<f32>,
     /// One point per laser of H's laser axis, or, when `paired`, one per sensor point.
@@ -73,6 +80,9 @@ impl Capture {
             bins: m.bins,
             lasers: lx * ly,
             sensors: sx * sy,
+            sensor_dims: [sx, sy],
+            laser_dims: [lx, ly],
+            normal: f32x3(rec.wall_normal),
             h,
             laser_grid,
             sensor_grid,
@@ -102,9 +112,9 @@ impl Capture {
             Err(_) => None,
         };
         let shape: Vec<usize> = shape.iter().map(|&d| d as usize).collect();
-        let (bins, lasers, sensors) = match (format, shape.as_slice()) {
-            (Some(1) | None, &[t, sx, sy]) => (t, 1, sx * sy),
-            (Some(2) | None, &[t, lx, ly, sx, sy]) => (t, lx * ly, sx * sy),
+        let (bins, laser_dims, sensor_dims) = match (format, shape.as_slice()) {
+            (Some(1) | None, &[t, sx, sy]) => (t, [1, 1], [sx, sy]),
+            (Some(2) | None, &[t, lx, ly, sx, sy]) => (t, [lx, ly], [sx, sy]),
             (f, s) => {
                 return Err(format!(
                     "{}: H of shape {s:?} (H_format {f:?}): tstat reads T_Sx_Sy (1) and T_Lx_Ly_Sx_Sy (2) captures",
@@ -112,6 +122,7 @@ impl Capture {
                 ))
             }
         };
+        let (lasers, sensors) = (laser_dims[0] * laser_dims[1], sensor_dims[0] * sensor_dims[1]);
         let h = h_ds.read_f32().map_err(|e| err("H", e))?;
         if h.len() != bins * lasers * sensors || bins == 0 || sensors == 0 {
             return Err(format!(
@@ -177,10 +188,28 @@ impl Capture {
                 path.display()
             ));
         }
+        let normal = match file.dataset("sensor_grid_normals") {
+            Ok(d) => {
+                let v = d.read_f32().map_err(|e| err("sensor_grid_normals", e))?;
+                let n = (v.len() >= 3).then(|| [v[0], v[1], v[2]]);
+                let len = n.map_or(0.0, |n| (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt());
+                if !(len.is_finite() && len > 0.0) {
+                    return Err(format!(
+                        "{}: sensor_grid_normals is not a grid of non-zero normals",
+                        path.display()
+                    ));
+                }
+                n.expect("checked").map(|x| x / len)
+            }
+            Err(_) => [0.0, 0.0, 1.0],
+        };
         let c = Capture {
             bins,
             lasers,
             sensors,
+            sensor_dims,
+            laser_dims,
+            normal,
             h,
             laser_grid,
             sensor_grid,
