@@ -1,12 +1,13 @@
-//! `tstat nlos reconstruct CAPTURE --method bp|fbp [--wl-mean W [--wl-sigma S]]
+//! `tstat nlos reconstruct CAPTURE --method bp|fbp|pf [--wl-mean W [--wl-sigma S]]
 //! --volume X0,X1,Y0,Y1,Z0,Z1 --voxels NX,NY,NZ --out VOLUME.npy`: a reconstruction of the hidden scene from an
 //! NLOS capture (a tstat bundle or a y-tal HDF5 capture), as y-tal computes it.
 
-use super::util::{arg, check_outputs, Kind};
+use super::util::{arg, check_outputs, human_bytes, parse_bytes, Kind};
 use crate::bundle::write::stage;
 use crate::bundle::{Bundle, BundleError};
 use crate::nlos::bp::{backproject, filtered_backproject, VoxelGrid};
 use crate::nlos::capture::Capture;
+use crate::nlos::pf::{memory_bytes as pf_memory, phasor_field, pulse};
 use anyhow::{anyhow, bail};
 use clap::{Args, Subcommand, ValueEnum};
 use std::path::{Path, PathBuf};
@@ -31,6 +32,18 @@ pub enum Method {
     /// capture filtered by a complex pulse of wavelength --wl-mean, backprojected;
     /// written as the magnitude.
     Fbp,
+    /// Phasor fields with Rayleigh-Sommerfeld propagation (y-tal's
+    /// `tal.reconstruct.pf_dev`, camera system DIRECT_LIGHT): the virtual pulse of
+    /// wavelength --wl-mean propagated to each voxel frequency by frequency, by FFT
+    /// convolution when the voxel slices are parallel to the relay wall with its grid's
+    /// spacing; written as the magnitude. Confocal captures too (y-tal refuses them).
+    Pf,
+}
+
+impl Method {
+    fn wavelength(self) -> bool {
+        matches!(self, Method::Fbp | Method::Pf)
+    }
 }
 
 #[derive(Args, Debug)]
@@ -46,12 +59,16 @@ pub struct ReconstructArgs {
     /// Voxels per axis: NX,NY,NZ (centres spaced as numpy.linspace).
     #[arg(long)]
     pub voxels: String,
-    /// fbp: the filter's wavelength (OPL units, e.g. 8 voxel widths).
+    /// fbp, pf: the virtual pulse's wavelength (OPL units, e.g. 8 voxel widths).
     #[arg(long)]
     pub wl_mean: Option<f64>,
-    /// fbp: the width of its Gaussian envelope (default wl_mean / sqrt(2), as y-tal).
+    /// fbp, pf: the width of its Gaussian envelope (default wl_mean / sqrt(2), as y-tal).
     #[arg(long)]
     pub wl_sigma: Option<f64>,
+    /// The most working memory the reconstruction may take (e.g. 4G; default 8G); the
+    /// capture itself (T L S f32) comes on top.
+    #[arg(long)]
+    pub max_memory: Option<String>,
     /// The reconstruction, f32 (NX, NY, NZ) .npy.
     #[arg(long)]
     pub out: PathBuf,
@@ -106,6 +123,28 @@ pub fn voxel_grid(volume: &str, voxels: &str) -> anyhow::Result<VoxelGrid> {
     })
 }
 
+/// `--max-memory`'s default.
+const DEFAULT_MAX_MEMORY: u64 = 8 << 30;
+
+/// The working memory of a reconstruction, beyond the capture.
+fn working_memory(
+    c: &Capture,
+    grid: &VoxelGrid,
+    method: Method,
+    wavelengths: Option<(f64, f64)>,
+) -> anyhow::Result<u64> {
+    let out = grid.voxels() as u64 * 8;
+    Ok(match (method, wavelengths) {
+        (Method::Pf, Some((m, s))) => {
+            let p = pulse(c.bins, c.delta_t, m, s).map_err(|e| anyhow!(e))?;
+            pf_memory(c, grid, &p) as u64
+        }
+        // The complex filtered capture and the two backprojected planes.
+        (Method::Fbp, _) => c.h.len() as u64 * 8 + out * 2,
+        _ => out,
+    })
+}
+
 fn load(path: &Path) -> anyhow::Result<Capture> {
     if path.is_dir() {
         let bundle = Bundle::open(path)?;
@@ -130,11 +169,14 @@ fn load(path: &Path) -> anyhow::Result<Capture> {
 pub fn run(a: NlosArgs) -> anyhow::Result<()> {
     let NlosCommand::Reconstruct(r) = a.command;
     let grid = voxel_grid(&r.volume, &r.voxels)?;
-    let wavelengths = match (r.method, r.wl_mean, r.wl_sigma) {
-        (Method::Bp, None, None) => None,
-        (Method::Bp, _, _) => bail!("--wl-mean and --wl-sigma belong to --method fbp"),
-        (Method::Fbp, None, _) => bail!("--method fbp needs --wl-mean (the filter's wavelength)"),
-        (Method::Fbp, Some(m), sigma) => {
+    let wavelengths = match (r.method.wavelength(), r.wl_mean, r.wl_sigma) {
+        (false, None, None) => None,
+        (false, _, _) => bail!("--wl-mean and --wl-sigma belong to --method fbp and pf"),
+        (true, None, _) => bail!(
+            "--method {:?} needs --wl-mean (the virtual pulse's wavelength)",
+            r.method
+        ),
+        (true, Some(m), sigma) => {
             let s = sigma.unwrap_or(m / std::f64::consts::SQRT_2);
             if !(m > 0.0 && m.is_finite() && s > 0.0 && s.is_finite()) {
                 bail!("--wl-mean {m} and --wl-sigma {s} must be positive and finite");
@@ -164,9 +206,28 @@ pub fn run(a: NlosArgs) -> anyhow::Result<()> {
             );
         }
     }
+    let budget = match &r.max_memory {
+        Some(s) => parse_bytes(s).map_err(|e| anyhow!("--max-memory: {e}"))?,
+        None => DEFAULT_MAX_MEMORY,
+    };
+    let need = working_memory(&capture, &grid, r.method, wavelengths)?;
+    if need > budget {
+        bail!(
+            "--method {:?} on {} x {} x {} voxels needs {} of working memory, over --max-memory {}",
+            r.method,
+            grid.n[0],
+            grid.n[1],
+            grid.n[2],
+            human_bytes(need),
+            human_bytes(budget)
+        );
+    }
     let start = std::time::Instant::now();
     let volume = match (r.method, wavelengths) {
         (Method::Fbp, Some((m, s))) => filtered_backproject(&capture, &grid, m, s),
+        (Method::Pf, Some((m, s))) => {
+            phasor_field(&capture, &grid, m, s).map_err(|e| anyhow!(e))?
+        }
         _ => backproject(&capture, &grid),
     };
     let seconds = start.elapsed().as_secs_f64();

@@ -226,6 +226,23 @@ impl Capture {
         Ok(c)
     }
 
+    /// The time series `q` of `qs` (`q = l S + s`), one after the other, `bins` values
+    /// each. H is time-major, so a block of neighbouring series reads H a row at a time.
+    pub fn series(&self, qs: std::ops::Range<usize>) -> Vec<f32> {
+        let (n, stride) = (qs.len(), self.lasers * self.sensors);
+        let mut out = vec![0f32; n * self.bins];
+        for t in 0..self.bins {
+            let row = &self.h[t * stride + qs.start..t * stride + qs.end];
+            for (k, &v) in row.iter().enumerate() {
+                out[k * self.bins + t] = v;
+            }
+        }
+        out
+    }
+
+    /// Series per block of [`Capture::series`] that keeps a block's reads in cache.
+    pub const SERIES_BLOCK: usize = 64;
+
     /// H at (bin, laser, sensor).
     #[inline]
     pub fn at(&self, t: usize, l: usize, s: usize) -> f32 {

@@ -52,8 +52,23 @@ pub fn padding(nt: usize, wl_sigma: f64, delta_t: f64) -> (usize, usize) {
     (nt + 2 * pad, pad)
 }
 
-/// The pulse K (ifftshifted, complex), `n` samples of `delta_t`.
-fn kernel(n: usize, delta_t: f64, wl_mean: f64, wl_sigma: f64) -> Vec<Complex<f64>> {
+/// How the pulse's samples are rotated to put its centre at t = 0: element `n / 2`
+/// first (numpy's `ifftshift`, the fbp filter's) or element `n - n / 2` first
+/// (`fftshift`, the phasor-field solver's); the same for even `n`.
+#[derive(Clone, Copy)]
+pub enum Shift {
+    Ifft,
+    Fft,
+}
+
+/// The pulse K (centred at t = 0 by `shift`, complex), `n` samples of `delta_t`.
+pub fn kernel(
+    n: usize,
+    delta_t: f64,
+    wl_mean: f64,
+    wl_sigma: f64,
+    shift: Shift,
+) -> Vec<Complex<f64>> {
     let t_max = delta_t * (n as f64 - 1.0);
     let t = linspace_f32(t_max, n);
     let (half, sigma) = ((t_max / 2.0) as f32, wl_sigma as f32);
@@ -75,9 +90,12 @@ fn kernel(n: usize, delta_t: f64, wl_mean: f64, wl_sigma: f64) -> Vec<Complex<f6
             Complex::new((a * c) as f64, (a * s) as f64)
         })
         .collect();
-    // ifftshift: element n / 2 moves to the front.
-    let mut shifted = k[n / 2..].to_vec();
-    shifted.extend_from_slice(&k[..n / 2]);
+    let front = match shift {
+        Shift::Ifft => n / 2,
+        Shift::Fft => n - n / 2,
+    };
+    let mut shifted = k[front..].to_vec();
+    shifted.extend_from_slice(&k[..front]);
     shifted
 }
 
@@ -88,38 +106,43 @@ pub fn pf_filter(c: &Capture, wl_mean: f64, wl_sigma: f64) -> Filtered {
     let mut planner = FftPlanner::<f64>::new();
     let fft = planner.plan_fft_forward(n);
     let ifft = planner.plan_fft_inverse(n);
-    let mut kf = kernel(n, c.delta_t, wl_mean, wl_sigma);
+    let mut kf = kernel(n, c.delta_t, wl_mean, wl_sigma, Shift::Ifft);
     fft.process(&mut kf);
     let series = c.lasers * c.sensors;
     let mut re = vec![0f32; nt * series];
     let mut im = vec![0f32; nt * series];
     // Each (laser, sensor) series on its own; results gathered per series.
-    let filtered: Vec<Vec<Complex<f32>>> = (0..series)
+    let block = Capture::SERIES_BLOCK;
+    let filtered: Vec<Vec<Complex<f32>>> = (0..series.div_ceil(block))
         .into_par_iter()
-        .map_init(
-            || vec![Complex::new(0.0, 0.0); n],
-            |buf, q| {
-                buf.iter_mut().for_each(|z| *z = Complex::new(0.0, 0.0));
-                for t in 0..nt {
-                    buf[pad + t] = Complex::new(c.h[t * series + q] as f64, 0.0);
-                }
-                fft.process(buf);
-                for (z, k) in buf.iter_mut().zip(&kf) {
-                    // y-tal keeps H's spectrum in complex64 before the product.
-                    let h = Complex::new(z.re as f32 as f64, z.im as f32 as f64);
-                    let p = h * k;
-                    *z = Complex::new(p.re as f32 as f64, p.im as f32 as f64);
-                }
-                ifft.process(buf);
-                let scale = 1.0 / n as f64;
-                (0..nt)
-                    .map(|t| {
-                        let z = buf[pad + t] * scale;
-                        Complex::new(z.re as f32, z.im as f32)
-                    })
-                    .collect()
-            },
-        )
+        .flat_map_iter(|b| {
+            let qs = b * block..((b + 1) * block).min(series);
+            let h = c.series(qs.clone());
+            let mut buf = vec![Complex::new(0.0, 0.0); n];
+            (0..qs.len())
+                .map(|k| {
+                    buf.iter_mut().for_each(|z| *z = Complex::new(0.0, 0.0));
+                    for (t, &v) in h[k * nt..(k + 1) * nt].iter().enumerate() {
+                        buf[pad + t] = Complex::new(v as f64, 0.0);
+                    }
+                    fft.process(&mut buf);
+                    for (z, k) in buf.iter_mut().zip(&kf) {
+                        // y-tal keeps H's spectrum in complex64 before the product.
+                        let h = Complex::new(z.re as f32 as f64, z.im as f32 as f64);
+                        let p = h * k;
+                        *z = Complex::new(p.re as f32 as f64, p.im as f32 as f64);
+                    }
+                    ifft.process(&mut buf);
+                    let scale = 1.0 / n as f64;
+                    (0..nt)
+                        .map(|t| {
+                            let z = buf[pad + t] * scale;
+                            Complex::new(z.re as f32, z.im as f32)
+                        })
+                        .collect::<Vec<_>>()
+                })
+                .collect::<Vec<_>>()
+        })
         .collect();
     for (q, f) in filtered.iter().enumerate() {
         for (t, z) in f.iter().enumerate() {
