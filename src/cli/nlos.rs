@@ -1,4 +1,4 @@
-//! `tstat nlos reconstruct CAPTURE --method bp|fbp|pf [--wl-mean W [--wl-sigma S]]
+//! `tstat nlos reconstruct CAPTURE --method bp|fbp|pf|fk|lct [--wl-mean W [--wl-sigma S]] [--snr S]
 //! --volume X0,X1,Y0,Y1,Z0,Z1 --voxels NX,NY,NZ --out VOLUME.npy`: a reconstruction of the hidden scene from an
 //! NLOS capture (a tstat bundle or a y-tal HDF5 capture), as y-tal computes it.
 
@@ -8,6 +8,7 @@ use crate::bundle::{Bundle, BundleError};
 use crate::nlos::bp::{backproject, filtered_backproject, VoxelGrid};
 use crate::nlos::capture::Capture;
 use crate::nlos::pf::{memory_bytes as pf_memory, phasor_field, pulse};
+use crate::nlos::{fk, lct};
 use anyhow::{anyhow, bail};
 use clap::{Args, Subcommand, ValueEnum};
 use std::path::{Path, PathBuf};
@@ -38,6 +39,13 @@ pub enum Method {
     /// convolution when the voxel slices are parallel to the relay wall with its grid's
     /// spacing; written as the magnitude. Confocal captures too (y-tal refuses them).
     Pf,
+    /// f-k migration (y-tal's `tal.reconstruct.fk`; confocal captures of an N x N grid):
+    /// the Stolt-resampled wave migration on the capture's own grid (N x N points, its
+    /// bins as depths), resampled onto the voxels.
+    Fk,
+    /// The light-cone transform with its Wiener filter (O'Toole et al. 2018; confocal
+    /// captures of an N x N grid), on the capture's own grid, resampled onto the voxels.
+    Lct,
 }
 
 impl Method {
@@ -65,6 +73,9 @@ pub struct ReconstructArgs {
     /// fbp, pf: the width of its Gaussian envelope (default wl_mean / sqrt(2), as y-tal).
     #[arg(long)]
     pub wl_sigma: Option<f64>,
+    /// lct: the Wiener filter's signal-to-noise ratio (default 0.8, O'Toole's).
+    #[arg(long)]
+    pub snr: Option<f64>,
     /// The most working memory the reconstruction may take (e.g. 4G; default 8G); the
     /// capture itself (T L S f32) comes on top.
     #[arg(long)]
@@ -141,6 +152,8 @@ fn working_memory(
         }
         // The complex filtered capture and the two backprojected planes.
         (Method::Fbp, _) => c.h.len() as u64 * 8 + out * 2,
+        (Method::Fk, _) => fk::memory_bytes(c) as u64 + out,
+        (Method::Lct, _) => lct::memory_bytes(c) as u64 + out,
         _ => out,
     })
 }
@@ -206,6 +219,13 @@ pub fn run(a: NlosArgs) -> anyhow::Result<()> {
             );
         }
     }
+    match (r.method, r.snr) {
+        (Method::Lct, Some(v)) if !(v > 0.0 && v.is_finite()) => {
+            bail!("--snr {v}: the signal-to-noise ratio must be positive and finite")
+        }
+        (Method::Lct, _) | (_, None) => {}
+        (_, Some(_)) => bail!("--snr belongs to --method lct"),
+    }
     let budget = match &r.max_memory {
         Some(s) => parse_bytes(s).map_err(|e| anyhow!("--max-memory: {e}"))?,
         None => DEFAULT_MAX_MEMORY,
@@ -227,6 +247,10 @@ pub fn run(a: NlosArgs) -> anyhow::Result<()> {
         (Method::Fbp, Some((m, s))) => filtered_backproject(&capture, &grid, m, s),
         (Method::Pf, Some((m, s))) => {
             phasor_field(&capture, &grid, m, s).map_err(|e| anyhow!(e))?
+        }
+        (Method::Fk, _) => fk::fk_migration(&capture, &grid).map_err(|e| anyhow!(e))?,
+        (Method::Lct, _) => {
+            lct::lct(&capture, &grid, r.snr.unwrap_or(lct::DEFAULT_SNR)).map_err(|e| anyhow!(e))?
         }
         _ => backproject(&capture, &grid),
     };

@@ -122,7 +122,10 @@ impl Capture {
                 ))
             }
         };
-        let (lasers, sensors) = (laser_dims[0] * laser_dims[1], sensor_dims[0] * sensor_dims[1]);
+        let (lasers, sensors) = (
+            laser_dims[0] * laser_dims[1],
+            sensor_dims[0] * sensor_dims[1],
+        );
         let h = h_ds.read_f32().map_err(|e| err("H", e))?;
         if h.len() != bins * lasers * sensors || bins == 0 || sensors == 0 {
             return Err(format!(

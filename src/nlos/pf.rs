@@ -282,7 +282,13 @@ fn slice_points(grid: &VoxelGrid, k: usize) -> Vec<[f64; 3]> {
     let z = grid.coordinate(2, k) as f64;
     (0..grid.n[0])
         .flat_map(|i| (0..grid.n[1]).map(move |j| (i, j)))
-        .map(|(i, j)| [grid.coordinate(0, i) as f64, grid.coordinate(1, j) as f64, z])
+        .map(|(i, j)| {
+            [
+                grid.coordinate(0, i) as f64,
+                grid.coordinate(1, j) as f64,
+                z,
+            ]
+        })
         .collect()
 }
 
@@ -325,39 +331,38 @@ pub fn phasor_field(
                 let h = &hw[w * series..(w + 1) * series];
                 // cam[l][v]: the sum over sensor points.
                 let cam: Vec<Vec<C64>> = {
-                        let (rx, ry) = (fwd.nx, fwd.ny);
-                        let [lx, ly] = lat.dims;
-                        // The kernel over offsets (a - i, b - j), stored at
-                        // (a - i + lx - 1, b - j + ly - 1).
-                        let v0 = sub(points[0], lat.origin);
-                        let mut kern = vec![ZERO; rx * ry];
-                        for m in 0..rx {
-                            for n in 0..ry {
-                                let off = [
-                                    v0[0] + (m as f64 - (lx - 1) as f64) * dx,
-                                    v0[1] + (n as f64 - (ly - 1) as f64) * dy,
-                                    v0[2],
-                                ];
-                                kern[m * ry + n] =
-                                    C64::from_polar(1.0, TAU * f * twice * norm(off));
-                            }
+                    let (rx, ry) = (fwd.nx, fwd.ny);
+                    let [lx, ly] = lat.dims;
+                    // The kernel over offsets (a - i, b - j), stored at
+                    // (a - i + lx - 1, b - j + ly - 1).
+                    let v0 = sub(points[0], lat.origin);
+                    let mut kern = vec![ZERO; rx * ry];
+                    for m in 0..rx {
+                        for n in 0..ry {
+                            let off = [
+                                v0[0] + (m as f64 - (lx - 1) as f64) * dx,
+                                v0[1] + (n as f64 - (ly - 1) as f64) * dy,
+                                v0[2],
+                            ];
+                            kern[m * ry + n] = C64::from_polar(1.0, TAU * f * twice * norm(off));
                         }
-                        fwd.process(&mut kern, column);
-                        (0..c.lasers)
-                            .map(|l| {
-                                let mut a = vec![ZERO; rx * ry];
-                                for (s, &[i, j]) in lat.cell.iter().enumerate() {
-                                    a[i * ry + j] = h[l * c.sensors + s];
-                                }
-                                fwd.process(&mut a, column);
-                                a.iter_mut().zip(&kern).for_each(|(x, y)| *x *= y);
-                                inv.process(&mut a, column);
-                                let scale = 1.0 / (rx * ry) as f64;
-                                (0..slice)
-                                    .map(|v| a[(v / ny + lx - 1) * ry + v % ny + ly - 1] * scale)
-                                    .collect()
-                            })
-                            .collect()
+                    }
+                    fwd.process(&mut kern, column);
+                    (0..c.lasers)
+                        .map(|l| {
+                            let mut a = vec![ZERO; rx * ry];
+                            for (s, &[i, j]) in lat.cell.iter().enumerate() {
+                                a[i * ry + j] = h[l * c.sensors + s];
+                            }
+                            fwd.process(&mut a, column);
+                            a.iter_mut().zip(&kern).for_each(|(x, y)| *x *= y);
+                            inv.process(&mut a, column);
+                            let scale = 1.0 / (rx * ry) as f64;
+                            (0..slice)
+                                .map(|v| a[(v / ny + lx - 1) * ry + v % ny + ly - 1] * scale)
+                                .collect()
+                        })
+                        .collect()
                 };
                 // The sum over laser points (none for a confocal capture).
                 let field = if c.paired {
@@ -408,7 +413,11 @@ pub fn dot_reference(hr: &[f32], hi: &[f32], er: &[f32], ei: &[f32]) -> C64 {
 }
 
 /// [`dot_reference`] eight terms at a time (AVX2 + FMA, which the build targets).
-#[cfg(all(target_arch = "x86_64", target_feature = "avx2", target_feature = "fma"))]
+#[cfg(all(
+    target_arch = "x86_64",
+    target_feature = "avx2",
+    target_feature = "fma"
+))]
 pub fn dot(hr: &[f32], hi: &[f32], er: &[f32], ei: &[f32]) -> C64 {
     use std::arch::x86_64::*;
     let n = hr.len();
@@ -441,7 +450,11 @@ pub fn dot(hr: &[f32], hi: &[f32], er: &[f32], ei: &[f32]) -> C64 {
 }
 
 /// Without AVX2: the reference.
-#[cfg(not(all(target_arch = "x86_64", target_feature = "avx2", target_feature = "fma")))]
+#[cfg(not(all(
+    target_arch = "x86_64",
+    target_feature = "avx2",
+    target_feature = "fma"
+)))]
 pub fn dot(hr: &[f32], hi: &[f32], er: &[f32], ei: &[f32]) -> C64 {
     dot_reference(hr, hi, er, ei)
 }
@@ -517,7 +530,7 @@ fn direct_sum(c: &Capture, grid: &VoxelGrid, p: &Pulse, hw: &[C64]) -> Vec<f32> 
         let mut ei = vec![0f32; o.len() * ns];
         let mut field = vec![ZERO; o.len()];
         let mut acc = vec![ZERO; o.len()];
-        for w in 0..nw {
+        for (w, factor) in factors.iter().enumerate() {
             for (cam, proj) in cams.iter_mut().zip(projs.iter_mut()) {
                 if w == 0 || !even(w) {
                     cam.seed(p.freqs[w], df);
@@ -550,7 +563,7 @@ fn direct_sum(c: &Capture, grid: &VoxelGrid, p: &Pulse, hw: &[C64]) -> Vec<f32> 
                 }
             }
             for (a, f) in acc.iter_mut().zip(&field) {
-                *a += f * factors[w];
+                *a += f * factor;
             }
         }
         for (o, a) in o.iter_mut().zip(&acc) {
