@@ -645,16 +645,26 @@ fn point_capture(
     lasers: Vec<[f32; 3]>,
     paired: bool,
 ) -> tstat::nlos::capture::Capture {
-    let grid = |n: usize| -> Vec<[f32; 3]> {
-        (0..n)
-            .flat_map(|i| (0..n).map(move |j| (i, j)))
-            .map(|(i, j)| {
-                let c = |k: usize| -1.0 + (2.0 * k as f32 + 1.0) / n as f32;
-                [c(i), c(j), 0.0]
-            })
-            .collect()
-    };
-    let sensors = grid(9);
+    point_capture_on(p, lasers, paired, |i, j| [i, j])
+}
+
+/// [`point_capture`] with sensor point (i, j) of the 9 x 9 grid at the wall's cell
+/// centre `cell(i, j)` of [-1, 1]^2 (z = 0).
+fn point_capture_on(
+    p: [f32; 3],
+    lasers: Vec<[f32; 3]>,
+    paired: bool,
+    cell: impl Fn(usize, usize) -> [usize; 2],
+) -> tstat::nlos::capture::Capture {
+    let n = 9;
+    let sensors: Vec<[f32; 3]> = (0..n)
+        .flat_map(|i| (0..n).map(move |j| (i, j)))
+        .map(|(i, j)| {
+            let [a, b] = cell(i, j);
+            let c = |k: usize| -1.0 + (2.0 * k as f32 + 1.0) / n as f32;
+            [c(a), c(b), 0.0]
+        })
+        .collect();
     let (t_start, delta_t, bins) = (0.5, 0.01, 300);
     let nl = if paired { 1 } else { lasers.len() };
     let mut h = vec![0f32; bins * nl * sensors.len()];
@@ -767,6 +777,79 @@ fn filtered_backprojection_of_a_point_scatterer_peaks_at_its_voxel() {
     assert!(two.re[140 * series + 1] == 0.0 && two.im[140 * series + 1] == 0.0);
 }
 
+/// Phasor fields on the same scatterer: the magnitude peaks at its voxel, confocal and
+/// exhaustive (the direct sum: the voxels are finer than the wall's grid).
+#[test]
+fn phasor_field_of_a_point_scatterer_peaks_at_its_voxel() {
+    use tstat::nlos::pf::{convolves, phasor_field};
+    let (grid, cases) = scatterer_cases();
+    for (capture, _) in cases {
+        assert!(!convolves(&capture, &grid));
+        let v = phasor_field(&capture, &grid, 0.2, 0.2 / 2f64.sqrt()).unwrap();
+        let best = (0..v.len()).max_by(|&a, &b| v[a].total_cmp(&v[b])).unwrap();
+        let (i, j, k) = (best / (21 * 11), best / 11 % 21, best % 11);
+        assert_eq!((i, j, k), (14, 8, 6), "paired {}", capture.paired);
+    }
+}
+
+/// The FFT convolution of phasor fields equals the direct sum, whatever way the wall's
+/// grid runs against the voxel axes (flipped, swapped), confocal and exhaustive; and
+/// the vectorised complex dot product equals its reference.
+#[test]
+fn phasor_field_convolution_equals_the_direct_sum() {
+    use tstat::nlos::bp::VoxelGrid;
+    use tstat::nlos::pf::{convolves, dot, dot_reference, phasor_field_by, Propagation};
+    // Slices of 13 x 13 voxels at the wall's spacing 2/9, wider than the wall.
+    let grid = VoxelGrid {
+        first: [-4.0 / 3.0, -4.0 / 3.0, 0.6],
+        last: [4.0 / 3.0, 4.0 / 3.0, 1.0],
+        n: [13, 13, 5],
+    };
+    let p = [0.15, -0.1, 0.7];
+    let lasers = vec![[-0.5, 0.5, 0.0], [0.5, 0.5, 0.0], [0.0, -0.5, 0.0]];
+    type Cell = fn(usize, usize) -> [usize; 2];
+    let cells: [(&str, Cell); 4] = [
+        ("as is", |i, j| [i, j]),
+        ("x flipped", |i, j| [8 - i, j]),
+        ("swapped", |i, j| [j, i]),
+        ("swapped, both flipped", |i, j| [8 - j, 8 - i]),
+    ];
+    for (name, cell) in cells {
+        for paired in [true, false] {
+            let c = point_capture_on(p, lasers.clone(), paired, cell);
+            assert!(convolves(&c, &grid), "{name}");
+            let fast =
+                phasor_field_by(&c, &grid, 0.3, 0.3 / 2f64.sqrt(), Propagation::Fastest).unwrap();
+            let slow =
+                phasor_field_by(&c, &grid, 0.3, 0.3 / 2f64.sqrt(), Propagation::Direct).unwrap();
+            let top = slow.iter().fold(0f32, |a, &b| a.max(b));
+            let worst = fast
+                .iter()
+                .zip(&slow)
+                .fold(0f32, |a, (x, y)| a.max((x - y).abs()));
+            assert!(
+                top > 0.0 && worst <= 1e-4 * top,
+                "{name}, paired {paired}: {worst} of {top}"
+            );
+        }
+    }
+    // A slice step other than the wall's: no convolution.
+    let finer = VoxelGrid {
+        n: [25, 25, 5],
+        ..grid
+    };
+    assert!(!convolves(&point_capture(p, Vec::new(), true), &finer));
+    let n = 37;
+    let v = |k: usize| {
+        (0..n)
+            .map(|s| ((s * 7 + k * 3) % 11) as f32 / 5.0 - 1.0)
+            .collect::<Vec<_>>()
+    };
+    let (hr, hi, er, ei) = (v(0), v(1), v(2), v(3));
+    let (a, b) = (dot(&hr, &hi, &er, &ei), dot_reference(&hr, &hi, &er, &ei));
+    assert!((a - b).norm() <= 1e-5 * b.norm().max(1.0), "{a} vs {b}");
+}
+
 #[test]
 fn reconstruct_reads_bundles_and_tal_files_alike_and_refuses_bad_input() {
     let dir = tempfile::tempdir().unwrap();
@@ -827,7 +910,8 @@ fn reconstruct_reads_bundles_and_tal_files_alike_and_refuses_bad_input() {
         (b, "bp", "0,1,0,1,0,1", "2,0,2", "at least one voxel"),
         (b, "bp", "0,1,0,1,0,inf", "2,2,2", "finite"),
         (b, "bp", "0,1,0,1,0,1", "100000,100000,100", "more than"),
-        (b, "lct", "0,1,0,1,0,1", "2,2,2", "invalid value"),
+        (b, "xyz", "0,1,0,1,0,1", "2,2,2", "invalid value"),
+        (b, "pf", "0,1,0,1,0,1", "2,2,2", "needs --wl-mean"),
         (b, "fbp", "0,1,0,1,0,1", "2,2,2", "needs --wl-mean"),
         (
             cbox_bundle,
@@ -862,6 +946,70 @@ fn reconstruct_reads_bundles_and_tal_files_alike_and_refuses_bad_input() {
         let err = String::from_utf8_lossy(&r.stderr);
         assert!(!r.status.success() && err.contains(want), "{args:?}: {err}");
         assert!(!out.exists());
+    }
+    // Flags that belong to other methods, a pulse above the Nyquist frequency, a
+    // memory budget too small.
+    for (method, extra, want) in [
+        ("bp", &["--snr", "1"][..], "--snr belongs to --method lct"),
+        ("lct", &["--snr=-1"][..], "must be positive"),
+        (
+            "fk",
+            &["--wl-mean", "0.1"][..],
+            "belong to --method fbp and pf",
+        ),
+        ("pf", &["--wl-mean", "0.01"][..], "Nyquist"),
+        ("fk", &["--max-memory", "1K"][..], "over --max-memory"),
+    ] {
+        let mut args = vec![
+            "nlos",
+            "reconstruct",
+            b,
+            "--method",
+            method,
+            "--volume=-0.5,0.5,-0.5,0.5,0.6,1.4",
+            "--voxels",
+            "11,11,9",
+            "--out",
+            o,
+        ];
+        args.extend_from_slice(extra);
+        let r = tstat(&args);
+        let err = String::from_utf8_lossy(&r.stderr);
+        assert!(!r.status.success() && err.contains(want), "{args:?}: {err}");
+        assert!(!out.exists());
+    }
+    // The other methods run on the same capture through the CLI.
+    for (method, extra) in [
+        ("fbp", &["--wl-mean", "0.2"][..]),
+        ("pf", &["--wl-mean", "0.2"][..]),
+        ("fk", &[][..]),
+        ("lct", &["--snr", "2"][..]),
+    ] {
+        let mut args = vec![
+            "nlos",
+            "reconstruct",
+            b,
+            "--method",
+            method,
+            "--volume=-0.5,0.5,-0.5,0.5,0.6,1.4",
+            "--voxels",
+            "11,11,9",
+            "--out",
+            o,
+        ];
+        args.extend_from_slice(extra);
+        let r = tstat(&args);
+        assert!(
+            r.status.success(),
+            "{args:?}: {}",
+            String::from_utf8_lossy(&r.stderr)
+        );
+        let v: ndarray::Array3<f32> = ndarray_npy::read_npy(&out).unwrap();
+        assert!(
+            v.iter().all(|x| x.is_finite()) && v.iter().any(|&x| x > 0.0),
+            "{method}"
+        );
+        std::fs::remove_file(&out).unwrap();
     }
     // An existing output is kept without --force.
     let kept = dir.path().join("v0.npy");

@@ -176,6 +176,12 @@ fn lattice(c: &Capture, grid: &VoxelGrid) -> Option<Lattice> {
     Some(Lattice { dims, cell, origin })
 }
 
+/// Whether the sum over sensor points runs as an FFT convolution on `grid` (its slices
+/// are the wall's lattice).
+pub fn convolves(c: &Capture, grid: &VoxelGrid) -> bool {
+    lattice(c, grid).is_some()
+}
+
 /// Bytes the reconstruction holds at its peak: the capture's kept spectrum (`nw L S`
 /// complex f64), each thread's fields of one slice (`L NX NY`, plus the FFT lattices
 /// when the convolution applies), the fields of one slice at every kept frequency
@@ -292,6 +298,15 @@ fn slice_points(grid: &VoxelGrid, k: usize) -> Vec<[f64; 3]> {
         .collect()
 }
 
+/// How the sum over sensor points runs.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Propagation {
+    /// By FFT convolution when the slices are the wall's lattice, else directly.
+    Fastest,
+    /// Directly, voxel by voxel (the reference for the convolution).
+    Direct,
+}
+
 /// The reconstruction (magnitude), (NX, NY, NZ) row-major; see the module notes.
 pub fn phasor_field(
     c: &Capture,
@@ -299,12 +314,27 @@ pub fn phasor_field(
     wl_mean: f64,
     wl_sigma: f64,
 ) -> Result<Vec<f32>, String> {
+    phasor_field_by(c, grid, wl_mean, wl_sigma, Propagation::Fastest)
+}
+
+/// [`phasor_field`] with the sum over sensor points run as `how` says.
+pub fn phasor_field_by(
+    c: &Capture,
+    grid: &VoxelGrid,
+    wl_mean: f64,
+    wl_sigma: f64,
+    how: Propagation,
+) -> Result<Vec<f32>, String> {
     let p = pulse(c.bins, c.delta_t, wl_mean, wl_sigma)?;
     let hw = spectrum(c, &p);
     let [nx, ny, nz] = grid.n;
     let slice = nx * ny;
     let series = c.lasers * c.sensors;
-    let Some(lat) = lattice(c, grid) else {
+    let lat = match how {
+        Propagation::Fastest => lattice(c, grid),
+        Propagation::Direct => None,
+    };
+    let Some(lat) = lat else {
         return Ok(direct_sum(c, grid, &p, &hw));
     };
     // Confocal: the light goes to v and back, the same distance twice.
