@@ -1030,3 +1030,78 @@ fn reconstruct_reads_bundles_and_tal_files_alike_and_refuses_bad_input() {
     assert!(!r.status.success());
     assert_eq!(std::fs::read(&kept).unwrap(), before);
 }
+
+/// Maximum-intensity projections: a voxel lands where each view puts it (x right, y
+/// up, depth right or up), the maximum wins along the ray, and `nlos mip` writes the
+/// picture at the scale asked and refuses bad input.
+#[test]
+fn mip_projects_where_each_view_puts_a_voxel() {
+    use tstat::viz::mip::{picture, project, ramp, Axis};
+    let n = [4, 3, 5];
+    let mut v = vec![0f32; 60];
+    let at = |i: usize, j: usize, k: usize| (i * 3 + j) * 5 + k;
+    v[at(3, 0, 1)] = 2.0;
+    v[at(3, 0, 4)] = 5.0;
+    v[at(0, 2, 0)] = f32::NAN;
+    let z = project(&v, n, Axis::Z);
+    assert_eq!((z.width, z.height), (4, 3));
+    // x = 3 is the last column, y = 0 the bottom row; the larger of 2 and 5.
+    assert_eq!(z.values[2 * 4 + 3], 5.0);
+    assert_eq!(z.values[0], 0.0, "NaN counts as 0");
+    let x = project(&v, n, Axis::X);
+    assert_eq!((x.width, x.height), (5, 3));
+    assert_eq!(x.values[2 * 5 + 4], 5.0);
+    assert_eq!(x.values[2 * 5 + 1], 2.0);
+    let y = project(&v, n, Axis::Y);
+    assert_eq!((y.width, y.height), (4, 5));
+    // Depth 4 is the top row, depth 1 the fourth.
+    assert_eq!(y.values[3], 5.0);
+    assert_eq!(y.values[3 * 4 + 3], 2.0);
+    let (w, h, px) = picture(&z, 3);
+    assert_eq!((w, h, px.len()), (12, 9, 12 * 9 * 3));
+    let last = ((2 * 3) * 12 + 9) * 3;
+    assert_eq!(&px[last..last + 3], &ramp(1.0));
+    assert_eq!(&px[0..3], &ramp(0.0));
+
+    let dir = tempfile::tempdir().unwrap();
+    let npy = dir.path().join("v.npy");
+    let arr = ndarray::Array3::from_shape_vec((4, 3, 5), v).unwrap();
+    ndarray_npy::write_npy(&npy, &arr).unwrap();
+    let png = dir.path().join("v.png");
+    let (i, o) = (npy.to_str().unwrap(), png.to_str().unwrap());
+    let r = tstat(&["nlos", "mip", i, "--axis", "x", "--scale", "2", "--out", o]);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let img = image::open(&png).unwrap();
+    assert_eq!((img.width(), img.height()), (10, 6));
+    let before = std::fs::read(&png).unwrap();
+    for (args, want) in [
+        (vec!["nlos", "mip", i, "--out", o], "exists"),
+        (
+            vec!["nlos", "mip", i, "--scale", "0", "--out", o, "--force"],
+            "at least one pixel",
+        ),
+        (
+            vec!["nlos", "mip", "missing.npy", "--out", o, "--force"],
+            "missing.npy",
+        ),
+        (vec!["nlos", "mip", i, "--out", i, "--force"], ".png"),
+    ] {
+        let r = tstat(&args);
+        let err = String::from_utf8_lossy(&r.stderr);
+        assert!(!r.status.success() && err.contains(want), "{args:?}: {err}");
+    }
+    assert_eq!(std::fs::read(&png).unwrap(), before);
+    // A 2-D array is no volume.
+    let flat = dir.path().join("flat.npy");
+    ndarray_npy::write_npy(&flat, &ndarray::Array2::<f32>::zeros((3, 3))).unwrap();
+    let r = tstat(&[
+        "nlos",
+        "mip",
+        flat.to_str().unwrap(),
+        "--out",
+        dir.path().join("f.png").to_str().unwrap(),
+    ]);
+    assert!(
+        !r.status.success() && String::from_utf8_lossy(&r.stderr).contains("not an (NX, NY, NZ)")
+    );
+}

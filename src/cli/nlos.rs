@@ -23,6 +23,36 @@ pub struct NlosArgs {
 pub enum NlosCommand {
     /// Reconstruct the hidden scene on a voxel grid (f32 (NX, NY, NZ) .npy).
     Reconstruct(ReconstructArgs),
+    /// A maximum-intensity projection of a reconstruction as PNG.
+    Mip(MipArgs),
+}
+
+#[derive(Clone, Copy, Debug, ValueEnum)]
+pub enum MipAxis {
+    /// Along depth: the view from the relay wall (x right, y up).
+    Z,
+    /// Along x: from the side (depth right, y up).
+    X,
+    /// Along y: from above (x right, depth up).
+    Y,
+}
+
+#[derive(Args, Debug)]
+pub struct MipArgs {
+    /// A reconstruction: f32 or f64 (NX, NY, NZ) .npy, as `nlos reconstruct` writes.
+    pub volume: PathBuf,
+    /// The projection axis.
+    #[arg(long, value_enum, default_value_t = MipAxis::Z)]
+    pub axis: MipAxis,
+    /// Pixels per voxel (default: enough for 512 pixels across, at most 64).
+    #[arg(long)]
+    pub scale: Option<usize>,
+    /// The picture (.png).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Replace an existing output.
+    #[arg(long)]
+    pub force: bool,
 }
 
 #[derive(Clone, Copy, Debug, ValueEnum)]
@@ -180,7 +210,74 @@ fn load(path: &Path) -> anyhow::Result<Capture> {
 }
 
 pub fn run(a: NlosArgs) -> anyhow::Result<()> {
-    let NlosCommand::Reconstruct(r) = a.command;
+    match a.command {
+        NlosCommand::Reconstruct(r) => reconstruct(r),
+        NlosCommand::Mip(m) => mip(m),
+    }
+}
+
+fn mip(m: MipArgs) -> anyhow::Result<()> {
+    use crate::viz::mip::{picture, project, Axis};
+    if m.out.extension().is_none_or(|e| e != "png") {
+        bail!(
+            "--out {}: the projection is written as .png",
+            m.out.display()
+        );
+    }
+    check_outputs(
+        &[arg("volume", &m.volume)],
+        &[(arg("--out", &m.out), Kind::File)],
+        m.force,
+    )?;
+    let read_err = |e: ndarray_npy::ReadNpyError| {
+        anyhow!(
+            "{}: not an (NX, NY, NZ) f32 or f64 .npy volume ({e})",
+            m.volume.display()
+        )
+    };
+    let v: ndarray::Array3<f32> = match ndarray_npy::read_npy::<_, ndarray::Array3<f32>>(&m.volume)
+    {
+        Ok(v) => v,
+        Err(ndarray_npy::ReadNpyError::WrongDescriptor(_)) => {
+            ndarray_npy::read_npy::<_, ndarray::Array3<f64>>(&m.volume)
+                .map_err(read_err)?
+                .mapv(|x| x as f32)
+        }
+        Err(e) => return Err(read_err(e)),
+    };
+    let shape = v.shape().to_vec();
+    if shape.contains(&0) {
+        bail!("{}: an empty volume {shape:?}", m.volume.display());
+    }
+    let n = [shape[0], shape[1], shape[2]];
+    let axis = match m.axis {
+        MipAxis::X => Axis::X,
+        MipAxis::Y => Axis::Y,
+        MipAxis::Z => Axis::Z,
+    };
+    let values: Vec<f32> = v.iter().copied().collect();
+    let p = project(&values, n, axis);
+    let scale = match m.scale {
+        Some(0) => bail!("--scale 0: at least one pixel per voxel"),
+        Some(k) if k.saturating_mul(p.width.max(p.height)) > 16384 => {
+            bail!("--scale {k}: the picture would be over 16384 pixels across")
+        }
+        Some(k) => k,
+        None => (512 / p.width.max(p.height)).clamp(1, 64),
+    };
+    let (w, h, px) = picture(&p, scale);
+    crate::report::plot::save_png_rgb(&m.out, &px, w, h)
+        .map_err(|e| anyhow!("{}: {e}", m.out.display()))?;
+    say!(
+        "wrote {} ({w} x {h} px, the maximum along {:?} of {:?})",
+        m.out.display(),
+        m.axis,
+        n
+    );
+    Ok(())
+}
+
+fn reconstruct(r: ReconstructArgs) -> anyhow::Result<()> {
     let grid = voxel_grid(&r.volume, &r.voxels)?;
     let wavelengths = match (r.method.wavelength(), r.wl_mean, r.wl_sigma) {
         (false, None, None) => None,

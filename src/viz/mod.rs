@@ -1,6 +1,7 @@
 //! Pictures for people: tone-mapped frames with one global exposure, GIF animations,
-//! streak images.
+//! streak images, maximum-intensity projections of NLOS reconstructions.
 
 pub mod frames;
+pub mod mip;
 pub mod tonemap;
 pub mod view;
