@@ -1105,3 +1105,90 @@ fn mip_projects_where_each_view_puts_a_voxel() {
         !r.status.success() && String::from_utf8_lossy(&r.stderr).contains("not an (NX, NY, NZ)")
     );
 }
+
+/// Denoising a capture: NLOS defaults (radius 1, no depth alignment) unless asked, and
+/// `nlos reconstruct --denoised` reads a (rows, Sx, T, C) volume of the capture in place
+/// of its noisy means (the noisy mean itself gives the bundle's reconstruction).
+#[test]
+fn denoised_captures_reconstruct_with_nlos_defaults() {
+    let dir = tempfile::tempdir().unwrap();
+    let xml = write(
+        dir.path(),
+        "c.xml",
+        &patch_scene("confocal", 4, 0.3, false, (1.9, 0.02, 40), 16),
+    );
+    let bundle = dir.path().join("c.tstats");
+    let b = bundle.to_str().unwrap();
+    assert!(tstat(&["render", &xml, "--out", b]).status.success());
+    let d = dir.path().join("d.npy");
+    let r = tstat(&["denoise", b, "--out", d.to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&r.stderr);
+    assert!(r.status.success(), "{err}");
+    assert!(err.contains("spatial radius 1, bins not aligned"), "{err}");
+    let r = tstat(&[
+        "denoise",
+        b,
+        "--out",
+        d.to_str().unwrap(),
+        "--force",
+        "--radius",
+        "2",
+        "--depth-align",
+    ]);
+    let err = String::from_utf8_lossy(&r.stderr);
+    assert!(
+        r.status.success() && err.contains("spatial radius 2, bins aligned"),
+        "{err}"
+    );
+
+    // The noisy mean as a "denoised" volume.
+    let x1: ndarray::Array4<f64> = ndarray_npy::read_npy(bundle.join("x1.npy")).unwrap();
+    let manifest: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(bundle.join("manifest.json")).unwrap())
+            .unwrap();
+    let spp = manifest["spp"].as_f64().unwrap();
+    let mean = x1.mapv(|v| (v / spp) as f32);
+    let m = dir.path().join("mean.npy");
+    ndarray_npy::write_npy(&m, &mean).unwrap();
+    let recon = |extra: &[&str], out: &str| {
+        let mut args = vec![
+            "nlos",
+            "reconstruct",
+            b,
+            "--method",
+            "bp",
+            "--volume=-0.5,0.5,-0.5,0.5,0.6,1.4",
+            "--voxels",
+            "7,7,5",
+            "--out",
+            out,
+        ];
+        args.extend_from_slice(extra);
+        tstat(&args)
+    };
+    let (o1, o2) = (dir.path().join("a.npy"), dir.path().join("b.npy"));
+    assert!(recon(&[], o1.to_str().unwrap()).status.success());
+    let r = recon(&["--denoised", m.to_str().unwrap()], o2.to_str().unwrap());
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let a: ndarray::Array3<f32> = ndarray_npy::read_npy(&o1).unwrap();
+    let c: ndarray::Array3<f32> = ndarray_npy::read_npy(&o2).unwrap();
+    let top = a.iter().fold(0f32, |x, &y| x.max(y));
+    assert!(top > 0.0);
+    for (x, y) in a.iter().zip(&c) {
+        assert!((x - y).abs() <= 1e-5 * top, "{x} vs {y}");
+    }
+    // A volume of another shape, and one without its bundle.
+    let wrong = dir.path().join("wrong.npy");
+    ndarray_npy::write_npy(&wrong, &ndarray::Array4::<f32>::zeros((3, 4, 40, 3))).unwrap();
+    let bad = dir.path().join("bad.npy");
+    let r = recon(
+        &["--denoised", wrong.to_str().unwrap()],
+        bad.to_str().unwrap(),
+    );
+    let err = String::from_utf8_lossy(&r.stderr);
+    assert!(
+        !r.status.success() && err.contains("capture's film is"),
+        "{err}"
+    );
+    assert!(!bad.exists());
+}

@@ -38,7 +38,7 @@ pub struct FilterArgs {
     /// Membership test.
     #[arg(long, value_enum, default_value = "tstat")]
     pub method: MethodArg,
-    /// Spatial radius r in pixels (window 2r + 1) [default: 3 for tstat, 5 for published
+    /// Spatial radius r in pixels (window 2r + 1) [default: 1 on NLOS captures; else 3 for tstat, 5 for published
     /// and --no-membership].
     #[arg(long, allow_negative_numbers = true)]
     pub radius: Option<i64>,
@@ -57,6 +57,10 @@ pub struct FilterArgs {
     /// tstat: do not align neighbours' bins by camera depth.
     #[arg(long)]
     pub no_depth_align: bool,
+    /// tstat: align neighbours' bins by camera depth also on NLOS captures (off there by
+    /// default: a capture's times do not follow the depth from its sensor origin).
+    #[arg(long, conflicts_with = "no_depth_align")]
+    pub depth_align: bool,
     /// Published: threshold on 1 - w* (g^2 = 1/(2 gamma) - 1), in (0, 0.5). Default: 0.25 below 16 spp, 0.15 below 64, else 0.1.
     #[arg(long, conflicts_with = "alpha", allow_negative_numbers = true)]
     pub gamma: Option<f64>,
@@ -64,7 +68,7 @@ pub struct FilterArgs {
     #[arg(long, allow_negative_numbers = true)]
     pub alpha: Option<f64>,
     /// Run the base filter alone (no membership test).
-    #[arg(long, conflicts_with_all = ["gamma", "alpha", "t2_max", "t2_patch", "emitter_radius", "no_depth_align"])]
+    #[arg(long, conflicts_with_all = ["gamma", "alpha", "t2_max", "t2_patch", "emitter_radius", "no_depth_align", "depth_align"])]
     pub no_membership: bool,
     #[command(flatten)]
     pub base: BaseFilterArgs,
@@ -120,6 +124,28 @@ impl BaseFilterArgs {
 }
 
 impl FilterArgs {
+    /// The parameters' defaults that depend on the bundle. On an NLOS capture
+    /// (measured in docs/results/nlos_denoise.md, `scripts/nlos_denoise_study.py`):
+    /// - bins are not aligned by camera depth unless `--depth-align` asks: a capture's
+    ///   times do not follow the depth from its sensor origin, and aligned, the filter
+    ///   mixes echoes of different lengths (fbp error 0.77-0.83 against 0.47-0.51);
+    /// - the spatial radius is 1 unless `--radius` says: neighbouring wall points'
+    ///   echoes shift by up to twice their spacing, so wider windows blur the
+    ///   reconstruction (fbp error at 16 spp: r 1 0.28, r 2 0.41, r 3 0.51).
+    pub fn adapt(&self, p: &mut DenoiseParams, m: &crate::bundle::Manifest) {
+        if m.nlos.is_none() {
+            return;
+        }
+        if self.radius.is_none() {
+            p.radius = 1;
+        }
+        if let Method::Tstat(t) = &mut p.method {
+            if !self.depth_align {
+                t.depth_align = false;
+            }
+        }
+    }
+
     pub fn params(&self) -> anyhow::Result<DenoiseParams> {
         if let Some(r) = self.radius {
             ensure!(r >= 0, "--radius {r}: must be >= 0");
@@ -138,7 +164,8 @@ impl FilterArgs {
         let tstat_flags = self.t2_max.is_some()
             || self.t2_patch.is_some()
             || self.emitter_radius.is_some()
-            || self.no_depth_align;
+            || self.no_depth_align
+            || self.depth_align;
         let published_flags = self.gamma.is_some() || self.alpha.is_some();
         let method = if self.no_membership {
             Method::BaseOnly
@@ -163,7 +190,7 @@ impl FilterArgs {
                 MethodArg::Published => {
                     ensure!(
                         !tstat_flags,
-                        "--t2-max, --t2-patch, --emitter-radius and --no-depth-align belong to --method tstat"
+                        "--t2-max, --t2-patch, --emitter-radius and --(no-)depth-align belong to --method tstat"
                     );
                     Method::Published(match (self.gamma, self.alpha) {
                         (_, Some(a)) => Threshold::Alpha(a),
@@ -272,6 +299,17 @@ pub fn run(a: DenoiseArgs) -> anyhow::Result<()> {
     let bundle = Bundle::open(&a.bundle)?;
     let m = &bundle.manifest;
     params.base = a.filter.base.kind(m.media);
+    a.filter.adapt(&mut params, m);
+    if m.nlos.is_some() {
+        eprintln!(
+            "an NLOS capture: spatial radius {}, bins {}aligned by camera depth (docs/nlos.md)",
+            params.radius,
+            match params.method {
+                Method::Tstat(t) if t.depth_align => "",
+                _ => "not ",
+            }
+        );
+    }
     let dims = Dims::of(m);
     let halo = halo(&bundle, &params)?;
     let plan = SlabPlan::for_budget(dims, halo, budget);

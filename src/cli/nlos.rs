@@ -103,6 +103,10 @@ pub struct ReconstructArgs {
     /// fbp, pf: the width of its Gaussian envelope (default wl_mean / sqrt(2), as y-tal).
     #[arg(long)]
     pub wl_sigma: Option<f64>,
+    /// Reconstruct from this denoised volume of the capture (`tstat denoise`'s (rows,
+    /// Sx, T, C) .npy of the bundle CAPTURE) instead of the bundle's noisy means.
+    #[arg(long)]
+    pub denoised: Option<PathBuf>,
     /// lct: the Wiener filter's signal-to-noise ratio (default 0.8, O'Toole's).
     #[arg(long)]
     pub snr: Option<f64>,
@@ -305,7 +309,33 @@ fn reconstruct(r: ReconstructArgs) -> anyhow::Result<()> {
         &[(arg("--out", &r.out), Kind::File)],
         r.force,
     )?;
-    let capture = load(&r.capture)?;
+    if let Some(d) = &r.denoised {
+        if !d.is_file() {
+            bail!("--denoised {}: no such file", d.display());
+        }
+    }
+    let mut capture = load(&r.capture)?;
+    if let Some(d) = &r.denoised {
+        if !r.capture.is_dir() {
+            bail!(
+                "--denoised {}: needs the bundle it was denoised from as CAPTURE",
+                d.display()
+            );
+        }
+        let bundle = Bundle::open(&r.capture)?;
+        let rec = bundle.manifest.nlos.as_ref().expect("loaded as a capture");
+        let v: ndarray::Array4<f32> = ndarray_npy::read_npy(d).map_err(|e| {
+            anyhow!(
+                "--denoised {}: not an f32 (rows, Sx, T, C) .npy volume ({e})",
+                d.display()
+            )
+        })?;
+        let s = v.shape();
+        let shape = [s[0], s[1], s[2], s[3]];
+        let values: Vec<f32> = v.iter().copied().collect();
+        crate::nlos::denoised::replace_h(&mut capture, rec, &values, shape)
+            .map_err(|e| anyhow!("--denoised {}: {e}", d.display()))?;
+    }
     if let Some((_, s)) = wavelengths {
         // The filter's padded series must stay addressable.
         let (n, _) = crate::nlos::filter::padding(capture.bins, s, capture.delta_t);

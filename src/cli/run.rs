@@ -200,7 +200,9 @@ fn job(
         .context("writing the bundle")?;
     let bundle = Bundle::open(&bundle_path)?;
     let noisy = bundle.noisy_mean()?;
-    let den = with_threads(o.threads, || denoise_bundle(&bundle, params, &|_| {}))??;
+    let mut params = *params;
+    a.filter.adapt(&mut params, &bundle.manifest);
+    let den = with_threads(o.threads, || denoise_bundle(&bundle, &params, &|_| {}))??;
     eprintln!("denoised in {:.2} s", den.seconds);
     ndarray_npy::write_npy(dir.join("noisy.npy"), &noisy)?;
     ndarray_npy::write_npy(dir.join("denoised.npy"), &den.volume)?;

@@ -8,6 +8,7 @@
 
 pub mod bp;
 pub mod capture;
+pub mod denoised;
 pub mod filter;
 pub mod fk;
 pub mod lct;
