@@ -47,6 +47,8 @@ def main():
     ap.add_argument("--tstat", default=os.path.join(ROOT, "target/release/tstat"))
     ap.add_argument("--spp", default="4,8,16,32,64,128,256")
     ap.add_argument("--ref-spp", type=int, default=4096)
+    ap.add_argument("--noisy-only", default="512,1024",
+                    help="spp rendered noisy only, so that the noisy curve reaches the denoised runs' times")
     ap.add_argument("--methods", default="fbp,pf")
     ap.add_argument("--out", default=os.path.join(ROOT, "docs/results/nlos_denoise.md"))
     a = ap.parse_args()
@@ -72,14 +74,16 @@ def main():
     h_ref = capture_of(ref)
     rel = lambda x, r: float(np.linalg.norm(x - r) / np.linalg.norm(r))
     rows = []  # (spp, setting or None, time, capture err, {method: err})
-    for i, spp in enumerate(int(s) for s in a.spp.split(",")):
+    spps = [int(s) for s in a.spp.split(",")]
+    noisy_only = [int(s) for s in a.noisy_only.split(",") if s]
+    for i, spp in enumerate(spps + noisy_only):
         b = os.path.join(tmp, f"n{spp}.tstats")
         # Best of two renders: the bundle write makes single times noisy.
         tr = min(run([T, "render", scene, "--out", b, "--spp", str(spp), "--seed", str(100 + i), "--force"])
                  for _ in range(2))
         errs = {m: rel(recon(b, m, os.path.join(tmp, "v.npy")), v_ref[m]) for m in methods}
         rows.append((spp, None, tr, rel(capture_of(b), h_ref), errs))
-        for name, args in SETTINGS.items():
+        for name, args in (SETTINGS.items() if spp in spps else []):
             d = os.path.join(tmp, "d.npy")
             td = min(run([T, "denoise", b, "--out", d, "--force", *args]) for _ in range(2))
             errs = {m: rel(recon(b, m, os.path.join(tmp, "v.npy"), d), v_ref[m]) for m in methods}
@@ -97,18 +101,22 @@ def main():
         return float(np.exp(np.interp(np.log(t), ts[order], es[order])))
 
     lines = ["# Denoised NLOS captures: reconstruction error against time", "",
-             f"Command: `python3 scripts/nlos_denoise_study.py --spp {a.spp} --ref-spp {a.ref_spp} --methods {a.methods}`.",
+             f"Command: `python3 scripts/nlos_denoise_study.py --spp {a.spp} --noisy-only {a.noisy_only} --ref-spp {a.ref_spp} --methods {a.methods}`.",
              "Scene `scenes/nlos_T.xml` (confocal 32 x 32, 512 bins); volume 41 x 41 x 21 over [-1, 1]^2 x [0.5, 1.5];",
              "fbp and pf with wl_mean 0.2. Error: relative L2 against the reconstruction of a "
              f"{a.ref_spp}-spp capture. Time: render (+ denoise), wall, best of two.",
-             "Gain: the noisy error interpolated at the same time, over the denoised error (> 1: denoising wins; '-' outside the noisy runs' times).", "",
-             "| spp | capture | time s | capture err | " + " | ".join(f"{m} err | {m} gain" for m in methods) + " |",
-             "|---|---|---|---|" + "---|---|" * len(methods)]
+             "Gain at equal time: the noisy error interpolated at the same time (render + denoise), over the denoised error "
+             "(> 1: denoising wins; '-' outside the noisy runs' times). Gain at equal spp (= equal render time): the noisy "
+             "error at the same spp over the denoised error.", "",
+             "| spp | capture | time s | capture err | " + " | ".join(f"{m} err | {m} gain, equal time | {m} gain, equal spp" for m in methods) + " |",
+             "|---|---|---|---|" + "---|---|---|" * len(methods)]
     for spp, name, t, ce, errs in rows:
         cells = []
         for m in methods:
             g = None if name is None else noisy_at(t, lambda r: r[4][m])
-            cells += [f"{errs[m]:.3f}", "" if name is None else ("-" if g is None else f"{g / errs[m]:.2f}")]
+            same = [r for r in noisy if r[0] == spp][0][4][m]
+            cells += [f"{errs[m]:.3f}", "" if name is None else ("-" if g is None else f"{g / errs[m]:.2f}"),
+                      "" if name is None else f"{same / errs[m]:.2f}"]
         lines.append(f"| {spp} | {name or 'noisy'} | {t:.2f} | {ce:.3f} | " + " | ".join(cells) + " |")
     import matplotlib
     matplotlib.use("Agg")
@@ -126,6 +134,8 @@ def main():
         plt.savefig(png, dpi=100)
         plt.close()
         lines.append(f"\nPlot: `{os.path.basename(png)}`.")
+    import json
+    json.dump(rows, open(os.path.splitext(a.out)[0] + ".json", "w"), indent=1)
     text = "\n".join(lines) + "\n"
     open(a.out, "w").write(text)
     print(text)
