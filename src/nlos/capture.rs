@@ -42,7 +42,9 @@ fn f32x3(p: [f64; 3]) -> [f32; 3] {
 }
 
 impl Capture {
-    /// The capture of a tstat bundle (its `nlos` record), in scene units.
+    /// The capture of a tstat bundle (its `nlos` record), in scene units: H from the
+    /// radiance sums alone (`tal::h_radiance`), the same values `tstat export --tal`
+    /// writes.
     pub fn from_bundle(bundle: &Bundle) -> Result<Capture, String> {
         let m = &bundle.manifest;
         let rec = m.nlos.as_ref().ok_or_else(|| {
@@ -61,7 +63,7 @@ impl Capture {
         h.try_reserve_exact(len)
             .map_err(|_| format!("cannot hold H ({len} values) in memory"))?;
         h.resize(len, 0.0);
-        super::tal::h_block(bundle, rec, 0..m.bins, &mut h).map_err(|e| e.to_string())?;
+        super::tal::h_radiance(bundle, rec, &mut h).map_err(|e| e.to_string())?;
         let sensor_grid = (0..sx)
             .flat_map(|i| (0..sy).map(move |j| (i, j)))
             .map(|(i, j)| f32x3(rec.sensor_point(i, j)))

@@ -307,7 +307,8 @@ pub fn h_per_bin(rec: &CaptureRecord) -> usize {
 
 /// Bins `bins` of H from the bundle's rows into `out` ((bins, Lx, Ly, Sx, Sy) row-major,
 /// y-tal's order; the laser axes are 1 x 1 but for exhaustive scans): the noisy mean
-/// summed over the channels.
+/// summed over the channels. Reads every array of the bundle's rows (the export
+/// checks them all); [`h_radiance`] reads the radiance sums alone.
 pub fn h_block(
     bundle: &Bundle,
     rec: &CaptureRecord,
@@ -317,12 +318,8 @@ pub fn h_block(
     let m = &bundle.manifest;
     let (w, h, t) = (m.width, m.height, m.bins);
     let c = m.channels.len();
-    let [sx_n, sy_n] = rec.sensor_grid;
-    let [lx_n, ly_n] = rec.laser_grid;
-    let per_bin = h_per_bin(rec);
-    assert_eq!(out.len(), bins.len() * per_bin);
+    assert_eq!(out.len(), bins.len() * h_per_bin(rec));
     let band = (BAND_BYTES / (w * t * c * 8 * 4).max(1)).clamp(1, h);
-    let n = m.spp as f64;
     let reader = bundle.row_reader()?;
     let mut sums = RowSums::default();
     out.fill(0.0);
@@ -334,19 +331,233 @@ pub fn h_block(
         } else {
             &sums.sum
         };
-        for r in r0..r1 {
-            let (l, sy) = (r / sy_n, r % sy_n);
-            let (lx, ly) = (l % lx_n, l / lx_n);
-            for sx in 0..sx_n {
-                let base = ((r - r0) * w + sx) * t;
-                let sensor = sx * sy_n + sy;
-                for k in bins.clone() {
-                    let v: f64 = s[(base + k) * c..(base + k + 1) * c].iter().sum();
-                    let i = (((k - bins.start) * lx_n + lx) * ly_n + ly) * (sx_n * sy_n) + sensor;
-                    out[i] = (v / n) as f32;
-                }
+        let means = band_means(s, c, m.spp);
+        scatter_band(m, rec, r0..r1, bins.clone(), &means, out);
+    }
+    Ok(())
+}
+
+/// The noisy means of a band of radiance sums `s` ((rows, W, T, C)), summed over the
+/// channels: (rows, W, T).
+fn band_means(s: &[f64], c: usize, spp: u64) -> Vec<f32> {
+    let n = spp as f64;
+    s.chunks_exact(c)
+        .map(|v| (v.iter().sum::<f64>() / n) as f32)
+        .collect()
+}
+
+/// Bins `bins` of a band of image rows' means ((rows, W, T), from [`band_means`]) into
+/// their places in `out` (bins `bins` of H).
+fn scatter_band(
+    m: &crate::bundle::Manifest,
+    rec: &CaptureRecord,
+    rows: std::ops::Range<usize>,
+    bins: std::ops::Range<usize>,
+    means: &[f32],
+    out: &mut [f32],
+) {
+    let (w, t) = (m.width, m.bins);
+    let [sx_n, sy_n] = rec.sensor_grid;
+    let [lx_n, ly_n] = rec.laser_grid;
+    for r in rows.clone() {
+        let (l, sy) = (r / sy_n, r % sy_n);
+        let (lx, ly) = (l % lx_n, l / lx_n);
+        for sx in 0..sx_n {
+            let base = ((r - rows.start) * w + sx) * t;
+            let sensor = sx * sy_n + sy;
+            for k in bins.clone() {
+                let i = (((k - bins.start) * lx_n + lx) * ly_n + ly) * (sx_n * sy_n) + sensor;
+                out[i] = means[base + k];
             }
         }
     }
+}
+
+/// [`h_block`] of every bin from the radiance sums S alone (`x1.npy` under the identity
+/// transform, else `sum.npy`), the only array the mean needs: a band of rows per
+/// thread at a time, each value checked as it is read (finite, not negative, its mean
+/// within f32). The other sums and the counts are not read (so a sum where
+/// `nonzero.npy` counts no samples goes unnoticed here; `Bundle::open` has checked
+/// every array's listing and header, the export checks every value).
+pub fn h_radiance(
+    bundle: &Bundle,
+    rec: &CaptureRecord,
+    out: &mut [f32],
+) -> Result<(), BundleError> {
+    use crate::bundle::npy::{first_bad, show};
+    use rayon::prelude::*;
+    let m = &bundle.manifest;
+    let (w, h, c) = (m.width, m.height, m.channels.len());
+    assert_eq!(out.len(), m.bins * h_per_bin(rec));
+    let name = if m.transform.is_identity() {
+        "x1"
+    } else {
+        "sum"
+    };
+    let path = array_file(bundle, name)?;
+    let bad = |e: String| BundleError::Invalid(path.clone(), e);
+    let file = crate::bundle::npy::open(&path).map_err(bad)?;
+    file.header
+        .expect::<f64>(Some(&[h, w, m.bins, c]))
+        .map_err(bad)?;
+    let spp = m.spp;
+    let max = f64::from(f32::MAX) * spp as f64;
+    let ok = move |_: usize, v: f64| v.is_finite() && v >= 0.0 && v <= max;
+    let why = move |_: usize, v: f64| {
+        if !v.is_finite() {
+            format!("is {}", show(v))
+        } else if v > max {
+            format!(
+                "is {}: its mean over {spp} samples is beyond the f32 range of a volume",
+                show(v)
+            )
+        } else {
+            format!("is {}, but radiance is never negative", show(v))
+        }
+    };
+    // Bands of at most BAND_BYTES / 4 of sums, as many at once as there are threads.
+    let band = (BAND_BYTES / 4 / (w * m.bins * c * 8).max(1)).clamp(1, h);
+    let bands: Vec<_> = (0..h)
+        .step_by(band)
+        .map(|r0| r0..(r0 + band).min(h))
+        .collect();
+    out.fill(0.0);
+    for group in bands.chunks(rayon::current_num_threads().max(1)) {
+        let means: Vec<Result<Vec<f32>, BundleError>> = group
+            .par_iter()
+            .map(|rows| {
+                let mut s = Vec::new();
+                file.read_rows(
+                    rows.clone(),
+                    &mut s,
+                    |i, b| first_bad(i, b, ok, why),
+                    &["y", "x", "t", "c"],
+                )
+                .map_err(bad)?;
+                Ok(band_means(&s, c, spp))
+            })
+            .collect();
+        for (rows, means) in group.iter().zip(means) {
+            scatter_band(m, rec, rows.clone(), 0..m.bins, &means?, out);
+        }
+    }
     Ok(())
+}
+
+/// The file of array `name`, refused unless the manifest lists it as a plain file name
+/// whose target (after links) lies inside the bundle directory (as `Bundle::open`
+/// found it).
+fn array_file(bundle: &Bundle, name: &str) -> Result<std::path::PathBuf, BundleError> {
+    let manifest = bundle.dir.join("manifest.json");
+    let info = bundle.manifest.array(name).ok_or_else(|| {
+        BundleError::Invalid(manifest.clone(), format!("lists no array '{name}'"))
+    })?;
+    let rel = Path::new(&info.file);
+    let plain = matches!(
+        rel.components().collect::<Vec<_>>().as_slice(),
+        [std::path::Component::Normal(_)]
+    );
+    if !plain || info.file.contains('/') || info.file.contains('\\') {
+        return Err(BundleError::Invalid(
+            manifest,
+            format!(
+                "array '{name}' is in {:?}, which is not a file name inside the bundle",
+                info.file
+            ),
+        ));
+    }
+    let path = bundle.dir.join(rel);
+    let cannot = |p: &Path, e: std::io::Error| {
+        BundleError::Invalid(p.to_path_buf(), format!("cannot read: {e}"))
+    };
+    let real = std::fs::canonicalize(&path).map_err(|e| cannot(&path, e))?;
+    let dir = std::fs::canonicalize(&bundle.dir).map_err(|e| cannot(&bundle.dir, e))?;
+    if !real.starts_with(&dir) {
+        return Err(BundleError::Invalid(
+            path,
+            format!(
+                "leads outside the bundle (to {}); a bundle's arrays live in its directory",
+                real.display()
+            ),
+        ));
+    }
+    Ok(path)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bundle::write::{write_bundle, BundleMeta};
+    use crate::render::{render, PixelSampling, RenderSettings};
+    use crate::scene::{Overrides, Scene};
+    use crate::stats::Transform;
+
+    /// The bundled exhaustive scan at 4 spp and 256 bins (film 8 x 512: two bands of
+    /// rows for `h_radiance`), rendered with `transform` into `dir`.
+    fn bundle(dir: &Path, transform: Transform) -> Bundle {
+        let xml = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/nlos_T_exhaustive.xml");
+        let overrides = Overrides {
+            spp: Some(4),
+            bins: Some(256),
+            bin_width_opl: Some(0.008),
+            ..Overrides::default()
+        };
+        let scene = Scene::load(&xml, &overrides).unwrap();
+        let settings = RenderSettings {
+            spp: scene.spp,
+            seed: 3,
+            transform,
+            pixel_sampling: PixelSampling::Independent,
+            replicates: 0,
+        };
+        let output = render(&scene, &settings, &|_| {});
+        let meta = BundleMeta {
+            seed: 3,
+            transform,
+            unit_m: 1.0,
+            pixel_sampling: PixelSampling::Independent,
+            replicates: 0,
+            job: None,
+        };
+        let out = dir.join("b.tstats");
+        write_bundle(&out, true, &scene, &meta, output).unwrap();
+        Bundle::open(&out).unwrap()
+    }
+
+    /// H read from the radiance sums alone is the export's H (every array read), to
+    /// the bit, under the identity (S in x1.npy) and under a transform (S in sum.npy);
+    /// a bad radiance sum is refused, naming the file and the voxel.
+    #[test]
+    fn radiance_alone_gives_the_exports_h() {
+        let dir = tempfile::tempdir().unwrap();
+        for transform in [Transform::Identity, Transform::YeoJohnson { lambda: 0.5 }] {
+            let b = bundle(dir.path(), transform);
+            let rec = b.manifest.nlos.clone().unwrap();
+            let row = b.manifest.width * b.manifest.bins * 3 * 8;
+            assert!(b.manifest.height > BAND_BYTES / 4 / row, "one band");
+            let n = b.manifest.bins * h_per_bin(&rec);
+            let (mut all, mut alone) = (vec![0f32; n], vec![1f32; n]);
+            h_block(&b, &rec, 0..b.manifest.bins, &mut all).unwrap();
+            h_radiance(&b, &rec, &mut alone).unwrap();
+            assert!(all.iter().any(|&v| v > 0.0));
+            let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            assert!(bits(&all) == bits(&alone), "{transform:?}");
+        }
+        // A NaN in x1.npy (identity) at voxel (y 300, x 5, t 7, c 1).
+        let b = bundle(dir.path(), Transform::Identity);
+        let rec = b.manifest.nlos.clone().unwrap();
+        let path = b.dir.join("x1.npy");
+        let header = crate::bundle::npy::open(&path).unwrap().header;
+        let flat = ((300 * b.manifest.width + 5) * b.manifest.bins + 7) * 3 + 1;
+        let mut bytes = std::fs::read(&path).unwrap();
+        let at = header.data_offset as usize + flat * 8;
+        bytes[at..at + 8].copy_from_slice(&f64::NAN.to_le_bytes());
+        std::fs::write(&path, bytes).unwrap();
+        let mut h = vec![0f32; b.manifest.bins * h_per_bin(&rec)];
+        let e = h_radiance(&b, &rec, &mut h).unwrap_err().to_string();
+        assert!(
+            e.contains("x1.npy") && e.contains("y 300, x 5, t 7, c 1") && e.contains("NaN"),
+            "{e}"
+        );
+    }
 }
