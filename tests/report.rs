@@ -44,6 +44,9 @@ fn tstat_denoising_beats_the_noisy_render_in_every_region_at_every_spp_and_conve
         replicates: 0,
         denoise: DenoiseParams::default(),
         method_radii: true,
+        radius_chosen: false,
+        depth_align_asked: false,
+        nlos: None,
         base_by_scene: false,
         reference: ReferenceSource::Render { spp: 4096 },
     };
@@ -534,6 +537,9 @@ fn the_reference_cache_key_follows_scene_defaults() {
         replicates: 0,
         denoise: DenoiseParams::default(),
         method_radii: true,
+        radius_chosen: false,
+        depth_align_asked: false,
+        nlos: None,
         base_by_scene: false,
         reference: ReferenceSource::Render { spp: 8 },
     };
@@ -607,6 +613,9 @@ fn stratified_convergence_adds_the_independent_baseline() {
         replicates: 0,
         denoise: DenoiseParams::default(),
         method_radii: true,
+        radius_chosen: false,
+        depth_align_asked: false,
+        nlos: None,
         base_by_scene: false,
         reference: ReferenceSource::Render { spp: 2048 },
     };

@@ -124,25 +124,11 @@ impl BaseFilterArgs {
 }
 
 impl FilterArgs {
-    /// The parameters' defaults that depend on the bundle. On an NLOS capture
-    /// (measured in docs/results/nlos_denoise.md, `scripts/nlos_denoise_study.py`):
-    /// - bins are not aligned by camera depth unless `--depth-align` asks: a capture's
-    ///   times do not follow the depth from its sensor origin, and aligned, the filter
-    ///   mixes echoes of different lengths (fbp error 0.77-0.83 against 0.47-0.51);
-    /// - the spatial radius is 1 unless `--radius` says: neighbouring wall points'
-    ///   echoes shift by up to twice their spacing, so wider windows blur the
-    ///   reconstruction (fbp error at 16 spp: r 1 0.28, r 2 0.41, r 3 0.51).
+    /// The parameters' defaults that depend on the bundle: an NLOS capture's
+    /// ([`DenoiseParams::adapt_to_nlos`]).
     pub fn adapt(&self, p: &mut DenoiseParams, m: &crate::bundle::Manifest) {
-        if m.nlos.is_none() {
-            return;
-        }
-        if self.radius.is_none() {
-            p.radius = 1;
-        }
-        if let Method::Tstat(t) = &mut p.method {
-            if !self.depth_align {
-                t.depth_align = false;
-            }
+        if m.nlos.is_some() {
+            p.adapt_to_nlos(self.radius.is_some(), self.depth_align);
         }
     }
 

@@ -5,10 +5,10 @@
 use super::util::{arg, check_outputs, human_bytes, parse_bytes, Kind};
 use crate::bundle::write::stage;
 use crate::bundle::{Bundle, BundleError};
-use crate::nlos::bp::{backproject, filtered_backproject, VoxelGrid};
+use crate::nlos::bp::VoxelGrid;
 use crate::nlos::capture::Capture;
-use crate::nlos::pf::{memory_bytes as pf_memory, phasor_field, pulse};
-use crate::nlos::{fk, lct};
+use crate::nlos::lct;
+use crate::nlos::reconstruct::Reconstruction;
 use anyhow::{anyhow, bail};
 use clap::{Args, Subcommand, ValueEnum};
 use std::path::{Path, PathBuf};
@@ -79,7 +79,7 @@ pub enum Method {
 }
 
 impl Method {
-    fn wavelength(self) -> bool {
+    pub fn wavelength(self) -> bool {
         matches!(self, Method::Fbp | Method::Pf)
     }
 }
@@ -171,25 +171,78 @@ pub fn voxel_grid(volume: &str, voxels: &str) -> anyhow::Result<VoxelGrid> {
 /// `--max-memory`'s default.
 const DEFAULT_MAX_MEMORY: u64 = 8 << 30;
 
-/// The working memory of a reconstruction, beyond the capture.
-fn working_memory(
+/// The reconstruction `--method` and its flags ask for (`--wl-mean` and `--wl-sigma`
+/// for fbp and pf, `--snr` for lct), each flag refused where it does not belong.
+pub fn reconstruction(
+    method: Method,
+    wl_mean: Option<f64>,
+    wl_sigma: Option<f64>,
+    snr: Option<f64>,
+) -> anyhow::Result<Reconstruction> {
+    let wavelengths = match (method.wavelength(), wl_mean, wl_sigma) {
+        (false, None, None) => None,
+        (false, _, _) => bail!("--wl-mean and --wl-sigma belong to --method fbp and pf"),
+        (true, None, _) => bail!(
+            "--method {:?} needs --wl-mean (the virtual pulse's wavelength)",
+            method
+        ),
+        (true, Some(m), sigma) => {
+            let s = sigma.unwrap_or(m / std::f64::consts::SQRT_2);
+            if !(m > 0.0 && m.is_finite() && s > 0.0 && s.is_finite()) {
+                bail!("--wl-mean {m} and --wl-sigma {s} must be positive and finite");
+            }
+            Some((m, s))
+        }
+    };
+    match (method, snr) {
+        (Method::Lct, Some(v)) if !(v > 0.0 && v.is_finite()) => {
+            bail!("--snr {v}: the signal-to-noise ratio must be positive and finite")
+        }
+        (Method::Lct, _) | (_, None) => {}
+        (_, Some(_)) => bail!("--snr belongs to --method lct"),
+    }
+    Ok(match (method, wavelengths) {
+        (Method::Fbp, Some((wl_mean, wl_sigma))) => Reconstruction::Fbp { wl_mean, wl_sigma },
+        (Method::Pf, Some((wl_mean, wl_sigma))) => Reconstruction::Pf { wl_mean, wl_sigma },
+        (Method::Fk, _) => Reconstruction::Fk,
+        (Method::Lct, _) => Reconstruction::Lct {
+            snr: snr.unwrap_or(lct::DEFAULT_SNR),
+        },
+        _ => Reconstruction::Bp,
+    })
+}
+
+/// Refuses a reconstruction that cannot run on `c` (its flags named as the command
+/// line spells them) or that needs more working memory than `budget`.
+pub fn check_reconstruction(
+    r: &Reconstruction,
     c: &Capture,
     grid: &VoxelGrid,
-    method: Method,
-    wavelengths: Option<(f64, f64)>,
-) -> anyhow::Result<u64> {
-    let out = grid.voxels() as u64 * 8;
-    Ok(match (method, wavelengths) {
-        (Method::Pf, Some((m, s))) => {
-            let p = pulse(c.bins, c.delta_t, m, s).map_err(|e| anyhow!(e))?;
-            pf_memory(c, grid, &p) as u64
-        }
-        // The complex filtered capture and the two backprojected planes.
-        (Method::Fbp, _) => c.h.len() as u64 * 8 + out * 2,
-        (Method::Fk, _) => fk::memory_bytes(c) as u64 + out,
-        (Method::Lct, _) => lct::memory_bytes(c) as u64 + out,
-        _ => out,
-    })
+    budget: u64,
+) -> anyhow::Result<()> {
+    r.check(c)
+        .map_err(|e| anyhow!("--{}", e.replacen('_', "-", 1)))?;
+    let need = r.working_memory(c, grid).map_err(|e| anyhow!(e))?;
+    if need > budget {
+        bail!(
+            "--method {} on {} x {} x {} voxels needs {} of working memory, over --max-memory {}",
+            r.name(),
+            grid.n[0],
+            grid.n[1],
+            grid.n[2],
+            human_bytes(need),
+            human_bytes(budget)
+        );
+    }
+    Ok(())
+}
+
+/// `--max-memory` (default [`DEFAULT_MAX_MEMORY`]).
+pub fn memory_budget(s: Option<&str>) -> anyhow::Result<u64> {
+    match s {
+        Some(s) => parse_bytes(s).map_err(|e| anyhow!("--max-memory: {e}")),
+        None => Ok(DEFAULT_MAX_MEMORY),
+    }
 }
 
 fn load(path: &Path) -> anyhow::Result<Capture> {
@@ -283,21 +336,7 @@ fn mip(m: MipArgs) -> anyhow::Result<()> {
 
 fn reconstruct(r: ReconstructArgs) -> anyhow::Result<()> {
     let grid = voxel_grid(&r.volume, &r.voxels)?;
-    let wavelengths = match (r.method.wavelength(), r.wl_mean, r.wl_sigma) {
-        (false, None, None) => None,
-        (false, _, _) => bail!("--wl-mean and --wl-sigma belong to --method fbp and pf"),
-        (true, None, _) => bail!(
-            "--method {:?} needs --wl-mean (the virtual pulse's wavelength)",
-            r.method
-        ),
-        (true, Some(m), sigma) => {
-            let s = sigma.unwrap_or(m / std::f64::consts::SQRT_2);
-            if !(m > 0.0 && m.is_finite() && s > 0.0 && s.is_finite()) {
-                bail!("--wl-mean {m} and --wl-sigma {s} must be positive and finite");
-            }
-            Some((m, s))
-        }
-    };
+    let method = reconstruction(r.method, r.wl_mean, r.wl_sigma, r.snr)?;
     if r.out.extension().is_none_or(|e| e != "npy") {
         bail!(
             "--out {}: the reconstruction is written as .npy",
@@ -336,51 +375,10 @@ fn reconstruct(r: ReconstructArgs) -> anyhow::Result<()> {
         crate::nlos::denoised::replace_h(&mut capture, rec, &values, shape)
             .map_err(|e| anyhow!("--denoised {}: {e}", d.display()))?;
     }
-    if let Some((_, s)) = wavelengths {
-        // The filter's padded series must stay addressable.
-        let (n, _) = crate::nlos::filter::padding(capture.bins, s, capture.delta_t);
-        if s / capture.delta_t > 1e6 || n > 1 << 26 {
-            bail!(
-                "--wl-sigma {s} spans {:.0} bins: the filter would pad each series to {n} samples",
-                s / capture.delta_t
-            );
-        }
-    }
-    match (r.method, r.snr) {
-        (Method::Lct, Some(v)) if !(v > 0.0 && v.is_finite()) => {
-            bail!("--snr {v}: the signal-to-noise ratio must be positive and finite")
-        }
-        (Method::Lct, _) | (_, None) => {}
-        (_, Some(_)) => bail!("--snr belongs to --method lct"),
-    }
-    let budget = match &r.max_memory {
-        Some(s) => parse_bytes(s).map_err(|e| anyhow!("--max-memory: {e}"))?,
-        None => DEFAULT_MAX_MEMORY,
-    };
-    let need = working_memory(&capture, &grid, r.method, wavelengths)?;
-    if need > budget {
-        bail!(
-            "--method {:?} on {} x {} x {} voxels needs {} of working memory, over --max-memory {}",
-            r.method,
-            grid.n[0],
-            grid.n[1],
-            grid.n[2],
-            human_bytes(need),
-            human_bytes(budget)
-        );
-    }
+    let budget = memory_budget(r.max_memory.as_deref())?;
+    check_reconstruction(&method, &capture, &grid, budget)?;
     let start = std::time::Instant::now();
-    let volume = match (r.method, wavelengths) {
-        (Method::Fbp, Some((m, s))) => filtered_backproject(&capture, &grid, m, s),
-        (Method::Pf, Some((m, s))) => {
-            phasor_field(&capture, &grid, m, s).map_err(|e| anyhow!(e))?
-        }
-        (Method::Fk, _) => fk::fk_migration(&capture, &grid).map_err(|e| anyhow!(e))?,
-        (Method::Lct, _) => {
-            lct::lct(&capture, &grid, r.snr.unwrap_or(lct::DEFAULT_SNR)).map_err(|e| anyhow!(e))?
-        }
-        _ => backproject(&capture, &grid),
-    };
+    let volume = method.run(&capture, &grid).map_err(|e| anyhow!(e))?;
     let seconds = start.elapsed().as_secs_f64();
     let shape = (grid.n[0], grid.n[1], grid.n[2]);
     let array = ndarray::Array3::from_shape_vec(shape, volume).expect("NX NY NZ voxels");

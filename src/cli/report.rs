@@ -7,10 +7,12 @@ use super::util::{arg, float_list, int_flag, int_list, seed, split_list, Arg, Re
 use crate::denoise::critical::Threshold;
 use crate::denoise::tstat::TstatParams;
 use crate::denoise::Method;
+use crate::nlos::reconstruct::Reconstruction;
 use crate::report::convergence::{
-    self, run_convergence, ConvergenceConfig, ConvergenceResult, ReferenceSource, Row, BASELINE,
+    run_convergence, ConvergenceConfig, ConvergenceResult, ReferenceSource, Row, BASELINE,
 };
 use crate::report::metrics::{Metrics, REL_EPS};
+use crate::report::nlos::NlosPlan;
 use crate::report::plot::{line_chart, Scale, Series};
 use crate::report::region::{compare_regions, rmse_ratio, Region, RegionMetrics};
 use crate::report::speedup::Speedup;
@@ -99,9 +101,89 @@ pub struct ConvergenceArgs {
     pub scene_args: SceneArgs,
     #[command(flatten)]
     pub filter: FilterArgs,
+    #[command(flatten)]
+    pub nlos: NlosConvergenceArgs,
     /// Replace existing result files in --out.
     #[arg(long)]
     pub force: bool,
+}
+
+/// `report convergence` on an NLOS scene: reconstructions of every capture.
+#[derive(Args, Debug)]
+pub struct NlosConvergenceArgs {
+    /// NLOS scenes: also reconstruct every capture (noisy, denoised, the reference)
+    /// with these methods (comma-separated: bp, fbp, pf, fk, lct, as `nlos
+    /// reconstruct`), and measure each against the reference's reconstruction.
+    #[arg(long)]
+    pub reconstruct: Option<String>,
+    /// With --reconstruct: X0,X1,Y0,Y1,Z0,Z1, the first and last voxel centres.
+    #[arg(long, allow_hyphen_values = true, requires = "reconstruct")]
+    pub volume: Option<String>,
+    /// With --reconstruct: NX,NY,NZ.
+    #[arg(long, requires = "reconstruct")]
+    pub voxels: Option<String>,
+    /// fbp, pf: the virtual pulse's wavelength (OPL units).
+    #[arg(long, requires = "reconstruct")]
+    pub wl_mean: Option<f64>,
+    /// fbp, pf: its Gaussian envelope's width (default wl_mean / sqrt(2)).
+    #[arg(long, requires = "reconstruct")]
+    pub wl_sigma: Option<f64>,
+    /// lct: the Wiener filter's signal-to-noise ratio (default 0.8).
+    #[arg(long, requires = "reconstruct")]
+    pub snr: Option<f64>,
+    /// The most working memory one reconstruction may take (default 8G).
+    #[arg(long, requires = "reconstruct")]
+    pub max_memory: Option<String>,
+}
+
+impl NlosConvergenceArgs {
+    /// The reconstructions asked for, or `None`.
+    fn plan(&self) -> anyhow::Result<Option<NlosPlan>> {
+        use super::nlos::{memory_budget, reconstruction, voxel_grid, Method as Nlos};
+        use clap::ValueEnum;
+        let Some(list) = &self.reconstruct else {
+            return Ok(None);
+        };
+        let (Some(volume), Some(voxels)) = (&self.volume, &self.voxels) else {
+            bail!("--reconstruct needs --volume and --voxels (the reconstructions' grid)");
+        };
+        let grid = voxel_grid(volume, voxels)?;
+        let mut methods: Vec<Reconstruction> = Vec::new();
+        for name in split_list("--reconstruct", list)? {
+            let m = Nlos::from_str(name, true).map_err(|_| {
+                anyhow!("--reconstruct {list}: '{name}' is none of bp, fbp, pf, fk, lct")
+            })?;
+            let w = m.wavelength();
+            let lct = matches!(m, Nlos::Lct);
+            let r = reconstruction(
+                m,
+                self.wl_mean.filter(|_| w),
+                self.wl_sigma.filter(|_| w),
+                self.snr.filter(|_| lct),
+            )?;
+            ensure!(
+                methods.iter().all(|x| x.name() != r.name()),
+                "--reconstruct {list}: '{name}' twice"
+            );
+            methods.push(r);
+        }
+        let waves = methods
+            .iter()
+            .any(|r| matches!(r, Reconstruction::Fbp { .. } | Reconstruction::Pf { .. }));
+        ensure!(
+            waves || (self.wl_mean.is_none() && self.wl_sigma.is_none()),
+            "--wl-mean and --wl-sigma belong to the methods fbp and pf"
+        );
+        ensure!(
+            self.snr.is_none() || methods.iter().any(|r| r.name() == "lct"),
+            "--snr belongs to the method lct"
+        );
+        Ok(Some(NlosPlan {
+            methods,
+            grid,
+            max_memory: memory_budget(self.max_memory.as_deref())?,
+        }))
+    }
 }
 
 #[derive(Args, Debug)]
@@ -329,7 +411,8 @@ fn write_per_bin(
 }
 
 fn run_conv(a: ConvergenceArgs) -> anyhow::Result<()> {
-    let files = [
+    let nlos = a.nlos.plan()?;
+    let mut files: Vec<String> = [
         "results.csv",
         "results.md",
         "error_vs_spp.png",
@@ -338,7 +421,15 @@ fn run_conv(a: ConvergenceArgs) -> anyhow::Result<()> {
         "error_vs_seconds_rest.png",
         "error_per_bin.png",
         "error_per_bin.csv",
-    ];
+    ]
+    .map(String::from)
+    .to_vec();
+    for m in nlos.iter().flat_map(|p| &p.methods) {
+        for suffix in ["error_vs_seconds.png", "error_vs_spp.png", "mip.png"] {
+            files.push(format!("reconstruction_{}_{suffix}", m.name()));
+        }
+    }
+    let files: Vec<&str> = files.iter().map(String::as_str).collect();
     let spp_list = int_list("--spp", &a.spp, i64::MIN, u32::MAX as i64)?;
     if let Some(s) = spp_list.iter().find(|&&s| s < 2) {
         bail!("--spp {s}: must be at least 2 (below 2 samples per pixel no variance can be estimated)");
@@ -364,7 +455,10 @@ fn run_conv(a: ConvergenceArgs) -> anyhow::Result<()> {
         replicates: a.scene_args.replicates,
         denoise: a.filter.params()?,
         method_radii: a.filter.radius.is_none(),
+        radius_chosen: a.filter.radius.is_some(),
+        depth_align_asked: a.filter.depth_align,
         base_by_scene: a.filter.base.base.is_none(),
+        nlos,
         reference: match (&a.reference, a.reference_spp) {
             (Some(p), _) => ReferenceSource::Volume(p.clone()),
             (None, s) => {
@@ -390,6 +484,11 @@ fn run_conv(a: ConvergenceArgs) -> anyhow::Result<()> {
     header.extend(Region::ALL.map(|r| format!("speedup_{}", r.name())));
     header.extend(Region::ALL.map(|r| format!("speedup_vs_independent_{}", r.name())));
     header.push("g_evaluations_per_s".into());
+    for m in &result.reconstruction_methods {
+        for c in ["rel_l2", "s", "speedup"] {
+            header.push(format!("{}_{c}", m.name()));
+        }
+    }
     let mut t = Table {
         header,
         rows: Vec::new(),
@@ -409,6 +508,11 @@ fn run_conv(a: ConvergenceArgs) -> anyhow::Result<()> {
                 .map(|v| v.map_or("-".into(), |v| v.to_string())),
         );
         row.push(num(r.evaluations_per_s / 1e9));
+        for (e, x) in r.reconstructions.iter().zip(&r.reconstruction_speedup) {
+            row.push(num(e.error));
+            row.push(num(e.seconds));
+            row.push(x.map_or("-".into(), |v| v.to_string()));
+        }
         t.push(row);
     }
     write_text(&a.out.join("results.csv"), &t.csv()).map_err(|e| anyhow!(e))?;
@@ -464,6 +568,7 @@ fn run_conv(a: ConvergenceArgs) -> anyhow::Result<()> {
         &per_bin,
         &format!("per-bin RMSE at {max_spp} spp"),
     )?;
+    reconstruction_plots(&a.out, &result)?;
     out.finish();
     super::util::say(format_args!("{md}"))?;
     say!("{}", wrote(&a.out, &files));
@@ -475,14 +580,18 @@ fn convergence_markdown(
     cfg: &ConvergenceConfig,
     r: &ConvergenceResult,
 ) -> String {
-    let methods = convergence::methods(&cfg.denoise, cfg.method_radii);
+    let base = r
+        .settings
+        .iter()
+        .find_map(|s| s.1)
+        .map_or(cfg.denoise.base, |p| p.base);
     let mut md = format!(
         "# Convergence: {}\n\nReference: {}. Denoisers: r_t = {}, base {:?}; {}. Transform: {}. Pixel sampling: {}. Every spp is a separate render with its own seed.\n\n",
         a.scene.display(),
         r.reference_note,
         cfg.denoise.temporal_radius,
-        cfg.denoise.base,
-        methods
+        base,
+        r.settings
             .iter()
             .filter_map(|(name, p)| {
                 p.map(|p| format!("{name}: r = {}, {}", p.radius, p.method.describe()))
@@ -574,7 +683,124 @@ fn convergence_markdown(
     md += &format!(
         "\nrelMSE = mean (x - ref)^2 / (ref^2 + {REL_EPS}); PSNR peak = max of the reference.\n"
     );
+    md += &reconstruction_markdown(r);
     md
+}
+
+/// The reconstructions' section of the convergence report (empty without them).
+fn reconstruction_markdown(r: &ConvergenceResult) -> String {
+    let Some(g) = r.reconstruction_grid else {
+        return String::new();
+    };
+    let methods = &r.reconstruction_methods;
+    let mut md = format!(
+        "\n## Reconstructions\n\nEvery capture above (and the reference) reconstructed with {} on {} x {} x {} voxels from ({}, {}, {}) to ({}, {}, {}). Error: relative L2, ||V - V_ref|| / ||V_ref||, against the reconstruction of the reference capture. Time: the reconstruction's alone (s); the speed-up compares render + denoise + reconstruction with the noisy curve's render + reconstruction at the same error (interpolated in log-log; `>Ax` / `<Ax` bounds outside its range). Gain at equal spp: the noisy capture's error at the same spp (the same render) over this one's.\n\n",
+        methods.iter().map(|m| m.describe()).collect::<Vec<_>>().join("; "),
+        g.n[0], g.n[1], g.n[2], g.first[0], g.first[1], g.first[2], g.last[0], g.last[1], g.last[2]
+    );
+    let mut header = vec!["spp".to_string(), "capture".to_string()];
+    for m in methods {
+        let n = m.name();
+        header.extend([
+            format!("{n} error"),
+            format!("{n} s"),
+            format!("{n} gain, equal spp"),
+            format!("{n} speed-up"),
+        ]);
+    }
+    let header: Vec<&str> = header.iter().map(String::as_str).collect();
+    let mut t = Table::new(&header);
+    for row in &r.rows {
+        let noisy = r
+            .rows
+            .iter()
+            .find(|x| x.method == "noisy" && x.spp == row.spp)
+            .expect("every spp has a noisy row");
+        let mut cells = vec![row.spp.to_string(), row.method.to_string()];
+        for (k, e) in row.reconstructions.iter().enumerate() {
+            let denoised = row.method != "noisy" && row.method != BASELINE;
+            cells.push(format!("{:.4}", e.error));
+            cells.push(format!("{:.2}", e.seconds));
+            cells.push(if denoised {
+                format!("{:.2}", noisy.reconstructions[k].error / e.error)
+            } else {
+                String::new()
+            });
+            cells.push(match row.reconstruction_speedup[k] {
+                Some(v) => format!("{v}x"),
+                None if denoised => "-".into(),
+                None => String::new(),
+            });
+        }
+        t.push(cells);
+    }
+    md += &t.markdown();
+    let min_spp = r.rows.iter().map(|x| x.spp).min().unwrap_or(0);
+    md += &format!(
+        "\nPictures: `reconstruction_{{method}}_mip.png`, the maximum along depth of the reconstruction of, left to right, the reference, the noisy capture and the tstat-denoised capture at {min_spp} spp (each scaled by its own maximum); plots `reconstruction_{{method}}_error_vs_seconds.png` and `_error_vs_spp.png`.\n"
+    );
+    md
+}
+
+/// Per reconstruction method: its error against time (render + denoise +
+/// reconstruction) and against spp, one curve per capture method, and the
+/// maximum-intensity projections (along depth) of the reference's, the noisy capture's
+/// and the tstat-denoised capture's reconstructions at the lowest spp, side by side.
+fn reconstruction_plots(dir: &Path, r: &ConvergenceResult) -> anyhow::Result<()> {
+    use crate::viz::mip::{picture, project, side_by_side, Axis};
+    let Some(grid) = r.reconstruction_grid else {
+        return Ok(());
+    };
+    for (k, m) in r.reconstruction_methods.iter().enumerate() {
+        let name = m.name();
+        let series = |x: fn(&Row, f64) -> f64| -> Vec<Series> {
+            r.methods
+                .iter()
+                .map(|c| Series {
+                    label: c.to_string(),
+                    points: r
+                        .rows
+                        .iter()
+                        .filter(|row| row.method == *c)
+                        .map(|row| {
+                            let e = row.reconstructions[k];
+                            (x(row, e.seconds), e.error)
+                        })
+                        .collect(),
+                })
+                .collect()
+        };
+        chart(
+            &dir.join(format!("reconstruction_{name}_error_vs_seconds.png")),
+            &format!("{name} reconstruction: error against time (render + denoise + {name})"),
+            "seconds",
+            "relative L2 error",
+            &series(|row, s| row.total_s + s),
+            Scale::Log,
+            Scale::Log,
+        )?;
+        chart(
+            &dir.join(format!("reconstruction_{name}_error_vs_spp.png")),
+            &format!("{name} reconstruction: error against samples per pixel"),
+            "spp",
+            "relative L2 error",
+            &series(|row, _| row.spp as f64),
+            Scale::Log,
+            Scale::Log,
+        )?;
+        let n = grid.n;
+        let scale = (256 / n[0].max(n[1])).clamp(1, 32);
+        let panels: Vec<_> = ["reference", "noisy", "tstat"]
+            .iter()
+            .filter_map(|label| r.reconstruction_volumes.iter().find(|v| v.0 == *label))
+            .map(|(_, v)| picture(&project(&v[k], n, Axis::Z), scale))
+            .collect();
+        let (w, h, px) = side_by_side(&panels, 4);
+        let path = dir.join(format!("reconstruction_{name}_mip.png"));
+        crate::report::plot::save_png_rgb(&path, &px, w, h)
+            .map_err(|e| anyhow!("{}: {e}", path.display()))?;
+    }
+    Ok(())
 }
 
 /// The membership settings a sweep tries, and for each the value plotted on x.

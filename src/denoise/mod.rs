@@ -109,6 +109,25 @@ impl DenoiseParams {
         self.sigmas.validate()
     }
 
+    /// The defaults for NLOS captures, chosen by measurement (docs/results/nlos_denoise.md,
+    /// `scripts/nlos_denoise_study.py`), where the user did not choose:
+    /// - spatial radius 1 (unless `radius_chosen`): neighbouring wall points' echoes
+    ///   shift by up to twice their spacing, so wider windows blur the reconstruction
+    ///   (fbp error at 16 spp: r 1 0.30, r 2 0.41, r 3 0.51, docs/results/nlos_denoise.md);
+    /// - bins not aligned by camera depth (unless `depth_align_asked`): a capture's
+    ///   times do not follow the depth from its sensor origin, and aligned, the filter
+    ///   mixes echoes of different lengths (fbp error at 16 spp, r 3: 0.82 aligned, 0.51 not).
+    pub fn adapt_to_nlos(&mut self, radius_chosen: bool, depth_align_asked: bool) {
+        if !radius_chosen {
+            self.radius = 1;
+        }
+        if let Method::Tstat(t) = &mut self.method {
+            if !depth_align_asked {
+                t.depth_align = false;
+            }
+        }
+    }
+
     /// The filter's parameters for a bundle of `spp` samples per pixel (its number of
     /// replicates when it has them; the filter then takes each pair's critical value at
     /// its Welch-Satterthwaite degrees of freedom, SPEC 8, see `pair_dof.rs`).

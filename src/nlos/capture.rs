@@ -6,6 +6,7 @@
 //! Memory: H is held whole, `T L S` f32 (a 64 x 64 confocal scan of 512 bins: 8 MB;
 //! an exhaustive 16^4 of 512 bins: 134 MB).
 
+use crate::bundle::capture::CaptureRecord;
 use crate::bundle::Bundle;
 use crate::scene::nlos::CaptureType;
 use std::path::Path;
@@ -53,10 +54,7 @@ impl Capture {
                 bundle.dir.display()
             )
         })?;
-        let [sx, sy] = rec.sensor_grid;
-        let [lx, ly] = rec.laser_grid;
-        let per_bin = super::tal::h_per_bin(rec);
-        let len = per_bin
+        let len = super::tal::h_per_bin(rec)
             .checked_mul(m.bins)
             .ok_or("the capture's H does not fit the address space")?;
         let mut h = Vec::new();
@@ -64,6 +62,28 @@ impl Capture {
             .map_err(|_| format!("cannot hold H ({len} values) in memory"))?;
         h.resize(len, 0.0);
         super::tal::h_radiance(bundle, rec, &mut h).map_err(|e| e.to_string())?;
+        Ok(Capture::from_record(
+            rec,
+            m.start_opl,
+            m.bin_width_opl,
+            m.bins,
+            h,
+        ))
+    }
+
+    /// The capture of a tstat render (its scene's `CaptureRecord`, the film's time
+    /// axis) holding `h`, (T, L, S) as [`Capture::h`] (e.g. zeros, to be replaced by a
+    /// volume with `denoised::replace_h`).
+    pub fn from_record(
+        rec: &CaptureRecord,
+        t_start: f64,
+        delta_t: f64,
+        bins: usize,
+        h: Vec<f32>,
+    ) -> Capture {
+        let [sx, sy] = rec.sensor_grid;
+        let [lx, ly] = rec.laser_grid;
+        assert_eq!(h.len(), bins * super::tal::h_per_bin(rec), "H's length");
         let sensor_grid = (0..sx)
             .flat_map(|i| (0..sy).map(move |j| (i, j)))
             .map(|(i, j)| f32x3(rec.sensor_point(i, j)))
@@ -78,8 +98,8 @@ impl Capture {
                 .collect()
         };
         let finite = |p: [f64; 3]| p.iter().all(|v| v.is_finite()).then(|| f32x3(p));
-        Ok(Capture {
-            bins: m.bins,
+        Capture {
+            bins,
             lasers: lx * ly,
             sensors: sx * sy,
             sensor_dims: [sx, sy],
@@ -91,10 +111,10 @@ impl Capture {
             paired,
             laser_xyz: finite(rec.laser_origin),
             sensor_xyz: finite(rec.sensor_origin),
-            t_start: m.start_opl,
-            delta_t: m.bin_width_opl,
+            t_start,
+            delta_t,
             accounts_first_and_last_bounces: rec.account_first_and_last_bounces,
-        })
+        }
     }
 
     /// A y-tal HDF5 capture (`tal.io.write_capture`'s layout, or `tstat export --tal`):

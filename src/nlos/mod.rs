@@ -13,5 +13,6 @@ pub mod filter;
 pub mod fk;
 pub mod lct;
 pub mod pf;
+pub mod reconstruct;
 pub mod tal;
 pub mod wave;

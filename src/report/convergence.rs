@@ -5,6 +5,7 @@
 //! speed-up of each denoised result against the noisy curve of the same region.
 
 use super::metrics::Metrics;
+use super::nlos::{NlosPlan, ReconstructionError, Reconstructor};
 use super::region::{compare_regions, Region, RegionMetrics};
 use super::speedup::{speedup_or_bound, Speedup};
 use super::volume::no_light_mask;
@@ -12,6 +13,8 @@ use crate::denoise::critical::Threshold;
 use crate::denoise::gbuffers::GBuffers;
 use crate::denoise::tstat::TstatParams;
 use crate::denoise::{denoise_sums, estimates::SumsView, DenoiseParams, Method};
+use crate::nlos::bp::VoxelGrid;
+use crate::nlos::reconstruct::Reconstruction;
 use crate::render::{render, PixelSampling, RenderOutput, RenderSettings};
 use crate::scene::{Overrides, Scene};
 use crate::stats::accumulators::CHANNELS;
@@ -47,6 +50,13 @@ pub struct ConvergenceConfig {
     /// `denoise.base`.
     pub base_by_scene: bool,
     pub reference: ReferenceSource,
+    /// NLOS scenes: the reconstructions of every capture (`super::nlos`).
+    pub nlos: Option<NlosPlan>,
+    /// NLOS scenes take the denoiser's NLOS defaults
+    /// ([`DenoiseParams::adapt_to_nlos`]) unless `radius_chosen` (the spatial radius)
+    /// or `depth_align_asked` (camera-depth alignment) says otherwise.
+    pub radius_chosen: bool,
+    pub depth_align_asked: bool,
 }
 
 /// The methods compared, in table order, each with its denoiser settings (`None`: the
@@ -104,6 +114,13 @@ pub struct Row {
     pub speedup_independent: [Option<Speedup>; 3],
     /// Voxel-neighbour evaluations per second of the filter (0 for the noisy rows).
     pub evaluations_per_s: f64,
+    /// NLOS: each reconstruction's error and time (in the plan's order; empty without
+    /// a plan).
+    pub reconstructions: Vec<ReconstructionError>,
+    /// Each reconstruction's equal-error speed-up against the noisy rows' curve of
+    /// (render + reconstruction seconds, error), this row timed as render + denoise +
+    /// reconstruction (`None` for the noisy rows).
+    pub reconstruction_speedup: Vec<Option<Speedup>>,
 }
 
 impl Row {
@@ -121,6 +138,15 @@ pub struct ConvergenceResult {
     pub per_bin: Vec<(&'static str, Vec<Metrics>)>,
     /// How the reference was obtained (for the report).
     pub reference_note: String,
+    /// The capture methods in table order with the denoiser settings each ran with.
+    pub settings: Vec<(&'static str, Option<DenoiseParams>)>,
+    /// NLOS: the reconstruction methods (in the rows' order).
+    pub reconstruction_methods: Vec<Reconstruction>,
+    /// NLOS: the reconstructions of the reference, and of each capture method at the
+    /// lowest spp, per reconstruction method (for pictures).
+    pub reconstruction_volumes: Vec<(&'static str, Vec<Vec<f32>>)>,
+    /// NLOS: the voxel grid of the reconstructions.
+    pub reconstruction_grid: Option<VoxelGrid>,
 }
 
 /// The noisy mean S / n of a render as an (H, W, T, C) f32 volume; an error names
@@ -274,12 +300,47 @@ pub fn run_convergence(
     if let Some(s) = cfg.spp_list.iter().find(|&&s| s < 2) {
         return Err(format!("spp {s}: at least 2 samples per pixel are needed"));
     }
+    let scene2 = load_scene(cfg, 2)?;
+    let is_nlos = crate::bundle::capture::CaptureRecord::of_scene(&scene2).is_some();
+    // Checked before the reference is rendered.
+    let mut reconstructor = match &cfg.nlos {
+        Some(plan) => Some(Reconstructor::new(&scene2, plan.clone())?),
+        None => None,
+    };
     let (reference, ref_mask, reference_note) = reference(cfg, dir, log)?;
     let mut denoise = cfg.denoise;
-    if cfg.base_by_scene && !load_scene(cfg, 2)?.media.is_empty() {
+    if cfg.base_by_scene && !scene2.media.is_empty() {
         denoise.base = crate::denoise::base_filter::BaseKind::Gaussian;
     }
-    let list = methods(&denoise, cfg.method_radii);
+    let mut list = methods(&denoise, cfg.method_radii && !is_nlos);
+    if is_nlos {
+        for p in list.iter_mut().filter_map(|m| m.1.as_mut()) {
+            p.adapt_to_nlos(cfg.radius_chosen, cfg.depth_align_asked);
+        }
+    }
+    let shape = [
+        scene2.film.height,
+        scene2.film.width,
+        scene2.film.bins,
+        CHANNELS,
+    ];
+    if reference.shape() != shape {
+        return Err(format!(
+            "the reference has shape {:?} but the renders have {:?}",
+            reference.shape(),
+            shape
+        ));
+    }
+    if let Some(r) = &mut reconstructor {
+        log("reconstructing the reference capture");
+        r.set_reference(&reference)?;
+    }
+    let mut reconstruction_volumes = Vec::new();
+    if let Some(r) = &reconstructor {
+        let refs = (0..r.methods().len()).map(|k| r.reference(k).to_vec());
+        reconstruction_volumes.push(("reference", refs.collect()));
+    }
+    let min_spp = *cfg.spp_list.iter().min().expect("non-empty");
     let mut rows = Vec::new();
     let mut per_bin = Vec::new();
     let max_spp = *cfg.spp_list.iter().max().expect("non-empty");
@@ -340,6 +401,10 @@ pub fn run_convergence(
                 Some(&mask),
             );
             line += &format!("; {BASELINE} {:.4e}", error.all.rmse);
+            let reconstructions = match &reconstructor {
+                Some(r) => r.measure(&noisy_mean(&base, spp)?)?.0,
+                None => Vec::new(),
+            };
             rows.push(Row {
                 spp,
                 method: BASELINE,
@@ -350,6 +415,8 @@ pub fn run_convergence(
                 speedup: [None; 3],
                 speedup_independent: [None; 3],
                 evaluations_per_s: 0.0,
+                reconstruction_speedup: vec![None; reconstructions.len()],
+                reconstructions,
             });
             if spp == max_spp {
                 per_bin.push((BASELINE, bins));
@@ -366,7 +433,22 @@ pub fn run_convergence(
             };
             let (error, bins) = compare_regions(vol.view(), reference.view(), Some(&mask));
             line += &format!("; {method} {:.4e} ({den_s:.2} s)", error.all.rmse);
+            let reconstructions = match &reconstructor {
+                Some(r) => {
+                    let (errors, volumes) = r.measure(&vol)?;
+                    for (m, e) in r.methods().iter().zip(&errors) {
+                        line += &format!(" [{} {:.4}]", m.name(), e.error);
+                    }
+                    if spp == min_spp {
+                        reconstruction_volumes.push((method, volumes));
+                    }
+                    errors
+                }
+                None => Vec::new(),
+            };
             rows.push(Row {
+                reconstruction_speedup: vec![None; reconstructions.len()],
+                reconstructions,
                 spp,
                 method,
                 render_s: out.seconds,
@@ -384,6 +466,7 @@ pub fn run_convergence(
         log(&line);
     }
     fill_speedups(&mut rows);
+    fill_reconstruction_speedups(&mut rows);
     let mut methods: Vec<&'static str> = list.iter().map(|m| m.0).collect();
     if cfg.pixel_sampling != PixelSampling::Independent {
         methods.insert(1, BASELINE);
@@ -393,6 +476,10 @@ pub fn run_convergence(
         methods,
         per_bin,
         reference_note,
+        settings: list,
+        reconstruction_methods: cfg.nlos.as_ref().map_or(Vec::new(), |p| p.methods.clone()),
+        reconstruction_volumes,
+        reconstruction_grid: cfg.nlos.as_ref().map(|p| p.grid),
     })
 }
 
@@ -416,6 +503,30 @@ fn fill_speedups(rows: &mut [Row]) {
             };
             r.speedup[region as usize] = speedup(&noisy);
             r.speedup_independent[region as usize] = speedup(&baseline);
+        }
+    }
+}
+
+/// The equal-error speed-up of every denoised row's reconstructions against the noisy
+/// rows' curve of (render + reconstruction seconds, error), the row timed as render +
+/// denoise + reconstruction.
+fn fill_reconstruction_speedups(rows: &mut [Row]) {
+    let n = rows.first().map_or(0, |r| r.reconstructions.len());
+    for k in 0..n {
+        let noisy: Vec<(f64, f64)> = rows
+            .iter()
+            .filter(|r| r.method == "noisy")
+            .map(|r| {
+                let e = r.reconstructions[k];
+                (r.total_s + e.seconds, e.error)
+            })
+            .collect();
+        for r in rows
+            .iter_mut()
+            .filter(|r| r.method != "noisy" && r.method != BASELINE)
+        {
+            let e = r.reconstructions[k];
+            r.reconstruction_speedup[k] = speedup_or_bound(&noisy, r.total_s + e.seconds, e.error);
         }
     }
 }

@@ -4,6 +4,7 @@
 
 pub mod convergence;
 pub mod metrics;
+pub mod nlos;
 pub mod plot;
 pub mod region;
 pub mod speedup;

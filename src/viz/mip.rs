@@ -104,3 +104,38 @@ pub fn picture(p: &Projection, scale: usize) -> (u32, u32, Vec<u8>) {
     }
     (w as u32, h as u32, px)
 }
+/// Pictures of one height side by side, left to right, `gap` grey columns between
+/// them; returns (width, height, pixels).
+pub fn side_by_side(pictures: &[(u32, u32, Vec<u8>)], gap: u32) -> (u32, u32, Vec<u8>) {
+    let h = pictures.first().map_or(0, |p| p.1);
+    assert!(pictures.iter().all(|p| p.1 == h), "pictures of one height");
+    let n = pictures.len() as u32;
+    let w = pictures.iter().map(|p| p.0).sum::<u32>() + gap * n.saturating_sub(1);
+    let mut px = Vec::with_capacity((w * h * 3) as usize);
+    for y in 0..h as usize {
+        for (k, (pw, _, p)) in pictures.iter().enumerate() {
+            if k > 0 {
+                px.extend(std::iter::repeat_n(96u8, 3 * gap as usize));
+            }
+            let row = *pw as usize * 3;
+            px.extend_from_slice(&p[y * row..(y + 1) * row]);
+        }
+    }
+    (w, h, px)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::side_by_side;
+
+    #[test]
+    fn side_by_side_puts_each_picture_in_its_columns() {
+        // A 2 x 2 red picture and a 1 x 2 blue one, one grey column between.
+        let red = (2, 2, [255, 0, 0].repeat(4));
+        let blue = (1, 2, [0, 0, 255].repeat(2));
+        let (w, h, px) = side_by_side(&[red, blue], 1);
+        assert_eq!((w, h), (4, 2));
+        let row = [[255, 0, 0], [255, 0, 0], [96, 96, 96], [0, 0, 255]].concat();
+        assert_eq!(px, [row.clone(), row].concat());
+    }
+}

@@ -1,0 +1,109 @@
+//! One reconstruction of the hidden scene, with its parameters: the methods of
+//! `tstat nlos reconstruct` and of `report convergence --reconstruct`, their checks
+//! against a capture and their working memory, in one place.
+
+use super::bp::{backproject, filtered_backproject, VoxelGrid};
+use super::capture::Capture;
+use super::{filter, fk, lct, pf};
+
+/// A reconstruction method and its parameters.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Reconstruction {
+    /// Backprojection (y-tal's `tal.reconstruct.bp`).
+    Bp,
+    /// Filtered backprojection (y-tal's `tal.reconstruct.fbp`): the magnitude.
+    Fbp { wl_mean: f64, wl_sigma: f64 },
+    /// Phasor fields with Rayleigh-Sommerfeld propagation (y-tal's `pf_dev`): the
+    /// magnitude.
+    Pf { wl_mean: f64, wl_sigma: f64 },
+    /// f-k migration (confocal N x N captures).
+    Fk,
+    /// The light-cone transform with its Wiener filter (confocal N x N captures).
+    Lct { snr: f64 },
+}
+
+impl Reconstruction {
+    /// The method's name as the command line spells it.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Reconstruction::Bp => "bp",
+            Reconstruction::Fbp { .. } => "fbp",
+            Reconstruction::Pf { .. } => "pf",
+            Reconstruction::Fk => "fk",
+            Reconstruction::Lct { .. } => "lct",
+        }
+    }
+
+    /// The parameters, for reports ("wl_mean 0.2, wl_sigma 0.14").
+    pub fn describe(&self) -> String {
+        match self {
+            Reconstruction::Fbp { wl_mean, wl_sigma }
+            | Reconstruction::Pf { wl_mean, wl_sigma } => {
+                format!("{}: wl_mean {wl_mean}, wl_sigma {wl_sigma:.4}", self.name())
+            }
+            Reconstruction::Lct { snr } => format!("lct: snr {snr}"),
+            _ => self.name().to_string(),
+        }
+    }
+
+    /// Refuses parameters the method cannot use on `c`: a pulse envelope so wide that
+    /// the filter's padded series would not stay addressable, non-positive wavelengths
+    /// or ratios.
+    pub fn check(&self, c: &Capture) -> Result<(), String> {
+        match *self {
+            Reconstruction::Fbp { wl_mean, wl_sigma }
+            | Reconstruction::Pf { wl_mean, wl_sigma } => {
+                if !(wl_mean > 0.0 && wl_mean.is_finite() && wl_sigma > 0.0 && wl_sigma.is_finite())
+                {
+                    return Err(format!(
+                        "wl_mean {wl_mean} and wl_sigma {wl_sigma} must be positive and finite"
+                    ));
+                }
+                let (n, _) = filter::padding(c.bins, wl_sigma, c.delta_t);
+                if wl_sigma / c.delta_t > 1e6 || n > 1 << 26 {
+                    return Err(format!(
+                        "wl_sigma {wl_sigma} spans {:.0} bins: the filter would pad each series to {n} samples",
+                        wl_sigma / c.delta_t
+                    ));
+                }
+                Ok(())
+            }
+            Reconstruction::Lct { snr } if !(snr > 0.0 && snr.is_finite()) => Err(format!(
+                "snr {snr}: the signal-to-noise ratio must be positive and finite"
+            )),
+            _ => Ok(()),
+        }
+    }
+
+    /// The working memory of the reconstruction of `c` on `grid`, beyond the capture.
+    pub fn working_memory(&self, c: &Capture, grid: &VoxelGrid) -> Result<u64, String> {
+        let out = grid.voxels() as u64 * 8;
+        Ok(match *self {
+            Reconstruction::Pf { wl_mean, wl_sigma } => {
+                let p = pf::pulse(c.bins, c.delta_t, wl_mean, wl_sigma)?;
+                pf::memory_bytes(c, grid, &p) as u64
+            }
+            // The complex filtered capture and the two backprojected planes.
+            Reconstruction::Fbp { .. } => c.h.len() as u64 * 8 + out * 2,
+            Reconstruction::Fk => fk::memory_bytes(c) as u64 + out,
+            Reconstruction::Lct { .. } => lct::memory_bytes(c) as u64 + out,
+            Reconstruction::Bp => out,
+        })
+    }
+
+    /// The reconstruction of `c` on `grid`: NX NY NZ values, row-major.
+    pub fn run(&self, c: &Capture, grid: &VoxelGrid) -> Result<Vec<f32>, String> {
+        self.check(c)?;
+        Ok(match *self {
+            Reconstruction::Bp => backproject(c, grid),
+            Reconstruction::Fbp { wl_mean, wl_sigma } => {
+                filtered_backproject(c, grid, wl_mean, wl_sigma)
+            }
+            Reconstruction::Pf { wl_mean, wl_sigma } => {
+                pf::phasor_field(c, grid, wl_mean, wl_sigma)?
+            }
+            Reconstruction::Fk => fk::fk_migration(c, grid)?,
+            Reconstruction::Lct { snr } => lct::lct(c, grid, snr)?,
+        })
+    }
+}

@@ -1,0 +1,174 @@
+//! Reconstructions in the convergence experiment (NLOS scenes): every capture the
+//! experiment measures (noisy, denoised, the reference) is also reconstructed with
+//! each method asked for, on one voxel grid, and the reconstruction's error is its
+//! relative L2 distance to the reconstruction of the reference capture,
+//! `||V - V_ref|| / ||V_ref||` (fbp and pf: of the magnitudes).
+//!
+//! Memory: one capture's H (T L S f32) at a time, each method's working memory (checked
+//! against a budget before the first render), and one reconstruction (NX NY NZ f32) per
+//! method for the reference.
+
+use crate::bundle::capture::CaptureRecord;
+use crate::nlos::bp::VoxelGrid;
+use crate::nlos::capture::Capture;
+use crate::nlos::denoised::replace_h;
+use crate::nlos::reconstruct::Reconstruction;
+use crate::nlos::tal::h_per_bin;
+use crate::scene::Scene;
+use ndarray::Array4;
+
+/// What to reconstruct: the methods, the grid, and the working memory allowed.
+#[derive(Clone, Debug)]
+pub struct NlosPlan {
+    pub methods: Vec<Reconstruction>,
+    pub grid: VoxelGrid,
+    pub max_memory: u64,
+}
+
+/// One reconstruction's error and time.
+#[derive(Clone, Copy, Debug)]
+pub struct ReconstructionError {
+    /// `||V - V_ref|| / ||V_ref||`.
+    pub error: f64,
+    /// The reconstruction's wall time.
+    pub seconds: f64,
+}
+
+/// The methods of a plan bound to a scene's capture, with the reference's
+/// reconstructions.
+pub struct Reconstructor {
+    plan: NlosPlan,
+    record: CaptureRecord,
+    t_start: f64,
+    delta_t: f64,
+    bins: usize,
+    reference: Vec<Vec<f32>>,
+}
+
+/// `||x - r|| / ||r||` in f64.
+pub fn relative_l2(x: &[f32], r: &[f32]) -> f64 {
+    assert_eq!(x.len(), r.len());
+    let (mut d, mut n) = (0f64, 0f64);
+    for (&a, &b) in x.iter().zip(r) {
+        d += (a as f64 - b as f64).powi(2);
+        n += (b as f64).powi(2);
+    }
+    (d / n).sqrt()
+}
+
+impl Reconstructor {
+    /// Binds `plan` to `scene` (an NLOS scene); refuses a scene that is no capture and
+    /// a method that cannot run on it or needs more than the plan's memory.
+    pub fn new(scene: &Scene, plan: NlosPlan) -> Result<Self, String> {
+        let record = CaptureRecord::of_scene(scene).ok_or_else(|| {
+            "reconstructions need an NLOS scene (its sensor an nlos_capture_meter)".to_string()
+        })?;
+        let r = Reconstructor {
+            plan,
+            record,
+            t_start: scene.film.start_opl,
+            delta_t: scene.film.bin_width_opl,
+            bins: scene.film.bins,
+            reference: Vec::new(),
+        };
+        let h = vec![0f32; r.bins * h_per_bin(&r.record)];
+        let c = Capture::from_record(&r.record, r.t_start, r.delta_t, r.bins, h);
+        for m in &r.plan.methods {
+            m.check(&c).map_err(|e| format!("{}: {e}", m.name()))?;
+            let need = m.working_memory(&c, &r.plan.grid)?;
+            if need > r.plan.max_memory {
+                return Err(format!(
+                    "{} on {:?} voxels needs {need} bytes of working memory, over the {} allowed",
+                    m.name(),
+                    r.plan.grid.n,
+                    r.plan.max_memory
+                ));
+            }
+        }
+        Ok(r)
+    }
+
+    /// Reconstructs the reference capture `v` ((rows, Sx, T, C), the film's shape) with
+    /// every method; refuses a reconstruction that is zero everywhere (no error can be
+    /// relative to it).
+    pub fn set_reference(&mut self, v: &Array4<f32>) -> Result<(), String> {
+        let c = self.capture(v)?;
+        let mut reference = Vec::new();
+        for m in &self.plan.methods {
+            let x = m.run(&c, &self.plan.grid)?;
+            if x.iter().all(|&x| x == 0.0) {
+                return Err(format!(
+                    "the {} reconstruction of the reference capture is zero everywhere: no error can be measured against it (does the volume hold the hidden scene?)",
+                    m.name()
+                ));
+            }
+            reference.push(x);
+        }
+        self.reference = reference;
+        Ok(())
+    }
+
+    pub fn methods(&self) -> &[Reconstruction] {
+        &self.plan.methods
+    }
+
+    pub fn grid(&self) -> &VoxelGrid {
+        &self.plan.grid
+    }
+
+    /// The reference's reconstruction by method `k`.
+    pub fn reference(&self, k: usize) -> &[f32] {
+        &self.reference[k]
+    }
+
+    /// The capture of a film volume (rows, Sx, T, C).
+    fn capture(&self, v: &Array4<f32>) -> Result<Capture, String> {
+        let h = vec![0f32; self.bins * h_per_bin(&self.record)];
+        let mut c = Capture::from_record(&self.record, self.t_start, self.delta_t, self.bins, h);
+        let s = v.shape();
+        let values: Vec<f32> = v.iter().copied().collect();
+        replace_h(&mut c, &self.record, &values, [s[0], s[1], s[2], s[3]])?;
+        Ok(c)
+    }
+
+    /// Reconstructs the capture `v` with every method: each error against the
+    /// reference's reconstruction (set first), and the reconstructions themselves.
+    pub fn measure(
+        &self,
+        v: &Array4<f32>,
+    ) -> Result<(Vec<ReconstructionError>, Vec<Vec<f32>>), String> {
+        assert_eq!(
+            self.reference.len(),
+            self.plan.methods.len(),
+            "reference set"
+        );
+        let c = self.capture(v)?;
+        let mut errors = Vec::new();
+        let mut volumes = Vec::new();
+        for (m, r) in self.plan.methods.iter().zip(&self.reference) {
+            let start = std::time::Instant::now();
+            let x = m.run(&c, &self.plan.grid)?;
+            let seconds = start.elapsed().as_secs_f64();
+            errors.push(ReconstructionError {
+                error: relative_l2(&x, r),
+                seconds,
+            });
+            volumes.push(x);
+        }
+        Ok((errors, volumes))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::relative_l2;
+
+    #[test]
+    fn relative_l2_is_the_distance_over_the_references_norm() {
+        // ||(3, 4) - (0, 0)|| / ||(0, 0)||: undefined; ||(1, 2) - (1, 0)|| / ||(1, 0)|| = 2.
+        assert_eq!(relative_l2(&[1.0, 2.0], &[1.0, 0.0]), 2.0);
+        assert_eq!(relative_l2(&[3.0, 4.0], &[3.0, 4.0]), 0.0);
+        // (0.5 (3, 4)): half of the reference's norm away.
+        assert!((relative_l2(&[1.5, 2.0], &[3.0, 4.0]) - 0.5).abs() < 1e-15);
+    }
+}
