@@ -792,6 +792,33 @@ fn phasor_field_of_a_point_scatterer_peaks_at_its_voxel() {
     }
 }
 
+/// The capture's spectrum at the pulse's frequencies by direct sums over the bins is
+/// the padded FFT's kept bins (to rounding), for short and long pulses, a capture not
+/// starting at OPL 0 and one with its first and last bounces timed.
+#[test]
+fn phasor_field_spectrum_direct_equals_the_fft() {
+    use tstat::nlos::pf::{pulse, spectrum_by, Dft};
+    let lasers = vec![[-0.5, 0.5, 0.0], [0.0, -0.5, 0.0]];
+    for (paired, wl) in [(true, 0.3), (false, 0.05), (false, 0.8)] {
+        let mut c = point_capture_on([0.15, -0.1, 0.7], lasers.clone(), paired, |i, j| [i, j]);
+        c.accounts_first_and_last_bounces = !paired;
+        c.laser_xyz = Some([0.0, 0.0, -1.0]);
+        c.sensor_xyz = Some([0.5, 0.0, -1.0]);
+        let p = pulse(c.bins, c.delta_t, wl, wl / 2f64.sqrt()).unwrap();
+        let fft = spectrum_by(&c, &p, Dft::Fft);
+        let direct = spectrum_by(&c, &p, Dft::Direct);
+        let top = fft.iter().fold(0f64, |a, z| a.max(z.norm()));
+        let worst = fft
+            .iter()
+            .zip(&direct)
+            .fold(0f64, |a, (x, y)| a.max((x - y).norm()));
+        assert!(
+            top > 0.0 && worst <= 1e-10 * top,
+            "wl {wl}: {worst} of {top}"
+        );
+    }
+}
+
 /// The FFT convolution of phasor fields equals the direct sum, whatever way the wall's
 /// grid runs against the voxel axes (flipped, swapped), confocal and exhaustive; and
 /// the vectorised complex dot product equals its reference.

@@ -323,7 +323,7 @@ impl Bundle {
 
     /// The path of an array's file, refused unless it is a plain file name whose
     /// target (after links) lies inside the bundle directory.
-    fn array_path(&self, name: &str) -> Result<PathBuf, BundleError> {
+    pub fn array_path(&self, name: &str) -> Result<PathBuf, BundleError> {
         let info = self.info(name)?;
         let rel = Path::new(&info.file);
         let plain = matches!(

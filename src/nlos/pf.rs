@@ -196,11 +196,50 @@ pub fn memory_bytes(c: &Capture, grid: &VoxelGrid, p: &Pulse) -> usize {
     nw * c.lasers * c.sensors * 16 + threads * per_thread + nw * slice * 16 + grid.voxels() * 8
 }
 
+/// How the capture's spectrum is computed.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Dft {
+    /// Whichever costs fewer operations: [`Dft::Direct`] when `nw T <= 4 nf log2 nf`
+    /// (a complex FFT takes ~5 nf log2 nf flops at a smooth length, several times that
+    /// through Bluestein's; the direct sum 4 per bin and frequency).
+    Cheapest,
+    /// A padded FFT of each series (length nf: a Bluestein transform when nf has large
+    /// prime factors), its kept bins.
+    Fft,
+    /// The kept bins alone, each a sum over the series' T bins with a table of
+    /// twiddles (`nw T` complex f64).
+    Direct,
+}
+
 /// The capture's spectrum at the pulse's frequencies, `[w][l][s]`, with the phase of
 /// `d_014` applied.
 fn spectrum(c: &Capture, p: &Pulse) -> Vec<C64> {
+    spectrum_by(c, p, Dft::Cheapest)
+}
+
+/// [`spectrum`] computed as `how` says.
+pub fn spectrum_by(c: &Capture, p: &Pulse, how: Dft) -> Vec<C64> {
     let (nt, nw, series) = (c.bins, p.freqs.len(), c.lasers * c.sensors);
+    let direct = match how {
+        Dft::Cheapest => (nw * nt) as f64 <= 4.0 * p.nf as f64 * (p.nf as f64).log2(),
+        Dft::Fft => false,
+        Dft::Direct => true,
+    };
     let fft = FftPlanner::new().plan_fft_forward(p.nf);
+    // twiddle[t nw + w] = exp(-2 pi i k n / nf) for DFT index k = first + w and padded
+    // sample n = padding + t, its phase reduced modulo nf in integers.
+    let twiddle: Vec<C64> = if direct {
+        (0..nt)
+            .flat_map(|t| {
+                (0..nw).map(move |w| {
+                    let kn = ((p.first + w) as u128 * (p.padding + t) as u128) % p.nf as u128;
+                    C64::from_polar(1.0, -TAU * kn as f64 / p.nf as f64)
+                })
+            })
+            .collect()
+    } else {
+        Vec::new()
+    };
     let accounts = c.accounts_first_and_last_bounces;
     let d1 = |l: usize| match (accounts, c.laser_xyz) {
         (true, Some(x)) => norm(sub(f64x3(c.laser_grid[l]), f64x3(x))),
@@ -216,19 +255,41 @@ fn spectrum(c: &Capture, p: &Pulse) -> Vec<C64> {
         .flat_map_iter(|b| {
             let qs = b * block..((b + 1) * block).min(series);
             let h = c.series(qs.clone());
-            let mut buf = vec![ZERO; p.nf];
+            let mut buf = vec![ZERO; if direct { nw } else { p.nf }];
+            let mut scratch = vec![
+                ZERO;
+                if direct {
+                    0
+                } else {
+                    fft.get_inplace_scratch_len()
+                }
+            ];
             qs.enumerate()
                 .map(|(k, q)| {
                     let (l, s) = (q / c.sensors, q % c.sensors);
                     buf.iter_mut().for_each(|z| *z = ZERO);
-                    for (t, &v) in h[k * nt..(k + 1) * nt].iter().enumerate() {
-                        buf[p.padding + t] = C64::new(v as f64, 0.0);
-                    }
-                    fft.process(&mut buf);
+                    let h = &h[k * nt..(k + 1) * nt];
+                    let kept = if direct {
+                        for (&v, tw) in h.iter().zip(twiddle.chunks_exact(nw)) {
+                            let v = v as f64;
+                            for (z, t) in buf.iter_mut().zip(tw) {
+                                z.re += v * t.re;
+                                z.im += v * t.im;
+                            }
+                        }
+                        &buf[..]
+                    } else {
+                        for (t, &v) in h.iter().enumerate() {
+                            buf[p.padding + t] = C64::new(v as f64, 0.0);
+                        }
+                        fft.process_with_scratch(&mut buf, &mut scratch);
+                        &buf[p.first..p.first + nw]
+                    };
                     let li = if c.paired { s } else { l };
                     let d014 = -c.t_start + d1(li) + d4(s);
-                    (0..nw)
-                        .map(|w| buf[p.first + w] * C64::from_polar(1.0, TAU * p.freqs[w] * d014))
+                    kept.iter()
+                        .zip(&p.freqs)
+                        .map(|(&z, &f)| z * C64::from_polar(1.0, TAU * f * d014))
                         .collect::<Vec<_>>()
                 })
                 .collect::<Vec<_>>()

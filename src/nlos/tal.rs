@@ -394,7 +394,7 @@ pub fn h_radiance(
     } else {
         "sum"
     };
-    let path = array_file(bundle, name)?;
+    let path = bundle.array_path(name)?;
     let bad = |e: String| BundleError::Invalid(path.clone(), e);
     let file = crate::bundle::npy::open(&path).map_err(bad)?;
     file.header
@@ -442,46 +442,6 @@ pub fn h_radiance(
         }
     }
     Ok(())
-}
-
-/// The file of array `name`, refused unless the manifest lists it as a plain file name
-/// whose target (after links) lies inside the bundle directory (as `Bundle::open`
-/// found it).
-fn array_file(bundle: &Bundle, name: &str) -> Result<std::path::PathBuf, BundleError> {
-    let manifest = bundle.dir.join("manifest.json");
-    let info = bundle.manifest.array(name).ok_or_else(|| {
-        BundleError::Invalid(manifest.clone(), format!("lists no array '{name}'"))
-    })?;
-    let rel = Path::new(&info.file);
-    let plain = matches!(
-        rel.components().collect::<Vec<_>>().as_slice(),
-        [std::path::Component::Normal(_)]
-    );
-    if !plain || info.file.contains('/') || info.file.contains('\\') {
-        return Err(BundleError::Invalid(
-            manifest,
-            format!(
-                "array '{name}' is in {:?}, which is not a file name inside the bundle",
-                info.file
-            ),
-        ));
-    }
-    let path = bundle.dir.join(rel);
-    let cannot = |p: &Path, e: std::io::Error| {
-        BundleError::Invalid(p.to_path_buf(), format!("cannot read: {e}"))
-    };
-    let real = std::fs::canonicalize(&path).map_err(|e| cannot(&path, e))?;
-    let dir = std::fs::canonicalize(&bundle.dir).map_err(|e| cannot(&bundle.dir, e))?;
-    if !real.starts_with(&dir) {
-        return Err(BundleError::Invalid(
-            path,
-            format!(
-                "leads outside the bundle (to {}); a bundle's arrays live in its directory",
-                real.display()
-            ),
-        ));
-    }
-    Ok(path)
 }
 
 #[cfg(test)]
