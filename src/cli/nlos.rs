@@ -221,7 +221,7 @@ pub fn check_reconstruction(
     budget: u64,
 ) -> anyhow::Result<()> {
     r.check(c)
-        .map_err(|e| anyhow!("--{}", e.replacen('_', "-", 1)))?;
+        .map_err(|e| anyhow!("--method {}: {e}", r.name()))?;
     let need = r.working_memory(c, grid).map_err(|e| anyhow!(e))?;
     if need > budget {
         bail!(

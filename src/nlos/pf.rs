@@ -225,7 +225,8 @@ pub fn spectrum_by(c: &Capture, p: &Pulse, how: Dft) -> Vec<C64> {
         Dft::Fft => false,
         Dft::Direct => true,
     };
-    let fft = FftPlanner::new().plan_fft_forward(p.nf);
+    // The FFT is planned only when used (a Bluestein plan is not free).
+    let fft = (!direct).then(|| FftPlanner::new().plan_fft_forward(p.nf));
     // twiddle[t nw + w] = exp(-2 pi i k n / nf) for DFT index k = first + w and padded
     // sample n = padding + t, its phase reduced modulo nf in integers.
     let twiddle: Vec<C64> = if direct {
@@ -256,34 +257,30 @@ pub fn spectrum_by(c: &Capture, p: &Pulse, how: Dft) -> Vec<C64> {
             let qs = b * block..((b + 1) * block).min(series);
             let h = c.series(qs.clone());
             let mut buf = vec![ZERO; if direct { nw } else { p.nf }];
-            let mut scratch = vec![
-                ZERO;
-                if direct {
-                    0
-                } else {
-                    fft.get_inplace_scratch_len()
-                }
-            ];
+            let mut scratch = vec![ZERO; fft.as_ref().map_or(0, |f| f.get_inplace_scratch_len())];
             qs.enumerate()
                 .map(|(k, q)| {
                     let (l, s) = (q / c.sensors, q % c.sensors);
                     buf.iter_mut().for_each(|z| *z = ZERO);
                     let h = &h[k * nt..(k + 1) * nt];
-                    let kept = if direct {
-                        for (&v, tw) in h.iter().zip(twiddle.chunks_exact(nw)) {
-                            let v = v as f64;
-                            for (z, t) in buf.iter_mut().zip(tw) {
-                                z.re += v * t.re;
-                                z.im += v * t.im;
+                    let kept = match &fft {
+                        Some(fft) => {
+                            for (t, &v) in h.iter().enumerate() {
+                                buf[p.padding + t] = C64::new(v as f64, 0.0);
                             }
+                            fft.process_with_scratch(&mut buf, &mut scratch);
+                            &buf[p.first..p.first + nw]
                         }
-                        &buf[..]
-                    } else {
-                        for (t, &v) in h.iter().enumerate() {
-                            buf[p.padding + t] = C64::new(v as f64, 0.0);
+                        None => {
+                            for (&v, tw) in h.iter().zip(twiddle.chunks_exact(nw)) {
+                                let v = v as f64;
+                                for (z, t) in buf.iter_mut().zip(tw) {
+                                    z.re += v * t.re;
+                                    z.im += v * t.im;
+                                }
+                            }
+                            &buf[..]
                         }
-                        fft.process_with_scratch(&mut buf, &mut scratch);
-                        &buf[p.first..p.first + nw]
                     };
                     let li = if c.paired { s } else { l };
                     let d014 = -c.t_start + d1(li) + d4(s);
