@@ -19,6 +19,7 @@ pub mod nlos;
 pub mod render;
 pub mod report;
 pub mod scene;
+pub mod sensors;
 pub mod stats;
 pub mod textures;
 pub mod viz;

@@ -4,7 +4,7 @@
 use std::path::Path;
 use tstat::render::{render, PixelSampling, RenderSettings};
 use tstat::scene::check::{check, Verdict};
-use tstat::scene::time_filter::TimeFilter;
+use tstat::sensors::time_filter::TimeFilter;
 use tstat::scene::{Overrides, Scene};
 use tstat::stats::Transform;
 

@@ -195,7 +195,7 @@ fn every_row_reaches_the_sink_once_with_one_scratch_per_thread() {
 fn the_streaming_footprint_grows_with_threads_and_width_not_height() {
     let t = Transform::Identity;
     let small = scene("cbox.xml", 64, 100, 2).film;
-    let tall = tstat::scene::film::Film {
+    let tall = tstat::sensors::film::Film {
         height: small.height * 100,
         ..small.clone()
     };

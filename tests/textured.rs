@@ -9,7 +9,7 @@ use tstat::lights::Emitter;
 use tstat::materials::Bsdf;
 use tstat::math::rng::Pcg32;
 use tstat::scene::{Overrides, Scene};
-use tstat::textures::{MeshAttributeTexture, Texture};
+use tstat::textures::{MeshAttributeTexture, TexPoint, Texture};
 
 /// Loads `xml` from a folder that also holds `files` (name, contents).
 fn load_with(xml: &str, files: &[(&str, &str)]) -> Scene {
@@ -93,7 +93,7 @@ fn vertex_attributes_interpolate_and_face_attributes_are_per_polygon() {
     assert_eq!(a.names(), "vertex_color, vertex_w, face_c_color, face_k");
     // Triangle 0 = (0, 1, 2), triangle 1 = (0, 2, 3) (the quad's fan), 2 = (1, 4, 2).
     let (b1, b2) = (0.25f32, 0.5f32);
-    let p = shape.tex_point(0, b1, b2, Vec3::ZERO);
+    let p = TexPoint::on(shape, 0, b1, b2, Vec3::ZERO);
     // vertex_w: 1 * 0.25 + 2 * 0.25 + 4 * 0.5 = 2.75.
     assert_eq!(attr("vertex_w", 1.0).eval_float_at(&p), 2.75);
     assert_eq!(attr("vertex_w", 2.0).eval_rgb_at(&p), Vec3::splat(5.5));
@@ -112,14 +112,14 @@ fn vertex_attributes_interpolate_and_face_attributes_are_per_polygon() {
     assert!((d.reflectance - c * 0.5).abs().max_element() < 1e-4);
     // Face attributes: the quad's value on both of its triangles.
     for face in [0, 1] {
-        let q = shape.tex_point(face, 0.3, 0.1, Vec3::ZERO);
+        let q = TexPoint::on(shape, face, 0.3, 0.1, Vec3::ZERO);
         assert_eq!(
             attr("face_c_color", 1.0).eval_rgb_at(&q),
             Vec3::new(0.1, 0.2, 0.3)
         );
         assert_eq!(attr("face_k", 1.0).eval_float_at(&q), 1.0);
     }
-    let q = shape.tex_point(2, 0.3, 0.1, Vec3::ZERO);
+    let q = TexPoint::on(shape, 2, 0.3, 0.1, Vec3::ZERO);
     assert_eq!(
         attr("face_c_color", 1.0).eval_rgb_at(&q),
         Vec3::new(0.5, 0.25, 0.125)

@@ -11,7 +11,7 @@ use super::{BundleError, RowSums};
 use crate::render::gbuffer::GPixel;
 use crate::render::sink::{PixelImages, Row, RowSink};
 use crate::render::{RenderOutput, RenderSummary};
-use crate::scene::film::Film;
+use crate::sensors::film::Film;
 use crate::scene::Scene;
 use crate::stats::accumulators::CHANNELS;
 use crate::stats::Transform;

@@ -376,7 +376,7 @@ pub fn check_disk(out: &Path, need: u64, what: &str) -> anyhow::Result<()> {
 
 /// Warns when no path deposited anything in the time window: legal (e.g. --max-depth 0,
 /// or a window placed before or after the light arrives) but an all-zero bundle.
-pub fn warn_if_empty(voxel_samples: u64, film: &crate::scene::film::Film) {
+pub fn warn_if_empty(voxel_samples: u64, film: &crate::sensors::film::Film) {
     if voxel_samples == 0 {
         eprintln!(
             "warning: nothing landed in the time window (OPL {} to {}, {} bins): the transient volume is all zero; check --start-opl, --bin-width-opl, --bins and max_depth",

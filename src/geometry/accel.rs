@@ -6,6 +6,8 @@
 use super::curve::Segment;
 use super::cylinder::CylinderGeom;
 use super::disk::DiskGeom;
+#[cfg(target_arch = "x86_64")]
+use super::flat_simd;
 use super::flat::{FlatTriangles, FLAT_MAX};
 use super::sdfgrid::SdfGeom;
 use super::shape::{Shape, ShapeGeom, SurfacePoint};
@@ -438,7 +440,7 @@ impl Accel {
     pub unsafe fn occluded_with<const ISA: u8>(&self, o: Vec3, d: Vec3, tmax: f32) -> bool {
         if let Some(flat) = &self.flat {
             // SAFETY: passed on from the caller.
-            return unsafe { flat.tris.occluded_with::<ISA>(o, d, tmax) }
+            return unsafe { flat_occluded_with::<ISA>(&flat.tris, o, d, tmax) }
                 || flat
                     .sphere_prims
                     .iter()
@@ -480,7 +482,7 @@ impl Accel {
         tmax: f32,
     ) -> Option<Hit> {
         // SAFETY: passed on from the caller.
-        let mut best = unsafe { flat.tris.intersect_with::<ISA>(o, d, tmax) }
+        let mut best = unsafe { flat_intersect_with::<ISA>(&flat.tris, o, d, tmax) }
             .map(|(k, t, b1, b2)| (flat.tri_prims[k], t, b1, b2));
         for &i in &flat.sphere_prims {
             let (t, v) = self.prim_tv(i, o, d, 0.0);
@@ -526,6 +528,62 @@ pub fn offset_origin(p: Vec3, ng: Vec3, d: Vec3) -> Vec3 {
 #[inline]
 pub fn ray_epsilon(p: Vec3) -> f32 {
     1e-4 * (1.0 + p.abs().max_element())
+}
+
+// The flat packets' kernel for an instruction set (`flat_simd.rs`, else the portable
+// one in `flat.rs`).
+
+/// [`FlatTriangles::intersect`] with the kernel for `ISA` (`cpu` codes); the same
+/// answer, bit for bit, at every level.
+///
+/// # Safety
+/// The CPU must support `ISA`.
+#[inline(always)]
+pub(super) unsafe fn flat_intersect_with<const ISA: u8>(
+    flat: &FlatTriangles,
+    o: Vec3,
+    d: Vec3,
+    tmax: f32,
+) -> Option<(usize, f32, f32, f32)> {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use crate::cpu::{ISA_AVX2, ISA_AVX512};
+        if ISA == ISA_AVX512 {
+            // SAFETY: the caller guarantees AVX-512.
+            return unsafe { flat_simd::intersect_avx512(flat, o, d, tmax) };
+        }
+        if ISA == ISA_AVX2 {
+            // SAFETY: the caller guarantees AVX2.
+            return unsafe { flat_simd::intersect_avx2(flat, o, d, tmax) };
+        }
+    }
+    flat.intersect(o, d, tmax)
+}
+
+/// [`FlatTriangles::occluded`] with the kernel for `ISA`.
+///
+/// # Safety
+/// The CPU must support `ISA`.
+#[inline(always)]
+pub(super) unsafe fn flat_occluded_with<const ISA: u8>(
+    flat: &FlatTriangles,
+    o: Vec3,
+    d: Vec3,
+    tmax: f32,
+) -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use crate::cpu::{ISA_AVX2, ISA_AVX512};
+        if ISA == ISA_AVX512 {
+            // SAFETY: the caller guarantees AVX-512.
+            return unsafe { flat_simd::occluded_avx512(flat, o, d, tmax) };
+        }
+        if ISA == ISA_AVX2 {
+            // SAFETY: the caller guarantees AVX2.
+            return unsafe { flat_simd::occluded_avx2(flat, o, d, tmax) };
+        }
+    }
+    flat.occluded(o, d, tmax)
 }
 
 #[cfg(test)]

@@ -13,8 +13,6 @@
 //! end; among equal distances the lowest triangle index wins, so the result is the same
 //! as testing the triangles one by one in order with a strict `<`.
 
-#[cfg(target_arch = "x86_64")]
-use super::flat_simd;
 use super::triangle::TriangleGeom;
 use glam::Vec3;
 
@@ -204,54 +202,6 @@ impl FlatTriangles {
         Self::reduce(self.lanes(o, d, tmax), tmax)
     }
 
-    /// [`Self::intersect`] with the kernel for `ISA` (`cpu` codes); the same
-    /// answer, bit for bit, at every level.
-    ///
-    /// # Safety
-    /// The CPU must support `ISA`.
-    #[inline(always)]
-    pub unsafe fn intersect_with<const ISA: u8>(
-        &self,
-        o: Vec3,
-        d: Vec3,
-        tmax: f32,
-    ) -> Option<(usize, f32, f32, f32)> {
-        #[cfg(target_arch = "x86_64")]
-        {
-            use crate::cpu::{ISA_AVX2, ISA_AVX512};
-            if ISA == ISA_AVX512 {
-                // SAFETY: the caller guarantees AVX-512.
-                return unsafe { flat_simd::intersect_avx512(self, o, d, tmax) };
-            }
-            if ISA == ISA_AVX2 {
-                // SAFETY: the caller guarantees AVX2.
-                return unsafe { flat_simd::intersect_avx2(self, o, d, tmax) };
-            }
-        }
-        self.intersect(o, d, tmax)
-    }
-
-    /// [`Self::occluded`] with the kernel for `ISA`.
-    ///
-    /// # Safety
-    /// The CPU must support `ISA`.
-    #[inline(always)]
-    pub unsafe fn occluded_with<const ISA: u8>(&self, o: Vec3, d: Vec3, tmax: f32) -> bool {
-        #[cfg(target_arch = "x86_64")]
-        {
-            use crate::cpu::{ISA_AVX2, ISA_AVX512};
-            if ISA == ISA_AVX512 {
-                // SAFETY: the caller guarantees AVX-512.
-                return unsafe { flat_simd::occluded_avx512(self, o, d, tmax) };
-            }
-            if ISA == ISA_AVX2 {
-                // SAFETY: the caller guarantees AVX2.
-                return unsafe { flat_simd::occluded_avx2(self, o, d, tmax) };
-            }
-        }
-        self.occluded(o, d, tmax)
-    }
-
     /// Per-lane nearest hits (portable kernel).
     #[inline(always)]
     fn lanes(&self, o: Vec3, d: Vec3, tmax: f32) -> LaneBest {
@@ -326,6 +276,7 @@ impl FlatTriangles {
 mod tests {
     use super::*;
     use crate::cpu::{Isa, ISA_AVX2, ISA_AVX512};
+    use crate::geometry::accel::{flat_intersect_with, flat_occluded_with};
     use crate::math::rng::Pcg32;
 
     #[test]
@@ -383,12 +334,12 @@ mod tests {
                     let (simd, blocked) = unsafe {
                         match isa {
                             Isa::Avx2 => (
-                                flat.intersect_with::<ISA_AVX2>(o, d, tmax),
-                                flat.occluded_with::<ISA_AVX2>(o, d, tmax),
+                                flat_intersect_with::<ISA_AVX2>(&flat, o, d, tmax),
+                                flat_occluded_with::<ISA_AVX2>(&flat, o, d, tmax),
                             ),
                             _ => (
-                                flat.intersect_with::<ISA_AVX512>(o, d, tmax),
-                                flat.occluded_with::<ISA_AVX512>(o, d, tmax),
+                                flat_intersect_with::<ISA_AVX512>(&flat, o, d, tmax),
+                                flat_occluded_with::<ISA_AVX512>(&flat, o, d, tmax),
                             ),
                         }
                     };

@@ -10,7 +10,6 @@ use super::sdfgrid::SdfGeom;
 use super::sphere::SphereGeom;
 use super::triangle::TriangleGeom;
 use crate::math::sampling::{uniform_sphere, uniform_triangle};
-use crate::textures::TexPoint;
 use glam::{Mat3, Vec2, Vec3};
 use std::sync::Arc;
 
@@ -221,28 +220,6 @@ impl Shape {
             ShapeGeom::Curve(g) => g.uv(face as usize, b1, p),
             // Mitsuba's sdfgrid emits no uv (zero).
             ShapeGeom::Sdf(_) => Vec2::ZERO,
-        }
-    }
-
-    /// Where a material's textures are looked up at barycentrics (b1, b2) of triangle
-    /// `face` (or at `p` on an analytic shape): uv ([`Self::uv`]) and, on a mesh with
-    /// attributes, those with the triangle's vertices.
-    pub fn tex_point(&self, face: u32, b1: f32, b2: f32, p: Vec3) -> TexPoint<'_> {
-        let uv = self.uv(face, b1, b2, p);
-        match &self.geom {
-            ShapeGeom::Mesh {
-                attributes: Some(a),
-                triangles,
-                ..
-            } => TexPoint {
-                uv,
-                attributes: Some(a),
-                face,
-                tri: triangles[face as usize],
-                b1,
-                b2,
-            },
-            _ => TexPoint::uv(uv),
         }
     }
 

@@ -112,11 +112,11 @@ impl Projector {
     /// `parse_fov` (which resolves `smaller`/`larger` by aspect > 1).
     pub fn frustum(
         fov_deg: f64,
-        axis: crate::scene::camera::FovAxis,
+        axis: crate::sensors::camera::FovAxis,
         width: usize,
         height: usize,
     ) -> (f64, f64) {
-        use crate::scene::camera::FovAxis;
+        use crate::sensors::camera::FovAxis;
         let a = width as f64 / height as f64;
         let t = (0.5 * fov_deg.to_radians()).tan();
         let axis = match axis {
@@ -138,7 +138,7 @@ impl Projector {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::camera::FovAxis;
+    use crate::sensors::camera::FovAxis;
     use crate::scene::transform::look_at;
     use glam::DVec3;
 

@@ -24,7 +24,6 @@ mod mask;
 pub mod material;
 pub mod microfacet;
 mod null;
-pub mod parse;
 pub mod perturbed;
 mod plastic;
 mod polarizer;

@@ -2,12 +2,11 @@
 //! with a phase function (`phase.rs`), attached to shapes as `interior` / `exterior`
 //! and to the sensor, and rendered by `transient_prbvolpath` (`render/volpath.rs`).
 //! `volume.rs` holds the `<volume>` plugins (`constvolume`, `gridvolume`) and
-//! `vol_file.rs` Mitsuba's `.vol` grid files. `parse.rs` reads `<medium>`, `<phase>`
-//! and `<volume>`.
+//! `vol_file.rs` Mitsuba's `.vol` grid files. `scene/media.rs` reads `<medium>`,
+//! `<phase>` and `<volume>`.
 
 pub mod heterogeneous;
 pub mod homogeneous;
-pub mod parse;
 pub mod phase;
 pub mod vol_file;
 pub mod volume;

@@ -8,10 +8,11 @@ use super::sampler::{pick_scattering, slot, PathSampler};
 use crate::cpu::{Isa, ISA_AVX2, ISA_AVX512, ISA_BASELINE};
 use crate::geometry::accel::offset_origin;
 use crate::materials::{Bsdf, BsdfModel, HitGeometry};
+use crate::textures::TexPoint;
 use crate::math::frame::Frame;
 use crate::math::sampling::power_heuristic;
 use crate::math::Rgb;
-use crate::scene::time_filter::{gaussian_shares, TimeFilter};
+use crate::sensors::time_filter::{gaussian_shares, TimeFilter};
 use crate::scene::Scene;
 use glam::Vec3;
 
@@ -102,7 +103,7 @@ pub(super) fn perturbed_at(
     frame: &Frame,
     wo: Vec3,
 ) -> Bsdf {
-    let point = shape.tex_point(hit.face, hit.b1, hit.b2, sp.p);
+    let point = TexPoint::on(shape, hit.face, hit.b1, hit.b2, sp.p);
     let uv = point.uv;
     let mut b = material.at_point(&point);
     b.resolve_frames(&HitGeometry {
@@ -327,7 +328,7 @@ unsafe fn trace_path_body<const ISA: u8, S: PathSampler>(
                 textured = perturbed_at(material, shape, &hit, &sp, &frame, wo);
                 &textured
             } else if material.is_textured() {
-                textured = material.at_point(&shape.tex_point(hit.face, hit.b1, hit.b2, sp.p));
+                textured = material.at_point(&TexPoint::on(shape, hit.face, hit.b1, hit.b2, sp.p));
                 &textured
             } else {
                 &material.bsdf

@@ -44,6 +44,7 @@ use crate::scene::nlos::{
     laser_light, shadow_segment, CaptureType, LaserLight, NlosSettings, NlosSetup, PathEnds,
 };
 use crate::scene::Scene;
+use crate::textures::TexPoint;
 use glam::Vec3;
 use std::borrow::Cow;
 
@@ -143,7 +144,7 @@ impl<'a> Vertex<'a> {
         } else if material.perturbs() {
             Cow::Owned(perturbed_at(material, shape, hit, &sp, &frame, wo))
         } else if material.is_textured() {
-            Cow::Owned(material.at_point(&shape.tex_point(hit.face, hit.b1, hit.b2, sp.p)))
+            Cow::Owned(material.at_point(&TexPoint::on(shape, hit.face, hit.b1, hit.b2, sp.p)))
         } else {
             Cow::Borrowed(&material.bsdf)
         };

@@ -63,6 +63,7 @@ use crate::math::Rgb;
 use crate::media::heterogeneous::Tracked;
 use crate::media::Medium;
 use crate::scene::Scene;
+use crate::textures::TexPoint;
 use glam::{DVec3, Vec3};
 
 /// Shadow rays cross at most this many `null` interfaces (then count as blocked), and a
@@ -129,7 +130,7 @@ fn null_transmission(
             let t = if material.is_plain() {
                 t
             } else {
-                textured = material.at_point(&shape.tex_point(h.face, h.b1, h.b2, h.surface.p));
+                textured = material.at_point(&TexPoint::on(shape, h.face, h.b1, h.b2, h.surface.p));
                 match &textured {
                     Bsdf::ThinDielectric(t) => t,
                     _ => return None,
@@ -526,7 +527,7 @@ unsafe fn trace_body<const ISA: u8, S: PathSampler>(
                 textured = super::integrator::perturbed_at(material, shape, &hit, &sp, &frame, wo);
                 &textured
             } else if material.is_textured() {
-                textured = material.at_point(&shape.tex_point(hit.face, hit.b1, hit.b2, sp.p));
+                textured = material.at_point(&TexPoint::on(shape, hit.face, hit.b1, hit.b2, sp.p));
                 &textured
             } else {
                 &material.bsdf

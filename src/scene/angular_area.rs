@@ -3,7 +3,8 @@
 //! an id, as `area`.
 
 use super::error::SceneError;
-use super::props::{Ctx, Props};
+use super::ctx::Ctx;
+use super::props::Props;
 use crate::lights::AngularFalloff;
 use glam::Vec3;
 use roxmltree::Node;

@@ -86,7 +86,7 @@ pub fn parse_curves(text: &[u8], kind: CurveKind, to_world: &DMat4) -> Result<Cu
             ));
         }
         let p = to_world.transform_point3(DVec3::new(x as f64, y as f64, z as f64));
-        crate::scene::shapes::check_world_point(p).map_err(|e| format!("line {line_no}: {e}"))?;
+        crate::scene::limits::check_world_point(p).map_err(|e| format!("line {line_no}: {e}"))?;
         if new_curve {
             starts.push(points.len());
             new_curve = false;

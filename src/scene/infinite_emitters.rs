@@ -3,7 +3,8 @@
 //! Their bounding sphere is set once the shapes are known (`Emitter::set_scene_sphere`).
 
 use super::error::SceneError;
-use super::props::{Ctx, Props};
+use super::ctx::Ctx;
+use super::props::Props;
 use crate::lights::envmap::{EnvMap, EnvMapError};
 use crate::lights::scene_sphere::SceneSphere;
 use crate::lights::Emitter;

@@ -20,7 +20,7 @@ use crate::geometry::cylinder::CylinderGeom;
 use crate::geometry::disk::DiskGeom;
 use crate::geometry::shape::ShapeGeom;
 use crate::geometry::sphere::SphereGeom;
-use crate::scene::shapes::check_world_point;
+use crate::scene::limits::check_world_point;
 use glam::{DMat3, DMat4, DVec3, Mat3};
 
 /// The most triangles instances may add to one scene.
@@ -111,7 +111,7 @@ pub fn transformed(g: &ShapeGeom, m: &DMat4) -> Result<ShapeGeom, String> {
             check_world_point(center)?;
             let radius = s.radius as f64 * lens[0];
             if !(radius as f32 >= f32::MIN_POSITIVE
-                && radius <= crate::scene::shapes::MAX_COORDINATE)
+                && radius <= crate::scene::limits::MAX_COORDINATE)
             {
                 return Err(format!(
                     "the instanced sphere's radius {radius:e} is out of range"

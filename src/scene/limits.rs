@@ -3,6 +3,7 @@
 //! check is quadratic in the attributes of one element, and the scene walk recurses into
 //! nested elements. Real Mitsuba scenes stay far below every limit here.
 
+use glam::DVec3;
 use roxmltree::{Document, Node};
 
 /// Deepest element nesting accepted (`<scene>` is depth 1; real scenes reach about 6).
@@ -105,6 +106,22 @@ pub fn too_deep<'a, 'i>(doc: &'a Document<'i>) -> Option<Node<'a, 'i>> {
         }
     }
     None
+}
+
+/// The largest world-space coordinate accepted. Geometry is single precision and its
+/// arithmetic squares distances (edge cross products, sphere tests, 1/r^2 falloff), so
+/// coordinates must stay far below sqrt(f32::MAX) ~ 1.8e19.
+pub const MAX_COORDINATE: f64 = 1e15;
+
+/// A world-space point must be finite in single precision and within [`MAX_COORDINATE`].
+pub fn check_world_point(p: DVec3) -> Result<(), String> {
+    if p.is_finite() && p.abs().max_element() <= MAX_COORDINATE {
+        Ok(())
+    } else {
+        Err(format!(
+            "world-space point {p} lies beyond +-{MAX_COORDINATE:e} (single-precision geometry would overflow)"
+        ))
+    }
 }
 
 #[cfg(test)]

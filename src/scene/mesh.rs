@@ -878,6 +878,27 @@ fn one_line(s: &str) -> String {
     s.split_whitespace().collect::<Vec<_>>().join(" ")
 }
 
+/// Smooth vertex normals for a file mesh without them, as Mitsuba computes them:
+/// face normals weighted by the angle each face makes at the vertex.
+pub fn vertex_normals(m: &MeshData) -> Vec<Vec3> {
+    let mut acc = vec![glam::DVec3::ZERO; m.positions.len()];
+    for t in &m.triangles {
+        let p = t.map(|i| m.positions[i as usize].as_dvec3());
+        let n = (p[1] - p[0]).cross(p[2] - p[0]);
+        let Some(n) = n.try_normalize() else { continue };
+        for k in 0..3 {
+            let e1 = p[(k + 1) % 3] - p[k];
+            let e2 = p[(k + 2) % 3] - p[k];
+            if let (Some(a), Some(b)) = (e1.try_normalize(), e2.try_normalize()) {
+                acc[t[k] as usize] += n * a.dot(b).clamp(-1.0, 1.0).acos();
+            }
+        }
+    }
+    acc.into_iter()
+        .map(|n| n.normalize_or_zero().as_vec3())
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

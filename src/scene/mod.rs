@@ -3,8 +3,9 @@
 //! the BVH. Every plugin documents its parameters in the file that reads it.
 
 pub mod angular_area;
-pub mod camera;
+pub mod bsdfs;
 pub mod check;
+pub mod ctx;
 pub mod curves;
 pub mod error;
 pub mod film;
@@ -12,8 +13,10 @@ mod fingerprint;
 pub mod infinite_emitters;
 pub mod instance;
 pub mod limits;
+pub mod media;
 pub mod mesh;
 pub mod nlos;
+pub mod plugins;
 pub mod ply_attributes;
 pub mod projector;
 pub mod props;
@@ -22,7 +25,6 @@ pub mod serialized;
 pub mod shapes;
 pub mod spectrum;
 pub mod textures;
-pub mod time_filter;
 pub mod transform;
 mod xml;
 
@@ -30,9 +32,9 @@ use crate::geometry::accel::Accel;
 use crate::geometry::shape::Shape;
 use crate::lights::Emitter;
 use crate::materials::Material;
-use camera::Camera;
+use crate::sensors::camera::Camera;
 pub use error::SceneError;
-use film::Film;
+use crate::sensors::film::Film;
 use std::path::{Path, PathBuf};
 
 /// `transient_path` (surfaces only), `transient_prbvolpath` (participating media,
@@ -60,7 +62,7 @@ pub struct IntegratorSettings {
     /// transparent to shadow rays).
     pub volumetric: bool,
     /// mitransient's `temporal_filter`: how a contribution reaches the time bins.
-    pub time_filter: crate::scene::time_filter::TimeFilter,
+    pub time_filter: crate::sensors::time_filter::TimeFilter,
     /// `transient_nlos_path`: the NLOS tracer (`render/nlos.rs`) and its settings.
     pub nlos: Option<nlos::NlosSettings>,
 }
@@ -73,7 +75,7 @@ impl Default for IntegratorSettings {
             hide_emitters: false,
             camera_unwarp: false,
             volumetric: false,
-            time_filter: crate::scene::time_filter::TimeFilter::Box,
+            time_filter: crate::sensors::time_filter::TimeFilter::Box,
             nlos: None,
         }
     }

@@ -2,8 +2,9 @@
 //! `lights/projector.rs`).
 
 use super::error::SceneError;
-use super::props::{Ctx, Props};
-use super::shapes::check_world_point;
+use super::ctx::Ctx;
+use super::props::Props;
+use super::limits::check_world_point;
 use super::textures::{texture_param, NamedTextures};
 use crate::lights::{Emitter, Projector};
 use crate::textures::Texture;

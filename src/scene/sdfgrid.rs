@@ -79,8 +79,8 @@ pub fn parse_sdfgrid(props: &mut Props, to_world: &DMat4) -> Result<ShapeGeom, S
         );
     }
     let (lo, hi) = geom.bounds();
-    super::shapes::check_world_point(lo.as_dvec3())
-        .and_then(|_| super::shapes::check_world_point(hi.as_dvec3()))
+    super::limits::check_world_point(lo.as_dvec3())
+        .and_then(|_| super::limits::check_world_point(hi.as_dvec3()))
         .map_err(|e| props.err_at("to_world", e))?;
     Ok(ShapeGeom::Sdf(Box::new(geom)))
 }

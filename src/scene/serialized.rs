@@ -587,7 +587,7 @@ fn point_normals(m: &MeshData, point_of: &[u32], points: usize) -> Vec<Vec3> {
             .collect(),
         uvs: None,
     };
-    let n = super::shapes::vertex_normals(&welded);
+    let n = super::mesh::vertex_normals(&welded);
     point_of.iter().map(|&p| n[p as usize]).collect()
 }
 

@@ -24,7 +24,8 @@
 
 use super::curves::load_curves;
 use super::error::SceneError;
-use super::mesh::{load_obj, load_ply_with_attributes, MeshData};
+use super::limits::{check_world_point, MAX_COORDINATE};
+use super::mesh::{load_obj, load_ply_with_attributes, vertex_normals, MeshData};
 use super::props::Props;
 use super::serialized::load_serialized;
 use crate::geometry::curve::CurveKind;
@@ -131,22 +132,6 @@ fn mitsuba_cube_uv(n: Vec3, p: Vec3) -> Vec2 {
     Vec2::from_array(UV[k])
 }
 
-/// The largest world-space coordinate accepted. Geometry is single precision and its
-/// arithmetic squares distances (edge cross products, sphere tests, 1/r^2 falloff), so
-/// coordinates must stay far below sqrt(f32::MAX) ~ 1.8e19.
-pub const MAX_COORDINATE: f64 = 1e15;
-
-/// A world-space point must be finite in single precision and within [`MAX_COORDINATE`].
-pub fn check_world_point(p: DVec3) -> Result<(), String> {
-    if p.is_finite() && p.abs().max_element() <= MAX_COORDINATE {
-        Ok(())
-    } else {
-        Err(format!(
-            "world-space point {p} lies beyond +-{MAX_COORDINATE:e} (single-precision geometry would overflow)"
-        ))
-    }
-}
-
 /// An analytic shape's box must lie within [`MAX_COORDINATE`].
 fn check_bounds((lo, hi): (Vec3, Vec3)) -> Result<(), String> {
     check_world_point(lo.as_dvec3())?;
@@ -198,27 +183,6 @@ fn transform_mesh(
         uvs: m.uvs,
         attributes: None,
     })
-}
-
-/// Smooth vertex normals for a file mesh without them, as Mitsuba computes them:
-/// face normals weighted by the angle each face makes at the vertex.
-pub fn vertex_normals(m: &MeshData) -> Vec<Vec3> {
-    let mut acc = vec![glam::DVec3::ZERO; m.positions.len()];
-    for t in &m.triangles {
-        let p = t.map(|i| m.positions[i as usize].as_dvec3());
-        let n = (p[1] - p[0]).cross(p[2] - p[0]);
-        let Some(n) = n.try_normalize() else { continue };
-        for k in 0..3 {
-            let e1 = p[(k + 1) % 3] - p[k];
-            let e2 = p[(k + 2) % 3] - p[k];
-            if let (Some(a), Some(b)) = (e1.try_normalize(), e2.try_normalize()) {
-                acc[t[k] as usize] += n * a.dot(b).clamp(-1.0, 1.0).acos();
-            }
-        }
-    }
-    acc.into_iter()
-        .map(|n| n.normalize_or_zero().as_vec3())
-        .collect()
 }
 
 /// Builds the geometry of a `<shape>`; consumes its geometric parameters from `props`.
@@ -540,7 +504,7 @@ mod tests {
 
     #[test]
     fn sphere_uv_at_poles_and_equator_in_object_space() {
-        use crate::scene::props::Ctx;
+        use crate::scene::ctx::Ctx;
         let xml = r#"<shape type="sphere"><point name="center" x="1" y="2" z="3"/><float name="radius" value="2"/>
             <transform name="to_world"><rotate x="1" angle="90"/><scale value="0.5"/></transform></shape>"#;
         let defaults = std::collections::HashMap::new();
@@ -625,7 +589,7 @@ mod tests {
 
     #[test]
     fn dpdu_is_the_derivative_of_position_along_u() {
-        use crate::scene::props::Ctx;
+        use crate::scene::ctx::Ctx;
         // Rectangle and cube under a rotation, a non-uniform scale and a mirror.
         let m = DMat4::from_translation(DVec3::new(3.0, 0.0, 1.0))
             * DMat4::from_rotation_x(0.7)
@@ -775,7 +739,7 @@ mod tests {
 
     /// A shape parsed from its XML element.
     fn parse_shape(kind: &str, inner: &str) -> Result<Shape, SceneError> {
-        use crate::scene::props::Ctx;
+        use crate::scene::ctx::Ctx;
         let xml = format!(r#"<shape type="{kind}">{inner}</shape>"#);
         let defaults = std::collections::HashMap::new();
         let ctx = Ctx::new(std::path::Path::new("s.xml"), &xml, &defaults);
@@ -918,7 +882,7 @@ mod tests {
 
     #[test]
     fn mesh_file_uv_is_interpolated_and_obj_v_flipped() {
-        use crate::scene::props::Ctx;
+        use crate::scene::ctx::Ctx;
         let dir = tempfile::tempdir().unwrap();
         std::fs::write(
             dir.path().join("t.ply"),

@@ -7,7 +7,8 @@
 //! parsed in place, `<ref name=... id=...>` looks up a top-level texture.
 
 use super::error::SceneError;
-use super::props::{Ctx, Props, Value};
+use super::ctx::Ctx;
+use super::props::{Props, Value};
 use crate::textures::image_file::load_image;
 use crate::textures::{
     Bitmap, Checkerboard, FilterType, MeshAttributeTexture, Texture, UvTransform, WrapMode,

@@ -2,7 +2,7 @@
 //! document order (each element applies after the previous ones), as in Mitsuba 3.
 
 use super::error::SceneError;
-use super::props::{scene_number, scene_numbers, Ctx};
+use super::ctx::{scene_number, scene_numbers, Ctx};
 use glam::{DMat4, DVec3, DVec4};
 use roxmltree::Node;
 

@@ -1,24 +1,27 @@
 //! The document walk: `<scene>`, `<default>`, top-level plugins, ids and refs.
 
-use super::camera::{Camera, FovAxis};
+use crate::sensors::camera::{Camera, FovAxis};
 use super::error::SceneError;
-use super::film::Film;
+use super::film::{parse_film, parse_film_for_meter};
+use crate::sensors::film::Film;
 use super::infinite_emitters;
 use super::limits;
-use super::props::{Ctx, Props, OBJECT_TAGS};
-use super::shapes::{check_world_point, parse_geometry, MAX_COORDINATE};
+use super::ctx::Ctx;
+use super::props::{Props, OBJECT_TAGS};
+use super::limits::{check_world_point, MAX_COORDINATE};
+use super::shapes::parse_geometry;
 use super::{IntegratorSettings, Overrides, Scene, SceneIdentity};
 use crate::geometry::accel::Accel;
 use crate::geometry::shape::{AreaSampler, Shape, ShapeGeom};
 use crate::lights::scene_sphere::SceneSphere;
 use crate::lights::{AngularFalloff, Emitter};
-use crate::materials::parse::{parse_bsdf, resolve_bsdf, Named};
+use super::bsdfs::{parse_bsdf, resolve_bsdf, Named};
 use crate::materials::{Bsdf, Diffuse, Material};
 use crate::math::Rgb;
-use crate::media::parse::parse_medium;
+use super::media::parse_medium;
 use crate::media::Medium;
 use crate::scene::textures::{parse_texture, texture_param, NamedTextures};
-use crate::scene::time_filter::{TimeFilter, DEFAULT_STDDEV_BINS};
+use crate::sensors::time_filter::{TimeFilter, DEFAULT_STDDEV_BINS};
 use crate::textures::Texture;
 use glam::{DMat4, DVec3, Vec3};
 use roxmltree::Node;
@@ -1295,7 +1298,7 @@ fn parse_meter(
     let (origin, legacy_laser) = super::nlos::parse_meter_params(&mut p)?;
     check_world_point(origin.as_dvec3())
         .map_err(|e| p.err_at("sensor_origin", format!("sensor_origin: {e}")))?;
-    let wall = super::nlos::Wall::of_rectangle(shape)
+    let wall = crate::sensors::relay_wall::Wall::of_rectangle(shape)
         .ok_or_else(|| ctx.err(node, "the relay wall is not a rectangle"))?;
     if !(wall.normal.is_finite() && wall.du.length() > 0.0 && wall.dv.length() > 0.0) {
         return Err(ctx.err(
@@ -1313,7 +1316,7 @@ fn parse_meter(
             "sampler" | "ref" if seen_sampler => {
                 return Err(ctx.err(obj, "a sensor has one <sampler>"))
             }
-            "film" => film = Some(Film::parse_for_meter(ctx, obj)?),
+            "film" => film = Some(parse_film_for_meter(ctx, obj)?),
             "sampler" => {
                 seen_sampler = true;
                 (spp, seed) = parse_sampler(ctx, obj)?;
@@ -1471,7 +1474,7 @@ fn parse_sensor(
             }
             "film" if film.is_some() => return Err(ctx.err(obj, "a sensor has one <film>")),
             "sampler" if seen_sampler => return Err(ctx.err(obj, "a sensor has one <sampler>")),
-            "film" => film = Some(Film::parse(ctx, obj)?),
+            "film" => film = Some(parse_film(ctx, obj)?),
             "sampler" => {
                 seen_sampler = true;
                 (spp, seed) = parse_sampler(ctx, obj)?;

@@ -11,7 +11,7 @@
 //!
 //! `bitmap` and `checkerboard` take `to_uv` ([`UvTransform`]). The XML side lives in
 //! `scene::textures`. Material textures are looked up at a [`TexPoint`] (uv plus the
-//! hit's triangle, for `mesh_attribute`); every other user of a texture has uv only
+//! hit's triangle, for `mesh_attribute`; [`TexPoint::on`] a shape); every other user of a texture has uv only
 //! and refuses `mesh_attribute` when the scene is parsed.
 
 pub mod bitmap;
@@ -26,12 +26,13 @@ pub use mesh_attribute::MeshAttributeTexture;
 pub use uv_transform::UvTransform;
 
 use crate::geometry::mesh_attributes::MeshAttributes;
+use crate::geometry::shape::{Shape, ShapeGeom};
 use glam::{Vec2, Vec3};
 use std::sync::Arc;
 
 /// Where a material's texture is looked up: the hit's uv and, for `mesh_attribute`,
 /// the mesh's attributes (if any), the triangle (index and vertex indices) and the
-/// barycentrics (b1, b2) on it. `Shape::tex_point` builds it.
+/// barycentrics (b1, b2) on it. [`TexPoint::on`] builds it.
 #[derive(Clone, Copy, Debug)]
 pub struct TexPoint<'a> {
     pub uv: Vec2,
@@ -52,6 +53,29 @@ impl TexPoint<'_> {
             tri: [0; 3],
             b1: 0.0,
             b2: 0.0,
+        }
+    }
+
+    /// Where a material's textures are looked up at barycentrics (b1, b2) of triangle
+    /// `face` of `shape` (or at `p` on an analytic shape): uv ([`Shape::uv`]) and, on a
+    /// mesh with attributes, those with the triangle's vertices.
+    #[inline]
+    pub fn on(shape: &Shape, face: u32, b1: f32, b2: f32, p: Vec3) -> TexPoint<'_> {
+        let uv = shape.uv(face, b1, b2, p);
+        match &shape.geom {
+            ShapeGeom::Mesh {
+                attributes: Some(a),
+                triangles,
+                ..
+            } => TexPoint {
+                uv,
+                attributes: Some(a),
+                face,
+                tri: triangles[face as usize],
+                b1,
+                b2,
+            },
+            _ => TexPoint::uv(uv),
         }
     }
 }

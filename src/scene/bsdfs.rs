@@ -1,20 +1,21 @@
 //! Reading `<bsdf>` elements (and `<ref>`s to them) into [`Bsdf`] values.
 
-use super::conductor_presets;
-use super::material::{Binding, Param, Step};
-use super::RoughPlastic;
-use super::{specular_to_eta, Principled, PrincipledThin};
-use super::{
+use super::error::SceneError;
+use super::ctx::Ctx;
+use super::props::{Props, Value};
+use super::textures::{texture_param, NamedTextures};
+use crate::materials::conductor_presets;
+use crate::materials::material::{Binding, Param, Step};
+use crate::materials::RoughPlastic;
+use crate::materials::{specular_to_eta, Principled, PrincipledThin};
+use crate::materials::{
     Blend, Composed, PPlastic, Perturbation, Perturbed, Polarizer, Separable, TemporalProfile,
 };
-use super::{
+use crate::materials::{
     Bsdf, Conductor, Dielectric, Diffuse, Mask, Material, Microfacet, MicrofacetKind, Null,
     OneSided, Plastic, RoughConductor, RoughDielectric, ThinDielectric, TwoSided,
 };
 use crate::math::Rgb;
-use crate::scene::error::SceneError;
-use crate::scene::props::{Ctx, Props, Value};
-use crate::scene::textures::{texture_param, NamedTextures};
 use crate::textures::Texture;
 use roxmltree::Node;
 use std::collections::HashMap;
@@ -576,7 +577,7 @@ pub fn parse_bsdf(ctx: &Ctx, node: Node, named: &Named) -> Result<Material, Scen
                 let Some(t) = texture_param(&mut p.props, "normalmap", p.textures)? else {
                     return Err(p.props.err("normalmap needs a texture 'normalmap' (an RGB bitmap, read with raw = true)"));
                 };
-                crate::scene::textures::refuse_mesh_attribute(&p.props, "normalmap", &t, "a normal map")?;
+                super::textures::refuse_mesh_attribute(&p.props, "normalmap", &t, "a normal map")?;
                 if let Texture::Bitmap(b) = &t {
                     if b.channels != 3 {
                         return Err(p.props.err_at("normalmap", "normalmap's bitmap must have three channels (RGB), as Mitsuba's eval_3 requires"));
@@ -605,14 +606,14 @@ pub fn parse_bsdf(ctx: &Ctx, node: Node, named: &Named) -> Result<Material, Scen
                         let id = ctx.required_attr(obj, "id")?;
                         named.textures[&id].clone()
                     } else {
-                        crate::scene::textures::parse_texture(ctx, obj, named.textures)?
+                        super::textures::parse_texture(ctx, obj, named.textures)?
                     });
                 }
                 p.props.objects = rest;
                 let Some(texture) = texture else {
                     return Err(p.props.err("bumpmap needs one nested <texture> (the height field)"));
                 };
-                crate::scene::textures::refuse_mesh_attribute(&p.props, "", &texture, "a bump map's height field")?;
+                super::textures::refuse_mesh_attribute(&p.props, "", &texture, "a bump map's height field")?;
                 Perturbation::BumpMap {
                     texture,
                     scale: scale as f32,
@@ -635,7 +636,7 @@ pub fn parse_bsdf(ctx: &Ctx, node: Node, named: &Named) -> Result<Material, Scen
                 flip_invalid_normals,
                 use_shadowing_function,
                 nested: Box::new(nested.bsdf),
-                frame: super::perturbed::IDENTITY,
+                frame: crate::materials::perturbed::IDENTITY,
             })
         }
         "pplastic" => {
@@ -665,7 +666,7 @@ pub fn parse_bsdf(ctx: &Ctx, node: Node, named: &Named) -> Result<Material, Scen
                         Ok((c, c.element_sum() / 3.0, true))
                     }
                     Some(t) => {
-                        crate::scene::textures::refuse_mesh_attribute(&p.props, name, &t, "a pplastic reflectance (Mitsuba needs its mean)")?;
+                        super::textures::refuse_mesh_attribute(&p.props, name, &t, "a pplastic reflectance (Mitsuba needs its mean)")?;
                         let mean = t.mean();
                         p.bind(param, t);
                         Ok((default, mean, true))

@@ -74,7 +74,7 @@ pub enum Projection {
     /// `r` is sensor row `r % grid_height` (exhaustive scans stack one image per laser
     /// point).
     Meter {
-        wall: crate::scene::nlos::Wall,
+        wall: crate::sensors::relay_wall::Wall,
         grid_height: usize,
     },
 }
@@ -161,7 +161,7 @@ impl Camera {
     /// `wall`, in a film `height` rows tall.
     pub fn meter(
         origin: Vec3,
-        wall: crate::scene::nlos::Wall,
+        wall: crate::sensors::relay_wall::Wall,
         width: usize,
         height: usize,
         grid_height: usize,

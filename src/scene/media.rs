@@ -3,11 +3,12 @@
 //! or nested in a shape (`<medium name="interior" ...>`) or the sensor
 //! (`<medium name="medium" ...>`, or any name there as in Mitsuba).
 
-use super::vol_file::read_vol;
-use super::volume::{Grid, GridFilter, VolumeData};
-use super::{Heterogeneous, Homogeneous, Medium, Phase, Volume};
-use crate::scene::props::{Ctx, Props};
-use crate::scene::SceneError;
+use super::ctx::Ctx;
+use super::props::Props;
+use super::SceneError;
+use crate::media::vol_file::read_vol;
+use crate::media::volume::{Grid, GridFilter, VolumeData};
+use crate::media::{Heterogeneous, Homogeneous, Medium, Phase, Volume};
 use crate::textures::bitmap::WrapMode;
 use roxmltree::Node;
 use std::sync::Arc;

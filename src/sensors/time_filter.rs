@@ -15,7 +15,7 @@
 //! A path still adds one sample per voxel: its shares are summed per bin in
 //! `PathDeposits` before the path's total reaches the statistics.
 
-use crate::scene::film::Film;
+use crate::sensors::film::Film;
 
 /// mitransient's documented default `gaussian_stddev`, in bins.
 pub const DEFAULT_STDDEV_BINS: f64 = 2.0;
