@@ -10,8 +10,8 @@ use std::path::{Path, PathBuf};
 /// of one layer do not import each other.
 const LAYERS: &[&[&str]] = &[
     &["math", "cpu", "io"],
-    &["stats", "geometry", "sensors"],
-    &["textures"],
+    &["stats", "geometry"],
+    &["textures", "sensors"],
     &["materials", "media"],
     &["lights"],
     &["scene"],
@@ -88,14 +88,22 @@ fn expand(tree: &str) -> Vec<String> {
             '{' => depth += 1,
             '}' => depth -= 1,
             ',' if depth == 0 => {
-                out.extend(expand(&inner[start..i]).into_iter().map(|s| format!("{prefix}{s}")));
+                out.extend(
+                    expand(&inner[start..i])
+                        .into_iter()
+                        .map(|s| format!("{prefix}{s}")),
+                );
                 start = i + 1;
             }
             _ => {}
         }
     }
     if start < inner.len() {
-        out.extend(expand(&inner[start..]).into_iter().map(|s| format!("{prefix}{s}")));
+        out.extend(
+            expand(&inner[start..])
+                .into_iter()
+                .map(|s| format!("{prefix}{s}")),
+        );
     }
     out
 }
@@ -209,18 +217,29 @@ fn every_module_imports_only_layers_below_it() {
             }
             match layer(&to) {
                 Some(lt) if lt < lf => {}
-                _ => wrong.push(format!("{} -> {} ({from} may not import {to})", rel(&f), rel(&t))),
+                _ => wrong.push(format!(
+                    "{} -> {} ({from} may not import {to})",
+                    rel(&f),
+                    rel(&t)
+                )),
             }
         }
     }
-    assert!(wrong.is_empty(), "imports against the layers:\n{}", wrong.join("\n"));
+    assert!(
+        wrong.is_empty(),
+        "imports against the layers:\n{}",
+        wrong.join("\n")
+    );
 }
 
 #[test]
 fn no_two_files_import_each_other() {
     // A folder's mod.rs declares its files and re-exports their names: edges to and
     // from it are the module's structure, not a dependency between files.
-    let is_mod = |p: &Path| p.file_name().is_some_and(|n| n == "mod.rs" || n == "lib.rs");
+    let is_mod = |p: &Path| {
+        p.file_name()
+            .is_some_and(|n| n == "mod.rs" || n == "lib.rs")
+    };
     let g: BTreeMap<PathBuf, Vec<PathBuf>> = graph()
         .into_iter()
         .filter(|(f, _)| !is_mod(f))
@@ -286,7 +305,11 @@ fn no_two_files_import_each_other() {
         }
     }
     let msg: Vec<String> = t.cycles.iter().map(|c| c.join(" <-> ")).collect();
-    assert!(msg.is_empty(), "files importing each other:\n{}", msg.join("\n"));
+    assert!(
+        msg.is_empty(),
+        "files importing each other:\n{}",
+        msg.join("\n")
+    );
 }
 
 /// The checker itself: a planted upward import and a planted cycle are found.
@@ -297,7 +320,10 @@ fn the_checker_sees_group_imports_and_relative_paths() {
         vec!["a::b".to_string(), "a::c::d".into(), "a::c::e".into()]
     );
     let xml = src().join("scene").join("xml.rs");
-    let p = paths(&xml, "use super::{props::Ctx, Scene};\nlet x = crate::render::cpu::X;");
+    let p = paths(
+        &xml,
+        "use super::{props::Ctx, Scene};\nlet x = crate::render::cpu::X;",
+    );
     let want: Vec<Vec<String>> = vec![
         vec!["scene".into(), "props".into(), "Ctx".into()],
         vec!["scene".into(), "Scene".into()],

@@ -4,8 +4,8 @@
 use std::path::Path;
 use tstat::render::{render, PixelSampling, RenderSettings};
 use tstat::scene::check::{check, Verdict};
-use tstat::sensors::time_filter::TimeFilter;
 use tstat::scene::{Overrides, Scene};
+use tstat::sensors::time_filter::TimeFilter;
 use tstat::stats::Transform;
 
 const HEAD: &str = r#"<scene version="3.0.0">

@@ -6,10 +6,10 @@
 //! is sensor row `sy` lit by laser point `l = ly Lx + lx`. Positions are in scene
 //! units.
 
-use crate::sensors::camera::Projection;
 use crate::scene::nlos::CaptureType;
-use crate::sensors::relay_wall::Wall;
 use crate::scene::Scene;
+use crate::sensors::camera::Projection;
+use crate::sensors::relay_wall::Wall;
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 

@@ -44,6 +44,7 @@
 
 use super::manifest::{ArrayInfo, Manifest, C_M_PER_S, FORMAT, VERSION};
 use super::npy::{self, first_bad, show, Element};
+use super::shard::MAX_SHARDS;
 use super::BundleError;
 use crate::stats::accumulators::CHANNELS;
 use crate::stats::estimators::check_spp;
@@ -107,9 +108,6 @@ pub fn required_arrays(m: &Manifest) -> Vec<(&'static str, &'static str, Vec<usi
 
 /// The manifest's own fields (after the format and version are known): sizes,
 /// sample count, time axis, transform, metadata. The error is a short reason.
-/// The most shards a job may have (`--shard I/N` refuses more too).
-pub const MAX_SHARDS: u64 = 1 << 32;
-
 pub fn validate(m: &Manifest) -> Result<(), String> {
     m.transform
         .validate()

@@ -29,6 +29,9 @@ pub struct Shard {
     pub count: u64,
 }
 
+/// The most shards a job may have (`--shard I/N` refuses more too).
+pub const MAX_SHARDS: u64 = 1 << 32;
+
 /// What a bundle records of the job it belongs to (`shard` in the manifest).
 #[derive(Clone, Debug, Serialize, Deserialize, PartialEq, Eq)]
 pub struct ShardRecord {
@@ -47,7 +50,7 @@ impl Shard {
         let bad = || format!("--shard {spec:?}: expected I/N or auto/N, e.g. 3/16");
         let (i, n) = spec.split_once('/').ok_or_else(bad)?;
         let count: u64 = n.trim().parse().map_err(|_| bad())?;
-        if count == 0 || count > super::read::MAX_SHARDS {
+        if count == 0 || count > MAX_SHARDS {
             return Err(format!(
                 "--shard {spec}: the number of shards must be from 1 to 2^32"
             ));

@@ -6,9 +6,9 @@
 use super::curve::Segment;
 use super::cylinder::CylinderGeom;
 use super::disk::DiskGeom;
+use super::flat::{FlatTriangles, FLAT_MAX};
 #[cfg(target_arch = "x86_64")]
 use super::flat_simd;
-use super::flat::{FlatTriangles, FLAT_MAX};
 use super::sdfgrid::SdfGeom;
 use super::shape::{Shape, ShapeGeom, SurfacePoint};
 use super::sphere::SphereGeom;

@@ -138,8 +138,8 @@ impl Projector {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sensors::camera::FovAxis;
     use crate::scene::transform::look_at;
+    use crate::sensors::camera::FovAxis;
     use glam::DVec3;
 
     fn projector(irradiance: Texture, fov: f64, w: usize, h: usize) -> Projector {

@@ -8,12 +8,12 @@ use super::sampler::{pick_scattering, slot, PathSampler};
 use crate::cpu::{Isa, ISA_AVX2, ISA_AVX512, ISA_BASELINE};
 use crate::geometry::accel::offset_origin;
 use crate::materials::{Bsdf, BsdfModel, HitGeometry};
-use crate::textures::TexPoint;
 use crate::math::frame::Frame;
 use crate::math::sampling::power_heuristic;
 use crate::math::Rgb;
-use crate::sensors::time_filter::{gaussian_shares, TimeFilter};
 use crate::scene::Scene;
+use crate::sensors::time_filter::{gaussian_shares, TimeFilter};
+use crate::textures::TexPoint;
 use glam::Vec3;
 
 /// What one path leaves behind besides its deposits.

@@ -27,9 +27,9 @@ pub mod sink;
 pub mod volpath;
 
 use crate::math::rng::{mix64, Pcg32};
+use crate::scene::Scene;
 use crate::sensors::camera::LENS_STREAM_SALT;
 use crate::sensors::film::Film;
-use crate::scene::Scene;
 use crate::stats::accumulators::{Accumulators, PixelSums, CHANNELS};
 use crate::stats::Transform;
 use deposits::PathDeposits;

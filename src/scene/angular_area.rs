@@ -2,8 +2,8 @@
 //! in `lights/angular_area.rs`), nested in a shape or declared at the top level with
 //! an id, as `area`.
 
-use super::error::SceneError;
 use super::ctx::Ctx;
+use super::error::SceneError;
 use super::props::Props;
 use crate::lights::AngularFalloff;
 use glam::Vec3;

@@ -1,7 +1,7 @@
 //! Reading `<bsdf>` elements (and `<ref>`s to them) into [`Bsdf`] values.
 
-use super::error::SceneError;
 use super::ctx::Ctx;
+use super::error::SceneError;
 use super::props::{Props, Value};
 use super::textures::{texture_param, NamedTextures};
 use crate::materials::conductor_presets;

@@ -11,8 +11,8 @@
 //!
 //! The film itself (`Film::bin`, the time axis) is [`crate::sensors::film`].
 
-use super::error::SceneError;
 use super::ctx::Ctx;
+use super::error::SceneError;
 use super::props::Props;
 use crate::sensors::film::Film;
 use roxmltree::Node;

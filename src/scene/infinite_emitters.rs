@@ -2,8 +2,8 @@
 //! infinitely distant emitters (parameters in `lights/mod.rs` and `lights/envmap.rs`).
 //! Their bounding sphere is set once the shapes are known (`Emitter::set_scene_sphere`).
 
-use super::error::SceneError;
 use super::ctx::Ctx;
+use super::error::SceneError;
 use super::props::Props;
 use crate::lights::envmap::{EnvMap, EnvMapError};
 use crate::lights::scene_sphere::SceneSphere;

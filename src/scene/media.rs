@@ -11,6 +11,7 @@ use crate::media::volume::{Grid, GridFilter, VolumeData};
 use crate::media::{Heterogeneous, Homogeneous, Medium, Phase, Volume};
 use crate::textures::bitmap::WrapMode;
 use roxmltree::Node;
+use std::collections::HashMap;
 use std::sync::Arc;
 
 /// Largest accepted extinction (1 / scene unit): beyond it free flights are shorter
@@ -357,4 +358,25 @@ pub fn parse_phase(ctx: &Ctx, node: Node) -> Result<Phase, SceneError> {
     }
     p.finish()?;
     Ok(phase)
+}
+
+/// The index of the medium an element gives: a nested `<medium>` (appended to
+/// `media`) or a `<ref id=...>` to a top-level one.
+pub(super) fn medium_index(
+    ctx: &Ctx,
+    obj: Node,
+    media: &mut Vec<Medium>,
+    named_media: &HashMap<String, u32>,
+) -> Result<u32, SceneError> {
+    if obj.has_tag_name("medium") {
+        media.push(parse_medium(ctx, obj)?);
+        return Ok((media.len() - 1) as u32);
+    }
+    let id = ctx.required_attr(obj, "id")?;
+    named_media.get(&id).copied().ok_or_else(|| {
+        ctx.err(
+            obj,
+            format!("no <medium> with id '{id}' is declared before this reference"),
+        )
+    })
 }

@@ -1,10 +1,10 @@
 //! `<emitter type="projector">` (Mitsuba 3's; parameters and radiometry documented in
 //! `lights/projector.rs`).
 
-use super::error::SceneError;
 use super::ctx::Ctx;
-use super::props::Props;
+use super::error::SceneError;
 use super::limits::check_world_point;
+use super::props::Props;
 use super::textures::{texture_param, NamedTextures};
 use crate::lights::{Emitter, Projector};
 use crate::textures::Texture;
@@ -94,7 +94,7 @@ pub fn parse_projector(
             "the projected irradiance is zero (in single precision): this emitter contributes nothing",
         );
     }
-    let (fov, fov_axis) = super::xml::parse_fov(&mut p)?;
+    let (fov, fov_axis) = super::fov::parse_fov(&mut p)?;
     let to_world = p.transform("to_world")?.unwrap_or(DMat4::IDENTITY);
     if let Some(&o) = p.objects.first() {
         return Err(ctx.err(

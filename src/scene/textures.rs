@@ -6,8 +6,8 @@
 //! `<rgb>`/`<float name=...>` gives [`Texture::Constant`], `<texture name=...>` is
 //! parsed in place, `<ref name=... id=...>` looks up a top-level texture.
 
-use super::error::SceneError;
 use super::ctx::Ctx;
+use super::error::SceneError;
 use super::props::{Props, Value};
 use crate::textures::image_file::load_image;
 use crate::textures::{

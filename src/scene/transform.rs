@@ -1,8 +1,8 @@
 //! `<transform name="to_world">`: translate, rotate, scale, matrix and lookat, composed in
 //! document order (each element applies after the previous ones), as in Mitsuba 3.
 
-use super::error::SceneError;
 use super::ctx::{scene_number, scene_numbers, Ctx};
+use super::error::SceneError;
 use glam::{DMat4, DVec3, DVec4};
 use roxmltree::Node;
 

@@ -85,4 +85,3 @@ impl Wall {
         self.corner + self.du * u + self.dv * v
     }
 }
-
