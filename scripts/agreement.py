@@ -65,7 +65,7 @@ EXPLAINED = [
     (r'type="angulararea"', {"steady ratio", "block max", "space-time p95", "transient share"},
      "mitransient 1.3.1's `angulararea` divides its light samples by an extra dist^2",
      "tests/sensors.rs (a 90-degree `angulararea` renders the `area` light's bits) and "
-     "tests/sampling.rs (angular lights' samples against their MIS pdf and power)"),
+     "tests/sampling/angular.rs (angular lights' samples against their MIS pdf and power)"),
     (r'type="roughdielectric"', {"space-time p95"},
      "light sampled through a rough refraction: tstat times the last segment with the "
      "IOR of the light's side, mitransient 1.3.1 with the IOR before the crossing "

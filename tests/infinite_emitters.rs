@@ -1,8 +1,8 @@
 //! Infinitely distant emitters (`envmap`, `constant`, `directional`) through the
 //! renderer: closed forms, Mitsuba's orientation of the environment image, the time of
 //! arrival (2 R after the last vertex), and what camera rays that leave the scene see.
-//! The sampling itself is in `tests/sampling.rs`; agreement with mitransient in
-//! `tests/render_physics.rs`.
+//! The sampling itself is in `tests/sampling/environment.rs`; agreement with
+//! mitransient in `tests/render_physics.rs`.
 
 use std::f64::consts::PI;
 use std::path::Path;

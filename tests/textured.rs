@@ -443,7 +443,7 @@ fn a_textured_spot_projects_its_texture() {
 }
 
 /// `AreaSampler::sample_with_uv` draws the same points as `sample` (which the
-/// uniformity chi-square of tests/sampling.rs checks).
+/// uniformity chi-square of tests/sampling/emitters.rs checks).
 #[test]
 fn textured_light_samples_are_the_untextured_samplers_points() {
     let scene = load_with(&format!("{LIGHTS_HEAD}{CHECKER_LIGHT}</scene>"), &[]);
