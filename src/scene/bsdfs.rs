@@ -221,7 +221,7 @@ fn microfacet(p: &mut Params) -> Result<Microfacet, SceneError> {
 }
 
 /// One `<bsdf>`'s parameters and the textures bound so far.
-struct Params<'a, 'i, 'c> {
+pub(super) struct Params<'a, 'i, 'c> {
     props: Props<'a, 'i, 'c>,
     textures: &'c NamedTextures,
     bindings: Vec<Binding>,
@@ -312,397 +312,13 @@ pub fn parse_bsdf(ctx: &Ctx, node: Node, named: &Named) -> Result<Material, Scen
         textures: named.textures,
         bindings: Vec::new(),
     };
-    let bsdf = match kind.as_str() {
-        "diffuse" => Bsdf::Diffuse(Diffuse {
-            reflectance: p.colour("reflectance", Param::Reflectance, Rgb::splat(0.5))?,
-        }),
-        "dielectric" | "thindielectric" => {
-            let eta = relative_ior(&mut p.props, 1.5046)? as f32;
-            let specular_reflectance =
-                p.colour("specular_reflectance", Param::SpecularReflectance, Rgb::ONE)?;
-            let specular_transmittance =
-                p.colour("specular_transmittance", Param::SpecularTransmittance, Rgb::ONE)?;
-            if kind == "thindielectric" {
-                Bsdf::ThinDielectric(ThinDielectric {
-                    eta,
-                    specular_reflectance,
-                    specular_transmittance,
-                })
-            } else {
-                Bsdf::Dielectric(Dielectric {
-                    eta,
-                    specular_reflectance,
-                    specular_transmittance,
-                })
-            }
-        }
-        "conductor" => {
-            let (eta, k) = conductor_ior(&mut p, "conductor", "none")?;
-            Bsdf::Conductor(Conductor {
-                eta,
-                k,
-                specular_reflectance: p.colour(
-                    "specular_reflectance",
-                    Param::SpecularReflectance,
-                    Rgb::ONE,
-                )?,
-            })
-        }
-        "null" => Bsdf::Null(Null),
-        "plastic" => {
-            let eta = relative_ior(&mut p.props, 1.49)?;
-            let d = p.colour("diffuse_reflectance", Param::DiffuseReflectance, Rgb::splat(0.5))?;
-            let s = p.colour("specular_reflectance", Param::SpecularReflectance, Rgb::ONE)?;
-            if p.bindings.is_empty() && d.element_sum() + s.element_sum() <= 0.0 {
-                return Err(p.props.err("plastic with zero diffuse and specular reflectance reflects nothing; use a black diffuse"));
-            }
-            Bsdf::Plastic(Plastic::new(
-                eta as f32,
-                d,
-                s,
-                p.props.boolean_or("nonlinear", false)?,
-            ))
-        }
-        "roughplastic" => {
-            // Mitsuba 3's roughplastic is isotropic and reads alpha as a float (its
-            // tables depend on it): no alpha_u/alpha_v, no textured alpha.
-            for name in ["alpha_u", "alpha_v"] {
-                if p.props.peek(name).is_some() {
-                    return Err(p.props.err_at(
-                        name,
-                        format!("roughplastic has no '{name}': its roughness is isotropic, give 'alpha'"),
-                    ));
-                }
-            }
-            let distribution = microfacet(&mut p)?;
-            if p.bindings.iter().any(|b| b.param == Param::Alpha) {
-                return Err(p.props.err_at(
-                    "alpha",
-                    "roughplastic's alpha must be a number, not a texture (as in Mitsuba: the coating's precomputed tables depend on it)",
-                ));
-            }
-            let eta = relative_ior(&mut p.props, 1.49)?;
-            if eta as f32 == 1.0 {
-                return Err(p.props.err(
-                    "roughplastic's int_ior and ext_ior must differ (the coating would not exist)",
-                ));
-            }
-            let d = p.colour("diffuse_reflectance", Param::DiffuseReflectance, Rgb::splat(0.5))?;
-            let s = p.colour("specular_reflectance", Param::SpecularReflectance, Rgb::ONE)?;
-            if p.bindings.is_empty() && d.element_sum() + s.element_sum() <= 0.0 {
-                return Err(p.props.err("roughplastic with zero diffuse and specular reflectance reflects nothing; use a black diffuse"));
-            }
-            Bsdf::RoughPlastic(RoughPlastic::new(
-                distribution,
-                eta as f32,
-                d,
-                s,
-                p.props.boolean_or("nonlinear", false)?,
-            ))
-        }
-        "roughconductor" => {
-            let distribution = microfacet(&mut p)?;
-            let (eta, k) = conductor_ior(&mut p, "roughconductor", "none")?;
-            Bsdf::RoughConductor(RoughConductor {
-                distribution,
-                eta,
-                k,
-                specular_reflectance: p.colour(
-                    "specular_reflectance",
-                    Param::SpecularReflectance,
-                    Rgb::ONE,
-                )?,
-            })
-        }
-        "roughdielectric" => {
-            let distribution = microfacet(&mut p)?;
-            let eta = relative_ior(&mut p.props, 1.5046)?;
-            // Mitsuba refuses equal IORs: without an interface the half vector of a
-            // refraction (wo + eta wi) vanishes.
-            if eta as f32 == 1.0 {
-                return Err(p.props.err(
-                    "roughdielectric needs int_ior and ext_ior to differ (equal IORs are no interface; use null)",
-                ));
-            }
-            Bsdf::RoughDielectric(RoughDielectric {
-                distribution,
-                eta: eta as f32,
-                specular_reflectance: p.colour(
-                    "specular_reflectance",
-                    Param::SpecularReflectance,
-                    Rgb::ONE,
-                )?,
-                specular_transmittance: p.colour(
-                    "specular_transmittance",
-                    Param::SpecularTransmittance,
-                    Rgb::ONE,
-                )?,
-            })
-        }
-        "twosided" => {
-            let children: Vec<Material> = p
-                .props
-                .objects
-                .iter()
-                .map(|&c| resolve_bsdf(ctx, c, named))
-                .collect::<Result<_, _>>()?;
-            let (front, back) = match children.as_slice() {
-                [one] => (one.clone(), one.clone()),
-                [f, b] => (f.clone(), b.clone()),
-                _ => return Err(p.props.err("twosided needs one or two nested BSDFs")),
-            };
-            p.adopt(Step::Front, &front);
-            p.adopt(Step::Back, &back);
-            let one_sided = |b: Bsdf| {
-                OneSided::try_from(b).map_err(|_| {
-                    p.props.err("twosided wraps only one-sided models (diffuse, conductor, roughconductor, plastic, roughplastic, pplastic); not a dielectric, roughdielectric, thindielectric, null, mask, Separable, Composed, blendbsdf, normalmap, bumpmap, polarizer or another twosided (write mask(twosided(...)), normalmap(twosided(...)) or Separable(twosided(...)))")
-                })
-            };
-            let (front, back) = (one_sided(front.bsdf)?, one_sided(back.bsdf)?);
-            p.props.objects.clear();
-            Bsdf::TwoSided(TwoSided { front, back })
-        }
-        "mask" => {
-            // A textured opacity holds the placeholder 0.5 (set per hit).
-            let o = p.scalar("opacity", Param::Opacity, 0.5)?.unwrap_or(0.5) as f32;
-            if !(0.0..=1.0).contains(&o) {
-                p.props.warn_at(
-                    "opacity",
-                    format!("opacity {o} is outside [0, 1]; clamped, as Mitsuba does"),
-                );
-            }
-            let opacity = o.clamp(0.0, 1.0);
-            let nested = match p.props.objects.as_slice() {
-                [one] => resolve_bsdf(ctx, *one, named)?,
-                _ => return Err(p.props.err("mask needs exactly one nested BSDF (and its opacity)")),
-            };
-            if nested.bsdf.delays() {
-                return Err(p.props.err("mask cannot wrap a delaying BSDF (Separable or Composed): the light passing through the holes would be delayed too"));
-            }
-            p.adopt(Step::Nested, &nested);
-            p.props.objects.clear();
-            Bsdf::Mask(Mask {
-                opacity,
-                nested: Box::new(nested.bsdf),
-            })
-        }
-        "Separable" => {
-            let mut inner = None;
-            let mut profile = None;
-            for obj in std::mem::take(&mut p.props.objects) {
-                if obj.tag_name().name() == "TemporalProfile" {
-                    if profile.is_some() {
-                        return Err(ctx.err(obj, "Separable takes one <TemporalProfile>"));
-                    }
-                    let (tp, bindings) = parse_temporal_profile(ctx, obj, named.textures)?;
-                    p.bindings.extend(bindings);
-                    profile = Some(tp);
-                } else {
-                    if inner.is_some() {
-                        return Err(ctx.err(obj, "Separable takes one nested BSDF"));
-                    }
-                    inner = Some(resolve_bsdf(ctx, obj, named)?);
-                }
-            }
-            let (Some(inner), Some(profile)) = (inner, profile) else {
-                return Err(p.props.err("Separable needs a nested BSDF and a <TemporalProfile type=... name=\"tp\">"));
-            };
-            if inner.bsdf.delays() {
-                return Err(p.props.err("Separable cannot nest another delaying BSDF (Separable or Composed); compose the profiles in a Composed instead"));
-            }
-            p.adopt(Step::Nested, &inner);
-            Bsdf::Separable(Separable {
-                inner: Box::new(inner.bsdf),
-                profile,
-            })
-        }
-        "Composed" => {
-            let w = p.props.float_or("weight", 0.5)?;
-            if !(0.0..=1.0).contains(&w) {
-                return Err(p.props.err_at("weight", format!("weight must be in [0, 1], got {w}")));
-            }
-            let children: Vec<Material> = std::mem::take(&mut p.props.objects)
-                .into_iter()
-                .map(|c| resolve_bsdf(ctx, c, named))
-                .collect::<Result<_, _>>()?;
-            let [first, second] = <[Material; 2]>::try_from(children).map_err(|_| {
-                p.props.err("Composed needs exactly two nested BSDFs")
-            })?;
-            p.adopt(Step::First, &first);
-            p.adopt(Step::Second, &second);
-            Bsdf::Composed(Composed {
-                weight: w as f32,
-                first: Box::new(first.bsdf),
-                second: Box::new(second.bsdf),
-            })
-        }
-        "blendbsdf" => {
-            // Mitsuba requires the weight (a float or a texture) and clips it to [0, 1].
-            let w = p.scalar("weight", Param::Weight, 0.5)?;
-            let Some(w) = w else {
-                return Err(p.props.err("blendbsdf needs 'weight' (a float or a texture: the share of the second BSDF)"));
-            };
-            if !(0.0..=1.0).contains(&w) {
-                p.props.warn_at(
-                    "weight",
-                    format!("weight {w} is outside [0, 1]; clipped, as Mitsuba does"),
-                );
-            }
-            let children: Vec<Material> = std::mem::take(&mut p.props.objects)
-                .into_iter()
-                .map(|c| resolve_bsdf(ctx, c, named))
-                .collect::<Result<_, _>>()?;
-            let [first, second] = <[Material; 2]>::try_from(children)
-                .map_err(|_| p.props.err("blendbsdf needs exactly two nested BSDFs"))?;
-            if first.bsdf.delays() || second.bsdf.delays() {
-                return Err(p.props.err("blendbsdf cannot blend a delaying BSDF (Separable or Composed); use Composed, which keeps each child's delay with its light"));
-            }
-            if let (Some(a), Some(b)) = (rough_ior(&first.bsdf), rough_ior(&second.bsdf)) {
-                if a != b {
-                    return Err(p.props.err("blendbsdf cannot blend two rough dielectrics of different IORs (the medium behind would be ambiguous)"));
-                }
-            }
-            p.adopt(Step::First, &first);
-            p.adopt(Step::Second, &second);
-            Bsdf::Blend(Blend {
-                weight: (w as f32).clamp(0.0, 1.0),
-                first: Box::new(first.bsdf),
-                second: Box::new(second.bsdf),
-            })
-        }
-        "normalmap" | "bumpmap" => {
-            let flip_invalid_normals = p.props.boolean_or("flip_invalid_normals", true)?;
-            let use_shadowing_function = p.props.boolean_or("use_shadowing_function", true)?;
-            let perturbation = if kind == "normalmap" {
-                let Some(t) = texture_param(&mut p.props, "normalmap", p.textures)? else {
-                    return Err(p.props.err("normalmap needs a texture 'normalmap' (an RGB bitmap, read with raw = true)"));
-                };
-                super::textures::refuse_mesh_attribute(&p.props, "normalmap", &t, "a normal map")?;
-                if let Texture::Bitmap(b) = &t {
-                    if b.channels != 3 {
-                        return Err(p.props.err_at("normalmap", "normalmap's bitmap must have three channels (RGB), as Mitsuba's eval_3 requires"));
-                    }
-                }
-                Perturbation::NormalMap(t)
-            } else {
-                let scale = p.props.float_or("scale", 1.0)?;
-                let mut texture = None;
-                let mut rest = Vec::new();
-                for obj in std::mem::take(&mut p.props.objects) {
-                    let tag = obj.tag_name().name();
-                    let is_texture = tag == "texture"
-                        || (tag == "ref"
-                            && ctx
-                                .attr(obj, "id")?
-                                .is_some_and(|id| named.textures.contains_key(&id)));
-                    if !is_texture {
-                        rest.push(obj);
-                        continue;
-                    }
-                    if texture.is_some() {
-                        return Err(ctx.err(obj, "bumpmap takes exactly one nested texture"));
-                    }
-                    texture = Some(if tag == "ref" {
-                        let id = ctx.required_attr(obj, "id")?;
-                        named.textures[&id].clone()
-                    } else {
-                        super::textures::parse_texture(ctx, obj, named.textures)?
-                    });
-                }
-                p.props.objects = rest;
-                let Some(texture) = texture else {
-                    return Err(p.props.err("bumpmap needs one nested <texture> (the height field)"));
-                };
-                super::textures::refuse_mesh_attribute(&p.props, "", &texture, "a bump map's height field")?;
-                Perturbation::BumpMap {
-                    texture,
-                    scale: scale as f32,
-                }
-            };
-            let nested = match p.props.objects.as_slice() {
-                [one] => resolve_bsdf(ctx, *one, named)?,
-                _ => return Err(p.props.err(format!("{kind} needs exactly one nested BSDF"))),
-            };
-            p.props.objects.clear();
-            if nested.bsdf.delays() {
-                return Err(p.props.err(format!("{kind} cannot wrap a delaying BSDF (Separable or Composed); write Separable({kind}(...)) instead")));
-            }
-            if nested.bsdf.perturbs() {
-                return Err(p.props.err(format!("{kind} cannot wrap another normalmap or bumpmap")));
-            }
-            p.adopt(Step::Nested, &nested);
-            Bsdf::Perturbed(Perturbed {
-                perturbation,
-                flip_invalid_normals,
-                use_shadowing_function,
-                nested: Box::new(nested.bsdf),
-                frame: crate::materials::perturbed::IDENTITY,
-            })
-        }
-        "pplastic" => {
-            let distribution = microfacet(&mut p)?;
-            let eta = if p.props.peek("eta").is_some() || p.props.objects.iter().any(|o| ctx.attr(*o, "name").ok().flatten().as_deref() == Some("eta")) {
-                if p.props.peek("int_ior").is_some() || p.props.peek("ext_ior").is_some() {
-                    return Err(p.props.err("give either 'eta' or 'int_ior' and 'ext_ior', not both"));
-                }
-                let eta = p.scalar("eta", Param::RelativeEta, 1.49)?.unwrap_or(1.49);
-                if !(eta > 0.0 && eta <= MAX_OPTICAL_CONSTANT) {
-                    return Err(p.props.err_at("eta", format!("eta must be positive and at most {MAX_OPTICAL_CONSTANT:e}, got {eta}")));
-                }
-                eta
-            } else {
-                let eta = relative_ior(&mut p.props, 1.49)?;
-                if eta as f32 == 1.0 {
-                    return Err(p.props.err("pplastic's int_ior and ext_ior must differ (as Mitsuba requires)"));
-                }
-                eta
-            };
-            // The lobe choice uses the textures' means (Mitsuba's parameters_changed).
-            let mean_of = |p: &mut Params, name: &str, param: Param, default: Rgb| -> Result<(Rgb, f32, bool), SceneError> {
-                match texture_param(&mut p.props, name, p.textures)? {
-                    None => Ok((default, default.element_sum() / 3.0, false)),
-                    Some(Texture::Constant(c)) => {
-                        let c = check_reflectance(&p.props, name, c)?;
-                        Ok((c, c.element_sum() / 3.0, true))
-                    }
-                    Some(t) => {
-                        super::textures::refuse_mesh_attribute(&p.props, name, &t, "a pplastic reflectance (Mitsuba needs its mean)")?;
-                        let mean = t.mean();
-                        p.bind(param, t);
-                        Ok((default, mean, true))
-                    }
-                }
-            };
-            let (d, d_mean, _) = mean_of(&mut p, "diffuse_reflectance", Param::DiffuseReflectance, Rgb::splat(0.5))?;
-            let (s, s_mean, _) = mean_of(&mut p, "specular_reflectance", Param::SpecularReflectance, Rgb::ONE)?;
-            if (d_mean + s_mean).is_nan() || d_mean + s_mean <= 0.0 {
-                return Err(p.props.err("pplastic with zero diffuse and specular reflectance reflects nothing; use a black diffuse"));
-            }
-            Bsdf::PPlastic(PPlastic {
-                distribution,
-                eta: eta as f32,
-                diffuse_reflectance: d,
-                specular_reflectance: s,
-                specular_weight: s_mean / (d_mean + s_mean),
-            })
-        }
-        "polarizer" => {
-            // Without polarization the angle and `polarizing` change nothing; read them
-            // so that a bad value is still an error.
-            let _theta = texture_param(&mut p.props, "theta", p.textures)?;
-            let _polarizing = p.props.boolean_or("polarizing", true)?;
-            Bsdf::Polarizer(Polarizer {
-                transmittance: p.colour("transmittance", Param::Transmittance, Rgb::ONE)?,
-            })
-        }
-        "principled" => Bsdf::Principled(principled(&mut p)?),
-        "principledthin" => Bsdf::PrincipledThin(principled_thin(&mut p)?),
-        other => {
-            return Err(p.props.err(format!(
-                "unknown BSDF type '{other}' (supported: diffuse, dielectric, roughdielectric, thindielectric, conductor, roughconductor, plastic, roughplastic, null, twosided, mask, Separable, Composed, blendbsdf, normalmap, bumpmap, pplastic, polarizer, principled, principledthin)"
-            )))
-        }
-    };
+    let read = super::table::reader(BSDFS, &kind).ok_or_else(|| {
+        p.props.err(format!(
+            "unknown BSDF type '{kind}' (supported: {})",
+            super::table::names(BSDFS).join(", ")
+        ))
+    })?;
+    let bsdf = read(&mut p, ctx, named, &kind)?;
     if let Some(&obj) = p.props.objects.first() {
         return Err(ctx.err(
             obj,
@@ -712,6 +328,611 @@ pub fn parse_bsdf(ctx: &Ctx, node: Node, named: &Named) -> Result<Material, Scen
     p.props.finish()?;
     Ok(Material::new(bsdf, p.bindings))
 }
+
+/// The BSDF plugins and their readers (the plugin table's `bsdf` family,
+/// [`super::plugins`]), in the order errors list them.
+pub(super) const BSDFS: &[(&str, ReadBsdf)] = &[
+    ("diffuse", read_diffuse),
+    ("dielectric", read_dielectric),
+    ("roughdielectric", read_roughdielectric),
+    ("thindielectric", read_dielectric),
+    ("conductor", read_conductor),
+    ("roughconductor", read_roughconductor),
+    ("plastic", read_plastic),
+    ("roughplastic", read_roughplastic),
+    ("null", read_null),
+    ("twosided", read_twosided),
+    ("mask", read_mask),
+    ("Separable", read_separable),
+    ("Composed", read_composed),
+    ("blendbsdf", read_blendbsdf),
+    ("normalmap", read_normalmap),
+    ("bumpmap", read_normalmap),
+    ("pplastic", read_pplastic),
+    ("polarizer", read_polarizer),
+    ("principled", read_principled),
+    ("principledthin", read_principledthin),
+];
+
+/// Reads one BSDF plugin's parameters from `p`; `kind` is its type as written.
+pub(super) type ReadBsdf =
+    fn(&mut Params<'_, '_, '_>, &Ctx<'_>, &Named<'_>, &str) -> Result<Bsdf, SceneError>;
+
+/// `<bsdf type="diffuse">`.
+fn read_diffuse(
+    p: &mut Params,
+    _ctx: &Ctx,
+    _named: &Named,
+    _kind: &str,
+) -> Result<Bsdf, SceneError> {
+    Ok(Bsdf::Diffuse(Diffuse {
+        reflectance: p.colour("reflectance", Param::Reflectance, Rgb::splat(0.5))?,
+    }))
+}
+
+/// `<bsdf type="dielectric|thindielectric">`.
+fn read_dielectric(
+    p: &mut Params,
+    _ctx: &Ctx,
+    _named: &Named,
+    kind: &str,
+) -> Result<Bsdf, SceneError> {
+    let eta = relative_ior(&mut p.props, 1.5046)? as f32;
+    let specular_reflectance =
+        p.colour("specular_reflectance", Param::SpecularReflectance, Rgb::ONE)?;
+    let specular_transmittance = p.colour(
+        "specular_transmittance",
+        Param::SpecularTransmittance,
+        Rgb::ONE,
+    )?;
+    Ok(if kind == "thindielectric" {
+        Bsdf::ThinDielectric(ThinDielectric {
+            eta,
+            specular_reflectance,
+            specular_transmittance,
+        })
+    } else {
+        Bsdf::Dielectric(Dielectric {
+            eta,
+            specular_reflectance,
+            specular_transmittance,
+        })
+    })
+}
+
+/// `<bsdf type="conductor">`.
+fn read_conductor(
+    p: &mut Params,
+    _ctx: &Ctx,
+    _named: &Named,
+    _kind: &str,
+) -> Result<Bsdf, SceneError> {
+    let (eta, k) = conductor_ior(p, "conductor", "none")?;
+    Ok(Bsdf::Conductor(Conductor {
+        eta,
+        k,
+        specular_reflectance: p.colour(
+            "specular_reflectance",
+            Param::SpecularReflectance,
+            Rgb::ONE,
+        )?,
+    }))
+}
+
+/// `<bsdf type="null">`.
+fn read_null(_p: &mut Params, _ctx: &Ctx, _named: &Named, _kind: &str) -> Result<Bsdf, SceneError> {
+    Ok(Bsdf::Null(Null))
+}
+
+/// `<bsdf type="plastic">`.
+fn read_plastic(
+    p: &mut Params,
+    _ctx: &Ctx,
+    _named: &Named,
+    _kind: &str,
+) -> Result<Bsdf, SceneError> {
+    let eta = relative_ior(&mut p.props, 1.49)?;
+    let d = p.colour(
+        "diffuse_reflectance",
+        Param::DiffuseReflectance,
+        Rgb::splat(0.5),
+    )?;
+    let s = p.colour("specular_reflectance", Param::SpecularReflectance, Rgb::ONE)?;
+    if p.bindings.is_empty() && d.element_sum() + s.element_sum() <= 0.0 {
+        return Err(p.props.err("plastic with zero diffuse and specular reflectance reflects nothing; use a black diffuse"));
+    }
+    Ok(Bsdf::Plastic(Plastic::new(
+        eta as f32,
+        d,
+        s,
+        p.props.boolean_or("nonlinear", false)?,
+    )))
+}
+
+/// `<bsdf type="roughplastic">`.
+fn read_roughplastic(
+    p: &mut Params,
+    _ctx: &Ctx,
+    _named: &Named,
+    _kind: &str,
+) -> Result<Bsdf, SceneError> {
+    // Mitsuba 3's roughplastic is isotropic and reads alpha as a float (its
+    // tables depend on it): no alpha_u/alpha_v, no textured alpha.
+    for name in ["alpha_u", "alpha_v"] {
+        if p.props.peek(name).is_some() {
+            return Err(p.props.err_at(
+                name,
+                format!("roughplastic has no '{name}': its roughness is isotropic, give 'alpha'"),
+            ));
+        }
+    }
+    let distribution = microfacet(p)?;
+    if p.bindings.iter().any(|b| b.param == Param::Alpha) {
+        return Err(p.props.err_at(
+            "alpha",
+            "roughplastic's alpha must be a number, not a texture (as in Mitsuba: the coating's precomputed tables depend on it)",
+        ));
+    }
+    let eta = relative_ior(&mut p.props, 1.49)?;
+    if eta as f32 == 1.0 {
+        return Err(p
+            .props
+            .err("roughplastic's int_ior and ext_ior must differ (the coating would not exist)"));
+    }
+    let d = p.colour(
+        "diffuse_reflectance",
+        Param::DiffuseReflectance,
+        Rgb::splat(0.5),
+    )?;
+    let s = p.colour("specular_reflectance", Param::SpecularReflectance, Rgb::ONE)?;
+    if p.bindings.is_empty() && d.element_sum() + s.element_sum() <= 0.0 {
+        return Err(p.props.err("roughplastic with zero diffuse and specular reflectance reflects nothing; use a black diffuse"));
+    }
+    Ok(Bsdf::RoughPlastic(RoughPlastic::new(
+        distribution,
+        eta as f32,
+        d,
+        s,
+        p.props.boolean_or("nonlinear", false)?,
+    )))
+}
+
+/// `<bsdf type="roughconductor">`.
+fn read_roughconductor(
+    p: &mut Params,
+    _ctx: &Ctx,
+    _named: &Named,
+    _kind: &str,
+) -> Result<Bsdf, SceneError> {
+    let distribution = microfacet(p)?;
+    let (eta, k) = conductor_ior(p, "roughconductor", "none")?;
+    Ok(Bsdf::RoughConductor(RoughConductor {
+        distribution,
+        eta,
+        k,
+        specular_reflectance: p.colour(
+            "specular_reflectance",
+            Param::SpecularReflectance,
+            Rgb::ONE,
+        )?,
+    }))
+}
+
+/// `<bsdf type="roughdielectric">`.
+fn read_roughdielectric(
+    p: &mut Params,
+    _ctx: &Ctx,
+    _named: &Named,
+    _kind: &str,
+) -> Result<Bsdf, SceneError> {
+    let distribution = microfacet(p)?;
+    let eta = relative_ior(&mut p.props, 1.5046)?;
+    // Mitsuba refuses equal IORs: without an interface the half vector of a
+    // refraction (wo + eta wi) vanishes.
+    if eta as f32 == 1.0 {
+        return Err(p.props.err(
+            "roughdielectric needs int_ior and ext_ior to differ (equal IORs are no interface; use null)",
+        ));
+    }
+    Ok(Bsdf::RoughDielectric(RoughDielectric {
+        distribution,
+        eta: eta as f32,
+        specular_reflectance: p.colour(
+            "specular_reflectance",
+            Param::SpecularReflectance,
+            Rgb::ONE,
+        )?,
+        specular_transmittance: p.colour(
+            "specular_transmittance",
+            Param::SpecularTransmittance,
+            Rgb::ONE,
+        )?,
+    }))
+}
+
+/// `<bsdf type="twosided">`.
+fn read_twosided(
+    p: &mut Params,
+    ctx: &Ctx,
+    named: &Named,
+    _kind: &str,
+) -> Result<Bsdf, SceneError> {
+    let children: Vec<Material> = p
+        .props
+        .objects
+        .iter()
+        .map(|&c| resolve_bsdf(ctx, c, named))
+        .collect::<Result<_, _>>()?;
+    let (front, back) = match children.as_slice() {
+        [one] => (one.clone(), one.clone()),
+        [f, b] => (f.clone(), b.clone()),
+        _ => return Err(p.props.err("twosided needs one or two nested BSDFs")),
+    };
+    p.adopt(Step::Front, &front);
+    p.adopt(Step::Back, &back);
+    let one_sided = |b: Bsdf| {
+        OneSided::try_from(b).map_err(|_| {
+            p.props.err("twosided wraps only one-sided models (diffuse, conductor, roughconductor, plastic, roughplastic, pplastic); not a dielectric, roughdielectric, thindielectric, null, mask, Separable, Composed, blendbsdf, normalmap, bumpmap, polarizer or another twosided (write mask(twosided(...)), normalmap(twosided(...)) or Separable(twosided(...)))")
+        })
+    };
+    let (front, back) = (one_sided(front.bsdf)?, one_sided(back.bsdf)?);
+    p.props.objects.clear();
+    Ok(Bsdf::TwoSided(TwoSided { front, back }))
+}
+
+/// `<bsdf type="mask">`.
+fn read_mask(p: &mut Params, ctx: &Ctx, named: &Named, _kind: &str) -> Result<Bsdf, SceneError> {
+    // A textured opacity holds the placeholder 0.5 (set per hit).
+    let o = p.scalar("opacity", Param::Opacity, 0.5)?.unwrap_or(0.5) as f32;
+    if !(0.0..=1.0).contains(&o) {
+        p.props.warn_at(
+            "opacity",
+            format!("opacity {o} is outside [0, 1]; clamped, as Mitsuba does"),
+        );
+    }
+    let opacity = o.clamp(0.0, 1.0);
+    let nested = match p.props.objects.as_slice() {
+        [one] => resolve_bsdf(ctx, *one, named)?,
+        _ => {
+            return Err(p
+                .props
+                .err("mask needs exactly one nested BSDF (and its opacity)"))
+        }
+    };
+    if nested.bsdf.delays() {
+        return Err(p.props.err("mask cannot wrap a delaying BSDF (Separable or Composed): the light passing through the holes would be delayed too"));
+    }
+    p.adopt(Step::Nested, &nested);
+    p.props.objects.clear();
+    Ok(Bsdf::Mask(Mask {
+        opacity,
+        nested: Box::new(nested.bsdf),
+    }))
+}
+
+/// `<bsdf type="Separable">`.
+fn read_separable(
+    p: &mut Params,
+    ctx: &Ctx,
+    named: &Named,
+    _kind: &str,
+) -> Result<Bsdf, SceneError> {
+    let mut inner = None;
+    let mut profile = None;
+    for obj in std::mem::take(&mut p.props.objects) {
+        if obj.tag_name().name() == "TemporalProfile" {
+            if profile.is_some() {
+                return Err(ctx.err(obj, "Separable takes one <TemporalProfile>"));
+            }
+            let (tp, bindings) = parse_temporal_profile(ctx, obj, named.textures)?;
+            p.bindings.extend(bindings);
+            profile = Some(tp);
+        } else {
+            if inner.is_some() {
+                return Err(ctx.err(obj, "Separable takes one nested BSDF"));
+            }
+            inner = Some(resolve_bsdf(ctx, obj, named)?);
+        }
+    }
+    let (Some(inner), Some(profile)) = (inner, profile) else {
+        return Err(p
+            .props
+            .err("Separable needs a nested BSDF and a <TemporalProfile type=... name=\"tp\">"));
+    };
+    if inner.bsdf.delays() {
+        return Err(p.props.err("Separable cannot nest another delaying BSDF (Separable or Composed); compose the profiles in a Composed instead"));
+    }
+    p.adopt(Step::Nested, &inner);
+    Ok(Bsdf::Separable(Separable {
+        inner: Box::new(inner.bsdf),
+        profile,
+    }))
+}
+
+/// `<bsdf type="Composed">`.
+fn read_composed(
+    p: &mut Params,
+    ctx: &Ctx,
+    named: &Named,
+    _kind: &str,
+) -> Result<Bsdf, SceneError> {
+    let w = p.props.float_or("weight", 0.5)?;
+    if !(0.0..=1.0).contains(&w) {
+        return Err(p
+            .props
+            .err_at("weight", format!("weight must be in [0, 1], got {w}")));
+    }
+    let children: Vec<Material> = std::mem::take(&mut p.props.objects)
+        .into_iter()
+        .map(|c| resolve_bsdf(ctx, c, named))
+        .collect::<Result<_, _>>()?;
+    let [first, second] = <[Material; 2]>::try_from(children)
+        .map_err(|_| p.props.err("Composed needs exactly two nested BSDFs"))?;
+    p.adopt(Step::First, &first);
+    p.adopt(Step::Second, &second);
+    Ok(Bsdf::Composed(Composed {
+        weight: w as f32,
+        first: Box::new(first.bsdf),
+        second: Box::new(second.bsdf),
+    }))
+}
+
+/// `<bsdf type="blendbsdf">`.
+fn read_blendbsdf(
+    p: &mut Params,
+    ctx: &Ctx,
+    named: &Named,
+    _kind: &str,
+) -> Result<Bsdf, SceneError> {
+    // Mitsuba requires the weight (a float or a texture) and clips it to [0, 1].
+    let w = p.scalar("weight", Param::Weight, 0.5)?;
+    let Some(w) = w else {
+        return Err(p
+            .props
+            .err("blendbsdf needs 'weight' (a float or a texture: the share of the second BSDF)"));
+    };
+    if !(0.0..=1.0).contains(&w) {
+        p.props.warn_at(
+            "weight",
+            format!("weight {w} is outside [0, 1]; clipped, as Mitsuba does"),
+        );
+    }
+    let children: Vec<Material> = std::mem::take(&mut p.props.objects)
+        .into_iter()
+        .map(|c| resolve_bsdf(ctx, c, named))
+        .collect::<Result<_, _>>()?;
+    let [first, second] = <[Material; 2]>::try_from(children)
+        .map_err(|_| p.props.err("blendbsdf needs exactly two nested BSDFs"))?;
+    if first.bsdf.delays() || second.bsdf.delays() {
+        return Err(p.props.err("blendbsdf cannot blend a delaying BSDF (Separable or Composed); use Composed, which keeps each child's delay with its light"));
+    }
+    if let (Some(a), Some(b)) = (rough_ior(&first.bsdf), rough_ior(&second.bsdf)) {
+        if a != b {
+            return Err(p.props.err("blendbsdf cannot blend two rough dielectrics of different IORs (the medium behind would be ambiguous)"));
+        }
+    }
+    p.adopt(Step::First, &first);
+    p.adopt(Step::Second, &second);
+    Ok(Bsdf::Blend(Blend {
+        weight: (w as f32).clamp(0.0, 1.0),
+        first: Box::new(first.bsdf),
+        second: Box::new(second.bsdf),
+    }))
+}
+
+/// `<bsdf type="normalmap|bumpmap">`.
+fn read_normalmap(
+    p: &mut Params,
+    ctx: &Ctx,
+    named: &Named,
+    kind: &str,
+) -> Result<Bsdf, SceneError> {
+    let flip_invalid_normals = p.props.boolean_or("flip_invalid_normals", true)?;
+    let use_shadowing_function = p.props.boolean_or("use_shadowing_function", true)?;
+    let perturbation = if kind == "normalmap" {
+        let Some(t) = texture_param(&mut p.props, "normalmap", p.textures)? else {
+            return Err(p.props.err(
+                "normalmap needs a texture 'normalmap' (an RGB bitmap, read with raw = true)",
+            ));
+        };
+        super::textures::refuse_mesh_attribute(&p.props, "normalmap", &t, "a normal map")?;
+        if let Texture::Bitmap(b) = &t {
+            if b.channels != 3 {
+                return Err(p.props.err_at("normalmap", "normalmap's bitmap must have three channels (RGB), as Mitsuba's eval_3 requires"));
+            }
+        }
+        Perturbation::NormalMap(t)
+    } else {
+        let scale = p.props.float_or("scale", 1.0)?;
+        let mut texture = None;
+        let mut rest = Vec::new();
+        for obj in std::mem::take(&mut p.props.objects) {
+            let tag = obj.tag_name().name();
+            let is_texture = tag == "texture"
+                || (tag == "ref"
+                    && ctx
+                        .attr(obj, "id")?
+                        .is_some_and(|id| named.textures.contains_key(&id)));
+            if !is_texture {
+                rest.push(obj);
+                continue;
+            }
+            if texture.is_some() {
+                return Err(ctx.err(obj, "bumpmap takes exactly one nested texture"));
+            }
+            texture = Some(if tag == "ref" {
+                let id = ctx.required_attr(obj, "id")?;
+                named.textures[&id].clone()
+            } else {
+                super::textures::parse_texture(ctx, obj, named.textures)?
+            });
+        }
+        p.props.objects = rest;
+        let Some(texture) = texture else {
+            return Err(p
+                .props
+                .err("bumpmap needs one nested <texture> (the height field)"));
+        };
+        super::textures::refuse_mesh_attribute(
+            &p.props,
+            "",
+            &texture,
+            "a bump map's height field",
+        )?;
+        Perturbation::BumpMap {
+            texture,
+            scale: scale as f32,
+        }
+    };
+    let nested = match p.props.objects.as_slice() {
+        [one] => resolve_bsdf(ctx, *one, named)?,
+        _ => return Err(p.props.err(format!("{kind} needs exactly one nested BSDF"))),
+    };
+    p.props.objects.clear();
+    if nested.bsdf.delays() {
+        return Err(p.props.err(format!("{kind} cannot wrap a delaying BSDF (Separable or Composed); write Separable({kind}(...)) instead")));
+    }
+    if nested.bsdf.perturbs() {
+        return Err(p
+            .props
+            .err(format!("{kind} cannot wrap another normalmap or bumpmap")));
+    }
+    p.adopt(Step::Nested, &nested);
+    Ok(Bsdf::Perturbed(Perturbed {
+        perturbation,
+        flip_invalid_normals,
+        use_shadowing_function,
+        nested: Box::new(nested.bsdf),
+        frame: crate::materials::perturbed::IDENTITY,
+    }))
+}
+
+/// `<bsdf type="pplastic">`.
+fn read_pplastic(
+    p: &mut Params,
+    ctx: &Ctx,
+    _named: &Named,
+    _kind: &str,
+) -> Result<Bsdf, SceneError> {
+    let distribution = microfacet(p)?;
+    let eta = if p.props.peek("eta").is_some()
+        || p.props
+            .objects
+            .iter()
+            .any(|o| ctx.attr(*o, "name").ok().flatten().as_deref() == Some("eta"))
+    {
+        if p.props.peek("int_ior").is_some() || p.props.peek("ext_ior").is_some() {
+            return Err(p
+                .props
+                .err("give either 'eta' or 'int_ior' and 'ext_ior', not both"));
+        }
+        let eta = p.scalar("eta", Param::RelativeEta, 1.49)?.unwrap_or(1.49);
+        if !(eta > 0.0 && eta <= MAX_OPTICAL_CONSTANT) {
+            return Err(p.props.err_at(
+                "eta",
+                format!("eta must be positive and at most {MAX_OPTICAL_CONSTANT:e}, got {eta}"),
+            ));
+        }
+        eta
+    } else {
+        let eta = relative_ior(&mut p.props, 1.49)?;
+        if eta as f32 == 1.0 {
+            return Err(p
+                .props
+                .err("pplastic's int_ior and ext_ior must differ (as Mitsuba requires)"));
+        }
+        eta
+    };
+    // The lobe choice uses the textures' means (Mitsuba's parameters_changed).
+    let mean_of = |p: &mut Params,
+                   name: &str,
+                   param: Param,
+                   default: Rgb|
+     -> Result<(Rgb, f32, bool), SceneError> {
+        match texture_param(&mut p.props, name, p.textures)? {
+            None => Ok((default, default.element_sum() / 3.0, false)),
+            Some(Texture::Constant(c)) => {
+                let c = check_reflectance(&p.props, name, c)?;
+                Ok((c, c.element_sum() / 3.0, true))
+            }
+            Some(t) => {
+                super::textures::refuse_mesh_attribute(
+                    &p.props,
+                    name,
+                    &t,
+                    "a pplastic reflectance (Mitsuba needs its mean)",
+                )?;
+                let mean = t.mean();
+                p.bind(param, t);
+                Ok((default, mean, true))
+            }
+        }
+    };
+    let (d, d_mean, _) = mean_of(
+        p,
+        "diffuse_reflectance",
+        Param::DiffuseReflectance,
+        Rgb::splat(0.5),
+    )?;
+    let (s, s_mean, _) = mean_of(
+        p,
+        "specular_reflectance",
+        Param::SpecularReflectance,
+        Rgb::ONE,
+    )?;
+    if (d_mean + s_mean).is_nan() || d_mean + s_mean <= 0.0 {
+        return Err(p.props.err("pplastic with zero diffuse and specular reflectance reflects nothing; use a black diffuse"));
+    }
+    Ok(Bsdf::PPlastic(PPlastic {
+        distribution,
+        eta: eta as f32,
+        diffuse_reflectance: d,
+        specular_reflectance: s,
+        specular_weight: s_mean / (d_mean + s_mean),
+    }))
+}
+
+/// `<bsdf type="polarizer">`.
+fn read_polarizer(
+    p: &mut Params,
+    _ctx: &Ctx,
+    _named: &Named,
+    _kind: &str,
+) -> Result<Bsdf, SceneError> {
+    // Without polarization the angle and `polarizing` change nothing; read them
+    // so that a bad value is still an error.
+    let _theta = texture_param(&mut p.props, "theta", p.textures)?;
+    let _polarizing = p.props.boolean_or("polarizing", true)?;
+    Ok(Bsdf::Polarizer(Polarizer {
+        transmittance: p.colour("transmittance", Param::Transmittance, Rgb::ONE)?,
+    }))
+}
+
+/// `<bsdf type="principled">`.
+fn read_principled(
+    p: &mut Params,
+    _ctx: &Ctx,
+    _named: &Named,
+    _kind: &str,
+) -> Result<Bsdf, SceneError> {
+    Ok(Bsdf::Principled(principled(p)?))
+}
+
+/// `<bsdf type="principledthin">`.
+fn read_principledthin(
+    p: &mut Params,
+    _ctx: &Ctx,
+    _named: &Named,
+    _kind: &str,
+) -> Result<Bsdf, SceneError> {
+    Ok(Bsdf::PrincipledThin(principled_thin(p)?))
+}
+
+/// The temporal profiles of `Separable` and `Composed` (the plugin table's
+/// `TemporalProfile` family), in the order errors list them; `parse_temporal_profile`
+/// reads each.
+pub(super) const PROFILES: &[&str] =
+    &["ConstantTP", "ExponentialTP", "EpanechnikovTP", "PosEpanTP"];
 
 /// A float-or-texture weight of `principled`/`principledthin` (`default` when absent),
 /// a constant checked to lie in [0, `hi`], and whether it was given other than as the
@@ -898,7 +1119,9 @@ fn parse_temporal_profile(
             let c = scalar(&mut p, "delay", Param::Delay)?;
             let c = required(&p, c, "delay")?;
             if c < 0.0 {
-                return Err(p.props.err_at("delay", format!("delay must be >= 0, got {c}")));
+                return Err(p
+                    .props
+                    .err_at("delay", format!("delay must be >= 0, got {c}")));
             }
             TemporalProfile::Constant { delay: c as f32 }
         }
@@ -906,7 +1129,9 @@ fn parse_temporal_profile(
             let l = scalar(&mut p, "lambda", Param::Lambda)?;
             let l = required(&p, l, "lambda")?;
             if l <= 0.0 {
-                return Err(p.props.err_at("lambda", format!("lambda must be > 0, got {l}")));
+                return Err(p
+                    .props
+                    .err_at("lambda", format!("lambda must be > 0, got {l}")));
             }
             TemporalProfile::Exponential { lambda: l as f32 }
         }
@@ -916,7 +1141,9 @@ fn parse_temporal_profile(
             let (mu, sigma) = (required(&p, mu, "mu")?, required(&p, sigma, "sigma")?);
             // NaN marks a textured parameter: checked per hit instead.
             if sigma <= 0.0 {
-                return Err(p.props.err_at("sigma", format!("sigma must be > 0, got {sigma}")));
+                return Err(p
+                    .props
+                    .err_at("sigma", format!("sigma must be > 0, got {sigma}")));
             }
             if mu < sigma {
                 return Err(p.props.err_at(
@@ -931,7 +1158,8 @@ fn parse_temporal_profile(
         }
         other => {
             return Err(p.props.err(format!(
-                "unknown temporal profile '{other}' (supported: ConstantTP, ExponentialTP, EpanechnikovTP, PosEpanTP)"
+                "unknown temporal profile '{other}' (supported: {})",
+                PROFILES.join(", ")
             )))
         }
     };

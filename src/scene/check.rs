@@ -8,7 +8,7 @@
 //! every scene in `scenes/` scans clean and that each listed plugin kind loads.
 
 use super::ctx::Ctx;
-use super::plugins::SUPPORTED;
+use super::plugins::{canonical_plugin_name, SUPPORTED};
 use super::{Overrides, Scene};
 use roxmltree::Node;
 use std::collections::HashMap;
@@ -118,7 +118,9 @@ fn scan_file(
     };
     let ctx = match parent {
         Some(p) => p.for_included_file(path, &text),
-        None => Ctx::new(path, &text, defaults).with_search_paths(search),
+        None => Ctx::new(path, &text, defaults)
+            .with_plugin_names(canonical_plugin_name)
+            .with_search_paths(search),
     };
     stack.push(canonical);
     for node in doc.root_element().descendants().filter(|n| n.is_element()) {

@@ -25,6 +25,8 @@ pub struct Ctx<'a> {
     /// Folders searched for the files the scene names, first match wins: the
     /// `<path>`s (latest first), then the scene file's folder (Mitsuba's file resolver).
     search: RefCell<Vec<std::path::PathBuf>>,
+    /// A plugin type as the loaders spell it ([`Self::with_plugin_names`]).
+    canonical: fn(String) -> String,
 }
 
 /// Warnings kept with their location; the rest are counted.
@@ -70,7 +72,16 @@ impl<'a> Ctx<'a> {
             warning_count: Cell::new(0),
             mesh_files: RefCell::new(Vec::new()),
             search: RefCell::new(vec![file.parent().unwrap_or(Path::new(".")).to_path_buf()]),
+            canonical: std::convert::identity,
         }
+    }
+
+    /// Reads plugin types through `canonical` (the plugin table's spelling of a name
+    /// written in another case, `plugins::canonical_plugin_name`); without it, types
+    /// stay as written.
+    pub fn with_plugin_names(mut self, canonical: fn(String) -> String) -> Self {
+        self.canonical = canonical;
+        self
     }
 
     /// The folder of the file being read.
@@ -132,7 +143,7 @@ impl<'a> Ctx<'a> {
         text: &'a str,
         defaults: &'a HashMap<String, String>,
     ) -> Ctx<'a> {
-        let child = Ctx::new(file, text, defaults);
+        let child = Ctx::new(file, text, defaults).with_plugin_names(self.canonical);
         *child.search.borrow_mut() = self.search.borrow().clone();
         child.expanded.set(self.expanded.get());
         child
@@ -209,13 +220,13 @@ impl<'a> Ctx<'a> {
     /// An attribute with `$name` references replaced by their defaults.
     /// An attribute with its `$default`s substituted. A plugin's `type` is matched
     /// without regard to case ("Rectangle" = "rectangle",
-    /// [`super::plugins::canonical_plugin_name`]).
+    /// `plugins::canonical_plugin_name`).
     pub fn attr(&self, node: Node, name: &str) -> Result<Option<String>, SceneError> {
         match node.attribute(name) {
             None => Ok(None),
             Some(raw) if name == "type" => self
                 .substitute(node, raw)
-                .map(|t| Some(super::plugins::canonical_plugin_name(t))),
+                .map(|t| Some((self.canonical)(t))),
             Some(raw) => self.substitute(node, raw).map(Some),
         }
     }

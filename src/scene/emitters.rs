@@ -105,16 +105,27 @@ pub(super) fn parse_area_emitter(
     Ok((radiance, None))
 }
 
+/// The emitters at a point (the plugin table's `emitter` family, with [`AREA_KINDS`],
+/// `projector::PROJECTOR` and `infinite_emitters::KINDS`): read by
+/// [`parse_point_emitter`].
+pub(super) const POINT_KINDS: &[&str] = &["point", "spot"];
+
 pub(super) fn parse_point_emitter(
     ctx: &Ctx,
     node: Node,
     named: &NamedTextures,
 ) -> Result<Emitter, SceneError> {
     let kind = ctx.required_attr(node, "type")?;
-    if kind != "point" && kind != "spot" {
+    if !POINT_KINDS.contains(&kind.as_str()) {
+        let top_level: Vec<&str> = POINT_KINDS
+            .iter()
+            .copied()
+            .chain([super::projector::PROJECTOR])
+            .chain(super::infinite_emitters::KINDS.iter().copied())
+            .collect();
         return Err(ctx.err(
             node,
-            format!("emitter '{kind}' is not supported at top level (supported: point, spot, projector, envmap, constant, directional; area lights go inside a <shape> or are attached by <ref>)"),
+            format!("emitter '{kind}' is not supported at top level (supported: {}; area lights go inside a <shape> or are attached by <ref>)", top_level.join(", ")),
         ));
     }
     let mut p = Props::parse(ctx, node)?;

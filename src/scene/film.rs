@@ -17,6 +17,13 @@ use super::props::Props;
 use crate::sensors::film::Film;
 use roxmltree::Node;
 
+/// The film plugins (the plugin table's `film` family).
+pub(super) const FILMS: &[&str] = &["transient_hdr_film"];
+
+/// The reconstruction filters a film accepts (the plugin table's `rfilter` family):
+/// mitransient's transient block supports only the box.
+pub(super) const RFILTERS: &[&str] = &["box"];
+
 /// Reads a `<film>`.
 pub fn parse_film(ctx: &Ctx, node: Node) -> Result<Film, SceneError> {
     Ok(parse_with_scan(ctx, node, false)?.0)
@@ -38,7 +45,7 @@ fn parse_with_scan(
     meter: bool,
 ) -> Result<(Film, Option<[usize; 2]>), SceneError> {
     let kind = ctx.required_attr(node, "type")?;
-    if kind != "transient_hdr_film" {
+    if !FILMS.contains(&kind.as_str()) {
         return Err(ctx.err(
             node,
             format!("film type '{kind}' is not supported (use transient_hdr_film)"),
@@ -92,7 +99,7 @@ fn parse_with_scan(
     }
     for obj in std::mem::take(&mut p.objects) {
         match (obj.tag_name().name(), ctx.attr(obj, "type")?.as_deref()) {
-            ("rfilter", Some("box")) => Props::parse(ctx, obj)?.finish()?,
+            ("rfilter", Some(f)) if RFILTERS.contains(&f) => Props::parse(ctx, obj)?.finish()?,
             ("rfilter", other) => {
                 return Err(ctx.err(obj, format!("reconstruction filter {other:?} is not supported; the transient film uses the box filter")))
             }

@@ -15,12 +15,16 @@ pub(super) const MAX_STDDEV_BINS: f64 = 64.0;
 /// `max_depth` of a `transient_path` / `transient_prbvolpath` that does not set it.
 pub const MITRANSIENT_DEFAULT_MAX_DEPTH: i64 = 6;
 
+/// The integrator plugins (the plugin table's `integrator` family): all read here.
+pub(super) const INTEGRATORS: &[&str] = &[
+    "transient_path",
+    "transient_prbvolpath",
+    "transient_nlos_path",
+];
+
 pub(super) fn parse_integrator(ctx: &Ctx, node: Node) -> Result<IntegratorSettings, SceneError> {
     let kind = ctx.required_attr(node, "type")?;
-    if !matches!(
-        kind.as_str(),
-        "transient_path" | "transient_prbvolpath" | "transient_nlos_path"
-    ) {
+    if !INTEGRATORS.contains(&kind.as_str()) {
         return Err(ctx.err(
             node,
             format!("integrator '{kind}' is not supported (use transient_path, transient_prbvolpath for media, or transient_nlos_path for NLOS captures)"),

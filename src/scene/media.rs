@@ -10,6 +10,7 @@ use crate::media::vol_file::read_vol;
 use crate::media::volume::{Grid, GridFilter, VolumeData};
 use crate::media::{Heterogeneous, Homogeneous, Medium, Phase, Volume};
 use crate::textures::bitmap::WrapMode;
+use glam::DMat4;
 use roxmltree::Node;
 use std::collections::HashMap;
 use std::sync::Arc;
@@ -18,10 +19,14 @@ use std::sync::Arc;
 /// than a ray offset in any scene tstat accepts.
 const MAX_SIGMA_T: f32 = 1e7;
 
+/// The medium plugins (the plugin table's `medium` family): both read by
+/// [`parse_medium`].
+pub(super) const MEDIA: &[&str] = &["homogeneous", "heterogeneous"];
+
 /// Reads a `<medium>` element.
 pub fn parse_medium(ctx: &Ctx, node: Node) -> Result<Medium, SceneError> {
     let kind = ctx.required_attr(node, "type")?;
-    if kind != "homogeneous" && kind != "heterogeneous" {
+    if !MEDIA.contains(&kind.as_str()) {
         return Err(ctx.err(
             node,
             format!("medium '{kind}' is not supported (supported: homogeneous, heterogeneous)"),
@@ -215,114 +220,16 @@ pub fn parse_volume(ctx: &Ctx, node: Node, role: &str) -> Result<Volume, SceneEr
     if !(det != 0.0 && det.is_finite() && to_world.inverse().is_finite()) {
         return Err(p.err_at("to_world", "the volume's to_world is singular"));
     }
-    let (lo_ok, hi) = if role == "albedo" {
-        (0.0f32, 1.0f32)
-    } else {
-        (0.0, f32::INFINITY)
-    };
-    let range = if role == "albedo" { "[0, 1]" } else { ">= 0" };
-    let volume = match kind.as_str() {
-        "constvolume" => {
-            let v = p.rgb("value")?.unwrap_or(glam::Vec3::ONE);
-            if !(v.is_finite() && v.min_element() >= lo_ok && v.max_element() <= hi) {
-                return Err(p.err_at(
-                    "value",
-                    format!("the {role} volume's value must be finite and {range} in every channel, got {v}"),
-                ));
-            }
-            Volume::constant(v, to_world)
-        }
-        "gridvolume" => {
-            let filter = match p.string("filter_type")?.as_deref() {
-                None | Some("trilinear") => GridFilter::Trilinear,
-                Some("nearest") => GridFilter::Nearest,
-                Some(other) => {
-                    return Err(p.err_at(
-                        "filter_type",
-                        format!("filter_type '{other}' is not one of: trilinear, nearest"),
-                    ))
-                }
-            };
-            let wrap = match p.string("wrap_mode")?.as_deref() {
-                None | Some("clamp") => WrapMode::Clamp,
-                Some("repeat") => WrapMode::Repeat,
-                Some("mirror") => WrapMode::Mirror,
-                Some(other) => {
-                    return Err(p.err_at(
-                        "wrap_mode",
-                        format!("wrap_mode '{other}' is not one of: clamp, repeat, mirror"),
-                    ))
-                }
-            };
-            p.boolean_or("raw", false)?;
-            p.boolean_or("accel", true)?;
-            let use_grid_bbox = p.boolean_or("use_grid_bbox", false)?;
-            let max_value = p.float("max_value")?;
-            let name = p
-                .string("filename")?
-                .ok_or_else(|| p.err("missing parameter 'filename' (a .vol file)"))?;
-            if name.trim().is_empty() {
-                return Err(p.err_at("filename", "the filename is empty"));
-            }
-            let path = ctx.resolve(&name);
-            ctx.read_mesh_file(&path);
-            let file = read_vol(&path)
-                .map_err(|e| p.err_at("filename", format!("volume '{name}' {e}")))?;
-            let (min, max) = (file.min(), file.max());
-            if min < lo_ok || max > hi {
-                return Err(p.err_at(
-                    "filename",
-                    format!("volume '{name}' holds values in [{min}, {max}]; as {role} they must be {range}"),
-                ));
-            }
-            let max = match max_value {
-                None => max,
-                Some(m) if m.is_finite() && m as f32 >= max => m as f32,
-                Some(m) => {
-                    return Err(p.err_at(
-                        "max_value",
-                        format!("max_value {m} is below the grid's largest value {max} (it bounds the extinction for delta tracking)"),
-                    ))
-                }
-            };
-            // The local frame: the file's box onto the unit cube (`use_grid_bbox`),
-            // after the world-to-volume map.
-            let mut to_world = to_world;
-            if use_grid_bbox {
-                let lo = glam::Vec3::from_array(file.bbox_min).as_dvec3();
-                let ext = glam::Vec3::from_array(file.bbox_max).as_dvec3() - lo;
-                if !(ext.min_element() > 0.0 && ext.is_finite() && lo.is_finite()) {
-                    return Err(p.err_at(
-                        "use_grid_bbox",
-                        format!(
-                            "volume '{name}' has the bounding box {:?} - {:?}, which is empty",
-                            file.bbox_min, file.bbox_max
-                        ),
-                    ));
-                }
-                // Mitsuba: to_local = bbox_transform * to_local, bbox_transform =
-                // scale(1 / extents) * translate(-min).
-                to_world =
-                    to_world * glam::DMat4::from_translation(lo) * glam::DMat4::from_scale(ext);
-            }
-            let mut v = Volume::constant(glam::Vec3::ZERO, to_world);
-            v.data = VolumeData::Grid(Arc::new(Grid {
-                size: file.size,
-                channels: file.channels,
-                data: file.data,
-                filter,
-                wrap,
-            }));
-            v.max = max;
-            v
-        }
-        other => {
-            return Err(ctx.err(
-                node,
-                format!("volume '{other}' is not supported (supported: constvolume, gridvolume)"),
-            ))
-        }
-    };
+    let read = super::table::reader(VOLUMES, &kind).ok_or_else(|| {
+        ctx.err(
+            node,
+            format!(
+                "volume '{kind}' is not supported (supported: {})",
+                super::table::names(VOLUMES).join(", ")
+            ),
+        )
+    })?;
+    let volume = read(&mut p, to_world, role)?;
     if !(volume.bbox_min.is_finite() && volume.bbox_max.is_finite()) {
         return Err(p.err_at("to_world", "the volume's bounding box is not finite"));
     }
@@ -330,34 +237,172 @@ pub fn parse_volume(ctx: &Ctx, node: Node, role: &str) -> Result<Volume, SceneEr
     Ok(volume)
 }
 
+/// The values a volume in `role` may hold: (lowest, highest, as text).
+fn role_range(role: &str) -> (f32, f32, &'static str) {
+    let (lo_ok, hi) = if role == "albedo" {
+        (0.0f32, 1.0f32)
+    } else {
+        (0.0, f32::INFINITY)
+    };
+    let range = if role == "albedo" { "[0, 1]" } else { ">= 0" };
+    (lo_ok, hi, range)
+}
+
+/// The `volume` plugins and their readers (the plugin table's `volume` family,
+/// [`super::plugins`]), in the order errors list them.
+pub(super) const VOLUMES: &[(&str, ReadVolume)] = &[
+    ("constvolume", read_constvolume),
+    ("gridvolume", read_gridvolume),
+];
+
+/// Reads one `<volume>` plugin.
+pub(super) type ReadVolume = fn(&mut Props<'_, '_, '_>, DMat4, &str) -> Result<Volume, SceneError>;
+
+/// `<volume type="constvolume">`.
+fn read_constvolume(p: &mut Props, to_world: DMat4, role: &str) -> Result<Volume, SceneError> {
+    let (lo_ok, hi, range) = role_range(role);
+    let v = p.rgb("value")?.unwrap_or(glam::Vec3::ONE);
+    if !(v.is_finite() && v.min_element() >= lo_ok && v.max_element() <= hi) {
+        return Err(p.err_at(
+            "value",
+            format!(
+                "the {role} volume's value must be finite and {range} in every channel, got {v}"
+            ),
+        ));
+    }
+    Ok(Volume::constant(v, to_world))
+}
+
+/// `<volume type="gridvolume">`.
+fn read_gridvolume(p: &mut Props, to_world: DMat4, role: &str) -> Result<Volume, SceneError> {
+    let (lo_ok, hi, range) = role_range(role);
+    let filter = match p.string("filter_type")?.as_deref() {
+        None | Some("trilinear") => GridFilter::Trilinear,
+        Some("nearest") => GridFilter::Nearest,
+        Some(other) => {
+            return Err(p.err_at(
+                "filter_type",
+                format!("filter_type '{other}' is not one of: trilinear, nearest"),
+            ))
+        }
+    };
+    let wrap = match p.string("wrap_mode")?.as_deref() {
+        None | Some("clamp") => WrapMode::Clamp,
+        Some("repeat") => WrapMode::Repeat,
+        Some("mirror") => WrapMode::Mirror,
+        Some(other) => {
+            return Err(p.err_at(
+                "wrap_mode",
+                format!("wrap_mode '{other}' is not one of: clamp, repeat, mirror"),
+            ))
+        }
+    };
+    p.boolean_or("raw", false)?;
+    p.boolean_or("accel", true)?;
+    let use_grid_bbox = p.boolean_or("use_grid_bbox", false)?;
+    let max_value = p.float("max_value")?;
+    let name = p
+        .string("filename")?
+        .ok_or_else(|| p.err("missing parameter 'filename' (a .vol file)"))?;
+    if name.trim().is_empty() {
+        return Err(p.err_at("filename", "the filename is empty"));
+    }
+    let path = p.ctx.resolve(&name);
+    p.ctx.read_mesh_file(&path);
+    let file = read_vol(&path).map_err(|e| p.err_at("filename", format!("volume '{name}' {e}")))?;
+    let (min, max) = (file.min(), file.max());
+    if min < lo_ok || max > hi {
+        return Err(p.err_at(
+            "filename",
+            format!(
+                "volume '{name}' holds values in [{min}, {max}]; as {role} they must be {range}"
+            ),
+        ));
+    }
+    let max = match max_value {
+        None => max,
+        Some(m) if m.is_finite() && m as f32 >= max => m as f32,
+        Some(m) => {
+            return Err(p.err_at(
+                "max_value",
+                format!("max_value {m} is below the grid's largest value {max} (it bounds the extinction for delta tracking)"),
+            ))
+        }
+    };
+    // The local frame: the file's box onto the unit cube (`use_grid_bbox`),
+    // after the world-to-volume map.
+    let mut to_world = to_world;
+    if use_grid_bbox {
+        let lo = glam::Vec3::from_array(file.bbox_min).as_dvec3();
+        let ext = glam::Vec3::from_array(file.bbox_max).as_dvec3() - lo;
+        if !(ext.min_element() > 0.0 && ext.is_finite() && lo.is_finite()) {
+            return Err(p.err_at(
+                "use_grid_bbox",
+                format!(
+                    "volume '{name}' has the bounding box {:?} - {:?}, which is empty",
+                    file.bbox_min, file.bbox_max
+                ),
+            ));
+        }
+        // Mitsuba: to_local = bbox_transform * to_local, bbox_transform =
+        // scale(1 / extents) * translate(-min).
+        to_world = to_world * glam::DMat4::from_translation(lo) * glam::DMat4::from_scale(ext);
+    }
+    let mut v = Volume::constant(glam::Vec3::ZERO, to_world);
+    v.data = VolumeData::Grid(Arc::new(Grid {
+        size: file.size,
+        channels: file.channels,
+        data: file.data,
+        filter,
+        wrap,
+    }));
+    v.max = max;
+    Ok(v)
+}
+
 /// Reads a `<phase>` element.
 pub fn parse_phase(ctx: &Ctx, node: Node) -> Result<Phase, SceneError> {
     let kind = ctx.required_attr(node, "type")?;
     let mut p = Props::parse(ctx, node)?;
-    let phase = match kind.as_str() {
-        "isotropic" => Phase::Isotropic,
-        "hg" => {
-            let g = p.float_or("g", 0.8)?;
-            if !(g > -1.0 && g < 1.0) {
-                return Err(p.err_at(
-                    "g",
-                    format!("the asymmetry parameter g must lie in (-1, 1), got {g}"),
-                ));
-            }
-            Phase::Hg { g: g as f32 }
-        }
-        other => {
-            return Err(ctx.err(
-                node,
-                format!("phase function '{other}' is not supported (supported: isotropic, hg)"),
-            ))
-        }
-    };
+    let read = super::table::reader(PHASES, &kind).ok_or_else(|| {
+        ctx.err(
+            node,
+            format!(
+                "phase function '{kind}' is not supported (supported: {})",
+                super::table::names(PHASES).join(", ")
+            ),
+        )
+    })?;
+    let phase = read(&mut p)?;
     if let Some(&o) = p.objects.first() {
         return Err(ctx.err(o, "unexpected nested element in <phase>"));
     }
     p.finish()?;
     Ok(phase)
+}
+
+/// The `phase` plugins and their readers (the plugin table's `phase` family,
+/// [`super::plugins`]), in the order errors list them.
+pub(super) const PHASES: &[(&str, ReadPhase)] = &[("isotropic", read_isotropic), ("hg", read_hg)];
+
+/// Reads one `<phase>` plugin.
+pub(super) type ReadPhase = fn(&mut Props<'_, '_, '_>) -> Result<Phase, SceneError>;
+
+/// `<phase type="isotropic">`.
+fn read_isotropic(_p: &mut Props) -> Result<Phase, SceneError> {
+    Ok(Phase::Isotropic)
+}
+
+/// `<phase type="hg">`.
+fn read_hg(p: &mut Props) -> Result<Phase, SceneError> {
+    let g = p.float_or("g", 0.8)?;
+    if !(g > -1.0 && g < 1.0) {
+        return Err(p.err_at(
+            "g",
+            format!("the asymmetry parameter g must lie in (-1, 1), got {g}"),
+        ));
+    }
+    Ok(Phase::Hg { g: g as f32 })
 }
 
 /// The index of the medium an element gives: a nested `<medium>` (appended to

@@ -30,6 +30,7 @@ pub mod serialized;
 mod shape_element;
 pub mod shapes;
 pub mod spectrum;
+pub mod table;
 pub mod textures;
 pub mod transform;
 mod xml;

@@ -1,105 +1,53 @@
 //! The plugin table: every plugin type tstat reads, by element tag. The loader and
 //! `tstat check` both read it, so a plugin is supported exactly when it is listed here.
 
-/// Plugin types each loader accepts (by element tag).
-pub const SUPPORTED: &[(&str, &[&str])] = &[
-    (
-        "bsdf",
-        &[
-            "diffuse",
-            "dielectric",
-            "roughdielectric",
-            "thindielectric",
-            "conductor",
-            "roughconductor",
-            "plastic",
-            "roughplastic",
-            "null",
-            "twosided",
-            "mask",
-            "Separable",
-            "Composed",
-            "blendbsdf",
-            "normalmap",
-            "bumpmap",
-            "pplastic",
-            "polarizer",
-            "principled",
-            "principledthin",
-        ],
-    ),
-    (
-        "shape",
-        &[
-            "rectangle",
-            "cube",
-            "sphere",
-            "disk",
-            "cylinder",
-            "linearcurve",
-            "bsplinecurve",
-            "ply",
-            "obj",
-            "serialized",
-            "sdfgrid",
-            "shapegroup",
-            "instance",
-        ],
-    ),
-    (
-        "texture",
-        &["bitmap", "checkerboard", "mesh_attribute", "rawconstant"],
-    ),
-    (
-        "emitter",
-        &[
-            "area",
-            "angulararea",
-            "point",
-            "spot",
-            "projector",
-            "envmap",
-            "constant",
-            "directional",
-        ],
-    ),
-    (
-        "sensor",
-        &[
-            "perspective",
-            "thinlens",
-            "orthographic",
-            "nlos_capture_meter",
-        ],
-    ),
-    ("film", &["transient_hdr_film"]),
-    (
-        "sampler",
-        &[
-            "independent",
-            "stratified",
-            "multijitter",
-            "orthogonal",
-            "ldsampler",
-        ],
-    ),
-    ("rfilter", &["box"]),
-    (
-        "integrator",
-        &[
-            "transient_path",
-            "transient_prbvolpath",
-            "transient_nlos_path",
-        ],
-    ),
-    (
-        "TemporalProfile",
-        &["ConstantTP", "ExponentialTP", "EpanechnikovTP", "PosEpanTP"],
-    ),
-    ("medium", &["homogeneous", "heterogeneous"]),
-    ("volume", &["constvolume", "gridvolume"]),
-    ("phase", &["isotropic", "hg"]),
-];
+use super::table::names;
+use std::sync::LazyLock;
+
+/// The plugin types of the family of elements `tag` (empty for an unknown tag).
+pub fn family(tag: &str) -> Vec<&'static str> {
+    SUPPORTED
+        .iter()
+        .find(|(t, _)| *t == tag)
+        .map(|(_, types)| types.clone())
+        .unwrap_or_default()
+}
+
+/// Plugin types each loader accepts, by element tag: each family's names come from the
+/// table its reader dispatches on.
+pub static SUPPORTED: LazyLock<Vec<(&str, Vec<&str>)>> = LazyLock::new(|| {
+    let mut families = vec![
+        ("bsdf", names(super::bsdfs::BSDFS)),
+        ("shape", {
+            let mut shapes = names(super::shapes::SHAPES);
+            shapes.extend(super::shapes::GROUPING);
+            shapes
+        }),
+    ];
+    let emitters: Vec<&str> = super::emitters::AREA_KINDS
+        .iter()
+        .chain(super::emitters::POINT_KINDS)
+        .chain([&super::projector::PROJECTOR])
+        .chain(super::infinite_emitters::KINDS)
+        .copied()
+        .collect();
+    let mut sensors = super::sensors::CAMERAS.to_vec();
+    sensors.push(super::sensors::METER);
+    families.extend([
+        ("texture", names(super::textures::TEXTURES)),
+        ("emitter", emitters),
+        ("sensor", sensors),
+        ("film", super::film::FILMS.to_vec()),
+        ("sampler", super::sampler::SAMPLERS.to_vec()),
+        ("rfilter", super::film::RFILTERS.to_vec()),
+        ("integrator", super::integrator::INTEGRATORS.to_vec()),
+        ("TemporalProfile", super::bsdfs::PROFILES.to_vec()),
+        ("medium", super::media::MEDIA.to_vec()),
+        ("volume", names(super::media::VOLUMES)),
+        ("phase", names(super::media::PHASES)),
+    ]);
+    families
+});
 
 /// A plugin type as the loaders spell it: a supported plugin's name written in
 /// another case ("Rectangle", "separable") becomes its spelling in [`SUPPORTED`], as

@@ -50,6 +50,9 @@ pub(crate) fn black(t: &Texture) -> bool {
     }
 }
 
+/// The projector's plugin name (the plugin table's `emitter` family).
+pub const PROJECTOR: &str = "projector";
+
 pub fn parse_projector(
     ctx: &Ctx,
     node: Node,

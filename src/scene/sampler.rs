@@ -7,6 +7,15 @@ use super::props::Props;
 use roxmltree::Node;
 
 /// A `<sampler>`: its sample count and seed (defaults 4 and 0).
+/// The sampler plugins (the plugin table's `sampler` family): all read here.
+pub(super) const SAMPLERS: &[&str] = &[
+    "independent",
+    "stratified",
+    "multijitter",
+    "orthogonal",
+    "ldsampler",
+];
+
 pub(super) fn parse_sampler(ctx: &Ctx, obj: Node) -> Result<(u32, u64), SceneError> {
     let (mut spp, mut seed) = (4u32, 0u64);
     // The sampler type only decides whether the scene loads: sub-pixel
@@ -14,8 +23,7 @@ pub(super) fn parse_sampler(ctx: &Ctx, obj: Node) -> Result<(u32, u64), SceneErr
     // every other dimension of a path is always independent. Mitsuba's
     // stratified-like samplers are accepted as plain requests for spp/seed.
     let k = ctx.required_attr(obj, "type")?;
-    const STRATIFIED_LIKE: [&str; 4] = ["stratified", "multijitter", "orthogonal", "ldsampler"];
-    if k != "independent" && !STRATIFIED_LIKE.contains(&k.as_str()) {
+    if !SAMPLERS.contains(&k.as_str()) {
         return Err(ctx.err(obj, format!("sampler '{k}' is not supported (use independent; sub-pixel positions are set by --pixel-sampling)")));
     }
     let mut sp = Props::parse(ctx, obj)?;

@@ -132,11 +132,15 @@ pub(super) fn parse_meter(
             "emitter" if laser.is_some() => {
                 return Err(ctx.err(obj, "a capture meter holds at most one (legacy) laser"))
             }
-            "emitter" if ctx.attr(obj, "type")?.as_deref() == Some("projector") => {
+            "emitter" if ctx.attr(obj, "type")?.as_deref() == Some(super::projector::PROJECTOR) => {
                 ctx.warn(obj, "a laser nested in nlos_capture_meter (mitransient <= 1.1's layout, which 1.3.1 refuses): it is the scene's emitter");
                 laser = Some(super::projector::parse_projector(ctx, obj, named_textures)?);
             }
-            "rfilter" if ctx.attr(obj, "type")?.as_deref() == Some("box") => {
+            "rfilter"
+                if ctx
+                    .attr(obj, "type")?
+                    .is_some_and(|f| super::film::RFILTERS.contains(&f.as_str())) =>
+            {
                 ctx.warn(obj, "an <rfilter> in nlos_capture_meter (mitransient <= 1.1's layout): the film's box filter");
                 Props::parse(ctx, obj)?.finish()?;
             }
@@ -169,6 +173,13 @@ pub(super) fn parse_meter(
     })
 }
 
+/// The camera plugins (the plugin table's `sensor` family, with [`METER`]): all read by
+/// [`parse_sensor`].
+pub(super) const CAMERAS: &[&str] = &["perspective", "thinlens", "orthographic"];
+
+/// The NLOS capture sensor, nested in the relay wall's shape ([`parse_meter`]).
+pub(super) const METER: &str = "nlos_capture_meter";
+
 pub(super) fn parse_sensor(
     ctx: &Ctx,
     node: Node,
@@ -177,7 +188,7 @@ pub(super) fn parse_sensor(
     named_media: &HashMap<String, u32>,
 ) -> Result<Sensor, SceneError> {
     let kind = ctx.required_attr(node, "type")?;
-    if !matches!(kind.as_str(), "perspective" | "thinlens" | "orthographic") {
+    if !CAMERAS.contains(&kind.as_str()) {
         return Err(ctx.err(
             node,
             format!("sensor '{kind}' is not supported (use perspective, thinlens or orthographic; an nlos_capture_meter goes inside its relay wall's <shape>)"),

@@ -90,7 +90,7 @@ pub(super) fn parse_shape<'a, 'i>(
             }
             "sensor" => {
                 let k = ctx.required_attr(obj, "type")?;
-                if k != "nlos_capture_meter" {
+                if k != super::sensors::METER {
                     return Err(ctx.err(obj, format!("sensor '{k}' cannot be attached to a shape (only nlos_capture_meter, on a relay wall)")));
                 }
                 if kind != "rectangle" {

@@ -188,164 +188,220 @@ fn transform_mesh(
 /// Builds the geometry of a `<shape>`; consumes its geometric parameters from `props`.
 pub fn parse_geometry(kind: &str, props: &mut Props) -> Result<ShapeGeom, SceneError> {
     let to_world = props.transform("to_world")?.unwrap_or(DMat4::IDENTITY);
-    let at_transform = |props: &Props, e: String| props.err_at("to_world", e);
-    match kind {
-        "rectangle" => {
-            transform_mesh(rectangle(), &to_world, true).map_err(|e| at_transform(props, e))
-        }
-        "cube" => transform_mesh(cube(), &to_world, true).map_err(|e| at_transform(props, e)),
-        "sphere" => {
-            let c = props.point("center")?.unwrap_or([0.0; 3]);
-            let r = props.float_or("radius", 1.0)?;
-            if r <= 0.0 {
-                return Err(
-                    props.err_at("radius", format!("sphere radius must be positive, got {r}"))
-                );
-            }
-            let lens = [
-                to_world.x_axis.truncate().length(),
-                to_world.y_axis.truncate().length(),
-                to_world.z_axis.truncate().length(),
-            ];
-            if (lens[0] - lens[1]).abs() > 1e-6 * lens[0]
-                || (lens[0] - lens[2]).abs() > 1e-6 * lens[0]
-            {
-                return Err(props.err_at("to_world", "a sphere's to_world must scale uniformly"));
-            }
-            let center = to_world.transform_point3(DVec3::from(c));
-            check_world_point(center)
-                .map_err(|e| props.err_at("center", format!("center: {e}")))?;
-            let radius = r * lens[0];
-            if !(radius as f32 >= f32::MIN_POSITIVE && radius <= MAX_COORDINATE) {
-                return Err(props.err_at(
-                    "radius",
-                    format!("the world-space radius {radius:e} is outside [{:e}, {MAX_COORDINATE:e}] (single-precision geometry)", f32::MIN_POSITIVE),
-                ));
-            }
-            // World to the unit sphere's object space (uv only): the linear part of
-            // the inverse of to_world * translate(center) * scale(radius).
-            let to_local = (to_world * DMat4::from_scale(DVec3::splat(r))).inverse();
-            let to_local = Mat3::from_mat4(to_local.as_mat4());
-            Ok(ShapeGeom::Sphere(
-                SphereGeom {
-                    center: center.as_vec3(),
-                    radius: radius as f32,
-                },
-                to_local,
-            ))
-        }
-        "disk" => {
-            let g = DiskGeom::new(&to_world).map_err(|e| at_transform(props, e))?;
-            check_bounds(g.bounds()).map_err(|e| at_transform(props, e))?;
-            Ok(ShapeGeom::Disk(g))
-        }
-        "cylinder" => {
-            let p0 = DVec3::from(props.point("p0")?.unwrap_or([0.0; 3]));
-            let p1 = DVec3::from(props.point("p1")?.unwrap_or([0.0, 0.0, 1.0]));
-            let r = props.float_or("radius", 1.0)?;
-            if !(r > 0.0 && r.is_finite()) {
-                return Err(props.err_at(
-                    "radius",
-                    format!("cylinder radius must be positive, got {r}"),
-                ));
-            }
-            let length = (p1 - p0).length();
-            if !(length > 0.0 && length.is_finite()) {
-                return Err(props.err_at(
-                    "p1",
-                    format!("the cylinder's p0 {p0} and p1 {p1} must differ (its axis has length {length})"),
-                ));
-            }
-            let m = CylinderGeom::object_to_world(&to_world, p0, p1, r);
-            let g = CylinderGeom::new(&m).map_err(|e| at_transform(props, e))?;
-            check_bounds(g.bounds()).map_err(|e| at_transform(props, e))?;
-            Ok(ShapeGeom::Cylinder(g))
-        }
-        "linearcurve" | "bsplinecurve" => {
-            let kind = if kind == "linearcurve" {
-                CurveKind::Linear
-            } else {
-                CurveKind::BSpline
-            };
-            let name = props
-                .string("filename")?
-                .ok_or_else(|| props.err("missing parameter 'filename'"))?;
-            if name.trim().is_empty() {
-                return Err(props.err_at("filename", "the filename is empty"));
-            }
-            let path = props.ctx.resolve(&name);
-            props.ctx.read_mesh_file(&path);
-            let g = load_curves(&path, kind, &to_world).map_err(|e| {
-                props.err_at("filename", format!("{} file '{name}': {e}", kind.name()))
-            })?;
-            Ok(ShapeGeom::Curve(g))
-        }
-        "sdfgrid" => super::sdfgrid::parse_sdfgrid(props, &to_world),
-        "ply" | "obj" | "serialized" => {
-            let name = props
-                .string("filename")?
-                .ok_or_else(|| props.err("missing parameter 'filename'"))?;
-            if name.trim().is_empty() {
-                return Err(props.err_at("filename", "the filename is empty"));
-            }
-            let path = props.ctx.resolve(&name);
-            props.ctx.read_mesh_file(&path);
-            // A version 5 serialized mesh may ask for face normals itself.
-            let mut stored_face_normals = false;
-            // Mesh attributes (PLY files only, as Mitsuba's loaders).
-            let mut attributes = None;
-            let mut mesh = if kind == "serialized" {
-                let index = props.integer("shape_index")?.unwrap_or(0);
-                let index = u64::try_from(index).map_err(|_| {
-                    props.err_at(
-                        "shape_index",
-                        format!("shape_index must be non-negative, got {index}"),
-                    )
-                })?;
-                let loaded = load_serialized(&path, index)
-                    .map_err(|e| props.err_at("filename", format!("{e} (shape_index {index})")))?;
-                stored_face_normals = loaded.face_normals;
-                loaded.mesh
-            } else {
-                let loaded = if kind == "ply" {
-                    load_ply_with_attributes(&path).map(|(m, a)| {
-                        attributes = a;
-                        m
-                    })
-                } else {
-                    load_obj(&path)
-                };
-                let mut mesh = loaded.map_err(|e| props.err_at("filename", e.to_string()))?;
-                // Mitsuba flips v of OBJ texture coordinates by default, not of PLY ones;
-                // serialized meshes keep theirs as stored (no such parameter).
-                if props.boolean_or("flip_tex_coords", kind == "obj")? {
-                    for uv in mesh.uvs.iter_mut().flatten() {
-                        uv.y = 1.0 - uv.y;
-                    }
-                }
-                mesh
-            };
-            if props.boolean_or("face_normals", stored_face_normals)? {
-                mesh.normals = None;
-            } else if mesh.normals.is_none() {
-                mesh.normals = Some(vertex_normals(&mesh));
-            }
-            if mesh.triangles.is_empty() {
-                return Err(props.err_at("filename", format!("mesh '{name}' has no triangles")));
-            }
-            let mut geom = transform_mesh(mesh, &to_world, false)
-                .map_err(|e| props.err_at("filename", format!("mesh '{name}': {e}")))?;
-            if let ShapeGeom::Mesh { attributes: a, .. } = &mut geom {
-                *a = attributes.map(std::sync::Arc::new);
-            }
-            Ok(geom)
-        }
-        other => {
-            Err(props.err(format!(
-                "unknown shape type '{other}' (supported: rectangle, cube, sphere, disk, cylinder, linearcurve, bsplinecurve, ply, obj, serialized, sdfgrid, shapegroup, instance)"
-            )))
-        }
+    let read = super::table::reader(SHAPES, kind).ok_or_else(|| {
+        props.err(format!(
+            "unknown shape type '{kind}' (supported: {})",
+            super::table::names(SHAPES)
+                .into_iter()
+                .chain(GROUPING)
+                .collect::<Vec<_>>()
+                .join(", ")
+        ))
+    })?;
+    read(kind, props, &to_world)
+}
+
+/// The shape plugins that group other shapes, read by the scene's walk
+/// (`xml.rs`, `GROUPING`).
+pub(super) const GROUPING: [&str; 2] = ["shapegroup", "instance"];
+
+/// The shape plugins that have geometry and their readers (the plugin table's `shape`
+/// family with [`GROUPING`], [`super::plugins`]), in the order errors
+/// list them.
+pub(super) const SHAPES: &[(&str, ReadShape)] = &[
+    ("rectangle", read_rectangle),
+    ("cube", read_cube),
+    ("sphere", read_sphere),
+    ("disk", read_disk),
+    ("cylinder", read_cylinder),
+    ("linearcurve", read_curve),
+    ("bsplinecurve", read_curve),
+    ("ply", read_mesh_file),
+    ("obj", read_mesh_file),
+    ("serialized", read_mesh_file),
+    ("sdfgrid", read_sdfgrid),
+];
+
+/// Reads one shape's geometry from `props` under `to_world`; `kind` is its type.
+pub(super) type ReadShape =
+    fn(&str, &mut Props<'_, '_, '_>, &DMat4) -> Result<ShapeGeom, SceneError>;
+
+/// `<shape type="rectangle">`.
+fn read_rectangle(
+    _kind: &str,
+    props: &mut Props,
+    to_world: &DMat4,
+) -> Result<ShapeGeom, SceneError> {
+    transform_mesh(rectangle(), to_world, true).map_err(|e| props.err_at("to_world", e))
+}
+
+/// `<shape type="cube">`.
+fn read_cube(_kind: &str, props: &mut Props, to_world: &DMat4) -> Result<ShapeGeom, SceneError> {
+    transform_mesh(cube(), to_world, true).map_err(|e| props.err_at("to_world", e))
+}
+
+/// `<shape type="sphere">`.
+fn read_sphere(_kind: &str, props: &mut Props, to_world: &DMat4) -> Result<ShapeGeom, SceneError> {
+    let c = props.point("center")?.unwrap_or([0.0; 3]);
+    let r = props.float_or("radius", 1.0)?;
+    if r <= 0.0 {
+        return Err(props.err_at("radius", format!("sphere radius must be positive, got {r}")));
     }
+    let lens = [
+        to_world.x_axis.truncate().length(),
+        to_world.y_axis.truncate().length(),
+        to_world.z_axis.truncate().length(),
+    ];
+    if (lens[0] - lens[1]).abs() > 1e-6 * lens[0] || (lens[0] - lens[2]).abs() > 1e-6 * lens[0] {
+        return Err(props.err_at("to_world", "a sphere's to_world must scale uniformly"));
+    }
+    let center = to_world.transform_point3(DVec3::from(c));
+    check_world_point(center).map_err(|e| props.err_at("center", format!("center: {e}")))?;
+    let radius = r * lens[0];
+    if !(radius as f32 >= f32::MIN_POSITIVE && radius <= MAX_COORDINATE) {
+        return Err(props.err_at(
+            "radius",
+            format!("the world-space radius {radius:e} is outside [{:e}, {MAX_COORDINATE:e}] (single-precision geometry)", f32::MIN_POSITIVE),
+        ));
+    }
+    // World to the unit sphere's object space (uv only): the linear part of
+    // the inverse of to_world * translate(center) * scale(radius).
+    let to_local = (to_world * DMat4::from_scale(DVec3::splat(r))).inverse();
+    let to_local = Mat3::from_mat4(to_local.as_mat4());
+    Ok(ShapeGeom::Sphere(
+        SphereGeom {
+            center: center.as_vec3(),
+            radius: radius as f32,
+        },
+        to_local,
+    ))
+}
+
+/// `<shape type="disk">`.
+fn read_disk(_kind: &str, props: &mut Props, to_world: &DMat4) -> Result<ShapeGeom, SceneError> {
+    let g = DiskGeom::new(to_world).map_err(|e| props.err_at("to_world", e))?;
+    check_bounds(g.bounds()).map_err(|e| props.err_at("to_world", e))?;
+    Ok(ShapeGeom::Disk(g))
+}
+
+/// `<shape type="cylinder">`.
+fn read_cylinder(
+    _kind: &str,
+    props: &mut Props,
+    to_world: &DMat4,
+) -> Result<ShapeGeom, SceneError> {
+    let p0 = DVec3::from(props.point("p0")?.unwrap_or([0.0; 3]));
+    let p1 = DVec3::from(props.point("p1")?.unwrap_or([0.0, 0.0, 1.0]));
+    let r = props.float_or("radius", 1.0)?;
+    if !(r > 0.0 && r.is_finite()) {
+        return Err(props.err_at(
+            "radius",
+            format!("cylinder radius must be positive, got {r}"),
+        ));
+    }
+    let length = (p1 - p0).length();
+    if !(length > 0.0 && length.is_finite()) {
+        return Err(props.err_at(
+            "p1",
+            format!(
+                "the cylinder's p0 {p0} and p1 {p1} must differ (its axis has length {length})"
+            ),
+        ));
+    }
+    let m = CylinderGeom::object_to_world(to_world, p0, p1, r);
+    let g = CylinderGeom::new(&m).map_err(|e| props.err_at("to_world", e))?;
+    check_bounds(g.bounds()).map_err(|e| props.err_at("to_world", e))?;
+    Ok(ShapeGeom::Cylinder(g))
+}
+
+/// `<shape type="linearcurve|bsplinecurve">`.
+fn read_curve(kind: &str, props: &mut Props, to_world: &DMat4) -> Result<ShapeGeom, SceneError> {
+    let kind = if kind == "linearcurve" {
+        CurveKind::Linear
+    } else {
+        CurveKind::BSpline
+    };
+    let name = props
+        .string("filename")?
+        .ok_or_else(|| props.err("missing parameter 'filename'"))?;
+    if name.trim().is_empty() {
+        return Err(props.err_at("filename", "the filename is empty"));
+    }
+    let path = props.ctx.resolve(&name);
+    props.ctx.read_mesh_file(&path);
+    let g = load_curves(&path, kind, to_world)
+        .map_err(|e| props.err_at("filename", format!("{} file '{name}': {e}", kind.name())))?;
+    Ok(ShapeGeom::Curve(g))
+}
+
+/// `<shape type="sdfgrid">`.
+fn read_sdfgrid(_kind: &str, props: &mut Props, to_world: &DMat4) -> Result<ShapeGeom, SceneError> {
+    super::sdfgrid::parse_sdfgrid(props, to_world)
+}
+
+/// `<shape type="ply|obj|serialized">`.
+fn read_mesh_file(
+    kind: &str,
+    props: &mut Props,
+    to_world: &DMat4,
+) -> Result<ShapeGeom, SceneError> {
+    let name = props
+        .string("filename")?
+        .ok_or_else(|| props.err("missing parameter 'filename'"))?;
+    if name.trim().is_empty() {
+        return Err(props.err_at("filename", "the filename is empty"));
+    }
+    let path = props.ctx.resolve(&name);
+    props.ctx.read_mesh_file(&path);
+    // A version 5 serialized mesh may ask for face normals itself.
+    let mut stored_face_normals = false;
+    // Mesh attributes (PLY files only, as Mitsuba's loaders).
+    let mut attributes = None;
+    let mut mesh = if kind == "serialized" {
+        let index = props.integer("shape_index")?.unwrap_or(0);
+        let index = u64::try_from(index).map_err(|_| {
+            props.err_at(
+                "shape_index",
+                format!("shape_index must be non-negative, got {index}"),
+            )
+        })?;
+        let loaded = load_serialized(&path, index)
+            .map_err(|e| props.err_at("filename", format!("{e} (shape_index {index})")))?;
+        stored_face_normals = loaded.face_normals;
+        loaded.mesh
+    } else {
+        let loaded = if kind == "ply" {
+            load_ply_with_attributes(&path).map(|(m, a)| {
+                attributes = a;
+                m
+            })
+        } else {
+            load_obj(&path)
+        };
+        let mut mesh = loaded.map_err(|e| props.err_at("filename", e.to_string()))?;
+        // Mitsuba flips v of OBJ texture coordinates by default, not of PLY ones;
+        // serialized meshes keep theirs as stored (no such parameter).
+        if props.boolean_or("flip_tex_coords", kind == "obj")? {
+            for uv in mesh.uvs.iter_mut().flatten() {
+                uv.y = 1.0 - uv.y;
+            }
+        }
+        mesh
+    };
+    if props.boolean_or("face_normals", stored_face_normals)? {
+        mesh.normals = None;
+    } else if mesh.normals.is_none() {
+        mesh.normals = Some(vertex_normals(&mesh));
+    }
+    if mesh.triangles.is_empty() {
+        return Err(props.err_at("filename", format!("mesh '{name}' has no triangles")));
+    }
+    let mut geom = transform_mesh(mesh, to_world, false)
+        .map_err(|e| props.err_at("filename", format!("mesh '{name}': {e}")))?;
+    if let ShapeGeom::Mesh { attributes: a, .. } = &mut geom {
+        *a = attributes.map(std::sync::Arc::new);
+    }
+    Ok(geom)
 }
 
 #[cfg(test)]

@@ -32,68 +32,13 @@ fn to_uv(props: &mut Props) -> Result<UvTransform, SceneError> {
 pub fn parse_texture(ctx: &Ctx, node: Node, named: &NamedTextures) -> Result<Texture, SceneError> {
     let kind = ctx.required_attr(node, "type")?;
     let mut props = Props::parse(ctx, node)?;
-    let texture = match kind.as_str() {
-        "checkerboard" => {
-            let colour = |props: &mut Props, name: &str, default: f32| {
-                let t = texture_param(props, name, named)?
-                    .unwrap_or(Texture::Constant(Vec3::splat(default)));
-                if let Texture::Constant(c) = t {
-                    if !c.is_finite() {
-                        return Err(props.err_at(name, format!("{name} must be finite")));
-                    }
-                }
-                refuse_mesh_attribute(props, name, &t, "a checkerboard's colour")?;
-                Ok(Box::new(t))
-            };
-            let color0 = colour(&mut props, "color0", 0.4)?;
-            let color1 = colour(&mut props, "color1", 0.2)?;
-            Texture::Checkerboard(Checkerboard {
-                color0,
-                color1,
-                to_uv: to_uv(&mut props)?,
-            })
-        }
-        "bitmap" => Texture::Bitmap(Arc::new(parse_bitmap(&mut props)?)),
-        "mesh_attribute" => {
-            let name = props
-                .string("name")?
-                .ok_or_else(|| props.err("missing parameter 'name' (the mesh attribute, e.g. vertex_color)"))?;
-            // Mitsuba's test: the name contains one of the prefixes.
-            if !name.contains("vertex_") && !name.contains("face_") {
-                return Err(props.err_at(
-                    "name",
-                    format!("invalid mesh attribute name '{name}': it must start with \"vertex_\" or \"face_\""),
-                ));
-            }
-            let scale = props.float_or("scale", 1.0)? as f32;
-            Texture::MeshAttribute(MeshAttributeTexture {
-                name: name.into(),
-                scale,
-            })
-        }
-        // Mitsuba's `rawconstant`: the value as it is (no colour conversion), a float
-        // in every channel or a 3-vector.
-        "rawconstant" => {
-            let value = match props.peek("value") {
-                None => return Err(props.err("missing parameter 'value' (a <float> or <vector>)")),
-                Some(Value::Point(_)) => {
-                    let v = props.point("value")?.unwrap_or_default();
-                    Vec3::new(v[0] as f32, v[1] as f32, v[2] as f32)
-                }
-                Some(_) => Vec3::splat(
-                    props
-                        .float("value")?
-                        .ok_or_else(|| props.err("missing parameter 'value'"))? as f32,
-                ),
-            };
-            Texture::Constant(value)
-        }
-        other => {
-            return Err(props.err(format!(
-                "unknown texture type '{other}' (supported: bitmap, checkerboard, mesh_attribute, rawconstant)"
-            )))
-        }
-    };
+    let read = super::table::reader(TEXTURES, &kind).ok_or_else(|| {
+        props.err(format!(
+            "unknown texture type '{kind}' (supported: {})",
+            super::table::names(TEXTURES).join(", ")
+        ))
+    })?;
+    let texture = read(&mut props, named)?;
     if let Some(&obj) = props.objects.first() {
         return Err(ctx.err(
             obj,
@@ -104,6 +49,87 @@ pub fn parse_texture(ctx: &Ctx, node: Node, named: &NamedTextures) -> Result<Tex
     }
     props.finish()?;
     Ok(texture)
+}
+
+/// The `texture` plugins and their readers (the plugin table's `texture` family,
+/// [`super::plugins`]), in the order errors list them.
+pub(super) const TEXTURES: &[(&str, ReadTexture)] = &[
+    ("bitmap", read_bitmap),
+    ("checkerboard", read_checkerboard),
+    ("mesh_attribute", read_mesh_attribute),
+    ("rawconstant", read_rawconstant),
+];
+
+/// Reads one `<texture>` plugin.
+pub(super) type ReadTexture =
+    fn(&mut Props<'_, '_, '_>, &NamedTextures) -> Result<Texture, SceneError>;
+
+/// `<texture type="checkerboard">`.
+fn read_checkerboard(props: &mut Props, named: &NamedTextures) -> Result<Texture, SceneError> {
+    let colour = |props: &mut Props, name: &str, default: f32| {
+        let t =
+            texture_param(props, name, named)?.unwrap_or(Texture::Constant(Vec3::splat(default)));
+        if let Texture::Constant(c) = t {
+            if !c.is_finite() {
+                return Err(props.err_at(name, format!("{name} must be finite")));
+            }
+        }
+        refuse_mesh_attribute(props, name, &t, "a checkerboard's colour")?;
+        Ok(Box::new(t))
+    };
+    let color0 = colour(props, "color0", 0.4)?;
+    let color1 = colour(props, "color1", 0.2)?;
+    Ok(Texture::Checkerboard(Checkerboard {
+        color0,
+        color1,
+        to_uv: to_uv(props)?,
+    }))
+}
+
+/// `<texture type="bitmap">`.
+fn read_bitmap(props: &mut Props, _named: &NamedTextures) -> Result<Texture, SceneError> {
+    Ok(Texture::Bitmap(Arc::new(parse_bitmap(props)?)))
+}
+
+/// `<texture type="mesh_attribute">`.
+fn read_mesh_attribute(props: &mut Props, _named: &NamedTextures) -> Result<Texture, SceneError> {
+    let name = props.string("name")?.ok_or_else(|| {
+        props.err("missing parameter 'name' (the mesh attribute, e.g. vertex_color)")
+    })?;
+    // Mitsuba's test: the name contains one of the prefixes.
+    if !name.contains("vertex_") && !name.contains("face_") {
+        return Err(props.err_at(
+            "name",
+            format!(
+                "invalid mesh attribute name '{name}': it must start with \"vertex_\" or \"face_\""
+            ),
+        ));
+    }
+    let scale = props.float_or("scale", 1.0)? as f32;
+    Ok(Texture::MeshAttribute(MeshAttributeTexture {
+        name: name.into(),
+        scale,
+    }))
+}
+
+/// `<texture type="rawconstant">`.
+///
+/// Mitsuba's `rawconstant`: the value as it is (no colour conversion), a float
+/// in every channel or a 3-vector.
+fn read_rawconstant(props: &mut Props, _named: &NamedTextures) -> Result<Texture, SceneError> {
+    let value = match props.peek("value") {
+        None => return Err(props.err("missing parameter 'value' (a <float> or <vector>)")),
+        Some(Value::Point(_)) => {
+            let v = props.point("value")?.unwrap_or_default();
+            Vec3::new(v[0] as f32, v[1] as f32, v[2] as f32)
+        }
+        Some(_) => Vec3::splat(
+            props
+                .float("value")?
+                .ok_or_else(|| props.err("missing parameter 'value'"))? as f32,
+        ),
+    };
+    Ok(Texture::Constant(value))
 }
 
 fn parse_bitmap(props: &mut Props) -> Result<Bitmap, SceneError> {

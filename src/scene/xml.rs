@@ -8,6 +8,7 @@ use super::infinite_emitters;
 use super::integrator::parse_integrator;
 use super::limits;
 use super::media::parse_medium;
+use super::plugins::canonical_plugin_name;
 use super::props::{Props, OBJECT_TAGS};
 use super::sampler::parse_sampler;
 use super::sensors::{parse_meter, parse_sensor, Sensor, SensorProjection};
@@ -79,7 +80,7 @@ pub fn load(path: &Path, overrides: &Overrides) -> Result<Scene, SceneError> {
     let mut in_file: HashMap<String, Node> = HashMap::new();
     for node in root.children().filter(|n| n.has_tag_name("default")) {
         let empty = HashMap::new();
-        let ctx = Ctx::new(path, &text, &empty);
+        let ctx = Ctx::new(path, &text, &empty).with_plugin_names(canonical_plugin_name);
         let name = ctx.required_attr(node, "name")?;
         let raw = node.attribute("value").unwrap_or_default();
         if raw.contains('$') {
@@ -105,13 +106,17 @@ pub fn load(path: &Path, overrides: &Overrides) -> Result<Scene, SceneError> {
     // `spp` in include/preamble.xml): the command line and the file's own win.
     let mut from_includes = Vec::new();
     {
-        let ctx = Ctx::new(path, &text, &defaults).with_search_paths(&overrides.search_paths);
+        let ctx = Ctx::new(path, &text, &defaults)
+            .with_plugin_names(canonical_plugin_name)
+            .with_search_paths(&overrides.search_paths);
         included_defaults(&ctx, root, 0, &mut 0, &mut from_includes);
     }
     for (name, value) in from_includes {
         defaults.entry(name).or_insert(value);
     }
-    let ctx = Ctx::new(path, &text, &defaults).with_search_paths(&overrides.search_paths);
+    let ctx = Ctx::new(path, &text, &defaults)
+        .with_plugin_names(canonical_plugin_name)
+        .with_search_paths(&overrides.search_paths);
     if root.tag_name().name() != "scene" {
         return Err(ctx.err(root, "the root element must be <scene>"));
     }
@@ -394,7 +399,7 @@ fn mentions(text: &str, key: &str) -> bool {
 
 /// What the top-level elements of a scene and its includes define.
 #[derive(Default)]
-struct Objects {
+pub(super) struct Objects {
     named_bsdfs: HashMap<String, Material>,
     named_textures: NamedTextures,
     bsdfs: Vec<Material>,
@@ -469,6 +474,24 @@ fn add_shape(o: &mut Objects, shape: Shape, bsdf: Material, emission: Option<Are
         });
     }
     o.shapes.push(shape);
+}
+
+/// The shape plugins that group other shapes, read by the walk itself (the plugin
+/// table's `shape` family with [`super::shapes::SHAPES`]; the names are
+/// [`super::shapes::GROUPING`]).
+pub(super) const GROUPING: &[(&str, ReadGroup)] = &[
+    (super::shapes::GROUPING[0], parse_shapegroup),
+    (super::shapes::GROUPING[1], add_instance),
+];
+
+/// Reads a grouping `<shape>` into the objects of the walk.
+pub(super) type ReadGroup = fn(&Ctx<'_>, Node<'_, '_>, &mut Objects) -> Result<(), SceneError>;
+
+/// The reader of a grouping `<shape>` (`None` for other shapes).
+fn grouping(ctx: &Ctx, node: Node) -> Result<Option<ReadGroup>, SceneError> {
+    Ok(ctx
+        .attr(node, "type")?
+        .and_then(|kind| super::table::reader(GROUPING, &kind)))
 }
 
 /// `<shape type="shapegroup" id=...>`: its shapes, kept for the instances that name it.
@@ -696,11 +719,8 @@ fn walk(ctx: &Ctx, root: Node, o: &mut Objects, depth: usize) -> Result<(), Scen
                     }
                 }
             }
-            "shape" if ctx.attr(node, "type")?.as_deref() == Some("shapegroup") => {
-                parse_shapegroup(ctx, node, o)?
-            }
-            "shape" if ctx.attr(node, "type")?.as_deref() == Some("instance") => {
-                add_instance(ctx, node, o)?
+            "shape" if grouping(ctx, node)?.is_some() => {
+                grouping(ctx, node)?.expect("checked by the guard")(ctx, node, o)?
             }
             "shape" => {
                 let index = o.shapes.len() as u32;
@@ -739,7 +759,7 @@ fn walk(ctx: &Ctx, root: Node, o: &mut Objects, depth: usize) -> Result<(), Scen
                 if ctx
                     .attr(node, "type")?
                     .is_some_and(|k| AREA_KINDS.contains(&k.as_str())) => {}
-            "emitter" if ctx.attr(node, "type")?.as_deref() == Some("projector") => o
+            "emitter" if ctx.attr(node, "type")?.as_deref() == Some(super::projector::PROJECTOR) => o
                 .emitters
                 .push(super::projector::parse_projector(ctx, node, &o.named_textures)?),
             "emitter" => {
@@ -946,7 +966,7 @@ fn include(ctx: &Ctx, node: Node, o: &mut Objects, depth: usize) -> Result<(), S
         .children()
         .filter(|n| n.has_tag_name("default"))
     {
-        let own = Ctx::new(&path, &text, ctx.defaults);
+        let own = Ctx::new(&path, &text, ctx.defaults).with_plugin_names(canonical_plugin_name);
         let name = own.required_attr(d, "name")?;
         let raw = d.attribute("value").unwrap_or_default();
         if raw.contains('$') {
