@@ -134,8 +134,8 @@ fn mitsuba_cube_uv(n: Vec3, p: Vec3) -> Vec2 {
 
 /// An analytic shape's box must lie within [`MAX_COORDINATE`].
 fn check_bounds((lo, hi): (Vec3, Vec3)) -> Result<(), String> {
-    check_world_point(lo.as_dvec3())?;
-    check_world_point(hi.as_dvec3())
+    check_world_point(lo.as_dvec3()).map_err(|e| e.to_string())?;
+    check_world_point(hi.as_dvec3()).map_err(|e| e.to_string())
 }
 
 /// Applies `to_world` to a mesh. For the built-in shapes (`keep_facing`), a mirroring
@@ -235,7 +235,7 @@ pub fn parse_geometry(kind: &str, props: &mut Props) -> Result<ShapeGeom, SceneE
             ))
         }
         "disk" => {
-            let g = DiskGeom::new(&to_world).map_err(|e| at_transform(props, e))?;
+            let g = DiskGeom::new(&to_world).map_err(|e| at_transform(props, e.to_string()))?;
             check_bounds(g.bounds()).map_err(|e| at_transform(props, e))?;
             Ok(ShapeGeom::Disk(g))
         }
@@ -257,7 +257,7 @@ pub fn parse_geometry(kind: &str, props: &mut Props) -> Result<ShapeGeom, SceneE
                 ));
             }
             let m = CylinderGeom::object_to_world(&to_world, p0, p1, r);
-            let g = CylinderGeom::new(&m).map_err(|e| at_transform(props, e))?;
+            let g = CylinderGeom::new(&m).map_err(|e| at_transform(props, e.to_string()))?;
             check_bounds(g.bounds()).map_err(|e| at_transform(props, e))?;
             Ok(ShapeGeom::Cylinder(g))
         }
