@@ -183,7 +183,7 @@ fn v5_body(m: &V5) -> Vec<u8> {
 fn read(bytes: &[u8], index: u64) -> Result<SerializedMesh, String> {
     read_serialized(&mut Cursor::new(bytes), bytes.len() as u64, index).map_err(|p| match p {
         Problem::NoFaces => "no faces".to_string(),
-        Problem::Invalid(m) => m,
+        Problem::Invalid(m) => m.to_string(),
     })
 }
 

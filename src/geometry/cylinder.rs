@@ -13,6 +13,7 @@
 //! - Area 2 pi r l; uniform area sampling takes phi = 2 pi u_1 and z = u_0 (Mitsuba's
 //!   order).
 
+use super::error::GeometryError;
 use glam::{DMat3, DMat4, DVec3, Mat3, Vec2, Vec3};
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -54,25 +55,23 @@ impl CylinderGeom {
     }
 
     /// The cylinder of the full map `m` (see [`Self::object_to_world`]), or why not.
-    pub fn new(m: &DMat4) -> Result<Self, String> {
+    pub fn new(m: &DMat4) -> Result<Self, GeometryError> {
         let lin = DMat3::from_mat4(*m);
         let (x, y, z) = (lin.x_axis, lin.y_axis, lin.z_axis);
         let (r, ry, l) = (x.length(), y.length(), z.length());
         let tol = 1e-5;
         if !(r > 0.0 && ry > 0.0 && l > 0.0 && (r * l).is_finite() && (r * l) as f32 > 0.0) {
-            return Err(format!(
-                "the cylinder's radius {r:e} or length {l:e} is zero, not finite or beyond single precision"
-            ));
+            return Err(GeometryError::CylinderSize {
+                radius: r,
+                length: l,
+            });
         }
         if (r - ry).abs() > tol * r
             || x.dot(y).abs() > tol * r * ry
             || x.dot(z).abs() > tol * r * l
             || y.dot(z).abs() > tol * ry * l
         {
-            return Err(
-                "a cylinder's to_world must scale its cross-section uniformly, without shear (Mitsuba warns and then uses a wrong area)"
-                    .into(),
-            );
+            return Err(GeometryError::CylinderShear);
         }
         Ok(CylinderGeom {
             m: lin.as_mat3(),

@@ -13,6 +13,7 @@
 //! - Area pi |M x x M y| (an ellipse's); uniform area sampling maps the concentric
 //!   disk through `to_world` (an affine map keeps a uniform density uniform).
 
+use super::error::GeometryError;
 use crate::math::sampling::concentric_disk;
 use glam::{DMat4, Mat3, Vec2, Vec3};
 
@@ -30,15 +31,13 @@ pub struct DiskGeom {
 
 impl DiskGeom {
     /// The disk of `to_world`, or why it cannot be one (a singular or overflowing map).
-    pub fn new(to_world: &DMat4) -> Result<Self, String> {
+    pub fn new(to_world: &DMat4) -> Result<Self, GeometryError> {
         let lin = glam::DMat3::from_mat4(*to_world);
         let det = lin.determinant();
         let (u, v) = (lin.x_axis, lin.y_axis);
         let area = std::f64::consts::PI * u.cross(v).length();
         if !(det != 0.0 && det.is_finite() && area.is_finite() && area as f32 > 0.0) {
-            return Err(format!(
-                "the disk's to_world is singular or too large (area {area:e})"
-            ));
+            return Err(GeometryError::DiskMap { area });
         }
         let n = (lin.inverse().transpose() * glam::DVec3::Z).normalize();
         Ok(DiskGeom {

@@ -334,12 +334,12 @@ mod tests {
                     let (simd, blocked) = unsafe {
                         match isa {
                             Isa::Avx2 => (
-                                flat_intersect_with::<ISA_AVX2>(&flat, o, d, tmax),
-                                flat_occluded_with::<ISA_AVX2>(&flat, o, d, tmax),
+                                flat_intersect_with::<ISA_AVX2>(flat, o, d, tmax),
+                                flat_occluded_with::<ISA_AVX2>(flat, o, d, tmax),
                             ),
                             _ => (
-                                flat_intersect_with::<ISA_AVX512>(&flat, o, d, tmax),
-                                flat_occluded_with::<ISA_AVX512>(&flat, o, d, tmax),
+                                flat_intersect_with::<ISA_AVX512>(flat, o, d, tmax),
+                                flat_occluded_with::<ISA_AVX512>(flat, o, d, tmax),
                             ),
                         }
                     };

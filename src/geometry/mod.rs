@@ -4,6 +4,7 @@ pub mod accel;
 pub mod curve;
 pub mod cylinder;
 pub mod disk;
+pub mod error;
 pub mod flat;
 mod flat_simd;
 pub mod mesh_attributes;
@@ -11,3 +12,5 @@ pub mod sdfgrid;
 pub mod shape;
 pub mod sphere;
 pub mod triangle;
+
+pub use error::GeometryError;

@@ -45,6 +45,7 @@
 //! by the tensor's first dimension (z), so its non-cubic grids mix axes; tstat spaces
 //! axis x by `nx` (the documented `[0, 1]^3` mapping). Cubic grids agree.
 
+use super::error::GeometryError;
 use glam::{DMat3, DMat4, DVec3, Vec3};
 use std::sync::Arc;
 
@@ -70,38 +71,31 @@ pub struct SdfGrid {
 
 impl SdfGrid {
     /// The grid of `values` (x fastest), or why it cannot be one.
-    pub fn new(res: [usize; 3], values: Vec<f32>) -> Result<Self, String> {
+    pub fn new(res: [usize; 3], values: Vec<f32>) -> Result<Self, GeometryError> {
         if res.iter().any(|&n| n < 2) {
-            return Err(format!(
-                "the grid is {} x {} x {} values: an SDF grid needs at least 2 along each axis",
-                res[0], res[1], res[2]
-            ));
+            return Err(GeometryError::SdfGridTooSmall { res });
         }
         let count = res[0]
             .checked_mul(res[1])
             .and_then(|c| c.checked_mul(res[2]));
         if count != Some(values.len()) {
-            return Err(format!(
-                "{} values for a {} x {} x {} grid",
-                values.len(),
-                res[0],
-                res[1],
-                res[2]
-            ));
+            return Err(GeometryError::SdfGridValueCount {
+                values: values.len(),
+                res,
+            });
         }
         let cells = (res[0] - 1) as u128 * (res[1] - 1) as u128 * (res[2] - 1) as u128;
         if cells > u32::MAX as u128 {
-            return Err(format!(
-                "the grid has {cells} voxels, more than 2^32 - 1 (Mitsuba's voxel indices are 32-bit)"
-            ));
+            return Err(GeometryError::SdfGridTooManyVoxels { voxels: cells });
         }
         if let Some(i) = values.iter().position(|v| !v.is_finite()) {
             let (x, y) = (i % res[0], (i / res[0]) % res[1]);
             let z = i / (res[0] * res[1]);
-            return Err(format!(
-                "value {i} (x {x}, y {y}, z {z}) is {}: an SDF grid needs finite values",
-                values[i]
-            ));
+            return Err(GeometryError::SdfGridNonFinite {
+                index: i,
+                at: [x, y, z],
+                value: values[i],
+            });
         }
         let mut grid = SdfGrid {
             res,
@@ -121,10 +115,7 @@ impl SdfGrid {
             }
         }
         if grid.voxels.is_empty() {
-            return Err(
-                "the SDF has no zero crossing: no voxel has corners of both signs (Mitsuba: \"SDFGrid should at least have one non-empty voxel\")"
-                    .into(),
-            );
+            return Err(GeometryError::SdfGridEmpty);
         }
         Ok(grid)
     }
@@ -232,13 +223,11 @@ pub struct SdfGeom {
 
 impl SdfGeom {
     /// The grid placed by `to_world`, or why it cannot be (a singular map).
-    pub fn new(grid: Arc<SdfGrid>, to_world: DMat4, smooth: bool) -> Result<Self, String> {
+    pub fn new(grid: Arc<SdfGrid>, to_world: DMat4, smooth: bool) -> Result<Self, GeometryError> {
         let lin = DMat3::from_mat4(to_world);
         let det = lin.determinant();
         if !(det != 0.0 && det.is_finite() && to_world.is_finite()) {
-            return Err(format!(
-                "the sdfgrid's to_world is singular or not finite (determinant {det:e})"
-            ));
+            return Err(GeometryError::SdfMap { determinant: det });
         }
         let scale = DVec3::new(
             (grid.res[0] - 1) as f64,
@@ -247,7 +236,7 @@ impl SdfGeom {
         );
         let to_grid = DMat4::from_scale(scale) * to_world.inverse();
         if !to_grid.is_finite() {
-            return Err("the sdfgrid's to_world cannot be inverted in finite numbers".into());
+            return Err(GeometryError::SdfMapInverse);
         }
         Ok(SdfGeom {
             grid,
@@ -260,7 +249,7 @@ impl SdfGeom {
     }
 
     /// The same grid mapped further by `m` (an instance's `to_world`).
-    pub fn transformed(&self, m: &DMat4) -> Result<Self, String> {
+    pub fn transformed(&self, m: &DMat4) -> Result<Self, GeometryError> {
         SdfGeom::new(self.grid.clone(), *m * self.to_world, self.smooth)
     }
 

@@ -14,6 +14,7 @@ pub mod volume;
 pub use heterogeneous::Heterogeneous;
 pub use homogeneous::Homogeneous;
 pub use phase::Phase;
+pub use vol_file::VolError;
 pub use volume::Volume;
 
 use crate::math::Rgb;

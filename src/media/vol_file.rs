@@ -78,47 +78,100 @@ fn f32_at(h: &[u8], at: usize) -> f32 {
     f32::from_le_bytes([h[at], h[at + 1], h[at + 2], h[at + 3]])
 }
 
+/// Why a `.vol` file cannot be read. The message is a short reason without the path
+/// (the caller names the file and the parameter), e.g. "is not a Mitsuba volume: ...".
+#[derive(Debug, thiserror::Error)]
+pub enum VolError {
+    /// The file could not be opened (missing, not a regular file, above [`MAX_VOL_BYTES`]).
+    #[error(transparent)]
+    Open(std::io::Error),
+    /// A file shorter than the header.
+    #[error("is {len} bytes, shorter than the {HEADER_BYTES}-byte header of a .vol file")]
+    Short { len: u64 },
+    /// The header could not be read.
+    #[error("cannot read the header: {0}")]
+    Header(#[source] std::io::Error),
+    /// No `VOL` magic.
+    #[error("is not a Mitsuba volume: it does not start with 'VOL'")]
+    NotVol,
+    /// A format version other than 3.
+    #[error("has .vol version {version}; only version 3 is supported")]
+    Version { version: u8 },
+    /// An encoding other than float32.
+    #[error("has encoding {encoding}; only encoding 1 (float32) is supported")]
+    Encoding { encoding: i32 },
+    /// A grid size that is not positive.
+    #[error(
+        "has grid size {} x {} x {}; every size must be positive",
+        .size[0], .size[1], .size[2]
+    )]
+    Size { size: [i32; 3] },
+    /// A channel count other than 1 or 3.
+    #[error("has {channels} channels; volumes of 1 or 3 channels are supported")]
+    Channels { channels: i32 },
+    /// A file of `len` bytes that cannot hold the header's grid (`needed` bytes, `None`
+    /// beyond 2^64).
+    #[error(
+        "is truncated: a {} x {} x {} grid of {channels} channel(s) needs {} bytes, the file has {len}",
+        .size[0], .size[1], .size[2],
+        .needed.map_or("more than 2^64".to_string(), |n| n.to_string())
+    )]
+    Truncated {
+        size: [i32; 3],
+        channels: i32,
+        needed: Option<u64>,
+        len: u64,
+    },
+    /// A grid whose values cannot be allocated.
+    #[error("holds {values} values, more than can be allocated")]
+    Alloc { values: usize },
+    /// Reading failed at value `index` (voxel-channels count from 0).
+    #[error("cannot read value {index}: {source} (truncated?)")]
+    Value {
+        index: usize,
+        #[source]
+        source: std::io::Error,
+    },
+    /// A NaN or infinite value at `voxel` (x, y, z), channel `channel`.
+    #[error(
+        "has the non-finite value {value} at voxel (x {}, y {}, z {}), channel {channel}",
+        .voxel[0], .voxel[1], .voxel[2]
+    )]
+    NonFinite {
+        value: f32,
+        voxel: [usize; 3],
+        channel: usize,
+    },
+}
+
 /// Reads a `.vol` file. The error is a short reason without the path (the caller names
 /// the file and the parameter).
-pub fn read_vol(path: &Path) -> Result<VolFile, String> {
-    let (file, len) = crate::io::open_regular(path, MAX_VOL_BYTES)?;
+pub fn read_vol(path: &Path) -> Result<VolFile, VolError> {
+    let (file, len) = crate::io::open_regular(path, MAX_VOL_BYTES)
+        .map_err(|e| VolError::Open(std::io::Error::other(e)))?;
     let mut reader = std::io::BufReader::new(file.take(len));
     if len < HEADER_BYTES {
-        return Err(format!(
-            "is {len} bytes, shorter than the {HEADER_BYTES}-byte header of a .vol file"
-        ));
+        return Err(VolError::Short { len });
     }
     let mut h = [0u8; HEADER_BYTES as usize];
-    reader
-        .read_exact(&mut h)
-        .map_err(|e| format!("cannot read the header: {e}"))?;
+    reader.read_exact(&mut h).map_err(VolError::Header)?;
     if &h[0..3] != b"VOL" {
-        return Err("is not a Mitsuba volume: it does not start with 'VOL'".into());
+        return Err(VolError::NotVol);
     }
     if h[3] != 3 {
-        return Err(format!(
-            "has .vol version {}; only version 3 is supported",
-            h[3]
-        ));
+        return Err(VolError::Version { version: h[3] });
     }
     let encoding = i32_at(&h, 4);
     if encoding != 1 {
-        return Err(format!(
-            "has encoding {encoding}; only encoding 1 (float32) is supported"
-        ));
+        return Err(VolError::Encoding { encoding });
     }
     let dims = [i32_at(&h, 8), i32_at(&h, 12), i32_at(&h, 16)];
     if dims.iter().any(|&d| d <= 0) {
-        return Err(format!(
-            "has grid size {} x {} x {}; every size must be positive",
-            dims[0], dims[1], dims[2]
-        ));
+        return Err(VolError::Size { size: dims });
     }
     let channels = i32_at(&h, 20);
     if channels != 1 && channels != 3 {
-        return Err(format!(
-            "has {channels} channels; volumes of 1 or 3 channels are supported"
-        ));
+        return Err(VolError::Channels { channels });
     }
     let values = dims
         .iter()
@@ -129,39 +182,40 @@ pub fn read_vol(path: &Path) -> Result<VolFile, String> {
     let values = match (values, needed) {
         (Some(v), Some(n)) if n <= len => v as usize,
         _ => {
-            return Err(format!(
-                "is truncated: a {} x {} x {} grid of {channels} channel(s) needs {} bytes, the file has {len}",
-                dims[0],
-                dims[1],
-                dims[2],
-                needed.map_or("more than 2^64".to_string(), |n| n.to_string())
-            ))
+            return Err(VolError::Truncated {
+                size: dims,
+                channels,
+                needed,
+                len,
+            })
         }
     };
     let bbox_min = [f32_at(&h, 24), f32_at(&h, 28), f32_at(&h, 32)];
     let bbox_max = [f32_at(&h, 36), f32_at(&h, 40), f32_at(&h, 44)];
     let mut data: Vec<f32> = Vec::new();
     data.try_reserve_exact(values)
-        .map_err(|_| format!("holds {values} values, more than can be allocated"))?;
+        .map_err(|_| VolError::Alloc { values })?;
     let mut chunk = vec![0u8; 1 << 16];
     while data.len() < values {
         let n = ((values - data.len()) * 4).min(chunk.len());
         reader
             .read_exact(&mut chunk[..n])
-            .map_err(|e| format!("cannot read value {}: {e} (truncated?)", data.len()))?;
+            .map_err(|source| VolError::Value {
+                index: data.len(),
+                source,
+            })?;
         for b in chunk[..n].chunks_exact(4) {
             let v = f32::from_le_bytes([b[0], b[1], b[2], b[3]]);
             if !v.is_finite() {
                 let i = data.len();
                 let c = channels as usize;
-                let (cell, ch) = (i / c, i % c);
+                let (cell, channel) = (i / c, i % c);
                 let (nx, ny) = (dims[0] as usize, dims[1] as usize);
-                return Err(format!(
-                    "has the non-finite value {v} at voxel (x {}, y {}, z {}), channel {ch}",
-                    cell % nx,
-                    (cell / nx) % ny,
-                    cell / (nx * ny)
-                ));
+                return Err(VolError::NonFinite {
+                    value: v,
+                    voxel: [cell % nx, (cell / nx) % ny, cell / (nx * ny)],
+                    channel,
+                });
             }
             data.push(v);
         }
@@ -251,8 +305,11 @@ mod tests {
         ];
         for (i, (b, want)) in cases.iter().enumerate() {
             let e = read_vol(&write(dir.path(), &format!("c{i}.vol"), b)).unwrap_err();
-            assert!(e.contains(want), "case {i}: {e}");
+            assert!(e.to_string().contains(want), "case {i}: {e}");
         }
-        assert!(read_vol(dir.path()).unwrap_err().contains("directory"));
+        assert!(read_vol(dir.path())
+            .unwrap_err()
+            .to_string()
+            .contains("directory"));
     }
 }

@@ -36,25 +36,57 @@ pub const MAX_WARNINGS: usize = 10;
 /// precision somewhere (positions, colours, IORs), where anything larger is infinite.
 pub const MAX_NUMBER: f64 = f32::MAX as f64;
 
+/// Why a token is not a scene number.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum NumberErrorKind {
+    /// Not a number, or NaN or infinite.
+    NotFinite,
+    /// Finite, but beyond [`MAX_NUMBER`].
+    Overflow,
+}
+
+/// A token of a scene file that is not a scene number (the token without its
+/// surrounding whitespace).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct NumberError {
+    pub token: String,
+    pub kind: NumberErrorKind,
+}
+
+impl std::fmt::Display for NumberError {
+    fn fmt(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+        let t = &self.token;
+        match self.kind {
+            NumberErrorKind::NotFinite => write!(f, "'{t}' is not a finite number"),
+            NumberErrorKind::Overflow => write!(
+                f,
+                "'{t}' overflows single precision (largest magnitude {MAX_NUMBER:.3e})"
+            ),
+        }
+    }
+}
+
+impl std::error::Error for NumberError {}
+
 /// Parses one number of a scene file: finite and within single precision.
-pub fn scene_number(token: &str) -> Result<f64, String> {
+pub fn scene_number(token: &str) -> Result<f64, NumberError> {
     let t = token.trim();
-    let v: f64 = t
-        .parse()
-        .map_err(|_| format!("'{t}' is not a finite number"))?;
+    let err = |kind| NumberError {
+        token: t.to_string(),
+        kind,
+    };
+    let v: f64 = t.parse().map_err(|_| err(NumberErrorKind::NotFinite))?;
     if !v.is_finite() {
-        return Err(format!("'{t}' is not a finite number"));
+        return Err(err(NumberErrorKind::NotFinite));
     }
     if v.abs() > MAX_NUMBER {
-        return Err(format!(
-            "'{t}' overflows single precision (largest magnitude {MAX_NUMBER:.3e})"
-        ));
+        return Err(err(NumberErrorKind::Overflow));
     }
     Ok(v)
 }
 
 /// Parses a list of numbers separated by commas and/or whitespace.
-pub fn scene_numbers(s: &str) -> Result<Vec<f64>, String> {
+pub fn scene_numbers(s: &str) -> Result<Vec<f64>, NumberError> {
     s.split(|c: char| c == ',' || c.is_whitespace())
         .filter(|t| !t.is_empty())
         .map(scene_number)

@@ -10,32 +10,106 @@
 //! tstat also refuses negative radii (Mitsuba passes them to Embree, whose round curves
 //! are then undefined).
 
+use super::limits::WorldPointError;
 use crate::geometry::curve::{CurveGeom, CurveKind};
 use glam::{DMat4, DVec3, Vec4};
 use std::path::Path;
 
+/// Why a curve file cannot be read. Lines count from 1; the message does not name the
+/// file (the caller adds it).
+#[derive(Debug, thiserror::Error)]
+pub enum CurveError {
+    /// The file could not be read (missing, not a regular file, too large, ...).
+    #[error(transparent)]
+    Read(std::io::Error),
+    /// A curve of fewer control points than its kind's segment spans.
+    #[error(
+        "the curve ending before line {line} has {points} control point{}; a {} needs at least {} per curve",
+        plural(*.points),
+        .kind.name(),
+        .kind.span()
+    )]
+    TooFewPoints {
+        line: usize,
+        points: usize,
+        kind: CurveKind,
+    },
+    /// A line of 1024 bytes or more.
+    #[error("line {line} is too long ({bytes} characters; Mitsuba reads at most 1023)")]
+    LineTooLong { line: usize, bytes: usize },
+    /// A line that is not UTF-8.
+    #[error("line {line} is not UTF-8 text")]
+    NotUtf8 { line: usize },
+    /// A line of fewer than four numbers (`text` trimmed).
+    #[error(
+        "line {line} ('{text}') has {numbers} number{}; a control point is 'x y z radius'",
+        plural(*.numbers)
+    )]
+    TooFewNumbers {
+        line: usize,
+        text: String,
+        numbers: usize,
+    },
+    /// A token that is not a number.
+    #[error("line {line}: '{token}' is not a number (a control point is 'x y z radius')")]
+    NotANumber { line: usize, token: String },
+    /// A control point whose position is NaN or infinite.
+    #[error("line {line}: the position ({}, {}, {}) is not finite", .position[0], .position[1], .position[2])]
+    Position { line: usize, position: [f32; 3] },
+    /// A negative, NaN or infinite radius.
+    #[error("line {line}: the radius {radius} must be finite and non-negative")]
+    Radius { line: usize, radius: f32 },
+    /// A control point that `to_world` maps beyond the world's limits.
+    #[error("line {line}: {point}")]
+    WorldPoint { line: usize, point: WorldPointError },
+    /// A file without control points.
+    #[error("the file has no control points")]
+    Empty,
+    /// More control points than 32-bit segment indices address.
+    #[error("too many control points ({points})")]
+    TooManyPoints { points: usize },
+}
+
+/// The plural ending of `n` things.
+fn plural(n: usize) -> &'static str {
+    if n == 1 {
+        ""
+    } else {
+        "s"
+    }
+}
+
 /// Reads the curve file at `path` into world space, or says why not (without the
 /// file name: the caller adds it).
-pub fn load_curves(path: &Path, kind: CurveKind, to_world: &DMat4) -> Result<CurveGeom, String> {
-    let text = crate::io::read_regular(path, crate::io::MAX_MESH_BYTES)?;
+pub fn load_curves(
+    path: &Path,
+    kind: CurveKind,
+    to_world: &DMat4,
+) -> Result<CurveGeom, CurveError> {
+    let text = crate::io::read_regular(path, crate::io::MAX_MESH_BYTES)
+        .map_err(|e| CurveError::Read(std::io::Error::other(e)))?;
     parse_curves(&text, kind, to_world)
 }
 
 /// The curves of a file's bytes.
-pub fn parse_curves(text: &[u8], kind: CurveKind, to_world: &DMat4) -> Result<CurveGeom, String> {
+pub fn parse_curves(
+    text: &[u8],
+    kind: CurveKind,
+    to_world: &DMat4,
+) -> Result<CurveGeom, CurveError> {
     let min_points = kind.span();
     let mut points: Vec<Vec4> = Vec::new();
     let mut starts: Vec<usize> = Vec::new();
     let mut new_curve = true;
-    let finish = |points: &Vec<Vec4>, starts: &Vec<usize>, line: usize| -> Result<(), String> {
+    let finish = |points: &Vec<Vec4>, starts: &Vec<usize>, line: usize| {
         if let Some(&s) = starts.last() {
             let n = points.len() - s;
             if n < min_points {
-                return Err(format!(
-                    "the curve ending before line {line} has {n} control point{}; a {} needs at least {min_points} per curve",
-                    if n == 1 { "" } else { "s" },
-                    kind.name()
-                ));
+                return Err(CurveError::TooFewPoints {
+                    line,
+                    points: n,
+                    kind,
+                });
             }
         }
         Ok(())
@@ -44,13 +118,12 @@ pub fn parse_curves(text: &[u8], kind: CurveKind, to_world: &DMat4) -> Result<Cu
     for raw in text.split(|&b| b == b'\n') {
         line_no += 1;
         if raw.len() >= 1024 {
-            return Err(format!(
-                "line {line_no} is too long ({} characters; Mitsuba reads at most 1023)",
-                raw.len()
-            ));
+            return Err(CurveError::LineTooLong {
+                line: line_no,
+                bytes: raw.len(),
+            });
         }
-        let line =
-            std::str::from_utf8(raw).map_err(|_| format!("line {line_no} is not UTF-8 text"))?;
+        let line = std::str::from_utf8(raw).map_err(|_| CurveError::NotUtf8 { line: line_no })?;
         if line.trim_matches([' ', '\t', '\r']).is_empty() {
             if !new_curve {
                 finish(&points, &starts, line_no)?;
@@ -62,31 +135,35 @@ pub fn parse_curves(text: &[u8], kind: CurveKind, to_world: &DMat4) -> Result<Cu
         let mut tokens = line.split_ascii_whitespace();
         for (i, v) in values.iter_mut().enumerate() {
             let Some(tok) = tokens.next() else {
-                return Err(format!(
-                    "line {line_no} ('{}') has {i} number{}; a control point is 'x y z radius'",
-                    line.trim(),
-                    if i == 1 { "" } else { "s" }
-                ));
+                return Err(CurveError::TooFewNumbers {
+                    line: line_no,
+                    text: line.trim().to_string(),
+                    numbers: i,
+                });
             };
-            *v = tok.parse::<f32>().map_err(|_| {
-                format!(
-                    "line {line_no}: '{tok}' is not a number (a control point is 'x y z radius')"
-                )
+            *v = tok.parse::<f32>().map_err(|_| CurveError::NotANumber {
+                line: line_no,
+                token: tok.to_string(),
             })?;
         }
         let [x, y, z, r] = values;
         if !(x.is_finite() && y.is_finite() && z.is_finite()) {
-            return Err(format!(
-                "line {line_no}: the position ({x}, {y}, {z}) is not finite"
-            ));
+            return Err(CurveError::Position {
+                line: line_no,
+                position: [x, y, z],
+            });
         }
         if !r.is_finite() || r < 0.0 {
-            return Err(format!(
-                "line {line_no}: the radius {r} must be finite and non-negative"
-            ));
+            return Err(CurveError::Radius {
+                line: line_no,
+                radius: r,
+            });
         }
         let p = to_world.transform_point3(DVec3::new(x as f64, y as f64, z as f64));
-        crate::scene::limits::check_world_point(p).map_err(|e| format!("line {line_no}: {e}"))?;
+        super::limits::check_world_point(p).map_err(|point| CurveError::WorldPoint {
+            line: line_no,
+            point,
+        })?;
         if new_curve {
             starts.push(points.len());
             new_curve = false;
@@ -94,7 +171,7 @@ pub fn parse_curves(text: &[u8], kind: CurveKind, to_world: &DMat4) -> Result<Cu
         points.push(p.as_vec3().extend(r));
     }
     if starts.is_empty() {
-        return Err("the file has no control points".into());
+        return Err(CurveError::Empty);
     }
     if !new_curve {
         finish(&points, &starts, line_no + 1)?;
@@ -108,7 +185,9 @@ pub fn parse_curves(text: &[u8], kind: CurveKind, to_world: &DMat4) -> Result<Cu
         }
     }
     if points.len() > u32::MAX as usize / 2 {
-        return Err(format!("too many control points ({})", points.len()));
+        return Err(CurveError::TooManyPoints {
+            points: points.len(),
+        });
     }
     Ok(CurveGeom {
         kind,
@@ -123,7 +202,7 @@ mod tests {
     use super::*;
 
     fn parse(text: &str, kind: CurveKind) -> Result<CurveGeom, String> {
-        parse_curves(text.as_bytes(), kind, &DMat4::IDENTITY)
+        parse_curves(text.as_bytes(), kind, &DMat4::IDENTITY).map_err(|e| e.to_string())
     }
 
     #[test]
@@ -189,6 +268,7 @@ mod tests {
         assert!(
             parse_curves(b"0 0 0 1\n\xff\n", CurveKind::Linear, &DMat4::IDENTITY)
                 .unwrap_err()
+                .to_string()
                 .contains("UTF-8")
         );
     }

@@ -16,12 +16,49 @@
 //! triangle with its BVH share); instances may add at most [`MAX_INSTANCED_TRIANGLES`]
 //! triangles to a scene (about 3 GB), beyond which loading fails.
 
+use crate::geometry::curve::CurveKind;
 use crate::geometry::cylinder::CylinderGeom;
 use crate::geometry::disk::DiskGeom;
+use crate::geometry::error::GeometryError;
 use crate::geometry::shape::ShapeGeom;
 use crate::geometry::sphere::SphereGeom;
-use crate::scene::limits::check_world_point;
+use crate::scene::limits::{check_world_point, WorldPointError};
 use glam::{DMat3, DMat4, DVec3, Mat3};
+
+/// Why a shape of a shapegroup cannot be placed by an instance's `to_world`.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum InstanceError {
+    /// The instance's `to_world` is singular or not finite.
+    #[error("the instance's to_world is singular")]
+    Singular,
+    /// A mesh vertex mapped beyond the world's limits.
+    #[error("vertex {vertex}: {point}")]
+    Vertex {
+        vertex: usize,
+        point: WorldPointError,
+    },
+    /// A mapped mesh triangle whose area overflows single precision.
+    #[error("triangle {triangle} is too large for single-precision arithmetic")]
+    TriangleTooLarge { triangle: usize },
+    /// A sphere mapped by a non-uniform scale.
+    #[error("an instance of a sphere must scale uniformly")]
+    SphereScale,
+    /// A sphere whose mapped radius is below single precision or beyond the limits.
+    #[error("the instanced sphere's radius {radius:e} is out of range")]
+    SphereRadius { radius: f64 },
+    /// A curve (tstat keeps curves in world space only).
+    #[error(
+        "a {} cannot be instanced (shapegroup): tstat supports curves at the top level only",
+        .kind.name()
+    )]
+    Curve { kind: CurveKind },
+    /// The mapped analytic shape cannot be built.
+    #[error(transparent)]
+    Geometry(#[from] GeometryError),
+    /// A point of the mapped shape (its centre or box) lies beyond the world's limits.
+    #[error(transparent)]
+    WorldPoint(#[from] WorldPointError),
+}
 
 /// The most triangles instances may add to one scene.
 pub const MAX_INSTANCED_TRIANGLES: usize = 20_000_000;
@@ -37,11 +74,11 @@ pub fn triangle_count(g: &ShapeGeom) -> usize {
 }
 
 /// `g` (world space of the group) mapped by the instance's `m`.
-pub fn transformed(g: &ShapeGeom, m: &DMat4) -> Result<ShapeGeom, String> {
+pub fn transformed(g: &ShapeGeom, m: &DMat4) -> Result<ShapeGeom, InstanceError> {
     let lin = DMat3::from_mat4(*m);
     let det = lin.determinant();
     if !(det != 0.0 && det.is_finite()) {
-        return Err("the instance's to_world is singular".into());
+        return Err(InstanceError::Singular);
     }
     let affine = |c: DVec3, l: DMat3| -> DMat4 {
         let l = lin * l;
@@ -65,15 +102,13 @@ pub fn transformed(g: &ShapeGeom, m: &DMat4) -> Result<ShapeGeom, String> {
             let mut ps = Vec::with_capacity(positions.len());
             for (i, p) in positions.iter().enumerate() {
                 let w = m.transform_point3(p.as_dvec3());
-                check_world_point(w).map_err(|e| format!("vertex {i}: {e}"))?;
+                check_world_point(w).map_err(|point| InstanceError::Vertex { vertex: i, point })?;
                 ps.push(w.as_vec3());
             }
             for (f, t) in triangles.iter().enumerate() {
                 let [a, b, c] = t.map(|i| ps[i as usize]);
                 if !(b - a).cross(c - a).length_squared().is_finite() {
-                    return Err(format!(
-                        "triangle {f} is too large for single-precision arithmetic"
-                    ));
+                    return Err(InstanceError::TriangleTooLarge { triangle: f });
                 }
             }
             let mut tris = triangles.clone();
@@ -105,7 +140,7 @@ pub fn transformed(g: &ShapeGeom, m: &DMat4) -> Result<ShapeGeom, String> {
             if (lens[0] - lens[1]).abs() > 1e-6 * lens[0]
                 || (lens[0] - lens[2]).abs() > 1e-6 * lens[0]
             {
-                return Err("an instance of a sphere must scale uniformly".into());
+                return Err(InstanceError::SphereScale);
             }
             let center = m.transform_point3(s.center.as_dvec3());
             check_world_point(center)?;
@@ -113,9 +148,7 @@ pub fn transformed(g: &ShapeGeom, m: &DMat4) -> Result<ShapeGeom, String> {
             if !(radius as f32 >= f32::MIN_POSITIVE
                 && radius <= crate::scene::limits::MAX_COORDINATE)
             {
-                return Err(format!(
-                    "the instanced sphere's radius {radius:e} is out of range"
-                ));
+                return Err(InstanceError::SphereRadius { radius });
             }
             let new_local: Mat3 = (to_local.as_dmat3() * lin.inverse()).as_mat3();
             ShapeGeom::Sphere(
@@ -145,10 +178,7 @@ pub fn transformed(g: &ShapeGeom, m: &DMat4) -> Result<ShapeGeom, String> {
         ShapeGeom::Curve(g) => {
             // Embree instances a curve with its radii in object space; tstat keeps
             // curves in world space only.
-            return Err(format!(
-                "a {} cannot be instanced (shapegroup): tstat supports curves at the top level only",
-                g.kind.name()
-            ));
+            return Err(InstanceError::Curve { kind: g.kind });
         }
         // The grid is shared; only its to_world changes (rotations are exact).
         ShapeGeom::Sdf(g) => {

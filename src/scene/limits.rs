@@ -113,14 +113,22 @@ pub fn too_deep<'a, 'i>(doc: &'a Document<'i>) -> Option<Node<'a, 'i>> {
 /// coordinates must stay far below sqrt(f32::MAX) ~ 1.8e19.
 pub const MAX_COORDINATE: f64 = 1e15;
 
+/// A world-space point that is not finite or lies beyond [`MAX_COORDINATE`].
+#[derive(Clone, Copy, Debug, PartialEq, thiserror::Error)]
+#[error(
+    "world-space point {point} lies beyond +-{max:e} (single-precision geometry would overflow)",
+    max = MAX_COORDINATE
+)]
+pub struct WorldPointError {
+    pub point: DVec3,
+}
+
 /// A world-space point must be finite in single precision and within [`MAX_COORDINATE`].
-pub fn check_world_point(p: DVec3) -> Result<(), String> {
+pub fn check_world_point(p: DVec3) -> Result<(), WorldPointError> {
     if p.is_finite() && p.abs().max_element() <= MAX_COORDINATE {
         Ok(())
     } else {
-        Err(format!(
-            "world-space point {p} lies beyond +-{MAX_COORDINATE:e} (single-precision geometry would overflow)"
-        ))
+        Err(WorldPointError { point: p })
     }
 }
 

@@ -64,17 +64,341 @@ pub enum MeshError {
         source: io::Error,
     },
     /// The file was read but is not a usable PLY mesh.
-    #[error("invalid PLY file {}: {message}", .path.display())]
-    Ply { path: PathBuf, message: String },
+    #[error("invalid PLY file {}: {problem}", .path.display())]
+    Ply {
+        path: PathBuf,
+        #[source]
+        problem: PlyError,
+    },
     /// The file was read but is not a usable OBJ mesh.
-    #[error("invalid OBJ file {}: {message}", .path.display())]
-    Obj { path: PathBuf, message: String },
+    #[error("invalid OBJ file {}: {problem}", .path.display())]
+    Obj {
+        path: PathBuf,
+        #[source]
+        problem: ObjError,
+    },
     /// The file was read but is not a usable Mitsuba `.serialized` mesh.
-    #[error("invalid serialized mesh file {}: {message}", .path.display())]
-    Serialized { path: PathBuf, message: String },
+    #[error("invalid serialized mesh file {}: {problem}", .path.display())]
+    Serialized {
+        path: PathBuf,
+        #[source]
+        problem: SerializedError,
+    },
     /// The file is well formed but contains no faces (e.g. a point cloud).
     #[error("mesh file {} has no faces", .path.display())]
     NoFaces { path: PathBuf },
+}
+
+/// What makes a PLY file's contents unusable ([`MeshError::Ply`] adds the path).
+/// Vertex, face and entry numbers count from 0, lines from 1.
+#[derive(Debug, thiserror::Error)]
+pub enum PlyError {
+    #[error("not a PLY file (it does not start with 'ply')")]
+    NotPly,
+    /// A header count or version too large for `ply-rs` (which would panic on it).
+    #[error("bad header: line {line}: number {number} is too large")]
+    HeaderNumber { line: usize, number: String },
+    /// `ply-rs` refused the header.
+    #[error("bad header: {}", one_line(&.0.to_string()))]
+    Header(#[source] io::Error),
+    #[error("there is no 'vertex' element")]
+    NoVertexElement,
+    /// A coordinate property (`x`, `y` or `z`) that is a list.
+    #[error("vertex property '{name}' is a list, expected a number")]
+    VertexPropertyList { name: &'static str },
+    /// A missing coordinate property (`x`, `y` or `z`).
+    #[error("the vertex element has no '{name}' property")]
+    MissingVertexProperty { name: &'static str },
+    #[error("the face element has no 'vertex_indices' (or 'vertex_index') property")]
+    NoFaceList,
+    /// The face list property `name` has another type.
+    #[error("face property '{name}' must be a list of integers, found {found:?}")]
+    FaceListType {
+        name: &'static str,
+        found: PropertyType,
+    },
+    #[error("internal error: vertex or face element was not read")]
+    ElementsNotRead,
+    /// A vertex's `position` or `normal` (`what`) that is not finite.
+    #[error("vertex {vertex}: {what} {value:?} is not finite")]
+    VertexNotFinite {
+        vertex: usize,
+        what: &'static str,
+        value: [f64; 3],
+    },
+    #[error("vertex {vertex}: texture coordinates {uv:?} are not finite")]
+    UvNotFinite { vertex: usize, uv: [f64; 2] },
+    #[error("face {face} has {vertices} vertices, at least 3 are needed")]
+    FaceTooSmall { face: usize, vertices: usize },
+    #[error("face {face} refers to vertex {index}, but there are only {vertices} vertices")]
+    FaceIndex {
+        face: usize,
+        index: i64,
+        vertices: usize,
+    },
+    /// Two attributes of one name (Mitsuba refuses them too).
+    #[error(
+        "mesh attribute '{name}' is defined twice (Mitsuba: add_attribute(): attribute already exists)"
+    )]
+    DuplicateAttribute { name: String },
+    /// An element whose declared entries cannot fit in the bytes left.
+    #[error(
+        "file is truncated: element '{element}' declares {count} entries but only {remaining} bytes remain"
+    )]
+    ElementTooLong {
+        element: String,
+        count: usize,
+        remaining: usize,
+    },
+    /// An ASCII file ending after `read` of an element's `count` entries.
+    #[error("file is truncated: it ends after {read} of {count} '{element}' entries")]
+    EndsAfter {
+        element: String,
+        read: usize,
+        count: usize,
+    },
+    #[error("line {line}: not valid text")]
+    NotText { line: usize },
+    /// `ply-rs` refused an ASCII entry.
+    #[error("line {line} ('{element}' entry {entry}): {}", one_line(&.source.to_string()))]
+    AsciiEntry {
+        line: usize,
+        element: String,
+        entry: usize,
+        source: io::Error,
+    },
+    /// A binary file ending inside an entry.
+    #[error("file is truncated: it ends inside '{element}' entry {entry} of {count}")]
+    EndsInside {
+        element: String,
+        entry: usize,
+        count: usize,
+    },
+    /// `ply-rs` refused a binary entry.
+    #[error("'{element}' entry {entry}: {}", one_line(&.source.to_string()))]
+    BinaryEntry {
+        element: String,
+        entry: usize,
+        source: io::Error,
+    },
+}
+
+/// The vertex data an OBJ face index refers to.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ObjIndexKind {
+    Vertex,
+    TextureCoordinate,
+    Normal,
+}
+
+impl ObjIndexKind {
+    /// The statement defining one (`v`, `vt`, `vn`), in the order of a face
+    /// vertex's `v/vt/vn` parts.
+    const ALL: [ObjIndexKind; 3] = [
+        ObjIndexKind::Vertex,
+        ObjIndexKind::TextureCoordinate,
+        ObjIndexKind::Normal,
+    ];
+
+    fn statement(self) -> &'static str {
+        match self {
+            ObjIndexKind::Vertex => "v",
+            ObjIndexKind::TextureCoordinate => "vt",
+            ObjIndexKind::Normal => "vn",
+        }
+    }
+
+    pub fn singular(self) -> &'static str {
+        match self {
+            ObjIndexKind::Vertex => "vertex",
+            ObjIndexKind::TextureCoordinate => "texture coordinate",
+            ObjIndexKind::Normal => "normal",
+        }
+    }
+
+    pub fn plural(self) -> &'static str {
+        match self {
+            ObjIndexKind::Vertex => "vertices",
+            ObjIndexKind::TextureCoordinate => "texture coordinates",
+            ObjIndexKind::Normal => "normals",
+        }
+    }
+}
+
+/// What makes an OBJ file's contents unusable ([`MeshError::Obj`] adds the path).
+/// Lines count from 1, faces (`f` statements) from 0.
+#[derive(Debug, thiserror::Error)]
+pub enum ObjError {
+    #[error("not valid UTF-8 text ({0})")]
+    NotUtf8(#[source] std::str::Utf8Error),
+    /// `tobj` refused the file.
+    #[error(transparent)]
+    Tobj(tobj::LoadError),
+    /// A vertex `position` or `normal` (`what`) that is not finite.
+    #[error("vertex {what} {value:?} is not finite")]
+    VertexNotFinite { what: &'static str, value: [f64; 3] },
+    #[error("texture coordinates {uv} are not finite")]
+    UvNotFinite { uv: Vec2 },
+    #[error("object '{object}': index count is not a multiple of 3")]
+    IndexCount { object: String },
+    #[error("object '{object}': vertex index {index} is out of range")]
+    IndexRange { object: String, index: u32 },
+    #[error("line {line} (face {face}): face has {vertices} vertices, at least 3 are needed")]
+    FaceTooSmall {
+        line: usize,
+        face: usize,
+        vertices: usize,
+    },
+    #[error("line {line} (face {face}): malformed face vertex '{corner}'")]
+    MalformedFaceVertex {
+        line: usize,
+        face: usize,
+        corner: String,
+    },
+    /// A face index of 0 or beyond those defined (`defined` counts the whole file for
+    /// positive indices, the lines before the face for negative ones).
+    #[error(
+        "line {line} (face {face}): {} index {index} is out of range ({defined} {} defined, indices start at 1)",
+        .kind.singular(),
+        .kind.plural()
+    )]
+    FaceIndex {
+        line: usize,
+        face: usize,
+        kind: ObjIndexKind,
+        index: i64,
+        defined: usize,
+    },
+}
+
+/// What was too large for the compressed data of a `.serialized` mesh.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum SerializedPayload {
+    Mesh { vertices: u64, triangles: u64 },
+    Attribute { name: String },
+}
+
+impl std::fmt::Display for SerializedPayload {
+    fn fmt(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+        match self {
+            SerializedPayload::Mesh {
+                vertices,
+                triangles,
+            } => write!(f, "{vertices} vertices and {triangles} triangles"),
+            SerializedPayload::Attribute { name } => write!(f, "attribute '{name}'"),
+        }
+    }
+}
+
+/// What makes a Mitsuba `.serialized` file's contents unusable (read by
+/// `super::serialized`; [`MeshError::Serialized`] adds the path). Limits the file
+/// broke are given with the value. Vertex and triangle numbers count from 0.
+#[derive(Debug, thiserror::Error)]
+pub enum SerializedError {
+    #[error("truncated header ({len} bytes)")]
+    TruncatedHeader { len: u64 },
+    #[error("not a serialized mesh (it starts with 0x{found:04X}, not 0x{expected:04X})")]
+    Magic { found: u16, expected: u16 },
+    #[error("unsupported version {version} (versions 3, 4 and 5 are read)")]
+    Version { version: u16 },
+    /// Mesh `index` starts too close to the end for its header.
+    #[error("mesh {index} starts at byte {offset}, too close to the end of the file")]
+    MeshAtEnd { index: u64, offset: u64 },
+    #[error(
+        "mesh {index} does not start with a header at byte {offset} (a bad offset dictionary)"
+    )]
+    MeshHeader { index: u64, offset: u64 },
+    #[error("the mesh's compressed stream holds more data than its counts describe")]
+    TrailingData,
+    #[error(
+        "shape_index {index} needs the offset dictionary at the end of the file, which is missing or damaged"
+    )]
+    NoDictionary { index: u64 },
+    #[error(
+        "shape_index {index} is out of range: the file holds {count} mesh{}",
+        if *.count == 1 { "" } else { "es" }
+    )]
+    IndexRange { index: u64, count: u64 },
+    #[error(
+        "the dictionary puts mesh {index} at byte {offset}, beyond the end of the file ({len} bytes)"
+    )]
+    OffsetBeyondEnd { index: u64, offset: u64, len: u64 },
+    #[error("the compressed data end early (a truncated file, or counts larger than the data)")]
+    Truncated,
+    #[error("corrupt compressed data ({0})")]
+    Corrupt(#[source] io::Error),
+    /// Counts needing more bytes than the `compressed` bytes left can expand to.
+    #[error(
+        "{payload} need {bytes} bytes, more than the {compressed} compressed bytes left in the file can hold"
+    )]
+    TooLarge {
+        payload: SerializedPayload,
+        bytes: u128,
+        compressed: u64,
+    },
+    /// A vertex `position` or `normal` (`what`) that is not finite.
+    #[error("vertex {vertex}: {what} {value:?} is not finite")]
+    VertexNotFinite {
+        vertex: usize,
+        what: &'static str,
+        value: [f32; 3],
+    },
+    #[error("vertex {vertex}: texture coordinates {uv:?} are not finite")]
+    UvNotFinite { vertex: usize, uv: [f32; 2] },
+    /// A count of `vertices` or `triangles` (`what`) above `limit`.
+    #[error("the mesh claims {count} {what}, more than {limit}")]
+    Count {
+        count: u64,
+        what: &'static str,
+        limit: u64,
+    },
+    #[error(
+        "triangle {triangle} refers to vertex {index}, but there are only {vertices} vertices"
+    )]
+    TriangleIndex {
+        triangle: usize,
+        index: u32,
+        vertices: usize,
+    },
+    #[error("the mesh name is longer than {limit} bytes")]
+    NameTooLong { limit: u64 },
+    #[error("version 5 meshes must be single precision (flag 0x1000 is not set)")]
+    NotSinglePrecision,
+    #[error(
+        "the flags store tangents without normals and texture coordinates (Mitsuba requires both)"
+    )]
+    TangentsAlone,
+    #[error(
+        "{points} surface points and {groups} normal groups for {vertices} vertices (at most one each per vertex)"
+    )]
+    PointMaps {
+        points: u64,
+        groups: u64,
+        vertices: u64,
+    },
+    #[error("vertex {vertex} maps to surface point {point} of {points}")]
+    PointIndex {
+        vertex: usize,
+        point: u32,
+        points: u64,
+    },
+    #[error("vertex {vertex} maps to normal group {group} of {groups}")]
+    GroupIndex {
+        vertex: usize,
+        group: u32,
+        groups: u64,
+    },
+    #[error("{count} custom attributes (at most {limit})")]
+    Attributes { count: u32, limit: u32 },
+    #[error("attribute '{name}' has {channels} channels (1 to 4 are allowed)")]
+    AttributeChannels { name: String, channels: u32 },
+    /// A length-prefixed string (`what`: the mesh or an attribute name) above `limit`.
+    #[error("the {what} is {bytes} bytes long (at most {limit})")]
+    StringTooLong {
+        what: &'static str,
+        bytes: u64,
+        limit: u64,
+    },
 }
 
 // ---------------------------------------------------------------------------
@@ -96,22 +420,23 @@ pub fn load_ply_with_attributes(
         Problem::NoFaces => MeshError::NoFaces {
             path: path.to_path_buf(),
         },
-        Problem::Invalid(message) => MeshError::Ply {
+        Problem::Invalid(problem) => MeshError::Ply {
             path: path.to_path_buf(),
-            message,
+            problem,
         },
     })
 }
 
-/// What went wrong while decoding file contents; the caller adds the path.
-enum Problem {
+/// What went wrong while decoding file contents (a [`PlyError`] or an [`ObjError`]);
+/// the caller adds the path.
+enum Problem<E> {
     NoFaces,
-    Invalid(String),
+    Invalid(E),
 }
 
-impl From<String> for Problem {
-    fn from(message: String) -> Self {
-        Problem::Invalid(message)
+impl<E> From<E> for Problem<E> {
+    fn from(e: E) -> Self {
+        Problem::Invalid(e)
     }
 }
 
@@ -119,18 +444,16 @@ impl From<String> for Problem {
 /// preference.
 const FACE_LIST_NAMES: [&str; 2] = ["vertex_indices", "vertex_index"];
 
-fn parse_ply(bytes: &[u8]) -> Result<(MeshData, Option<MeshAttributes>), Problem> {
+fn parse_ply(bytes: &[u8]) -> Result<(MeshData, Option<MeshAttributes>), Problem<PlyError>> {
     if !bytes.starts_with(b"ply") {
-        return Err("not a PLY file (it does not start with 'ply')"
-            .to_string()
-            .into());
+        return Err(PlyError::NotPly.into());
     }
     check_header_numbers(bytes)?;
 
     let mut data: &[u8] = bytes;
     let header = Parser::<Skip>::new()
         .read_header(&mut data)
-        .map_err(|e| format!("bad header: {}", one_line(&e.to_string())))?;
+        .map_err(PlyError::Header)?;
     // Line number of the last header line, for ASCII error messages.
     let mut line_no = bytes[..bytes.len() - data.len()]
         .iter()
@@ -141,14 +464,14 @@ fn parse_ply(bytes: &[u8]) -> Result<(MeshData, Option<MeshAttributes>), Problem
     let vertex_def = header
         .elements
         .get("vertex")
-        .ok_or_else(|| "there is no 'vertex' element".to_string())?;
+        .ok_or(PlyError::NoVertexElement)?;
     for name in ["x", "y", "z"] {
         match vertex_def.properties.get(name).map(|p| &p.data_type) {
             Some(PropertyType::Scalar(_)) => {}
             Some(PropertyType::List(..)) => {
-                return Err(format!("vertex property '{name}' is a list, expected a number").into())
+                return Err(PlyError::VertexPropertyList { name }.into())
             }
-            None => return Err(format!("the vertex element has no '{name}' property").into()),
+            None => return Err(PlyError::MissingVertexProperty { name }.into()),
         }
     }
     let has_normals = ["nx", "ny", "nz"].iter().all(|name| {
@@ -173,15 +496,14 @@ fn parse_ply(bytes: &[u8]) -> Result<(MeshData, Option<MeshAttributes>), Problem
     let list_name = FACE_LIST_NAMES
         .into_iter()
         .find(|name| face_def.properties.contains_key(*name))
-        .ok_or_else(|| {
-            "the face element has no 'vertex_indices' (or 'vertex_index') property".to_string()
-        })?;
+        .ok_or(PlyError::NoFaceList)?;
     match &face_def.properties[list_name].data_type {
         PropertyType::List(_, item) if is_integer(item) => {}
         other => {
-            return Err(format!(
-                "face property '{list_name}' must be a list of integers, found {other:?}"
-            )
+            return Err(PlyError::FaceListType {
+                name: list_name,
+                found: other.clone(),
+            }
             .into())
         }
     }
@@ -205,19 +527,18 @@ fn parse_ply(bytes: &[u8]) -> Result<(MeshData, Option<MeshAttributes>), Problem
     }
     let (vertices, faces) = match (vertices, faces) {
         (Some(v), Some(f)) => (v, f),
-        _ => {
-            return Err("internal error: vertex or face element was not read"
-                .to_string()
-                .into())
-        }
+        _ => return Err(PlyError::ElementsNotRead.into()),
     };
 
     let positions = vertices
         .iter()
         .enumerate()
         .map(|(i, v)| {
-            finite_vec3(v.position)
-                .ok_or_else(|| format!("vertex {i}: position {:?} is not finite", v.position))
+            finite_vec3(v.position).ok_or(PlyError::VertexNotFinite {
+                vertex: i,
+                what: "position",
+                value: v.position,
+            })
         })
         .collect::<Result<Vec<_>, _>>()?;
     let normals = if has_normals {
@@ -225,8 +546,11 @@ fn parse_ply(bytes: &[u8]) -> Result<(MeshData, Option<MeshAttributes>), Problem
             .iter()
             .enumerate()
             .map(|(i, v)| {
-                finite_vec3(v.normal)
-                    .ok_or_else(|| format!("vertex {i}: normal {:?} is not finite", v.normal))
+                finite_vec3(v.normal).ok_or(PlyError::VertexNotFinite {
+                    vertex: i,
+                    what: "normal",
+                    value: v.normal,
+                })
             })
             .collect::<Result<Vec<_>, _>>()?;
         Some(normals)
@@ -242,9 +566,9 @@ fn parse_ply(bytes: &[u8]) -> Result<(MeshData, Option<MeshAttributes>), Problem
                 .map(|(i, v)| {
                     let uv = v.uv[rank];
                     let f = Vec2::new(uv[0] as f32, uv[1] as f32);
-                    f.is_finite().then_some(f).ok_or_else(|| {
-                        format!("vertex {i}: texture coordinates {uv:?} are not finite")
-                    })
+                    f.is_finite()
+                        .then_some(f)
+                        .ok_or(PlyError::UvNotFinite { vertex: i, uv })
                 })
                 .collect::<Result<Vec<_>, _>>()?,
         ),
@@ -297,10 +621,10 @@ fn parse_ply(bytes: &[u8]) -> Result<(MeshData, Option<MeshAttributes>), Problem
     let mut face_data: Vec<Vec<f32>> = vec![Vec::new(); face_groups.len()];
     for (f, face) in faces.iter().enumerate() {
         if face.indices.len() < 3 {
-            return Err(format!(
-                "face {f} has {} vertices, at least 3 are needed",
-                face.indices.len()
-            )
+            return Err(PlyError::FaceTooSmall {
+                face: f,
+                vertices: face.indices.len(),
+            }
             .into());
         }
         polygon.clear();
@@ -308,9 +632,11 @@ fn parse_ply(bytes: &[u8]) -> Result<(MeshData, Option<MeshAttributes>), Problem
             match u32::try_from(index) {
                 Ok(i) if (i as usize) < vertex_count => polygon.push(i),
                 _ => {
-                    return Err(format!(
-                    "face {f} refers to vertex {index}, but there are only {vertex_count} vertices"
-                )
+                    return Err(PlyError::FaceIndex {
+                        face: f,
+                        index,
+                        vertices: vertex_count,
+                    }
                     .into())
                 }
             }
@@ -336,7 +662,10 @@ fn parse_ply(bytes: &[u8]) -> Result<(MeshData, Option<MeshAttributes>), Problem
     // Mitsuba's add_attribute refuses a name twice (e.g. r g b and color_0..2).
     for (i, a) in attributes.iter().enumerate() {
         if attributes[..i].iter().any(|b| b.name == a.name) {
-            return Err(format!("mesh attribute '{}' is defined twice (Mitsuba: add_attribute(): attribute already exists)", a.name).into());
+            return Err(PlyError::DuplicateAttribute {
+                name: a.name.clone(),
+            }
+            .into());
         }
     }
     let attributes = (!attributes.is_empty()).then_some(MeshAttributes { list: attributes });
@@ -364,7 +693,7 @@ fn extra_value(extra: &[(String, Property)], name: &str) -> f32 {
 /// `ply-rs` 0.1 panics (an `unwrap` in its header grammar) when an element
 /// count or the format version does not fit in a `u64`. Refuse such headers
 /// before handing them over.
-fn check_header_numbers(bytes: &[u8]) -> Result<(), String> {
+fn check_header_numbers(bytes: &[u8]) -> Result<(), PlyError> {
     for (i, line) in bytes.split(|&b| b == b'\n').enumerate() {
         let line = String::from_utf8_lossy(line);
         match line.split_whitespace().next() {
@@ -375,10 +704,10 @@ fn check_header_numbers(bytes: &[u8]) -> Result<(), String> {
                     .filter(|r| !r.is_empty())
                     .find(|r| r.parse::<u64>().is_err())
                 {
-                    return Err(format!(
-                        "bad header: line {}: number {run} is too large",
-                        i + 1
-                    ));
+                    return Err(PlyError::HeaderNumber {
+                        line: i + 1,
+                        number: run.to_string(),
+                    });
                 }
             }
             _ => {}
@@ -393,7 +722,7 @@ fn read_entries<E: PropertyAccess>(
     encoding: Encoding,
     def: &ElementDef,
     line_no: &mut usize,
-) -> Result<Vec<E>, String> {
+) -> Result<Vec<E>, PlyError> {
     // Every entry takes at least this many bytes, so a count that cannot fit
     // in the rest of the file means truncation (or a corrupt header). Checking
     // up front also keeps a bogus huge count from looping or allocating.
@@ -416,12 +745,11 @@ fn read_entries<E: PropertyAccess>(
         .checked_mul(min_bytes)
         .is_none_or(|n| n > data.len() + slack)
     {
-        return Err(format!(
-            "file is truncated: element '{}' declares {} entries but only {} bytes remain",
-            def.name,
-            def.count,
-            data.len()
-        ));
+        return Err(PlyError::ElementTooLong {
+            element: def.name.clone(),
+            count: def.count,
+            remaining: data.len(),
+        });
     }
 
     let parser = Parser::<E>::new();
@@ -429,51 +757,53 @@ fn read_entries<E: PropertyAccess>(
     for i in 0..def.count {
         let entry = match encoding {
             Encoding::Ascii => {
-                let line = next_line(data).ok_or_else(|| {
-                    format!(
-                        "file is truncated: it ends after {i} of {} '{}' entries",
-                        def.count, def.name
-                    )
+                let line = next_line(data).ok_or_else(|| PlyError::EndsAfter {
+                    element: def.name.clone(),
+                    read: i,
+                    count: def.count,
                 })?;
                 *line_no += 1;
-                let text = std::str::from_utf8(line)
-                    .map_err(|_| format!("line {line_no}: not valid text"))?;
+                let text =
+                    std::str::from_utf8(line).map_err(|_| PlyError::NotText { line: *line_no })?;
                 parser
                     .read_ascii_element(
                         &normalize_numbers(text.trim_end_matches(['\r', '\n'])),
                         def,
                     )
-                    .map_err(|e| {
-                        format!(
-                            "line {line_no} ('{}' entry {i}): {}",
-                            def.name,
-                            one_line(&e.to_string())
-                        )
+                    .map_err(|source| PlyError::AsciiEntry {
+                        line: *line_no,
+                        element: def.name.clone(),
+                        entry: i,
+                        source,
                     })?
             }
             Encoding::BinaryLittleEndian => parser
                 .read_little_endian_element(data, def)
-                .map_err(|e| binary_error(&e, def, i))?,
+                .map_err(|e| binary_error(e, def, i))?,
             Encoding::BinaryBigEndian => parser
                 .read_big_endian_element(data, def)
-                .map_err(|e| binary_error(&e, def, i))?,
+                .map_err(|e| binary_error(e, def, i))?,
         };
         entries.push(entry);
     }
     Ok(entries)
 }
 
-fn binary_error(e: &io::Error, def: &ElementDef, i: usize) -> String {
+fn binary_error(e: io::Error, def: &ElementDef, i: usize) -> PlyError {
     // ply-rs wraps a failed read inside a list into an `InvalidInput` error
     // whose text carries the original error's Debug form.
-    let text = e.to_string();
-    if e.kind() == io::ErrorKind::UnexpectedEof || text.contains("UnexpectedEof") {
-        format!(
-            "file is truncated: it ends inside '{}' entry {i} of {}",
-            def.name, def.count
-        )
+    if e.kind() == io::ErrorKind::UnexpectedEof || e.to_string().contains("UnexpectedEof") {
+        PlyError::EndsInside {
+            element: def.name.clone(),
+            entry: i,
+            count: def.count,
+        }
     } else {
-        format!("'{}' entry {i}: {}", def.name, one_line(&text))
+        PlyError::BinaryEntry {
+            element: def.name.clone(),
+            entry: i,
+            source: e,
+        }
     }
 }
 
@@ -671,15 +1001,15 @@ pub fn load_obj(path: &Path) -> Result<MeshData, MeshError> {
         Problem::NoFaces => MeshError::NoFaces {
             path: path.to_path_buf(),
         },
-        Problem::Invalid(message) => MeshError::Obj {
+        Problem::Invalid(problem) => MeshError::Obj {
             path: path.to_path_buf(),
-            message,
+            problem,
         },
     })
 }
 
-fn parse_obj(bytes: &[u8]) -> Result<MeshData, Problem> {
-    let text = std::str::from_utf8(bytes).map_err(|e| format!("not valid UTF-8 text ({e})"))?;
+fn parse_obj(bytes: &[u8]) -> Result<MeshData, Problem<ObjError>> {
+    let text = std::str::from_utf8(bytes).map_err(ObjError::NotUtf8)?;
     check_obj_faces(text)?;
 
     // The struct update covers fields that only exist with tobj's optional
@@ -697,7 +1027,7 @@ fn parse_obj(bytes: &[u8]) -> Result<MeshData, Problem> {
     let (models, _materials) = tobj::load_obj_buf(&mut text.as_bytes(), &options, |_| {
         Err(tobj::LoadError::OpenFileFailed)
     })
-    .map_err(|e| e.to_string())?;
+    .map_err(ObjError::Tobj)?;
 
     let all_have_normals = models
         .iter()
@@ -714,32 +1044,33 @@ fn parse_obj(bytes: &[u8]) -> Result<MeshData, Problem> {
         let offset = positions.len();
         for p in mesh.positions.chunks_exact(3) {
             let v = [to_f64(p[0]), to_f64(p[1]), to_f64(p[2])];
-            positions.push(
-                finite_vec3(v).ok_or_else(|| format!("vertex position {v:?} is not finite"))?,
-            );
+            positions.push(finite_vec3(v).ok_or(ObjError::VertexNotFinite {
+                what: "position",
+                value: v,
+            })?);
         }
         if all_have_normals {
             for n in mesh.normals.chunks_exact(3) {
                 let v = [to_f64(n[0]), to_f64(n[1]), to_f64(n[2])];
-                normals.push(
-                    finite_vec3(v).ok_or_else(|| format!("vertex normal {v:?} is not finite"))?,
-                );
+                normals.push(finite_vec3(v).ok_or(ObjError::VertexNotFinite {
+                    what: "normal",
+                    value: v,
+                })?);
             }
         }
         if all_have_uvs {
             for t in mesh.texcoords.chunks_exact(2) {
                 let uv = Vec2::new(t[0], t[1]);
                 if !uv.is_finite() {
-                    return Err(format!("texture coordinates {uv} are not finite").into());
+                    return Err(ObjError::UvNotFinite { uv }.into());
                 }
                 uvs.push(uv);
             }
         }
         if mesh.indices.len() % 3 != 0 {
-            return Err(format!(
-                "object '{}': index count is not a multiple of 3",
-                model.name
-            )
+            return Err(ObjError::IndexCount {
+                object: model.name.clone(),
+            }
             .into());
         }
         for tri in mesh.indices.chunks_exact(3) {
@@ -749,10 +1080,10 @@ fn parse_obj(bytes: &[u8]) -> Result<MeshData, Problem> {
                 *o = match u32::try_from(global) {
                     Ok(g) if global < positions.len() => g,
                     _ => {
-                        return Err(format!(
-                            "object '{}': vertex index {i} is out of range",
-                            model.name
-                        )
+                        return Err(ObjError::IndexRange {
+                            object: model.name.clone(),
+                            index: i,
+                        }
                         .into())
                     }
                 };
@@ -777,17 +1108,11 @@ fn parse_obj(bytes: &[u8]) -> Result<MeshData, Problem> {
 /// (a panic in debug builds) on a relative texture or normal index reaching
 /// before the first one, e.g. `f 1/-5 2/1 3/1`, and which silently treats a
 /// texture or normal index of 0 as absent.
-fn check_obj_faces(text: &str) -> Result<(), String> {
-    // (statement, singular, plural)
-    const KINDS: [(&str, &str, &str); 3] = [
-        ("v", "vertex", "vertices"),
-        ("vt", "texture coordinate", "texture coordinates"),
-        ("vn", "normal", "normals"),
-    ];
+fn check_obj_faces(text: &str) -> Result<(), ObjError> {
+    let kind_of = |tag: &str| ObjIndexKind::ALL.iter().position(|k| k.statement() == tag);
     let mut totals = [0usize; 3];
     for line in text.lines() {
-        let tag = line.split_whitespace().next();
-        if let Some(k) = KINDS.iter().position(|(t, ..)| tag == Some(*t)) {
+        if let Some(k) = line.split_whitespace().next().and_then(kind_of) {
             totals[k] += 1;
         }
     }
@@ -797,7 +1122,7 @@ fn check_obj_faces(text: &str) -> Result<(), String> {
     for (n, line) in text.lines().enumerate() {
         let mut words = line.split_whitespace();
         let Some(tag) = words.next() else { continue };
-        if let Some(k) = KINDS.iter().position(|(t, ..)| *t == tag) {
+        if let Some(k) = kind_of(tag) {
             seen[k] += 1;
             continue;
         }
@@ -805,23 +1130,26 @@ fn check_obj_faces(text: &str) -> Result<(), String> {
             continue;
         }
         let corners: Vec<&str> = words.collect();
-        let at = format!("line {} (face {face})", n + 1);
+        let line = n + 1;
         if corners.len() < 3 {
-            return Err(format!(
-                "{at}: face has {} vertices, at least 3 are needed",
-                corners.len()
-            ));
+            return Err(ObjError::FaceTooSmall {
+                line,
+                face,
+                vertices: corners.len(),
+            });
         }
         for corner in corners {
+            let malformed = || ObjError::MalformedFaceVertex {
+                line,
+                face,
+                corner: corner.to_string(),
+            };
             let parts: Vec<&str> = corner.split('/').collect();
             if parts.len() > 3 || parts[0].is_empty() {
-                return Err(format!("{at}: malformed face vertex '{corner}'"));
+                return Err(malformed());
             }
             for (k, part) in parts.iter().enumerate().filter(|(_, p)| !p.is_empty()) {
-                let (_, kind, kinds) = KINDS[k];
-                let index: i64 = part
-                    .parse()
-                    .map_err(|_| format!("{at}: malformed face vertex '{corner}'"))?;
+                let index: i64 = part.parse().map_err(|_| malformed())?;
                 // Negative indices count back from the last one defined so far.
                 let ok = match index {
                     0 => false,
@@ -829,10 +1157,13 @@ fn check_obj_faces(text: &str) -> Result<(), String> {
                     i => i as u64 <= totals[k] as u64,
                 };
                 if !ok {
-                    return Err(format!(
-                        "{at}: {kind} index {index} is out of range ({} {kinds} defined, indices start at 1)",
-                        if index < 0 { seen[k] } else { totals[k] }
-                    ));
+                    return Err(ObjError::FaceIndex {
+                        line,
+                        face,
+                        kind: ObjIndexKind::ALL[k],
+                        index,
+                        defined: if index < 0 { seen[k] } else { totals[k] },
+                    });
                 }
             }
         }

@@ -493,6 +493,87 @@ fn first_hit(
 /// at most a few hundred points on a side.
 pub const MAX_GRID_POINTS: usize = 1 << 22;
 
+/// Why a `transient_nlos_path` render cannot be prepared from the scene ([`prepare`]).
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum NlosError {
+    /// Not exactly one emitter.
+    #[error(
+        "transient_nlos_path needs exactly one emitter, the laser (a projector or spot), as mitransient 1.3.1; the scene has {emitters}"
+    )]
+    EmitterCount { emitters: usize },
+    /// An emitter without a position and an axis.
+    #[error(
+        "transient_nlos_path: the laser must be a projector or a spot emitter (a positioned light with an axis)"
+    )]
+    LaserKind,
+    /// A laser whose `to_world` maps its axis to zero.
+    #[error("transient_nlos_path: the laser's to_world maps its axis to zero")]
+    LaserAxis,
+    /// A capture meter's grid (width, height) above [`MAX_GRID_POINTS`].
+    #[error(
+        "the capture meter's {}x{} grid has more than the {MAX_GRID_POINTS} points tstat prepares",
+        .grid[0], .grid[1]
+    )]
+    MeterGrid { grid: [usize; 2] },
+    /// A capture type that needs a capture meter, without one.
+    #[error(
+        "capture_type {} needs an nlos_capture_meter sensor on the relay wall",
+        .capture.name()
+    )]
+    NoMeter { capture: CaptureType },
+    /// An exhaustive capture without laser sampling.
+    #[error(
+        "capture_type exhaustive needs nlos_laser_sampling (without it mitransient 1.3.1 files every path under laser point 0)"
+    )]
+    ExhaustiveWithoutLaserSampling,
+    /// An exhaustive capture without the film's laser scan.
+    #[error(
+        "capture_type exhaustive needs the film's exhaustive_scan with laser_scan_width and laser_scan_height"
+    )]
+    ExhaustiveWithoutScan,
+    /// The film's laser scan with another capture type.
+    #[error("the film has exhaustive_scan but capture_type is {}", .capture.name())]
+    ScanWithoutExhaustive { capture: CaptureType },
+    /// A laser grid (width, height) above [`MAX_GRID_POINTS`].
+    #[error(
+        "the {}x{} laser grid has more than the {MAX_GRID_POINTS} points tstat prepares",
+        .grid[0], .grid[1]
+    )]
+    LaserGrid { grid: [usize; 2] },
+    /// Equal grids asked for, and the laser grid differs from the film's.
+    #[error(
+        "force_equal_illumination_scanning (the default) needs laser_scan_width x laser_scan_height ({}x{}) equal to the film's {}x{}",
+        .laser[0], .laser[1], .film[0], .film[1]
+    )]
+    UnequalGrids { laser: [usize; 2], film: [usize; 2] },
+    /// No ray of the capture meter meets the scene.
+    #[error(
+        "no ray from sensor_origin towards the relay wall's grid meets the scene: aim the capture meter at its wall"
+    )]
+    MeterMissesScene,
+    /// The laser's axis meets nothing (single capture with laser sampling).
+    #[error(
+        "nlos_laser_sampling: the laser's axis (its to_world's +z) meets nothing in the scene; aim it at the relay wall"
+    )]
+    LaserMissesScene,
+    /// A laser scan whose emitter has no axes.
+    #[error("illumination_scan_fov needs a projector or spot laser")]
+    ScanLaserKind,
+    /// No ray of the laser scan meets the scene.
+    #[error("the laser's scan (illumination_scan_fov) meets nothing in the scene")]
+    ScanMissesScene,
+    /// Hidden-geometry sampling with a shape that has no area (a curve or an SDF grid).
+    #[error(
+        "nlos_hidden_geometry_sampling samples points on every shape by area; shape '{shape}' (a curve or an SDF grid) has no area to sample"
+    )]
+    HiddenShapeWithoutArea { shape: String },
+    /// Hidden-geometry sampling without any area to sample.
+    #[error(
+        "nlos_hidden_geometry_sampling: the hidden geometry (every shape but the relay wall) has no area"
+    )]
+    HiddenGeometryWithoutArea,
+}
+
 /// Prepares a `transient_nlos_path` render: checks the emitters and sensor the
 /// settings need and computes the lit points and the hidden geometry. `grid` is the
 /// sensor grid (the film's width and height before exhaustive stacking).
@@ -504,61 +585,42 @@ pub fn prepare(
     emitters: &[Emitter],
     accel: &Accel,
     warn: &mut dyn FnMut(String),
-) -> Result<NlosSetup, String> {
+) -> Result<NlosSetup, NlosError> {
     if emitters.len() != 1 {
-        return Err(format!(
-            "transient_nlos_path needs exactly one emitter, the laser (a projector or spot), as mitransient 1.3.1; the scene has {}",
-            emitters.len()
-        ));
+        return Err(NlosError::EmitterCount {
+            emitters: emitters.len(),
+        });
     }
-    let (laser_origin, axis) = emitters[0].laser_frame().ok_or_else(|| {
-        "transient_nlos_path: the laser must be a projector or a spot emitter (a positioned light with an axis)".to_string()
-    })?;
+    let (laser_origin, axis) = emitters[0].laser_frame().ok_or(NlosError::LaserKind)?;
     let laser_axis = axis.normalize();
     if !laser_axis.is_finite() {
-        return Err("transient_nlos_path: the laser's to_world maps its axis to zero".into());
+        return Err(NlosError::LaserAxis);
     }
     let capture = settings.capture;
     let points = |[w, h]: [usize; 2]| w.saturating_mul(h);
     if meter.is_some() && points(grid) > MAX_GRID_POINTS {
-        return Err(format!(
-            "the capture meter's {}x{} grid has more than the {MAX_GRID_POINTS} points tstat prepares",
-            grid[0], grid[1]
-        ));
+        return Err(NlosError::MeterGrid { grid });
     }
     if capture != CaptureType::Single && meter.is_none() {
-        return Err(format!(
-            "capture_type {} needs an nlos_capture_meter sensor on the relay wall",
-            capture.name()
-        ));
+        return Err(NlosError::NoMeter { capture });
     }
     if capture == CaptureType::Exhaustive && !settings.laser_sampling {
-        return Err("capture_type exhaustive needs nlos_laser_sampling (without it mitransient 1.3.1 files every path under laser point 0)".into());
+        return Err(NlosError::ExhaustiveWithoutLaserSampling);
     }
     let laser_grid = match (capture, meter.as_ref().and_then(|m| m.laser_scan)) {
-        (CaptureType::Exhaustive, None) => {
-            return Err("capture_type exhaustive needs the film's exhaustive_scan with laser_scan_width and laser_scan_height".into())
-        }
+        (CaptureType::Exhaustive, None) => return Err(NlosError::ExhaustiveWithoutScan),
         (CaptureType::Exhaustive, Some(g)) => g,
-        (_, Some(_)) => {
-            return Err(format!(
-                "the film has exhaustive_scan but capture_type is {}",
-                capture.name()
-            ))
-        }
+        (_, Some(_)) => return Err(NlosError::ScanWithoutExhaustive { capture }),
         (_, None) => [1, 1],
     };
     if points(laser_grid) > MAX_GRID_POINTS {
-        return Err(format!(
-            "the {}x{} laser grid has more than the {MAX_GRID_POINTS} points tstat prepares",
-            laser_grid[0], laser_grid[1]
-        ));
+        return Err(NlosError::LaserGrid { grid: laser_grid });
     }
     if capture == CaptureType::Exhaustive && settings.force_equal_grids && laser_grid != grid {
-        return Err(format!(
-            "force_equal_illumination_scanning (the default) needs laser_scan_width x laser_scan_height ({}x{}) equal to the film's {}x{}",
-            laser_grid[0], laser_grid[1], grid[0], grid[1]
-        ));
+        return Err(NlosError::UnequalGrids {
+            laser: laser_grid,
+            film: grid,
+        });
     }
     // The points the sensor measures: where its rays first meet the scene (the rays
     // of `Camera::ray`, bit for bit).
@@ -580,7 +642,7 @@ pub fn prepare(
             }
             let missed = out.iter().filter(|h| h.is_none()).count();
             if missed == out.len() {
-                return Err("no ray from sensor_origin towards the relay wall's grid meets the scene: aim the capture meter at its wall".into());
+                return Err(NlosError::MeterMissesScene);
             }
             if missed > 0 {
                 warn(format!("{missed} of the capture meter's {} rays meet nothing: those points measure nothing and, as lit points, light nothing", out.len()));
@@ -594,9 +656,8 @@ pub fn prepare(
         match capture {
             CaptureType::Single => {
                 let wall = meter.as_ref().map(|m| (&m.wall, m.shape));
-                let hit = first_hit(accel, shapes, wall, laser_origin, laser_axis).ok_or(
-                    "nlos_laser_sampling: the laser's axis (its to_world's +z) meets nothing in the scene; aim it at the relay wall",
-                )?;
+                let hit = first_hit(accel, shapes, wall, laser_origin, laser_axis)
+                    .ok_or(NlosError::LaserMissesScene)?;
                 vec![Some(hit)]
             }
             CaptureType::Confocal => sensor_hits.clone(),
@@ -621,17 +682,16 @@ pub fn prepare(
                 continue;
             }
             if matches!(s.geom, ShapeGeom::Curve(_) | ShapeGeom::Sdf(_)) {
-                return Err(format!(
-                    "nlos_hidden_geometry_sampling samples points on every shape by area; shape '{}' (a curve or an SDF grid) has no area to sample",
-                    s.name
-                ));
+                return Err(NlosError::HiddenShapeWithoutArea {
+                    shape: s.name.clone(),
+                });
             }
             ids.push(i as u32);
             areas.push(s.area());
         }
         let total: f64 = areas.iter().sum();
         if ids.is_empty() || !(total > 0.0 && total.is_finite()) {
-            return Err("nlos_hidden_geometry_sampling: the hidden geometry (every shape but the relay wall) has no area".into());
+            return Err(NlosError::HiddenGeometryWithoutArea);
         }
         let mut acc = 0.0;
         let cdf = areas
@@ -699,10 +759,8 @@ fn scan_targets(
     shapes: &[Shape],
     accel: &Accel,
     warn: &mut dyn FnMut(String),
-) -> Result<Vec<Option<Hit>>, String> {
-    let (origin, axes) = emitters[0]
-        .laser_axes()
-        .ok_or("illumination_scan_fov needs a projector or spot laser")?;
+) -> Result<Vec<Option<Hit>>, NlosError> {
+    let (origin, axes) = emitters[0].laser_axes().ok_or(NlosError::ScanLaserKind)?;
     let t = (0.5 * fov.to_radians()).tan() as f32;
     let mut out = Vec::with_capacity(grid[0] * grid[1]);
     let mut missed = 0;
@@ -720,7 +778,7 @@ fn scan_targets(
         }
     }
     if missed == out.len() {
-        return Err("the laser's scan (illumination_scan_fov) meets nothing in the scene".into());
+        return Err(NlosError::ScanMissesScene);
     }
     if missed > 0 {
         warn(format!(

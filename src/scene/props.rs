@@ -97,11 +97,11 @@ impl<'a, 'i, 'c> Props<'a, 'i, 'c> {
 
     fn parse_value(ctx: &Ctx, node: Node, tag: &str) -> Result<Value, SceneError> {
         let bad = |what: &str, v: &str| ctx.err(node, format!("'{v}' is not {what}"));
-        let numbers = |v: &str| scene_numbers(v).map_err(|e| ctx.err(node, e));
+        let numbers = |v: &str| scene_numbers(v).map_err(|e| ctx.err(node, e.to_string()));
         Ok(match tag {
             "float" => {
                 let v = ctx.required_attr(node, "value")?;
-                Value::Float(scene_number(&v).map_err(|e| ctx.err(node, e))?)
+                Value::Float(scene_number(&v).map_err(|e| ctx.err(node, e.to_string()))?)
             }
             "integer" => {
                 let v = ctx.required_attr(node, "value")?;

@@ -58,8 +58,8 @@ pub fn parse_sdfgrid(props: &mut Props, to_world: &DMat4) -> Result<ShapeGeom, S
     }
     let grid = SdfGrid::new(vol.size, vol.data)
         .map_err(|e| props.err_at("filename", format!("'{name}': {e}")))?;
-    let geom =
-        SdfGeom::new(Arc::new(grid), *to_world, smooth).map_err(|e| props.err_at("to_world", e))?;
+    let geom = SdfGeom::new(Arc::new(grid), *to_world, smooth)
+        .map_err(|e| props.err_at("to_world", e.to_string()))?;
     // Mitsuba warns on rotations (its voxel boxes map only two corners, so a rotated
     // grid renders with holes there); tstat maps all eight and stays exact.
     let lin = glam::DMat3::from_mat4(*to_world);
@@ -81,6 +81,6 @@ pub fn parse_sdfgrid(props: &mut Props, to_world: &DMat4) -> Result<ShapeGeom, S
     let (lo, hi) = geom.bounds();
     super::limits::check_world_point(lo.as_dvec3())
         .and_then(|_| super::limits::check_world_point(hi.as_dvec3()))
-        .map_err(|e| props.err_at("to_world", e))?;
+        .map_err(|e| props.err_at("to_world", e.to_string()))?;
     Ok(ShapeGeom::Sdf(Box::new(geom)))
 }

@@ -43,7 +43,7 @@ use std::path::Path;
 use flate2::read::ZlibDecoder;
 use glam::{Vec2, Vec3};
 
-use super::mesh::{MeshData, MeshError};
+use super::mesh::{MeshData, MeshError, SerializedError, SerializedPayload};
 
 /// The file format identifier.
 pub const MAGIC: u16 = 0x041C;
@@ -94,9 +94,9 @@ pub fn load_serialized(path: &Path, shape_index: u64) -> Result<SerializedMesh, 
         Problem::NoFaces => MeshError::NoFaces {
             path: path.to_path_buf(),
         },
-        Problem::Invalid(message) => MeshError::Serialized {
+        Problem::Invalid(problem) => MeshError::Serialized {
             path: path.to_path_buf(),
-            message,
+            problem,
         },
     })?;
     Ok(parsed)
@@ -106,18 +106,12 @@ pub fn load_serialized(path: &Path, shape_index: u64) -> Result<SerializedMesh, 
 #[derive(Debug)]
 pub enum Problem {
     NoFaces,
-    Invalid(String),
+    Invalid(SerializedError),
 }
 
-impl From<String> for Problem {
-    fn from(message: String) -> Self {
-        Problem::Invalid(message)
-    }
-}
-
-impl From<&str> for Problem {
-    fn from(message: &str) -> Self {
-        Problem::Invalid(message.to_string())
+impl From<SerializedError> for Problem {
+    fn from(e: SerializedError) -> Self {
+        Problem::Invalid(e)
     }
 }
 
@@ -128,29 +122,32 @@ pub fn read_serialized<F: Read + Seek>(
     shape_index: u64,
 ) -> Result<SerializedMesh, Problem> {
     let mut header = [0u8; 4];
-    read_raw(file, &mut header).map_err(|_| format!("truncated header ({len} bytes)"))?;
+    read_raw(file, &mut header).map_err(|_| SerializedError::TruncatedHeader { len })?;
     let (magic, version) = header_of(header);
     if magic != MAGIC {
-        return Err(format!(
-            "not a serialized mesh (it starts with 0x{magic:04X}, not 0x{MAGIC:04X})"
-        )
+        return Err(SerializedError::Magic {
+            found: magic,
+            expected: MAGIC,
+        }
         .into());
     }
     if !(3..=5).contains(&version) {
-        return Err(format!("unsupported version {version} (versions 3, 4 and 5 are read)").into());
+        return Err(SerializedError::Version { version }.into());
     }
     let start = if shape_index == 0 {
         4
     } else {
         let offset = dictionary_offset(file, len, version, shape_index)?;
         let mut at = [0u8; 4];
-        read_raw(file, &mut at).map_err(|_| {
-            format!("mesh {shape_index} starts at byte {offset}, too close to the end of the file")
+        read_raw(file, &mut at).map_err(|_| SerializedError::MeshAtEnd {
+            index: shape_index,
+            offset,
         })?;
         if header_of(at).0 != MAGIC {
-            return Err(format!(
-                "mesh {shape_index} does not start with a header at byte {offset} (a bad offset dictionary)"
-            )
+            return Err(SerializedError::MeshHeader {
+                index: shape_index,
+                offset,
+            }
             .into());
         }
         offset + 4
@@ -170,13 +167,7 @@ pub fn read_serialized<F: Read + Seek>(
     let mut probe = [0u8; 1];
     match z.inner.read(&mut probe) {
         Ok(0) => {}
-        Ok(_) => {
-            return Err(
-                "the mesh's compressed stream holds more data than its counts describe"
-                    .to_string()
-                    .into(),
-            )
-        }
+        Ok(_) => return Err(SerializedError::TrailingData.into()),
         Err(e) => return Err(z.error(e).into()),
     }
     if m.mesh.triangles.is_empty() {
@@ -205,11 +196,7 @@ fn dictionary_offset<F: Read + Seek>(
     version: u16,
     index: u64,
 ) -> Result<u64, Problem> {
-    let no_dict = || {
-        Problem::from(format!(
-            "shape_index {index} needs the offset dictionary at the end of the file, which is missing or damaged"
-        ))
-    };
+    let no_dict = || Problem::from(SerializedError::NoDictionary { index });
     if len < 8 {
         return Err(no_dict());
     }
@@ -218,11 +205,7 @@ fn dictionary_offset<F: Read + Seek>(
     read_raw(file, &mut b4).map_err(|_| no_dict())?;
     let count = u64::from(u32::from_le_bytes(b4));
     if index >= count {
-        return Err(format!(
-            "shape_index {index} is out of range: the file holds {count} mesh{}",
-            if count == 1 { "" } else { "es" }
-        )
-        .into());
+        return Err(SerializedError::IndexRange { index, count }.into());
     }
     let width: u64 = if version >= 4 { 8 } else { 4 };
     // The offsets of meshes 0..count sit just before the count.
@@ -237,10 +220,7 @@ fn dictionary_offset<F: Read + Seek>(
         u64::from(u32::from_le_bytes(b4))
     };
     if offset >= len {
-        return Err(format!(
-            "the dictionary puts mesh {index} at byte {offset}, beyond the end of the file ({len} bytes)"
-        )
-        .into());
+        return Err(SerializedError::OffsetBeyondEnd { index, offset, len }.into());
     }
     file.seek(SeekFrom::Start(offset)).map_err(|_| no_dict())?;
     Ok(offset)
@@ -255,37 +235,37 @@ struct Stream<R: Read> {
 }
 
 impl<R: Read> Stream<R> {
-    fn error(&self, e: io::Error) -> String {
+    fn error(&self, e: io::Error) -> SerializedError {
         if e.kind() == io::ErrorKind::UnexpectedEof {
-            "the compressed data end early (a truncated file, or counts larger than the data)"
-                .into()
+            SerializedError::Truncated
         } else {
-            format!("corrupt compressed data ({e})")
+            SerializedError::Corrupt(e)
         }
     }
 
-    fn bytes<const N: usize>(&mut self) -> Result<[u8; N], String> {
+    fn bytes<const N: usize>(&mut self) -> Result<[u8; N], SerializedError> {
         let mut b = [0u8; N];
         self.inner.read_exact(&mut b).map_err(|e| self.error(e))?;
         Ok(b)
     }
-    fn u8(&mut self) -> Result<u8, String> {
+    fn u8(&mut self) -> Result<u8, SerializedError> {
         Ok(self.bytes::<1>()?[0])
     }
-    fn u32(&mut self) -> Result<u32, String> {
+    fn u32(&mut self) -> Result<u32, SerializedError> {
         Ok(u32::from_le_bytes(self.bytes()?))
     }
-    fn u64(&mut self) -> Result<u64, String> {
+    fn u64(&mut self) -> Result<u64, SerializedError> {
         Ok(u64::from_le_bytes(self.bytes()?))
     }
 
     /// Refuses counts needing more bytes than the compressed data can hold.
-    fn check_size(&self, what: &str, bytes: u128) -> Result<(), String> {
+    fn check_size(&self, payload: SerializedPayload, bytes: u128) -> Result<(), SerializedError> {
         if bytes > u128::from(self.limit) {
-            return Err(format!(
-                "{what} need {bytes} bytes, more than the {} compressed bytes left in the file can hold",
-                self.compressed
-            ));
+            return Err(SerializedError::TooLarge {
+                payload,
+                bytes,
+                compressed: self.compressed,
+            });
         }
         Ok(())
     }
@@ -296,7 +276,7 @@ impl<R: Read> Stream<R> {
         &mut self,
         n: usize,
         f: impl Fn([u8; W]) -> T,
-    ) -> Result<Vec<T>, String> {
+    ) -> Result<Vec<T>, SerializedError> {
         let mut out = Vec::with_capacity(n.min(CHUNK));
         let mut buf = vec![0u8; W * CHUNK];
         while out.len() < n {
@@ -313,7 +293,7 @@ impl<R: Read> Stream<R> {
     }
 
     /// Reads `n` values in single or double precision as `f32`.
-    fn floats(&mut self, n: usize, double: bool) -> Result<Vec<f32>, String> {
+    fn floats(&mut self, n: usize, double: bool) -> Result<Vec<f32>, SerializedError> {
         if double {
             self.array(n, |b: [u8; 8]| f64::from_le_bytes(b) as f32)
         } else {
@@ -322,7 +302,7 @@ impl<R: Read> Stream<R> {
     }
 
     /// Reads and drops `n` bytes.
-    fn skip(&mut self, n: u64) -> Result<(), String> {
+    fn skip(&mut self, n: u64) -> Result<(), SerializedError> {
         let copied =
             io::copy(&mut (&mut self.inner).take(n), &mut io::sink()).map_err(|e| self.error(e))?;
         if copied < n {
@@ -332,7 +312,7 @@ impl<R: Read> Stream<R> {
     }
 }
 
-fn vec3s(values: &[f32], what: &str) -> Result<Vec<Vec3>, String> {
+fn vec3s(values: &[f32], what: &'static str) -> Result<Vec<Vec3>, SerializedError> {
     values
         .chunks_exact(3)
         .enumerate()
@@ -340,12 +320,16 @@ fn vec3s(values: &[f32], what: &str) -> Result<Vec<Vec3>, String> {
             let v = Vec3::from_slice(c);
             v.is_finite()
                 .then_some(v)
-                .ok_or_else(|| format!("vertex {i}: {what} {c:?} is not finite"))
+                .ok_or(SerializedError::VertexNotFinite {
+                    vertex: i,
+                    what,
+                    value: v.to_array(),
+                })
         })
         .collect()
 }
 
-fn vec2s(values: &[f32]) -> Result<Vec<Vec2>, String> {
+fn vec2s(values: &[f32]) -> Result<Vec<Vec2>, SerializedError> {
     values
         .chunks_exact(2)
         .enumerate()
@@ -353,30 +337,43 @@ fn vec2s(values: &[f32]) -> Result<Vec<Vec2>, String> {
             let v = Vec2::from_slice(c);
             v.is_finite()
                 .then_some(v)
-                .ok_or_else(|| format!("vertex {i}: texture coordinates {c:?} are not finite"))
+                .ok_or(SerializedError::UvNotFinite {
+                    vertex: i,
+                    uv: v.to_array(),
+                })
         })
         .collect()
 }
 
-fn check_counts(vertices: u64, faces: u64) -> Result<(), String> {
-    for (n, what) in [(vertices, "vertices"), (faces, "triangles")] {
-        if n > MAX_COUNT {
-            return Err(format!("the mesh claims {n} {what}, more than {MAX_COUNT}"));
+fn check_counts(vertices: u64, faces: u64) -> Result<(), SerializedError> {
+    for (count, what) in [(vertices, "vertices"), (faces, "triangles")] {
+        if count > MAX_COUNT {
+            return Err(SerializedError::Count {
+                count,
+                what,
+                limit: MAX_COUNT,
+            });
         }
     }
     Ok(())
 }
 
-fn triangles(indices: &[u32], stride: usize, vertices: usize) -> Result<Vec<[u32; 3]>, String> {
+fn triangles(
+    indices: &[u32],
+    stride: usize,
+    vertices: usize,
+) -> Result<Vec<[u32; 3]>, SerializedError> {
     indices
         .chunks_exact(stride)
         .enumerate()
         .map(|(f, c)| {
             let t = [c[0], c[1], c[2]];
             match t.iter().find(|&&i| i as usize >= vertices) {
-                Some(i) => Err(format!(
-                    "triangle {f} refers to vertex {i}, but there are only {vertices} vertices"
-                )),
+                Some(&index) => Err(SerializedError::TriangleIndex {
+                    triangle: f,
+                    index,
+                    vertices,
+                }),
                 None => Ok(t),
             }
         })
@@ -393,9 +390,10 @@ fn read_legacy<R: Read>(z: &mut Stream<R>, version: u16) -> Result<SerializedMes
                 0 => break,
                 c if (name.len() as u64) < MAX_NAME_BYTES => name.push(c),
                 _ => {
-                    return Err(
-                        format!("the mesh name is longer than {MAX_NAME_BYTES} bytes").into(),
-                    )
+                    return Err(SerializedError::NameTooLong {
+                        limit: MAX_NAME_BYTES,
+                    }
+                    .into())
                 }
             }
         }
@@ -409,7 +407,10 @@ fn read_legacy<R: Read>(z: &mut Stream<R>, version: u16) -> Result<SerializedMes
     let per_vertex = 3 + 3 * u128::from(normals) + 2 * u128::from(uvs) + 3 * u128::from(colors);
     let width = if double { 8 } else { 4 };
     z.check_size(
-        &format!("{nv} vertices and {nf} triangles"),
+        SerializedPayload::Mesh {
+            vertices: nv,
+            triangles: nf,
+        },
         u128::from(nv) * per_vertex * width + u128::from(nf) * 12,
     )?;
     let (v, f) = (nv as usize, nf as usize);
@@ -460,29 +461,31 @@ fn frame_normal(p: Vec3) -> Vec3 {
 fn read_v5<R: Read>(z: &mut Stream<R>) -> Result<SerializedMesh, Problem> {
     let flags = z.u32()?;
     if flags & V5_SINGLE == 0 {
-        return Err("version 5 meshes must be single precision (flag 0x1000 is not set)".into());
+        return Err(SerializedError::NotSinglePrecision.into());
     }
     let has_normals = flags & V5_NORMALS != 0;
     let tangents = flags & V5_TANGENTS != 0;
     let has_uvs = flags & V5_TEXCOORDS != 0;
     if tangents && !(has_normals && has_uvs) {
-        return Err(
-            "the flags store tangents without normals and texture coordinates (Mitsuba requires both)"
-                .into(),
-        );
+        return Err(SerializedError::TangentsAlone.into());
     }
     let name = read_string(z, "mesh name")?;
     let (nv, nf, np, nn) = (z.u64()?, z.u64()?, z.u64()?, z.u64()?);
     check_counts(nv, nf)?;
     if np > nv || nn > nv {
-        return Err(format!(
-            "{np} surface points and {nn} normal groups for {nv} vertices (at most one each per vertex)"
-        )
+        return Err(SerializedError::PointMaps {
+            points: np,
+            groups: nn,
+            vertices: nv,
+        }
         .into());
     }
     let maps = u128::from(np > 0) + u128::from(nn > 0);
     z.check_size(
-        &format!("{nv} vertices and {nf} triangles"),
+        SerializedPayload::Mesh {
+            vertices: nv,
+            triangles: nf,
+        },
         u128::from(nv) * (32 + 4 * maps) + u128::from(nf) * 16,
     )?;
     let (v, f) = (nv as usize, nf as usize);
@@ -493,24 +496,34 @@ fn read_v5<R: Read>(z: &mut Stream<R>) -> Result<SerializedMesh, Problem> {
     for (i, r) in records.chunks_exact(8).enumerate() {
         let p = Vec3::from_slice(&r[0..3]);
         if !p.is_finite() {
-            return Err(format!("vertex {i}: position {:?} is not finite", &r[0..3]).into());
+            return Err(SerializedError::VertexNotFinite {
+                vertex: i,
+                what: "position",
+                value: p.to_array(),
+            }
+            .into());
         }
         positions.push(p);
         if has_normals {
             let frame = Vec3::from_slice(&r[3..6]);
             let n = if tangents { frame_normal(frame) } else { frame };
             if !n.is_finite() {
-                return Err(format!("vertex {i}: normal {:?} is not finite", &r[3..6]).into());
+                return Err(SerializedError::VertexNotFinite {
+                    vertex: i,
+                    what: "normal",
+                    value: frame.to_array(),
+                }
+                .into());
             }
             normals.push(n);
         }
         if has_uvs {
             let uv = Vec2::from_slice(&r[6..8]);
             if !uv.is_finite() {
-                return Err(format!(
-                    "vertex {i}: texture coordinates {:?} are not finite",
-                    &r[6..8]
-                )
+                return Err(SerializedError::UvNotFinite {
+                    vertex: i,
+                    uv: uv.to_array(),
+                }
                 .into());
             }
             uvs.push(uv);
@@ -523,7 +536,12 @@ fn read_v5<R: Read>(z: &mut Stream<R>) -> Result<SerializedMesh, Problem> {
     let point_of = if np > 0 {
         let map = z.array(v, u32::from_le_bytes)?;
         if let Some((i, p)) = map.iter().enumerate().find(|(_, &p)| u64::from(p) >= np) {
-            return Err(format!("vertex {i} maps to surface point {p} of {np}").into());
+            return Err(SerializedError::PointIndex {
+                vertex: i,
+                point: *p,
+                points: np,
+            }
+            .into());
         }
         Some(map)
     } else {
@@ -532,25 +550,36 @@ fn read_v5<R: Read>(z: &mut Stream<R>) -> Result<SerializedMesh, Problem> {
     if nn > 0 {
         let map = z.array(v, u32::from_le_bytes)?;
         if let Some((i, g)) = map.iter().enumerate().find(|(_, &g)| u64::from(g) >= nn) {
-            return Err(format!("vertex {i} maps to normal group {g} of {nn}").into());
+            return Err(SerializedError::GroupIndex {
+                vertex: i,
+                group: *g,
+                groups: nn,
+            }
+            .into());
         }
     }
     let attributes = z.u32()?;
     if attributes > MAX_ATTRIBUTES {
-        return Err(format!("{attributes} custom attributes (at most {MAX_ATTRIBUTES})").into());
+        return Err(SerializedError::Attributes {
+            count: attributes,
+            limit: MAX_ATTRIBUTES,
+        }
+        .into());
     }
     for _ in 0..attributes {
         let name = read_string(z, "attribute name")?;
         let _flags = z.u8()?;
         let dim = z.u32()?;
         if !(1..=4).contains(&dim) {
-            return Err(
-                format!("attribute '{name}' has {dim} channels (1 to 4 are allowed)").into(),
-            );
+            return Err(SerializedError::AttributeChannels {
+                name,
+                channels: dim,
+            }
+            .into());
         }
         let rows = if name.starts_with("face_") { nf } else { nv };
         let bytes = u128::from(rows) * u128::from(dim) * 4;
-        z.check_size(&format!("attribute '{name}'"), bytes)?;
+        z.check_size(SerializedPayload::Attribute { name }, bytes)?;
         z.skip(bytes as u64)?;
     }
     let mut mesh = MeshData {
@@ -592,12 +621,14 @@ fn point_normals(m: &MeshData, point_of: &[u32], points: usize) -> Vec<Vec3> {
 }
 
 /// A `u32` length and that many bytes (version 5).
-fn read_string<R: Read>(z: &mut Stream<R>, what: &str) -> Result<String, String> {
+fn read_string<R: Read>(z: &mut Stream<R>, what: &'static str) -> Result<String, SerializedError> {
     let n = u64::from(z.u32()?);
     if n > MAX_NAME_BYTES {
-        return Err(format!(
-            "the {what} is {n} bytes long (at most {MAX_NAME_BYTES})"
-        ));
+        return Err(SerializedError::StringTooLong {
+            what,
+            bytes: n,
+            limit: MAX_NAME_BYTES,
+        });
     }
     let bytes = z.array(n as usize, |b: [u8; 1]| b[0])?;
     Ok(String::from_utf8_lossy(&bytes).into_owned())

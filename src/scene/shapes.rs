@@ -24,7 +24,7 @@
 
 use super::curves::load_curves;
 use super::error::SceneError;
-use super::limits::{check_world_point, MAX_COORDINATE};
+use super::limits::{check_world_point, WorldPointError, MAX_COORDINATE};
 use super::mesh::{load_obj, load_ply_with_attributes, vertex_normals, MeshData};
 use super::props::Props;
 use super::serialized::load_serialized;
@@ -133,7 +133,7 @@ fn mitsuba_cube_uv(n: Vec3, p: Vec3) -> Vec2 {
 }
 
 /// An analytic shape's box must lie within [`MAX_COORDINATE`].
-fn check_bounds((lo, hi): (Vec3, Vec3)) -> Result<(), String> {
+fn check_bounds((lo, hi): (Vec3, Vec3)) -> Result<(), WorldPointError> {
     check_world_point(lo.as_dvec3())?;
     check_world_point(hi.as_dvec3())
 }
@@ -279,8 +279,8 @@ fn read_sphere(_kind: &str, props: &mut Props, to_world: &DMat4) -> Result<Shape
 
 /// `<shape type="disk">`.
 fn read_disk(_kind: &str, props: &mut Props, to_world: &DMat4) -> Result<ShapeGeom, SceneError> {
-    let g = DiskGeom::new(to_world).map_err(|e| props.err_at("to_world", e))?;
-    check_bounds(g.bounds()).map_err(|e| props.err_at("to_world", e))?;
+    let g = DiskGeom::new(to_world).map_err(|e| props.err_at("to_world", e.to_string()))?;
+    check_bounds(g.bounds()).map_err(|e| props.err_at("to_world", e.to_string()))?;
     Ok(ShapeGeom::Disk(g))
 }
 
@@ -309,8 +309,8 @@ fn read_cylinder(
         ));
     }
     let m = CylinderGeom::object_to_world(to_world, p0, p1, r);
-    let g = CylinderGeom::new(&m).map_err(|e| props.err_at("to_world", e))?;
-    check_bounds(g.bounds()).map_err(|e| props.err_at("to_world", e))?;
+    let g = CylinderGeom::new(&m).map_err(|e| props.err_at("to_world", e.to_string()))?;
+    check_bounds(g.bounds()).map_err(|e| props.err_at("to_world", e.to_string()))?;
     Ok(ShapeGeom::Cylinder(g))
 }
 

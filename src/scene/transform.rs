@@ -133,7 +133,7 @@ pub fn parse_transform(ctx: &Ctx, node: Node) -> Result<DMat4, SceneError> {
             "matrix" => {
                 check_attrs(ctx, child, &["value"])?;
                 let v = ctx.required_attr(child, "value")?;
-                let f = scene_numbers(&v).map_err(|e| ctx.err(child, e))?;
+                let f = scene_numbers(&v).map_err(|e| ctx.err(child, e.to_string()))?;
                 if f.len() != 16 && f.len() != 9 {
                     return Err(ctx.err(
                         child,
@@ -191,15 +191,26 @@ pub fn parse_transform(ctx: &Ctx, node: Node) -> Result<DMat4, SceneError> {
             ));
         }
     }
-    check_invertible(&m).map_err(|e| ctx.err(node, e))?;
+    check_invertible(&m).map_err(|e| ctx.err(node, e.to_string()))?;
     Ok(m)
+}
+
+/// A transform whose linear part flattens space (or is not finite); `relative_determinant`
+/// is its determinant over the product of its column lengths (0 when those are not
+/// positive and finite).
+#[derive(Clone, Copy, Debug, PartialEq, thiserror::Error)]
+#[error(
+    "the transform is singular (it flattens space: relative determinant {relative_determinant:.1e})"
+)]
+pub struct SingularTransform {
+    pub relative_determinant: f64,
 }
 
 /// A transform must map 3D onto 3D: its linear part may not flatten any direction.
 /// Scale-invariant: compares the determinant with the product of the column lengths
 /// (1 for any rotation or scaling, 0 for a matrix that collapses a direction), so a
 /// tiny but uniform scale passes and a nearly flat one does not.
-fn check_invertible(m: &DMat4) -> Result<(), String> {
+fn check_invertible(m: &DMat4) -> Result<(), SingularTransform> {
     let cols = [
         m.x_axis.truncate(),
         m.y_axis.truncate(),
@@ -209,10 +220,9 @@ fn check_invertible(m: &DMat4) -> Result<(), String> {
     let det = cols[0].dot(cols[1].cross(cols[2]));
     let scale = lens[0] * lens[1] * lens[2];
     if !(scale > 0.0 && scale.is_finite() && det.is_finite()) || det.abs() < 1e-12 * scale {
-        return Err(format!(
-            "the transform is singular (it flattens space: relative determinant {:.1e})",
-            if scale > 0.0 { det.abs() / scale } else { 0.0 }
-        ));
+        return Err(SingularTransform {
+            relative_determinant: if scale > 0.0 { det.abs() / scale } else { 0.0 },
+        });
     }
     Ok(())
 }

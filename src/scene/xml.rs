@@ -223,7 +223,7 @@ pub fn load(path: &Path, overrides: &Overrides) -> Result<Scene, SceneError> {
     if let Some(h) = overrides.bin_width_opl {
         film.bin_width_opl = h;
     }
-    film.validate().map_err(whole)?;
+    film.validate().map_err(|e| whole(e.to_string()))?;
     let end = film.start_opl + film.bins as f64 * film.bin_width_opl;
     if end <= 0.0 {
         ctx.warn(
@@ -270,7 +270,7 @@ pub fn load(path: &Path, overrides: &Overrides) -> Result<Scene, SceneError> {
                 .ok_or_else(|| {
                     whole("the exhaustive scan's film is too large to address".into())
                 })?;
-            film.validate().map_err(whole)?;
+            film.validate().map_err(|e| whole(e.to_string()))?;
         }
     }
     let (w, h) = (film.width, film.height);
@@ -327,6 +327,7 @@ pub fn load(path: &Path, overrides: &Overrides) -> Result<Scene, SceneError> {
                 &accel,
                 &mut |w| warnings.push(w),
             )
+            .map_err(|e| e.to_string())
             .map_err(|e| SceneError::new(path, s.line, format!("sensor type=\"{}\"", s.kind), e))?;
             for w in warnings {
                 ctx.warn(root, w);

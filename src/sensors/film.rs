@@ -32,57 +32,96 @@ impl Film {
     }
 
     /// Checks the settings after overrides were applied.
-    pub fn validate(&self) -> Result<(), String> {
-        if self.width == 0 || self.height == 0 {
-            return Err(format!("film size {}x{} is empty", self.width, self.height));
+    pub fn validate(&self) -> Result<(), FilmError> {
+        let (width, height, bins) = (self.width, self.height, self.bins);
+        let (start_opl, bin_width_opl) = (self.start_opl, self.bin_width_opl);
+        if width == 0 || height == 0 {
+            return Err(FilmError::Empty { width, height });
         }
-        if self.bins == 0 {
-            return Err("temporal_bins must be at least 1".into());
+        if bins == 0 {
+            return Err(FilmError::NoBins);
         }
         // Every later size computation (sums, G-buffers, bytes) stays within usize.
-        let bytes = [self.height, self.bins, 3, 8, 4]
+        let bytes = [height, bins, 3, 8, 4]
             .iter()
-            .try_fold(self.width, |n, &f| n.checked_mul(f));
+            .try_fold(width, |n, &f| n.checked_mul(f));
         if bytes.is_none() {
-            return Err(format!(
-                "a film of {}x{} px and {} bins is too large to address",
-                self.width, self.height, self.bins
-            ));
+            return Err(FilmError::TooLarge {
+                width,
+                height,
+                bins,
+            });
         }
-        if self.bins > u32::MAX as usize {
-            return Err(format!(
-                "temporal_bins {} is above the largest supported count {}",
-                self.bins,
-                u32::MAX
-            ));
+        if bins > u32::MAX as usize {
+            return Err(FilmError::TooManyBins { bins });
         }
-        if !(self.bin_width_opl > 0.0 && self.bin_width_opl.is_finite()) {
-            return Err(format!(
-                "bin_width_opl must be positive, got {}",
-                self.bin_width_opl
-            ));
+        if !(bin_width_opl > 0.0 && bin_width_opl.is_finite()) {
+            return Err(FilmError::BinWidth { bin_width_opl });
         }
-        if !self.start_opl.is_finite() {
-            return Err(format!("start_opl must be finite, got {}", self.start_opl));
+        if !start_opl.is_finite() {
+            return Err(FilmError::Start { start_opl });
         }
         // The window's end must be a number, and a bin must be wider than the f64
         // spacing of the OPLs it holds (else bins merge: k = floor((opl - t0) / h)).
-        let end = self.start_opl + self.bins as f64 * self.bin_width_opl;
+        let end = start_opl + bins as f64 * bin_width_opl;
         if !end.is_finite() {
-            return Err(format!(
-                "the time window ends beyond the floating-point range: start_opl {:e} + {} bins x {:e}",
-                self.start_opl, self.bins, self.bin_width_opl
-            ));
+            return Err(FilmError::WindowOverflow {
+                start_opl,
+                bins,
+                bin_width_opl,
+            });
         }
-        let scale = self.start_opl.abs().max(end.abs());
-        if self.bin_width_opl < scale * 1e-12 {
-            return Err(format!(
-                "bin_width_opl {:e} is too narrow to resolve OPLs near {scale:e} in double precision",
-                self.bin_width_opl
-            ));
+        let scale = start_opl.abs().max(end.abs());
+        if bin_width_opl < scale * 1e-12 {
+            return Err(FilmError::BinTooNarrow {
+                bin_width_opl,
+                scale,
+            });
         }
         Ok(())
     }
+}
+
+/// Why film settings cannot make a film ([`Film::validate`]).
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum FilmError {
+    /// No pixels.
+    #[error("film size {width}x{height} is empty")]
+    Empty { width: usize, height: usize },
+    /// No time bins.
+    #[error("temporal_bins must be at least 1")]
+    NoBins,
+    /// More values than sizes in memory (`usize`) can count.
+    #[error("a film of {width}x{height} px and {bins} bins is too large to address")]
+    TooLarge {
+        width: usize,
+        height: usize,
+        bins: usize,
+    },
+    /// More bins than 32-bit bin indices address.
+    #[error("temporal_bins {bins} is above the largest supported count {max}", max = u32::MAX)]
+    TooManyBins { bins: usize },
+    /// A bin width that is not positive and finite.
+    #[error("bin_width_opl must be positive, got {bin_width_opl}")]
+    BinWidth { bin_width_opl: f64 },
+    /// A start that is not finite.
+    #[error("start_opl must be finite, got {start_opl}")]
+    Start { start_opl: f64 },
+    /// A time window whose end overflows.
+    #[error(
+        "the time window ends beyond the floating-point range: start_opl {start_opl:e} + {bins} bins x {bin_width_opl:e}"
+    )]
+    WindowOverflow {
+        start_opl: f64,
+        bins: usize,
+        bin_width_opl: f64,
+    },
+    /// Bins narrower than the double-precision spacing of the window's OPLs (`scale`,
+    /// the window's largest magnitude).
+    #[error(
+        "bin_width_opl {bin_width_opl:e} is too narrow to resolve OPLs near {scale:e} in double precision"
+    )]
+    BinTooNarrow { bin_width_opl: f64, scale: f64 },
 }
 
 #[cfg(test)]
@@ -119,8 +158,11 @@ mod tests {
         assert!(film(3.5, 0.04).validate().is_ok());
         assert!(film(-1e6, 1e-3).validate().is_ok());
         let e = film(1e308, 1e308).validate().unwrap_err();
-        assert!(e.contains("beyond the floating-point range"), "{e}");
+        assert!(
+            e.to_string().contains("beyond the floating-point range"),
+            "{e}"
+        );
         let e = film(1e10, 1e-10).validate().unwrap_err();
-        assert!(e.contains("too narrow"), "{e}");
+        assert!(e.to_string().contains("too narrow"), "{e}");
     }
 }

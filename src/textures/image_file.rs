@@ -35,9 +35,78 @@ pub fn srgb_to_linear(v: f32) -> f32 {
     }
 }
 
+/// Why an image file cannot be a texture. The message is a short reason without the
+/// path (the caller names the file), e.g. "is not a PNG, JPEG, ... image".
+#[derive(Debug, thiserror::Error)]
+pub enum ImageFileError {
+    /// The file could not be read (missing, not a regular file, too large, ...).
+    #[error(transparent)]
+    Read(std::io::Error),
+    /// An image of zero width or height.
+    #[error("has no pixels ({width} x {height})")]
+    NoPixels { width: u64, height: u64 },
+    /// An image above the texel limit of its use (`what`, e.g. "a texture").
+    #[error("is {width} x {height} pixels, above the limit of {limit} pixels for {what}")]
+    TooLarge {
+        width: u64,
+        height: u64,
+        limit: u64,
+        what: String,
+    },
+    /// `values` texel values (4 bytes each) that cannot be allocated.
+    #[error("needs {} bytes of texels, more than can be allocated", 4 * .values)]
+    Alloc { values: usize },
+    /// The format could not be guessed from the bytes.
+    #[error(transparent)]
+    Guess(std::io::Error),
+    /// A format the `image` crate knows but textures do not read.
+    #[error("is a {format:?} image (supported: PNG, JPEG, BMP, Radiance HDR, OpenEXR)")]
+    UnsupportedFormat { format: image::ImageFormat },
+    /// No known format.
+    #[error("is not a PNG, JPEG, BMP, Radiance HDR or OpenEXR image")]
+    UnknownFormat,
+    /// The header (dimensions) could not be read.
+    #[error("has an unreadable image header: {0}")]
+    Header(#[source] image::ImageError),
+    /// The pixels could not be decoded.
+    #[error("could not be decoded: {0}")]
+    Decode(#[source] image::ImageError),
+    /// A decoded pixel layout textures do not convert.
+    #[error("has an unsupported pixel layout {color:?}")]
+    PixelLayout { color: image::ColorType },
+    /// A NaN or infinite texel value (`index` counts values, channels interleaved).
+    #[error("has a non-finite value ({value}) at value {index}")]
+    NonFinite { value: f32, index: usize },
+    /// The OpenEXR header could not be read.
+    #[error("has an unreadable OpenEXR header: {0}")]
+    ExrHeader(#[source] exr::error::Error),
+    /// An OpenEXR file without layers.
+    #[error("is an OpenEXR file without layers")]
+    ExrNoLayers,
+    /// A deep OpenEXR image.
+    #[error("is a deep OpenEXR image (not supported for textures)")]
+    ExrDeep,
+    /// The OpenEXR pixels could not be decoded.
+    #[error("could not be decoded as OpenEXR: {0}")]
+    ExrDecode(#[source] exr::error::Error),
+    /// OpenEXR channels without R, G, B or Y (and not a single channel).
+    #[error("has OpenEXR channels [{}]: a texture needs R, G, B or Y", .channels.join(", "))]
+    ExrChannels { channels: Vec<String> },
+    /// A subsampled OpenEXR channel.
+    #[error(
+        "has OpenEXR channel {channel} with {samples} samples for {width} x {height} pixels (subsampled channels are not supported)"
+    )]
+    ExrSubsampled {
+        channel: String,
+        samples: usize,
+        width: usize,
+        height: usize,
+    },
+}
+
 /// Reads and decodes an image. `raw`: keep 8/16-bit values as stored (scaled to
 /// [0, 1]) instead of decoding sRGB. The error is a short reason without the path.
-pub fn load_image(path: &Path, raw: bool) -> Result<ImageData, String> {
+pub fn load_image(path: &Path, raw: bool) -> Result<ImageData, ImageFileError> {
     load_image_within(path, raw, MAX_TEXELS, "a texture")
 }
 
@@ -48,8 +117,9 @@ pub fn load_image_within(
     raw: bool,
     max_texels: u64,
     what: &str,
-) -> Result<ImageData, String> {
-    let bytes = read_regular(path, MAX_IMAGE_BYTES)?;
+) -> Result<ImageData, ImageFileError> {
+    let bytes = read_regular(path, MAX_IMAGE_BYTES)
+        .map_err(|e| ImageFileError::Read(std::io::Error::other(e)))?;
     let limit = Limit {
         texels: max_texels.min(MAX_TEXELS),
         what,
@@ -67,50 +137,46 @@ struct Limit<'a> {
     what: &'a str,
 }
 
-fn check_size(width: u64, height: u64, limit: &Limit) -> Result<(), String> {
+fn check_size(width: u64, height: u64, limit: &Limit) -> Result<(), ImageFileError> {
     if width == 0 || height == 0 {
-        return Err(format!("has no pixels ({width} x {height})"));
+        return Err(ImageFileError::NoPixels { width, height });
     }
     if width.saturating_mul(height) > limit.texels {
-        return Err(format!(
-            "is {width} x {height} pixels, above the limit of {} pixels for {}",
-            limit.texels, limit.what
-        ));
+        return Err(ImageFileError::TooLarge {
+            width,
+            height,
+            limit: limit.texels,
+            what: limit.what.to_string(),
+        });
     }
     Ok(())
 }
 
 /// A buffer of `n` texel values, or an error when it cannot be allocated.
-fn texel_buffer(n: usize) -> Result<Vec<f32>, String> {
+fn texel_buffer(n: usize) -> Result<Vec<f32>, ImageFileError> {
     let mut v = Vec::new();
-    v.try_reserve_exact(n).map_err(|_| {
-        format!(
-            "needs {} bytes of texels, more than can be allocated",
-            4 * n
-        )
-    })?;
+    v.try_reserve_exact(n)
+        .map_err(|_| ImageFileError::Alloc { values: n })?;
     Ok(v)
 }
 
-fn decode_ldr_or_hdr(bytes: &[u8], raw: bool, limit: &Limit) -> Result<ImageData, String> {
+fn decode_ldr_or_hdr(bytes: &[u8], raw: bool, limit: &Limit) -> Result<ImageData, ImageFileError> {
     use image::{DynamicImage, ImageFormat, ImageReader};
-    let reader = || -> Result<ImageReader<Cursor<&[u8]>>, String> {
+    let reader = || -> Result<ImageReader<Cursor<&[u8]>>, ImageFileError> {
         let r = ImageReader::new(Cursor::new(bytes))
             .with_guessed_format()
-            .map_err(|e| e.to_string())?;
+            .map_err(ImageFileError::Guess)?;
         match r.format() {
             Some(ImageFormat::Png | ImageFormat::Jpeg | ImageFormat::Bmp | ImageFormat::Hdr) => {
                 Ok(r)
             }
-            Some(f) => Err(format!(
-                "is a {f:?} image (supported: PNG, JPEG, BMP, Radiance HDR, OpenEXR)"
-            )),
-            None => Err("is not a PNG, JPEG, BMP, Radiance HDR or OpenEXR image".into()),
+            Some(format) => Err(ImageFileError::UnsupportedFormat { format }),
+            None => Err(ImageFileError::UnknownFormat),
         }
     };
     let (w, h) = reader()?
         .into_dimensions()
-        .map_err(|e| format!("has an unreadable image header: {e}"))?;
+        .map_err(ImageFileError::Header)?;
     check_size(w as u64, h as u64, limit)?;
     let mut r = reader()?;
     let mut limits = image::Limits::default();
@@ -118,9 +184,7 @@ fn decode_ldr_or_hdr(bytes: &[u8], raw: bool, limit: &Limit) -> Result<ImageData
     limits.max_image_height = Some(h);
     limits.max_alloc = Some(MAX_DECODE_ALLOC);
     r.limits(limits);
-    let img = r
-        .decode()
-        .map_err(|e| format!("could not be decoded: {e}"))?;
+    let img = r.decode().map_err(ImageFileError::Decode)?;
     let (width, height) = (img.width() as usize, img.height() as usize);
     check_size(width as u64, height as u64, limit)?;
     let n = width * height;
@@ -173,10 +237,9 @@ fn decode_ldr_or_hdr(bytes: &[u8], raw: bool, limit: &Limit) -> Result<ImageData
             data.extend(b.pixels().flat_map(|p| [p.0[0], p.0[1], p.0[2]]))
         }
         other => {
-            return Err(format!(
-                "has an unsupported pixel layout {:?}",
-                other.color()
-            ))
+            return Err(ImageFileError::PixelLayout {
+                color: other.color(),
+            })
         }
     }
     check_values(&data)?;
@@ -189,23 +252,23 @@ fn decode_ldr_or_hdr(bytes: &[u8], raw: bool, limit: &Limit) -> Result<ImageData
 }
 
 /// Texels must be finite: a NaN or infinity would reach every path that reads it.
-fn check_values(data: &[f32]) -> Result<(), String> {
+fn check_values(data: &[f32]) -> Result<(), ImageFileError> {
     match data.iter().position(|v| !v.is_finite()) {
-        Some(i) => Err(format!("has a non-finite value ({}) at value {i}", data[i])),
+        Some(index) => Err(ImageFileError::NonFinite {
+            value: data[index],
+            index,
+        }),
         None => Ok(()),
     }
 }
 
-fn decode_exr(bytes: &[u8], limit: &Limit) -> Result<ImageData, String> {
+fn decode_exr(bytes: &[u8], limit: &Limit) -> Result<ImageData, ImageFileError> {
     use exr::prelude::*;
     let meta = exr::meta::MetaData::read_from_buffered(Cursor::new(bytes), false)
-        .map_err(|e| format!("has an unreadable OpenEXR header: {e}"))?;
-    let header = meta
-        .headers
-        .first()
-        .ok_or("is an OpenEXR file without layers")?;
+        .map_err(ImageFileError::ExrHeader)?;
+    let header = meta.headers.first().ok_or(ImageFileError::ExrNoLayers)?;
     if header.deep {
-        return Err("is a deep OpenEXR image (not supported for textures)".into());
+        return Err(ImageFileError::ExrDeep);
     }
     let size = header.layer_size;
     check_size(size.width() as u64, size.height() as u64, limit)?;
@@ -216,7 +279,7 @@ fn decode_exr(bytes: &[u8], limit: &Limit) -> Result<ImageData, String> {
         .first_valid_layer()
         .all_attributes()
         .from_buffered(Cursor::new(bytes))
-        .map_err(|e| format!("could not be decoded as OpenEXR: {e}"))?;
+        .map_err(ImageFileError::ExrDecode)?;
     let layer = &image.layer_data;
     let (width, height) = (layer.size.width(), layer.size.height());
     check_size(width as u64, height as u64, limit)?;
@@ -233,20 +296,19 @@ fn decode_exr(bytes: &[u8], limit: &Limit) -> Result<ImageData, String> {
         (_, _, _, Some(y)) => vec![y],
         _ if channels.len() == 1 => vec![&channels[0]],
         _ => {
-            let names: Vec<String> = channels.iter().map(|c| c.name.to_string()).collect();
-            return Err(format!(
-                "has OpenEXR channels [{}]: a texture needs R, G, B or Y",
-                names.join(", ")
-            ));
+            return Err(ImageFileError::ExrChannels {
+                channels: channels.iter().map(|c| c.name.to_string()).collect(),
+            });
         }
     };
     for c in &picked {
         if c.sample_data.len() != n {
-            return Err(format!(
-                "has OpenEXR channel {} with {} samples for {width} x {height} pixels (subsampled channels are not supported)",
-                c.name,
-                c.sample_data.len()
-            ));
+            return Err(ImageFileError::ExrSubsampled {
+                channel: c.name.to_string(),
+                samples: c.sample_data.len(),
+                width,
+                height,
+            });
         }
     }
     let mut data = texel_buffer(n * picked.len())?;
@@ -373,7 +435,7 @@ mod tests {
         let check = |name: &str, bytes: &[u8], want: &str| {
             let f = dir.path().join(name);
             std::fs::write(&f, bytes).unwrap();
-            let e = load_image(&f, false).unwrap_err();
+            let e = load_image(&f, false).unwrap_err().to_string();
             assert!(e.contains(want), "{name}: {e}");
             assert!(!e.contains('\n'), "{name}: {e}");
         };
@@ -399,6 +461,7 @@ mod tests {
         assert!(load_image(&f, false).is_err());
         assert!(load_image(dir.path(), false)
             .unwrap_err()
+            .to_string()
             .contains("directory"));
     }
 }

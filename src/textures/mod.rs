@@ -22,6 +22,7 @@ pub mod uv_transform;
 
 pub use bitmap::{Bitmap, FilterType, WrapMode};
 pub use checkerboard::Checkerboard;
+pub use image_file::ImageFileError;
 pub use mesh_attribute::MeshAttributeTexture;
 pub use uv_transform::UvTransform;
 
