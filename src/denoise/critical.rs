@@ -39,14 +39,10 @@ pub fn auto_gamma(spp: u64) -> f64 {
 }
 
 impl Threshold {
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), super::DenoiseError> {
         match *self {
-            Threshold::Gamma(g) if !(g > 0.0 && g < 0.5) => {
-                Err(format!("--gamma {g}: must be in (0, 0.5)"))
-            }
-            Threshold::Alpha(a) if !(a > 0.0 && a < 1.0) => {
-                Err(format!("--alpha {a}: must be in (0, 1)"))
-            }
+            Threshold::Gamma(g) if !(g > 0.0 && g < 0.5) => Err(super::DenoiseError::Gamma(g)),
+            Threshold::Alpha(a) if !(a > 0.0 && a < 1.0) => Err(super::DenoiseError::Alpha(a)),
             _ => Ok(()),
         }
     }

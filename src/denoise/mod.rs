@@ -22,6 +22,20 @@ use gbuffers::GBuffers;
 use ndarray::Array4;
 use tstat::TstatParams;
 
+/// Errors of the denoiser's parameters, named by their flags.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum DenoiseError {
+    /// A parameter (`flag`) that must be a positive number.
+    #[error("{flag} {value}: must be a positive number")]
+    NotPositive { flag: &'static str, value: f64 },
+    #[error("--emitter-radius {0}: at most 64")]
+    EmitterRadius(usize),
+    #[error("--gamma {0}: must be in (0, 0.5)")]
+    Gamma(f64),
+    #[error("--alpha {0}: must be in (0, 1)")]
+    Alpha(f64),
+}
+
 /// Which membership test the denoiser applies.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Method {
@@ -100,7 +114,7 @@ impl Default for DenoiseParams {
 }
 
 impl DenoiseParams {
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), DenoiseError> {
         match &self.method {
             Method::Tstat(t) => t.validate()?,
             Method::Published(t) => t.validate()?,
