@@ -38,7 +38,25 @@ pub fn auto_gamma(spp: u64) -> f64 {
     }
 }
 
+/// The published test's critical value resolved for a sample count ([`Threshold::resolve`]):
+/// g^2, and the two-sided level g came from, if any; on estimates from replicates the
+/// filter then takes g per pair at its Welch-Satterthwaite degrees of freedom
+/// (`pair_dof.rs`) instead.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Welch {
+    pub g2: f64,
+    pub alpha: Option<f64>,
+}
+
 impl Threshold {
+    /// g^2 and the level for a bundle of `spp` samples per pixel.
+    pub fn resolve(&self, spp: u64) -> Welch {
+        Welch {
+            g2: self.g2(spp),
+            alpha: self.alpha(),
+        }
+    }
+
     pub fn validate(&self) -> Result<(), super::DenoiseError> {
         match *self {
             Threshold::Gamma(g) if !(g > 0.0 && g < 0.5) => Err(super::DenoiseError::Gamma(g)),
