@@ -6,7 +6,7 @@
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use tstat::denoise::base_filter::{BaseFilter, BaseKind, Features, Sigmas};
 use tstat::denoise::estimates::{Estimates, SumsView};
-use tstat::denoise::filter::{filter, FilterParams, Membership, Tiling};
+use tstat::denoise::filter::{filter, FilterParams, Membership, Tiling, Welch};
 use tstat::denoise::tstat::TstatParams;
 use tstat::math::rng::Pcg32;
 
@@ -90,12 +90,12 @@ fn bench_denoise(c: &mut Criterion) {
         ("tstat", Membership::Tstat(TstatParams::default())),
         (
             "published",
-            Membership::Welch {
+            Membership::Published(Welch {
                 g2: 4.0,
                 alpha: None,
-            },
+            }),
         ),
-        ("base-only", Membership::None),
+        ("base-only", Membership::BaseOnly),
     ] {
         let params = FilterParams {
             radius: 5,

@@ -129,11 +129,16 @@ pub fn current() -> Isa {
     }
 }
 
+/// An instruction set this CPU lacks.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("this CPU does not support {}", .0.name())]
+pub struct UnsupportedIsa(pub Isa);
+
 /// Runs the tracer at `isa` from now on (every level gives the same bits; this only
 /// changes speed). Errors when the CPU lacks it.
-pub fn force(isa: Isa) -> Result<(), String> {
+pub fn force(isa: Isa) -> Result<(), UnsupportedIsa> {
     if !isa.supported() {
-        return Err(format!("this CPU does not support {}", isa.name()));
+        return Err(UnsupportedIsa(isa));
     }
     LEVEL.store(isa.code(), Ordering::Relaxed);
     Ok(())

@@ -22,7 +22,7 @@ use tstat::bundle::manifest::{Manifest, Program, SamplingRecord, SceneRef};
 use tstat::denoise::base_filter::{BaseFilter, BaseKind, Features, Sigmas};
 use tstat::denoise::critical::Threshold;
 use tstat::denoise::estimates::{Estimates, SumsView};
-use tstat::denoise::filter::{filter, FilterParams, Membership, Tiling};
+use tstat::denoise::filter::{filter, FilterParams, Membership, Tiling, Welch};
 use tstat::denoise::gbuffers::GBuffers;
 use tstat::denoise::membership::passes;
 use tstat::denoise::pair_dof::{welch_satterthwaite, PairDof};
@@ -325,7 +325,7 @@ fn reference_filter(e: &Estimates, f: &Features, p: &FilterParams) -> Reference 
     // Welch-Satterthwaite degrees of freedom (the table is checked against the exact
     // quantile in `pair_dof.rs` and below).
     let pair = match (p.membership, e.replicates) {
-        (Membership::Welch { alpha: Some(a), .. }, Some(b)) => Some(PairDof::new(b, a)),
+        (Membership::Published(Welch { alpha: Some(a), .. }), Some(b)) => Some(PairDof::new(b, a)),
         _ => None,
     };
     let mut out = vec![0.0f64; e.mean.len()];
@@ -347,9 +347,9 @@ fn reference_filter(e: &Estimates, f: &Features, p: &FilterParams) -> Reference 
                             let centre = dy == 0 && dx == 0 && dt == 0;
                             let (ti, tj) = (ti as usize, tj as usize);
                             let member = match p.membership {
-                                Membership::None => true,
+                                Membership::BaseOnly => true,
                                 _ if centre => true,
-                                Membership::Welch { g2, .. } => (0..C).all(|c| {
+                                Membership::Published(Welch { g2, .. }) => (0..C).all(|c| {
                                     let (vi, vj) = (e.v[e.idx(i, c, ti)], e.v[e.idx(j, c, tj)]);
                                     passes(
                                         e.theta[e.idx(i, c, ti)],
@@ -439,7 +439,9 @@ fn assert_close(fast: &[f32], reference: &[f64], rel: f64, what: &str) -> f64 {
 
 /// The published filter's membership with this g^2, or the base filter alone.
 fn welch(g2: Option<f64>) -> Membership {
-    g2.map_or(Membership::None, |g2| Membership::Welch { g2, alpha: None })
+    g2.map_or(Membership::BaseOnly, |g2| {
+        Membership::Published(Welch { g2, alpha: None })
+    })
 }
 
 fn pool(threads: usize) -> rayon::ThreadPool {
@@ -694,10 +696,10 @@ fn published_test_takes_each_pairs_degrees_of_freedom_on_replicates() {
             kind: BaseKind::Jbf,
             sigmas: Sigmas::default(),
         },
-        membership: Membership::Welch {
+        membership: Membership::Published(Welch {
             g2: Threshold::Alpha(0.05).g2(b_reps),
             alpha,
-        },
+        }),
     };
     let per_pair = reference_filter(&est, &features, &params(Some(alpha)));
     let fixed = reference_filter(&est, &features, &params(None));
@@ -955,7 +957,7 @@ fn filter_averages_radiance_whatever_the_transform() {
             kind: BaseKind::Jbf,
             sigmas: Sigmas::default(),
         },
-        membership: Membership::None,
+        membership: Membership::BaseOnly,
     };
     let oa = run_filter(&a.estimates(), &a.features(), &p, Tiling::default());
     let ob = run_filter(&b.estimates(), &b.features(), &p, Tiling::default());
@@ -1073,7 +1075,7 @@ fn noise_free_volume_comes_back_unchanged() {
                         kind,
                         sigmas: Sigmas::default(),
                     },
-                    membership: Membership::Welch { g2, alpha: None },
+                    membership: Membership::Published(Welch { g2, alpha: None }),
                 };
                 for tiling in [TILINGS[0], TILINGS[3]] {
                     let out = run_filter(&est, &b.features(), &p, tiling);
@@ -1093,7 +1095,7 @@ fn noise_free_volume_comes_back_unchanged() {
                 // Without membership the base filter blurs the same volume: the test
                 // above can fail.
                 let base_only = FilterParams {
-                    membership: Membership::None,
+                    membership: Membership::BaseOnly,
                     ..p
                 };
                 let out = run_filter(&est, &b.features(), &base_only, TILINGS[3]);
@@ -1158,10 +1160,10 @@ fn step_edge_does_not_leak() {
                 kind,
                 sigmas: Sigmas::default(),
             },
-            membership: Membership::Welch {
+            membership: Membership::Published(Welch {
                 g2: Threshold::Gamma(0.1).g2(spp),
                 alpha: None,
-            },
+            }),
         };
         let out = run_filter(&est, &b.features(), &p, Tiling::default());
         let e = edge_error(&out);
@@ -1170,7 +1172,7 @@ fn step_edge_does_not_leak() {
             &est,
             &b.features(),
             &FilterParams {
-                membership: Membership::None,
+                membership: Membership::BaseOnly,
                 ..p
             },
             Tiling::default(),
@@ -1270,10 +1272,10 @@ fn isolated_outlier_is_kept() {
                 kind,
                 sigmas: Sigmas::default(),
             },
-            membership: Membership::Welch {
+            membership: Membership::Published(Welch {
                 g2: 4.0,
                 alpha: None,
-            },
+            }),
         };
         let out = run_filter(&est, &b.features(), &p, Tiling::default());
         // Every neighbour fails the test, so only the centre counts: out = mean exactly.
@@ -1303,7 +1305,7 @@ fn isolated_outlier_is_kept() {
             &est,
             &b.features(),
             &FilterParams {
-                membership: Membership::None,
+                membership: Membership::BaseOnly,
                 ..p
             },
             Tiling::default(),
@@ -1337,10 +1339,10 @@ fn mirrored_inputs_give_mirrored_outputs() {
                 kind,
                 sigmas: Sigmas::default(),
             },
-            membership: Membership::Welch {
+            membership: Membership::Published(Welch {
                 g2: 4.0,
                 alpha: None,
-            },
+            }),
         };
         let out = run_filter(&est, &b.features(), &p, TILINGS[1]);
         for (name, map, flip) in &maps {

@@ -6,7 +6,7 @@
 use statrs::function::erf::erfc;
 use tstat::denoise::base_filter::{BaseFilter, BaseKind, Features, Sigmas};
 use tstat::denoise::estimates::{Estimates, Scale};
-use tstat::denoise::filter::{filter, FilterParams, Membership, Tiling};
+use tstat::denoise::filter::{filter, FilterParams, Membership, Tiling, Welch};
 use tstat::denoise::pair_dof::PairDof;
 use tstat::denoise::tstat::TstatParams;
 use tstat::math::rng::Pcg32;
@@ -486,10 +486,10 @@ fn emitter_and_other_pixels_are_kept_apart() {
     }
     // The published test mixes them (the contrast of this check).
     let mut pp = p;
-    pp.membership = Membership::Welch {
+    pp.membership = Membership::Published(Welch {
         g2: 4.0,
         alpha: None,
-    };
+    });
     let out = run(&vol, &pp, Tiling::default());
     assert!(out[vol.e.idx(3, 0, 2)] > 1.0 && out[vol.e.idx(3, 3, 2)] > 1.0);
 }
@@ -635,7 +635,7 @@ fn stacked_images_are_filtered_apart() {
     let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
     let row = 7 * 24 * C;
     let plain = FilterParams {
-        membership: Membership::None,
+        membership: Membership::BaseOnly,
         ..params(2, 1, BaseKind::Jbf, TstatParams::default())
     };
     for p in [plain, params(2, 1, BaseKind::Jbf, TstatParams::default())] {

@@ -86,12 +86,12 @@ fn max_abs(v: &[f32]) -> f32 {
     v.iter().fold(0f32, |m, &x| m.max(x.abs()))
 }
 
-type Recon = fn(&Capture) -> Result<(Native, Vec<f32>), String>;
+type Recon = fn(&Capture) -> Result<(Native, Vec<f32>), tstat::nlos::NlosError>;
 
-fn fk_n(c: &Capture) -> Result<(Native, Vec<f32>), String> {
+fn fk_n(c: &Capture) -> Result<(Native, Vec<f32>), tstat::nlos::NlosError> {
     fk_native(c)
 }
-fn lct_n(c: &Capture) -> Result<(Native, Vec<f32>), String> {
+fn lct_n(c: &Capture) -> Result<(Native, Vec<f32>), tstat::nlos::NlosError> {
     lct_native(c, DEFAULT_SNR)
 }
 const METHODS: [(&str, Recon); 2] = [("fk", fk_n), ("lct", lct_n)];

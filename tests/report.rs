@@ -569,7 +569,8 @@ fn the_reference_cache_key_follows_scene_defaults() {
     }
     let err = run_convergence(&cfg("10"), dir.path(), &|_| {})
         .err()
-        .expect("a damaged cache is refused");
+        .expect("a damaged cache is refused")
+        .to_string();
     assert!(err.contains("-emitter.npy") && err.contains("NaN"), "{err}");
 }
 

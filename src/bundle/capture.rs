@@ -139,26 +139,30 @@ impl CaptureRecord {
     }
 
     /// Checks a record read from a manifest against the film it describes.
-    pub fn validate(&self, width: usize, height: usize) -> Result<(), String> {
+    pub fn validate(&self, width: usize, height: usize) -> Result<(), super::Problem> {
+        use super::Problem;
         let [sx, sy] = self.sensor_grid;
         let [lx, ly] = self.laser_grid;
-        let images = lx.checked_mul(ly).ok_or("nlos.laser_grid overflows")?;
+        let images = lx.checked_mul(ly).ok_or(Problem::LaserGridOverflow)?;
         if sx != width || sy == 0 || sy.checked_mul(images) != Some(height) {
-            return Err(format!(
-                "nlos: a {sx}x{sy} sensor grid with a {lx}x{ly} laser grid does not make a film of {width}x{height}"
-            ));
+            return Err(Problem::CaptureFilm {
+                sensor_grid: self.sensor_grid,
+                laser_grid: self.laser_grid,
+                width,
+                height,
+            });
         }
         if self.capture != CaptureType::Exhaustive && images != 1 {
-            return Err(format!(
-                "nlos: a {} capture has one laser point, not {lx}x{ly}",
-                self.capture.name()
-            ));
+            return Err(Problem::CaptureLasers {
+                capture: self.capture.name(),
+                laser_grid: self.laser_grid,
+            });
         }
         if !self.laser_points.is_empty() && self.laser_points.len() != images {
-            return Err(format!(
-                "nlos: {} laser points for a {lx}x{ly} laser grid",
-                self.laser_points.len()
-            ));
+            return Err(Problem::LaserPoints {
+                points: self.laser_points.len(),
+                laser_grid: self.laser_grid,
+            });
         }
         let finite = [
             self.sensor_origin,
@@ -170,7 +174,7 @@ impl CaptureRecord {
         .iter()
         .all(|v| v.iter().all(|x| x.is_finite()));
         if !finite {
-            return Err("nlos: the sensor origin and the relay wall must be finite".into());
+            return Err(Problem::CaptureNotFinite);
         }
         Ok(())
     }

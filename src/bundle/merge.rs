@@ -17,11 +17,11 @@
 use super::manifest::Manifest;
 use super::shard::merge_records;
 use super::write::{npy, write_atomically, VolumeArrays};
-use super::{Bundle, BundleError, RowSums};
+use super::{Bundle, BundleError, Problem, RowSums};
 use ndarray::{Array2, Array3};
 use std::path::{Path, PathBuf};
 
-fn same_settings(a: &Manifest, b: &Manifest) -> Result<(), String> {
+fn same_settings(a: &Manifest, b: &Manifest) -> Result<(), Problem> {
     let checks: [(&str, bool); 13] = [
         ("channels", a.channels == b.channels),
         ("scene (SHA-256)", a.scene.sha256 == b.scene.sha256),
@@ -41,20 +41,15 @@ fn same_settings(a: &Manifest, b: &Manifest) -> Result<(), String> {
         ("NLOS capture", a.nlos == b.nlos),
     ];
     if let Some((what, _)) = checks.iter().find(|c| !c.1) {
-        return Err(format!("its {what} differs from the first bundle's"));
+        return Err(Problem::SettingDiffers(what));
     }
     // Replicates add up only with equal sizes (SPEC 5): R2 and B sum.
     let size = |m: &Manifest| m.replicates.map(|b| m.spp / b);
     if size(a) != size(b) {
-        let show = |m: &Manifest| match size(m) {
-            Some(k) => format!("replicates of {k} samples"),
-            None => "no replicates".to_string(),
-        };
-        return Err(format!(
-            "it has {} where the first bundle has {}: only bundles with replicates of equal size (or none) merge",
-            show(b),
-            show(a)
-        ));
+        return Err(Problem::ReplicateSizes {
+            it: size(b),
+            first: size(a),
+        });
     }
     // What the scene read and the -D values (bundles from before this was recorded
     // compare by the scene file alone).
@@ -66,12 +61,11 @@ fn same_settings(a: &Manifest, b: &Manifest) -> Result<(), String> {
             .chain(dy.keys())
             .find(|k| dx.get(*k) != dy.get(*k))
         {
-            let show = |v: Option<&String>| v.map_or("unset".to_string(), |v| format!("'{v}'"));
-            return Err(format!(
-                "it was rendered with -D {k} {} where the first bundle has {}",
-                show(dy.get(k)),
-                show(dx.get(k))
-            ));
+            return Err(Problem::Define {
+                key: k.clone(),
+                it: dy.get(k).cloned(),
+                first: dx.get(k).cloned(),
+            });
         }
         if x.inputs != y.inputs {
             let fx: std::collections::BTreeMap<_, _> = x.inputs.iter().cloned().collect();
@@ -82,9 +76,7 @@ fn same_settings(a: &Manifest, b: &Manifest) -> Result<(), String> {
                 .find(|k| fx.get(*k) != fy.get(*k))
                 .cloned()
                 .unwrap_or_default();
-            return Err(format!(
-                "the scene's file '{name}' (an include, mesh, image, volume or spectrum) differs from the first bundle's, or only one of them read it"
-            ));
+            return Err(Problem::SceneInput(name));
         }
     }
     Ok(())
@@ -157,11 +149,9 @@ fn add_band(a: &mut RowSums, b: &RowSums, m: &Manifest, dir: &Path) -> Result<()
     {
         let plane = m.width * m.bins;
         let (y, x, k) = (b.rows.start + i / plane, i % plane / m.bins, i % m.bins);
-        return Err(BundleError::Invalid(
+        return Err(BundleError::invalid(
             dir.join("nonzero.npy"),
-            format!(
-                "voxel (y {y}, x {x}, t {k}): the merged count exceeds the u32 range of nonzero.npy"
-            ),
+            Problem::CountOverflow { y, x, t: k },
         ));
     }
     a.rows = b.rows.clone();
@@ -175,10 +165,7 @@ pub fn merge_bundles(
     opts: MergeOptions,
 ) -> Result<Manifest, BundleError> {
     if inputs.len() < 2 {
-        return Err(BundleError::Io(
-            out.to_path_buf(),
-            "merge needs at least two bundles".into(),
-        ));
+        return Err(BundleError::TooFewToMerge(out.to_path_buf()));
     }
     let mut bundles: Vec<Bundle> = inputs
         .iter()
@@ -186,20 +173,17 @@ pub fn merge_bundles(
         .collect::<Result<_, _>>()?;
     for b in &bundles {
         same_settings(&bundles[0].manifest, &b.manifest)
-            .map_err(|e| BundleError::Invalid(b.dir.clone(), e))?;
+            .map_err(|e| BundleError::invalid(b.dir.clone(), e))?;
     }
     // Shards before seeds: a repeated shard is named as such.
     let records: Vec<_> = bundles.iter().map(|b| b.manifest.shard.as_ref()).collect();
     let shard = merge_records(&records, opts.partial)
-        .map_err(|e| BundleError::Invalid(out.to_path_buf(), e))?;
+        .map_err(|e| BundleError::invalid(out.to_path_buf(), Problem::Shards(e)))?;
     let mut all_seeds: Vec<u64> = Vec::new();
     for b in &bundles {
         for s in seeds(&b.manifest) {
             if all_seeds.contains(&s) {
-                return Err(BundleError::Invalid(
-                    b.dir.clone(),
-                    format!("seed {s} appears twice: merging would count the same paths twice"),
-                ));
+                return Err(BundleError::invalid(b.dir.clone(), Problem::SeedTwice(s)));
             }
             all_seeds.push(s);
         }
@@ -211,12 +195,7 @@ pub fn merge_bundles(
     let total_spp = bundles
         .iter()
         .try_fold(0u64, |a, b| a.checked_add(b.manifest.spp))
-        .ok_or_else(|| {
-            BundleError::Invalid(
-                bundles[0].dir.clone(),
-                "the merged spp would overflow a 64-bit count".into(),
-            )
-        })?;
+        .ok_or_else(|| BundleError::invalid(bundles[0].dir.clone(), Problem::SppOverflow))?;
     // Per-pixel images: small (H W), summed whole.
     let mut steady = Array3::<f64>::zeros((h, w, 3));
     let mut albedo = Array3::<f64>::zeros((h, w, 3));
@@ -269,7 +248,7 @@ pub fn merge_bundles(
         .clamp(1, h.max(1));
     let f32s = |a: Array3<f64>| a.mapv(|v| v as f32);
     write_atomically(out, opts.force, |dir| {
-        std::fs::create_dir(dir).map_err(|e| BundleError::Io(dir.to_path_buf(), e.to_string()))?;
+        std::fs::create_dir(dir).map_err(|e| BundleError::io(dir, e))?;
         let volumes =
             VolumeArrays::create(dir, (h, w, t), &first.transform, first.replicates.is_some())?;
         let (mut acc, mut rows) = (RowSums::default(), RowSums::default());
@@ -299,7 +278,7 @@ pub fn merge_bundles(
         npy(dir, "steady", "<f8", &steady, arrays)?;
         let json = serde_json::to_string_pretty(&manifest).expect("manifest serialises");
         let mpath = dir.join("manifest.json");
-        std::fs::write(&mpath, json).map_err(|e| BundleError::Io(mpath, e.to_string()))
+        std::fs::write(&mpath, json).map_err(|e| BundleError::io(mpath, e))
     })?;
     Ok(manifest)
 }

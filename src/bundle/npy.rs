@@ -28,6 +28,129 @@ pub const MAX_HEADER_BYTES: usize = 10_000;
 
 const MAGIC: &[u8] = b"\x93NUMPY";
 
+/// Why a `.npy` file cannot be read: one line, without the path (callers name the
+/// file).
+#[derive(Debug, thiserror::Error)]
+pub enum NpyError {
+    #[error("cannot read: {0}")]
+    Read(std::io::Error),
+    #[error("is a directory, not a .npy file")]
+    Directory,
+    #[error("is not a regular file (a device, FIFO or socket)")]
+    NotRegular,
+    /// The file opened is not a regular file (a link changed after the check).
+    #[error("is not a regular file")]
+    OpenedNotRegular,
+    #[error("truncated: {size} bytes is too short for a .npy header")]
+    Truncated { size: u64 },
+    #[error("not a .npy file (no NumPy magic string)")]
+    NoMagic,
+    #[error(".npy format version {major}.{minor} is not supported")]
+    Version { major: u8, minor: u8 },
+    #[error("header length {len} bytes is above the limit of {max}", max = MAX_HEADER_BYTES)]
+    HeaderTooLong { len: u64 },
+    #[error("truncated: the header claims {len} bytes, the file holds {size} bytes")]
+    HeaderBeyondFile { len: u64, size: u64 },
+    #[error("header does not end with a newline")]
+    NoNewline,
+    #[error("header is not text")]
+    HeaderNotText,
+    #[error("malformed header: {0}")]
+    Malformed(HeaderSyntax),
+    #[error("header has no {}", describe_key(.0))]
+    MissingKey(&'static str),
+    #[error("dtype {0:?} is not a plain numeric type")]
+    NotNumeric(String),
+    #[error("shape {0:?} has more elements than memory can address")]
+    TooManyElements(Vec<usize>),
+    #[error(
+        "truncated: shape {shape:?} of {dtype:?} needs {want} bytes of data, the file holds {have}"
+    )]
+    DataTruncated {
+        shape: Vec<usize>,
+        dtype: String,
+        want: u128,
+        have: u128,
+    },
+    #[error("{extra} bytes after the data of shape {shape:?} ({dtype:?}): not one .npy array")]
+    TrailingBytes {
+        extra: u128,
+        shape: Vec<usize>,
+        dtype: String,
+    },
+    /// [`NpyHeader::expect`]: a dtype other than the caller's.
+    #[error("dtype {found:?} is not the expected {expected:?} ({})", describe_dtype(.expected))]
+    UnexpectedDtype {
+        found: String,
+        expected: &'static str,
+    },
+    /// [`NpyHeader::expect`]: a shape other than the caller's.
+    #[error("shape {found:?} does not match the expected {expected:?}")]
+    UnexpectedShape {
+        found: Vec<usize>,
+        expected: Vec<usize>,
+    },
+    /// A read as another type than the header declares.
+    #[error("dtype {found:?} is not {read:?}")]
+    ReadAs { found: String, read: &'static str },
+    #[error("truncated while reading the data: {0}")]
+    DataUnreadable(std::io::Error),
+    /// A value the caller's check refused: the element (e.g. "voxel (y 1, x 2, t 3,
+    /// c 1)") and the check's reason (e.g. "is NaN").
+    #[error("{element} {why}")]
+    BadValue { element: String, why: String },
+    /// Data that do not fill the header's shape (not expected after the checks).
+    #[error("{0}")]
+    Layout(ndarray::ShapeError),
+}
+
+/// Why a header's dictionary does not parse (byte offsets into the dictionary).
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum HeaderSyntax {
+    #[error("key {0:?} twice")]
+    KeyTwice(String),
+    #[error("unknown key {0:?}")]
+    UnknownKey(String),
+    #[error("unexpected text after the dictionary at byte {0}")]
+    TrailingText(usize),
+    #[error("expected {want:?} at byte {at}, found {}", describe_found(.found))]
+    Expected {
+        want: char,
+        at: usize,
+        found: Option<char>,
+    },
+    #[error("expected a quoted string at byte {at}, found {}", describe_found(.found))]
+    ExpectedString { at: usize, found: Option<char> },
+    #[error("unterminated string")]
+    UnterminatedString,
+    #[error("unexpected string at byte {0}")]
+    UnexpectedString(usize),
+    #[error("expected True or False at byte {at}, found {}", describe_found(.found))]
+    ExpectedBool { at: usize, found: Option<char> },
+    #[error("expected a dimension at byte {at}, found {}", describe_found(.found))]
+    ExpectedDimension { at: usize, found: Option<char> },
+    #[error("dimension {0} is too large")]
+    DimensionTooLarge(String),
+    #[error("more than 32 dimensions")]
+    TooManyDimensions,
+}
+
+/// "'descr' (dtype)", "'shape'": a header key as messages name it.
+fn describe_key(key: &str) -> String {
+    match key {
+        "descr" => "'descr' (dtype)".into(),
+        _ => format!("'{key}'"),
+    }
+}
+
+/// The character found where something else was expected, as messages show it.
+fn describe_found(c: &Option<char>) -> String {
+    match c {
+        Some(c) => format!("{c:?}"),
+        None => "the end".into(),
+    }
+}
+
 /// An element type a bundle or report array may hold.
 pub trait Element: Copy + Send + Sync + 'static {
     /// The NumPy descriptor of its little-endian form, e.g. `"<f8"`.
@@ -95,21 +218,19 @@ pub struct NpyHeader {
 
 impl NpyHeader {
     /// Refuses any dtype but `T`'s, and any shape but `shape` (when given).
-    pub fn expect<T: Element>(&self, shape: Option<&[usize]>) -> Result<(), String> {
+    pub fn expect<T: Element>(&self, shape: Option<&[usize]>) -> Result<(), NpyError> {
         if self.dtype != T::DTYPE {
-            return Err(format!(
-                "dtype {:?} is not the expected {:?} ({})",
-                self.dtype,
-                T::DTYPE,
-                describe_dtype(T::DTYPE)
-            ));
+            return Err(NpyError::UnexpectedDtype {
+                found: self.dtype.clone(),
+                expected: T::DTYPE,
+            });
         }
         if let Some(s) = shape {
             if self.shape != s {
-                return Err(format!(
-                    "shape {:?} does not match the expected {:?}",
-                    self.shape, s
-                ));
+                return Err(NpyError::UnexpectedShape {
+                    found: self.shape.clone(),
+                    expected: s.to_vec(),
+                });
             }
         }
         Ok(())
@@ -132,34 +253,31 @@ pub struct NpyFile {
 }
 
 /// Opens `path` and checks its header (see the module docs).
-pub fn open(path: &Path) -> Result<NpyFile, String> {
-    let meta = std::fs::metadata(path).map_err(|e| format!("cannot read: {e}"))?;
+pub fn open(path: &Path) -> Result<NpyFile, NpyError> {
+    let meta = std::fs::metadata(path).map_err(NpyError::Read)?;
     if !meta.is_file() {
         return Err(if meta.is_dir() {
-            "is a directory, not a .npy file".into()
+            NpyError::Directory
         } else {
-            "is not a regular file (a device, FIFO or socket)".into()
+            NpyError::NotRegular
         });
     }
-    let mut file = File::open(path).map_err(|e| format!("cannot read: {e}"))?;
+    let mut file = File::open(path).map_err(NpyError::Read)?;
     // The size of the file actually opened (a link could have changed meanwhile).
-    let size = file
-        .metadata()
-        .map_err(|e| format!("cannot read: {e}"))?
-        .len();
+    let size = file.metadata().map_err(NpyError::Read)?.len();
     if !file.metadata().map(|m| m.is_file()).unwrap_or(false) {
-        return Err("is not a regular file".into());
+        return Err(NpyError::OpenedNotRegular);
     }
     let header = read_header(&mut file, size)?;
     Ok(NpyFile { file, header })
 }
 
-fn read_header(file: &mut File, size: u64) -> Result<NpyHeader, String> {
-    let truncated = || format!("truncated: {size} bytes is too short for a .npy header");
+fn read_header(file: &mut File, size: u64) -> Result<NpyHeader, NpyError> {
+    let truncated = || NpyError::Truncated { size };
     let mut pre = [0u8; 8];
     file.read_exact(&mut pre).map_err(|_| truncated())?;
     if &pre[..6] != MAGIC {
-        return Err("not a .npy file (no NumPy magic string)".into());
+        return Err(NpyError::NoMagic);
     }
     let (major, minor) = (pre[6], pre[7]);
     let header_len = match (major, minor) {
@@ -173,52 +291,53 @@ fn read_header(file: &mut File, size: u64) -> Result<NpyHeader, String> {
             file.read_exact(&mut b).map_err(|_| truncated())?;
             u32::from_le_bytes(b) as u64
         }
-        _ => {
-            return Err(format!(
-                ".npy format version {major}.{minor} is not supported"
-            ))
-        }
+        _ => return Err(NpyError::Version { major, minor }),
     };
     let prefix = if major == 1 { 10 } else { 12 };
     if header_len > MAX_HEADER_BYTES as u64 {
-        return Err(format!(
-            "header length {header_len} bytes is above the limit of {MAX_HEADER_BYTES}"
-        ));
+        return Err(NpyError::HeaderTooLong { len: header_len });
     }
     if prefix + header_len > size {
-        return Err(format!(
-            "truncated: the header claims {header_len} bytes, the file holds {size} bytes"
-        ));
+        return Err(NpyError::HeaderBeyondFile {
+            len: header_len,
+            size,
+        });
     }
     let mut text = vec![0u8; header_len as usize];
     file.read_exact(&mut text).map_err(|_| truncated())?;
     let text = match text.split_last() {
         Some((b'\n', rest)) => rest,
-        _ => return Err("header does not end with a newline".into()),
+        _ => return Err(NpyError::NoNewline),
     };
-    let text = std::str::from_utf8(text).map_err(|_| "header is not text".to_string())?;
-    let dict = parse_dict(text).map_err(|e| format!("malformed header: {e}"))?;
-    let dtype = dict.descr.ok_or("header has no 'descr' (dtype)")?;
-    let fortran_order = dict.fortran_order.ok_or("header has no 'fortran_order'")?;
-    let shape = dict.shape.ok_or("header has no 'shape'")?;
+    let text = std::str::from_utf8(text).map_err(|_| NpyError::HeaderNotText)?;
+    let dict = parse_dict(text).map_err(NpyError::Malformed)?;
+    let dtype = dict.descr.ok_or(NpyError::MissingKey("descr"))?;
+    let fortran_order = dict
+        .fortran_order
+        .ok_or(NpyError::MissingKey("fortran_order"))?;
+    let shape = dict.shape.ok_or(NpyError::MissingKey("shape"))?;
     let itemsize = itemsize(&dtype)?;
     let len = shape
         .iter()
         .try_fold(1usize, |a, &d| a.checked_mul(d))
-        .ok_or_else(|| format!("shape {shape:?} has more elements than memory can address"))?;
+        .ok_or_else(|| NpyError::TooManyElements(shape.clone()))?;
     let data_offset = prefix + header_len;
     let want = (len as u128) * (itemsize as u128);
     let have = (size - data_offset) as u128;
     if have != want {
         return Err(if have < want {
-            format!(
-                "truncated: shape {shape:?} of {dtype:?} needs {want} bytes of data, the file holds {have}"
-            )
+            NpyError::DataTruncated {
+                shape,
+                dtype,
+                want,
+                have,
+            }
         } else {
-            format!(
-                "{} bytes after the data of shape {shape:?} ({dtype:?}): not one .npy array",
-                have - want
-            )
+            NpyError::TrailingBytes {
+                extra: have - want,
+                shape,
+                dtype,
+            }
         });
     }
     Ok(NpyHeader {
@@ -232,8 +351,8 @@ fn read_header(file: &mut File, size: u64) -> Result<NpyHeader, String> {
 }
 
 /// Bytes per element of a plain numeric descriptor such as `"<f8"`, `"|u1"`.
-fn itemsize(dtype: &str) -> Result<usize, String> {
-    let bad = || format!("dtype {dtype:?} is not a plain numeric type");
+fn itemsize(dtype: &str) -> Result<usize, NpyError> {
+    let bad = || NpyError::NotNumeric(dtype.to_string());
     let mut chars = dtype.chars();
     let order = chars.next().ok_or_else(bad)?;
     let kind = chars.next().ok_or_else(bad)?;
@@ -262,7 +381,7 @@ struct Dict {
 /// Parses NumPy's header dictionary, e.g.
 /// `{'descr': '<f8', 'fortran_order': False, 'shape': (8, 8, 10, 3), }` (any key
 /// order, either quote, optional trailing commas, padding spaces). Nothing else.
-fn parse_dict(text: &str) -> Result<Dict, String> {
+fn parse_dict(text: &str) -> Result<Dict, HeaderSyntax> {
     let mut p = Parser {
         s: text.as_bytes(),
         i: 0,
@@ -283,8 +402,8 @@ fn parse_dict(text: &str) -> Result<Dict, String> {
             "descr" if d.descr.is_none() => d.descr = Some(p.string()?),
             "fortran_order" if d.fortran_order.is_none() => d.fortran_order = Some(p.boolean()?),
             "shape" if d.shape.is_none() => d.shape = Some(p.tuple()?),
-            "descr" | "fortran_order" | "shape" => return Err(format!("key {key:?} twice")),
-            _ => return Err(format!("unknown key {key:?}")),
+            "descr" | "fortran_order" | "shape" => return Err(HeaderSyntax::KeyTwice(key)),
+            _ => return Err(HeaderSyntax::UnknownKey(key)),
         }
         p.ws();
         if !p.eat(b',') {
@@ -295,10 +414,7 @@ fn parse_dict(text: &str) -> Result<Dict, String> {
     }
     p.ws();
     if p.i != p.s.len() {
-        return Err(format!(
-            "unexpected text after the dictionary at byte {}",
-            p.i
-        ));
+        return Err(HeaderSyntax::TrailingText(p.i));
     }
     Ok(d)
 }
@@ -324,65 +440,59 @@ impl Parser<'_> {
         }
     }
 
-    fn found(&self) -> String {
-        match self.s.get(self.i) {
-            Some(&c) => format!("{:?}", c as char),
-            None => "the end".into(),
-        }
+    fn found(&self) -> Option<char> {
+        self.s.get(self.i).map(|&c| c as char)
     }
 
-    fn expect(&mut self, c: u8) -> Result<(), String> {
+    fn expect(&mut self, c: u8) -> Result<(), HeaderSyntax> {
         if self.eat(c) {
             Ok(())
         } else {
-            Err(format!(
-                "expected {:?} at byte {}, found {}",
-                c as char,
-                self.i,
-                self.found()
-            ))
+            Err(HeaderSyntax::Expected {
+                want: c as char,
+                at: self.i,
+                found: self.found(),
+            })
         }
     }
 
-    fn string(&mut self) -> Result<String, String> {
+    fn string(&mut self) -> Result<String, HeaderSyntax> {
         let q = match self.s.get(self.i) {
             Some(&q @ (b'\'' | b'"')) => q,
             _ => {
-                return Err(format!(
-                    "expected a quoted string at byte {}, found {}",
-                    self.i,
-                    self.found()
-                ))
+                return Err(HeaderSyntax::ExpectedString {
+                    at: self.i,
+                    found: self.found(),
+                })
             }
         };
         let start = self.i + 1;
         let len = self.s[start..]
             .iter()
             .position(|&c| c == q)
-            .ok_or("unterminated string")?;
+            .ok_or(HeaderSyntax::UnterminatedString)?;
         let v = &self.s[start..start + len];
         if v.len() > 64 || v.iter().any(|&c| c == b'\\' || !(b' '..=b'~').contains(&c)) {
-            return Err(format!("unexpected string at byte {}", self.i));
+            return Err(HeaderSyntax::UnexpectedString(self.i));
         }
         self.i = start + len + 1;
         Ok(String::from_utf8_lossy(v).into_owned())
     }
 
-    fn boolean(&mut self) -> Result<bool, String> {
+    fn boolean(&mut self) -> Result<bool, HeaderSyntax> {
         for (word, v) in [(&b"True"[..], true), (&b"False"[..], false)] {
             if self.s[self.i..].starts_with(word) {
                 self.i += word.len();
                 return Ok(v);
             }
         }
-        Err(format!(
-            "expected True or False at byte {}, found {}",
-            self.i,
-            self.found()
-        ))
+        Err(HeaderSyntax::ExpectedBool {
+            at: self.i,
+            found: self.found(),
+        })
     }
 
-    fn tuple(&mut self) -> Result<Vec<usize>, String> {
+    fn tuple(&mut self) -> Result<Vec<usize>, HeaderSyntax> {
         self.expect(b'(')?;
         let mut v = Vec::new();
         loop {
@@ -395,20 +505,19 @@ impl Parser<'_> {
                 self.i += 1;
             }
             if self.i == start {
-                return Err(format!(
-                    "expected a dimension at byte {}, found {}",
-                    self.i,
-                    self.found()
-                ));
+                return Err(HeaderSyntax::ExpectedDimension {
+                    at: self.i,
+                    found: self.found(),
+                });
             }
             let digits = std::str::from_utf8(&self.s[start..self.i]).expect("ASCII digits");
             let d: usize = digits
                 .parse()
-                .map_err(|_| format!("dimension {digits} is too large"))?;
+                .map_err(|_| HeaderSyntax::DimensionTooLarge(digits.to_string()))?;
             self.eat(b'L'); // Python 2 long literals
             v.push(d);
             if v.len() > 32 {
-                return Err("more than 32 dimensions".into());
+                return Err(HeaderSyntax::TooManyDimensions);
             }
             self.ws();
             if !self.eat(b',') {
@@ -463,7 +572,7 @@ impl NpyFile {
         self,
         mut check: impl FnMut(usize, &[T]) -> Bad,
         axes: &[&str],
-    ) -> Result<Vec<T>, String> {
+    ) -> Result<Vec<T>, NpyError> {
         let shape = self.header.shape.clone();
         let mut out: Vec<T> = Vec::with_capacity(self.header.len);
         let fortran = self.fortran();
@@ -491,7 +600,7 @@ impl NpyFile {
         map: impl Fn(T) -> O,
         mut check: impl FnMut(usize, &[T]) -> Bad,
         axes: &[&str],
-    ) -> Result<Vec<O>, String> {
+    ) -> Result<Vec<O>, NpyError> {
         if self.fortran() {
             let v = self.read(check, axes)?;
             return Ok(v.into_iter().map(map).collect());
@@ -535,11 +644,14 @@ impl NpyFile {
         out: &mut Vec<T>,
         mut check: impl FnMut(usize, &[T]) -> Bad,
         axes: &[&str],
-    ) -> Result<(), String> {
+    ) -> Result<(), NpyError> {
         use std::os::unix::fs::FileExt;
         let h = &self.header;
         if h.dtype != T::DTYPE {
-            return Err(format!("dtype {:?} is not {:?}", h.dtype, T::DTYPE));
+            return Err(NpyError::ReadAs {
+                found: h.dtype.clone(),
+                read: T::DTYPE,
+            });
         }
         let rows_total = h.shape.first().copied().unwrap_or(1);
         assert!(
@@ -550,7 +662,7 @@ impl NpyFile {
         let first = rows.start * row_len;
         let len = (rows.end - rows.start) * row_len;
         let fail = |e: Failure| e.describe(axes, &h.shape);
-        let io = |e: std::io::Error| Failure::Io(format!("truncated while reading the data: {e}"));
+        let io = |e: std::io::Error| Failure::Io(NpyError::DataUnreadable(e));
         out.clear();
         out.reserve(len);
         if !self.fortran() {
@@ -603,16 +715,15 @@ impl NpyFile {
         use std::io::{Seek, SeekFrom};
         let h = &self.header;
         if h.dtype != T::DTYPE {
-            return Err(Failure::Io(format!(
-                "dtype {:?} is not {:?}",
-                h.dtype,
-                T::DTYPE
-            )));
+            return Err(Failure::Io(NpyError::ReadAs {
+                found: h.dtype.clone(),
+                read: T::DTYPE,
+            }));
         }
         let len = h.len;
         self.file
             .seek(SeekFrom::Start(h.data_offset))
-            .map_err(|e| Failure::Io(format!("cannot read: {e}")))?;
+            .map_err(|e| Failure::Io(NpyError::Read(e)))?;
         let mut bytes = vec![0u8; BLOCK_ELEMS.min(len) * T::SIZE];
         let mut done = 0;
         while done < len {
@@ -620,7 +731,7 @@ impl NpyFile {
             let buf = &mut bytes[..n * T::SIZE];
             self.file
                 .read_exact(buf)
-                .map_err(|e| Failure::Io(format!("truncated while reading the data: {e}")))?;
+                .map_err(|e| Failure::Io(NpyError::DataUnreadable(e)))?;
             if let Some(b) = f(done, buf) {
                 return Err(Failure::Bad(b));
             }
@@ -631,25 +742,26 @@ impl NpyFile {
 }
 
 enum Failure {
-    Io(String),
+    Io(NpyError),
     Bad((usize, String)),
 }
 
 impl Failure {
-    fn describe(self, axes: &[&str], shape: &[usize]) -> String {
+    fn describe(self, axes: &[&str], shape: &[usize]) -> NpyError {
         match self {
             Failure::Io(e) => e,
-            Failure::Bad((flat, why)) => {
-                format!("{} {why}", describe_voxel(axes, &unravel(flat, shape)))
-            }
+            Failure::Bad((flat, why)) => NpyError::BadValue {
+                element: describe_voxel(axes, &unravel(flat, shape)),
+                why,
+            },
         }
     }
 }
 
 /// A Fortran-order array (first axis fastest) in C order.
-fn to_c_order<T: Element>(v: Vec<T>, shape: &[usize]) -> Result<Vec<T>, String> {
+fn to_c_order<T: Element>(v: Vec<T>, shape: &[usize]) -> Result<Vec<T>, NpyError> {
     let a = ndarray::ArrayD::from_shape_vec(ndarray::ShapeBuilder::f(ndarray::IxDyn(shape)), v)
-        .map_err(|e| e.to_string())?;
+        .map_err(NpyError::Layout)?;
     Ok(a.as_standard_layout().iter().copied().collect())
 }
 
@@ -723,7 +835,7 @@ mod tests {
         v
     }
 
-    fn open_bytes(bytes: &[u8]) -> Result<NpyFile, String> {
+    fn open_bytes(bytes: &[u8]) -> Result<NpyFile, NpyError> {
         let dir = tempfile::tempdir().unwrap();
         let p = dir.path().join("a.npy");
         std::fs::write(&p, bytes).unwrap();
@@ -826,7 +938,8 @@ mod tests {
         for (bytes, want) in &cases {
             let e = open_bytes(bytes)
                 .err()
-                .unwrap_or_else(|| panic!("accepted for {want}"));
+                .unwrap_or_else(|| panic!("accepted for {want}"))
+                .to_string();
             one_line(&e);
             assert!(e.contains(want), "expected {want:?} in {e:?}");
         }
@@ -835,16 +948,20 @@ mod tests {
         b.extend([2, 0]);
         b.extend(u32::MAX.to_le_bytes());
         b.extend(b"{}");
-        let e = open_bytes(&b).err().unwrap();
+        let e = open_bytes(&b).err().unwrap().to_string();
         assert!(e.contains("above the limit"), "{e}");
         // Header bytes that are not text, and one without its final newline.
         let mut b = npy_bytes(good, &data, 1);
         b[20] = 0xff;
-        one_line(&open_bytes(&b).err().unwrap());
+        one_line(&open_bytes(&b).err().unwrap().to_string());
         let mut b = MAGIC.to_vec();
         b.extend([1, 0, 4, 0]);
         b.extend(b"{}  ");
-        assert!(open_bytes(&b).err().unwrap().contains("newline"));
+        assert!(open_bytes(&b)
+            .err()
+            .unwrap()
+            .to_string()
+            .contains("newline"));
     }
 
     #[test]
@@ -855,12 +972,16 @@ mod tests {
             1,
         );
         let f = open_bytes(&b).unwrap();
-        let e = f.header.expect::<f64>(Some(&[4])).unwrap_err();
+        let e = f.header.expect::<f64>(Some(&[4])).unwrap_err().to_string();
         assert!(e.contains("\"<f4\"") && e.contains("f64"), "{e}");
         f.header.expect::<f32>(Some(&[4])).unwrap();
-        let e = f.header.expect::<f32>(Some(&[2, 2])).unwrap_err();
+        let e = f
+            .header
+            .expect::<f32>(Some(&[2, 2]))
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("[4]") && e.contains("[2, 2]"), "{e}");
-        let e = f.read::<f64>(|_, _| None, &[]).unwrap_err();
+        let e = f.read::<f64>(|_, _| None, &[]).unwrap_err().to_string();
         one_line(&e);
     }
 
@@ -909,14 +1030,16 @@ mod tests {
             };
             let e = file
                 .read_rows::<f64>(4..6, &mut Vec::new(), check, &axes)
-                .unwrap_err();
+                .unwrap_err()
+                .to_string();
             assert_eq!(e, "voxel (y 5, x 0, t 1, c 2) is 92.5", "{path:?}");
         }
         // A wrong type is refused, not reinterpreted.
         let e = open(&c)
             .unwrap()
             .read_rows::<f32>(0..1, &mut Vec::new(), |_, _| None, &[])
-            .unwrap_err();
+            .unwrap_err()
+            .to_string();
         one_line(&e);
     }
 
@@ -938,7 +1061,8 @@ mod tests {
         let e = open_bytes(&b)
             .unwrap()
             .read::<f64>(check, &["y", "x", "t", "c"])
-            .unwrap_err();
+            .unwrap_err()
+            .to_string();
         assert_eq!(e, "voxel (y 1, x 2, t 3, c 1) is NaN");
         assert_eq!(unravel(5, &[2, 3]), vec![1, 2]);
         assert_eq!(describe_index(&["y", "x"], &[1, 2]), "(y 1, x 2)");

@@ -45,7 +45,7 @@
 use super::manifest::{ArrayInfo, Manifest, C_M_PER_S, FORMAT, VERSION};
 use super::npy::{self, first_bad, show, Element};
 use super::shard::MAX_SHARDS;
-use super::BundleError;
+use super::{BundleError, Problem};
 use crate::stats::accumulators::CHANNELS;
 use crate::stats::estimators::check_spp;
 use ndarray::{Array, Array2, Array3, Array4, Dimension, IntoDimension};
@@ -108,15 +108,14 @@ pub fn required_arrays(m: &Manifest) -> Vec<(&'static str, &'static str, Vec<usi
 
 /// The manifest's own fields (after the format and version are known): sizes,
 /// sample count, time axis, transform, metadata. The error is a short reason.
-pub fn validate(m: &Manifest) -> Result<(), String> {
-    m.transform
-        .validate()
-        .map_err(|e| format!("transform: {e}"))?;
+pub fn validate(m: &Manifest) -> Result<(), Problem> {
+    m.transform.validate().map_err(Problem::Transform)?;
     if m.width == 0 || m.height == 0 || m.bins == 0 {
-        return Err(format!(
-            "empty film size ({} x {} px, {} bins)",
-            m.width, m.height, m.bins
-        ));
+        return Err(Problem::EmptyFilm {
+            width: m.width,
+            height: m.height,
+            bins: m.bins,
+        });
     }
     // The largest array, in bytes, must be addressable (and the element count of
     // every array is a factor of it).
@@ -124,41 +123,33 @@ pub fn validate(m: &Manifest) -> Result<(), String> {
         .iter()
         .try_fold(1usize, |a, &d| a.checked_mul(d))
         .filter(|&b| b <= isize::MAX as usize)
-        .ok_or_else(|| {
-            format!(
-                "film size {} x {} px x {} bins overflows the address space",
-                m.width, m.height, m.bins
-            )
+        .ok_or(Problem::FilmOverflow {
+            width: m.width,
+            height: m.height,
+            bins: m.bins,
         })?;
     if let Some(n) = &m.nlos {
         n.validate(m.width, m.height)?;
     }
     if m.channels != ["R", "G", "B"] {
-        return Err(format!(
-            "channels {:?}: the format holds [\"R\", \"G\", \"B\"]",
-            m.channels
-        ));
+        return Err(Problem::Channels(m.channels.clone()));
     }
     let sha = &m.scene.sha256;
     if sha.len() != 64 || !sha.bytes().all(|b| b.is_ascii_hexdigit()) {
-        return Err(format!(
-            "scene.sha256 {sha:?} is not a SHA-256 (64 hexadecimal digits); merge compares it"
-        ));
+        return Err(Problem::SceneHash(sha.clone()));
     }
-    check_spp(m.spp)?;
+    check_spp(m.spp).map_err(Problem::Spp)?;
     if let Some(b) = m.replicates {
         if b < 2 || !m.spp.is_multiple_of(b) {
-            return Err(format!(
-                "replicates = {b} with spp = {}: replicates are at least 2 and divide spp",
-                m.spp
-            ));
+            return Err(Problem::Replicates {
+                replicates: b,
+                spp: m.spp,
+            });
         }
     }
     let finite_positive = |v: f64| v > 0.0 && v.is_finite();
     if !(finite_positive(m.bin_width_opl) && finite_positive(m.unit_m) && m.start_opl.is_finite()) {
-        return Err(
-            "bad time axis (bin_width_opl and unit_m must be positive, start_opl finite)".into(),
-        );
+        return Err(Problem::TimeAxis);
     }
     // The seconds are derived (opl * unit_m / c); `info` shows them, so they must
     // agree with the OPL axis they restate.
@@ -168,31 +159,24 @@ pub fn validate(m: &Manifest) -> Result<(), String> {
             && (s - seconds(opl)).abs() <= 1e-9 * seconds(opl).abs().max(seconds(m.bin_width_opl))
     };
     if !(agrees(m.start_seconds, m.start_opl) && agrees(m.bin_width_seconds, m.bin_width_opl)) {
-        return Err(format!(
-            "start_seconds = {} and bin_width_seconds = {} do not restate start_opl and bin_width_opl in seconds ({} and {} at unit_m = {})",
-            m.start_seconds,
-            m.bin_width_seconds,
-            seconds(m.start_opl),
-            seconds(m.bin_width_opl),
-            m.unit_m
-        ));
+        return Err(Problem::Seconds {
+            start_seconds: m.start_seconds,
+            bin_width_seconds: m.bin_width_seconds,
+            start: seconds(m.start_opl),
+            bin_width: seconds(m.bin_width_opl),
+            unit_m: m.unit_m,
+        });
     }
     if !(m.render_seconds.is_finite() && m.render_seconds >= 0.0) {
-        return Err(format!(
-            "render_seconds = {} is not a duration",
-            m.render_seconds
-        ));
+        return Err(Problem::RenderSeconds(m.render_seconds));
     }
     if m.max_depth < -1 {
-        return Err(format!("max_depth = {} (-1 means unbounded)", m.max_depth));
+        return Err(Problem::MaxDepth(m.max_depth));
     }
     if let Some(i) =
         (1..m.merged_seeds.len()).find(|&i| m.merged_seeds[..i].contains(&m.merged_seeds[i]))
     {
-        return Err(format!(
-            "merged_seeds lists seed {} twice",
-            m.merged_seeds[i]
-        ));
+        return Err(Problem::MergedSeedTwice(m.merged_seeds[i]));
     }
     if let Some(s) = &m.shard {
         let hex = s.job.len() == 16 && s.job.bytes().all(|b| b.is_ascii_hexdigit());
@@ -204,10 +188,11 @@ pub fn validate(m: &Manifest) -> Result<(), String> {
             || !ordered
             || s.indices.iter().any(|&i| i >= s.count)
         {
-            return Err(format!(
-                "shard {{job {:?}, count {}, indices {:?}}}: expected a 16-digit hexadecimal job, a count of at most 2^32 and increasing indices below count",
-                s.job, s.count, s.indices
-            ));
+            return Err(Problem::ShardRecord {
+                job: s.job.clone(),
+                count: s.count,
+                indices: s.indices.clone(),
+            });
         }
     }
     Ok(())
@@ -218,46 +203,37 @@ impl Bundle {
         let mpath = dir.join("manifest.json");
         if !dir.is_dir() {
             let why = if dir.exists() {
-                "not a bundle directory (a bundle is a directory holding manifest.json)"
+                Problem::NotADirectory
             } else {
-                "no such bundle directory"
+                Problem::NoSuchDirectory
             };
-            return Err(BundleError::Invalid(dir.to_path_buf(), why.into()));
+            return Err(BundleError::invalid(dir.to_path_buf(), why));
         }
         let text = crate::io::read_regular_text(&mpath, crate::io::MAX_MANIFEST_BYTES)
-            .map_err(|e| BundleError::Invalid(mpath.clone(), format!("cannot read: {e}")))?;
+            .map_err(|e| BundleError::invalid(mpath.clone(), Problem::Unreadable(e)))?;
         let value: serde_json::Value = serde_json::from_str(&text)
-            .map_err(|e| BundleError::Invalid(mpath.clone(), format!("not valid JSON: {e}")))?;
+            .map_err(|e| BundleError::invalid(mpath.clone(), Problem::NotJson(e)))?;
         if value.get("format").and_then(|f| f.as_str()) != Some(FORMAT) {
-            return Err(BundleError::Invalid(
-                mpath,
-                format!("not a '{FORMAT}' manifest"),
-            ));
+            return Err(BundleError::invalid(mpath, Problem::NotThisFormat));
         }
         let version = value.get("version").and_then(|v| v.as_u64());
         if version != Some(VERSION as u64) {
             let found = value
                 .get("version")
                 .map_or("missing".to_string(), |v| v.to_string());
-            return Err(BundleError::Invalid(
-                mpath,
-                format!("format version {found} is not the supported version {VERSION}"),
-            ));
+            return Err(BundleError::invalid(mpath, Problem::Version { found }));
         }
         if let Some((at, c)) = control_character(&value, &mut String::new()) {
-            return Err(BundleError::Invalid(
+            return Err(BundleError::invalid(
                 mpath,
-                format!(
-                    "the text at {at} holds the control character U+{:04X} (a manifest's strings are printed as they are)",
-                    c as u32
-                ),
+                Problem::ControlCharacter { at, code: c as u32 },
             ));
         }
         // From the text, not the value: a key given twice ("spp": 4, "spp": 64) is an
         // error there, where a JSON value silently keeps the last one.
         let manifest: Manifest = serde_json::from_str(&text)
-            .map_err(|e| BundleError::Invalid(mpath.clone(), format!("bad manifest: {e}")))?;
-        validate(&manifest).map_err(|e| BundleError::Invalid(mpath.clone(), e))?;
+            .map_err(|e| BundleError::invalid(mpath.clone(), Problem::BadManifest(e)))?;
+        validate(&manifest).map_err(|e| BundleError::invalid(mpath.clone(), e))?;
         let bundle = Bundle {
             dir: dir.to_path_buf(),
             manifest,
@@ -266,8 +242,8 @@ impl Bundle {
         Ok(bundle)
     }
 
-    fn manifest_error(&self, msg: String) -> BundleError {
-        BundleError::Invalid(self.dir.join("manifest.json"), msg)
+    fn manifest_error(&self, problem: Problem) -> BundleError {
+        BundleError::invalid(self.dir.join("manifest.json"), problem)
     }
 
     /// The listing of every required array, and each file's header (cheap: a few
@@ -277,28 +253,31 @@ impl Bundle {
         if let Some(i) =
             (1..arrays.len()).find(|&i| arrays[..i].iter().any(|a| a.name == arrays[i].name))
         {
-            return Err(self.manifest_error(format!("lists the array '{}' twice", arrays[i].name)));
+            return Err(self.manifest_error(Problem::ArrayTwice(arrays[i].name.clone())));
         }
-        let mut files: Vec<(PathBuf, &str)> = Vec::new();
+        let mut files: Vec<(PathBuf, &'static str)> = Vec::new();
         for (name, dtype, shape) in required_arrays(&self.manifest) {
             let info = self.info(name)?;
             if info.dtype != dtype || info.shape != shape {
-                return Err(self.manifest_error(format!(
-                    "lists '{name}' as {:?} {:?}; the film's sizes need {dtype:?} {shape:?}",
-                    info.dtype, info.shape
-                )));
+                return Err(self.manifest_error(Problem::ArrayListing {
+                    name,
+                    dtype: info.dtype.clone(),
+                    shape: info.shape.clone(),
+                    want_dtype: dtype,
+                    want_shape: shape,
+                }));
             }
             let (path, f) = self.open_npy(name)?;
             check_header(&path, &f.header, dtype, &shape)?;
             // Two arrays read from one file (x2 listed in x1.npy, or links to one
             // target) would load without a complaint and mean nothing.
-            let real = std::fs::canonicalize(&path)
-                .map_err(|e| BundleError::Invalid(path.clone(), format!("cannot read: {e}")))?;
+            let real = std::fs::canonicalize(&path).map_err(|e| unreadable(&path, e))?;
             if let Some((_, other)) = files.iter().find(|(p, _)| *p == real) {
-                return Err(self.manifest_error(format!(
-                    "the arrays '{other}' and '{name}' are both in {}",
-                    real.display()
-                )));
+                return Err(self.manifest_error(Problem::SharedFile {
+                    other,
+                    name,
+                    file: real,
+                }));
             }
             files.push((real, name));
         }
@@ -316,7 +295,7 @@ impl Bundle {
     fn info(&self, name: &str) -> Result<&ArrayInfo, BundleError> {
         self.manifest
             .array(name)
-            .ok_or_else(|| self.manifest_error(format!("lists no array '{name}'")))
+            .ok_or_else(|| self.manifest_error(Problem::NoArray(name.to_string())))
     }
 
     /// The path of an array's file, refused unless it is a plain file name whose
@@ -329,36 +308,29 @@ impl Bundle {
             [std::path::Component::Normal(_)]
         );
         if !plain || info.file.contains('/') || info.file.contains('\\') {
-            return Err(self.manifest_error(format!(
-                "array '{name}' is in {:?}, which is not a file name inside the bundle",
-                info.file
-            )));
+            return Err(self.manifest_error(Problem::ArrayFile {
+                name: name.to_string(),
+                file: info.file.clone(),
+            }));
         }
         let path = self.dir.join(rel);
         let real = match std::fs::canonicalize(&path) {
             Ok(r) => r,
             Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
-                return Err(BundleError::Invalid(path, "missing".into()))
+                return Err(BundleError::invalid(path, Problem::Missing))
             }
-            Err(e) => return Err(BundleError::Invalid(path, format!("cannot read: {e}"))),
+            Err(e) => return Err(unreadable(&path, e)),
         };
-        let dir = std::fs::canonicalize(&self.dir)
-            .map_err(|e| BundleError::Invalid(self.dir.clone(), format!("cannot read: {e}")))?;
+        let dir = std::fs::canonicalize(&self.dir).map_err(|e| unreadable(&self.dir, e))?;
         if !real.starts_with(&dir) {
-            return Err(BundleError::Invalid(
-                path,
-                format!(
-                    "leads outside the bundle (to {}); a bundle's arrays live in its directory",
-                    real.display()
-                ),
-            ));
+            return Err(BundleError::invalid(path, Problem::Outside(real)));
         }
         Ok(path)
     }
 
     fn open_npy(&self, name: &str) -> Result<(PathBuf, npy::NpyFile), BundleError> {
         let path = self.array_path(name)?;
-        let f = npy::open(&path).map_err(|e| BundleError::Invalid(path.clone(), e))?;
+        let f = npy::open(&path).map_err(|e| npy_error(&path, e))?;
         Ok((path, f))
     }
 
@@ -373,10 +345,8 @@ impl Bundle {
     ) -> Result<Array<T, D>, BundleError> {
         let (path, f) = self.open_npy(name)?;
         check_header(&path, &f.header, T::DTYPE, shape.slice())?;
-        let data = f
-            .read(check, axes)
-            .map_err(|e| BundleError::Invalid(path.clone(), e))?;
-        Array::from_shape_vec(shape, data).map_err(|e| BundleError::Invalid(path, e.to_string()))
+        let data = f.read(check, axes).map_err(|e| npy_error(&path, e))?;
+        Array::from_shape_vec(shape, data).map_err(|e| npy_error(&path, npy::NpyError::Layout(e)))
     }
 
     fn shape4(&self) -> [usize; 4] {
@@ -653,8 +623,8 @@ impl Bundle {
         check_header(&path, &f.header, f64::DTYPE, &shape)?;
         let data = f
             .read_mapped(|s: f64| (s / n) as f32, check, &AXES4)
-            .map_err(|e| BundleError::Invalid(path.clone(), e))?;
-        Array::from_shape_vec(shape, data).map_err(|e| BundleError::Invalid(path, e.to_string()))
+            .map_err(|e| npy_error(&path, e))?;
+        Array::from_shape_vec(shape, data).map_err(|e| npy_error(&path, npy::NpyError::Layout(e)))
     }
 }
 
@@ -713,7 +683,7 @@ impl RowReader<'_> {
         *held = rows.start..rows.start;
         let (path, f) = &self.nonzero;
         f.read_rows(rows.clone(), nonzero, b.count_check(), &AXES3T)
-            .map_err(|e| BundleError::Invalid(path.clone(), e))?;
+            .map_err(|e| npy_error(path, e))?;
         let mut arrays = vec![
             (&self.sums[0], x1),
             (&self.sums[1], x2),
@@ -731,7 +701,7 @@ impl RowReader<'_> {
             let (_, check) = b.sum_check(a.which, nonzero);
             a.file
                 .read_rows(rows.clone(), out, check, &AXES4)
-                .map_err(|e| BundleError::Invalid(a.path.clone(), e))?;
+                .map_err(|e| npy_error(&a.path, e))?;
         }
         *held = rows;
         Ok(())
@@ -775,15 +745,28 @@ fn check_header(
     dtype: &str,
     shape: &[usize],
 ) -> Result<(), BundleError> {
-    let msg = if h.dtype != dtype {
-        format!("dtype {:?} is not the format's {dtype:?}", h.dtype)
+    let problem = if h.dtype != dtype {
+        Problem::HeaderDtype {
+            found: h.dtype.clone(),
+            want: dtype.to_string(),
+        }
     } else if h.shape != shape {
-        format!(
-            "shape {:?} does not match the manifest's {:?}",
-            h.shape, shape
-        )
+        Problem::HeaderShape {
+            found: h.shape.clone(),
+            want: shape.to_vec(),
+        }
     } else {
         return Ok(());
     };
-    Err(BundleError::Invalid(path.to_path_buf(), msg))
+    Err(BundleError::invalid(path.to_path_buf(), problem))
+}
+
+/// A `.npy` file of the bundle that cannot be read, or a value in it.
+fn npy_error(path: &Path, e: npy::NpyError) -> BundleError {
+    BundleError::invalid(path.to_path_buf(), Problem::Npy(e))
+}
+
+/// A file or directory of the bundle that cannot be read.
+fn unreadable(path: &Path, e: std::io::Error) -> BundleError {
+    BundleError::invalid(path.to_path_buf(), Problem::Unreadable(e.into()))
 }

@@ -22,6 +22,63 @@ pub const INDEX_VARIABLES: [&str; 2] = ["SLURM_ARRAY_TASK_ID", "JOB_COMPLETION_I
 /// The placeholder of `--out` replaced by the shard's index.
 pub const PLACEHOLDER: &str = "{shard}";
 
+/// Errors of `--shard` and of merging shards' records.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum ShardError {
+    /// `--shard SPEC` is not `I/N` or `auto/N`.
+    #[error("--shard {spec:?}: expected I/N or auto/N, e.g. 3/16")]
+    Spec { spec: String },
+    #[error("--shard {spec}: the number of shards must be from 1 to 2^32")]
+    Count { spec: String },
+    /// `--shard auto/N` without a scheduler's index variable.
+    #[error("--shard {spec}: neither {} is set (run it as a Slurm array task or a Kubernetes indexed Job, or give the index: --shard I/{count})", INDEX_VARIABLES.join(" nor "))]
+    IndexUnset { spec: String, count: u64 },
+    #[error("--shard {spec}: {var}={value:?} is not a shard index")]
+    IndexVariable {
+        spec: String,
+        var: &'static str,
+        value: String,
+    },
+    /// A shard index not below the number of shards; `var` names the variable it was
+    /// read from, if any.
+    #[error("--shard {spec}: index {index}{} is not below the number of shards {count} (indices run from 0 to {last}; a Slurm array is then --array=0-{last})", .var.map_or(String::new(), |v| format!(" ({v})")), last = .count - 1)]
+    Index {
+        spec: String,
+        index: u64,
+        var: Option<&'static str>,
+        count: u64,
+    },
+    /// A job's spp or replicates (`what`) that the shards cannot share equally.
+    #[error("{what} {total} is not a multiple of the number of shards {count}: every shard renders an equal share")]
+    Share {
+        what: String,
+        total: u64,
+        count: u64,
+    },
+    #[error("job {job} has bundles of {count} and of {other} shards")]
+    JobCounts { job: String, count: u64, other: u64 },
+    #[error("job {job}: shard {index} of {count} does not exist")]
+    NoSuchShard { job: String, index: u64, count: u64 },
+    #[error(
+        "job {job}: shard {index} of {count} is given twice: merging would count its paths twice"
+    )]
+    Twice { job: String, index: u64, count: u64 },
+    /// Shards of a job missing: how many, and the first 20.
+    #[error("job {job}: {missing} of its {count} shards are missing: {} (render them, or merge with --partial)", show_missing(.shown, .missing))]
+    Missing {
+        job: String,
+        count: u64,
+        missing: u64,
+        shown: Vec<u64>,
+    },
+}
+
+fn show_missing(shown: &[u64], missing: &u64) -> String {
+    let list: Vec<String> = shown.iter().map(u64::to_string).collect();
+    let more = if *missing > 20 { ", ..." } else { "" };
+    format!("{}{more}", list.join(", "))
+}
+
 /// Shard `index` of `count`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Shard {
@@ -46,50 +103,57 @@ pub struct ShardRecord {
 impl Shard {
     /// Parses `I/N` or `auto/N`; `env` looks up a variable (the process environment
     /// in the CLI).
-    pub fn parse(spec: &str, env: impl Fn(&str) -> Option<String>) -> Result<Shard, String> {
-        let bad = || format!("--shard {spec:?}: expected I/N or auto/N, e.g. 3/16");
+    pub fn parse(spec: &str, env: impl Fn(&str) -> Option<String>) -> Result<Shard, ShardError> {
+        let bad = || ShardError::Spec {
+            spec: spec.to_string(),
+        };
         let (i, n) = spec.split_once('/').ok_or_else(bad)?;
         let count: u64 = n.trim().parse().map_err(|_| bad())?;
         if count == 0 || count > MAX_SHARDS {
-            return Err(format!(
-                "--shard {spec}: the number of shards must be from 1 to 2^32"
-            ));
+            return Err(ShardError::Count {
+                spec: spec.to_string(),
+            });
         }
-        let (index, from) = if i.trim() == "auto" {
+        let (index, var) = if i.trim() == "auto" {
             let (var, value) = INDEX_VARIABLES
                 .iter()
                 .find_map(|v| env(v).map(|x| (*v, x)))
-                .ok_or_else(|| {
-                    format!(
-                        "--shard {spec}: neither {} is set (run it as a Slurm array task or a Kubernetes indexed Job, or give the index: --shard I/{count})",
-                        INDEX_VARIABLES.join(" nor ")
-                    )
+                .ok_or_else(|| ShardError::IndexUnset {
+                    spec: spec.to_string(),
+                    count,
                 })?;
             let index = value
                 .trim()
                 .parse::<u64>()
-                .map_err(|_| format!("--shard {spec}: {var}={value:?} is not a shard index"))?;
-            (index, format!(" ({var})"))
+                .map_err(|_| ShardError::IndexVariable {
+                    spec: spec.to_string(),
+                    var,
+                    value: value.clone(),
+                })?;
+            (index, Some(var))
         } else {
-            (i.trim().parse::<u64>().map_err(|_| bad())?, String::new())
+            (i.trim().parse::<u64>().map_err(|_| bad())?, None)
         };
         if index >= count {
-            return Err(format!(
-                "--shard {spec}: index {index}{from} is not below the number of shards {count} (indices run from 0 to {}; a Slurm array is then --array=0-{})",
-                count - 1,
-                count - 1
-            ));
+            return Err(ShardError::Index {
+                spec: spec.to_string(),
+                index,
+                var,
+                count,
+            });
         }
         Ok(Shard { index, count })
     }
 
-    /// The shard's share of the job's `total` (spp or replicates); N must divide it.
-    pub fn share(&self, total: u64, what: &str) -> Result<u64, String> {
+    /// The shard's share of the job's `total` (spp or replicates, named by `what`); N
+    /// must divide it.
+    pub fn share(&self, total: u64, what: &str) -> Result<u64, ShardError> {
         if !total.is_multiple_of(self.count) {
-            return Err(format!(
-                "{what} {total} is not a multiple of the number of shards {}: every shard renders an equal share",
-                self.count
-            ));
+            return Err(ShardError::Share {
+                what: what.to_string(),
+                total,
+                count: self.count,
+            });
         }
         Ok(total / self.count)
     }
@@ -127,7 +191,7 @@ pub fn job_id(key: &str) -> String {
 pub fn merge_records(
     records: &[Option<&ShardRecord>],
     partial: bool,
-) -> Result<Option<ShardRecord>, String> {
+) -> Result<Option<ShardRecord>, ShardError> {
     let mut jobs: Vec<ShardRecord> = Vec::new();
     for r in records.iter().flatten() {
         let job = match jobs.iter_mut().find(|j| j.job == r.job) {
@@ -142,23 +206,26 @@ pub fn merge_records(
             }
         };
         if job.count != r.count {
-            return Err(format!(
-                "job {} has bundles of {} and of {} shards",
-                r.job, job.count, r.count
-            ));
+            return Err(ShardError::JobCounts {
+                job: r.job.clone(),
+                count: job.count,
+                other: r.count,
+            });
         }
         for &i in &r.indices {
             if i >= r.count {
-                return Err(format!(
-                    "job {}: shard {i} of {} does not exist",
-                    r.job, r.count
-                ));
+                return Err(ShardError::NoSuchShard {
+                    job: r.job.clone(),
+                    index: i,
+                    count: r.count,
+                });
             }
             if job.indices.contains(&i) {
-                return Err(format!(
-                    "job {}: shard {i} of {} is given twice: merging would count its paths twice",
-                    r.job, r.count
-                ));
+                return Err(ShardError::Twice {
+                    job: r.job.clone(),
+                    index: i,
+                    count: r.count,
+                });
             }
             job.indices.push(i);
         }
@@ -169,18 +236,16 @@ pub fn merge_records(
             // The indices are distinct and below count: count - len are missing. The
             // first 20 are found lazily (count may be large).
             let missing = j.count - j.indices.len() as u64;
-            let shown: Vec<String> = (0..j.count)
+            let shown: Vec<u64> = (0..j.count)
                 .filter(|i| j.indices.binary_search(i).is_err())
                 .take(20)
-                .map(|i| i.to_string())
                 .collect();
-            return Err(format!(
-                "job {}: {missing} of its {} shards are missing: {}{} (render them, or merge with --partial)",
-                j.job,
-                j.count,
-                shown.join(", "),
-                if missing > 20 { ", ..." } else { "" }
-            ));
+            return Err(ShardError::Missing {
+                job: j.job.clone(),
+                count: j.count,
+                missing,
+                shown,
+            });
         }
     }
     let all_sharded = records.iter().all(Option::is_some);
@@ -240,7 +305,7 @@ mod tests {
                 "is not a shard index",
             ),
         ] {
-            let e = Shard::parse(spec, env(vars)).unwrap_err();
+            let e = Shard::parse(spec, env(vars)).unwrap_err().to_string();
             assert!(e.contains(needle), "{spec}: {e}");
         }
     }
@@ -252,7 +317,11 @@ mod tests {
             count: 16,
         };
         assert_eq!(s.share(1024, "spp"), Ok(64));
-        assert!(s.share(1000, "spp").unwrap_err().contains("not a multiple"));
+        assert!(s
+            .share(1000, "spp")
+            .unwrap_err()
+            .to_string()
+            .contains("not a multiple"));
         assert_eq!(s.out_path("d/shard-{shard}.tstats"), "d/shard-05.tstats");
         assert_eq!(Shard { index: 7, count: 8 }.out_path("{shard}"), "7");
         assert_eq!(
@@ -279,13 +348,17 @@ mod tests {
         let (a0, a1, a2) = (rec("a", 3, &[0]), rec("a", 3, &[1]), rec("a", 3, &[2]));
         let all = merge_records(&[Some(&a2), Some(&a0), Some(&a1)], false).unwrap();
         assert_eq!(all, Some(rec("a", 3, &[0, 1, 2])));
-        let e = merge_records(&[Some(&a0), Some(&a2)], false).unwrap_err();
+        let e = merge_records(&[Some(&a0), Some(&a2)], false)
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("1 of its 3 shards are missing: 1 "), "{e}");
         assert_eq!(
             merge_records(&[Some(&a0), Some(&a2)], true).unwrap(),
             Some(rec("a", 3, &[0, 2]))
         );
-        let e = merge_records(&[Some(&a0), Some(&a0), Some(&a1), Some(&a2)], false).unwrap_err();
+        let e = merge_records(&[Some(&a0), Some(&a0), Some(&a1), Some(&a2)], false)
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("shard 0 of 3 is given twice"), "{e}");
         let b = rec("b", 4, &[0, 1, 2, 3]);
         assert_eq!(
@@ -293,7 +366,9 @@ mod tests {
             Ok(None)
         );
         assert_eq!(merge_records(&[Some(&b), None], false), Ok(None));
-        let e = merge_records(&[Some(&a0), Some(&rec("a", 4, &[1]))], true).unwrap_err();
+        let e = merge_records(&[Some(&a0), Some(&rec("a", 4, &[1]))], true)
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("bundles of 3 and of 4 shards"), "{e}");
     }
 }

@@ -56,22 +56,24 @@ pub fn check_output(out: &Path, force: bool) -> Result<(), BundleError> {
     }
     if let Some(parent) = out.parent().filter(|p| !p.as_os_str().is_empty()) {
         if !parent.is_dir() {
-            return Err(BundleError::Io(
+            return Err(BundleError::NoParent(
                 out.to_path_buf(),
-                format!("the directory {} does not exist", parent.display()),
+                parent.to_path_buf(),
             ));
         }
     }
     Ok(())
 }
 
-/// Writes `value` to `final_path` through a temporary sibling and a rename.
-pub fn write_atomically(
+/// Writes `value` to `final_path` through a temporary sibling and a rename. `write`'s
+/// error is returned as it is.
+pub fn write_atomically<E: From<BundleError>>(
     final_path: &Path,
     force: bool,
-    write: impl FnOnce(&Path) -> Result<(), BundleError>,
-) -> Result<(), BundleError> {
-    stage(final_path, force, write)?.commit()
+    write: impl FnOnce(&Path) -> Result<(), E>,
+) -> Result<(), E> {
+    stage(final_path, force, write)?.commit()?;
+    Ok(())
 }
 
 /// An output written completely under a temporary sibling name, not yet in place:
@@ -96,15 +98,16 @@ fn remove_any(p: &Path) {
 }
 
 /// Writes `final_path`'s content under a temporary sibling name (see [`Staged`]).
-pub fn stage(
+/// `write`'s error is returned as it is.
+pub fn stage<E: From<BundleError>>(
     final_path: &Path,
     force: bool,
-    write: impl FnOnce(&Path) -> Result<(), BundleError>,
-) -> Result<Staged, BundleError> {
+    write: impl FnOnce(&Path) -> Result<(), E>,
+) -> Result<Staged, E> {
     check_output(final_path, force)?;
     let name = final_path
         .file_name()
-        .ok_or_else(|| BundleError::Io(final_path.to_path_buf(), "not a file name".into()))?
+        .ok_or_else(|| BundleError::NotAFileName(final_path.to_path_buf()))?
         .to_string_lossy()
         .into_owned();
     let parent = final_path
@@ -136,7 +139,7 @@ impl Staged {
     pub fn commit(mut self) -> Result<(), BundleError> {
         self.done = true;
         let final_path = &self.final_path;
-        let io = |e: std::io::Error| BundleError::Io(final_path.to_path_buf(), e.to_string());
+        let io = |e: std::io::Error| BundleError::io(final_path, e);
         let result = if final_path.exists() {
             if !self.force {
                 Err(BundleError::Exists(final_path.clone()))
@@ -180,15 +183,15 @@ impl Drop for Staged {
 }
 
 /// Writes one file through a temporary sibling and a rename, replacing an older file of
-/// that name (for report outputs, which their commands check up front).
-pub fn replace_file(
+/// that name (for report outputs, which their commands check up front). An error of
+/// `write` becomes [`BundleError::Io`] of `path`.
+pub fn replace_file<E: Into<Box<dyn std::error::Error + Send + Sync>>>(
     path: &Path,
-    write: impl FnOnce(&Path) -> Result<(), String>,
-) -> Result<(), String> {
+    write: impl FnOnce(&Path) -> Result<(), E>,
+) -> Result<(), BundleError> {
     write_atomically(path, true, |tmp| {
-        write(tmp).map_err(|e| BundleError::Io(path.to_path_buf(), e))
+        write(tmp).map_err(|e| BundleError::io(path, e))
     })
-    .map_err(|e| e.to_string())
 }
 
 pub(crate) fn npy<A: WritableElement, D: ndarray::Dimension>(
@@ -200,7 +203,7 @@ pub(crate) fn npy<A: WritableElement, D: ndarray::Dimension>(
 ) -> Result<(), BundleError> {
     let file = format!("{name}.npy");
     let path: PathBuf = dir.join(&file);
-    write_npy(&path, array).map_err(|e| BundleError::Io(path.clone(), e.to_string()))?;
+    write_npy(&path, array).map_err(|e| BundleError::io(&path, e))?;
     arrays.push(ArrayInfo {
         name: name.into(),
         file,
@@ -283,7 +286,7 @@ fn write_pixel_arrays(
     media: bool,
     arrays: &mut Vec<ArrayInfo>,
 ) -> Result<(), BundleError> {
-    let shape_err = |e: ndarray::ShapeError| BundleError::Io(dir.to_path_buf(), e.to_string());
+    let shape_err = |e: ndarray::ShapeError| BundleError::io(dir, e);
     let albedo: Vec<f32> = g.iter().flat_map(|p| p.albedo).collect();
     let normal: Vec<f32> = g.iter().flat_map(|p| p.normal).collect();
     let depth: Vec<f32> = g.iter().map(|p| p.depth).collect();
@@ -339,7 +342,7 @@ fn write_pixel_arrays(
 fn write_manifest(dir: &Path, manifest: &Manifest) -> Result<(), BundleError> {
     let json = serde_json::to_string_pretty(manifest).expect("manifest serialises");
     let mpath = dir.join("manifest.json");
-    std::fs::write(&mpath, json).map_err(|e| BundleError::Io(mpath, e.to_string()))
+    std::fs::write(&mpath, json).map_err(|e| BundleError::io(mpath, e))
 }
 
 /// Writes the bundle of a finished render to `out` (a directory, e.g. `NAME.tstats`).
@@ -354,11 +357,11 @@ pub fn write_bundle(
     let (h, w, t) = (film.height, film.width, film.bins);
     let shape4 = (h, w, t, CHANNELS);
     let mut manifest = manifest(scene, meta, output.seconds, output.dropped_nonfinite);
-    let shape_err = |e: ndarray::ShapeError| BundleError::Io(out.to_path_buf(), e.to_string());
+    let shape_err = |e: ndarray::ShapeError| BundleError::io(out, e);
     let acc = output.accum;
     let written = &mut manifest;
     write_atomically(out, force, |dir| {
-        std::fs::create_dir(dir).map_err(|e| BundleError::Io(dir.to_path_buf(), e.to_string()))?;
+        std::fs::create_dir(dir).map_err(|e| BundleError::io(dir, e))?;
         let arrays = &mut written.arrays;
         npy(
             dir,
@@ -435,14 +438,15 @@ fn volume_arrays(
 }
 
 /// The `.npy` header of a C-order array of `shape` with element type `A`.
-fn npy_header<A: WritableElement>(shape: &[usize]) -> Result<Vec<u8>, String> {
+fn npy_header<A: WritableElement>(
+    shape: &[usize],
+) -> Result<Vec<u8>, ndarray_npy::npy::header::FormatHeaderError> {
     Header {
         type_descriptor: A::type_descriptor(),
         layout: Layout::Standard,
         shape: shape.to_vec(),
     }
     .to_bytes()
-    .map_err(|e| e.to_string())
 }
 
 /// Bytes on disk of the bundle of a film rendered with `transform` (saturating): the
@@ -510,18 +514,17 @@ impl StreamedArray {
         }
         let file_name = format!("{name}.npy");
         let path = dir.join(&file_name);
-        let io = |e: String| BundleError::Io(path.clone(), e);
         let header = if size == 8 {
             npy_header::<f64>(&shape)
         } else {
             npy_header::<u32>(&shape)
         }
-        .map_err(io)?;
+        .map_err(|e| BundleError::io(&path, e))?;
         let row_bytes = (shape[1..].iter().product::<usize>() * size) as u64;
-        let file = File::create_new(&path).map_err(|e| io(e.to_string()))?;
+        let file = File::create_new(&path).map_err(|e| BundleError::io(&path, e))?;
         file.write_all_at(&header, 0)
             .and_then(|()| file.set_len(header.len() as u64 + height as u64 * row_bytes))
-            .map_err(|e| io(e.to_string()))?;
+            .map_err(|e| BundleError::io(&path, e))?;
         Ok(StreamedArray {
             info: ArrayInfo {
                 name: name.into(),
@@ -539,19 +542,17 @@ impl StreamedArray {
     /// Writes the values of rows `y..y + rows` (`bytes` long: exactly those rows).
     fn put(&self, y: usize, rows: usize, bytes: &[u8]) -> Result<(), BundleError> {
         if bytes.len() as u64 != rows as u64 * self.row_bytes {
-            return Err(BundleError::Io(
-                self.path.clone(),
-                format!(
-                    "a row of {} bytes, expected {} ({rows} rows of {})",
-                    bytes.len(),
-                    rows as u64 * self.row_bytes,
-                    self.row_bytes
-                ),
-            ));
+            return Err(BundleError::RowSize {
+                path: self.path.clone(),
+                len: bytes.len(),
+                want: rows as u64 * self.row_bytes,
+                rows,
+                row_bytes: self.row_bytes,
+            });
         }
         self.file
             .write_all_at(bytes, self.header + y as u64 * self.row_bytes)
-            .map_err(|e| BundleError::Io(self.path.clone(), e.to_string()))
+            .map_err(|e| BundleError::io(&self.path, e))
     }
 }
 
@@ -597,10 +598,7 @@ impl VolumeArrays {
     fn put_bytes(&self, y: usize, rows: usize, volumes: &[&[u8]]) -> Result<(), BundleError> {
         if volumes.len() != self.arrays.len() {
             let dir = self.arrays[0].path.parent().unwrap_or(Path::new("."));
-            return Err(BundleError::Io(
-                dir.to_path_buf(),
-                "a row's arrays do not match the bundle's (transform)".into(),
-            ));
+            return Err(BundleError::RowArrays(dir.to_path_buf()));
         }
         for (array, bytes) in self.arrays.iter().zip(volumes) {
             array.put(y, rows, bytes)?;
@@ -651,7 +649,7 @@ impl BundleWriter {
         replicates: bool,
     ) -> Result<Self, BundleError> {
         let staged = stage(out, force, |dir| {
-            std::fs::create_dir(dir).map_err(|e| BundleError::Io(dir.to_path_buf(), e.to_string()))
+            std::fs::create_dir(dir).map_err(|e| BundleError::io(dir, e))
         })?;
         let volumes = VolumeArrays::create(
             staged.path(),
@@ -681,10 +679,7 @@ impl BundleWriter {
             .into_inner()
             .unwrap_or_else(PoisonError::into_inner);
         if !images.complete() || scene.film != self.film {
-            return Err(BundleError::Io(
-                dir,
-                "the render did not deliver every row of this film".into(),
-            ));
+            return Err(BundleError::Incomplete(dir));
         }
         let mut manifest = manifest(scene, meta, summary.seconds, summary.dropped_nonfinite);
         manifest.arrays = self.volumes.infos();

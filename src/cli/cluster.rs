@@ -147,7 +147,7 @@ fn plan(c: &Common, binary: String, search_folders: &mut Vec<PathBuf>) -> anyhow
     let transform: Transform = r
         .transform
         .parse()
-        .map_err(|e: String| anyhow!("--transform: {e}"))?;
+        .map_err(|e| anyhow!("--transform: {e}"))?;
     super::util::positive("--unit-m", r.unit_m)?;
     super::util::seed(r.seed)?;
     if let Some(s) = &r.max_memory {
@@ -161,7 +161,7 @@ fn plan(c: &Common, binary: String, search_folders: &mut Vec<PathBuf>) -> anyhow
     };
     // The same split and checks as each task's `tstat render --shard`.
     let (spp, shard_reps) = super::render::shard_share(&shard, scene.spp, r.scene_args.replicates)?;
-    RenderSettings::check_replicates(spp, shard_reps).map_err(|e| anyhow!(e))?;
+    RenderSettings::check_replicates(spp, shard_reps)?;
     let film = &scene.film;
     let memory = StreamingMemory::new(film, &transform, c.cpus as usize)
         .with_replicates(shard_reps >= 2, film);
@@ -206,8 +206,8 @@ fn plan(c: &Common, binary: String, search_folders: &mut Vec<PathBuf>) -> anyhow
     };
     let scene = absolute(&r.scene, "the scene")?;
     let dir = absolute(&c.out, "--out")?;
-    check_path(&scene, "the scene", false).map_err(|e| anyhow!(e))?;
-    check_path(&dir, "--out", true).map_err(|e| anyhow!(e))?;
+    check_path(&scene, "the scene", false)?;
+    check_path(&dir, "--out", true)?;
     // Search folders (-a) as absolute paths: tasks run elsewhere.
     let mut render_options = Vec::with_capacity(c.render_options.len());
     let mut it = c.render_options.iter();
@@ -224,7 +224,7 @@ fn plan(c: &Common, binary: String, search_folders: &mut Vec<PathBuf>) -> anyhow
         };
         if let Some(f) = folder {
             let a = absolute(Path::new(&f), "-a")?;
-            check_path(&a, "-a", false).map_err(|e| anyhow!(e))?;
+            check_path(&a, "-a", false)?;
             search_folders.push(a.clone());
             render_options.push(a.display().to_string());
         }
@@ -276,14 +276,14 @@ fn write_recipes(job: &Job, files: &[(&str, String)], force: bool) -> anyhow::Re
 pub fn run(a: ClusterArgs) -> anyhow::Result<()> {
     match a.scheduler {
         Scheduler::Slurm(s) => {
-            slurm::check_time(&s.time).map_err(|e| anyhow!(e))?;
+            slurm::check_time(&s.time)?;
             if let Some(p) = &s.partition {
-                slurm::check_partition(p).map_err(|e| anyhow!(e))?;
+                slurm::check_partition(p)?;
             }
             let exe = std::env::current_exe()
                 .and_then(|p| p.canonicalize())
                 .context("finding the tstat binary")?;
-            check_path(&exe, "the tstat binary", false).map_err(|e| anyhow!(e))?;
+            check_path(&exe, "the tstat binary", false)?;
             let job = plan(&s.common, exe.display().to_string(), &mut Vec::new())?;
             let p = s.partition.as_deref();
             write_recipes(
@@ -315,10 +315,10 @@ pub fn run(a: ClusterArgs) -> anyhow::Result<()> {
             let mut folders = Vec::new();
             let job = plan(&k.common, k.binary.clone(), &mut folders)?;
             let mount = normalize(Path::new(&k.mount)).display().to_string();
-            k8s::check_under(&job.scene, &mount, "the scene").map_err(|e| anyhow!(e))?;
-            k8s::check_under(&job.dir, &mount, "--out").map_err(|e| anyhow!(e))?;
+            k8s::check_under(&job.scene, &mount, "the scene")?;
+            k8s::check_under(&job.dir, &mount, "--out")?;
             for f in &folders {
-                k8s::check_under(f, &mount, "the search folder (-a)").map_err(|e| anyhow!(e))?;
+                k8s::check_under(f, &mount, "the search folder (-a)")?;
             }
             let stem = job
                 .scene

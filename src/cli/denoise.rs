@@ -118,7 +118,7 @@ impl BaseFilterArgs {
             },
             ..Default::default()
         };
-        p.validate().map_err(|e| anyhow::anyhow!(e))?;
+        p.validate()?;
         Ok(p)
     }
 }
@@ -192,7 +192,7 @@ impl FilterArgs {
             method,
             ..self.base.params()?
         };
-        p.validate().map_err(|e| anyhow::anyhow!(e))?;
+        p.validate()?;
         Ok(p)
     }
 }
@@ -234,11 +234,10 @@ pub fn stage_exr_bins(
 ) -> Result<Staged, BundleError> {
     use std::os::unix::fs::FileExt;
     stage(dir, force, |tmp| {
-        let io = |e: String| BundleError::Io(dir.to_path_buf(), e);
-        std::fs::create_dir(tmp).map_err(|e| io(e.to_string()))?;
-        let file = std::fs::File::open(npy).map_err(|e| io(e.to_string()))?;
-        let data_offset = file.metadata().map_err(|e| io(e.to_string()))?.len()
-            - (h * w * t * CHANNELS * 4) as u64;
+        let io = |e: std::io::Error| BundleError::io(dir, e);
+        std::fs::create_dir(tmp).map_err(io)?;
+        let file = std::fs::File::open(npy).map_err(io)?;
+        let data_offset = file.metadata().map_err(io)?.len() - (h * w * t * CHANNELS * 4) as u64;
         let per_bin = (h * w * CHANNELS * 4) as u64;
         let step = ((budget / per_bin.max(1)) as usize).clamp(1, t);
         let digits = t.to_string().len().max(4);
@@ -252,8 +251,7 @@ pub fn stage_exr_bins(
             run.resize(n * CHANNELS * 4, 0u8);
             for (p, px) in flat.chunks_exact_mut(n * CHANNELS).enumerate() {
                 let at = data_offset + ((p * t + k0) * CHANNELS * 4) as u64;
-                file.read_exact_at(&mut run, at)
-                    .map_err(|e| io(e.to_string()))?;
+                file.read_exact_at(&mut run, at).map_err(io)?;
                 for (v, b) in px.iter_mut().zip(run.chunks_exact(4)) {
                     *v = f32::from_le_bytes(b.try_into().expect("4 bytes"));
                 }
@@ -330,7 +328,7 @@ pub fn run(a: DenoiseArgs) -> anyhow::Result<()> {
     // Both outputs are written completely before either is put in place.
     let (mut stats, mut exr) = (None, None);
     let volume = with_threads(threads, || {
-        stage(&a.out, a.force, |tmp| {
+        stage(&a.out, a.force, |tmp| -> Result<(), BundleError> {
             let progress = |n| bar.inc(n);
             stats = Some(denoise_bundle_to_npy(
                 &bundle, &params, &plan, tmp, &a.out, &progress,

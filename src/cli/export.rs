@@ -3,7 +3,7 @@
 
 use super::util::{arg, check_outputs, Kind};
 use crate::bundle::write::stage;
-use crate::bundle::{Bundle, BundleError};
+use crate::bundle::{Bundle, BundleError, Problem};
 use anyhow::bail;
 use clap::Args;
 use ndarray::Array3;
@@ -48,7 +48,7 @@ pub fn write_exr_rgb(path: &Path, img: &Array3<f32>) -> Result<(), BundleError> 
     exr::prelude::write_rgb_file(path, w, h, |x, y| {
         (img[[y, x, 0]], img[[y, x, 1]], img[[y, x, 2]])
     })
-    .map_err(|e| BundleError::Io(path.to_path_buf(), e.to_string()))
+    .map_err(|e| BundleError::io(path, e))
 }
 
 pub fn run(a: ExportArgs) -> anyhow::Result<()> {
@@ -104,8 +104,7 @@ pub fn run(a: ExportArgs) -> anyhow::Result<()> {
         let mean = bundle.noisy_mean()?;
         staged.push((
             stage(out, a.force, |tmp| {
-                ndarray_npy::write_npy(tmp, &mean)
-                    .map_err(|e| BundleError::Io(out.clone(), e.to_string()))
+                ndarray_npy::write_npy(tmp, &mean).map_err(|e| BundleError::io(out, e))
             })?,
             format!("wrote {} (f32 {:?})", out.display(), mean.shape()),
         ));
@@ -117,9 +116,9 @@ pub fn run(a: ExportArgs) -> anyhow::Result<()> {
             .indexed_iter()
             .find(|(_, v)| !((**v as f32).is_finite()))
         {
-            return Err(BundleError::Invalid(
+            return Err(BundleError::invalid(
                 a.bundle.join("steady.npy"),
-                format!("steady value {v:e} at row {y}, column {x}, channel {c} does not fit in f32 (the export's type)"),
+                Problem::SteadyBeyondF32 { value: *v, y, x, c },
             )
             .into());
         }
@@ -129,8 +128,7 @@ pub fn run(a: ExportArgs) -> anyhow::Result<()> {
                 if extension(s) == "exr" {
                     write_exr_rgb(tmp, &img)
                 } else {
-                    ndarray_npy::write_npy(tmp, &img)
-                        .map_err(|e| BundleError::Io(s.clone(), e.to_string()))
+                    ndarray_npy::write_npy(tmp, &img).map_err(|e| BundleError::io(s, e))
                 }
             })?,
             format!("wrote {} (f32 {:?})", s.display(), img.shape()),
@@ -138,7 +136,7 @@ pub fn run(a: ExportArgs) -> anyhow::Result<()> {
     }
     if let Some(t) = &a.tal {
         let mut written = None;
-        let file = stage(t, a.force, |tmp| {
+        let file = stage(t, a.force, |tmp| -> anyhow::Result<()> {
             written = Some(crate::nlos::tal::write_capture(&bundle, tmp, tal_memory)?);
             Ok(())
         })?;

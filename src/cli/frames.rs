@@ -7,7 +7,7 @@ use crate::bundle::{Bundle, BundleError};
 use crate::report::volume::load_volume;
 use crate::viz::frames::{write_all, FramesRequest, TimeAxis};
 use crate::viz::tonemap::global_exposure;
-use anyhow::{anyhow, ensure};
+use anyhow::ensure;
 use clap::Args;
 use std::path::PathBuf;
 
@@ -119,12 +119,11 @@ pub fn run(a: FramesArgs) -> anyhow::Result<()> {
         caption: format!("streak image, row {streak_row}"),
     };
     let mut count = 0;
-    write_atomically(&a.out, a.force, |tmp| {
-        std::fs::create_dir(tmp).map_err(|e| BundleError::Io(tmp.to_path_buf(), e.to_string()))?;
-        count = write_all(tmp, v.view(), &req).map_err(|e| BundleError::Io(a.out.clone(), e))?;
+    write_atomically(&a.out, a.force, |tmp| -> Result<(), BundleError> {
+        std::fs::create_dir(tmp).map_err(|e| BundleError::io(tmp, e))?;
+        count = write_all(tmp, v.view(), &req).map_err(|e| BundleError::io(&a.out, e))?;
         Ok(())
-    })
-    .map_err(|e| anyhow!(e))?;
+    })?;
     say!(
         "wrote {} frames to {}/frames/{}, streak image of row {streak_row} at {}/streak.png (exposure {:.4}{})",
         count,

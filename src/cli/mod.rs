@@ -139,4 +139,40 @@ mod tests {
         assert!(first(&["tstat", "render", "s.xml", "--out", "o", "--pixel-sampling", "x"])
             .contains("'x' for '--pixel-sampling <PIXEL_SAMPLING>' [possible values: stratified, independent, sobol]"));
     }
+
+    /// The library's typed errors expose no `source()`: `error_line` prints the chain
+    /// (`{:#}`), and each message already says its cause, once, wrapped through the
+    /// layers as it is.
+    #[test]
+    fn library_errors_say_their_cause_once() {
+        use crate::bundle::{shard::ShardError, BundleError, Problem};
+        let line = |e: anyhow::Error| error_line(&e);
+        let io = || BundleError::io("out.npy", std::io::Error::other("disk full"));
+        assert_eq!(line(io().into()), "error: out.npy: disk full");
+        let unreadable = || {
+            BundleError::invalid(
+                "b.tstats",
+                Problem::Unreadable(std::io::Error::other("gone").into()),
+            )
+        };
+        let want = "error: b.tstats: invalid bundle: cannot read: gone";
+        assert_eq!(line(unreadable().into()), want);
+        assert_eq!(
+            line(crate::report::ReportError::from(unreadable()).into()),
+            want
+        );
+        assert_eq!(
+            line(crate::nlos::NlosError::from(unreadable()).into()),
+            want
+        );
+        assert_eq!(
+            line(crate::viz::VizError::from(io()).into()),
+            "error: out.npy: disk full"
+        );
+        let shard = BundleError::from(ShardError::Count { spec: "1/0".into() });
+        assert_eq!(
+            line(shard.into()),
+            "error: --shard 1/0: the number of shards must be from 1 to 2^32"
+        );
+    }
 }

@@ -222,7 +222,7 @@ pub fn check_reconstruction(
 ) -> anyhow::Result<()> {
     r.check(c)
         .map_err(|e| anyhow!("--method {}: {e}", r.name()))?;
-    let need = r.working_memory(c, grid).map_err(|e| anyhow!(e))?;
+    let need = r.working_memory(c, grid)?;
     if need > budget {
         bail!(
             "--method {} on {} x {} x {} voxels needs {} of working memory, over --max-memory {}",
@@ -248,7 +248,7 @@ pub fn memory_budget(s: Option<&str>) -> anyhow::Result<u64> {
 fn load(path: &Path) -> anyhow::Result<Capture> {
     if path.is_dir() {
         let bundle = Bundle::open(path)?;
-        return Capture::from_bundle(&bundle).map_err(|e| anyhow!(e));
+        return Ok(Capture::from_bundle(&bundle)?);
     }
     let ext = path
         .extension()
@@ -258,7 +258,7 @@ fn load(path: &Path) -> anyhow::Result<Capture> {
         if !path.is_file() {
             bail!("{}: no such capture file", path.display());
         }
-        return Capture::from_tal(path).map_err(|e| anyhow!(e));
+        return Ok(Capture::from_tal(path)?);
     }
     bail!(
         "{}: a capture is a tstat bundle directory or a y-tal .hdf5 / .h5 file",
@@ -378,13 +378,12 @@ fn reconstruct(r: ReconstructArgs) -> anyhow::Result<()> {
     let budget = memory_budget(r.max_memory.as_deref())?;
     check_reconstruction(&method, &capture, &grid, budget)?;
     let start = std::time::Instant::now();
-    let volume = method.run(&capture, &grid).map_err(|e| anyhow!(e))?;
+    let volume = method.run(&capture, &grid)?;
     let seconds = start.elapsed().as_secs_f64();
     let shape = (grid.n[0], grid.n[1], grid.n[2]);
     let array = ndarray::Array3::from_shape_vec(shape, volume).expect("NX NY NZ voxels");
     stage(&r.out, r.force, |tmp| {
-        ndarray_npy::write_npy(tmp, &array)
-            .map_err(|e| BundleError::Io(r.out.clone(), e.to_string()))
+        ndarray_npy::write_npy(tmp, &array).map_err(|e| BundleError::io(&r.out, e))
     })?
     .commit()?;
     say!(

@@ -145,7 +145,7 @@ fn shard_and_out(spec: Option<&str>, out: &Path) -> anyhow::Result<(Option<Shard
     let Some(spec) = spec else {
         return Ok((None, out.to_path_buf()));
     };
-    let shard = Shard::parse(spec, |k| std::env::var(k).ok()).map_err(|e| anyhow!(e))?;
+    let shard = Shard::parse(spec, |k| std::env::var(k).ok())?;
     let text = out.to_str().ok_or_else(|| {
         anyhow!(
             "--out {}: with --shard the path must be UTF-8",
@@ -161,18 +161,14 @@ fn shard_and_out(spec: Option<&str>, out: &Path) -> anyhow::Result<(Option<Shard
 
 /// A shard's share of the job's spp and replicates, checked.
 pub(super) fn shard_share(shard: &Shard, spp: u32, replicates: u32) -> anyhow::Result<(u32, u32)> {
-    let spp_share = shard
-        .share(u64::from(spp), "the job's spp")
-        .map_err(|e| anyhow!(e))?;
+    let spp_share = shard.share(u64::from(spp), "the job's spp")?;
     anyhow::ensure!(
         spp_share >= 2,
         "the job's spp {spp} over {} shards leaves {spp_share} per shard; each needs at least 2",
         shard.count
     );
     let reps = if replicates >= 2 {
-        let r = shard
-            .share(u64::from(replicates), "--replicates")
-            .map_err(|e| anyhow!(e))?;
+        let r = shard.share(u64::from(replicates), "--replicates")?;
         anyhow::ensure!(
             r >= 2,
             "--replicates {replicates} over {} shards leaves {r} per shard; each needs at least 2",
@@ -189,7 +185,7 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
     let transform: Transform = a
         .transform
         .parse()
-        .map_err(|e: String| anyhow::anyhow!("--transform: {e}"))?;
+        .map_err(|e| anyhow::anyhow!("--transform: {e}"))?;
     positive("--unit-m", a.unit_m)?;
     let overrides = a.scene_args.overrides(a.spp)?;
     let threads = threads(a.threads)?;
@@ -224,7 +220,7 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
     };
     let film = &scene.film;
 
-    RenderSettings::check_replicates(scene.spp, replicate_count).map_err(|e| anyhow!(e))?;
+    RenderSettings::check_replicates(scene.spp, replicate_count)?;
     let replicates = replicate_count >= 2;
     let memory = StreamingMemory::new(film, &transform, pool_size(threads))
         .with_replicates(replicates, film);

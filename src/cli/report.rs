@@ -27,7 +27,7 @@ fn chart(
     xs: Scale,
     ys: Scale,
 ) -> anyhow::Result<()> {
-    if !line_chart(path, title, x, y, series, xs, ys).map_err(|e| anyhow!(e))? {
+    if !line_chart(path, title, x, y, series, xs, ys)? {
         eprintln!(
             "note: {} not written: no positive finite values to plot",
             path.display()
@@ -352,12 +352,11 @@ fn run_compare(a: CompareArgs) -> anyhow::Result<()> {
     if let Some(mut out) = out {
         let d = out.create()?.to_path_buf();
         let d = &d;
-        write_text(&d.join("metrics.csv"), &table.csv()).map_err(|e| anyhow!(e))?;
+        write_text(&d.join("metrics.csv"), &table.csv())?;
         write_text(
             &d.join("metrics.md"),
             &format!("{}\n{note}", table.markdown()),
-        )
-        .map_err(|e| anyhow!(e))?;
+        )?;
         write_per_bin(d, "per_bin", &per_bin, "per-bin RMSE")?;
         out.finish();
         say!("{}", wrote(d, &files));
@@ -387,7 +386,7 @@ fn write_per_bin(
         }
         t.push(row);
     }
-    write_text(&dir.join(format!("{stem}.csv")), &t.csv()).map_err(|e| anyhow!(e))?;
+    write_text(&dir.join(format!("{stem}.csv")), &t.csv())?;
     let series: Vec<Series> = per_bin
         .iter()
         .map(|(l, m)| Series {
@@ -443,7 +442,7 @@ fn run_conv(a: ConvergenceArgs) -> anyhow::Result<()> {
     let transform: Transform = a
         .transform
         .parse()
-        .map_err(|e: String| anyhow!("--transform: {e}"))?;
+        .map_err(|e| anyhow!("--transform: {e}"))?;
     let overrides = a.scene_args.overrides(None)?;
     let cfg = ConvergenceConfig {
         scene: a.scene.clone(),
@@ -475,7 +474,7 @@ fn run_conv(a: ConvergenceArgs) -> anyhow::Result<()> {
     let is_cache = |n: &str| n.starts_with("reference-") && n.ends_with(".npy");
     let mut out = ReportDir::prepare("--out", &a.out, &files, is_cache, &args, a.force)?;
     out.create()?;
-    let result = run_convergence(&cfg, &a.out, &|m| eprintln!("{m}")).map_err(|e| anyhow!(e))?;
+    let result = run_convergence(&cfg, &a.out, &|m| eprintln!("{m}"))?;
     let md = convergence_markdown(&a, &cfg, &result);
     let mut header: Vec<String> = ["spp", "method", "render_s", "denoise_s", "total_s"]
         .map(String::from)
@@ -515,8 +514,8 @@ fn run_conv(a: ConvergenceArgs) -> anyhow::Result<()> {
         }
         t.push(row);
     }
-    write_text(&a.out.join("results.csv"), &t.csv()).map_err(|e| anyhow!(e))?;
-    write_text(&a.out.join("results.md"), &md).map_err(|e| anyhow!(e))?;
+    write_text(&a.out.join("results.csv"), &t.csv())?;
+    write_text(&a.out.join("results.md"), &md)?;
     let curve = |m: &str, region: Region, x: fn(&Row) -> f64| Series {
         label: m.to_string(),
         points: result
@@ -817,7 +816,7 @@ fn sweep_methods(a: &SweepArgs) -> anyhow::Result<(Vec<(Method, f64)>, &'static 
             let gammas = a.gamma.as_deref().unwrap_or("0.01,0.05,0.1,0.2");
             for g in float_list("--gamma", gammas)? {
                 let t = Threshold::Gamma(g);
-                t.validate().map_err(|e| anyhow!(e))?;
+                t.validate()?;
                 out.push((Method::Published(t), g));
             }
             Ok((out, "gamma"))
@@ -854,7 +853,7 @@ fn sweep_methods(a: &SweepArgs) -> anyhow::Result<(Vec<(Method, f64)>, &'static 
                                 emitter_radius,
                                 depth_align,
                             };
-                            t.validate().map_err(|e| anyhow!(e))?;
+                            t.validate()?;
                             out.push((Method::Tstat(t), t2_patch));
                         }
                     }
@@ -920,12 +919,12 @@ fn run_sweep_cmd(a: SweepArgs) -> anyhow::Result<()> {
         ]);
     }
     out.create()?;
-    write_text(&a.out.join("sweep.csv"), &t.csv()).map_err(|e| anyhow!(e))?;
+    write_text(&a.out.join("sweep.csv"), &t.csv())?;
     let md = format!(
         "# Sweep (sorted by RMSE, best first)\n\nRatios are to the noisy mean's RMSE over the same region: all voxels, pixels that see a light directly, the rest.\n\n{}",
         t.markdown()
     );
-    write_text(&a.out.join("sweep.md"), &md).map_err(|e| anyhow!(e))?;
+    write_text(&a.out.join("sweep.md"), &md)?;
     // One curve per bundle and setting other than the plotted one.
     let mut series: Vec<Series> = Vec::new();
     for p in &pts {

@@ -61,7 +61,7 @@ pub fn run(a: RunArgs) -> anyhow::Result<()> {
     let transform: Transform = a
         .transform
         .parse()
-        .map_err(|e: String| anyhow!("--transform: {e}"))?;
+        .map_err(|e| anyhow!("--transform: {e}"))?;
     let params = a.filter.params()?;
     let overrides = a.scene_args.overrides(a.spp)?;
     let inputs: Vec<_> = a.scene.iter().map(|p| arg("scene", p)).collect();
@@ -74,9 +74,8 @@ pub fn run(a: RunArgs) -> anyhow::Result<()> {
     let started = std::time::Instant::now();
     // Everything goes to a temporary directory that is renamed when complete. The job's
     // own error is returned as it is (not prefixed with the output directory).
-    let mut failure = None;
-    let written = write_atomically(&a.out, a.force, |tmp| {
-        let io = |e: std::io::Error| BundleError::Io(tmp.to_path_buf(), e.to_string());
+    write_atomically(&a.out, a.force, |tmp| -> anyhow::Result<()> {
+        let io = |e: std::io::Error| BundleError::io(tmp, e);
         std::fs::create_dir(tmp).map_err(io)?;
         let scene_path = match &a.scene {
             Some(p) => p.clone(),
@@ -86,16 +85,8 @@ pub fn run(a: RunArgs) -> anyhow::Result<()> {
                 p
             }
         };
-        job(&a, &opts, &scene_path, tmp, transform, &params, &overrides).map_err(|e| {
-            let msg = format!("{e:#}");
-            failure = Some(e);
-            BundleError::Io(a.out.clone(), msg)
-        })
-    });
-    if let Some(e) = failure {
-        return Err(e);
-    }
-    written.map_err(|e| anyhow!(e))?;
+        job(&a, &opts, &scene_path, tmp, transform, &params, &overrides)
+    })?;
     let o = a.out.display();
     say!("done in {:.1} s. In {o}/:", started.elapsed().as_secs_f64());
     say!("  scene.tstats/     statistics bundle (tstat info {o}/scene.tstats)");
@@ -131,8 +122,7 @@ fn job(
     super::util::check_mesh_inputs(&scene, &[arg("--out", &a.out)])?;
     super::util::print_scene_warnings(&scene);
     let film = &scene.film;
-    RenderSettings::check_replicates(scene.spp, a.scene_args.replicates)
-        .map_err(|e| anyhow::anyhow!(e))?;
+    RenderSettings::check_replicates(scene.spp, a.scene_args.replicates)?;
     let replicates = a.scene_args.replicates >= 2;
     let memory = StreamingMemory::new(film, &transform, super::render::pool_size(o.threads))
         .with_replicates(replicates, film);
@@ -221,7 +211,7 @@ fn job(
             2 * noisy.shape()[1] + 1
         ),
     };
-    write_all(dir, both.view(), &req).map_err(|e| anyhow!(e))?;
+    write_all(dir, both.view(), &req)?;
     Ok(())
 }
 

@@ -21,8 +21,17 @@ pub fn human_bytes(b: u64) -> String {
     }
 }
 
+/// A size that does not parse; `binary`: it was given in binary units (Ki, Mi, ...).
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum SizeError {
+    #[error("'{0}' is not a size such as 512M, 8G or 4Gi")]
+    Binary(String),
+    #[error("'{0}' is not a size such as 512M or 8G")]
+    Decimal(String),
+}
+
 /// Parses "512M", "8G", "1.5GB", "1000000" (decimal units) into bytes.
-pub fn parse_bytes(s: &str) -> Result<u64, String> {
+pub fn parse_bytes(s: &str) -> Result<u64, SizeError> {
     let t = s.trim().to_ascii_uppercase();
     let t = t.strip_suffix('B').unwrap_or(&t);
     // Binary units: Ki, Mi, Gi, Ti (KiB ...).
@@ -32,11 +41,11 @@ pub fn parse_bytes(s: &str) -> Result<u64, String> {
             Some('M') => (&head[..head.len() - 1], 20),
             Some('G') => (&head[..head.len() - 1], 30),
             Some('T') => (&head[..head.len() - 1], 40),
-            _ => return Err(format!("'{s}' is not a size such as 512M, 8G or 4Gi")),
+            _ => return Err(SizeError::Binary(s.to_string())),
         };
         return match num.trim().parse::<f64>() {
             Ok(v) if v.is_finite() && v > 0.0 => Ok((v * (1u64 << shift) as f64) as u64),
-            _ => Err(format!("'{s}' is not a size such as 512M, 8G or 4Gi")),
+            _ => Err(SizeError::Binary(s.to_string())),
         };
     }
     let (num, mult) = match t.chars().last() {
@@ -48,7 +57,7 @@ pub fn parse_bytes(s: &str) -> Result<u64, String> {
     };
     match num.trim().parse::<f64>() {
         Ok(v) if v.is_finite() && v > 0.0 => Ok((v * mult) as u64),
-        _ => Err(format!("'{s}' is not a size such as 512M or 8G")),
+        _ => Err(SizeError::Decimal(s.to_string())),
     }
 }
 

@@ -67,8 +67,9 @@ pub fn run(a: ViewArgs) -> anyhow::Result<()> {
     );
     // The default denoiser's test (tstat's method, its default radius and t2_max).
     let tp = crate::denoise::tstat::TstatParams::default();
+    let method: crate::denoise::Method = crate::denoise::Method::Tstat(tp);
     let shown = MembershipShown {
-        radius: crate::denoise::Method::Tstat(tp).default_radius(),
+        radius: method.default_radius(),
         t2_max: tp.t2_max,
         depth_align: tp.depth_align,
     };

@@ -9,7 +9,7 @@
 //! `tstat cluster k8s` ran, e.g. a shared file system mounted at the same place), and
 //! the image must hold the tstat binary (`binary`, default `tstat` on its PATH).
 
-use super::{merge_commands, Job};
+use super::{merge_commands, ClusterError, Job};
 use serde_json::{json, Value};
 use std::path::Path;
 
@@ -43,14 +43,15 @@ pub fn job_name(s: &str) -> String {
 }
 
 /// Checks that `path` lies under the mount point `mount`.
-pub fn check_under(path: &Path, mount: &str, what: &str) -> Result<(), String> {
+pub fn check_under(path: &Path, mount: &str, what: &str) -> Result<(), ClusterError> {
     if path.starts_with(mount) {
         Ok(())
     } else {
-        Err(format!(
-            "{what} {} is not under the volume's mount point {mount} (--mount): the pods could not see it",
-            path.display()
-        ))
+        Err(ClusterError::NotUnderMount {
+            what: what.to_string(),
+            path: path.to_path_buf(),
+            mount: mount.to_string(),
+        })
     }
 }
 

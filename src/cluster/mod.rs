@@ -9,6 +9,41 @@ pub mod slurm;
 
 use std::path::PathBuf;
 
+/// Errors of the recipes' options: what cannot go into a Slurm or Kubernetes recipe.
+/// `what` names the option or path ("--out", "the scene").
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum ClusterError {
+    #[error("--time {0:?}: expected a Slurm time limit such as 30, 02:00:00 or 1-00:00:00")]
+    Time(String),
+    #[error("--partition {0:?}: not a Slurm partition name")]
+    Partition(String),
+    #[error("{what} {}: not UTF-8", .path.display())]
+    NotUtf8 { what: String, path: PathBuf },
+    /// A character the recipes cannot carry; `directive`: the path goes into an
+    /// `#SBATCH` line.
+    #[error("{what} {path:?}: the character {c:?} cannot go into the recipes{}", directive_note(.directive))]
+    Character {
+        what: String,
+        path: String,
+        c: char,
+        directive: bool,
+    },
+    #[error("{what} {} is not under the volume's mount point {mount} (--mount): the pods could not see it", .path.display())]
+    NotUnderMount {
+        what: String,
+        path: PathBuf,
+        mount: String,
+    },
+}
+
+fn directive_note(directive: &bool) -> &'static str {
+    if *directive {
+        " (Slurm directive lines take no spaces, quotes or %)"
+    } else {
+        ""
+    }
+}
+
 /// What both recipes need.
 #[derive(Clone, Debug)]
 pub struct Job {
@@ -111,20 +146,19 @@ pub fn normalize(path: &std::path::Path) -> PathBuf {
 /// Refuses a path the recipes cannot carry safely: control characters always, and for
 /// paths in `#SBATCH` lines (`directive`) also whitespace, quotes and `%` (Slurm reads
 /// directive values up to whitespace and `%` as a file name pattern).
-pub fn check_path(path: &std::path::Path, what: &str, directive: bool) -> Result<(), String> {
-    let s = path
-        .to_str()
-        .ok_or_else(|| format!("{what} {}: not UTF-8", path.display()))?;
+pub fn check_path(path: &std::path::Path, what: &str, directive: bool) -> Result<(), ClusterError> {
+    let s = path.to_str().ok_or_else(|| ClusterError::NotUtf8 {
+        what: what.to_string(),
+        path: path.to_path_buf(),
+    })?;
     let bad = |c: char| c.is_control() || (directive && (c.is_whitespace() || "%\"'".contains(c)));
     match s.chars().find(|&c| bad(c)) {
-        Some(c) => Err(format!(
-            "{what} {s:?}: the character {c:?} cannot go into the recipes{}",
-            if directive {
-                " (Slurm directive lines take no spaces, quotes or %)"
-            } else {
-                ""
-            }
-        )),
+        Some(c) => Err(ClusterError::Character {
+            what: what.to_string(),
+            path: s.to_string(),
+            c,
+            directive,
+        }),
         None => Ok(()),
     }
 }

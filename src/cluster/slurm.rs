@@ -5,13 +5,13 @@
 //! Every path is absolute, so both can be submitted from any folder; Slurm does not
 //! create the log folder, so `tstat cluster` does.
 
-use super::{merge_commands, quote, Job, SLURM_THREADS};
+use super::{merge_commands, quote, ClusterError, Job, SLURM_THREADS};
 
 /// Where `Job::render_args` puts the threads value.
 const THREADS_AT: usize = 8;
 
 /// `#SBATCH` time limit, `D-HH:MM:SS` or `HH:MM:SS` or minutes.
-pub fn check_time(t: &str) -> Result<(), String> {
+pub fn check_time(t: &str) -> Result<(), ClusterError> {
     let ok = !t.is_empty()
         && t.chars()
             .all(|c| c.is_ascii_digit() || c == ':' || c == '-')
@@ -19,21 +19,19 @@ pub fn check_time(t: &str) -> Result<(), String> {
     if ok {
         Ok(())
     } else {
-        Err(format!(
-            "--time {t:?}: expected a Slurm time limit such as 30, 02:00:00 or 1-00:00:00"
-        ))
+        Err(ClusterError::Time(t.to_string()))
     }
 }
 
 /// A partition name as Slurm takes it.
-pub fn check_partition(p: &str) -> Result<(), String> {
+pub fn check_partition(p: &str) -> Result<(), ClusterError> {
     if !p.is_empty()
         && p.chars()
             .all(|c| c.is_ascii_alphanumeric() || "_-.,".contains(c))
     {
         Ok(())
     } else {
-        Err(format!("--partition {p:?}: not a Slurm partition name"))
+        Err(ClusterError::Partition(p.to_string()))
     }
 }
 

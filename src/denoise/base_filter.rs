@@ -39,15 +39,15 @@ impl Default for Sigmas {
 }
 
 impl Sigmas {
-    pub fn validate(&self) -> Result<(), String> {
-        for (name, v) in [
+    pub fn validate(&self) -> Result<(), super::DenoiseError> {
+        for (flag, value) in [
             ("--sigma-xy", self.xy),
             ("--sigma-t", self.t),
             ("--sigma-albedo", self.albedo),
             ("--sigma-normal", self.normal),
         ] {
-            if !(v > 0.0 && v.is_finite()) {
-                return Err(format!("{name} {v}: must be a positive number"));
+            if !(value > 0.0 && value.is_finite()) {
+                return Err(super::DenoiseError::NotPositive { flag, value });
             }
         }
         Ok(())

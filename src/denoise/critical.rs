@@ -38,15 +38,29 @@ pub fn auto_gamma(spp: u64) -> f64 {
     }
 }
 
+/// The published test's critical value resolved for a sample count ([`Threshold::resolve`]):
+/// g^2, and the two-sided level g came from, if any; on estimates from replicates the
+/// filter then takes g per pair at its Welch-Satterthwaite degrees of freedom
+/// (`pair_dof.rs`) instead.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Welch {
+    pub g2: f64,
+    pub alpha: Option<f64>,
+}
+
 impl Threshold {
-    pub fn validate(&self) -> Result<(), String> {
+    /// g^2 and the level for a bundle of `spp` samples per pixel.
+    pub fn resolve(&self, spp: u64) -> Welch {
+        Welch {
+            g2: self.g2(spp),
+            alpha: self.alpha(),
+        }
+    }
+
+    pub fn validate(&self) -> Result<(), super::DenoiseError> {
         match *self {
-            Threshold::Gamma(g) if !(g > 0.0 && g < 0.5) => {
-                Err(format!("--gamma {g}: must be in (0, 0.5)"))
-            }
-            Threshold::Alpha(a) if !(a > 0.0 && a < 1.0) => {
-                Err(format!("--alpha {a}: must be in (0, 1)"))
-            }
+            Threshold::Gamma(g) if !(g > 0.0 && g < 0.5) => Err(super::DenoiseError::Gamma(g)),
+            Threshold::Alpha(a) if !(a > 0.0 && a < 1.0) => Err(super::DenoiseError::Alpha(a)),
             _ => Ok(()),
         }
     }

@@ -21,22 +21,18 @@ use super::estimates::Estimates;
 use super::membership::passes;
 use super::pair_dof::PairDof;
 use super::tstat::{depth_shift, same_coverage, sees_emitter, statistic, TstatParams};
+use super::Method;
 use crate::stats::accumulators::CHANNELS;
 use rayon::prelude::*;
 use statrs::function::erf::erfc;
 
-/// Which membership test m the filter applies.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Membership {
-    /// The base filter alone (m = 1).
-    None,
-    /// The published per-voxel Welch test with this g^2. `alpha`: the two-sided level
-    /// g came from, if any; on estimates from replicates g is then taken per pair at its
-    /// Welch-Satterthwaite degrees of freedom (`pair_dof.rs`) instead.
-    Welch { g2: f64, alpha: Option<f64> },
-    /// tstat's classes, depth alignment and patch test.
-    Tstat(TstatParams),
-}
+pub use super::critical::Welch;
+
+/// Which membership test m the filter applies: the denoiser's [`Method`] with the
+/// published test's threshold resolved to its g^2 ([`Method::resolve`]): the base
+/// filter alone (m = 1), the published per-voxel Welch test with this g^2 (see
+/// [`Welch`]), or tstat's classes, depth alignment and patch test.
+pub type Membership = Method<Welch>;
 
 #[derive(Clone, Copy, Debug)]
 pub struct FilterParams {
@@ -551,11 +547,11 @@ pub fn filter_rows(
         active: active_ranges(e),
         pt: params.base.time_weights(params.temporal_radius),
         g2: match params.membership {
-            Membership::Welch { g2, .. } => g2 as f32,
+            Membership::Published(Welch { g2, .. }) => g2 as f32,
             _ => 0.0,
         },
         pair: match (params.membership, e.replicates) {
-            (Membership::Welch { alpha: Some(a), .. }, Some(b)) if b >= 2 => {
+            (Membership::Published(Welch { alpha: Some(a), .. }), Some(b)) if b >= 2 => {
                 Some(PairDof::new(b, a))
             }
             (Membership::Tstat(tp), Some(b)) if b >= 2 => {
@@ -564,7 +560,7 @@ pub fn filter_rows(
             _ => None,
         },
         kernel: match params.membership {
-            Membership::Welch { .. } => accumulate::<true, f32>,
+            Membership::Published(_) => accumulate::<true, f32>,
             _ => accumulate::<false, f32>,
         },
     };

@@ -22,18 +22,35 @@ use gbuffers::GBuffers;
 use ndarray::Array4;
 use tstat::TstatParams;
 
-/// Which membership test the denoiser applies.
+/// Errors of the denoiser's parameters, named by their flags.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum DenoiseError {
+    /// A parameter (`flag`) that must be a positive number.
+    #[error("{flag} {value}: must be a positive number")]
+    NotPositive { flag: &'static str, value: f64 },
+    #[error("--emitter-radius {0}: at most 64")]
+    EmitterRadius(usize),
+    #[error("--gamma {0}: must be in (0, 0.5)")]
+    Gamma(f64),
+    #[error("--alpha {0}: must be in (0, 1)")]
+    Alpha(f64),
+}
+
+/// The denoiser's method: which membership test the filter applies, with its settings.
+/// `T` is the published test's threshold: as chosen ([`Threshold`], the default), or
+/// resolved for a sample count ([`Welch`](critical::Welch): the form the filter takes, see
+/// [`filter::Membership`] and [`Method::resolve`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Method {
+pub enum Method<T = Threshold> {
     /// tstat's classes, depth alignment and patch test (the default).
     Tstat(TstatParams),
     /// The published filter's per-voxel Welch test.
-    Published(Threshold),
+    Published(T),
     /// The base filter alone (no membership test).
     BaseOnly,
 }
 
-impl Method {
+impl<T> Method<T> {
     /// A short name for reports.
     pub fn name(&self) -> &'static str {
         match self {
@@ -43,7 +60,6 @@ impl Method {
         }
     }
 
-    /// The method and its settings, for reports.
     /// The spatial radius r each method defaults to (measured: tstat at r = 3 matches
     /// r = 5 within 1% at half the cost; the published filter was tuned at r = 5).
     pub fn default_radius(&self) -> usize {
@@ -53,6 +69,33 @@ impl Method {
         }
     }
 
+    /// The same method with the published test's threshold mapped by `f`.
+    pub fn map_threshold<U>(self, f: impl FnOnce(T) -> U) -> Method<U> {
+        match self {
+            Method::Tstat(t) => Method::Tstat(t),
+            Method::Published(t) => Method::Published(f(t)),
+            Method::BaseOnly => Method::BaseOnly,
+        }
+    }
+}
+
+impl Method {
+    /// Refuses settings out of range.
+    pub fn validate(&self) -> Result<(), DenoiseError> {
+        match self {
+            Method::Tstat(t) => t.validate(),
+            Method::Published(t) => t.validate(),
+            Method::BaseOnly => Ok(()),
+        }
+    }
+
+    /// The method as the filter applies it to estimates from `spp` samples per pixel
+    /// (or `spp` replicates): the published test's g^2 (and level) for that count.
+    pub fn resolve(self, spp: u64) -> Membership {
+        self.map_threshold(|t| t.resolve(spp))
+    }
+
+    /// The method and its settings, for reports.
     pub fn describe(&self) -> String {
         match self {
             Method::Tstat(t) => format!(
@@ -100,12 +143,8 @@ impl Default for DenoiseParams {
 }
 
 impl DenoiseParams {
-    pub fn validate(&self) -> Result<(), String> {
-        match &self.method {
-            Method::Tstat(t) => t.validate()?,
-            Method::Published(t) => t.validate()?,
-            Method::BaseOnly => {}
-        }
+    pub fn validate(&self) -> Result<(), DenoiseError> {
+        self.method.validate()?;
         self.sigmas.validate()
     }
 
@@ -139,14 +178,7 @@ impl DenoiseParams {
                 kind: self.base,
                 sigmas: self.sigmas,
             },
-            membership: match self.method {
-                Method::Tstat(t) => Membership::Tstat(t),
-                Method::Published(t) => Membership::Welch {
-                    g2: t.g2(spp),
-                    alpha: t.alpha(),
-                },
-                Method::BaseOnly => Membership::None,
-            },
+            membership: self.method.resolve(spp),
         }
     }
 }

@@ -304,11 +304,12 @@ impl NpyVolumeWriter {
         bins: usize,
     ) -> Result<NpyVolumeWriter, BundleError> {
         use std::io::Seek;
-        let io = |e: String| BundleError::Io(shown.to_path_buf(), e);
-        let mut file = std::fs::File::create(path).map_err(|e| io(e.to_string()))?;
+        let mut file = std::fs::File::create(path).map_err(|e| BundleError::io(shown, e))?;
         ndarray_npy::write_zeroed_npy::<f32, _>(&file, (height, width, bins, CHANNELS))
-            .map_err(|e| io(e.to_string()))?;
-        let data_offset = file.stream_position().map_err(|e| io(e.to_string()))?;
+            .map_err(|e| BundleError::io(shown, e))?;
+        let data_offset = file
+            .stream_position()
+            .map_err(|e| BundleError::io(shown, e))?;
         Ok(NpyVolumeWriter {
             file,
             shown: shown.to_path_buf(),
@@ -339,7 +340,7 @@ impl NpyVolumeWriter {
             let at = self.data_offset + ((y0 + r) * self.row.len()) as u64;
             self.file
                 .write_all_at(&self.row, at)
-                .map_err(|e| BundleError::Io(self.shown.clone(), e.to_string()))?;
+                .map_err(|e| BundleError::io(&self.shown, e))?;
         }
         Ok(())
     }

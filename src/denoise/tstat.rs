@@ -49,15 +49,15 @@ impl Default for TstatParams {
 }
 
 impl TstatParams {
-    pub fn validate(&self) -> Result<(), String> {
-        for (name, v) in [("--t2-max", self.t2_max), ("--t2-patch", self.t2_patch)] {
-            if !(v > 0.0 && v.is_finite()) {
-                return Err(format!("{name} {v}: must be a positive number"));
+    pub fn validate(&self) -> Result<(), super::DenoiseError> {
+        for (flag, value) in [("--t2-max", self.t2_max), ("--t2-patch", self.t2_patch)] {
+            if !(value > 0.0 && value.is_finite()) {
+                return Err(super::DenoiseError::NotPositive { flag, value });
             }
         }
         if let Some(r) = self.emitter_radius {
             if r > 64 {
-                return Err(format!("--emitter-radius {r}: at most 64"));
+                return Err(super::DenoiseError::EmitterRadius(r));
             }
         }
         Ok(())

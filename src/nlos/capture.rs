@@ -6,6 +6,7 @@
 //! Memory: H is held whole, `T L S` f32 (a 64 x 64 confocal scan of 512 bins: 8 MB;
 //! an exhaustive 16^4 of 512 bins: 134 MB).
 
+use super::{NlosError, TalProblem};
 use crate::bundle::capture::CaptureRecord;
 use crate::bundle::Bundle;
 use crate::scene::nlos::CaptureType;
@@ -46,22 +47,20 @@ impl Capture {
     /// The capture of a tstat bundle (its `nlos` record), in scene units: H from the
     /// radiance sums alone (`tal::h_radiance`), the same values `tstat export --tal`
     /// writes.
-    pub fn from_bundle(bundle: &Bundle) -> Result<Capture, String> {
+    pub fn from_bundle(bundle: &Bundle) -> Result<Capture, NlosError> {
         let m = &bundle.manifest;
-        let rec = m.nlos.as_ref().ok_or_else(|| {
-            format!(
-                "{} is not an NLOS capture (its scene's sensor is no nlos_capture_meter)",
-                bundle.dir.display()
-            )
-        })?;
+        let rec = m
+            .nlos
+            .as_ref()
+            .ok_or_else(|| NlosError::NotACapture(bundle.dir.clone()))?;
         let len = super::tal::h_per_bin(rec)
             .checked_mul(m.bins)
-            .ok_or("the capture's H does not fit the address space")?;
+            .ok_or(NlosError::HOverflow)?;
         let mut h = Vec::new();
         h.try_reserve_exact(len)
-            .map_err(|_| format!("cannot hold H ({len} values) in memory"))?;
+            .map_err(|_| NlosError::HMemory(len))?;
         h.resize(len, 0.0);
-        super::tal::h_radiance(bundle, rec, &mut h).map_err(|e| e.to_string())?;
+        super::tal::h_radiance(bundle, rec, &mut h)?;
         Ok(Capture::from_record(
             rec,
             m.start_opl,
@@ -119,8 +118,17 @@ impl Capture {
 
     /// A y-tal HDF5 capture (`tal.io.write_capture`'s layout, or `tstat export --tal`):
     /// H formats T_Sx_Sy and T_Lx_Ly_Sx_Sy, grids X_Y_3 or N_3.
-    pub fn from_tal(path: &Path) -> Result<Capture, String> {
-        let err = |what: &str, e: hdf5_pure::Error| format!("{}: {what}: {e}", path.display());
+    pub fn from_tal(path: &Path) -> Result<Capture, NlosError> {
+        let fail = |problem: TalProblem| NlosError::Tal {
+            path: path.to_path_buf(),
+            problem,
+        };
+        let err = |what: &str, error: hdf5_pure::Error| {
+            fail(TalProblem::Hdf5 {
+                what: what.to_string(),
+                error,
+            })
+        };
         let file = hdf5_pure::File::open(path).map_err(|e| err("not an HDF5 file", e))?;
         let ds = |name: &str| file.dataset(name).map_err(|e| err(name, e));
         let h_ds = ds("H")?;
@@ -138,10 +146,10 @@ impl Capture {
             (Some(1) | None, &[t, sx, sy]) => (t, [1, 1], [sx, sy]),
             (Some(2) | None, &[t, lx, ly, sx, sy]) => (t, [lx, ly], [sx, sy]),
             (f, s) => {
-                return Err(format!(
-                    "{}: H of shape {s:?} (H_format {f:?}): tstat reads T_Sx_Sy (1) and T_Lx_Ly_Sx_Sy (2) captures",
-                    path.display()
-                ))
+                return Err(fail(TalProblem::HFormat {
+                    shape: s.to_vec(),
+                    format: f,
+                }))
             }
         };
         let (lasers, sensors) = (
@@ -150,49 +158,43 @@ impl Capture {
         );
         let h = h_ds.read_f32().map_err(|e| err("H", e))?;
         if h.len() != bins * lasers * sensors || bins == 0 || sensors == 0 {
-            return Err(format!(
-                "{}: H holds {} values for shape {shape:?}",
-                path.display(),
-                h.len()
-            ));
+            return Err(fail(TalProblem::HValues {
+                values: h.len(),
+                shape,
+            }));
         }
-        let points = |name: &str| -> Result<Vec<[f32; 3]>, String> {
+        let points = |name: &str| -> Result<Vec<[f32; 3]>, NlosError> {
             let v = ds(name)?.read_f32().map_err(|e| err(name, e))?;
             if v.len() % 3 != 0 || v.iter().any(|x| !x.is_finite()) {
-                return Err(format!(
-                    "{}: {name} is not a grid of finite 3D points",
-                    path.display()
-                ));
+                return Err(fail(TalProblem::Points(name.to_string())));
             }
             Ok(v.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect())
         };
         let sensor_grid = points("sensor_grid_xyz")?;
         let laser_grid = points("laser_grid_xyz")?;
         if sensor_grid.len() != sensors {
-            return Err(format!(
-                "{}: {} sensor grid points for H's {sensors}",
-                path.display(),
-                sensor_grid.len()
-            ));
+            return Err(fail(TalProblem::SensorPoints {
+                got: sensor_grid.len(),
+                want: sensors,
+            }));
         }
         // y-tal's `is_laser_paired_to_sensor`: a laser grid as large as the sensor's
         // with one laser axis entry.
         let paired = lasers == 1 && laser_grid.len() == sensors && sensors > 1;
         if !paired && laser_grid.len() != lasers {
-            return Err(format!(
-                "{}: {} laser grid points for H's {lasers}",
-                path.display(),
-                laser_grid.len()
-            ));
+            return Err(fail(TalProblem::LaserPoints {
+                got: laser_grid.len(),
+                want: lasers,
+            }));
         }
-        let scalar = |name: &str| -> Result<f64, String> {
+        let scalar = |name: &str| -> Result<f64, NlosError> {
             ds(name)?
                 .read_f64()
                 .map_err(|e| err(name, e))?
                 .first()
                 .copied()
                 .filter(|v| v.is_finite())
-                .ok_or_else(|| format!("{}: {name} is not a finite number", path.display()))
+                .ok_or_else(|| fail(TalProblem::NotFinite(name.to_string())))
         };
         let point = |name: &str| -> Option<[f32; 3]> {
             let v = file.dataset(name).ok()?.read_f32().ok()?;
@@ -208,10 +210,7 @@ impl Capture {
         };
         let delta_t = scalar("delta_t")?;
         if delta_t <= 0.0 {
-            return Err(format!(
-                "{}: delta_t must be positive, got {delta_t}",
-                path.display()
-            ));
+            return Err(fail(TalProblem::DeltaT(delta_t)));
         }
         let normal = match file.dataset("sensor_grid_normals") {
             Ok(d) => {
@@ -219,10 +218,7 @@ impl Capture {
                 let n = (v.len() >= 3).then(|| [v[0], v[1], v[2]]);
                 let len = n.map_or(0.0, |n| (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt());
                 if !(len.is_finite() && len > 0.0) {
-                    return Err(format!(
-                        "{}: sensor_grid_normals is not a grid of non-zero normals",
-                        path.display()
-                    ));
+                    return Err(fail(TalProblem::Normals));
                 }
                 n.expect("checked").map(|x| x / len)
             }
@@ -246,7 +242,7 @@ impl Capture {
             accounts_first_and_last_bounces: accounts,
         };
         if accounts && (c.laser_xyz.is_none() || c.sensor_xyz.is_none()) {
-            return Err(format!("{}: its times include the first and last bounces, but laser_xyz or sensor_xyz is missing", path.display()));
+            return Err(fail(TalProblem::NoOrigins));
         }
         Ok(c)
     }

@@ -4,6 +4,7 @@
 //! `l Sy + sy`, column `sx`; laser point `l = ly Lx + lx`).
 
 use super::capture::Capture;
+use super::NlosError;
 use crate::bundle::capture::CaptureRecord;
 
 /// Replaces `c.h` (read from the bundle of `rec`) by `v`, an (rows, Sx, T, C) volume.
@@ -12,19 +13,21 @@ pub fn replace_h(
     rec: &CaptureRecord,
     v: &[f32],
     shape: [usize; 4],
-) -> Result<(), String> {
+) -> Result<(), NlosError> {
     let [sx_n, sy_n] = rec.sensor_grid;
     let [lx_n, ly_n] = rec.laser_grid;
     let rows = sy_n * lx_n * ly_n;
     let [h, w, t, ch] = shape;
     if h != rows || w != sx_n || t != c.bins || ch == 0 {
-        return Err(format!(
-            "the denoised volume is {shape:?}; the capture's film is ({rows}, {sx_n}, {}, C)",
-            c.bins
-        ));
+        return Err(NlosError::DenoisedShape {
+            shape,
+            rows,
+            sx: sx_n,
+            bins: c.bins,
+        });
     }
     if v.iter().any(|x| !x.is_finite()) {
-        return Err("the denoised volume holds non-finite values".into());
+        return Err(NlosError::DenoisedNotFinite);
     }
     let sensors = sx_n * sy_n;
     let lasers = lx_n * ly_n;

@@ -34,6 +34,7 @@
 use super::bp::VoxelGrid;
 use super::capture::Capture;
 use super::wave::{self, fft3, linspace, Native, C64};
+use super::NlosError;
 use rayon::prelude::*;
 use rustfft::FftDirection;
 
@@ -101,14 +102,14 @@ pub fn stolt(f: &mut [C64], n: usize, m: usize, s: f64) {
 }
 
 /// The native f-k volume of `c` (laid out (i, j, m), `N N M'` values) and its grid.
-pub fn fk_native(c: &Capture) -> Result<(Native, Vec<f32>), String> {
+pub fn fk_native(c: &Capture) -> Result<(Native, Vec<f32>), NlosError> {
     let g = Native::of(c, "fk")?;
     let (n, m) = (g.n, g.depths);
     let (n2, m2) = (2 * n, 2 * m);
     let len = n2
         .checked_mul(n2)
         .and_then(|v| v.checked_mul(m2))
-        .ok_or("fk: the padded volume does not fit the address space")?;
+        .ok_or(NlosError::PaddedOverflow { method: "fk" })?;
     let mut f = wave::zeroed(len, "fk's padded volume")?;
     // Step 1: ψ = |τ z_m|, in the (i < N, j < N, m < M') corner.
     let z = linspace(0.0, 1.0, m);
@@ -142,7 +143,7 @@ pub fn fk_native(c: &Capture) -> Result<(Native, Vec<f32>), String> {
 /// voxel centres as [`VoxelGrid::coordinate`] (the convention of
 /// `bp::backproject`), trilinear from the native volume, zero outside it. Errors
 /// for captures fk cannot take (`Native::of`).
-pub fn fk_migration(c: &Capture, grid: &VoxelGrid) -> Result<Vec<f32>, String> {
+pub fn fk_migration(c: &Capture, grid: &VoxelGrid) -> Result<Vec<f32>, NlosError> {
     let (g, vol) = fk_native(c)?;
     Ok(g.resample(&vol, grid))
 }

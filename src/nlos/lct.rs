@@ -47,6 +47,7 @@
 use super::bp::VoxelGrid;
 use super::capture::Capture;
 use super::wave::{self, fft3, linspace, Native, C64};
+use super::NlosError;
 use rayon::prelude::*;
 use rustfft::FftDirection;
 
@@ -148,11 +149,9 @@ fn define_psf(psf: &mut [C64], n: usize, m: usize, slope: f64) {
 }
 
 /// The native LCT volume of `c` (laid out (i, j, m), `N N M'` values) and its grid.
-pub fn lct_native(c: &Capture, snr: f64) -> Result<(Native, Vec<f32>), String> {
+pub fn lct_native(c: &Capture, snr: f64) -> Result<(Native, Vec<f32>), NlosError> {
     if !(snr.is_finite() && snr > 0.0) {
-        return Err(format!(
-            "lct: the Wiener filter's signal-to-noise ratio must be a positive number, got {snr}"
-        ));
+        return Err(NlosError::LctSnr(snr));
     }
     let g = Native::of(c, "lct")?;
     let (n, m) = (g.n, g.depths);
@@ -160,7 +159,7 @@ pub fn lct_native(c: &Capture, snr: f64) -> Result<(Native, Vec<f32>), String> {
     let len = n2
         .checked_mul(n2)
         .and_then(|v| v.checked_mul(m2))
-        .ok_or("lct: the padded volume does not fit the address space")?;
+        .ok_or(NlosError::PaddedOverflow { method: "lct" })?;
     let dims = [n2, n2, m2];
     let range = g.delta_t * m as f64;
     // The Wiener inverse of the PSF.
@@ -223,7 +222,7 @@ pub fn lct_native(c: &Capture, snr: f64) -> Result<(Native, Vec<f32>), String> {
 /// (NX, NY, NZ) row-major, voxel centres as [`VoxelGrid::coordinate`] (the convention
 /// of `bp::backproject`), trilinear from the native volume, zero outside it. Errors
 /// for captures LCT cannot take (`Native::of`) and a non-positive `snr`.
-pub fn lct(c: &Capture, grid: &VoxelGrid, snr: f64) -> Result<Vec<f32>, String> {
+pub fn lct(c: &Capture, grid: &VoxelGrid, snr: f64) -> Result<Vec<f32>, NlosError> {
     let (g, vol) = lct_native(c, snr)?;
     Ok(g.resample(&vol, grid))
 }

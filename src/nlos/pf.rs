@@ -33,6 +33,7 @@
 use super::bp::VoxelGrid;
 use super::capture::Capture;
 use super::filter::{kernel, Shift};
+use super::NlosError;
 use rayon::prelude::*;
 use rustfft::num_complex::Complex;
 use rustfft::{Fft, FftPlanner};
@@ -56,7 +57,7 @@ pub struct Pulse {
 }
 
 /// The pulse of wavelength `wl_mean` and envelope `wl_sigma` for `nt` bins of `delta_t`.
-pub fn pulse(nt: usize, delta_t: f64, wl_mean: f64, wl_sigma: f64) -> Result<Pulse, String> {
+pub fn pulse(nt: usize, delta_t: f64, wl_mean: f64, wl_sigma: f64) -> Result<Pulse, NlosError> {
     let padding = 2 * (6.0 * wl_sigma / delta_t).ceil() as usize;
     let nf = nt + 2 * padding;
     let mut k = kernel(nf, delta_t, wl_mean, wl_sigma, Shift::Fft);
@@ -68,11 +69,7 @@ pub fn pulse(nt: usize, delta_t: f64, wl_mean: f64, wl_sigma: f64) -> Result<Pul
     let first = (m - 3.0 * s).floor().max(0.0) as usize;
     let last = ((m + 3.0 * s).ceil() as usize).min(nf / 2);
     if first > last {
-        return Err(format!(
-            "--wl-mean {wl_mean}: the pulse's frequencies lie above the capture's Nyquist \
-             frequency (wavelength at least 2 delta_t = {})",
-            2.0 * delta_t
-        ));
+        return Err(NlosError::Nyquist { wl_mean, delta_t });
     }
     // numpy's fftfreq: index k is k / (nf delta_t), or k - nf above (nf - 1) / 2.
     let freq = |i: usize| {
@@ -371,7 +368,7 @@ pub fn phasor_field(
     grid: &VoxelGrid,
     wl_mean: f64,
     wl_sigma: f64,
-) -> Result<Vec<f32>, String> {
+) -> Result<Vec<f32>, NlosError> {
     phasor_field_by(c, grid, wl_mean, wl_sigma, Propagation::Fastest)
 }
 
@@ -382,7 +379,7 @@ pub fn phasor_field_by(
     wl_mean: f64,
     wl_sigma: f64,
     how: Propagation,
-) -> Result<Vec<f32>, String> {
+) -> Result<Vec<f32>, NlosError> {
     let p = pulse(c.bins, c.delta_t, wl_mean, wl_sigma)?;
     let hw = spectrum(c, &p);
     let [nx, ny, nz] = grid.n;

@@ -4,7 +4,7 @@
 
 use super::bp::{backproject, filtered_backproject, VoxelGrid};
 use super::capture::Capture;
-use super::{filter, fk, lct, pf};
+use super::{filter, fk, lct, pf, NlosError};
 
 /// A reconstruction method and its parameters.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -49,34 +49,33 @@ impl Reconstruction {
     /// Refuses parameters the method cannot use on `c`: a pulse envelope so wide that
     /// the filter's padded series would not stay addressable, non-positive wavelengths
     /// or ratios.
-    pub fn check(&self, c: &Capture) -> Result<(), String> {
+    pub fn check(&self, c: &Capture) -> Result<(), NlosError> {
         match *self {
             Reconstruction::Fbp { wl_mean, wl_sigma }
             | Reconstruction::Pf { wl_mean, wl_sigma } => {
                 if !(wl_mean > 0.0 && wl_mean.is_finite() && wl_sigma > 0.0 && wl_sigma.is_finite())
                 {
-                    return Err(format!(
-                        "wl_mean {wl_mean} and wl_sigma {wl_sigma} must be positive and finite"
-                    ));
+                    return Err(NlosError::Wavelengths { wl_mean, wl_sigma });
                 }
                 let (n, _) = filter::padding(c.bins, wl_sigma, c.delta_t);
                 if wl_sigma / c.delta_t > 1e6 || n > 1 << 26 {
-                    return Err(format!(
-                        "wl_sigma {wl_sigma} spans {:.0} bins: the filter would pad each series to {n} samples",
-                        wl_sigma / c.delta_t
-                    ));
+                    return Err(NlosError::Envelope {
+                        wl_sigma,
+                        bins: wl_sigma / c.delta_t,
+                        padded: n,
+                    });
                 }
                 Ok(())
             }
-            Reconstruction::Lct { snr } if !(snr > 0.0 && snr.is_finite()) => Err(format!(
-                "snr {snr}: the signal-to-noise ratio must be positive and finite"
-            )),
+            Reconstruction::Lct { snr } if !(snr > 0.0 && snr.is_finite()) => {
+                Err(NlosError::Snr(snr))
+            }
             _ => Ok(()),
         }
     }
 
     /// The working memory of the reconstruction of `c` on `grid`, beyond the capture.
-    pub fn working_memory(&self, c: &Capture, grid: &VoxelGrid) -> Result<u64, String> {
+    pub fn working_memory(&self, c: &Capture, grid: &VoxelGrid) -> Result<u64, NlosError> {
         let out = grid.voxels() as u64 * 8;
         Ok(match *self {
             Reconstruction::Pf { wl_mean, wl_sigma } => {
@@ -92,7 +91,7 @@ impl Reconstruction {
     }
 
     /// The reconstruction of `c` on `grid`: NX NY NZ values, row-major.
-    pub fn run(&self, c: &Capture, grid: &VoxelGrid) -> Result<Vec<f32>, String> {
+    pub fn run(&self, c: &Capture, grid: &VoxelGrid) -> Result<Vec<f32>, NlosError> {
         self.check(c)?;
         Ok(match *self {
             Reconstruction::Bp => backproject(c, grid),

@@ -25,9 +25,10 @@
 //! is summed from the bundle's rows and written in one piece. A block smaller than
 //! the whole capture reads the bundle once per block.
 
+use super::NlosError;
 use crate::bundle::capture::CaptureRecord;
 use crate::bundle::read::RowSums;
-use crate::bundle::{Bundle, BundleError};
+use crate::bundle::{Bundle, BundleError, Problem};
 use crate::scene::nlos::CaptureType;
 use hdf5_pure::{
     make_f32_type, make_i8_type, Datatype, EnumTypeBuilder, File, FileBuilder, Layout,
@@ -192,20 +193,24 @@ impl Write for SparseSink {
 }
 
 /// `n` zero bytes from the allocator's zeroed pages (never touched, so not resident),
-/// or an error when the address space cannot hold them.
-fn zeroed(n: usize) -> Result<Vec<u8>, String> {
+/// or an error (naming the bundle `dir`) when the address space cannot hold them.
+fn zeroed(n: usize, dir: &Path) -> Result<Vec<u8>, NlosError> {
     if n == 0 {
         return Ok(Vec::new());
     }
-    let layout = std::alloc::Layout::array::<u8>(n).map_err(|e| e.to_string())?;
+    let layout = std::alloc::Layout::array::<u8>(n).map_err(|error| NlosError::ExportLayout {
+        dir: dir.to_path_buf(),
+        error,
+    })?;
     // SAFETY: the layout has a non-zero size; a non-null pointer owns n zeroed bytes
     // with u8's alignment, which `Vec::from_raw_parts` takes over with that capacity.
     unsafe {
         let p = std::alloc::alloc_zeroed(layout);
         if p.is_null() {
-            return Err(format!(
-                "cannot reserve {n} bytes of address space to lay out H"
-            ));
+            return Err(NlosError::ExportAddressSpace {
+                dir: dir.to_path_buf(),
+                bytes: n,
+            });
         }
         Ok(Vec::from_raw_parts(p, n, n))
     }
@@ -220,15 +225,16 @@ pub struct Written {
 
 /// Writes `bundle`'s capture to `path` (a new file) as y-tal's HDF5 capture, holding at
 /// most `max_bytes` of H at a time (at least one time bin's worth).
-pub fn write_capture(bundle: &Bundle, path: &Path, max_bytes: u64) -> Result<Written, BundleError> {
+pub fn write_capture(bundle: &Bundle, path: &Path, max_bytes: u64) -> Result<Written, NlosError> {
     let m = &bundle.manifest;
-    let bad = |e: String| BundleError::Invalid(bundle.dir.clone(), e);
-    let io = |e: String| BundleError::Io(path.to_path_buf(), e);
-    let rec = m.nlos.as_ref().ok_or_else(|| {
-        bad("not an NLOS capture: its scene's sensor is no nlos_capture_meter (y-tal's format holds relay-wall captures)".into())
-    })?;
+    let dir = &bundle.dir;
+    let io = |e: Box<dyn std::error::Error + Send + Sync>| NlosError::Write(path.to_path_buf(), e);
+    let rec = m
+        .nlos
+        .as_ref()
+        .ok_or_else(|| NlosError::ExportNotACapture(dir.clone()))?;
     if rec.account_first_and_last_bounces && !rec.laser_origin.iter().all(|v| v.is_finite()) {
-        return Err(bad("its times include the laser's segment, but the scene has no positioned laser (a projector or spot) to record as laser_xyz".into()));
+        return Err(NlosError::ExportNoLaser(dir.clone()));
     }
     let shape = h_shape(rec, m.bins);
     let n = shape
@@ -238,33 +244,37 @@ pub fn write_capture(bundle: &Bundle, path: &Path, max_bytes: u64) -> Result<Wri
     let bytes = usize::try_from(n.saturating_mul(4))
         .ok()
         .filter(|&b| b <= isize::MAX as usize)
-        .ok_or_else(|| bad(format!("H of {n} values does not fit the address space")))?;
+        .ok_or_else(|| NlosError::ExportTooLarge {
+            dir: dir.clone(),
+            values: n,
+        })?;
     let mut b = FileBuilder::new();
     b.create_dataset("H")
-        .with_raw_data(make_f32_type(), zeroed(bytes).map_err(bad)?, n)
+        .with_raw_data(make_f32_type(), zeroed(bytes, dir)?, n)
         .with_shape(&shape);
     stage_meta(&mut b, bundle, rec);
-    let file = std::fs::File::create(path).map_err(|e| io(e.to_string()))?;
+    let file = std::fs::File::create(path).map_err(|e| io(e.into()))?;
     let mut sink = SparseSink { file, len: 0 };
-    b.finish_to(&mut sink).map_err(|e| io(e.to_string()))?;
-    sink.file.set_len(sink.len).map_err(|e| io(e.to_string()))?;
+    b.finish_to(&mut sink).map_err(|e| io(e.into()))?;
+    sink.file.set_len(sink.len).map_err(|e| io(e.into()))?;
     let file = sink.file;
     let offset = match File::open_streaming(path)
         .and_then(|f| f.dataset("H")?.layout())
-        .map_err(|e| io(e.to_string()))?
+        .map_err(|e| io(e.into()))?
     {
         Layout::Contiguous {
             address: Some(a),
             size,
         } if size == n * 4 => a,
-        other => {
-            return Err(io(format!(
-                "H was laid out as {other:?}, not one contiguous block"
-            )))
+        layout => {
+            return Err(NlosError::HNotContiguous {
+                path: path.to_path_buf(),
+                layout,
+            })
         }
     };
     let blocks = fill_h(bundle, rec, &file, offset, max_bytes)?;
-    file.sync_all().map_err(|e| io(e.to_string()))?;
+    file.sync_all().map_err(|e| io(e.into()))?;
     Ok(Written {
         h_shape: shape,
         blocks,
@@ -279,7 +289,7 @@ fn fill_h(
     file: &std::fs::File,
     offset: u64,
     max_bytes: u64,
-) -> Result<usize, BundleError> {
+) -> Result<usize, NlosError> {
     use std::os::unix::fs::FileExt;
     let t = bundle.manifest.bins;
     let per_bin = h_per_bin(rec);
@@ -292,7 +302,7 @@ fn fill_h(
         h_block(bundle, rec, t0..t1, part)?;
         let bytes: &[u8] = bytemuck::cast_slice(part);
         file.write_all_at(bytes, offset + (t0 * per_bin) as u64 * 4)
-            .map_err(|e| BundleError::Io(std::path::PathBuf::from("H"), e.to_string()))?;
+            .map_err(|e| NlosError::Write("H".into(), e.into()))?;
         blocks += 1;
     }
     Ok(blocks)
@@ -395,7 +405,7 @@ pub fn h_radiance(
         "sum"
     };
     let path = bundle.array_path(name)?;
-    let bad = |e: String| BundleError::Invalid(path.clone(), e);
+    let bad = |e| BundleError::invalid(path.clone(), Problem::Npy(e));
     let file = crate::bundle::npy::open(&path).map_err(bad)?;
     file.header
         .expect::<f64>(Some(&[h, w, m.bins, c]))

@@ -27,6 +27,7 @@
 
 use super::bp::VoxelGrid;
 use super::capture::Capture;
+use super::NlosError;
 use rayon::prelude::*;
 use rustfft::num_complex::Complex;
 use rustfft::{Fft, FftDirection, FftPlanner};
@@ -114,58 +115,54 @@ pub fn native_bytes(c: &Capture) -> usize {
 
 impl Native {
     /// The native grid of `c`, or why fk and LCT cannot reconstruct it.
-    pub fn of(c: &Capture, method: &str) -> Result<Native, String> {
+    pub fn of(c: &Capture, method: &'static str) -> Result<Native, NlosError> {
         if !c.paired {
-            return Err(format!(
-                "{method} reconstructs confocal captures only (each sensor point lit by its own laser point)"
-            ));
+            return Err(NlosError::NotConfocal { method });
         }
         if c.accounts_first_and_last_bounces {
-            return Err(format!(
-                "{method} needs times from the wall (bin 0 at OPL 0 on every point); this capture's times include the first and last bounces, which differ from point to point by fractions of a bin"
-            ));
+            return Err(NlosError::BounceTimes { method });
         }
         let [sx, sy] = c.sensor_dims;
         if sx != sy || sx < 2 {
-            return Err(format!(
-                "{method} needs a square sensor grid of at least 2 x 2 points, got {sx} x {sy}"
-            ));
+            return Err(NlosError::NotSquare { method, sx, sy });
         }
         let n = sx;
         if c.sensors != n * n || c.sensor_grid.len() != n * n || c.lasers != 1 {
-            return Err(format!(
-                "{method}: the capture's H ({} laser x {} sensor points) does not match its {n} x {n} grid of {} points",
-                c.lasers,
-                c.sensors,
-                c.sensor_grid.len()
-            ));
+            return Err(NlosError::GridMismatch {
+                method,
+                lasers: c.lasers,
+                sensors: c.sensors,
+                n,
+                points: c.sensor_grid.len(),
+            });
         }
         if c.bins.checked_mul(c.sensors) != Some(c.h.len()) {
-            return Err(format!(
-                "{method}: H holds {} values for {} bins of {} points",
-                c.h.len(),
-                c.bins,
-                c.sensors
-            ));
+            return Err(NlosError::HLength {
+                method,
+                values: c.h.len(),
+                bins: c.bins,
+                points: c.sensors,
+            });
         }
         if c.bins < 2 {
-            return Err(format!(
-                "{method} needs at least 2 time bins, got {}",
-                c.bins
-            ));
+            return Err(NlosError::TooFewBins {
+                method,
+                bins: c.bins,
+            });
         }
         if !(c.delta_t.is_finite() && c.delta_t > 0.0 && c.t_start.is_finite()) {
-            return Err(format!(
-                "{method}: the time axis (t_start {}, delta_t {}) is not finite with a positive bin width",
-                c.t_start, c.delta_t
-            ));
+            return Err(NlosError::TimeAxis {
+                method,
+                t_start: c.t_start,
+                delta_t: c.delta_t,
+            });
         }
         if let Some(k) = c.h.iter().position(|v| !v.is_finite()) {
-            return Err(format!(
-                "{method}: H holds a non-finite value (bin {}, point {})",
-                k / c.sensors,
-                k % c.sensors
-            ));
+            return Err(NlosError::NonFiniteH {
+                method,
+                bin: k / c.sensors,
+                point: k % c.sensors,
+            });
         }
         // The grid: o + i du + j dv, du and dv from the far corners.
         let p = |i: usize, j: usize| f64x3(c.sensor_grid[i * n + j]);
@@ -175,14 +172,10 @@ impl Native {
         let dv = sub(p(0, n - 1), origin).map(|v| v / steps);
         let (lu, lv) = (norm(du), norm(dv));
         if !(lu.is_finite() && lu > 0.0 && lv > 0.0) {
-            return Err(format!(
-                "{method}: the sensor grid's points do not span a plane (steps {du:?}, {dv:?})"
-            ));
+            return Err(NlosError::NotPlanar { method, du, dv });
         }
         if (lu - lv).abs() > GRID_TOLERANCE * lu || dot(du, dv).abs() > GRID_TOLERANCE * lu * lv {
-            return Err(format!(
-                "{method} needs a square grid of square cells; steps {du:?} and {dv:?} are not perpendicular and of one length"
-            ));
+            return Err(NlosError::NotSquareCells { method, du, dv });
         }
         let far = c
             .sensor_grid
@@ -195,33 +188,25 @@ impl Native {
                 let want = [0, 1, 2].map(|a| origin[a] + i as f64 * du[a] + j as f64 * dv[a]);
                 let off = norm(sub(p(i, j), want));
                 if off > tol {
-                    return Err(format!(
-                        "{method} needs a regular planar grid; point ({i}, {j}) lies {off:.3e} from its place on it"
-                    ));
+                    return Err(NlosError::Irregular { method, i, j, off });
                 }
             }
         }
         let nr = f64x3(c.normal);
         let ln = norm(nr);
         if !(ln.is_finite() && ln > 0.0) {
-            return Err(format!(
-                "{method}: the wall normal {nr:?} is not a direction"
-            ));
+            return Err(NlosError::NormalNotDirection { method, normal: nr });
         }
         let normal = nr.map(|v| v / ln);
         if dot(normal, du).abs() > NORMAL_TOLERANCE * lu
             || dot(normal, dv).abs() > NORMAL_TOLERANCE * lv
         {
-            return Err(format!(
-                "{method}: the wall normal {normal:?} is not perpendicular to the sensor grid"
-            ));
+            return Err(NlosError::NormalNotPerpendicular { method, normal });
         }
         // Bin 0 at OPL 0: pad or skip whole bins.
         let p = (c.t_start / c.delta_t).round();
         if p.abs() > MAX_DEPTHS as f64 {
-            return Err(format!(
-                "{method}: t_start is {p} bins from OPL 0; at most {MAX_DEPTHS} bins can be put in front"
-            ));
+            return Err(NlosError::StartTooEarly { method, bins: p });
         }
         let (pad, skip) = if p >= 0.0 {
             (p as usize, 0)
@@ -230,16 +215,19 @@ impl Native {
         };
         let depths = (c.bins + pad).saturating_sub(skip);
         if depths < 2 {
-            return Err(format!(
-                "{method}: the capture starts at OPL {} < 0 and keeps {depths} bins from OPL 0 on; at least 2 are needed",
-                c.t_start
-            ));
+            return Err(NlosError::TooFewDepths {
+                method,
+                t_start: c.t_start,
+                depths,
+            });
         }
         if depths > MAX_DEPTHS {
-            return Err(format!(
-                "{method}: {depths} bins from OPL 0 (t_start {} = {pad} bins); at most {MAX_DEPTHS}",
-                c.t_start
-            ));
+            return Err(NlosError::TooManyDepths {
+                method,
+                depths,
+                t_start: c.t_start,
+                pad,
+            });
         }
         let t0 = c.t_start - p * c.delta_t;
         Ok(Native {
@@ -376,14 +364,10 @@ impl Native {
 }
 
 /// A zeroed complex buffer of `len` values, or an error when it cannot be had.
-pub fn zeroed(len: usize, what: &str) -> Result<Vec<C64>, String> {
+pub fn zeroed(len: usize, what: &'static str) -> Result<Vec<C64>, NlosError> {
     let mut v = Vec::new();
-    v.try_reserve_exact(len).map_err(|_| {
-        format!(
-            "cannot hold {what} ({len} complex values, {} MB) in memory",
-            len.saturating_mul(16) >> 20
-        )
-    })?;
+    v.try_reserve_exact(len)
+        .map_err(|_| NlosError::Memory { what, len })?;
     v.resize(len, C64::new(0.0, 0.0));
     Ok(v)
 }

@@ -36,6 +36,15 @@ use deposits::PathDeposits;
 use gbuffer::{GAccum, GPixel};
 use integrator::{trace_ray, PathTally};
 pub use pixel_sampling::{PixelPattern, PixelSampling};
+/// Errors of the render settings.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum RenderError {
+    #[error("--replicates 1: a variance needs at least 2 replicates (0: none)")]
+    OneReplicate,
+    #[error("--replicates {replicates} does not divide spp {spp}: replicates need equal sizes")]
+    ReplicatesDoNotDivide { replicates: u32, spp: u32 },
+}
+
 use rayon::prelude::*;
 use sampler::{replicate_key, slot, PathSampler, SobolPath};
 use sink::{MemorySink, Row, RowSink};
@@ -67,14 +76,12 @@ impl RenderSettings {
     }
 
     /// Whether `replicates` can split `spp`: 0 (none) or at least 2, dividing spp.
-    pub fn check_replicates(spp: u32, replicates: u32) -> Result<(), String> {
+    pub fn check_replicates(spp: u32, replicates: u32) -> Result<(), RenderError> {
         if replicates == 1 {
-            return Err("--replicates 1: a variance needs at least 2 replicates (0: none)".into());
+            return Err(RenderError::OneReplicate);
         }
         if replicates >= 2 && !spp.is_multiple_of(replicates) {
-            return Err(format!(
-                "--replicates {replicates} does not divide spp {spp}: replicates need equal sizes"
-            ));
+            return Err(RenderError::ReplicatesDoNotDivide { replicates, spp });
         }
         Ok(())
     }

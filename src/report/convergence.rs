@@ -9,6 +9,7 @@ use super::nlos::{NlosPlan, ReconstructionError, Reconstructor};
 use super::region::{compare_regions, Region, RegionMetrics};
 use super::speedup::{speedup_or_bound, Speedup};
 use super::volume::no_light_mask;
+use super::ReportError;
 use crate::denoise::critical::Threshold;
 use crate::denoise::gbuffers::GBuffers;
 use crate::denoise::tstat::TstatParams;
@@ -152,7 +153,7 @@ pub struct ConvergenceResult {
 
 /// The noisy mean S / n of a render as an (H, W, T, C) f32 volume; an error names
 /// the first voxel whose mean f32 cannot hold (as a bundle's checks do).
-pub fn noisy_mean(out: &RenderOutput, spp: u32) -> Result<Array4<f32>, String> {
+pub fn noisy_mean(out: &RenderOutput, spp: u32) -> Result<Array4<f32>, ReportError> {
     let a = &out.accum;
     let s = a.sum.as_ref().unwrap_or(&a.x1);
     let n = spp as f64;
@@ -161,10 +162,8 @@ pub fn noisy_mean(out: &RenderOutput, spp: u32) -> Result<Array4<f32>, String> {
     });
     match v.indexed_iter().find(|(_, m)| !m.is_finite()) {
         Some(((y, x, t, c), _)) => {
-            let m = s[((y * a.width + x) * a.bins + t) * CHANNELS + c] / n;
-            Err(format!(
-                "the render's mean {m:e} at row {y}, column {x}, bin {t}, channel {c} does not fit in f32 (the volumes' type): scale the emitters down"
-            ))
+            let mean = s[((y * a.width + x) * a.bins + t) * CHANNELS + c] / n;
+            Err(ReportError::MeanBeyondF32 { mean, y, x, t, c })
         }
         None => Ok(v),
     }
@@ -209,22 +208,26 @@ fn gbuffers(out: &RenderOutput) -> GBuffers {
     GBuffers::from_pixels(out.accum.height, out.accum.width, &out.gbuffer)
 }
 
-fn load_scene(cfg: &ConvergenceConfig, spp: u32) -> Result<Scene, String> {
+fn load_scene(cfg: &ConvergenceConfig, spp: u32) -> Result<Scene, ReportError> {
     let o = Overrides {
         spp: Some(spp),
         ..cfg.overrides.clone()
     };
-    Scene::load(&cfg.scene, &o).map_err(|e| e.to_string())
+    Scene::load(&cfg.scene, &o).map_err(ReportError::Scene)
 }
 
 /// A reference volume, its no-light mask, and how it was obtained.
 type Reference = (Array4<f32>, Option<Vec<bool>>, String);
 
 /// The reference volume and its no-light mask, rendering (and caching in `dir`) when asked.
-fn reference(cfg: &ConvergenceConfig, dir: &Path, log: &dyn Fn(&str)) -> Result<Reference, String> {
+fn reference(
+    cfg: &ConvergenceConfig,
+    dir: &Path,
+    log: &dyn Fn(&str),
+) -> Result<Reference, ReportError> {
     match &cfg.reference {
         ReferenceSource::Volume(p) => {
-            let v = super::volume::load_volume(p).map_err(|e| e.to_string())?;
+            let v = super::volume::load_volume(p)?;
             Ok((
                 v.volume,
                 v.no_light_mask,
@@ -252,9 +255,7 @@ fn reference(cfg: &ConvergenceConfig, dir: &Path, log: &dyn Fn(&str)) -> Result<
             let em_path = dir.join(format!("reference-{key}-emitter.npy"));
             if vol_path.is_file() && em_path.is_file() {
                 // Checked reads: a damaged cache is an error naming the file.
-                let v = super::volume::load_volume(&vol_path)
-                    .map_err(|e| e.to_string())?
-                    .volume;
+                let v = super::volume::load_volume(&vol_path)?.volume;
                 let em = read_emitter(&em_path, v.shape()[0], v.shape()[1])?;
                 log(&format!("reusing cached reference {}", vol_path.display()));
                 return Ok((
@@ -294,12 +295,12 @@ pub fn run_convergence(
     cfg: &ConvergenceConfig,
     dir: &Path,
     log: &dyn Fn(&str),
-) -> Result<ConvergenceResult, String> {
+) -> Result<ConvergenceResult, ReportError> {
     if cfg.spp_list.is_empty() {
-        return Err("the spp list is empty".into());
+        return Err(ReportError::NoSpp);
     }
     if let Some(s) = cfg.spp_list.iter().find(|&&s| s < 2) {
-        return Err(format!("spp {s}: at least 2 samples per pixel are needed"));
+        return Err(ReportError::TooFewSamples(*s));
     }
     let scene2 = load_scene(cfg, 2)?;
     let is_nlos = crate::bundle::capture::CaptureRecord::of_scene(&scene2).is_some();
@@ -327,11 +328,10 @@ pub fn run_convergence(
         CHANNELS,
     ];
     if reference.shape() != shape {
-        return Err(format!(
-            "the reference has shape {:?} but the renders have {:?}",
-            reference.shape(),
-            shape
-        ));
+        return Err(ReportError::ReferenceShape {
+            reference: reference.shape().to_vec(),
+            renders: shape,
+        });
     }
     if let Some(r) = &mut reconstructor {
         log("reconstructing the reference capture");
@@ -529,9 +529,12 @@ pub fn reconstruction_seconds(rows: &[Row], k: usize) -> f64 {
 
 /// A cached (H, W) f32 emitter G-buffer: header, size and values checked (fractions in
 /// [0, 1]) before use.
-fn read_emitter(path: &Path, h: usize, w: usize) -> Result<Array2<f32>, String> {
+fn read_emitter(path: &Path, h: usize, w: usize) -> Result<Array2<f32>, ReportError> {
     use crate::bundle::npy;
-    let err = |e: String| format!("{}: {e}", path.display());
+    let err = |error| ReportError::Npy {
+        path: path.to_path_buf(),
+        error,
+    };
     let f = npy::open(path).map_err(err)?;
     f.header.expect::<f32>(Some(&[h, w])).map_err(err)?;
     let data = f
@@ -547,16 +550,15 @@ fn read_emitter(path: &Path, h: usize, w: usize) -> Result<Array2<f32>, String> 
             &["y", "x"],
         )
         .map_err(err)?;
-    Array2::from_shape_vec((h, w), data).map_err(|e| err(e.to_string()))
+    Array2::from_shape_vec((h, w), data).map_err(|e| err(npy::NpyError::Layout(e)))
 }
 
 fn write_npy_atomic<A: ndarray_npy::WritableElement, D: ndarray::Dimension>(
     path: &Path,
     a: &ndarray::Array<A, D>,
-) -> Result<(), String> {
+) -> Result<(), ReportError> {
     crate::bundle::write::write_atomically(path, true, |tmp| {
-        ndarray_npy::write_npy(tmp, a)
-            .map_err(|e| crate::bundle::BundleError::Io(path.to_path_buf(), e.to_string()))
-    })
-    .map_err(|e| e.to_string())
+        ndarray_npy::write_npy(tmp, a).map_err(|e| crate::bundle::BundleError::io(path, e))
+    })?;
+    Ok(())
 }

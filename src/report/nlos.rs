@@ -8,6 +8,7 @@
 //! against a budget before the first render), and one reconstruction (NX NY NZ f32) per
 //! method for the reference.
 
+use super::ReportError;
 use crate::bundle::capture::CaptureRecord;
 use crate::nlos::bp::VoxelGrid;
 use crate::nlos::capture::Capture;
@@ -59,10 +60,8 @@ pub fn relative_l2(x: &[f32], r: &[f32]) -> f64 {
 impl Reconstructor {
     /// Binds `plan` to `scene` (an NLOS scene); refuses a scene that is no capture and
     /// a method that cannot run on it or needs more than the plan's memory.
-    pub fn new(scene: &Scene, plan: NlosPlan) -> Result<Self, String> {
-        let record = CaptureRecord::of_scene(scene).ok_or_else(|| {
-            "reconstructions need an NLOS scene (its sensor an nlos_capture_meter)".to_string()
-        })?;
+    pub fn new(scene: &Scene, plan: NlosPlan) -> Result<Self, ReportError> {
+        let record = CaptureRecord::of_scene(scene).ok_or(ReportError::NotAnNlosScene)?;
         let r = Reconstructor {
             plan,
             record,
@@ -74,15 +73,18 @@ impl Reconstructor {
         let h = vec![0f32; r.bins * h_per_bin(&r.record)];
         let c = Capture::from_record(&r.record, r.t_start, r.delta_t, r.bins, h);
         for m in &r.plan.methods {
-            m.check(&c).map_err(|e| format!("{}: {e}", m.name()))?;
+            m.check(&c).map_err(|error| ReportError::Method {
+                method: m.name(),
+                error: Box::new(error),
+            })?;
             let need = m.working_memory(&c, &r.plan.grid)?;
             if need > r.plan.max_memory {
-                return Err(format!(
-                    "{} on {:?} voxels needs {need} bytes of working memory, over the {} allowed",
-                    m.name(),
-                    r.plan.grid.n,
-                    r.plan.max_memory
-                ));
+                return Err(ReportError::ReconstructionMemory {
+                    method: m.name(),
+                    grid: r.plan.grid.n,
+                    need,
+                    allowed: r.plan.max_memory,
+                });
             }
         }
         Ok(r)
@@ -91,16 +93,13 @@ impl Reconstructor {
     /// Reconstructs the reference capture `v` ((rows, Sx, T, C), the film's shape) with
     /// every method; refuses a reconstruction that is zero everywhere (no error can be
     /// relative to it).
-    pub fn set_reference(&mut self, v: &Array4<f32>) -> Result<(), String> {
+    pub fn set_reference(&mut self, v: &Array4<f32>) -> Result<(), ReportError> {
         let c = self.capture(v)?;
         let mut reference = Vec::new();
         for m in &self.plan.methods {
             let x = m.run(&c, &self.plan.grid)?;
             if x.iter().all(|&x| x == 0.0) {
-                return Err(format!(
-                    "the {} reconstruction of the reference capture is zero everywhere: no error can be measured against it (does the volume hold the hidden scene?)",
-                    m.name()
-                ));
+                return Err(ReportError::ZeroReference(m.name()));
             }
             reference.push(x);
         }
@@ -122,7 +121,7 @@ impl Reconstructor {
     }
 
     /// The capture of a film volume (rows, Sx, T, C).
-    fn capture(&self, v: &Array4<f32>) -> Result<Capture, String> {
+    fn capture(&self, v: &Array4<f32>) -> Result<Capture, ReportError> {
         let h = vec![0f32; self.bins * h_per_bin(&self.record)];
         let mut c = Capture::from_record(&self.record, self.t_start, self.delta_t, self.bins, h);
         let s = v.shape();
@@ -136,7 +135,7 @@ impl Reconstructor {
     pub fn measure(
         &self,
         v: &Array4<f32>,
-    ) -> Result<(Vec<ReconstructionError>, Vec<Vec<f32>>), String> {
+    ) -> Result<(Vec<ReconstructionError>, Vec<Vec<f32>>), ReportError> {
         assert_eq!(
             self.reference.len(),
             self.plan.methods.len(),

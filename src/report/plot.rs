@@ -1,5 +1,6 @@
 //! PNG line charts with `plotters` (no system fonts: DejaVu Sans is compiled in).
 
+use super::ReportError;
 use plotters::coord::ranged1d::{AsRangedCoord, ValueFormatter};
 use plotters::prelude::*;
 use std::path::Path;
@@ -71,7 +72,7 @@ pub fn line_chart(
     series: &[Series],
     x_scale: Scale,
     y_scale: Scale,
-) -> Result<bool, String> {
+) -> Result<bool, ReportError> {
     register_font();
     let all = || series.iter().flat_map(|s| s.points.iter());
     let (Some(xb), Some(yb)) = (
@@ -128,11 +129,15 @@ pub fn line_chart(
                 y_scale,
             ),
         };
-        r.map_err(|e| format!("drawing {}: {e}", path.display()))?;
-        root.present()
-            .map_err(|e| format!("drawing {}: {e}", path.display()))?;
+        let drawing = |reason: String| ReportError::Drawing {
+            path: path.to_path_buf(),
+            reason,
+        };
+        r.map_err(|e| drawing(e.to_string()))?;
+        root.present().map_err(|e| drawing(e.to_string()))?;
     }
-    save_png_rgb(path, &buf, w, h).map(|()| true)
+    save_png_rgb(path, &buf, w, h)?;
+    Ok(true)
 }
 
 #[allow(clippy::too_many_arguments)]
@@ -201,8 +206,14 @@ where
     Ok(())
 }
 
-/// Saves an RGB8 buffer as PNG through a temporary sibling and a rename.
-pub fn save_png_rgb(path: &Path, buf: &[u8], w: u32, h: u32) -> Result<(), String> {
+/// Saves an RGB8 buffer as PNG through a temporary sibling and a rename (an encoder's
+/// error is the file's [`BundleError::Io`](crate::bundle::BundleError::Io)).
+pub fn save_png_rgb(
+    path: &Path,
+    buf: &[u8],
+    w: u32,
+    h: u32,
+) -> Result<(), crate::bundle::BundleError> {
     crate::bundle::write::replace_file(path, |tmp| {
         image::save_buffer_with_format(
             tmp,
@@ -212,6 +223,5 @@ pub fn save_png_rgb(path: &Path, buf: &[u8], w: u32, h: u32) -> Result<(), Strin
             image::ColorType::Rgb8,
             image::ImageFormat::Png,
         )
-        .map_err(|e| e.to_string())
     })
 }

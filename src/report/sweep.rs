@@ -4,7 +4,8 @@
 //! light and the rest, so the defaults are chosen by measurement.
 
 use super::region::{compare_regions, rmse_ratio, RegionMetrics};
-use crate::bundle::{Bundle, BundleError};
+use super::ReportError;
+use crate::bundle::Bundle;
 use crate::denoise::{DenoiseParams, LoadedSums, Method};
 use ndarray::Array4;
 use std::path::PathBuf;
@@ -40,21 +41,18 @@ pub fn run_sweep(
     cfg: &SweepConfig,
     reference: &Array4<f32>,
     log: &dyn Fn(&str),
-) -> Result<Vec<SweepPoint>, BundleError> {
+) -> Result<Vec<SweepPoint>, ReportError> {
     let mut points = Vec::new();
     for path in &cfg.bundles {
         let bundle = Bundle::open(path)?;
         let m = &bundle.manifest;
         let shape = [m.height, m.width, m.bins, 3];
         if reference.shape() != shape {
-            return Err(BundleError::Invalid(
-                path.clone(),
-                format!(
-                    "shape {:?} does not match the reference's {:?}",
-                    shape,
-                    reference.shape()
-                ),
-            ));
+            return Err(ReportError::SweepShape {
+                path: path.clone(),
+                shape,
+                reference: reference.shape().to_vec(),
+            });
         }
         let rest = super::volume::no_light_mask(&bundle.emitter()?);
         let sums = LoadedSums::read(&bundle)?;

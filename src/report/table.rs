@@ -53,10 +53,9 @@ impl Table {
 }
 
 /// Writes text through a temporary sibling and a rename.
-pub fn write_text(path: &Path, text: &str) -> Result<(), String> {
-    crate::bundle::write::replace_file(path, |tmp| {
-        std::fs::write(tmp, text).map_err(|e| e.to_string())
-    })
+pub fn write_text(path: &Path, text: &str) -> Result<(), super::ReportError> {
+    crate::bundle::write::replace_file(path, |tmp| std::fs::write(tmp, text))?;
+    Ok(())
 }
 
 /// A number for a table: 4 significant digits, `inf` kept readable.

@@ -1,7 +1,8 @@
 //! Loading the volumes a report compares: `.npy` arrays (f32 or f64, (H, W, T, C)) or
 //! bundles (their noisy mean).
 
-use crate::bundle::{npy, Bundle, BundleError};
+use super::ReportError;
+use crate::bundle::{npy, Bundle};
 use ndarray::{Array2, Array4};
 use std::path::Path;
 
@@ -22,7 +23,7 @@ pub fn no_light_mask(emitter: &Array2<f32>) -> Vec<bool> {
 /// one voxel, and every value must be finite (as f32: an f64 beyond the f32 range
 /// counts as infinite). Errors would otherwise pass silently into the metrics: a NaN
 /// reference gave an infinite PSNR, an empty one a zero RMSE.
-pub fn load_volume(path: &Path) -> Result<LoadedVolume, BundleError> {
+pub fn load_volume(path: &Path) -> Result<LoadedVolume, ReportError> {
     if path.is_dir() {
         let b = Bundle::open(path)?;
         return Ok(LoadedVolume {
@@ -31,21 +32,25 @@ pub fn load_volume(path: &Path) -> Result<LoadedVolume, BundleError> {
         });
     }
     if !path.exists() {
-        return Err(BundleError::Io(
-            path.to_path_buf(),
-            "no such file or bundle".into(),
-        ));
+        return Err(ReportError::NoSuchVolume(path.to_path_buf()));
     }
-    let err = |e: String| BundleError::Volume(path.to_path_buf(), e);
+    let err = |error| ReportError::Npy {
+        path: path.to_path_buf(),
+        error,
+    };
     let f = npy::open(path).map_err(err)?;
     let shape = f.header.shape.clone();
     if shape.len() != 4 || shape[3] != 3 {
-        return Err(err(format!(
-            "expected a 4-D volume (H, W, T, 3), the shape is {shape:?}"
-        )));
+        return Err(ReportError::NotAVolume {
+            path: path.to_path_buf(),
+            shape,
+        });
     }
     if f.header.len == 0 {
-        return Err(err(format!("holds no voxels (shape {shape:?})")));
+        return Err(ReportError::EmptyVolume {
+            path: path.to_path_buf(),
+            shape,
+        });
     }
     const AXES: [&str; 4] = ["y", "x", "t", "c"];
     let why = |_: usize, v: f64| format!("is {}", npy::show(v));
@@ -73,14 +78,15 @@ pub fn load_volume(path: &Path) -> Result<LoadedVolume, BundleError> {
             &AXES,
         ),
         d => {
-            return Err(err(format!(
-                "dtype {d:?} is not a volume's f32 or f64 (\"<f4\" or \"<f8\")"
-            )))
+            return Err(ReportError::VolumeDtype {
+                path: path.to_path_buf(),
+                dtype: d.to_string(),
+            })
         }
     }
     .map_err(err)?;
     let volume = Array4::from_shape_vec((shape[0], shape[1], shape[2], shape[3]), data)
-        .map_err(|e| err(e.to_string()))?;
+        .map_err(|e| err(npy::NpyError::Layout(e)))?;
     Ok(LoadedVolume {
         volume,
         no_light_mask: None,

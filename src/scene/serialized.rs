@@ -88,8 +88,8 @@ pub fn load_serialized(path: &Path, shape_index: u64) -> Result<SerializedMesh, 
         path: path.to_path_buf(),
         source: io::Error::other(e),
     };
-    let (mut file, len) =
-        crate::io::open_regular(path, crate::io::MAX_MESH_BYTES).map_err(io_err)?;
+    let (mut file, len) = crate::io::open_regular(path, crate::io::MAX_MESH_BYTES)
+        .map_err(|e| io_err(e.to_string()))?;
     let parsed = read_serialized(&mut file, len, shape_index).map_err(|p| match p {
         Problem::NoFaces => MeshError::NoFaces {
             path: path.to_path_buf(),

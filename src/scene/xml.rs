@@ -247,7 +247,7 @@ pub fn load(path: &Path, overrides: &Overrides) -> Result<Scene, SceneError> {
         )));
     }
     let spp = overrides.spp.unwrap_or(s.spp);
-    crate::stats::estimators::check_spp(spp as u64).map_err(whole)?;
+    crate::stats::estimators::check_spp(spp as u64).map_err(|e| whole(e.to_string()))?;
     if emitters.is_empty() {
         return Err(ctx.err(root, "the scene has no emitter; it would render black"));
     }

@@ -102,15 +102,11 @@ pub struct Estimate {
 
 /// Refuses sample counts that cannot give a variance. Call it before rendering
 /// or denoising; [`estimate`] panics on `n < 2`.
-pub fn check_spp(n: u64) -> Result<(), String> {
+pub fn check_spp(n: u64) -> Result<(), super::StatsError> {
     if n >= 2 {
         Ok(())
     } else {
-        Err(format!(
-            "spp = {n} is too small: the per-voxel statistics need at least 2 samples per \
-             pixel (the unbiased variance divides by spp - 1, and the denoiser's test needs a \
-             variance); use spp >= 2"
-        ))
+        Err(super::StatsError::TooFewSamples(n))
     }
 }
 
@@ -419,7 +415,7 @@ mod tests {
     #[test]
     fn check_spp_refuses_fewer_than_two() {
         for n in [0, 1] {
-            let err = check_spp(n).unwrap_err();
+            let err = check_spp(n).unwrap_err().to_string();
             assert!(err.contains(&format!("spp = {n}")), "{err}");
             assert!(
                 err.contains("at least 2") && err.contains("variance"),

@@ -10,11 +10,18 @@
 //! The evaluation uses `exp_m1`/`ln_1p` so that small `lambda` and `x` near the
 //! point where `z` vanishes keep full relative precision.
 
+use super::StatsError;
 use std::fmt;
 use std::str::FromStr;
 
+/// The largest |lambda| accepted (see [`Transform::validate`]).
+pub(crate) const MAX_LAMBDA: f64 = 10.0;
+/// The smallest Box-Cox lambda accepted (see [`Transform::validate`]).
+pub(crate) const BOX_COX_MIN: f64 = 1e-6;
+
 /// The accepted textual forms, quoted in every parse error.
-const ACCEPTED_FORMS: &str = "accepted forms: \"identity\", \"box-cox:LAMBDA\" (LAMBDA > 0, \
+pub(crate) const ACCEPTED_FORMS: &str =
+    "accepted forms: \"identity\", \"box-cox:LAMBDA\" (LAMBDA > 0, \
      e.g. \"box-cox:0.5\"), \"yeo-johnson:LAMBDA\" (any finite LAMBDA, e.g. \"yeo-johnson:0.5\" \
      or \"yeo-johnson:0\")";
 
@@ -95,33 +102,25 @@ impl Transform {
     /// radiance (Box-Cox maps 0 to -1/lambda: lambda = 1e-200 put +inf into X2), and
     /// transforms in use stay within [-2, 2]. [`FromStr`] always validates; use this on
     /// values deserialised from a manifest.
-    pub fn validate(&self) -> Result<(), String> {
-        const MAX: f64 = 10.0;
-        const BOX_COX_MIN: f64 = 1e-6;
+    pub fn validate(&self) -> Result<(), StatsError> {
         match *self {
             Transform::Identity => Ok(()),
             Transform::BoxCox { lambda } => {
                 if !lambda.is_finite() {
-                    Err(format!("box-cox lambda must be finite, got {lambda}"))
+                    Err(StatsError::BoxCoxNotFinite(lambda))
                 } else if lambda <= 0.0 {
-                    Err(format!(
-                        "box-cox lambda must be > 0, got {lambda} (use yeo-johnson:0 for a log transform)"
-                    ))
-                } else if !(BOX_COX_MIN..=MAX).contains(&lambda) {
-                    Err(format!(
-                        "box-cox lambda must be in [{BOX_COX_MIN:e}, {MAX}], got {lambda:e} (for a log transform use yeo-johnson:0)"
-                    ))
+                    Err(StatsError::BoxCoxNotPositive(lambda))
+                } else if !(BOX_COX_MIN..=MAX_LAMBDA).contains(&lambda) {
+                    Err(StatsError::BoxCoxRange(lambda))
                 } else {
                     Ok(())
                 }
             }
             Transform::YeoJohnson { lambda } => {
                 if !lambda.is_finite() {
-                    Err(format!("yeo-johnson lambda must be finite, got {lambda}"))
-                } else if lambda.abs() > MAX {
-                    Err(format!(
-                        "yeo-johnson lambda must be in [-{MAX}, {MAX}], got {lambda:e}"
-                    ))
+                    Err(StatsError::YeoJohnsonNotFinite(lambda))
+                } else if lambda.abs() > MAX_LAMBDA {
+                    Err(StatsError::YeoJohnsonRange(lambda))
                 } else {
                     Ok(())
                 }
@@ -131,7 +130,7 @@ impl Transform {
 }
 
 impl FromStr for Transform {
-    type Err = String;
+    type Err = StatsError;
 
     /// Parses `identity`, `box-cox:LAMBDA` or `yeo-johnson:LAMBDA`
     /// (surrounding whitespace is ignored).
@@ -141,24 +140,22 @@ impl FromStr for Transform {
             Some((name, param)) => (name.trim(), Some(param.trim())),
             None => (text, None),
         };
-        let lambda = |kind: &str| -> Result<f64, String> {
+        let lambda = |kind: &'static str| -> Result<f64, StatsError> {
             match param {
-                None | Some("") => Err(format!(
-                    "transform {s:?}: {kind} needs a lambda, as in \"{kind}:0.5\"; {ACCEPTED_FORMS}"
-                )),
-                Some(p) => p.parse::<f64>().map_err(|_| {
-                    format!("transform {s:?}: lambda {p:?} is not a number; {ACCEPTED_FORMS}")
+                None | Some("") => Err(StatsError::NoLambda {
+                    input: s.to_string(),
+                    kind,
+                }),
+                Some(p) => p.parse::<f64>().map_err(|_| StatsError::LambdaNotANumber {
+                    input: s.to_string(),
+                    lambda: p.to_string(),
                 }),
             }
         };
         let t = match name {
             "identity" => match param {
                 None => Transform::Identity,
-                Some(_) => {
-                    return Err(format!(
-                        "transform {s:?}: identity takes no lambda; {ACCEPTED_FORMS}"
-                    ))
-                }
+                Some(_) => return Err(StatsError::IdentityLambda(s.to_string())),
             },
             "box-cox" => Transform::BoxCox {
                 lambda: lambda("box-cox")?,
@@ -166,10 +163,12 @@ impl FromStr for Transform {
             "yeo-johnson" => Transform::YeoJohnson {
                 lambda: lambda("yeo-johnson")?,
             },
-            _ => return Err(format!("unknown transform {s:?}; {ACCEPTED_FORMS}")),
+            _ => return Err(StatsError::UnknownTransform(s.to_string())),
         };
-        t.validate()
-            .map_err(|e| format!("transform {s:?}: {e}; {ACCEPTED_FORMS}"))?;
+        t.validate().map_err(|e| StatsError::BadLambda {
+            input: s.to_string(),
+            error: Box::new(e),
+        })?;
         Ok(t)
     }
 }
@@ -374,7 +373,8 @@ mod tests {
         for s in bad {
             let err = s
                 .parse::<Transform>()
-                .expect_err(&format!("{s:?} should be rejected"));
+                .expect_err(&format!("{s:?} should be rejected"))
+                .to_string();
             assert!(err.contains(&format!("{s:?}")), "{s:?}: {err}");
             assert!(
                 err.contains("identity")
@@ -383,16 +383,19 @@ mod tests {
                 "{s:?}: {err}"
             );
         }
-        let err = "box-cox:0".parse::<Transform>().unwrap_err();
+        let err = "box-cox:0".parse::<Transform>().unwrap_err().to_string();
         assert!(err.contains("> 0"), "{err}");
-        let err = "box-cox:abc".parse::<Transform>().unwrap_err();
+        let err = "box-cox:abc".parse::<Transform>().unwrap_err().to_string();
         assert!(
             err.contains("\"abc\"") && err.contains("not a number"),
             "{err}"
         );
-        let err = "yeo-johnson:nan".parse::<Transform>().unwrap_err();
+        let err = "yeo-johnson:nan"
+            .parse::<Transform>()
+            .unwrap_err()
+            .to_string();
         assert!(err.contains("finite"), "{err}");
-        let err = "sqrt".parse::<Transform>().unwrap_err();
+        let err = "sqrt".parse::<Transform>().unwrap_err().to_string();
         assert!(err.contains("unknown transform"), "{err}");
     }
 
@@ -436,7 +439,7 @@ mod tests {
             "yeo-johnson:1e10",
             "yeo-johnson:-11",
         ] {
-            let e = bad.parse::<Transform>().unwrap_err();
+            let e = bad.parse::<Transform>().unwrap_err().to_string();
             assert!(e.contains("must be in"), "{bad}: {e}");
         }
         for good in [

@@ -2,6 +2,7 @@
 //! image (x against t at one row) with the time axis labelled in OPL and picoseconds.
 
 use super::tonemap::srgb8;
+use super::VizError;
 use crate::report::plot::save_png_rgb;
 use image::{Delay, Frame, RgbaImage};
 use ndarray::ArrayView4;
@@ -51,7 +52,7 @@ pub fn write_frames(
     v: ArrayView4<f32>,
     every: usize,
     exposure: f32,
-) -> Result<Vec<String>, String> {
+) -> Result<Vec<String>, VizError> {
     let (h, w, t) = (v.shape()[0], v.shape()[1], v.shape()[2]);
     let digits = t.to_string().len().max(4);
     let mut names = Vec::new();
@@ -75,32 +76,33 @@ pub fn write_gif(
     every: usize,
     exposure: f32,
     delay_ms: u32,
-) -> Result<(), String> {
+) -> Result<(), VizError> {
     let (h, w, t) = (v.shape()[0], v.shape()[1], v.shape()[2]);
-    crate::bundle::write::replace_file(path, |tmp| {
-        let err = |e: image::ImageError| e.to_string();
-        let file = std::fs::File::create(tmp).map_err(|e| e.to_string())?;
-        let mut enc =
-            image::codecs::gif::GifEncoder::new_with_speed(std::io::BufWriter::new(file), 10);
-        enc.set_repeat(image::codecs::gif::Repeat::Infinite)
-            .map_err(err)?;
-        for k in shown_bins(t, every) {
-            let rgb = frame_rgb(v, k, exposure);
-            let rgba: Vec<u8> = rgb
-                .chunks(3)
-                .flat_map(|p| [p[0], p[1], p[2], 255])
-                .collect();
-            let img = RgbaImage::from_raw(w as u32, h as u32, rgba).expect("size matches");
-            enc.encode_frame(Frame::from_parts(
-                img,
-                0,
-                0,
-                Delay::from_numer_denom_ms(delay_ms, 1),
-            ))
-            .map_err(err)?;
-        }
-        Ok(())
-    })
+    crate::bundle::write::replace_file(
+        path,
+        |tmp| -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
+            let file = std::fs::File::create(tmp)?;
+            let mut enc =
+                image::codecs::gif::GifEncoder::new_with_speed(std::io::BufWriter::new(file), 10);
+            enc.set_repeat(image::codecs::gif::Repeat::Infinite)?;
+            for k in shown_bins(t, every) {
+                let rgb = frame_rgb(v, k, exposure);
+                let rgba: Vec<u8> = rgb
+                    .chunks(3)
+                    .flat_map(|p| [p[0], p[1], p[2], 255])
+                    .collect();
+                let img = RgbaImage::from_raw(w as u32, h as u32, rgba).expect("size matches");
+                enc.encode_frame(Frame::from_parts(
+                    img,
+                    0,
+                    0,
+                    Delay::from_numer_denom_ms(delay_ms, 1),
+                ))?;
+            }
+            Ok(())
+        },
+    )?;
+    Ok(())
 }
 
 /// Writes the streak image of row `row`: time across (bottom axis in OPL, top axis in
@@ -112,10 +114,10 @@ pub fn write_streak(
     exposure: f32,
     axis: Option<TimeAxis>,
     caption: &str,
-) -> Result<(), String> {
+) -> Result<(), VizError> {
     let (h, w, t) = (v.shape()[0], v.shape()[1], v.shape()[2]);
     if row >= h {
-        return Err(format!("streak row {row}: the image has {h} rows"));
+        return Err(VizError::StreakRow { row, height: h });
     }
     crate::report::plot::register_font();
     let scale = (700.0 / t.max(w) as f64).clamp(1.0, 8.0);
@@ -172,9 +174,13 @@ pub fn write_streak(
             root.present()?;
             Ok(())
         };
-        draw().map_err(|e| format!("drawing {}: {e}", path.display()))?;
+        draw().map_err(|e| VizError::Drawing {
+            path: path.to_path_buf(),
+            reason: e.to_string(),
+        })?;
     }
-    save_png_rgb(path, &buf, cw, ch)
+    save_png_rgb(path, &buf, cw, ch)?;
+    Ok(())
 }
 
 /// Two volumes of one shape side by side along x, with a `gap`-pixel black seam.
@@ -205,9 +211,12 @@ pub struct FramesRequest {
 
 /// Writes frames into `dir` (which must exist) plus `propagation.gif` and
 /// `streak.png`; returns the number of frames.
-pub fn write_all(dir: &Path, v: ArrayView4<f32>, req: &FramesRequest) -> Result<usize, String> {
+pub fn write_all(dir: &Path, v: ArrayView4<f32>, req: &FramesRequest) -> Result<usize, VizError> {
     let frames = dir.join("frames");
-    std::fs::create_dir_all(&frames).map_err(|e| format!("{}: {e}", frames.display()))?;
+    std::fs::create_dir_all(&frames).map_err(|error| VizError::CreateDir {
+        path: frames.clone(),
+        error,
+    })?;
     let names = write_frames(&frames, v, req.every, req.exposure)?;
     if req.gif {
         write_gif(&dir.join("propagation.gif"), v, req.every, req.exposure, 60)?;
