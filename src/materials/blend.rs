@@ -73,6 +73,20 @@ impl BsdfModel for Blend {
         p
     }
 
+    /// Both sums at once, each child evaluated by its own `eval_pdf`.
+    fn eval_pdf(&self, wo: Vec3, wi: Vec3) -> (Rgb, f32) {
+        let mut v = Rgb::ZERO;
+        let mut p = 0.0;
+        for (b, w) in self.parts() {
+            if w > 0.0 {
+                let (e, q) = b.eval_pdf(wo, wi);
+                v += e * w;
+                p += q * w;
+            }
+        }
+        (v, p)
+    }
+
     fn sample(&self, wo: Vec3, u1: f32, u2: [f32; 2]) -> Option<BsdfSample> {
         let w = self.weight;
         // Mitsuba: the second child when u1 <= w (never when w = 0).
@@ -88,7 +102,7 @@ impl BsdfModel for Blend {
             (1.0 - w, &self.second, w)
         };
         let (eval_o, pdf_o) = if w_o > 0.0 {
-            (other.eval(wo, s.wi), other.pdf(wo, s.wi))
+            other.eval_pdf(wo, s.wi)
         } else {
             (Rgb::ZERO, 0.0)
         };

@@ -74,6 +74,24 @@ impl BsdfModel for Composed {
         p
     }
 
+    /// Both mixtures at once, each child evaluated by its own `eval_pdf`.
+    fn eval_pdf(&self, wo: Vec3, wi: Vec3) -> (Rgb, f32) {
+        let w = self.weight;
+        let mut v = Rgb::ZERO;
+        let mut p = 0.0;
+        if w > 0.0 {
+            let (e, q) = self.first.eval_pdf(wo, wi);
+            v += e * w;
+            p += q * w;
+        }
+        if w < 1.0 {
+            let (e, q) = self.second.eval_pdf(wo, wi);
+            v += e * (1.0 - w);
+            p += q * (1.0 - w);
+        }
+        (v, p)
+    }
+
     fn sample(&self, wo: Vec3, u1: f32, u2: [f32; 2]) -> Option<BsdfSample> {
         let w = self.weight;
         // Reuse u1 within the chosen interval, rescaled to [0, 1).
@@ -87,12 +105,12 @@ impl BsdfModel for Composed {
             // The choice probability cancels the mixture weight.
             return Some(s);
         }
-        let pdf = self.pdf(wo, s.wi);
+        let (value, pdf) = self.eval_pdf(wo, s.wi);
         if pdf <= 0.0 {
             return None;
         }
         Some(BsdfSample {
-            weight: self.eval(wo, s.wi) / pdf,
+            weight: value / pdf,
             pdf,
             ..s
         })

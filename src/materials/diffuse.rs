@@ -37,6 +37,18 @@ impl BsdfModel for Diffuse {
         cosine_hemisphere_pdf(wi.z)
     }
 
+    /// `eval` and `pdf` behind one test of the sides.
+    #[inline(always)]
+    fn eval_pdf(&self, wo: Vec3, wi: Vec3) -> (Rgb, f32) {
+        if wo.z <= 0.0 || wi.z <= 0.0 {
+            return (Rgb::ZERO, 0.0);
+        }
+        (
+            self.reflectance * (FRAC_1_PI * wi.z),
+            cosine_hemisphere_pdf(wi.z),
+        )
+    }
+
     #[inline(always)]
     fn sample(&self, wo: Vec3, _u1: f32, u: [f32; 2]) -> Option<BsdfSample> {
         if wo.z <= 0.0 {

@@ -65,6 +65,15 @@ impl BsdfModel for Mask {
     }
 
     #[inline(never)]
+    fn eval_pdf(&self, wo: Vec3, wi: Vec3) -> (Rgb, f32) {
+        if self.opacity <= 0.0 {
+            return (Rgb::ZERO, 0.0);
+        }
+        let (e, p) = self.nested.eval_pdf(wo, wi);
+        (e * self.opacity, p * self.opacity)
+    }
+
+    #[inline(never)]
     fn sample(&self, wo: Vec3, u1: f32, u2: [f32; 2]) -> Option<BsdfSample> {
         if u1 < self.opacity {
             // Reuse u1 within [0, opacity): still uniform in [0, 1) after rescaling.

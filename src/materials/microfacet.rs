@@ -111,6 +111,22 @@ impl Microfacet {
         }
     }
 
+    /// [`Self::pdf`] given `d = self.d(m)` and `g1_wo = self.g1(wo, m)`, already
+    /// computed by a caller that evaluates the lobe too: the same operations in the same
+    /// order, so the same bits, without evaluating D and G1 again (`g1_wo` is not read
+    /// unless the visible normals are sampled).
+    #[inline]
+    pub fn pdf_with(&self, wo: Vec3, m: Vec3, d: f32, g1_wo: f32) -> f32 {
+        if self.visible() {
+            if wo.z <= 0.0 {
+                return 0.0;
+            }
+            g1_wo * wo.dot(m).max(0.0) * d / wo.z
+        } else {
+            d * m.z.max(0.0)
+        }
+    }
+
     /// A microfacet normal for `wo` from two uniform numbers in [0, 1).
     #[inline]
     pub fn sample(&self, wo: Vec3, u: [f32; 2]) -> Vec3 {
@@ -157,5 +173,42 @@ impl Microfacet {
         p2 = (1.0 - blend) * (1.0 - p1 * p1).max(0.0).sqrt() + blend * p2;
         let nh = t1 * p1 + t2 * p2 + vh * (1.0 - p1 * p1 - p2 * p2).max(0.0).sqrt();
         Vec3::new(au * nh.x, av * nh.y, nh.z.max(1e-6)).normalize()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `pdf_with` given D and G1 is `pdf` to the bit, for every kind and sampler, from
+    /// above and below, normals on both sides.
+    #[test]
+    fn pdf_with_the_shared_terms_is_pdf() {
+        let mut rng = crate::math::rng::Pcg32::new(11, 5);
+        let mut dir = || {
+            let [u, v] = rng.next_2d();
+            let z = 1.0 - 2.0 * u;
+            let r = (1.0 - z * z).max(0.0).sqrt();
+            let (s, c) = (2.0 * PI * v).sin_cos();
+            Vec3::new(r * c, r * s, z)
+        };
+        for kind in [MicrofacetKind::Beckmann, MicrofacetKind::Ggx] {
+            for (alpha_u, alpha_v) in [(0.3, 0.3), (0.05, 0.4), (1.0, 1.0)] {
+                for sample_visible in [false, true] {
+                    let d = Microfacet {
+                        kind,
+                        alpha_u,
+                        alpha_v,
+                        sample_visible,
+                    };
+                    for _ in 0..20_000 {
+                        let (wo, wi) = (dir(), dir());
+                        let m = (wo + wi).normalize_or_zero();
+                        let shared = d.pdf_with(wo, m, d.d(m), d.g1(wo, m));
+                        assert_eq!(shared.to_bits(), d.pdf(wo, m).to_bits(), "{d:?} {wo} {m}");
+                    }
+                }
+            }
+        }
     }
 }

@@ -1,6 +1,7 @@
 //! BSDFs: the closed set of surface scattering models, dispatched with `match`.
 //!
-//! Every model implements [`BsdfModel`]: `eval`, `pdf`, `sample`, `flags` and `albedo`.
+//! Every model implements [`BsdfModel`]: `eval`, `pdf` (and both at once, `eval_pdf`),
+//! `sample`, `flags` and `albedo`.
 //! Conventions (as in Mitsuba 3): directions are in the local shading frame (normal +z);
 //! `wo` points back along the incoming ray (towards the camera side of the path), `wi`
 //! is the sampled or queried direction towards the light, both pointing away from the
@@ -92,6 +93,16 @@ pub trait BsdfModel {
 
     /// Solid-angle density with which `sample` picks `wi` through a non-delta lobe.
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32;
+
+    /// `(eval(wo, wi), pdf(wo, wi))` in one call, for next-event estimation and MIS,
+    /// which need both for the same pair. Models whose two methods share work (the
+    /// half vector, D, G1, Fresnel) override it to compute it once; an override must
+    /// return exactly the bits of the two calls (the same floating-point operations
+    /// in the same order; `tests/eval_pdf.rs` checks every model).
+    #[inline(always)]
+    fn eval_pdf(&self, wo: Vec3, wi: Vec3) -> (Rgb, f32) {
+        (self.eval(wo, wi), self.pdf(wo, wi))
+    }
 
     /// Samples `wi` with three uniform numbers in [0, 1): `u1` picks a lobe, `u2` the
     /// direction within it.
@@ -309,6 +320,14 @@ impl BsdfModel for TwoSided {
     }
 
     #[inline(always)]
+    fn eval_pdf(&self, wo: Vec3, wi: Vec3) -> (Rgb, f32) {
+        match self.side(wo) {
+            (b, false) => b.eval_pdf(wo, wi),
+            (b, true) => b.eval_pdf(flip_z(wo), flip_z(wi)),
+        }
+    }
+
+    #[inline(always)]
     fn sample(&self, wo: Vec3, u1: f32, u2: [f32; 2]) -> Option<BsdfSample> {
         match self.side(wo) {
             (b, false) => b.sample(wo, u1, u2),
@@ -351,6 +370,10 @@ impl BsdfModel for OneSided {
         dispatch!(self, b => b.pdf(wo, wi), OneSided::Diffuse, OneSided::Conductor, OneSided::RoughConductor, OneSided::Plastic, OneSided::RoughPlastic, OneSided::PPlastic)
     }
     #[inline(always)]
+    fn eval_pdf(&self, wo: Vec3, wi: Vec3) -> (Rgb, f32) {
+        dispatch!(self, b => b.eval_pdf(wo, wi), OneSided::Diffuse, OneSided::Conductor, OneSided::RoughConductor, OneSided::Plastic, OneSided::RoughPlastic, OneSided::PPlastic)
+    }
+    #[inline(always)]
     fn sample(&self, wo: Vec3, u1: f32, u2: [f32; 2]) -> Option<BsdfSample> {
         dispatch!(self, b => b.sample(wo, u1, u2), OneSided::Diffuse, OneSided::Conductor, OneSided::RoughConductor, OneSided::Plastic, OneSided::RoughPlastic, OneSided::PPlastic)
     }
@@ -373,6 +396,11 @@ impl BsdfModel for Bsdf {
     #[inline(always)]
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         dispatch!(self, b => b.pdf(wo, wi),
+            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::RoughDielectric, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::RoughPlastic, Bsdf::Null, Bsdf::TwoSided, Bsdf::Mask, Bsdf::Separable, Bsdf::Composed, Bsdf::Blend, Bsdf::Perturbed, Bsdf::PPlastic, Bsdf::Polarizer, Bsdf::Principled, Bsdf::PrincipledThin)
+    }
+    #[inline(always)]
+    fn eval_pdf(&self, wo: Vec3, wi: Vec3) -> (Rgb, f32) {
+        dispatch!(self, b => b.eval_pdf(wo, wi),
             Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::RoughDielectric, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::RoughPlastic, Bsdf::Null, Bsdf::TwoSided, Bsdf::Mask, Bsdf::Separable, Bsdf::Composed, Bsdf::Blend, Bsdf::Perturbed, Bsdf::PPlastic, Bsdf::Polarizer, Bsdf::Principled, Bsdf::PrincipledThin)
     }
     #[inline(always)]

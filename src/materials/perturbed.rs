@@ -187,6 +187,16 @@ impl BsdfModel for Perturbed {
         self.nested.pdf(self.frame.to_local(wo), pi)
     }
 
+    /// Both in the perturbed frame, the directions turned into it once.
+    fn eval_pdf(&self, wo: Vec3, wi: Vec3) -> (Rgb, f32) {
+        let pi = self.frame.to_local(wi);
+        if wi.z * pi.z <= 0.0 {
+            return (Rgb::ZERO, 0.0);
+        }
+        let (e, p) = self.nested.eval_pdf(self.frame.to_local(wo), pi);
+        (e * self.shadow(wi), p)
+    }
+
     fn sample(&self, wo: Vec3, u1: f32, u2: [f32; 2]) -> Option<BsdfSample> {
         let s = self.nested.sample(self.frame.to_local(wo), u1, u2)?;
         if s.weight == Rgb::ZERO {

@@ -113,6 +113,20 @@ impl BsdfModel for Plastic {
         cosine_hemisphere_pdf(wi.z) * (1.0 - self.specular_probability(f_i))
     }
 
+    /// `eval` and `pdf` with their shared test and F(cos wo) computed once.
+    #[inline(always)]
+    fn eval_pdf(&self, wo: Vec3, wi: Vec3) -> (Rgb, f32) {
+        if wo.z <= 0.0 || wi.z <= 0.0 {
+            return (Rgb::ZERO, 0.0);
+        }
+        let f_i = fresnel_dielectric(wo.z, self.eta).0;
+        let f_o = fresnel_dielectric(wi.z, self.eta).0;
+        let cos_pdf = cosine_hemisphere_pdf(wi.z);
+        let value = self.base * (cos_pdf / (self.eta * self.eta) * (1.0 - f_i) * (1.0 - f_o));
+        let pdf = cos_pdf * (1.0 - self.specular_probability(f_i));
+        (value, pdf)
+    }
+
     #[inline(always)]
     fn sample(&self, wo: Vec3, u1: f32, u2: [f32; 2]) -> Option<BsdfSample> {
         if wo.z <= 0.0 {

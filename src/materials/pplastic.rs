@@ -39,8 +39,21 @@ pub struct PPlastic {
     pub specular_weight: f32,
 }
 
-impl PPlastic {
-    /// f cos(wi) and the pdf of `sample` for `wi`.
+impl BsdfModel for PPlastic {
+    #[inline]
+    fn flags(&self, _wo: Vec3) -> BsdfFlags {
+        BsdfFlags::GLOSSY_REFLECTION | BsdfFlags::DIFFUSE_REFLECTION
+    }
+
+    fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
+        self.eval_pdf(wo, wi).0
+    }
+
+    fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        self.eval_pdf(wo, wi).1
+    }
+
+    /// f cos(wi) and the pdf of `sample` for `wi` (D and G1(wo) computed once).
     #[inline]
     fn eval_pdf(&self, wo: Vec3, wi: Vec3) -> (Rgb, f32) {
         if wo.z <= 0.0 || wi.z <= 0.0 {
@@ -56,8 +69,12 @@ impl PPlastic {
         };
         let distr = &self.distribution;
         let d = distr.d(h);
+        // G1(wo, h): computed for the value where D > 0, reused by the density.
+        let mut g1_wo = None;
         let specular = if d > 0.0 {
-            let g = distr.g(wi, wo, h);
+            let g1 = distr.g1(wo, h);
+            g1_wo = Some(g1);
+            let g = distr.g1(wi, h) * g1;
             self.specular_reflectance * (r(wo.dot(h)) * d * g / (4.0 * wo.z))
         } else {
             Rgb::ZERO
@@ -65,24 +82,10 @@ impl PPlastic {
         let p_specular = if wo.dot(h) <= 0.0 || wi.dot(h) <= 0.0 || d == 0.0 {
             0.0
         } else {
-            distr.pdf(wo, h) / (4.0 * wo.dot(h))
+            let g1 = g1_wo.unwrap_or_else(|| distr.g1(wo, h));
+            distr.pdf_with(wo, h, d, g1) / (4.0 * wo.dot(h))
         };
         (specular + diffuse, ps * p_specular + (1.0 - ps) * p_diffuse)
-    }
-}
-
-impl BsdfModel for PPlastic {
-    #[inline]
-    fn flags(&self, _wo: Vec3) -> BsdfFlags {
-        BsdfFlags::GLOSSY_REFLECTION | BsdfFlags::DIFFUSE_REFLECTION
-    }
-
-    fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
-        self.eval_pdf(wo, wi).0
-    }
-
-    fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
-        self.eval_pdf(wo, wi).1
     }
 
     fn sample(&self, wo: Vec3, u1: f32, u2: [f32; 2]) -> Option<BsdfSample> {

@@ -158,6 +158,139 @@ impl Principled {
         let wh = (wo + wi * if reflect { 1.0 } else { eta_path }).try_normalize()?;
         Some((if wh.z < 0.0 { -wh } else { wh }, eta_path))
     }
+
+    /// The body of `eval` (`VALUE`) and `pdf` (`DENSITY`), either or both: computed
+    /// together they share the half vector, the Fresnel term, the lobe's D and G1(wo)
+    /// and the clearcoat's D, each the same operations either computes alone (so the
+    /// same bits; the density's G1 is of `wo` turned up, reused from the front only).
+    #[inline(always)]
+    fn eval_pdf_as<const VALUE: bool, const DENSITY: bool>(
+        &self,
+        wo: Vec3,
+        wi: Vec3,
+    ) -> (Rgb, f32) {
+        let (cos_o, cos_i) = (wo.z, wi.z);
+        if cos_o == 0.0 {
+            return (Rgb::ZERO, 0.0);
+        }
+        let (brdf, bsdf) = self.weights();
+        let front = cos_o > 0.0;
+        // No density from the back of a model without transmission (the value goes on).
+        let back_opaque = !front && bsdf <= 0.0;
+        let density = DENSITY && !back_opaque;
+        if !VALUE && !density {
+            return (Rgb::ZERO, 0.0);
+        }
+        let reflect = cos_o * cos_i > 0.0;
+        let refract = cos_o * cos_i < 0.0;
+        if !reflect && !refract {
+            return (Rgb::ZERO, 0.0);
+        }
+        let Some((wh, eta_path)) = self.half_vector(wo, wi, reflect) else {
+            return (Rgb::ZERO, 0.0);
+        };
+        let distr = ggx(self.anisotropic, self.roughness);
+        let (dot_o, dot_i) = (wo.dot(wh), wi.dot(wh));
+        let f = fresnel_dielectric(dot_o, self.eta).0;
+        // D(wh), G1(wo, wh) and the clearcoat's D(wh), where the value computed them.
+        let (mut d_wh, mut g1_wo, mut d_coat) = (None, None, None);
+        let mut value = Rgb::ZERO;
+        if VALUE {
+            let base = self.base_color;
+            if reflect {
+                let compatible = mac_mic_compatible(wh, wo, wi, cos_o, true);
+                let d = distr.d(wh);
+                let g1_o = distr.g1(wo, wh);
+                let g = g1_o * distr.g1(wi, wh);
+                (d_wh, g1_wo) = (Some(d), Some(g1_o));
+                if compatible && f > 0.0 {
+                    let fp = principled_fresnel(
+                        f,
+                        self.metallic,
+                        self.spec_tint,
+                        base,
+                        dot_o,
+                        front,
+                        bsdf,
+                        self.eta,
+                    );
+                    value += fp * (d * g / (4.0 * cos_o.abs()));
+                }
+                if front && compatible && self.clearcoat > 0.0 {
+                    let fcc = calc_schlick(Rgb::splat(0.04), dot_o, self.eta).x;
+                    let dcc = Gtr1::clearcoat(self.clearcoat_gloss).eval(wh);
+                    d_coat = Some(dcc);
+                    let gcc = smith_ggx1(wo, wh, 0.25) * smith_ggx1(wi, wh, 0.25);
+                    value += Rgb::splat(self.clearcoat * 0.25 * fcc * dcc * gcc * cos_i.abs());
+                }
+                if front && brdf > 0.0 {
+                    value += brdf
+                        * diffuse_retro(base, self.roughness, self.flatness, cos_o, cos_i, dot_i);
+                }
+                // (Mitsuba's LLVM variants add the sheen whenever its own mask holds.)
+                if front && self.sheen > 0.0 && 1.0 - self.metallic > 0.0 {
+                    value += self.sheen
+                        * (1.0 - self.metallic)
+                        * sheen(base, self.sheen_tint, cos_i, dot_i);
+                }
+            } else if self.has_spec_trans
+                && bsdf > 0.0
+                && f < 1.0
+                && mac_mic_compatible(wh, wo, wi, cos_o, false)
+            {
+                let d = distr.d(wh);
+                let g1_o = distr.g1(wo, wh);
+                let g = g1_o * distr.g1(wi, wh);
+                (d_wh, g1_wo) = (Some(d), Some(g1_o));
+                let scale = 1.0 / (eta_path * eta_path);
+                let denom = dot_o + eta_path * dot_i;
+                let t = (scale * (1.0 - f) * d * g * eta_path * eta_path * dot_o * dot_i
+                    / (cos_o * denom * denom))
+                    .abs();
+                value += base.max(Rgb::ZERO).powf(0.5) * (bsdf * t);
+            }
+        }
+        let mut pdf = 0.0;
+        if density {
+            let Some([p_diffuse, p_coat, p_trans, p_reflect]) =
+                lobe_probabilities(self, front, f, brdf, bsdf)
+            else {
+                return (value, 0.0);
+            };
+            let dwh_dwi = if reflect {
+                (1.0 / (4.0 * dot_i)).abs()
+            } else {
+                let denom = dot_o + eta_path * dot_i;
+                (eta_path * eta_path * dot_i / (denom * denom)).abs()
+            };
+            // The density of wh seen from wo turned up: `distr.pdf(mulsign(wo, cos_o),
+            // wh)` with D, and from the front (where wo is not turned) G1, reused.
+            let normal_pdf = || {
+                let wo_up = mulsign(wo, cos_o);
+                let d = d_wh.unwrap_or_else(|| distr.d(wh));
+                let g1 = match g1_wo {
+                    Some(g1) if front => g1,
+                    _ => distr.g1(wo_up, wh),
+                };
+                distr.pdf_with(wo_up, wh, d, g1)
+            };
+            if reflect {
+                if mac_mic_compatible(wh, wo, wi, cos_o, true) {
+                    let pm = normal_pdf();
+                    pdf += p_reflect * pm * dwh_dwi;
+                    if p_coat > 0.0 {
+                        let coat = Gtr1::clearcoat(self.clearcoat_gloss);
+                        let dcc = d_coat.unwrap_or_else(|| coat.eval(wh));
+                        pdf += p_coat * coat.pdf_with(wh, dcc) * dwh_dwi;
+                    }
+                }
+                pdf += p_diffuse * FRAC_1_PI * cos_i;
+            } else if self.has_spec_trans && mac_mic_compatible(wh, wo, wi, cos_o, false) {
+                pdf += p_trans * normal_pdf() * dwh_dwi;
+            }
+        }
+        (value, pdf)
+    }
 }
 
 impl BsdfModel for Principled {
@@ -171,120 +304,15 @@ impl BsdfModel for Principled {
     }
 
     fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
-        let (cos_o, cos_i) = (wo.z, wi.z);
-        if cos_o == 0.0 {
-            return Rgb::ZERO;
-        }
-        let (brdf, bsdf) = self.weights();
-        let reflect = cos_o * cos_i > 0.0;
-        let refract = cos_o * cos_i < 0.0;
-        if !reflect && !refract {
-            return Rgb::ZERO;
-        }
-        let front = cos_o > 0.0;
-        let Some((wh, eta_path)) = self.half_vector(wo, wi, reflect) else {
-            return Rgb::ZERO;
-        };
-        let distr = ggx(self.anisotropic, self.roughness);
-        let (dot_o, dot_i) = (wo.dot(wh), wi.dot(wh));
-        let f = fresnel_dielectric(dot_o, self.eta).0;
-        let base = self.base_color;
-        let mut value = Rgb::ZERO;
-        if reflect {
-            let compatible = mac_mic_compatible(wh, wo, wi, cos_o, true);
-            let d = distr.d(wh);
-            let g = distr.g(wo, wi, wh);
-            if compatible && f > 0.0 {
-                let fp = principled_fresnel(
-                    f,
-                    self.metallic,
-                    self.spec_tint,
-                    base,
-                    dot_o,
-                    front,
-                    bsdf,
-                    self.eta,
-                );
-                value += fp * (d * g / (4.0 * cos_o.abs()));
-            }
-            if front && compatible && self.clearcoat > 0.0 {
-                let fcc = calc_schlick(Rgb::splat(0.04), dot_o, self.eta).x;
-                let dcc = Gtr1::clearcoat(self.clearcoat_gloss).eval(wh);
-                let gcc = smith_ggx1(wo, wh, 0.25) * smith_ggx1(wi, wh, 0.25);
-                value += Rgb::splat(self.clearcoat * 0.25 * fcc * dcc * gcc * cos_i.abs());
-            }
-            if front && brdf > 0.0 {
-                value +=
-                    brdf * diffuse_retro(base, self.roughness, self.flatness, cos_o, cos_i, dot_i);
-            }
-            // (Mitsuba's LLVM variants add the sheen whenever its own mask holds.)
-            if front && self.sheen > 0.0 && 1.0 - self.metallic > 0.0 {
-                value +=
-                    self.sheen * (1.0 - self.metallic) * sheen(base, self.sheen_tint, cos_i, dot_i);
-            }
-        } else if self.has_spec_trans
-            && bsdf > 0.0
-            && f < 1.0
-            && mac_mic_compatible(wh, wo, wi, cos_o, false)
-        {
-            let d = distr.d(wh);
-            let g = distr.g(wo, wi, wh);
-            let scale = 1.0 / (eta_path * eta_path);
-            let denom = dot_o + eta_path * dot_i;
-            let t = (scale * (1.0 - f) * d * g * eta_path * eta_path * dot_o * dot_i
-                / (cos_o * denom * denom))
-                .abs();
-            value += base.max(Rgb::ZERO).powf(0.5) * (bsdf * t);
-        }
-        value
+        self.eval_pdf_as::<true, false>(wo, wi).0
     }
 
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
-        let (cos_o, cos_i) = (wo.z, wi.z);
-        if cos_o == 0.0 {
-            return 0.0;
-        }
-        let (brdf, bsdf) = self.weights();
-        let front = cos_o > 0.0;
-        if !front && bsdf <= 0.0 {
-            return 0.0;
-        }
-        let reflect = cos_o * cos_i > 0.0;
-        let refract = cos_o * cos_i < 0.0;
-        if !reflect && !refract {
-            return 0.0;
-        }
-        let Some((wh, eta_path)) = self.half_vector(wo, wi, reflect) else {
-            return 0.0;
-        };
-        let distr = ggx(self.anisotropic, self.roughness);
-        let (dot_o, dot_i) = (wo.dot(wh), wi.dot(wh));
-        let f = fresnel_dielectric(dot_o, self.eta).0;
-        let Some([p_diffuse, p_coat, p_trans, p_reflect]) =
-            lobe_probabilities(self, front, f, brdf, bsdf)
-        else {
-            return 0.0;
-        };
-        let dwh_dwi = if reflect {
-            (1.0 / (4.0 * dot_i)).abs()
-        } else {
-            let denom = dot_o + eta_path * dot_i;
-            (eta_path * eta_path * dot_i / (denom * denom)).abs()
-        };
-        let mut pdf = 0.0;
-        if reflect {
-            if mac_mic_compatible(wh, wo, wi, cos_o, true) {
-                let pm = distr.pdf(mulsign(wo, cos_o), wh);
-                pdf += p_reflect * pm * dwh_dwi;
-                if p_coat > 0.0 {
-                    pdf += p_coat * Gtr1::clearcoat(self.clearcoat_gloss).pdf(wh) * dwh_dwi;
-                }
-            }
-            pdf += p_diffuse * FRAC_1_PI * cos_i;
-        } else if self.has_spec_trans && mac_mic_compatible(wh, wo, wi, cos_o, false) {
-            pdf += p_trans * distr.pdf(mulsign(wo, cos_o), wh) * dwh_dwi;
-        }
-        pdf
+        self.eval_pdf_as::<false, true>(wo, wi).1
+    }
+
+    fn eval_pdf(&self, wo: Vec3, wi: Vec3) -> (Rgb, f32) {
+        self.eval_pdf_as::<true, true>(wo, wi)
     }
 
     /// The transmitted IOR ratio: `eta` entering from the front, `1 / eta` leaving.
@@ -341,11 +369,10 @@ impl BsdfModel for Principled {
             }
             (wi, BsdfFlags::GLOSSY_REFLECTION, 1.0)
         };
-        let pdf = self.pdf(wo, wi);
+        let (value, pdf) = self.eval_pdf(wo, wi);
         if !(pdf.is_finite() && pdf > 0.0) {
             return None;
         }
-        let value = self.eval(wo, wi);
         Some(BsdfSample {
             wi,
             weight: value / pdf,

@@ -135,6 +135,101 @@ impl PrincipledThin {
     fn transmission_distribution(&self) -> super::Microfacet {
         ggx(self.anisotropic, (0.65 * self.eta - 0.35) * self.roughness)
     }
+
+    /// The body of `eval` (`VALUE`) and `pdf` (`DENSITY`), either or both: computed
+    /// together they share the mirrored directions, the half vector and the specular
+    /// lobe's D and G1(wo) (of the reflection's or the transmission's distribution,
+    /// as `wi` lies), each the same operations either computes alone (so the same bits).
+    #[inline(always)]
+    fn eval_pdf_as<const VALUE: bool, const DENSITY: bool>(
+        &self,
+        wo: Vec3,
+        wi: Vec3,
+    ) -> (Rgb, f32) {
+        if wo.z == 0.0 {
+            return (Rgb::ZERO, 0.0);
+        }
+        let (st, dt) = self.weights();
+        let base = self.base_color;
+        // Seen from the front whatever the side.
+        let (wo, wi) = (mulsign(wo, wo.z), mulsign(wi, wo.z));
+        let (cos_o, cos_i) = (wo.z, wi.z);
+        let reflect = cos_i > 0.0;
+        let refract = cos_i < 0.0;
+        let probabilities = if DENSITY {
+            self.lobe_probabilities(st, dt)
+        } else {
+            None
+        };
+        if !VALUE && probabilities.is_none() {
+            return (Rgb::ZERO, 0.0);
+        }
+        let wi_r = Vec3::new(wi.x, wi.y, wi.z.abs());
+        let half = (wo + wi_r).try_normalize();
+        // D(wh) and G1(wo, wh) of the specular lobe `wi` lies in, where the value
+        // computed them (reflection and transmission exclude each other).
+        let (mut d_wh, mut g1_wo) = (None, None);
+        let mut value = Rgb::ZERO;
+        if let (true, Some(wh)) = (VALUE, half) {
+            if st > 0.0 {
+                let f = fresnel_dielectric(wo.dot(wh), self.eta).0;
+                if reflect && mac_mic_compatible(wh, wo, wi, cos_o, true) {
+                    let distr = ggx(self.anisotropic, self.roughness);
+                    let f_thin = thin_fresnel(f, self.spec_tint, base, wo.dot(wh), self.eta);
+                    let (d, g1_o) = (distr.d(wh), distr.g1(wo, wh));
+                    (d_wh, g1_wo) = (Some(d), Some(g1_o));
+                    let dg = d * (g1_o * distr.g1(wi, wh));
+                    value += f_thin * (st * dg / (4.0 * cos_o));
+                }
+                if refract && mac_mic_compatible(wh, wo, wi, cos_o, false) {
+                    let distr = self.transmission_distribution();
+                    let (d, g1_o) = (distr.d(wh), distr.g1(wo, wh));
+                    (d_wh, g1_wo) = (Some(d), Some(g1_o));
+                    let dg = d * (g1_o * distr.g1(wi, wh));
+                    value += base * (st * (1.0 - f) * dg / (4.0 * cos_o));
+                }
+            }
+            if reflect && st < 1.0 && dt < 1.0 {
+                let cos_d = wh.dot(wi);
+                let w = (1.0 - st) * (1.0 - dt);
+                value +=
+                    w * diffuse_retro(base, self.roughness, self.flatness, cos_o, cos_i, cos_d);
+                if self.sheen > 0.0 {
+                    value += (self.sheen * w) * sheen(base, self.sheen_tint, cos_i, cos_d);
+                }
+            }
+            if refract && st < 1.0 && dt > 0.0 {
+                value += base * ((1.0 - st) * dt * FRAC_1_PI * cos_i.abs());
+            }
+        }
+        let mut pdf = 0.0;
+        if let Some([p_sr, p_st, p_dr, p_dt]) = probabilities {
+            if let (true, Some(wh)) = (self.has_spec_trans, half) {
+                let dwh_dwi = (1.0 / (4.0 * wi_r.dot(wh))).abs();
+                // `distr.pdf(wo, wh)` with the value's D and G1 reused.
+                let normal_pdf = |distr: super::Microfacet| {
+                    let d = d_wh.unwrap_or_else(|| distr.d(wh));
+                    let g1 = g1_wo.unwrap_or_else(|| distr.g1(wo, wh));
+                    distr.pdf_with(wo, wh, d, g1)
+                };
+                if reflect && mac_mic_compatible(wh, wo, wi, cos_o, true) {
+                    let pm = normal_pdf(ggx(self.anisotropic, self.roughness));
+                    pdf += p_sr * pm * dwh_dwi;
+                }
+                if refract && mac_mic_compatible(wh, wo, wi, cos_o, false) {
+                    let pm = normal_pdf(self.transmission_distribution());
+                    pdf += p_st * pm * dwh_dwi;
+                }
+            }
+            if reflect {
+                pdf += p_dr * FRAC_1_PI * cos_i;
+            }
+            if self.has_diff_trans && refract {
+                pdf += p_dt * FRAC_1_PI * -cos_i;
+            }
+        }
+        (value, pdf)
+    }
 }
 
 impl BsdfModel for PrincipledThin {
@@ -150,83 +245,15 @@ impl BsdfModel for PrincipledThin {
     }
 
     fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
-        if wo.z == 0.0 {
-            return Rgb::ZERO;
-        }
-        let (st, dt) = self.weights();
-        let base = self.base_color;
-        // Seen from the front whatever the side.
-        let (wo, wi) = (mulsign(wo, wo.z), mulsign(wi, wo.z));
-        let (cos_o, cos_i) = (wo.z, wi.z);
-        let reflect = cos_i > 0.0;
-        let refract = cos_i < 0.0;
-        let wi_r = Vec3::new(wi.x, wi.y, wi.z.abs());
-        let Some(wh) = (wo + wi_r).try_normalize() else {
-            return Rgb::ZERO;
-        };
-        let mut value = Rgb::ZERO;
-        if st > 0.0 {
-            let f = fresnel_dielectric(wo.dot(wh), self.eta).0;
-            if reflect && mac_mic_compatible(wh, wo, wi, cos_o, true) {
-                let distr = ggx(self.anisotropic, self.roughness);
-                let f_thin = thin_fresnel(f, self.spec_tint, base, wo.dot(wh), self.eta);
-                let dg = distr.d(wh) * distr.g(wo, wi, wh);
-                value += f_thin * (st * dg / (4.0 * cos_o));
-            }
-            if refract && mac_mic_compatible(wh, wo, wi, cos_o, false) {
-                let distr = self.transmission_distribution();
-                let dg = distr.d(wh) * distr.g(wo, wi, wh);
-                value += base * (st * (1.0 - f) * dg / (4.0 * cos_o));
-            }
-        }
-        if reflect && st < 1.0 && dt < 1.0 {
-            let cos_d = wh.dot(wi);
-            let w = (1.0 - st) * (1.0 - dt);
-            value += w * diffuse_retro(base, self.roughness, self.flatness, cos_o, cos_i, cos_d);
-            if self.sheen > 0.0 {
-                value += (self.sheen * w) * sheen(base, self.sheen_tint, cos_i, cos_d);
-            }
-        }
-        if refract && st < 1.0 && dt > 0.0 {
-            value += base * ((1.0 - st) * dt * FRAC_1_PI * cos_i.abs());
-        }
-        value
+        self.eval_pdf_as::<true, false>(wo, wi).0
     }
 
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
-        if wo.z == 0.0 {
-            return 0.0;
-        }
-        let (st, dt) = self.weights();
-        let (wo, wi) = (mulsign(wo, wo.z), mulsign(wi, wo.z));
-        let (cos_o, cos_i) = (wo.z, wi.z);
-        let reflect = cos_i > 0.0;
-        let refract = cos_i < 0.0;
-        let Some([p_sr, p_st, p_dr, p_dt]) = self.lobe_probabilities(st, dt) else {
-            return 0.0;
-        };
-        let mut pdf = 0.0;
-        if self.has_spec_trans {
-            let wi_r = Vec3::new(wi.x, wi.y, wi.z.abs());
-            if let Some(wh) = (wo + wi_r).try_normalize() {
-                let dwh_dwi = (1.0 / (4.0 * wi_r.dot(wh))).abs();
-                if reflect && mac_mic_compatible(wh, wo, wi, cos_o, true) {
-                    let pm = ggx(self.anisotropic, self.roughness).pdf(wo, wh);
-                    pdf += p_sr * pm * dwh_dwi;
-                }
-                if refract && mac_mic_compatible(wh, wo, wi, cos_o, false) {
-                    let pm = self.transmission_distribution().pdf(wo, wh);
-                    pdf += p_st * pm * dwh_dwi;
-                }
-            }
-        }
-        if reflect {
-            pdf += p_dr * FRAC_1_PI * cos_i;
-        }
-        if self.has_diff_trans && refract {
-            pdf += p_dt * FRAC_1_PI * -cos_i;
-        }
-        pdf
+        self.eval_pdf_as::<false, true>(wo, wi).1
+    }
+
+    fn eval_pdf(&self, wo: Vec3, wi: Vec3) -> (Rgb, f32) {
+        self.eval_pdf_as::<true, true>(wo, wi)
     }
 
     /// `u1` picks specular reflection, specular transmission, cosine reflection or
@@ -262,13 +289,13 @@ impl BsdfModel for PrincipledThin {
             return None;
         };
         let wi = mulsign(w, cos_o);
-        let pdf = self.pdf(wo, wi);
+        let (value, pdf) = self.eval_pdf(wo, wi);
         if !(pdf.is_finite() && pdf > 0.0) {
             return None;
         }
         Some(BsdfSample {
             wi,
-            weight: self.eval(wo, wi) / pdf,
+            weight: value / pdf,
             pdf,
             lobe,
             eta: 1.0,

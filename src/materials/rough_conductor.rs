@@ -27,29 +27,6 @@ pub struct RoughConductor {
     pub specular_reflectance: Rgb,
 }
 
-impl RoughConductor {
-    /// f * cos(wi) and the density of sampling `wi`, for a reflection pair.
-    #[inline(always)]
-    fn eval_pdf(&self, wo: Vec3, wi: Vec3) -> (Rgb, f32) {
-        if wo.z <= 0.0 || wi.z <= 0.0 {
-            return (Rgb::ZERO, 0.0);
-        }
-        let Some(m) = (wo + wi).try_normalize() else {
-            return (Rgb::ZERO, 0.0);
-        };
-        let distr = &self.distribution;
-        let d = distr.d(m);
-        if d == 0.0 {
-            return (Rgb::ZERO, 0.0);
-        }
-        let g = distr.g(wi, wo, m);
-        let f = fresnel_conductor(wi.dot(m), self.eta, self.k) * self.specular_reflectance;
-        let value = f * (d * g / (4.0 * wo.z));
-        let pdf = distr.pdf(wo, m) / (4.0 * wo.dot(m));
-        (value, pdf)
-    }
-}
-
 impl BsdfModel for RoughConductor {
     #[inline(always)]
     fn flags(&self, _wo: Vec3) -> BsdfFlags {
@@ -64,6 +41,29 @@ impl BsdfModel for RoughConductor {
     #[inline(always)]
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         self.eval_pdf(wo, wi).1
+    }
+
+    /// f * cos(wi) and the density of sampling `wi`, for a reflection pair; D and
+    /// G1(wo) are shared by both.
+    #[inline(always)]
+    fn eval_pdf(&self, wo: Vec3, wi: Vec3) -> (Rgb, f32) {
+        if wo.z <= 0.0 || wi.z <= 0.0 {
+            return (Rgb::ZERO, 0.0);
+        }
+        let Some(m) = (wo + wi).try_normalize() else {
+            return (Rgb::ZERO, 0.0);
+        };
+        let distr = &self.distribution;
+        let d = distr.d(m);
+        if d == 0.0 {
+            return (Rgb::ZERO, 0.0);
+        }
+        let g1_wo = distr.g1(wo, m);
+        let g = distr.g1(wi, m) * g1_wo;
+        let f = fresnel_conductor(wi.dot(m), self.eta, self.k) * self.specular_reflectance;
+        let value = f * (d * g / (4.0 * wo.z));
+        let pdf = distr.pdf_with(wo, m, d, g1_wo) / (4.0 * wo.dot(m));
+        (value, pdf)
     }
 
     #[inline(always)]

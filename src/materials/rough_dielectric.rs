@@ -65,6 +65,23 @@ impl RoughDielectric {
         }
         d
     }
+}
+
+impl BsdfModel for RoughDielectric {
+    #[inline(always)]
+    fn flags(&self, _wo: Vec3) -> BsdfFlags {
+        BsdfFlags::GLOSSY_REFLECTION | BsdfFlags::GLOSSY_TRANSMISSION
+    }
+
+    #[inline(always)]
+    fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
+        self.eval_pdf(wo, wi).0
+    }
+
+    #[inline(always)]
+    fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        self.eval_pdf(wo, wi).1
+    }
 
     /// f * |cos wi| and the density with which `sample` returns `wi`.
     #[inline(always)]
@@ -96,10 +113,19 @@ impl RoughDielectric {
         if d == 0.0 {
             return (Rgb::ZERO, 0.0);
         }
-        let g = distr.g(wi, wo, m);
+        let g1_wo = distr.g1(wo, m);
+        let g = distr.g1(wi, m) * g1_wo;
         let f = fresnel_dielectric(dot_o, self.eta).0;
-        let sd = self.sampling_distribution(cos_o);
-        let prob_m = sd.pdf(if cos_o > 0.0 { wo } else { -wo }, m);
+        // With visible normals sampled the sampling distribution is the model's
+        // (bit for bit): its D(m), and from above its G1(wo, m), are the ones computed.
+        let prob_m = if !distr.sample_visible {
+            let sd = self.sampling_distribution(cos_o);
+            sd.pdf(if cos_o > 0.0 { wo } else { -wo }, m)
+        } else if cos_o > 0.0 {
+            distr.pdf_with(wo, m, d, g1_wo)
+        } else {
+            distr.pdf_with(-wo, m, d, distr.g1(-wo, m))
+        };
         if reflect {
             let value = self.specular_reflectance * (f * d * g / (4.0 * cos_o.abs()));
             let pdf = prob_m * f / (4.0 * dot_i.abs());
@@ -112,23 +138,6 @@ impl RoughDielectric {
             let pdf = prob_m * (1.0 - f) * (eta * eta * dot_i / denom2).abs();
             (value, pdf)
         }
-    }
-}
-
-impl BsdfModel for RoughDielectric {
-    #[inline(always)]
-    fn flags(&self, _wo: Vec3) -> BsdfFlags {
-        BsdfFlags::GLOSSY_REFLECTION | BsdfFlags::GLOSSY_TRANSMISSION
-    }
-
-    #[inline(always)]
-    fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
-        self.eval_pdf(wo, wi).0
-    }
-
-    #[inline(always)]
-    fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
-        self.eval_pdf(wo, wi).1
     }
 
     /// `eta_it` when `wi` lies on the other side from `wo`, else 1: `sample`'s `eta`.

@@ -189,31 +189,6 @@ impl RoughPlastic {
             self.specular_weight
         }
     }
-
-    /// f * cos(wi) and the density of sampling `wi`.
-    #[inline(always)]
-    fn eval_pdf(&self, wo: Vec3, wi: Vec3) -> (Rgb, f32) {
-        if wo.z <= 0.0 || wi.z <= 0.0 {
-            return (Rgb::ZERO, 0.0);
-        }
-        let t_o = self.transmittance(wo.z);
-        let t_i = self.transmittance(wi.z);
-        let ps = self.specular_probability(t_o);
-        let mut value = self.base * (FRAC_1_PI * self.inv_eta2 * wi.z * t_o * t_i);
-        let mut pdf = (1.0 - ps) * cosine_hemisphere_pdf(wi.z);
-        if let Some(m) = (wo + wi).try_normalize() {
-            let distr = &self.distribution;
-            let d = distr.d(m);
-            if d > 0.0 {
-                let cos_om = wo.dot(m);
-                let f = fresnel_dielectric(cos_om, self.eta).0;
-                let g = distr.g(wi, wo, m);
-                value += self.specular_reflectance * (f * d * g / (4.0 * wo.z));
-                pdf += ps * distr.pdf(wo, m) / (4.0 * cos_om);
-            }
-        }
-        (value, pdf)
-    }
 }
 
 /// Mitsuba's `lerp_gather` on a table over [0, 1]: x = mu (n - 1), the segment
@@ -241,6 +216,32 @@ impl BsdfModel for RoughPlastic {
     #[inline(always)]
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         self.eval_pdf(wo, wi).1
+    }
+
+    /// f * cos(wi) and the density of sampling `wi` (D and G1(wo) computed once).
+    #[inline(always)]
+    fn eval_pdf(&self, wo: Vec3, wi: Vec3) -> (Rgb, f32) {
+        if wo.z <= 0.0 || wi.z <= 0.0 {
+            return (Rgb::ZERO, 0.0);
+        }
+        let t_o = self.transmittance(wo.z);
+        let t_i = self.transmittance(wi.z);
+        let ps = self.specular_probability(t_o);
+        let mut value = self.base * (FRAC_1_PI * self.inv_eta2 * wi.z * t_o * t_i);
+        let mut pdf = (1.0 - ps) * cosine_hemisphere_pdf(wi.z);
+        if let Some(m) = (wo + wi).try_normalize() {
+            let distr = &self.distribution;
+            let d = distr.d(m);
+            if d > 0.0 {
+                let cos_om = wo.dot(m);
+                let f = fresnel_dielectric(cos_om, self.eta).0;
+                let g1_wo = distr.g1(wo, m);
+                let g = distr.g1(wi, m) * g1_wo;
+                value += self.specular_reflectance * (f * d * g / (4.0 * wo.z));
+                pdf += ps * distr.pdf_with(wo, m, d, g1_wo) / (4.0 * cos_om);
+            }
+        }
+        (value, pdf)
     }
 
     #[inline(always)]

@@ -49,6 +49,11 @@ impl BsdfModel for Separable {
     }
 
     #[inline(never)]
+    fn eval_pdf(&self, wo: Vec3, wi: Vec3) -> (Rgb, f32) {
+        self.inner.eval_pdf(wo, wi)
+    }
+
+    #[inline(never)]
     fn sample(&self, wo: Vec3, u1: f32, u2: [f32; 2]) -> Option<BsdfSample> {
         self.inner.sample(wo, u1, u2)
     }

@@ -398,7 +398,13 @@ unsafe fn trace_path_body<const ISA: u8, S: PathSampler>(
             let emitter = &scene.emitters[idx];
             if let Some(ls) = emitter.sample(&scene.shapes, sp.p, select_pdf, u1, u2) {
                 let wi = frame.to_local(ls.wi);
-                let f = bsdf.eval(wo, wi);
+                // The BSDF's density is needed only to weigh a light that has one: then
+                // value and density come from one evaluation of the lobes.
+                let (f, bsdf_pdf) = if ls.delta {
+                    (bsdf.eval(wo, wi), 0.0)
+                } else {
+                    bsdf.eval_pdf(wo, wi)
+                };
                 if f != Rgb::ZERO && ls.pdf > 0.0 {
                     let (origin, dir, tmax) = shadow_ray(sp.p, sp.ng, &ls);
                     tally.rays += 1;
@@ -409,7 +415,7 @@ unsafe fn trace_path_body<const ISA: u8, S: PathSampler>(
                         let w = if ls.delta {
                             1.0
                         } else {
-                            power_heuristic(ls.pdf, bsdf.pdf(wo, wi))
+                            power_heuristic(ls.pdf, bsdf_pdf)
                         };
                         let delay =
                             delaying.map_or(0.0, |s| s.sample_delay(rng.get1(slot::NEE_DELAY)));

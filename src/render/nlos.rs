@@ -432,11 +432,11 @@ unsafe fn body<const ISA: u8, S: PathSampler>(
                 break;
             }
             let wi = v.frame.to_local(dir);
-            let f = v.bsdf.eval(v.wo, wi);
-            let density = if c < 1.0 {
-                c * pdf + (1.0 - c) * v.bsdf.pdf(v.wo, wi)
+            let (f, density) = if c < 1.0 {
+                let (f, bsdf_pdf) = v.bsdf.eval_pdf(v.wo, wi);
+                (f, c * pdf + (1.0 - c) * bsdf_pdf)
             } else {
-                pdf
+                (v.bsdf.eval(v.wo, wi), pdf)
             };
             (dir, f * (1.0 / density), 1.0)
         } else {
