@@ -1,10 +1,15 @@
 //! `Scene::fingerprint` (the key of every scene-keyed cache) changes with everything the
 //! image depends on (the scene's bytes, a volume grid, an included file, a texture, the
 //! camera, a `-D` value, a film override) and with nothing else (same inputs, same key;
-//! the scene's folder moved: same key).
+//! the scene's folder moved: same key), and `report convergence` reuses its cached
+//! reference exactly when the key is unchanged.
 
 use std::path::Path;
+use tstat::denoise::DenoiseParams;
+use tstat::render::PixelSampling;
+use tstat::report::convergence::{run_convergence, ConvergenceConfig, ReferenceSource};
 use tstat::scene::{Overrides, Scene};
+use tstat::stats::Transform;
 
 fn f32s(v: &[f32]) -> Vec<u8> {
     v.iter().flat_map(|x| x.to_le_bytes()).collect()
@@ -120,4 +125,57 @@ fn the_fingerprint_follows_everything_the_image_depends_on() {
         ..Overrides::default()
     };
     changed("--max-depth 3", key(dir, &deeper));
+}
+
+/// `report convergence` keys its cached reference by the fingerprint: a second run
+/// reuses it; a changed `.vol` grid or camera renders a new one (then the first inputs
+/// find theirs again).
+#[test]
+fn a_changed_volume_or_camera_invalidates_the_cached_reference() {
+    let d = tempfile::tempdir().unwrap();
+    let dir = d.path();
+    let cache = tempfile::tempdir().unwrap();
+    let cfg = ConvergenceConfig {
+        scene: dir.join("scene.xml"),
+        overrides: Overrides {
+            width: Some(6),
+            height: Some(6),
+            bins: Some(4),
+            ..Overrides::default()
+        },
+        spp_list: vec![2],
+        seed: 1,
+        transform: Transform::Identity,
+        pixel_sampling: PixelSampling::Independent,
+        replicates: 0,
+        denoise: DenoiseParams::default(),
+        method_radii: true,
+        radius_chosen: false,
+        depth_align_asked: false,
+        nlos: None,
+        base_by_scene: false,
+        reference: ReferenceSource::Render { spp: 4 },
+    };
+    let note = || {
+        run_convergence(&cfg, cache.path(), &|_| {})
+            .unwrap()
+            .reference_note
+    };
+    let rendered = |n: &str| n.contains("render,") && !n.contains("cached ");
+    let reused = |n: &str| n.contains("cached ") && !n.contains("render,");
+
+    write_case(dir, "40", 1.0, LIGHT, 128);
+    let n = note();
+    assert!(rendered(&n), "first run: {n}");
+    let n = note();
+    assert!(reused(&n), "same inputs: {n}");
+    write_case(dir, "40", 2.0, LIGHT, 128);
+    let n = note();
+    assert!(rendered(&n), "changed .vol grid: {n}");
+    write_case(dir, "41", 2.0, LIGHT, 128);
+    let n = note();
+    assert!(rendered(&n), "changed camera: {n}");
+    write_case(dir, "40", 1.0, LIGHT, 128);
+    let n = note();
+    assert!(reused(&n), "the first inputs again: {n}");
 }

@@ -52,10 +52,19 @@ pub(super) enum SensorProjection {
     Meter(super::nlos::CaptureMeter),
 }
 
+/// Why a sensor's `to_world` is refused.
+#[derive(Debug, thiserror::Error)]
+pub(super) enum SensorTransformError {
+    #[error("thinlens: scale factors in the camera's to_world are not allowed (as in Mitsuba)")]
+    ThinlensScale,
+    #[error("orthographic: to_world's axes {0:?} must be non-zero, independent and at most {MAX_COORDINATE:e} long (they set the view's extent)")]
+    OrthographicAxes([[f64; 3]; 3]),
+}
+
 /// A sensor's `to_world`: thinlens refuses scale as Mitsuba does (`has_scale`: some
 /// pair of the linear part's rows has a dot product off the identity's by more than
 /// 1e-3); orthographic needs its x, y and z axes to span the view (finite, non-zero).
-pub(super) fn check_sensor_transform(kind: &str, m: &DMat4) -> Result<(), String> {
+pub(super) fn check_sensor_transform(kind: &str, m: &DMat4) -> Result<(), SensorTransformError> {
     let cols = [
         m.x_axis.truncate(),
         m.y_axis.truncate(),
@@ -68,7 +77,7 @@ pub(super) fn check_sensor_transform(kind: &str, m: &DMat4) -> Result<(), String
                 let want = if i == j { 1.0 } else { 0.0 };
                 let off = (rows[i].dot(rows[j]) - want).abs();
                 if off.is_nan() || off > 1e-3 {
-                    return Err("thinlens: scale factors in the camera's to_world are not allowed (as in Mitsuba)".into());
+                    return Err(SensorTransformError::ThinlensScale);
                 }
             }
         }
@@ -79,9 +88,8 @@ pub(super) fn check_sensor_transform(kind: &str, m: &DMat4) -> Result<(), String
             l.is_finite() && l as f32 >= f32::MIN_POSITIVE && l <= MAX_COORDINATE
         });
         if !ok || m.determinant() == 0.0 {
-            return Err(format!(
-                "orthographic: to_world's axes {:?} must be non-zero, independent and at most {MAX_COORDINATE:e} long (they set the view's extent)",
-                cols.map(|c| c.to_array())
+            return Err(SensorTransformError::OrthographicAxes(
+                cols.map(|c| c.to_array()),
             ));
         }
     }
@@ -308,7 +316,7 @@ pub(super) fn parse_sensor(
     let film = film.ok_or_else(|| ctx.err(node, "the sensor has no <film>"))?;
     check_world_point(to_world.transform_point3(DVec3::ZERO))
         .map_err(|e| ctx.err(node, format!("camera position: {e}")))?;
-    check_sensor_transform(&kind, &to_world).map_err(|e| ctx.err(node, e))?;
+    check_sensor_transform(&kind, &to_world).map_err(|e| ctx.err(node, e.to_string()))?;
     Ok(Sensor {
         line: ctx.line(node),
         kind,

@@ -138,6 +138,17 @@ fn check_bounds((lo, hi): (Vec3, Vec3)) -> Result<(), WorldPointError> {
     check_world_point(hi.as_dvec3())
 }
 
+/// Why a mesh cannot be placed in the world.
+#[derive(Debug, thiserror::Error)]
+enum TransformMeshError {
+    /// A transformed vertex is outside the single-precision world.
+    #[error("vertex {0}: {1}")]
+    Vertex(usize, WorldPointError),
+    /// A triangle whose |e1 x e2| overflows single precision.
+    #[error("triangle {triangle} is too large for single-precision arithmetic (edges of {edge:e} units; scale the scene down)")]
+    TooLarge { triangle: usize, edge: f32 },
+}
+
 /// Applies `to_world` to a mesh. For the built-in shapes (`keep_facing`), a mirroring
 /// transform reverses the winding so the normal stays the transformed +z (as Mitsuba's
 /// analytic shapes do); file meshes keep their winding.
@@ -145,11 +156,11 @@ fn transform_mesh(
     mut m: MeshData,
     to_world: &DMat4,
     keep_facing: bool,
-) -> Result<ShapeGeom, String> {
+) -> Result<ShapeGeom, TransformMeshError> {
     let normal_m = to_world.inverse().transpose();
     for (i, p) in m.positions.iter_mut().enumerate() {
         let w = to_world.transform_point3(p.as_dvec3());
-        check_world_point(w).map_err(|e| format!("vertex {i}: {e}"))?;
+        check_world_point(w).map_err(|e| TransformMeshError::Vertex(i, e))?;
         *p = w.as_vec3();
     }
     if let Some(ns) = m.normals.as_mut() {
@@ -165,10 +176,10 @@ fn transform_mesh(
     for (f, t) in m.triangles.iter().enumerate() {
         let [a, b, c] = t.map(|i| m.positions[i as usize]);
         if !(b - a).cross(c - a).length_squared().is_finite() {
-            return Err(format!(
-                "triangle {f} is too large for single-precision arithmetic (edges of {:e} units; scale the scene down)",
-                (b - a).length().max((c - a).length())
-            ));
+            return Err(TransformMeshError::TooLarge {
+                triangle: f,
+                edge: (b - a).length().max((c - a).length()),
+            });
         }
     }
     if keep_facing && to_world.determinant() < 0.0 {
@@ -232,12 +243,12 @@ fn read_rectangle(
     props: &mut Props,
     to_world: &DMat4,
 ) -> Result<ShapeGeom, SceneError> {
-    transform_mesh(rectangle(), to_world, true).map_err(|e| props.err_at("to_world", e))
+    transform_mesh(rectangle(), to_world, true).map_err(|e| props.err_at("to_world", e.to_string()))
 }
 
 /// `<shape type="cube">`.
 fn read_cube(_kind: &str, props: &mut Props, to_world: &DMat4) -> Result<ShapeGeom, SceneError> {
-    transform_mesh(cube(), to_world, true).map_err(|e| props.err_at("to_world", e))
+    transform_mesh(cube(), to_world, true).map_err(|e| props.err_at("to_world", e.to_string()))
 }
 
 /// `<shape type="sphere">`.

@@ -354,14 +354,24 @@ pub fn load(path: &Path, overrides: &Overrides) -> Result<Scene, SceneError> {
         nlos,
         accel,
         warnings: ctx.take_warnings(),
-        identity: identity(&mesh_files, overrides)
-            .map_err(|e| SceneError::new(path, 0, "scene", e))?,
+        identity: identity(&mesh_files, overrides).map_err(|(f, e)| {
+            SceneError::new(
+                path,
+                0,
+                "scene",
+                format!("cannot read '{}' again to fingerprint it: {e}", f.display()),
+            )
+        })?,
         mesh_files,
     })
 }
 
 /// The scene's identity beyond its own bytes (`Scene::identity`).
-fn identity(files: &[std::path::PathBuf], overrides: &Overrides) -> Result<SceneIdentity, String> {
+/// The error names the file that could not be read again.
+fn identity<'f>(
+    files: &'f [std::path::PathBuf],
+    overrides: &Overrides,
+) -> Result<SceneIdentity, (&'f std::path::Path, std::io::Error)> {
     let mut inputs = Vec::new();
     let mut seen = std::collections::HashSet::new();
     for f in files {
@@ -372,10 +382,8 @@ fn identity(files: &[std::path::PathBuf], overrides: &Overrides) -> Result<Scene
             continue;
         }
         let mut hasher = Sha256::new();
-        let mut file = std::fs::File::open(&canonical)
-            .map_err(|e| format!("cannot read '{}' again to fingerprint it: {e}", f.display()))?;
-        std::io::copy(&mut file, &mut hasher)
-            .map_err(|e| format!("cannot read '{}' again to fingerprint it: {e}", f.display()))?;
+        let mut file = std::fs::File::open(&canonical).map_err(|e| (f.as_path(), e))?;
+        std::io::copy(&mut file, &mut hasher).map_err(|e| (f.as_path(), e))?;
         let name = canonical
             .file_name()
             .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
