@@ -5,7 +5,7 @@
 //! instruction set (`#[target_feature]`), so everything it inlines (intersection, the
 //! flat triangle packets, shading, sampling) is compiled for AVX-512, AVX2 + FMA or the
 //! x86-64 baseline. Rust never contracts `a * b + c` into an FMA nor reorders float
-//! sums, so every level computes the same bits; `tests/render_physics.rs` checks it by
+//! sums, so every level computes the same bits; `tests/isa.rs` checks it by
 //! forcing each level the CPU has.
 //!
 //! The level is detected once; [`force`] overrides it (tests, benchmarks), and so does

@@ -161,14 +161,25 @@ fn a_changed_volume_or_camera_invalidates_the_cached_reference() {
             .unwrap()
             .reference_note
     };
-    let rendered = |n: &str| n.contains("render,") && !n.contains("cached ");
-    let reused = |n: &str| n.contains("cached ") && !n.contains("render,");
+    // "N spp render, T s (cached as PATH)" when rendered, "N spp render (cached PATH)"
+    // when reused.
+    let rendered = |n: &str| n.contains("render, ") && n.contains("(cached as ");
+    let reused = |n: &str| n.contains("render (cached ") && !n.contains("cached as ");
+    let path = |n: &str| {
+        n.rsplit(' ')
+            .next()
+            .unwrap()
+            .trim_end_matches(')')
+            .to_string()
+    };
 
     write_case(dir, "40", 1.0, LIGHT, 128);
     let n = note();
     assert!(rendered(&n), "first run: {n}");
+    let first = path(&n);
     let n = note();
     assert!(reused(&n), "same inputs: {n}");
+    assert_eq!(path(&n), first);
     write_case(dir, "40", 2.0, LIGHT, 128);
     let n = note();
     assert!(rendered(&n), "changed .vol grid: {n}");
@@ -178,4 +189,5 @@ fn a_changed_volume_or_camera_invalidates_the_cached_reference() {
     write_case(dir, "40", 1.0, LIGHT, 128);
     let n = note();
     assert!(reused(&n), "the first inputs again: {n}");
+    assert_eq!(path(&n), first);
 }

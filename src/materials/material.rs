@@ -191,7 +191,7 @@ impl Material {
     }
 
     /// The BSDF at a surface point: uv and, for `mesh_attribute` textures, the hit's
-    /// triangle on a mesh with attributes (`Shape::tex_point`).
+    /// triangle on a mesh with attributes (`TexPoint::on`).
     pub fn at_point(&self, p: &TexPoint) -> Bsdf {
         let mut b = self.bsdf.clone();
         for binding in &self.bindings {

@@ -49,7 +49,8 @@ pub struct Heterogeneous {
     pub sample_emitters: bool,
 }
 
-/// The outcome of delta tracking towards a surface.
+/// The outcome of a free flight towards a surface (delta tracking here, one distance
+/// in `homogeneous.rs`).
 pub enum Tracked {
     /// A real collision at distance `t`.
     Real { t: f32 },

@@ -14,6 +14,7 @@
 //! channel, and a real scattering happens with density `sigma_t exp(-sigma_t s)`, of
 //! which `sigma_s = albedo sigma_t` scatters and the rest is absorbed.
 
+use super::heterogeneous::Tracked;
 use super::volume::Volume;
 use super::Phase;
 use crate::math::Rgb;
@@ -55,5 +56,41 @@ impl Homogeneous {
             return Rgb::select(self.sigma_t.cmpgt(Rgb::ZERO), Rgb::ZERO, Rgb::ONE);
         }
         (-self.sigma_t * s).exp()
+    }
+
+    /// A free flight along unit `d` from `o` towards a surface at `s_surf`: a distance
+    /// from channel `h`'s extinction with the uniform number `u`. `event(f, p)` receives
+    /// the per-channel integrand and density factors of the collision, or the
+    /// transmittance to the surface twice.
+    #[inline(always)]
+    pub fn free_flight(
+        &self,
+        o: Vec3,
+        d: Vec3,
+        s_surf: f32,
+        h: usize,
+        u: f32,
+        mut event: impl FnMut(Rgb, Rgb),
+    ) -> Tracked {
+        let st = self.sigma_t;
+        let sh = st[h];
+        let t = if sh > 0.0 {
+            -(1.0 - u).ln() / sh
+        } else {
+            f32::INFINITY
+        };
+        if t < s_surf {
+            let tr = (-st * t).exp();
+            let sigma_s = match &self.albedo_volume {
+                None => self.sigma_s(),
+                Some(v) => st * v.eval(o + d * t),
+            };
+            event(tr * sigma_s, st * tr);
+            Tracked::Real { t }
+        } else {
+            let tr = self.transmittance(s_surf);
+            event(tr, tr);
+            Tracked::Through
+        }
     }
 }

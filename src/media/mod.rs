@@ -17,8 +17,20 @@ pub use phase::Phase;
 pub use vol_file::VolError;
 pub use volume::Volume;
 
+pub use heterogeneous::Tracked;
+
+use crate::math::rng::Pcg32;
 use crate::math::Rgb;
 use glam::Vec3;
+
+/// The random numbers a free flight draws (implemented for the tracers' path
+/// samplers in `render/sampler.rs`).
+pub trait FlightNumbers {
+    /// A homogeneous medium's one uniform number in [0, 1).
+    fn flight_number(&mut self) -> f32;
+    /// The path's own stream, for delta tracking (as many numbers as collisions).
+    fn flight_stream(&mut self) -> &mut Pcg32;
+}
 
 /// A participating medium.
 #[derive(Clone, Debug, PartialEq)]
@@ -51,6 +63,37 @@ impl Medium {
         match self {
             Medium::Homogeneous(m) => m.albedo_at(p),
             Medium::Heterogeneous(m) => m.albedo_at(p),
+        }
+    }
+
+    /// Samples a free flight along unit `d` from `o` towards a surface at `s_surf`,
+    /// choosing with channel `h`'s coefficients; `event(f, p)` receives the
+    /// per-channel integrand and density factors of each collision (and of reaching
+    /// the surface in a homogeneous medium). Homogeneous: one number, the distance
+    /// from the extinction; heterogeneous: delta tracking on the path's stream.
+    #[inline(always)]
+    pub fn free_flight<R: FlightNumbers>(
+        &self,
+        o: Vec3,
+        d: Vec3,
+        s_surf: f32,
+        h: usize,
+        rng: &mut R,
+        event: impl FnMut(Rgb, Rgb),
+    ) -> Tracked {
+        match self {
+            Medium::Homogeneous(m) => m.free_flight(o, d, s_surf, h, rng.flight_number(), event),
+            Medium::Heterogeneous(m) => m.track(o, d, s_surf, h, rng.flight_stream(), event),
+        }
+    }
+
+    /// Transmittance over `len` along unit `d` from `o` (heterogeneous: ratio tracking
+    /// on `rng`).
+    #[inline(always)]
+    pub fn transmittance(&self, o: Vec3, d: Vec3, len: f32, rng: &mut Pcg32) -> Rgb {
+        match self {
+            Medium::Homogeneous(m) => m.transmittance(len),
+            Medium::Heterogeneous(m) => m.transmittance(o, d, len, rng),
         }
     }
 }

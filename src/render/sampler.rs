@@ -37,6 +37,7 @@
 
 use crate::materials::Bsdf;
 use crate::math::rng::{mix64, Pcg32};
+use crate::media::FlightNumbers;
 
 /// What a number is for, at one vertex of a path. 2D slots take two consecutive values.
 pub mod slot {
@@ -99,6 +100,19 @@ pub trait PathSampler {
     fn get2(&mut self, slot: u32) -> [f32; 2];
     /// The path's own stream, for draws whose number depends on the path.
     fn stream(&mut self) -> &mut Pcg32;
+}
+
+/// A free flight's numbers (`Medium::free_flight`): the sampler's `FLIGHT` slot and
+/// the path's stream.
+impl<S: PathSampler> FlightNumbers for S {
+    #[inline(always)]
+    fn flight_number(&mut self) -> f32 {
+        self.get1(slot::FLIGHT)
+    }
+    #[inline(always)]
+    fn flight_stream(&mut self) -> &mut Pcg32 {
+        self.stream()
+    }
 }
 
 /// Independent sampling: every number from the path's stream, in the order asked.

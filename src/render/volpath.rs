@@ -60,8 +60,7 @@ use crate::materials::{Bsdf, BsdfModel};
 use crate::math::frame::Frame;
 use crate::math::sampling::power_heuristic;
 use crate::math::Rgb;
-use crate::media::heterogeneous::Tracked;
-use crate::media::Medium;
+use crate::media::{Medium, Tracked};
 use crate::scene::Scene;
 use crate::textures::TexPoint;
 use glam::{DVec3, Vec3};
@@ -206,9 +205,9 @@ enum Flight {
 }
 
 /// Samples a free flight along unit `d` from `o` towards a surface at `s_surf`, and
-/// folds its events into `spec`: in a homogeneous medium a distance from channel
-/// `spec.h`'s extinction (one number), in a heterogeneous one by delta tracking
-/// (`media/heterogeneous.rs`).
+/// folds its events into `spec` (`Medium::free_flight`: in a homogeneous medium a
+/// distance from channel `spec.h`'s extinction, one number; in a heterogeneous one
+/// delta tracking, `media/heterogeneous.rs`).
 #[inline(always)]
 fn free_flight<S: PathSampler>(
     m: &Medium,
@@ -218,35 +217,10 @@ fn free_flight<S: PathSampler>(
     rng: &mut S,
     spec: &mut Spectral,
 ) -> Flight {
-    let m = match m {
-        Medium::Homogeneous(m) => m,
-        Medium::Heterogeneous(m) => {
-            return match m.track(o, d, s_surf, spec.h, rng.stream(), |f, p| spec.update(f, p)) {
-                Tracked::Real { t } => Flight::Scatter { t },
-                Tracked::Through => Flight::Surface,
-            }
-        }
-    };
-    let u = rng.get1(slot::FLIGHT);
-    let st = m.sigma_t;
-    let sh = st[spec.h];
-    let t = if sh > 0.0 {
-        -(1.0 - u).ln() / sh
-    } else {
-        f32::INFINITY
-    };
-    if t < s_surf {
-        let tr = (-st * t).exp();
-        let sigma_s = match &m.albedo_volume {
-            None => m.sigma_s(),
-            Some(v) => st * v.eval(o + d * t),
-        };
-        spec.update(tr * sigma_s, st * tr);
-        Flight::Scatter { t }
-    } else {
-        let tr = m.transmittance(s_surf);
-        spec.update(tr, tr);
-        Flight::Surface
+    let h = spec.h;
+    match m.free_flight(o, d, s_surf, h, rng, |f, p| spec.update(f, p)) {
+        Tracked::Real { t } => Flight::Scatter { t },
+        Tracked::Through => Flight::Surface,
     }
 }
 
@@ -279,10 +253,7 @@ unsafe fn transmittance<const ISA: u8>(
         let hit = unsafe { scene.accel.intersect_with::<ISA>(&scene.shapes, o, d, tmax) };
         let seg = hit.as_ref().map_or(tmax, |h| h.t);
         if let Some(m) = medium {
-            tr *= match &scene.media[m as usize] {
-                Medium::Homogeneous(m) => m.transmittance(seg),
-                Medium::Heterogeneous(m) => m.transmittance(o, d, seg, rng),
-            };
+            tr *= scene.media[m as usize].transmittance(o, d, seg, rng);
         }
         let Some(h) = hit else {
             return tr;

@@ -5,7 +5,8 @@ use super::ctx::Ctx;
 use super::error::SceneError;
 use super::limits::check_world_point;
 use super::props::Props;
-use crate::lights::{AngularFalloff, Emitter};
+use crate::geometry::shape::AreaSampler;
+use crate::lights::{AngularFalloff, Emitter, TexturedArea};
 use crate::math::Rgb;
 use crate::scene::textures::{texture_param, NamedTextures};
 use crate::textures::Texture;
@@ -22,6 +23,30 @@ pub(super) struct AreaEmission {
     pub(super) radiance: Vec3,
     pub(super) texture: Option<Texture>,
     pub(super) falloff: Option<AngularFalloff>,
+}
+
+impl AreaEmission {
+    /// The emitter of shape `shape`, whose area `sampler` draws its points.
+    pub(super) fn into_emitter(self, shape: u32, sampler: AreaSampler) -> Emitter {
+        match (self.falloff, self.texture) {
+            (None, Some(radiance)) => Emitter::TexturedArea(Box::new(TexturedArea {
+                shape,
+                radiance,
+                sampler,
+            })),
+            (None, None) => Emitter::Area {
+                shape,
+                radiance: self.radiance,
+                sampler,
+            },
+            (Some(falloff), _) => Emitter::AngularArea {
+                shape,
+                radiance: self.radiance,
+                sampler,
+                falloff,
+            },
+        }
+    }
 }
 
 /// An `<emitter>` of one of the `AREA_KINDS`.
@@ -65,13 +90,13 @@ pub(super) fn parse_area_emitter(
                 &t,
                 "an area light's radiance",
             )?;
-            if !super::projector::non_negative(&t) {
+            if !t.non_negative() {
                 return Err(ep.err_at(
                     "radiance",
                     "radiance must be finite and non-negative everywhere",
                 ));
             }
-            if super::projector::black(&t) {
+            if t.is_black() {
                 ctx.warn(
                     obj,
                     "the radiance texture is black: this emitter contributes nothing",
@@ -174,7 +199,7 @@ pub(super) fn parse_point_emitter(
                     "a spot's 'texture' must vary over uv (a bitmap or checkerboard), as Mitsuba requires",
                 ));
             }
-            if !super::projector::non_negative(&t) {
+            if !t.non_negative() {
                 return Err(p.err_at(
                     "texture",
                     "the spot's texture must be finite and non-negative everywhere",

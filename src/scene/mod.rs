@@ -55,7 +55,7 @@ use std::path::{Path, PathBuf};
 /// | hide_emitters | boolean | false | directly visible emitters render black |
 /// | camera_unwarp | boolean | false | drop the camera segment from the path's OPL |
 /// | discard_direct_light | boolean | false | as `hide_emitters` (mitransient 1.3.1 also drops the BSDF-sampled share of every later emitter hit; tstat keeps it) |
-/// | temporal_filter | string | box | `box`, or `gaussian`: each contribution split over the nearby bins (`scene/time_filter.rs`) |
+/// | temporal_filter | string | box | `box`, or `gaussian`: each contribution split over the nearby bins (`sensors/time_filter.rs`) |
 /// | gaussian_stddev | float | 2.0 | the Gaussian's standard deviation in bins |
 /// | temporal_bins, exposure, initial_time, progressive | | | mitransient before 1.0's time window and filter schedule: checked, and the film's window used (a warning) |
 /// | samples_per_pass | integer | | Mitsuba's pass size: no effect |

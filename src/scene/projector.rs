@@ -11,45 +11,6 @@ use crate::textures::Texture;
 use glam::{DMat4, DVec3, Vec3};
 use roxmltree::Node;
 
-/// The resolution Mitsuba's `Texture::resolution` reports: an image's size, else 1 x 1.
-fn resolution(t: &Texture) -> (usize, usize) {
-    match t {
-        Texture::Bitmap(b) => (b.width, b.height),
-        Texture::Constant(_) | Texture::Checkerboard(_) | Texture::MeshAttribute(_) => (1, 1),
-    }
-}
-
-/// Whether every value the texture can return is finite and non-negative (a mesh
-/// attribute: unknown here, false; emitters refuse them first).
-pub(crate) fn non_negative(t: &Texture) -> bool {
-    match t {
-        Texture::Constant(c) => c.is_finite() && c.min_element() >= 0.0,
-        Texture::Bitmap(b) => b.data.iter().all(|v| v.is_finite() && *v >= 0.0),
-        Texture::Checkerboard(c) => non_negative(&c.color0) && non_negative(&c.color1),
-        Texture::MeshAttribute(_) => false,
-    }
-}
-
-/// The largest value the texture takes (0 for mesh attributes, refused here anyway).
-pub(crate) fn max_value(t: &Texture) -> f32 {
-    match t {
-        Texture::Constant(c) => c.max_element(),
-        Texture::Bitmap(b) => b.data.iter().fold(0.0f32, |m, v| m.max(*v)),
-        Texture::Checkerboard(c) => max_value(&c.color0).max(max_value(&c.color1)),
-        Texture::MeshAttribute(_) => 0.0,
-    }
-}
-
-/// Whether the texture is black everywhere.
-pub(crate) fn black(t: &Texture) -> bool {
-    match t {
-        Texture::Constant(c) => c.max_element() == 0.0,
-        Texture::Bitmap(b) => b.data.iter().all(|v| *v == 0.0),
-        Texture::Checkerboard(c) => black(&c.color0) && black(&c.color1),
-        Texture::MeshAttribute(_) => false,
-    }
-}
-
 /// The projector's plugin name (the plugin table's `emitter` family).
 pub const PROJECTOR: &str = "projector";
 
@@ -66,7 +27,7 @@ pub fn parse_projector(
         None => texture_param(&mut p, "irradiance", named)?.unwrap_or(Texture::Constant(Vec3::ONE)),
     };
     super::textures::refuse_mesh_attribute(&p, "irradiance", &irradiance, "a projector's image")?;
-    if !non_negative(&irradiance) {
+    if !irradiance.non_negative() {
         return Err(p.err_at(
             "irradiance",
             "irradiance must be finite and non-negative everywhere",
@@ -81,17 +42,17 @@ pub fn parse_projector(
     }
     // A point facing it at unit distance receives pi * scale * E: that must stay finite
     // in single precision, or every contribution would be dropped as non-finite.
-    let peak = std::f64::consts::PI * scale * max_value(&irradiance) as f64;
+    let peak = std::f64::consts::PI * scale * irradiance.max_value() as f64;
     if !((peak as f32).is_finite()) {
         return Err(p.err_at(
             "scale",
             format!(
                 "scale {scale:e} times the largest irradiance {:e} overflows single precision",
-                max_value(&irradiance)
+                irradiance.max_value()
             ),
         ));
     }
-    if scale as f32 == 0.0 || black(&irradiance) {
+    if scale as f32 == 0.0 || irradiance.is_black() {
         ctx.warn(
             node,
             "the projected irradiance is zero (in single precision): this emitter contributes nothing",
@@ -108,7 +69,7 @@ pub fn parse_projector(
     p.finish()?;
     let position = to_world.transform_point3(DVec3::ZERO);
     check_world_point(position).map_err(|e| ctx.err(node, format!("position: {e}")))?;
-    let (w, h) = resolution(&irradiance);
+    let (w, h) = irradiance.resolution();
     let (tan_half, aspect) = Projector::frustum(fov, fov_axis, w, h);
     let inv_tan_half = (1.0 / tan_half) as f32;
     if !(inv_tan_half.is_finite() && inv_tan_half > 0.0 && (aspect as f32).is_finite()) {

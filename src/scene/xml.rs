@@ -460,27 +460,8 @@ fn add_shape(o: &mut Objects, shape: Shape, bsdf: Material, emission: Option<Are
     };
     if let Some(emission) = emission {
         shape.emitter = Some(o.emitters.len() as u32);
-        let sampler = AreaSampler::new(&shape);
-        o.emitters.push(match (emission.falloff, emission.texture) {
-            (None, Some(radiance)) => {
-                Emitter::TexturedArea(Box::new(crate::lights::TexturedArea {
-                    shape: index,
-                    radiance,
-                    sampler,
-                }))
-            }
-            (None, None) => Emitter::Area {
-                shape: index,
-                radiance: emission.radiance,
-                sampler,
-            },
-            (Some(falloff), _) => Emitter::AngularArea {
-                shape: index,
-                radiance: emission.radiance,
-                sampler,
-                falloff,
-            },
-        });
+        o.emitters
+            .push(emission.into_emitter(index, AreaSampler::new(&shape)));
     }
     o.shapes.push(shape);
 }

@@ -101,6 +101,46 @@ pub fn luminance(c: Vec3) -> f32 {
 }
 
 impl Texture {
+    /// The resolution Mitsuba's `Texture::resolution` reports: an image's size, else 1 x 1.
+    pub fn resolution(&self) -> (usize, usize) {
+        match self {
+            Texture::Bitmap(b) => (b.width, b.height),
+            Texture::Constant(_) | Texture::Checkerboard(_) | Texture::MeshAttribute(_) => (1, 1),
+        }
+    }
+
+    /// Whether every value the texture can return is finite and non-negative (a mesh
+    /// attribute: unknown until a mesh is bound, false; emitters refuse them first).
+    pub fn non_negative(&self) -> bool {
+        match self {
+            Texture::Constant(c) => c.is_finite() && c.min_element() >= 0.0,
+            Texture::Bitmap(b) => b.data.iter().all(|v| v.is_finite() && *v >= 0.0),
+            Texture::Checkerboard(c) => c.color0.non_negative() && c.color1.non_negative(),
+            Texture::MeshAttribute(_) => false,
+        }
+    }
+
+    /// The largest value the texture takes (0 for mesh attributes, which emitters
+    /// refuse).
+    pub fn max_value(&self) -> f32 {
+        match self {
+            Texture::Constant(c) => c.max_element(),
+            Texture::Bitmap(b) => b.data.iter().fold(0.0f32, |m, v| m.max(*v)),
+            Texture::Checkerboard(c) => c.color0.max_value().max(c.color1.max_value()),
+            Texture::MeshAttribute(_) => 0.0,
+        }
+    }
+
+    /// Whether the texture is black everywhere (mesh attributes: unknown, false).
+    pub fn is_black(&self) -> bool {
+        match self {
+            Texture::Constant(c) => c.max_element() == 0.0,
+            Texture::Bitmap(b) => b.data.iter().all(|v| *v == 0.0),
+            Texture::Checkerboard(c) => c.color0.is_black() && c.color1.is_black(),
+            Texture::MeshAttribute(_) => false,
+        }
+    }
+
     /// The linear RGB value at `uv`.
     #[inline]
     pub fn eval_rgb(&self, uv: Vec2) -> Vec3 {
