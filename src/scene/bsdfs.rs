@@ -432,6 +432,18 @@ fn read_plastic(
     _kind: &str,
 ) -> Result<Bsdf, SceneError> {
     let eta = relative_ior(&mut p.props, 1.49)?;
+    let (d, s) = plastic_reflectances(p, "plastic")?;
+    Ok(Bsdf::Plastic(Plastic::new(
+        eta as f32,
+        d,
+        s,
+        p.props.boolean_or("nonlinear", false)?,
+    )))
+}
+
+/// A plastic's `diffuse_reflectance` and `specular_reflectance` (0.5 and 1, or
+/// textures), refused when both are zero numbers.
+fn plastic_reflectances(p: &mut Params, kind: &str) -> Result<(Rgb, Rgb), SceneError> {
     let d = p.colour(
         "diffuse_reflectance",
         Param::DiffuseReflectance,
@@ -439,14 +451,11 @@ fn read_plastic(
     )?;
     let s = p.colour("specular_reflectance", Param::SpecularReflectance, Rgb::ONE)?;
     if p.bindings.is_empty() && d.element_sum() + s.element_sum() <= 0.0 {
-        return Err(p.props.err("plastic with zero diffuse and specular reflectance reflects nothing; use a black diffuse"));
+        return Err(p.props.err(format!(
+            "{kind} with zero diffuse and specular reflectance reflects nothing; use a black diffuse"
+        )));
     }
-    Ok(Bsdf::Plastic(Plastic::new(
-        eta as f32,
-        d,
-        s,
-        p.props.boolean_or("nonlinear", false)?,
-    )))
+    Ok((d, s))
 }
 
 /// `<bsdf type="roughplastic">`.
@@ -479,15 +488,7 @@ fn read_roughplastic(
             .props
             .err("roughplastic's int_ior and ext_ior must differ (the coating would not exist)"));
     }
-    let d = p.colour(
-        "diffuse_reflectance",
-        Param::DiffuseReflectance,
-        Rgb::splat(0.5),
-    )?;
-    let s = p.colour("specular_reflectance", Param::SpecularReflectance, Rgb::ONE)?;
-    if p.bindings.is_empty() && d.element_sum() + s.element_sum() <= 0.0 {
-        return Err(p.props.err("roughplastic with zero diffuse and specular reflectance reflects nothing; use a black diffuse"));
-    }
+    let (d, s) = plastic_reflectances(p, "roughplastic")?;
     Ok(Bsdf::RoughPlastic(RoughPlastic::new(
         distribution,
         eta as f32,
