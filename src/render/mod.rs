@@ -24,6 +24,7 @@ pub mod nlos;
 pub mod pixel_sampling;
 pub mod sampler;
 pub mod sink;
+mod vertex;
 pub mod volpath;
 
 use crate::math::rng::{mix64, Pcg32};
