@@ -4,14 +4,16 @@
 
 use super::deposits::PathDeposits;
 use super::gbuffer::GSample;
-use super::sampler::{slot, PathSampler};
-use super::vertex::{sample_light, Surface};
+use super::sampler::{pick_scattering, slot, PathSampler};
 use crate::cpu::{Isa, ISA_AVX2, ISA_AVX512, ISA_BASELINE};
 use crate::geometry::accel::offset_origin;
+use crate::materials::{Bsdf, BsdfModel, HitGeometry};
+use crate::math::frame::Frame;
 use crate::math::sampling::power_heuristic;
 use crate::math::Rgb;
 use crate::scene::Scene;
 use crate::sensors::time_filter::{gaussian_shares, TimeFilter};
+use crate::textures::TexPoint;
 use glam::Vec3;
 
 /// What one path leaves behind besides its deposits.
@@ -86,6 +88,33 @@ pub fn shadow_ray(p: Vec3, ng: Vec3, ls: &crate::lights::LightSample) -> (Vec3, 
         return (origin, ls.wi, 0.0);
     }
     (origin, d / dist, dist * (1.0 - 1e-4))
+}
+
+/// The material at a hit of a `normalmap`/`bumpmap` material: textures resolved at the
+/// hit's uv and every perturbed frame set from the hit's geometry (`frame` is
+/// Mitsuba's dp/du shading frame, `wo` the direction back along the ray in it). Out of
+/// line: only such materials come here.
+#[inline(never)]
+pub(super) fn perturbed_at(
+    material: &crate::materials::Material,
+    shape: &crate::geometry::shape::Shape,
+    hit: &crate::geometry::accel::Hit,
+    sp: &crate::geometry::shape::SurfacePoint,
+    frame: &Frame,
+    wo: Vec3,
+) -> Bsdf {
+    let point = TexPoint::on(shape, hit.face, hit.b1, hit.b2, sp.p);
+    let uv = point.uv;
+    let mut b = material.at_point(&point);
+    b.resolve_frames(&HitGeometry {
+        uv,
+        shading: *frame,
+        dpdu: shape.dpdu(hit.face, hit.b1, hit.b2, sp.p),
+        dpdv: shape.dpdv(hit.face, hit.b1, sp.p),
+        ng: sp.ng,
+        wo,
+    });
+    b
 }
 
 /// A ray from `o` along unit `d` that left the scene: the environment emitter `env`
@@ -277,18 +306,40 @@ unsafe fn trace_path_body<const ISA: u8, S: PathSampler>(
         let shape = &scene.shapes[hit.shape as usize];
         let sp = hit.surface;
         let wo_world = -d;
-        // The material at this hit (`vertex.rs`): textures resolved, the child of a
-        // `Composed` one that scatters, its delay.
-        let mut resolved = None;
-        let v = Surface::at(
-            &scene.bsdfs[shape.bsdf as usize],
-            shape,
-            &hit,
-            wo_world,
-            rng,
-            &mut resolved,
-        );
-        let wo = v.wo;
+        let material = &scene.bsdfs[shape.bsdf as usize];
+        // Anisotropic roughness follows the surface's dp/du (Mitsuba's shading frame);
+        // every other material keeps the normal's own frame (same bits, no uv work).
+        let frame = if material.is_anisotropic() {
+            Frame::from_normal_tangent(sp.ns, shape.dpdu(hit.face, hit.b1, hit.b2, sp.p))
+        } else {
+            Frame::from_normal(sp.ns)
+        };
+        let wo = frame.to_local(wo_world);
+        // A textured material becomes a plain BSDF at this hit's uv (computed only then).
+        // The material at this hit: `whole` (textures resolved) for the G-buffer,
+        // `bsdf` the model that scatters (a `Composed` vertex scatters as one child,
+        // the first with probability w, so each child's delay stays with its own
+        // light), `delaying` its profile when it delays (`materials/composed.rs`).
+        let textured;
+        let (whole, bsdf, delaying) = if material.is_plain() {
+            (&material.bsdf, &material.bsdf, None)
+        } else {
+            let whole = if material.perturbs() {
+                textured = perturbed_at(material, shape, &hit, &sp, &frame, wo);
+                &textured
+            } else if material.is_textured() {
+                textured = material.at_point(&TexPoint::on(shape, hit.face, hit.b1, hit.b2, sp.p));
+                &textured
+            } else {
+                &material.bsdf
+            };
+            let bsdf = pick_scattering(whole, rng);
+            let delaying = match bsdf {
+                Bsdf::Separable(s) => Some(s),
+                _ => None,
+            };
+            (whole, bsdf, delaying)
+        };
 
         // Emission (front side only; an angular light only within its cone),
         // MIS-weighted against light sampling.
@@ -314,19 +365,46 @@ unsafe fn trace_path_body<const ISA: u8, S: PathSampler>(
             }
         }
 
+        // Next-event estimation and MIS need a lobe with a density; the flags say so.
+        let delta = !bsdf.flags(wo).has_non_delta();
         // The G-buffer sees the whole material (a Composed one as its mixture).
-        v.guide(&mut g, &mut g_pending, sp.ns, wo_world, seen_emitter);
+        let guide_delta = if std::ptr::eq(whole, bsdf) {
+            delta
+        } else {
+            !whole.flags(wo).has_non_delta()
+        };
+        if g_pending && ((!guide_delta && !whole.guide_looks_through()) || seen_emitter) {
+            g_pending = false;
+            g.albedo = whole.albedo(wo);
+            g.normal = if sp.ns.dot(wo_world) >= 0.0 {
+                sp.ns
+            } else {
+                -sp.ns
+            };
+            g.emitter = seen_emitter;
+        }
 
         // Mitsuba: the next segment exists only if depth + 1 < max_depth.
         if max_depth >= 0 && depth as i64 + 1 >= max_depth as i64 {
             break;
         }
 
-        // Next-event estimation, where the lobe has a density (the flags say so).
-        if !v.delta {
-            if let Some(ls) = sample_light(scene, rng, sp.p, select_pdf) {
-                let wi = v.frame.to_local(ls.wi);
-                let (f, bsdf_pdf) = v.towards_light(wi, ls.delta);
+        // Next-event estimation.
+        if !delta {
+            let u_sel = rng.get1(slot::LIGHT_SELECT);
+            let u1 = rng.get1(slot::LIGHT_1);
+            let u2 = rng.get2(slot::LIGHT_2);
+            let idx = ((u_sel * n_emitters as f32) as usize).min(n_emitters - 1);
+            let emitter = &scene.emitters[idx];
+            if let Some(ls) = emitter.sample(&scene.shapes, sp.p, select_pdf, u1, u2) {
+                let wi = frame.to_local(ls.wi);
+                // The BSDF's density is needed only to weigh a light that has one: then
+                // value and density come from one evaluation of the lobes.
+                let (f, bsdf_pdf) = if ls.delta {
+                    (bsdf.eval(wo, wi), 0.0)
+                } else {
+                    bsdf.eval_pdf(wo, wi)
+                };
                 if f != Rgb::ZERO && ls.pdf > 0.0 {
                     let (origin, dir, tmax) = shadow_ray(sp.p, sp.ng, &ls);
                     tally.rays += 1;
@@ -334,7 +412,18 @@ unsafe fn trace_path_body<const ISA: u8, S: PathSampler>(
                     let blocked = tmax > 0.0
                         && unsafe { scene.accel.occluded_with::<ISA>(origin, dir, tmax) };
                     if tmax > 0.0 && !blocked {
-                        let (w, arrival) = v.light_arrival(&ls, wi, bsdf_pdf, rng, opl, eta);
+                        let w = if ls.delta {
+                            1.0
+                        } else {
+                            power_heuristic(ls.pdf, bsdf_pdf)
+                        };
+                        let delay =
+                            delaying.map_or(0.0, |s| s.sample_delay(rng.get1(slot::NEE_DELAY)));
+                        // The segment lies in the medium on the light's side: through
+                        // rough glass that is the current IOR times the one crossed
+                        // (the same f32 product a BSDF-sampled path would carry).
+                        let eta_light = eta * bsdf.eta(wo, wi);
+                        let arrival = opl + delay as f64 + eta_light as f64 * ls.dist as f64;
                         contribute(
                             scene,
                             deposits,
@@ -348,9 +437,15 @@ unsafe fn trace_path_body<const ISA: u8, S: PathSampler>(
         }
 
         // BSDF sampling.
-        let Some((bs, wi_world)) = v.sample(rng, &mut opl) else {
+        let u1 = rng.get1(slot::BSDF_1);
+        let u2 = rng.get2(slot::BSDF_2);
+        let Some(bs) = bsdf.sample(wo, u1, u2) else {
             break;
         };
+        let wi_world = frame.to_world(bs.wi);
+        if let Some(s) = delaying {
+            opl += s.sample_delay(rng.get1(slot::BSDF_DELAY)) as f64;
+        }
         beta *= bs.weight;
         eta *= bs.eta;
         prev_delta = bs.lobe.is_delta();

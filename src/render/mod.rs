@@ -24,7 +24,6 @@ pub mod nlos;
 pub mod pixel_sampling;
 pub mod sampler;
 pub mod sink;
-mod vertex;
 pub mod volpath;
 
 use crate::math::rng::{mix64, Pcg32};

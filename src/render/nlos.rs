@@ -33,9 +33,8 @@
 
 use super::deposits::PathDeposits;
 use super::gbuffer::GSample;
-use super::integrator::{contribute, PathTally};
+use super::integrator::{contribute, perturbed_at, PathTally};
 use super::sampler::{slot, PathSampler};
-use super::vertex::perturbed_at;
 use crate::cpu::{Isa, ISA_AVX2, ISA_AVX512, ISA_BASELINE};
 use crate::geometry::accel::{offset_origin, Hit};
 use crate::materials::{Bsdf, BsdfModel};

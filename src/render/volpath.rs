@@ -52,12 +52,12 @@
 use super::deposits::PathDeposits;
 use super::gbuffer::GSample;
 use super::integrator::{contribute, escape, light_target, shadow_ray, PathTally};
-use super::sampler::{slot, PathSampler};
-use super::vertex::{sample_light, Surface};
+use super::sampler::{pick_scattering, slot, PathSampler};
 use crate::cpu::ISA_BASELINE;
 use crate::geometry::accel::offset_origin;
 use crate::geometry::shape::Shape;
-use crate::materials::Bsdf;
+use crate::materials::{Bsdf, BsdfModel};
+use crate::math::frame::Frame;
 use crate::math::sampling::power_heuristic;
 use crate::math::Rgb;
 use crate::media::{Medium, Tracked};
@@ -409,7 +409,12 @@ unsafe fn trace_body<const ISA: u8, S: PathSampler>(
                     // Next-event estimation with the phase function.
                     if m.sample_emitters() {
                         specular_chain = false;
-                        if let Some(ls) = sample_light(scene, rng, p, select_pdf) {
+                        let u_sel = rng.get1(slot::LIGHT_SELECT);
+                        let u1 = rng.get1(slot::LIGHT_1);
+                        let u2 = rng.get2(slot::LIGHT_2);
+                        let idx = ((u_sel * n_emitters as f32) as usize).min(n_emitters - 1);
+                        let emitter = &scene.emitters[idx];
+                        if let Some(ls) = emitter.sample(&scene.shapes, p, select_pdf, u1, u2) {
                             let f = m.phase().eval(wi, ls.wi);
                             if f > 0.0 && ls.pdf > 0.0 {
                                 let (dir, target) = medium_shadow_ray(p, &ls);
@@ -478,18 +483,33 @@ unsafe fn trace_body<const ISA: u8, S: PathSampler>(
         let shape = &scene.shapes[hit.shape as usize];
         let sp = hit.surface;
         let wo_world = -d;
-        // The material at this hit (`vertex.rs`).
-        let mut resolved = None;
-        let v = Surface::at(
-            &scene.bsdfs[shape.bsdf as usize],
-            shape,
-            &hit,
-            wo_world,
-            rng,
-            &mut resolved,
-        );
-        let wo = v.wo;
-        let bsdf = v.bsdf;
+        let material = &scene.bsdfs[shape.bsdf as usize];
+        let frame = if material.is_anisotropic() {
+            Frame::from_normal_tangent(sp.ns, shape.dpdu(hit.face, hit.b1, hit.b2, sp.p))
+        } else {
+            Frame::from_normal(sp.ns)
+        };
+        let wo = frame.to_local(wo_world);
+        let textured;
+        let (whole, bsdf, delaying) = if material.is_plain() {
+            (&material.bsdf, &material.bsdf, None)
+        } else {
+            let whole = if material.perturbs() {
+                textured = super::integrator::perturbed_at(material, shape, &hit, &sp, &frame, wo);
+                &textured
+            } else if material.is_textured() {
+                textured = material.at_point(&TexPoint::on(shape, hit.face, hit.b1, hit.b2, sp.p));
+                &textured
+            } else {
+                &material.bsdf
+            };
+            let bsdf = pick_scattering(whole, rng);
+            let delaying = match bsdf {
+                Bsdf::Separable(s) => Some(s),
+                _ => None,
+            };
+            (whole, bsdf, delaying)
+        };
         let null = matches!(bsdf, Bsdf::Null(_));
         if depth == 0 && g.depth.is_none() {
             if null {
@@ -524,13 +544,39 @@ unsafe fn trace_body<const ISA: u8, S: PathSampler>(
             }
         }
 
-        v.guide(&mut g, &mut g_pending, sp.ns, wo_world, seen_emitter);
+        let delta = !bsdf.flags(wo).has_non_delta();
+        let guide_delta = if std::ptr::eq(whole, bsdf) {
+            delta
+        } else {
+            !whole.flags(wo).has_non_delta()
+        };
+        if g_pending && ((!guide_delta && !whole.guide_looks_through()) || seen_emitter) {
+            g_pending = false;
+            g.albedo = whole.albedo(wo);
+            g.normal = if sp.ns.dot(wo_world) >= 0.0 {
+                sp.ns
+            } else {
+                -sp.ns
+            };
+            g.emitter = seen_emitter;
+        }
 
         // Next-event estimation (through null interfaces and media).
-        if !v.delta && depth + 1 < max_depth {
-            if let Some(ls) = sample_light(scene, rng, sp.p, select_pdf) {
-                let wi = v.frame.to_local(ls.wi);
-                let (f, bsdf_pdf) = v.towards_light(wi, ls.delta);
+        if !delta && depth + 1 < max_depth {
+            let u_sel = rng.get1(slot::LIGHT_SELECT);
+            let u1 = rng.get1(slot::LIGHT_1);
+            let u2 = rng.get2(slot::LIGHT_2);
+            let idx = ((u_sel * n_emitters as f32) as usize).min(n_emitters - 1);
+            let emitter = &scene.emitters[idx];
+            if let Some(ls) = emitter.sample(&scene.shapes, sp.p, select_pdf, u1, u2) {
+                let wi = frame.to_local(ls.wi);
+                // The BSDF's density is needed only to weigh a light that has one: then
+                // value and density come from one evaluation of the lobes.
+                let (f, bsdf_pdf) = if ls.delta {
+                    (bsdf.eval(wo, wi), 0.0)
+                } else {
+                    bsdf.eval_pdf(wo, wi)
+                };
                 if f != Rgb::ZERO && ls.pdf > 0.0 {
                     let (origin, dir, tmax) = shadow_ray(sp.p, sp.ng, &ls);
                     let target = origin + dir * tmax;
@@ -553,7 +599,15 @@ unsafe fn trace_body<const ISA: u8, S: PathSampler>(
                         )
                     };
                     if tr != Rgb::ZERO {
-                        let (w, arrival) = v.light_arrival(&ls, wi, bsdf_pdf, rng, opl, eta);
+                        let w = if ls.delta {
+                            1.0
+                        } else {
+                            power_heuristic(ls.pdf, bsdf_pdf)
+                        };
+                        let delay =
+                            delaying.map_or(0.0, |s| s.sample_delay(rng.get1(slot::NEE_DELAY)));
+                        let eta_light = eta * bsdf.eta(wo, wi);
+                        let arrival = opl + delay as f64 + eta_light as f64 * ls.dist as f64;
                         contribute(
                             scene,
                             deposits,
@@ -567,9 +621,15 @@ unsafe fn trace_body<const ISA: u8, S: PathSampler>(
         }
 
         // BSDF sampling.
-        let Some((bs, wi_world)) = v.sample(rng, &mut opl) else {
+        let u1 = rng.get1(slot::BSDF_1);
+        let u2 = rng.get2(slot::BSDF_2);
+        let Some(bs) = bsdf.sample(wo, u1, u2) else {
             break;
         };
+        let wi_world = frame.to_world(bs.wi);
+        if let Some(s) = delaying {
+            opl += s.sample_delay(rng.get1(slot::BSDF_DELAY)) as f64;
+        }
         common *= bs.weight;
         beta = common * spec.weight();
         eta *= bs.eta;
