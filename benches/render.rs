@@ -1,9 +1,10 @@
 //! Render benchmarks, statistics on, 300 bins:
 //!
 //! - `render_cbox_64x64_16spp_300bins`: cbox with the identity and Box-Cox transforms;
-//! - `render_scenes_32x32_32spp_300bins`: one bench per scene, cbox, cbox_spheres, bunny
-//!   and the dense displaced sphere (>= 1M triangles, generated into a temporary
-//!   directory by `common/dense_scene.rs`), throughput in paths;
+//! - `render_scenes_32x32_32spp_300bins`: one bench per scene, cbox, cbox_spheres, bunny,
+//!   the dense displaced sphere (>= 1M triangles, generated into a temporary directory
+//!   by `common/dense_scene.rs`), cbox_fog (the volumetric tracer) and cbox_materials
+//!   (every surface model), throughput in paths;
 //! - `render_isa_32x32_32spp_300bins`: cbox and bunny with the tracer forced to each
 //!   instruction set the CPU has (baseline, AVX2, AVX-512).
 //!
@@ -71,6 +72,11 @@ fn bench_scenes(c: &mut Criterion) {
         ("cbox_spheres".to_string(), scene_path("cbox_spheres.xml")),
         ("bunny".to_string(), scene_path("bunny.xml")),
         (format!("dense_{}tris", dense.triangles), dense.xml),
+        ("cbox_fog".to_string(), scene_path("cbox_fog.xml")),
+        (
+            "cbox_materials".to_string(),
+            scene_path("cbox_materials.xml"),
+        ),
     ];
     // Small film, more samples: tracing dominates, not zeroing the accumulators.
     let overrides = Overrides {
