@@ -5,7 +5,7 @@
 use super::deposits::PathDeposits;
 use super::gbuffer::GSample;
 use super::sampler::PathSampler;
-use super::tracer::{trace_batch, BatchScratch, PathRecord};
+use super::tracer::trace;
 use crate::geometry::accel::offset_origin;
 use crate::materials::{Bsdf, HitGeometry};
 use crate::math::frame::Frame;
@@ -27,88 +27,26 @@ pub struct PathTally {
     pub rays: u64,
 }
 
-/// Where a path's counts go: summed in place ([`PathTally`]) or, for the paths of a
-/// batch, logged per path ([`LaneTally`]) and summed in sample order when the batch
-/// ends, so the pixel's f64 sums see the contributions in the order a lone path makes
-/// them.
-pub trait Tally {
-    /// A finite contribution to the steady image.
-    fn steady(&mut self, c: [f64; 3]);
-    /// A contribution dropped because it was NaN or infinite.
-    fn dropped(&mut self);
-    /// `n` more rays traced.
-    fn rays(&mut self, n: u64);
-}
-
-impl Tally for PathTally {
-    #[inline(always)]
-    fn steady(&mut self, c: [f64; 3]) {
-        for (s, v) in self.steady.iter_mut().zip(c) {
-            *s += v;
-        }
-    }
-    #[inline(always)]
-    fn dropped(&mut self) {
-        self.dropped_nonfinite += 1;
-    }
-    #[inline(always)]
-    fn rays(&mut self, n: u64) {
-        self.rays += n;
-    }
-}
-
-/// One path's counts in a batch: its steady contributions in the order made.
-#[derive(Default)]
-pub struct LaneTally {
-    steady: Vec<[f64; 3]>,
-    dropped_nonfinite: u64,
-    rays: u64,
-}
-
-impl LaneTally {
-    /// Adds the path's counts to `tally` (contributions in their order) and empties it.
-    pub fn replay_into(&mut self, tally: &mut PathTally) {
-        for c in self.steady.drain(..) {
-            tally.steady(c);
-        }
-        tally.dropped_nonfinite += std::mem::take(&mut self.dropped_nonfinite);
-        tally.rays += std::mem::take(&mut self.rays);
-    }
-}
-
-impl Tally for LaneTally {
-    #[inline(always)]
-    fn steady(&mut self, c: [f64; 3]) {
-        self.steady.push(c);
-    }
-    #[inline(always)]
-    fn dropped(&mut self) {
-        self.dropped_nonfinite += 1;
-    }
-    #[inline(always)]
-    fn rays(&mut self, n: u64) {
-        self.rays += n;
-    }
-}
-
 /// Adds a contribution `c` arriving at OPL `opl` to the path's deposits.
 #[inline(always)]
-pub(super) fn contribute<T: Tally>(
+pub(super) fn contribute(
     scene: &Scene,
     deposits: &mut PathDeposits,
-    tally: &mut T,
+    tally: &mut PathTally,
     opl: f64,
     c: Rgb,
 ) {
     if !c.is_finite() {
-        tally.dropped();
+        tally.dropped_nonfinite += 1;
         return;
     }
     if c == Rgb::ZERO {
         return;
     }
     let c = [c.x as f64, c.y as f64, c.z as f64];
-    tally.steady(c);
+    for (s, v) in tally.steady.iter_mut().zip(c) {
+        *s += v;
+    }
     match scene.integrator.time_filter {
         TimeFilter::Box => {
             if let Some(bin) = scene.film.bin(opl) {
@@ -187,7 +125,7 @@ pub(super) fn perturbed_at(
 /// camera path whose first non-delta vertex would be here sees an emitter (G-buffer).
 #[inline(never)]
 #[allow(clippy::too_many_arguments)]
-pub(super) fn escape<T: Tally>(
+pub(super) fn escape(
     scene: &Scene,
     env: u32,
     o: Vec3,
@@ -199,7 +137,7 @@ pub(super) fn escape<T: Tally>(
     prev_delta: bool,
     prev_pdf: f32,
     deposits: &mut PathDeposits,
-    tally: &mut T,
+    tally: &mut PathTally,
     g: &mut GSample,
     g_pending: bool,
 ) {
@@ -225,8 +163,7 @@ pub(super) fn escape<T: Tally>(
     contribute(scene, deposits, tally, opl + segment, beta * radiance * w);
 }
 
-/// Traces one camera path from the pinhole along unit direction `d` (the one loop of
-/// `tracer.rs`, as a batch of one path).
+/// Traces one camera path from the pinhole along unit direction `d` (`tracer.rs`).
 #[inline]
 pub fn trace_path<S: PathSampler>(
     scene: &Scene,
@@ -235,11 +172,13 @@ pub fn trace_path<S: PathSampler>(
     deposits: &mut PathDeposits,
     tally: &mut PathTally,
 ) -> GSample {
-    trace_ray(scene, scene.camera.origin, d, rng, deposits, tally)
+    trace(scene, scene.camera.origin, d, rng, deposits, tally)
 }
 
 /// Traces one camera path from `o` (where its OPL starts) along unit direction `d`:
-/// the ray `Camera::ray` gives, for every sensor; surfaces and media alike.
+/// the ray `Camera::ray` gives, for every sensor; surfaces and media alike
+/// (`tracer.rs`).
+#[inline]
 pub fn trace_ray<S: PathSampler>(
     scene: &Scene,
     o: Vec3,
@@ -248,19 +187,5 @@ pub fn trace_ray<S: PathSampler>(
     deposits: &mut PathDeposits,
     tally: &mut PathTally,
 ) -> GSample {
-    let mut record = [PathRecord::default()];
-    let mut scratch = BatchScratch::default();
-    trace_batch(
-        scene,
-        &[(o, d)],
-        std::slice::from_mut(rng),
-        &mut record,
-        &mut scratch,
-    );
-    let [mut record] = record;
-    for (bin, c) in record.deposits.drain() {
-        deposits.add(bin, c);
-    }
-    record.tally.replay_into(tally);
-    record.g
+    trace(scene, o, d, rng, deposits, tally)
 }

@@ -33,6 +33,7 @@ use crate::sensors::camera::LENS_STREAM_SALT;
 use crate::sensors::film::Film;
 use crate::stats::accumulators::{Accumulators, PixelSums, CHANNELS};
 use crate::stats::Transform;
+use deposits::PathDeposits;
 use gbuffer::{GAccum, GPixel};
 use integrator::PathTally;
 pub use pixel_sampling::{PixelPattern, PixelSampling};
@@ -202,9 +203,6 @@ struct RowScratch {
     pixel: PixelSums,
     gbuffer: Vec<GPixel>,
     steady: Vec<f64>,
-    /// The batch of paths being traced (a few kB: `tracer::LANES` paths' state and
-    /// records).
-    batch: Batch,
 }
 
 impl RowScratch {
@@ -221,7 +219,6 @@ impl RowScratch {
             pixel,
             gbuffer: vec![GPixel::default(); film.width],
             steady: vec![0.0; film.width * CHANNELS],
-            batch: Batch::default(),
         }
     }
 
@@ -282,17 +279,6 @@ struct RowTally {
     voxel_samples: u64,
 }
 
-/// One pixel's batch of paths being set up and traced (reused from batch to batch):
-/// the camera rays, the samplers (one kind per render), the paths' records.
-#[derive(Default)]
-struct Batch {
-    rays: Vec<(glam::Vec3, glam::Vec3)>,
-    independent: Vec<Pcg32>,
-    sobol: Vec<SobolPath>,
-    records: Vec<tracer::PathRecord>,
-    scratch: tracer::BatchScratch,
-}
-
 fn render_row(
     scene: &Scene,
     settings: &RenderSettings,
@@ -303,11 +289,11 @@ fn render_row(
     let width = scene.film.width;
     let n = settings.spp as f64;
     let z0 = settings.transform.at_zero();
+    let mut deposits = PathDeposits::default();
     let mut result = RowTally::default();
     // NLOS captures: the laser point and sensor row of this film row.
     let nlos = scene.nlos.as_ref().zip(scene.integrator.nlos.as_ref());
     let (laser, sensor_row) = nlos.map_or((0, y), |(s, _)| s.row(y));
-    let batch = &mut row.batch;
     for x in 0..width {
         let ends = nlos.map_or_else(Default::default, |(s, n)| {
             s.ends(n.capture, x, sensor_row, laser)
@@ -324,40 +310,23 @@ fn render_row(
         };
         for b in 0..reps {
             let positions = PixelPositions::new(settings, pixel, b, k);
-            // The replicate's samples in batches of consecutive samples.
-            for first in (0..k).step_by(tracer::LANES) {
-                let last = (first + tracer::LANES as u32).min(k);
-                batch.rays.clear();
-                batch.independent.clear();
-                batch.sobol.clear();
-                for i in first..last {
-                    let s = b * k + i;
-                    let rng = Pcg32::for_path(settings.seed, pixel, s as u64);
-                    let (numbers, [u, v]) = PathNumbers::new(&positions, i, k, rng, ld_vertices);
-                    batch.rays.push(scene.camera.ray(x as f32 + u, y as f32 + v, || {
-                        Pcg32::for_path(settings.seed ^ LENS_STREAM_SALT, pixel, s as u64).next_2d()
-                    }));
-                    match numbers {
-                        PathNumbers::Sobol(p) => batch.sobol.push(p),
-                        PathNumbers::Independent(p) => batch.independent.push(p),
+            for i in 0..k {
+                let s = b * k + i;
+                let rng = Pcg32::for_path(settings.seed, pixel, s as u64);
+                let (mut numbers, [u, v]) = PathNumbers::new(&positions, i, k, rng, ld_vertices);
+                let (o, d) = scene.camera.ray(x as f32 + u, y as f32 + v, || {
+                    Pcg32::for_path(settings.seed ^ LENS_STREAM_SALT, pixel, s as u64).next_2d()
+                });
+                let gs = match &mut numbers {
+                    PathNumbers::Sobol(p) => trace(scene, o, d, ends, p, &mut deposits, &mut tally),
+                    PathNumbers::Independent(p) => {
+                        trace(scene, o, d, ends, p, &mut deposits, &mut tally)
                     }
-                }
-                let count = batch.rays.len();
-                batch.records.resize_with(count.max(batch.records.len()), Default::default);
-                let records = &mut batch.records[..count];
-                if batch.sobol.is_empty() {
-                    trace(scene, &batch.rays, ends, &mut batch.independent, records, &mut batch.scratch);
-                } else {
-                    trace(scene, &batch.rays, ends, &mut batch.sobol, records, &mut batch.scratch);
-                }
-                // The paths' results in sample order, as if traced one by one.
-                for rec in records.iter_mut() {
-                    g.add(&rec.g);
-                    result.voxel_samples += rec.deposits.len() as u64;
-                    for (bin, c) in rec.deposits.drain() {
-                        row.pixel.add_sample(z, bin as usize, c);
-                    }
-                    rec.tally.replay_into(&mut tally);
+                };
+                g.add(&gs);
+                result.voxel_samples += deposits.len() as u64;
+                for (bin, c) in deposits.drain() {
+                    row.pixel.add_sample(z, bin as usize, c);
                 }
             }
             row.pixel.end_replicate(k, z0);
@@ -373,24 +342,23 @@ fn render_row(
     result
 }
 
-/// Traces one batch of camera paths with the tracer the scene needs: the path loop of
-/// `tracer.rs` (surfaces, and media when the scene has them), or the NLOS tracer path
-/// by path. `ends` are the NLOS tracer's known surfaces.
+/// Traces one camera path with the tracer the scene needs: the path loop of
+/// `tracer.rs` (surfaces, and media when the scene has them) or the NLOS tracer.
+/// `ends` are the NLOS tracer's known surfaces.
 #[inline]
 fn trace<S: PathSampler>(
     scene: &Scene,
-    rays: &[(glam::Vec3, glam::Vec3)],
+    o: glam::Vec3,
+    d: glam::Vec3,
     ends: crate::scene::nlos::PathEnds,
-    samplers: &mut [S],
-    records: &mut [tracer::PathRecord],
-    scratch: &mut tracer::BatchScratch,
-) {
+    sampler: &mut S,
+    deposits: &mut PathDeposits,
+    tally: &mut PathTally,
+) -> gbuffer::GSample {
     if scene.integrator.nlos.is_some() {
-        for ((&(o, d), sampler), rec) in rays.iter().zip(samplers.iter_mut()).zip(records) {
-            rec.g = nlos::trace_nlos(scene, o, d, ends, sampler, &mut rec.deposits, &mut rec.tally);
-        }
+        nlos::trace_nlos(scene, o, d, ends, sampler, deposits, tally)
     } else {
-        tracer::trace_batch(scene, rays, samplers, records, scratch);
+        tracer::trace(scene, o, d, sampler, deposits, tally)
     }
 }
 

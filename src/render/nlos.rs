@@ -33,7 +33,7 @@
 
 use super::deposits::PathDeposits;
 use super::gbuffer::GSample;
-use super::integrator::{contribute, perturbed_at, Tally};
+use super::integrator::{contribute, perturbed_at, PathTally};
 use super::sampler::{slot, PathSampler};
 use crate::cpu::{Isa, ISA_AVX2, ISA_AVX512, ISA_BASELINE};
 use crate::geometry::accel::{offset_origin, Hit};
@@ -65,14 +65,14 @@ fn above(x: f32, t: f32) -> bool {
 /// Traces one NLOS path from `o` along unit `d`; `ends` holds the surface laser
 /// sampling aims at and, for a capture meter, the ray's known first hit.
 #[inline]
-pub fn trace_nlos<S: PathSampler, T: Tally>(
+pub fn trace_nlos<S: PathSampler>(
     scene: &Scene,
     o: Vec3,
     d: Vec3,
     ends: PathEnds,
     rng: &mut S,
     deposits: &mut PathDeposits,
-    tally: &mut T,
+    tally: &mut PathTally,
 ) -> GSample {
     match crate::cpu::current() {
         // SAFETY: `cpu::current` returns a level only when the CPU supports it.
@@ -81,39 +81,39 @@ pub fn trace_nlos<S: PathSampler, T: Tally>(
         #[cfg(target_arch = "x86_64")]
         Isa::Avx2 => unsafe { nlos_avx2(scene, o, d, ends, rng, deposits, tally) },
         // SAFETY: the baseline runs on every CPU.
-        _ => unsafe { body::<ISA_BASELINE, S, T>(scene, o, d, ends, rng, deposits, tally) },
+        _ => unsafe { body::<ISA_BASELINE, S>(scene, o, d, ends, rng, deposits, tally) },
     }
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx512cd")]
 #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
-fn nlos_avx512<S: PathSampler, T: Tally>(
+fn nlos_avx512<S: PathSampler>(
     scene: &Scene,
     o: Vec3,
     d: Vec3,
     ends: PathEnds,
     rng: &mut S,
     deposits: &mut PathDeposits,
-    tally: &mut T,
+    tally: &mut PathTally,
 ) -> GSample {
     // SAFETY: compiled for (and only called on CPUs with) ISA_AVX512.
-    unsafe { body::<ISA_AVX512, S, T>(scene, o, d, ends, rng, deposits, tally) }
+    unsafe { body::<ISA_AVX512, S>(scene, o, d, ends, rng, deposits, tally) }
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
-fn nlos_avx2<S: PathSampler, T: Tally>(
+fn nlos_avx2<S: PathSampler>(
     scene: &Scene,
     o: Vec3,
     d: Vec3,
     ends: PathEnds,
     rng: &mut S,
     deposits: &mut PathDeposits,
-    tally: &mut T,
+    tally: &mut PathTally,
 ) -> GSample {
     // SAFETY: compiled for (and only called on CPUs with) ISA_AVX2.
-    unsafe { body::<ISA_AVX2, S, T>(scene, o, d, ends, rng, deposits, tally) }
+    unsafe { body::<ISA_AVX2, S>(scene, o, d, ends, rng, deposits, tally) }
 }
 
 /// A surface vertex: where it is and what scatters there.
@@ -191,7 +191,7 @@ impl Ctx<'_> {
     /// The CPU must support `ISA`.
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
-    unsafe fn laser_nee<const ISA: u8, T: Tally>(
+    unsafe fn laser_nee<const ISA: u8>(
         &self,
         v: &Vertex,
         light: Option<Option<LaserLight>>,
@@ -200,7 +200,7 @@ impl Ctx<'_> {
         opl: f64,
         eta: f32,
         deposits: &mut PathDeposits,
-        tally: &mut T,
+        tally: &mut PathTally,
     ) {
         let n = self.n;
         if n.filter_depth != -1 && i64::from(depth) != n.filter_depth {
@@ -219,7 +219,7 @@ impl Ctx<'_> {
                 v.ng,
                 self.focus,
                 |o, d, tmax| {
-                    tally.rays(1);
+                    tally.rays += 1;
                     // SAFETY: the caller guarantees ISA.
                     unsafe { scene.accel.occluded_with::<ISA>(o, d, tmax) }
                 },
@@ -249,7 +249,7 @@ impl Ctx<'_> {
     /// The CPU must support `ISA`.
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
-    unsafe fn laser_sample<const ISA: u8, T: Tally>(
+    unsafe fn laser_sample<const ISA: u8>(
         &self,
         v: &Vertex,
         lit: &Hit,
@@ -259,7 +259,7 @@ impl Ctx<'_> {
         opl: f64,
         eta: f32,
         deposits: &mut PathDeposits,
-        tally: &mut T,
+        tally: &mut PathTally,
     ) {
         let scene = self.scene;
         let target = lit.surface.p;
@@ -278,7 +278,7 @@ impl Ctx<'_> {
         // them: a ray from the moved origin along `dir` would run beside the segment
         // and meet the lit point's own surface short of it at grazing angles.
         let end = offset_origin(target, lit.surface.ng, -dir);
-        tally.rays(1);
+        tally.rays += 1;
         // SAFETY: the caller guarantees ISA.
         if unsafe { self.blocked::<ISA>(offset_origin(v.p, v.ng, dir), end) } {
             return;
@@ -291,7 +291,7 @@ impl Ctx<'_> {
         let beta = beta * f * (cos_l / (dist * dist));
         // SAFETY: the caller guarantees ISA.
         unsafe {
-            self.laser_nee::<ISA, T>(
+            self.laser_nee::<ISA>(
                 &lit,
                 Some(lit_light),
                 depth + 2,
@@ -310,14 +310,14 @@ impl Ctx<'_> {
 /// # Safety
 /// The CPU must support `ISA`.
 #[inline(always)]
-unsafe fn body<const ISA: u8, S: PathSampler, T: Tally>(
+unsafe fn body<const ISA: u8, S: PathSampler>(
     scene: &Scene,
     o: Vec3,
     d: Vec3,
     ends: PathEnds,
     rng: &mut S,
     deposits: &mut PathDeposits,
-    tally: &mut T,
+    tally: &mut PathTally,
 ) -> GSample {
     let settings = &scene.integrator;
     let (Some(n), Some(setup)) = (settings.nlos.as_ref(), scene.nlos.as_ref()) else {
@@ -348,7 +348,7 @@ unsafe fn body<const ISA: u8, S: PathSampler, T: Tally>(
         // the hit of a ray traced ahead for its MIS weight.
         let known = next.take();
         let hit = known.unwrap_or_else(|| {
-            tally.rays(1);
+            tally.rays += 1;
             // SAFETY: the caller guarantees ISA.
             unsafe {
                 scene
@@ -383,7 +383,7 @@ unsafe fn body<const ISA: u8, S: PathSampler, T: Tally>(
             unsafe {
                 if n.laser_sampling {
                     if let (Some(lit), Some(light)) = (&ends.lit, ends.lit_light) {
-                        ctx.laser_sample::<ISA, T>(
+                        ctx.laser_sample::<ISA>(
                             &v,
                             lit,
                             Some(light),
@@ -396,7 +396,7 @@ unsafe fn body<const ISA: u8, S: PathSampler, T: Tally>(
                         );
                     }
                 } else {
-                    ctx.laser_nee::<ISA, T>(&v, None, depth, beta, opl, eta, deposits, tally);
+                    ctx.laser_nee::<ISA>(&v, None, depth, beta, opl, eta, deposits, tally);
                 }
             }
         }
@@ -448,7 +448,7 @@ unsafe fn body<const ISA: u8, S: PathSampler, T: Tally>(
                 // The hidden-geometry density of this direction: where its ray first
                 // meets the hidden geometry, traced now and kept for the next vertex.
                 Some(hidden) if c > 0.0 && !bs.lobe.is_delta() => {
-                    tally.rays(1);
+                    tally.rays += 1;
                     // SAFETY: the caller guarantees ISA.
                     let h = unsafe {
                         scene.accel.intersect_with::<ISA>(

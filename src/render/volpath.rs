@@ -49,7 +49,7 @@
 //! first real interaction is a medium scattering records the medium's albedo there, a zero
 //! normal and `medium = true`; depth is the distance to that first interaction.
 
-use super::integrator::{light_target, Tally};
+use super::integrator::{light_target, PathTally};
 use super::sampler::PathSampler;
 use crate::geometry::accel::offset_origin;
 use crate::geometry::shape::Shape;
@@ -206,7 +206,7 @@ pub(super) fn free_flight<S: PathSampler>(
 /// The CPU must support `ISA`.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
-pub(super) unsafe fn transmittance<const ISA: u8, T: Tally>(
+pub(super) unsafe fn transmittance<const ISA: u8>(
     scene: &Scene,
     mut o: Vec3,
     d: Vec3,
@@ -214,7 +214,7 @@ pub(super) unsafe fn transmittance<const ISA: u8, T: Tally>(
     target_eps: f32,
     mut medium: Option<u32>,
     rng: &mut crate::math::rng::Pcg32,
-    tally: &mut T,
+    tally: &mut PathTally,
 ) -> Rgb {
     let mut tr = Rgb::ONE;
     for _ in 0..MAX_NULL_CROSSINGS {
@@ -222,7 +222,7 @@ pub(super) unsafe fn transmittance<const ISA: u8, T: Tally>(
         if tmax <= 0.0 {
             return tr;
         }
-        tally.rays(1);
+        tally.rays += 1;
         // SAFETY: the caller guarantees ISA.
         let hit = unsafe { scene.accel.intersect_with::<ISA>(&scene.shapes, o, d, tmax) };
         let seg = hit.as_ref().map_or(tmax, |h| h.t);
