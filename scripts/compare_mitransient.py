@@ -23,16 +23,31 @@ tracing, kernel compilation or its cache look-up, and the kernel itself); import
 reported in a second table. A warm-up run of each renderer per scene (untimed in
 the table, reported beside it) fills Dr.Jit's on-disk kernel cache and the page cache.
 
-Not part of CI. Needs Python >= 3.11 and the Rust toolchain; mitransient is optional:
+Rates. tstat's M rays/s and M paths/s are the ones `tstat render` prints (rays: the
+closest-hit and shadow rays traced, over the render seconds). mitransient does not
+report how many rays it traces: "-".
+
+Instructions (`--instructions`, slow: off by default). Each scene is rendered once more
+by tstat under valgrind's callgrind at a small film (`--instr-res`, `--instr-spp`, the
+same bins, one thread), collecting only inside `tstat::render::render_into*` (the render
+loop; `--toggle-collect`). Its instruction count over the exact numbers of paths and
+rays that render prints (`(N paths, M rays)`) gives instructions per path and per ray.
+mitransient is not measured: no hardware counters (`perf stat`) on this VM, and
+callgrind does not measure Dr.Jit's LLVM-JIT kernels.
+
+Not part of CI. Needs Python >= 3.11 and the Rust toolchain; mitransient and valgrind
+(for `--instructions`) are optional:
 
     pip install mitsuba mitransient          # mitransient 1.3.1 / Mitsuba 3.9.1 measured
     apt-get install -y libllvm19             # Dr.Jit's LLVM backend
     export DRJIT_LIBLLVM_PATH=/usr/lib/x86_64-linux-gnu/libLLVM-19.so  # else searched
 
-    python3 scripts/compare_mitransient.py                 # the four default scenes
+    python3 scripts/compare_mitransient.py                 # the six default scenes
     python3 scripts/compare_mitransient.py scenes/cbox.xml --spp 64 --repeats 5
+    python3 scripts/compare_mitransient.py scenes/cbox.xml --instructions  # + callgrind
 
-Without mitransient (or without a working LLVM) it says so and prints tstat's times.
+Without mitransient (or without a working LLVM) it says so and prints tstat's times;
+without valgrind, `--instructions` says so and skips its table.
 The scene `dense` is the displaced sphere of >= 1M triangles, generated on first use by
 `cargo run --release --example dense_scene` into target/bench-scenes/ (not committed).
 """
@@ -45,6 +60,7 @@ import importlib.util
 import json
 import os
 import platform
+import re
 import resource
 import shutil
 import statistics
@@ -57,9 +73,15 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
-DEFAULT_SCENES = ["scenes/cbox.xml", "scenes/cbox_spheres.xml", "scenes/bunny.xml", "dense"]
+DEFAULT_SCENES = ["scenes/cbox.xml", "scenes/cbox_spheres.xml", "scenes/bunny.xml", "dense",
+                  "scenes/cbox_fog.xml", "scenes/cbox_materials.xml"]
 # Prefixes the worker's one-line JSON result on stdout.
 RESULT = "compare_mitransient result: "
+# `tstat render`'s last line on stdout: "rendered X in S s: P M paths/s, R M rays/s; ...".
+RATES = re.compile(r"in ([0-9.]+) s: ([0-9.]+) M paths/s, ([0-9.]+) M rays/s")
+# Callgrind collects only inside the render loop (generic over its row sink: wildcard).
+TOGGLE = "tstat::render::render_into*"
+# Runs of the small render without valgrind whose printed rates bound rays per path.
 LLVM_CANDIDATES = [
     "/usr/lib/x86_64-linux-gnu/libLLVM-19.so",
     "/usr/lib/llvm-19/lib/libLLVM.so.1",
@@ -127,6 +149,8 @@ class Times:
     render: list[float] = field(default_factory=list)
     other: list[float] = field(default_factory=list)  # tstat: process wall; mi: load
     cpu: list[float] = field(default_factory=list)  # whole process, user + system
+    mrays: list[float] = field(default_factory=list)  # tstat: printed M rays/s
+    mpaths: list[float] = field(default_factory=list)  # tstat: printed M paths/s
     warmup: float | None = None
     film: str = "?"
     error: str | None = None
@@ -208,10 +232,18 @@ def dense_scene(a: argparse.Namespace) -> Path:
     return xml
 
 
+def rates(stdout: str) -> tuple[float, float]:
+    """M paths/s and M rays/s as `tstat render` prints them."""
+    found = RATES.findall(stdout)
+    if not found:
+        raise RuntimeError(f"no rates in tstat's output: {stdout.strip()!r}")
+    return float(found[-1][1]), float(found[-1][2])
+
+
 def time_tstat(
     tstat: Path, xml: Path, params: dict, a: argparse.Namespace, seed: int
-) -> tuple[float, float, float, str]:
-    """Render seconds (manifest), process wall and CPU seconds, film."""
+) -> tuple[float, float, float, str, float, float]:
+    """Render seconds (manifest), process wall and CPU seconds, film, M paths/s, M rays/s."""
     with tempfile.TemporaryDirectory(prefix="tstat-compare-", dir=a.work_dir) as tmp:
         out = Path(tmp) / "run.tstats"
         cmd = [str(tstat), "render", str(xml), "--out", str(out), "--spp", str(a.spp),
@@ -225,7 +257,55 @@ def time_tstat(
             raise RuntimeError(f"tstat render failed: {r.stderr.strip()}")
         m = json.loads((out / "manifest.json").read_text())
         film = f"{m['width']}x{m['height']}x{m['bins']}"
-        return m["render_seconds"], wall, cpu, film
+        mpaths, mrays = rates(r.stdout)
+        return m["render_seconds"], wall, cpu, film, mpaths, mrays
+
+
+@dataclass
+class Instr:
+    film: str = "?"
+    spp: int = 0
+    ir: int = 0  # instructions collected in the render loop
+    paths: int = 0  # as the render prints them: exact
+    rays: int = 0
+    error: str | None = None
+
+
+COUNTS = re.compile(r"\(([0-9]+) paths, ([0-9]+) rays\)")
+
+
+def count_instructions(tstat: Path, xml: Path, a: argparse.Namespace) -> Instr:
+    """One small render under callgrind (render loop only, one thread), with the exact
+    path and ray counts it prints."""
+    declared = declared_defaults(xml)
+    res = ["-D", f"res={a.instr_res}"] if "res" in declared else ["--width", str(a.instr_res)]
+    bins = ["-D", f"temporal_bins={a.bins}"] if "temporal_bins" in declared else []
+    t = Instr(spp=a.instr_spp)
+    with tempfile.TemporaryDirectory(prefix="tstat-compare-", dir=a.work_dir) as tmp:
+        out = Path(tmp) / "run.tstats"
+        cg = Path(tmp) / "callgrind.out"
+        render = [str(tstat), "render", str(xml), "--out", str(out), "--force", "--spp",
+                  str(a.instr_spp), "--seed", str(a.seed), *res, *bins]
+        r = run(["valgrind", "--tool=callgrind", f"--callgrind-out-file={cg}",
+                 f"--toggle-collect={TOGGLE}", *render, "--threads", "1"])
+        if r.returncode != 0 or not cg.exists():
+            tail = (r.stderr.strip().splitlines() or ["(no output)"])[-1]
+            raise RuntimeError(f"tstat render under callgrind failed (exit {r.returncode}): {tail}")
+        totals = {}
+        for line in cg.read_text(errors="replace").splitlines():
+            if line.startswith(("summary:", "totals:")):
+                key, value = line.split(":", 1)
+                totals[key] = int(value.split()[0])
+        t.ir = totals.get("totals", totals.get("summary", 0))
+        if t.ir <= 0:
+            raise RuntimeError(f"callgrind collected no instructions in {TOGGLE} (symbol renamed?)")
+        m = json.loads((out / "manifest.json").read_text())
+        t.film = f"{m['width']}x{m['height']}x{m['bins']}"
+        counts = COUNTS.findall(r.stdout)
+        if not counts:
+            raise RuntimeError(f"no path and ray counts in tstat's output: {r.stdout.strip()!r}")
+        t.paths, t.rays = int(counts[-1][0]), int(counts[-1][1])
+    return t
 
 
 def time_mitransient(xml: Path, params: dict, a: argparse.Namespace, seed: int) -> dict:
@@ -263,7 +343,7 @@ def cpu_model() -> str:
 
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    p.add_argument("scenes", nargs="*", help="scene XML files, or `dense` (default: cbox, cbox_spheres, bunny, dense)")
+    p.add_argument("scenes", nargs="*", help="scene XML files, or `dense` (default: cbox, cbox_spheres, bunny, dense, cbox_fog, cbox_materials)")
     p.add_argument("--res", type=int, default=128, help="film width and height, as the scene default `res` (128)")
     p.add_argument("--bins", type=int, default=300, help="time bins, as the scene default `temporal_bins` (300)")
     p.add_argument("--spp", type=int, default=512, help="samples per pixel (512)")
@@ -277,6 +357,9 @@ def main() -> None:
     p.add_argument("--dense-triangles", type=int, default=1_000_000, help="minimum triangles of the dense scene")
     p.add_argument("--work-dir", default=None, help="where the temporary tstat bundles go (default: system temp)")
     p.add_argument("--no-mitransient", action="store_true", help="time tstat only")
+    p.add_argument("--instructions", action="store_true", help="also count tstat's instructions per path under valgrind's callgrind (slow)")
+    p.add_argument("--instr-res", type=int, default=32, help="film width and height of the callgrind render, as `res` (32)")
+    p.add_argument("--instr-spp", type=int, default=16, help="samples per pixel of the callgrind render (16)")
     # Internal: one mitransient render in this process.
     p.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)
     p.add_argument("--params", default="{}", help=argparse.SUPPRESS)
@@ -285,8 +368,8 @@ def main() -> None:
         a.scene = a.scenes[0]
         worker(a)
         return
-    for name in ("res", "bins", "spp", "repeats", "threads", "dense_triangles"):
-        if getattr(a, name) < (2 if name == "spp" else 1):
+    for name in ("res", "bins", "spp", "repeats", "threads", "dense_triangles", "instr_res", "instr_spp"):
+        if getattr(a, name) < (2 if name in ("spp", "instr_spp") else 1):
             p.error(f"--{name.replace('_', '-')} {getattr(a, name)}: too small")
 
     with_mi, why = (False, "mitransient skipped (--no-mitransient)") if a.no_mitransient else mitransient_status(a.variant)
@@ -316,7 +399,7 @@ def main() -> None:
             label = "warm-up" if rep < 0 else f"run {rep + 1}/{a.repeats}"
             if ts.error is None:
                 try:
-                    render_s, wall, cpu, ts.film = time_tstat(tstat, xml, params, a, seed)
+                    render_s, wall, cpu, ts.film, mpaths, mrays = time_tstat(tstat, xml, params, a, seed)
                     log(f"{name} {label}: tstat {render_s:.2f} s render, {wall:.2f} s process")
                     if rep < 0:
                         ts.warmup = render_s
@@ -324,6 +407,8 @@ def main() -> None:
                         ts.render.append(render_s)
                         ts.other.append(wall)
                         ts.cpu.append(cpu)
+                        ts.mpaths.append(mpaths)
+                        ts.mrays.append(mrays)
                 except RuntimeError as e:
                     ts.error = str(e)
                     log(f"{name}: {e}")
@@ -347,6 +432,19 @@ def main() -> None:
         if with_mi and mt.error is None and ts.error is None and mt.film != ts.film:
             notes.append(f"{name}: films differ, tstat {ts.film}, mitransient {mt.film}")
 
+    instr: dict[str, Instr] = {}
+    valgrind = shutil.which("valgrind") if a.instructions else None
+    if a.instructions and valgrind is None:
+        log("valgrind not found: no instruction counts (apt-get install -y valgrind)")
+    for name, xml in scenes if valgrind else []:
+        log(f"{name}: tstat under callgrind ({a.instr_res} px, {a.instr_spp} spp, 1 thread) ...")
+        try:
+            instr[name] = count_instructions(tstat, xml, a)
+            log(f"{name}: {instr[name].ir:,} instructions in the render loop, {instr[name].paths:,} paths")
+        except RuntimeError as e:
+            instr[name] = Instr(error=str(e))
+            log(f"{name}: {e}")
+
     # ---- report ----
     print(f"Render times, {time.strftime('%Y-%m-%d')}, {cpu_model()}, {os.cpu_count()} cores, "
           f"{a.threads} threads each; {a.repeats} run(s), median (min-max) in seconds.")
@@ -356,14 +454,20 @@ def main() -> None:
     mv = (f"mitransient {versions['mitransient']} / Mitsuba {versions['mitsuba']} / "
           f"Dr.Jit {versions['drjit']} ({a.variant})") if versions else "mitransient not run"
     print(f"{tv} (statistics on); {mv}.\n")
-    print("| scene | film | spp | tstat s | mitransient s | tstat / mitransient |")
-    print("|---|---|---:|---|---|---:|")
+    print("| scene | film | spp | tstat s | mitransient s | tstat / mitransient "
+          "| tstat M rays/s | mitransient M rays/s | tstat M paths/s |")
+    print("|---|---|---:|---|---|---:|---:|---:|---:|")
     for name, (ts, mt) in results.items():
         ratio = (f"{statistics.median(ts.render) / statistics.median(mt.render):.2f}"
                  if ts.render and mt.render else "-")
+        med = lambda xs: f"{statistics.median(xs):.2f}" if xs else "-"  # noqa: E731
         print(f"| {name} | {ts.film} | {a.spp} | {ts.error and 'failed' or fmt(ts.render)} | "
-              f"{mt.error and 'failed' or fmt(mt.render)} | {ratio} |")
+              f"{mt.error and 'failed' or fmt(mt.render)} | {ratio} | {med(ts.mrays)} | - "
+              f"| {med(ts.mpaths)} |")
     print()
+    print("M rays/s and M paths/s: medians of the rates `tstat render` prints (rays: "
+          "closest-hit and shadow rays traced, over the render seconds). mitransient does "
+          "not report how many rays it traces, hence \"-\".\n")
     print("Whole processes (tstat: load, render, write the bundle; mitransient: import, "
           "load_file, render); CPU seconds are user + system over all threads, less "
           "sensitive to other work on the machine than wall seconds.\n")
@@ -377,6 +481,29 @@ def main() -> None:
                      if ts.cpu and mt.cpu else "-")
         print(f"| {name} | {w(ts.warmup)} | {fmt(ts.other)} | {fmt(ts.cpu)} | {w(mt.warmup)} "
               f"| {fmt(mt.other)} | {fmt(mt.cpu)} | {cpu_ratio} |")
+    if a.instructions:
+        print()
+        if valgrind is None:
+            print("Instructions: valgrind not found (`apt-get install -y valgrind`); skipped.")
+        else:
+            print(f"Instructions (valgrind callgrind, Ir collected only in `{TOGGLE}`: the "
+                  "render loop, without scene load, BVH build or writing the bundle), one "
+                  f"tstat render per scene at {a.instr_spp} spp, 1 thread; paths and rays "
+                  "as that render counts them (closest-hit and shadow rays).\n")
+            print("| scene | film | spp | instructions per path | rays per path "
+                  "| instructions per ray |")
+            print("|---|---|---:|---:|---:|---:|")
+            for name, t in instr.items():
+                if t.error:
+                    print(f"| {name} | - | - | failed | - | - |")
+                    continue
+                print(f"| {name} | {t.film} | {t.spp} | {t.ir / t.paths:,.0f} | "
+                      f"{t.rays / t.paths:.2f} | {t.ir / t.rays:,.0f} |")
+            print("\nmitransient: no column. Hardware counters (`perf stat`) are unavailable on "
+                  "this VM, and callgrind does not measure Dr.Jit's LLVM-JIT kernels.")
+            for name, t in instr.items():
+                if t.error:
+                    notes.append(f"{name}: instructions: {t.error}")
     if not with_mi:
         print(f"\n{why}")
     for name, (ts, mt) in results.items():

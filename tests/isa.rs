@@ -1,7 +1,9 @@
 //! The tracer is compiled once per instruction set (`cpu`): every level this
 //! CPU has must trace every path to the same bits as the portable baseline, on a flat
-//! scene (triangle packets), one with spheres, one with a BVH (the bunny) and one with
-//! anisotropic materials (frames from dp/du on a cube and a sphere).
+//! scene (triangle packets), one with spheres, one with a BVH (the bunny), one with
+//! anisotropic materials (frames from dp/du on a cube and a sphere), one with a
+//! participating medium (the path loop's media rules, `render/tracer.rs`) and the
+//! `null` and `thindielectric` surfaces.
 //! A separate test binary, since it switches the process-wide level.
 
 use tstat::cpu::{self, Isa};
@@ -47,6 +49,7 @@ fn trace_all(scene: &Scene) -> Vec<u64> {
                 out.extend(g.normal.to_array().iter().map(|v| v.to_bits() as u64));
                 out.push(g.depth.map_or(u64::MAX, |d| d.to_bits() as u64));
                 out.push(g.emitter as u64);
+                out.push(g.medium as u64);
             }
         }
     }
@@ -64,6 +67,9 @@ fn every_instruction_set_traces_the_same_bits() {
         "cbox_spheres.xml",
         "bunny.xml",
         "cbox_aniso.xml",
+        "cbox_fog.xml",
+        "cbox_null.xml",
+        "cbox_thin.xml",
     ] {
         let scene = scene(name);
         cpu::force(Isa::Baseline).unwrap();

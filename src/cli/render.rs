@@ -291,11 +291,13 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
         .context("writing the bundle")?;
     let seconds = summary.seconds;
     say!(
-        "rendered {} in {:.2} s: {:.2} M paths/s, {:.2} M rays/s; bundle {} ({}){}",
+        "rendered {} in {:.2} s: {:.2} M paths/s, {:.2} M rays/s ({} paths, {} rays); bundle {} ({}){}",
         out.display(),
         seconds,
         summary.paths as f64 / seconds / 1e6,
         summary.rays as f64 / seconds / 1e6,
+        summary.paths,
+        summary.rays,
         human_bytes(disk_size(&out)),
         transform,
         if summary.dropped_nonfinite > 0 {
