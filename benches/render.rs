@@ -92,6 +92,13 @@ fn bench_scenes(c: &mut Criterion) {
     for (name, path) in &scenes {
         let scene = Scene::load(path, &overrides).unwrap_or_else(|e| panic!("{name}: {e}"));
         let settings = settings(&scene, Transform::Identity);
+        // Rays per path (closest-hit and shadow rays), the same in every run: the
+        // throughput below is paths/s, times this is rays/s.
+        let once = render(&scene, &settings, &|_| {});
+        eprintln!(
+            "{name}: {:.3} rays per path",
+            once.rays as f64 / once.paths as f64
+        );
         group.throughput(Throughput::Elements(
             scene.film.pixels() as u64 * scene.spp as u64,
         ));

@@ -9,7 +9,8 @@
 use tstat::cpu::{self, Isa};
 use tstat::math::rng::Pcg32;
 use tstat::render::deposits::PathDeposits;
-use tstat::render::integrator::{trace_path, PathTally};
+use tstat::render::integrator::PathTally;
+use tstat::render::tracer::trace_path;
 use tstat::scene::{Overrides, Scene};
 
 fn scene(name: &str) -> Scene {

@@ -2,7 +2,8 @@
 
 use tstat::math::rng::Pcg32;
 use tstat::render::deposits::PathDeposits;
-use tstat::render::integrator::{trace_path, PathTally};
+use tstat::render::integrator::PathTally;
+use tstat::render::tracer::trace_path;
 use tstat::render::RenderOutput;
 use tstat::scene::{Overrides, Scene};
 

@@ -4,8 +4,6 @@
 
 use super::deposits::PathDeposits;
 use super::gbuffer::GSample;
-use super::sampler::PathSampler;
-use super::tracer::trace;
 use crate::geometry::accel::offset_origin;
 use crate::materials::{Bsdf, HitGeometry};
 use crate::math::frame::Frame;
@@ -161,31 +159,4 @@ pub(super) fn escape(
         eta as f64 * dist as f64
     };
     contribute(scene, deposits, tally, opl + segment, beta * radiance * w);
-}
-
-/// Traces one camera path from the pinhole along unit direction `d` (`tracer.rs`).
-#[inline]
-pub fn trace_path<S: PathSampler>(
-    scene: &Scene,
-    d: Vec3,
-    rng: &mut S,
-    deposits: &mut PathDeposits,
-    tally: &mut PathTally,
-) -> GSample {
-    trace(scene, scene.camera.origin, d, rng, deposits, tally)
-}
-
-/// Traces one camera path from `o` (where its OPL starts) along unit direction `d`:
-/// the ray `Camera::ray` gives, for every sensor; surfaces and media alike
-/// (`tracer.rs`).
-#[inline]
-pub fn trace_ray<S: PathSampler>(
-    scene: &Scene,
-    o: Vec3,
-    d: Vec3,
-    rng: &mut S,
-    deposits: &mut PathDeposits,
-    tally: &mut PathTally,
-) -> GSample {
-    trace(scene, o, d, rng, deposits, tally)
 }

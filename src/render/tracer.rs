@@ -126,6 +126,18 @@ pub fn trace<S: PathSampler>(
     }
 }
 
+/// Traces one camera path from the pinhole along unit direction `d` ([`trace`]).
+#[inline]
+pub fn trace_path<S: PathSampler>(
+    scene: &Scene,
+    d: Vec3,
+    rng: &mut S,
+    deposits: &mut PathDeposits,
+    tally: &mut PathTally,
+) -> GSample {
+    trace(scene, scene.camera.origin, d, rng, deposits, tally)
+}
+
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx512cd")]
 #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
