@@ -1,6 +1,9 @@
-//! `transient_path`: unidirectional path tracing with next-event estimation and MIS
-//! (power heuristic), Russian roulette and Mitsuba's `max_depth`, keeping each path's
-//! optical path length (OPL) so every contribution lands in its time bin (SPEC 4).
+//! What the path loop (`tracer.rs`: `transient_path` and `transient_prbvolpath`, with
+//! next-event estimation and MIS (power heuristic), Russian roulette and Mitsuba's
+//! `max_depth`) and the NLOS tracer share: a path's counts ([`PathTally`]), the one
+//! place a contribution at optical path length (OPL) meets the time bins
+//! ([`contribute`], SPEC 4), shadow rays between moved ends, the material of a
+//! normal/bump-mapped hit, and rays that leave the scene ([`escape`]).
 
 use super::deposits::PathDeposits;
 use super::gbuffer::GSample;

@@ -214,7 +214,7 @@ impl SobolPath {
 /// about 12 ns, a stream number 1-2).
 pub const LD_VERTICES: u64 = 1;
 
-/// The same for paths of the volumetric tracer (scenes with media). Measured on
+/// The same for paths under the media rules (scenes with media). Measured on
 /// cbox_fog at 64 spp (64x64, 150 bins of 0.08, 3 seeds, against a 131072-spp
 /// independent reference, its own variance subtracted): RMSE on the light's pixels
 /// 6.37e-2 with 1 vertex, 5.05e-2 with 3, 5.08e-2 with all (Mitsuba's ldsampler

@@ -1,5 +1,7 @@
-//! `transient_prbvolpath`: volumetric path tracing (SPEC 7) with Mitsuba 3's `volpath`
-//! semantics, keeping each path's OPL as `integrator.rs` does.
+//! The media rules of the path loop (`tracer.rs` with `MEDIA = true`,
+//! `transient_prbvolpath`): volumetric path tracing (SPEC 7) with Mitsuba 3's `volpath`
+//! semantics, keeping each path's OPL as the surface rules do; this file holds their
+//! parts (spectral MIS, free flights, shadow-ray transmittance, null interfaces).
 //!
 //! Per iteration of a path: Russian roulette (from `depth > rr_depth`, survival
 //! `min(max(beta) eta^2, 0.95)`), the `max_depth` test, one closest-hit ray, then
@@ -24,7 +26,7 @@
 //!
 //! OPL: a segment of length `s` adds `eta * s`, inside media too (media have no index
 //! of refraction of their own; `eta` is the product of the relative IORs crossed at
-//! dielectric boundaries, as in `integrator.rs`). A null collision adds no time: the
+//! dielectric boundaries, as under the surface rules). A null collision adds no time: the
 //! OPL of a real scattering at distance `t` is `eta * t` whatever the null collisions
 //! before it.
 //!
@@ -45,7 +47,7 @@
 //! both kinds. A spatially varying albedo (`homogeneous` with an albedo volume) only
 //! changes `sigma_s` at the scattering point.
 //!
-//! G-buffer: as `integrator.rs`, looking through `null` interfaces; a camera path whose
+//! G-buffer: as under the surface rules, looking through `null` interfaces; a camera path whose
 //! first real interaction is a medium scattering records the medium's albedo there, a zero
 //! normal and `medium = true`; depth is the distance to that first interaction.
 
