@@ -6,6 +6,8 @@
 //! `null` and `thindielectric` surfaces.
 //! A separate test binary, since it switches the process-wide level.
 
+mod common;
+
 use tstat::cpu::{self, Isa};
 use tstat::math::rng::Pcg32;
 use tstat::render::deposits::PathDeposits;
@@ -14,15 +16,12 @@ use tstat::render::tracer::trace_path;
 use tstat::scene::{Overrides, Scene};
 
 fn scene(name: &str) -> Scene {
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("scenes")
-        .join(name);
     let o = Overrides {
         width: Some(24),
         bins: Some(64),
         ..Default::default()
     };
-    Scene::load(&path, &o).unwrap()
+    common::bundled(name, &o)
 }
 
 /// Every path of a 24 x 24 image, 4 per pixel: deposits, steady sums, G-buffer samples

@@ -27,9 +27,6 @@ const BLOCK: usize = 8;
 const MIN_NONZERO: u32 = 64;
 
 fn scene(name: &str) -> Scene {
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("scenes")
-        .join(name);
     let o = Overrides {
         width: Some(32),
         height: Some(32),
@@ -37,7 +34,7 @@ fn scene(name: &str) -> Scene {
         spp: Some(SPP),
         ..Default::default()
     };
-    Scene::load(&path, &o).unwrap()
+    common::bundled(name, &o)
 }
 
 /// Per block (8 x 8 pixels, one bin, one channel): the sum of the pixels' means, the

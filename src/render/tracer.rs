@@ -103,26 +103,32 @@ pub fn trace<S: PathSampler>(
     deposits: &mut PathDeposits,
     tally: &mut PathTally,
 ) -> GSample {
-    let media = scene.integrator.volumetric;
-    match (crate::cpu::current(), media) {
+    if scene.integrator.volumetric {
+        trace_with::<true, S>(scene, o, d, rng, deposits, tally)
+    } else {
+        trace_with::<false, S>(scene, o, d, rng, deposits, tally)
+    }
+}
+
+/// [`trace`] under one rule set, in the wrapper of the instruction set
+/// `cpu::current()` chose.
+#[inline(always)]
+fn trace_with<const MEDIA: bool, S: PathSampler>(
+    scene: &Scene,
+    o: Vec3,
+    d: Vec3,
+    rng: &mut S,
+    deposits: &mut PathDeposits,
+    tally: &mut PathTally,
+) -> GSample {
+    match crate::cpu::current() {
         // SAFETY: `cpu::current` returns a level only when the CPU supports it.
         #[cfg(target_arch = "x86_64")]
-        (Isa::Avx512, false) => unsafe {
-            path_avx512::<false, S>(scene, o, d, rng, deposits, tally)
-        },
+        Isa::Avx512 => unsafe { path_avx512::<MEDIA, S>(scene, o, d, rng, deposits, tally) },
         #[cfg(target_arch = "x86_64")]
-        (Isa::Avx512, true) => unsafe { path_avx512::<true, S>(scene, o, d, rng, deposits, tally) },
-        #[cfg(target_arch = "x86_64")]
-        (Isa::Avx2, false) => unsafe { path_avx2::<false, S>(scene, o, d, rng, deposits, tally) },
-        #[cfg(target_arch = "x86_64")]
-        (Isa::Avx2, true) => unsafe { path_avx2::<true, S>(scene, o, d, rng, deposits, tally) },
+        Isa::Avx2 => unsafe { path_avx2::<MEDIA, S>(scene, o, d, rng, deposits, tally) },
         // SAFETY: the baseline runs on every CPU.
-        (_, false) => unsafe {
-            path_body::<ISA_BASELINE, false, S>(scene, o, d, rng, deposits, tally)
-        },
-        (_, true) => unsafe {
-            path_body::<ISA_BASELINE, true, S>(scene, o, d, rng, deposits, tally)
-        },
+        _ => unsafe { path_body::<ISA_BASELINE, MEDIA, S>(scene, o, d, rng, deposits, tally) },
     }
 }
 

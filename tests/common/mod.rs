@@ -13,6 +13,14 @@ pub fn load(xml: &str, overrides: &Overrides) -> Scene {
     Scene::load(&path, overrides).unwrap()
 }
 
+/// Loads the bundled scene `scenes/NAME` with `overrides`.
+pub fn bundled(name: &str, overrides: &Overrides) -> Scene {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("scenes")
+        .join(name);
+    Scene::load(&path, overrides).unwrap_or_else(|e| panic!("{name}: {e}"))
+}
+
 /// Renders in memory with i.i.d. samples (what the statistics assume) and `seed`.
 pub fn run(scene: &Scene, seed: u64) -> RenderOutput {
     let settings = RenderSettings {
