@@ -3,6 +3,8 @@
 //! grids), with closest-hit and occlusion queries. Scenes of
 //! at most [`FLAT_MAX`] primitives are tested exhaustively in SIMD packets instead.
 
+#[cfg(target_arch = "x86_64")]
+use super::bvh_simd::{self, node_hits_avx2, LeafTriangles};
 use super::curve::Segment;
 use super::cylinder::CylinderGeom;
 use super::disk::DiskGeom;
@@ -16,6 +18,7 @@ use super::triangle::TriangleGeom;
 use crate::cpu::ISA_BASELINE;
 use glam::{UVec2, Vec3, Vec3A};
 use obvhs::aabb::Aabb;
+use obvhs::cwbvh::node::CwBvhNode;
 use obvhs::cwbvh::CwBvh;
 use obvhs::ray::{Ray, RayHit};
 use obvhs::{Boundable, BvhBuildParams};
@@ -131,7 +134,15 @@ pub struct Hit {
 
 pub struct Accel {
     bvh: Option<CwBvh>,
+    /// The primitives in leaf order (a triangle-only BVH's with padding slots, see
+    /// `leaf_tris`).
     prims: Vec<Prim>,
+    /// Primitives in the scene (without padding).
+    count: usize,
+    /// A triangle-only BVH's triangles in leaf order for the AVX2 leaf kernels (none
+    /// when the tree holds other shapes, or off x86-64).
+    #[cfg(target_arch = "x86_64")]
+    leaf_tris: Option<LeafTriangles>,
     flat: Option<Flat>,
     /// The disks, cylinders and curve segments `PrimGeom::Quadric` indexes.
     quadrics: Vec<Quadric>,
@@ -225,7 +236,10 @@ impl Accel {
         if prims.is_empty() {
             return Accel {
                 bvh: None,
+                count: prims.len(),
                 prims,
+                #[cfg(target_arch = "x86_64")]
+                leaf_tris: None,
                 flat: None,
                 quadrics,
                 sdfs,
@@ -250,7 +264,10 @@ impl Accel {
             };
             return Accel {
                 bvh: None,
+                count: prims.len(),
                 prims,
+                #[cfg(target_arch = "x86_64")]
+                leaf_tris: None,
                 flat: Some(flat),
                 quadrics,
                 sdfs,
@@ -274,20 +291,57 @@ impl Accel {
             })
             .collect();
         let boxed = spread_coincident(boxed);
-        let bvh = obvhs::cwbvh::builder::build_cwbvh(
+        #[allow(unused_mut)]
+        let mut bvh = obvhs::cwbvh::builder::build_cwbvh(
             &boxed,
             BvhBuildParams::medium_build(),
             &mut std::time::Duration::default(),
         );
         // Reorder the primitives into leaf order so the closures index them directly.
-        let ordered = bvh
+        let mut ordered: Vec<Prim> = bvh
             .primitive_indices
             .iter()
             .map(|&i| prims[i as usize])
             .collect();
+        // A triangle-only tree also gets its triangles in blocks for the AVX2 leaf
+        // kernels, each node's starting a block of its own (`bvh_simd.rs`).
+        #[cfg(target_arch = "x86_64")]
+        let leaf_tris = if ordered
+            .iter()
+            .all(|p| matches!(p.geom, PrimGeom::Triangle(_)))
+        {
+            let slots = bvh_simd::pad_node_groups(&mut bvh);
+            let padding = Prim {
+                geom: PrimGeom::Triangle(TriangleGeom::new(Vec3::ZERO, Vec3::ZERO, Vec3::ZERO)),
+                shape: 0,
+                face: 0,
+            };
+            bvh.primitive_indices = slots
+                .iter()
+                .map(|s| s.map_or(u32::MAX, |i| bvh.primitive_indices[i as usize]))
+                .collect();
+            ordered = slots
+                .iter()
+                .map(|s| s.map_or(padding, |i| ordered[i as usize]))
+                .collect();
+            let tris: Vec<Option<TriangleGeom>> = slots
+                .iter()
+                .zip(&ordered)
+                .map(|(s, p)| match (s, p.geom) {
+                    (Some(_), PrimGeom::Triangle(t)) => Some(t),
+                    _ => None,
+                })
+                .collect();
+            Some(LeafTriangles::new(&tris))
+        } else {
+            None
+        };
         Accel {
             bvh: Some(bvh),
+            count: prims.len(),
             prims: ordered,
+            #[cfg(target_arch = "x86_64")]
+            leaf_tris,
             flat: None,
             quadrics,
             sdfs,
@@ -354,6 +408,13 @@ impl Accel {
             return unsafe { self.intersect_flat::<ISA>(flat, shapes, o, d, tmax) };
         }
         let bvh = self.bvh.as_ref()?;
+        #[cfg(target_arch = "x86_64")]
+        if ISA >= crate::cpu::ISA_AVX2 {
+            if let Some(leaf) = &self.leaf_tris {
+                // SAFETY: the caller guarantees ISA, which includes AVX2.
+                return unsafe { self.intersect_triangles_avx2(bvh, leaf, shapes, o, d, tmax) };
+            }
+        }
         // obvhs's `ray_traverse`, written out with its `traverse!` macro so that the
         // walk is inlined into (and compiled for the instruction set of) the tracer.
         let ray = Ray::new(Vec3A::from(o), Vec3A::from(d), 0.0, tmax);
@@ -368,7 +429,8 @@ impl Accel {
             bvh,
             node,
             state,
-            node.intersect_ray(&traverse_ray, state.oct_inv4),
+            // SAFETY: passed on from the caller.
+            unsafe { node_test::<ISA>(node, &traverse_ray, state.oct_inv4) },
             {
                 let id = state.primitive_id as usize;
                 let prim = &self.prims[id];
@@ -449,6 +511,13 @@ impl Accel {
         let Some(bvh) = self.bvh.as_ref() else {
             return false;
         };
+        #[cfg(target_arch = "x86_64")]
+        if ISA >= crate::cpu::ISA_AVX2 {
+            if let Some(leaf) = &self.leaf_tris {
+                // SAFETY: the caller guarantees ISA, which includes AVX2.
+                return unsafe { occluded_triangles_avx2(bvh, leaf, o, d, tmax) };
+            }
+        }
         let ray = Ray::new(Vec3A::from(o), Vec3A::from(d), 0.0, tmax);
         let mut state = bvh.new_traversal(ray.direction);
         let mut node;
@@ -458,7 +527,8 @@ impl Accel {
                 bvh,
                 node,
                 state,
-                node.intersect_ray(&ray, state.oct_inv4),
+                // SAFETY: passed on from the caller.
+                unsafe { node_test::<ISA>(node, &ray, state.oct_inv4) },
                 {
                     if self.prim_t(state.primitive_id as usize, o, d, 0.0) < tmax {
                         blocked = true;
@@ -468,6 +538,58 @@ impl Accel {
             );
         }
         blocked
+    }
+
+    /// [`Self::intersect_with`] for a triangle-only BVH in AVX2: eight children per node
+    /// test and the leaves' triangles eight at a time (`bvh_simd.rs`), with the same
+    /// walk, so the same hit to the bit.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    fn intersect_triangles_avx2(
+        &self,
+        bvh: &CwBvh,
+        leaf: &LeafTriangles,
+        shapes: &[Shape],
+        o: Vec3,
+        d: Vec3,
+        tmax: f32,
+    ) -> Option<Hit> {
+        let mut ray = Ray::new(Vec3A::from(o), Vec3A::from(d), 0.0, tmax);
+        // (primitive, t, b1, b2) of the nearest hit so far.
+        let mut best: Option<(u32, f32, f32, f32)> = None;
+        let mut state = bvh.new_traversal(ray.direction);
+        let mut node;
+        obvhs::traverse!(
+            bvh,
+            node,
+            state,
+            node_hits_avx2(node, &ray, state.oct_inv4),
+            {
+                // The whole group of the node visit at once: the bit just taken and
+                // the ones left.
+                let first = state.primitive_group.x;
+                let group = state.primitive_group.y | (1 << (state.primitive_id - first));
+                state.primitive_group.y = 0;
+                if let Some((k, t, b1, b2)) = leaf.nearest_avx2(first, group, o, d, ray.tmax) {
+                    best = Some((first + k, t, b1, b2));
+                    ray.tmax = t;
+                }
+            }
+        );
+        let (id, t, b1, b2) = best?;
+        let p = &self.prims[id as usize];
+        let PrimGeom::Triangle(tri) = &p.geom else {
+            unreachable!("a triangle-only BVH")
+        };
+        Some(Hit {
+            t,
+            shape: p.shape,
+            surface: shapes[p.shape as usize].surface_of(tri, p.face, b1, b2),
+            face: p.face,
+            b1,
+            b2,
+        })
     }
 
     /// # Safety
@@ -509,7 +631,7 @@ impl Accel {
     }
 
     pub fn primitive_count(&self) -> usize {
-        self.prims.len()
+        self.count
     }
 }
 
@@ -528,6 +650,51 @@ pub fn offset_origin(p: Vec3, ng: Vec3, d: Vec3) -> Vec3 {
 #[inline]
 pub fn ray_epsilon(p: Vec3) -> f32 {
     1e-4 * (1.0 + p.abs().max_element())
+}
+
+/// The children of a BVH node the ray enters, with the kernel for `ISA` (the same
+/// bits at every level).
+///
+/// # Safety
+/// The CPU must support `ISA`.
+#[inline(always)]
+unsafe fn node_test<const ISA: u8>(node: &CwBvhNode, ray: &Ray, oct_inv4: u32) -> u32 {
+    #[cfg(target_arch = "x86_64")]
+    if ISA >= crate::cpu::ISA_AVX2 {
+        // SAFETY: the caller guarantees ISA, which includes AVX2.
+        return unsafe { node_hits_avx2(node, ray, oct_inv4) };
+    }
+    node.intersect_ray(ray, oct_inv4)
+}
+
+/// [`Accel::occluded_with`] for a triangle-only BVH in AVX2 (see
+/// `Accel::intersect_triangles_avx2`).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline]
+fn occluded_triangles_avx2(bvh: &CwBvh, leaf: &LeafTriangles, o: Vec3, d: Vec3, tmax: f32) -> bool {
+    let ray = Ray::new(Vec3A::from(o), Vec3A::from(d), 0.0, tmax);
+    let mut state = bvh.new_traversal(ray.direction);
+    let mut node;
+    let mut blocked = false;
+    'walk: {
+        obvhs::traverse!(
+            bvh,
+            node,
+            state,
+            node_hits_avx2(node, &ray, state.oct_inv4),
+            {
+                let first = state.primitive_group.x;
+                let group = state.primitive_group.y | (1 << (state.primitive_id - first));
+                state.primitive_group.y = 0;
+                if leaf.any_avx2(first, group, o, d, tmax) {
+                    blocked = true;
+                    break 'walk;
+                }
+            }
+        );
+    }
+    blocked
 }
 
 // The flat packets' kernel for an instruction set (`flat_simd.rs`, else the portable

@@ -143,8 +143,26 @@ const HALF: usize = LANES / 2;
 fn packet_256(p: &Packet, h: usize, o: [__m256; 3], d: [__m256; 3]) -> (__m256, __m256, __m256) {
     // SAFETY (loads): each array has 16 f32; h is 0 or 1.
     let ld = |a: &[f32; LANES]| unsafe { _mm256_loadu_ps(a.as_ptr().add(h * HALF)) };
-    let (e1x, e1y, e1z) = (ld(&p.e1[0]), ld(&p.e1[1]), ld(&p.e1[2]));
-    let (e2x, e2y, e2z) = (ld(&p.e2[0]), ld(&p.e2[1]), ld(&p.e2[2]));
+    let v0 = [ld(&p.v0[0]), ld(&p.v0[1]), ld(&p.v0[2])];
+    let e1 = [ld(&p.e1[0]), ld(&p.e1[1]), ld(&p.e1[2])];
+    let e2 = [ld(&p.e2[0]), ld(&p.e2[1]), ld(&p.e2[2])];
+    moller_trumbore_256(v0, e1, e2, o, d)
+}
+
+/// Moller-Trumbore on 8 triangles (vertex `v0`, edges `e1`, `e2`, one register per
+/// component) against one ray: (t or infinity, b1, b2). Each lane computes the bits of
+/// `TriangleGeom::intersect` with `tmin = 0`.
+#[target_feature(enable = "avx2")]
+#[inline]
+pub(super) fn moller_trumbore_256(
+    v0: [__m256; 3],
+    e1: [__m256; 3],
+    e2: [__m256; 3],
+    o: [__m256; 3],
+    d: [__m256; 3],
+) -> (__m256, __m256, __m256) {
+    let [e1x, e1y, e1z] = e1;
+    let [e2x, e2y, e2z] = e2;
     let mul = |a, b| _mm256_mul_ps(a, b);
     let sub = |a, b| _mm256_sub_ps(a, b);
     let add = |a, b| _mm256_add_ps(a, b);
@@ -155,9 +173,9 @@ fn packet_256(p: &Packet, h: usize, o: [__m256; 3], d: [__m256; 3]) -> (__m256, 
     let pz = sub(mul(dx, e2y), mul(dy, e2x));
     let det = add(add(mul(e1x, px), mul(e1y, py)), mul(e1z, pz));
     let inv = _mm256_div_ps(_mm256_set1_ps(1.0), det);
-    let tx = sub(ox, ld(&p.v0[0]));
-    let ty = sub(oy, ld(&p.v0[1]));
-    let tz = sub(oz, ld(&p.v0[2]));
+    let tx = sub(ox, v0[0]);
+    let ty = sub(oy, v0[1]);
+    let tz = sub(oz, v0[2]);
     let u = mul(add(add(mul(tx, px), mul(ty, py)), mul(tz, pz)), inv);
     let qx = sub(mul(ty, e1z), mul(tz, e1y));
     let qy = sub(mul(tz, e1x), mul(tx, e1z));
@@ -193,7 +211,7 @@ fn packet_256(p: &Packet, h: usize, o: [__m256; 3], d: [__m256; 3]) -> (__m256, 
 
 #[target_feature(enable = "avx2")]
 #[inline]
-fn splat3_256(v: Vec3) -> [__m256; 3] {
+pub(super) fn splat3_256(v: Vec3) -> [__m256; 3] {
     [
         _mm256_set1_ps(v.x),
         _mm256_set1_ps(v.y),

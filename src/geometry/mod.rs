@@ -1,6 +1,7 @@
 //! Geometry: shapes in world space, ray-primitive intersection, and the BVH.
 
 pub mod accel;
+mod bvh_simd;
 pub mod curve;
 pub mod cylinder;
 pub mod disk;
