@@ -164,7 +164,13 @@ fn plan(c: &Common, binary: String, search_folders: &mut Vec<PathBuf>) -> anyhow
     RenderSettings::check_replicates(spp, shard_reps)?;
     let film = &scene.film;
     let memory = StreamingMemory::new(film, &transform, c.cpus as usize)
-        .with_replicates(shard_reps >= 2, film);
+        .with_replicates(shard_reps >= 2, film)
+        .with_sampler(
+            r.scene_args.pixel_sampling,
+            spp,
+            shard_reps,
+            scene.integrator.volumetric,
+        );
     let mib = |b: u64| b.div_ceil(1 << 20);
     let render_mib = match &c.mem {
         Some(m) => mib(parse_bytes(m).map_err(|e| anyhow!("--mem: {e}"))?),

@@ -223,7 +223,13 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
     RenderSettings::check_replicates(scene.spp, replicate_count)?;
     let replicates = replicate_count >= 2;
     let memory = StreamingMemory::new(film, &transform, pool_size(threads))
-        .with_replicates(replicates, film);
+        .with_replicates(replicates, film)
+        .with_sampler(
+            a.scene_args.pixel_sampling,
+            scene.spp,
+            replicate_count,
+            scene.integrator.volumetric,
+        );
     check_memory(&memory, limit)?;
     let disk = bundle_bytes_with(film, &transform, !scene.media.is_empty(), replicates);
     check_disk(&out, disk, "the bundle")?;

@@ -125,7 +125,13 @@ fn job(
     RenderSettings::check_replicates(scene.spp, a.scene_args.replicates)?;
     let replicates = a.scene_args.replicates >= 2;
     let memory = StreamingMemory::new(film, &transform, super::render::pool_size(o.threads))
-        .with_replicates(replicates, film);
+        .with_replicates(replicates, film)
+        .with_sampler(
+            a.scene_args.pixel_sampling,
+            scene.spp,
+            a.scene_args.replicates,
+            scene.integrator.volumetric,
+        );
     super::render::check_memory(&memory, None)?;
     // The bundle, then the noisy and the denoised f32 volumes (the frames are small).
     let volume = (film.pixels() as u64)

@@ -24,6 +24,7 @@ pub mod nlos;
 pub mod pixel_sampling;
 pub mod sampler;
 pub mod sink;
+pub mod sobol_table;
 pub mod tracer;
 pub mod volpath;
 
@@ -47,8 +48,9 @@ pub enum RenderError {
 }
 
 use rayon::prelude::*;
-use sampler::{replicate_key, slot, PathSampler, SobolPath};
+use sampler::{replicate_key, slot, PathSampler};
 use sink::{MemorySink, Row, RowSink};
+use sobol_table::{SobolTable, TabledSobol};
 use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 use std::sync::{Mutex, PoisonError};
 
@@ -93,22 +95,24 @@ impl RenderSettings {
 /// same way).
 pub fn pixel_positions(settings: &RenderSettings, pixel: u64) -> Vec<[f32; 2]> {
     let (reps, k) = settings.replicate_split();
-    (0..reps)
-        .flat_map(|b| {
-            let positions = PixelPositions::new(settings, pixel, b, k);
-            (0..k).map(move |i| {
-                let rng = Pcg32::for_path(settings.seed, pixel, (b * k + i) as u64);
-                PathNumbers::new(&positions, i, k, rng, sampler::LD_VERTICES).1
-            })
-        })
-        .collect()
+    let mut table = SobolTable::default();
+    let mut out = Vec::with_capacity(settings.spp as usize);
+    for b in 0..reps {
+        let positions = PixelPositions::new(settings, pixel, b, k);
+        positions.start(&mut table, k, sampler::LD_VERTICES);
+        for i in 0..k {
+            let rng = Pcg32::for_path(settings.seed, pixel, (b * k + i) as u64);
+            out.push(PathNumbers::new(&positions, &mut table, i, rng).1);
+        }
+    }
+    out
 }
 
 /// One pixel's position generator.
 enum PixelPositions {
     Independent,
     Stratified(PixelPattern),
-    /// The path's own [`SobolPath`] gives the position; the pixel's key.
+    /// The replicate's [`SobolTable`] gives the position; the replicate's key.
     Sobol(u64),
 }
 
@@ -130,29 +134,37 @@ impl PixelPositions {
             PixelSampling::Sobol => PixelPositions::Sobol(replicate_key(settings.seed, pixel, b)),
         }
     }
+
+    /// Readies `table` for the replicate's `k` samples (Sobol' only), whose vertices
+    /// `0..=ld_vertices` draw from the set.
+    fn start(&self, table: &mut SobolTable, k: u32, ld_vertices: u64) {
+        if let PixelPositions::Sobol(key) = self {
+            table.reset(*key, k, ld_vertices);
+        }
+    }
 }
 
 /// A path's sampler: how its sub-pixel position and every other number are drawn.
-enum PathNumbers {
+enum PathNumbers<'a> {
     Independent(Pcg32),
-    Sobol(SobolPath),
+    Sobol(TabledSobol<'a>),
 }
 
-impl PathNumbers {
-    /// The sampler of sample `s` (of `n`) of a pixel, and its sub-pixel position. The
-    /// independent and stratified modes always draw the position's two numbers from
-    /// the path's stream, so the rest of the path sees the same stream in both.
+impl<'a> PathNumbers<'a> {
+    /// The sampler of sample `s` of a replicate (`table`: the replicate's, readied by
+    /// [`PixelPositions::start`]), and its sub-pixel position. The independent and
+    /// stratified modes always draw the position's two numbers from the path's stream,
+    /// so the rest of the path sees the same stream in both.
     #[inline]
     fn new(
         positions: &PixelPositions,
+        table: &'a mut SobolTable,
         s: u32,
-        n: u32,
         mut rng: Pcg32,
-        ld_vertices: u64,
     ) -> (Self, [f32; 2]) {
         match positions {
-            PixelPositions::Sobol(key) => {
-                let mut p = SobolPath::with_depth(*key, s, n, rng, ld_vertices);
+            PixelPositions::Sobol(_) => {
+                let mut p = TabledSobol::new(table, s, rng);
                 let uv = p.get2(slot::PIXEL);
                 (PathNumbers::Sobol(p), uv)
             }
@@ -263,6 +275,31 @@ impl StreamingMemory {
         self
     }
 
+    /// The same with the Sobol' sampler's table in every task (`sobol_table.rs`): at
+    /// most every slot of every low-discrepancy vertex for the replicate's samples.
+    pub fn with_sampler(
+        mut self,
+        sampling: PixelSampling,
+        spp: u32,
+        replicates: u32,
+        volumetric: bool,
+    ) -> Self {
+        if sampling == PixelSampling::Sobol {
+            let k = if replicates >= 2 {
+                spp / replicates
+            } else {
+                spp
+            };
+            let ld = if volumetric {
+                sampler::LD_VERTICES_VOLUMETRIC
+            } else {
+                sampler::LD_VERTICES
+            };
+            self.per_row = self.per_row.saturating_add(SobolTable::max_bytes(k, ld));
+        }
+        self
+    }
+
     /// The total (saturating).
     pub fn bytes(&self) -> u64 {
         (self.threads as u64)
@@ -290,6 +327,8 @@ fn render_row(
     let n = settings.spp as f64;
     let z0 = settings.transform.at_zero();
     let mut deposits = PathDeposits::default();
+    // The Sobol' sampler's columns of the replicate being traced (`sobol_table.rs`).
+    let mut table = SobolTable::default();
     let mut result = RowTally::default();
     // NLOS captures: the laser point and sensor row of this film row.
     let nlos = scene.nlos.as_ref().zip(scene.integrator.nlos.as_ref());
@@ -310,10 +349,11 @@ fn render_row(
         };
         for b in 0..reps {
             let positions = PixelPositions::new(settings, pixel, b, k);
+            positions.start(&mut table, k, ld_vertices);
             for i in 0..k {
                 let s = b * k + i;
                 let rng = Pcg32::for_path(settings.seed, pixel, s as u64);
-                let (mut numbers, [u, v]) = PathNumbers::new(&positions, i, k, rng, ld_vertices);
+                let (mut numbers, [u, v]) = PathNumbers::new(&positions, &mut table, i, rng);
                 let (o, d) = scene.camera.ray(x as f32 + u, y as f32 + v, || {
                     Pcg32::for_path(settings.seed ^ LENS_STREAM_SALT, pixel, s as u64).next_2d()
                 });

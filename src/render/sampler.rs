@@ -71,6 +71,20 @@ pub mod slot {
     pub const NLOS_STRATEGY: u32 = 17;
 }
 
+/// Slots per vertex: every slot above is below this.
+pub const SLOTS: u32 = 18;
+
+/// The hash of `key` (a replicate's) and a vertex, from which the vertex's dimensions
+/// are hashed.
+#[inline(always)]
+pub(super) fn vertex_key(key: u64, vertex: u64) -> u64 {
+    if vertex == 0 {
+        mix64(key)
+    } else {
+        mix64(key ^ vertex.wrapping_mul(0xd6e8_feb8_6659_fd93))
+    }
+}
+
 /// The child of a (possibly nested) `Composed` material that scatters at a vertex:
 /// the first pick has its slot, nested picks (rare) take the stream. Any other
 /// material is itself.
@@ -176,7 +190,7 @@ impl SobolPath {
         debug_assert!(index < count);
         SobolPath {
             key,
-            vertex_key: mix64(key),
+            vertex_key: vertex_key(key, 0),
             index,
             count,
             vertex: 0,
@@ -234,7 +248,7 @@ impl PathSampler for SobolPath {
     fn next_vertex(&mut self) {
         self.vertex += 1;
         if !self.beyond() {
-            self.vertex_key = mix64(self.key ^ self.vertex.wrapping_mul(0xd6e8_feb8_6659_fd93));
+            self.vertex_key = vertex_key(self.key, self.vertex);
         }
     }
 
@@ -348,7 +362,7 @@ pub fn randomise(x: u32, h: u64) -> u32 {
 /// `randomise(van_der_corput(i), h)`: the scramble works on the reversed digits, so
 /// the radical inverse's reversal and the scramble's cancel.
 #[inline(always)]
-fn scramble_index(i: u32, h: u64) -> u32 {
+pub(super) fn scramble_index(i: u32, h: u64) -> u32 {
     let seed = h as u32;
     let mut v = i;
     v ^= v.wrapping_mul(0x3d20_adea);
@@ -362,7 +376,7 @@ fn scramble_index(i: u32, h: u64) -> u32 {
 /// The top 24 bits of a 32-bit fraction as an f32 in [0, 1) (the grid of
 /// [`Pcg32::next_f32`]).
 #[inline(always)]
-fn to_unit(x: u32) -> f32 {
+pub(super) fn to_unit(x: u32) -> f32 {
     (x >> 8) as f32 * (1.0 / 16_777_216.0)
 }
 
@@ -505,6 +519,27 @@ mod tests {
                 assert_eq!(scramble_index(i, h), randomise(van_der_corput(i), h));
             }
         }
+    }
+
+    #[test]
+    fn every_slot_is_below_slots() {
+        let all = [
+            slot::RR,
+            slot::FLIGHT,
+            slot::PICK,
+            slot::LIGHT_SELECT,
+            slot::LIGHT_1,
+            slot::LIGHT_2 + 1,
+            slot::NEE_DELAY,
+            slot::BSDF_1,
+            slot::BSDF_2 + 1,
+            slot::BSDF_DELAY,
+            slot::PHASE + 1,
+            slot::PIXEL + 1,
+            slot::CHANNEL,
+            slot::NLOS_STRATEGY,
+        ];
+        assert!(all.iter().all(|&s| s < SLOTS));
     }
 
     #[test]
