@@ -566,11 +566,7 @@ impl Accel {
             state,
             node_hits_avx2(node, &ray, state.oct_inv4),
             {
-                // The whole group of the node visit at once: the bit just taken and
-                // the ones left.
-                let first = state.primitive_group.x;
-                let group = state.primitive_group.y | (1 << (state.primitive_id - first));
-                state.primitive_group.y = 0;
+                let (first, group) = take_group(&mut state);
                 if let Some((k, t, b1, b2)) = leaf.nearest_avx2(first, group, o, d, ray.tmax) {
                     best = Some((first + k, t, b1, b2));
                     ray.tmax = t;
@@ -667,6 +663,18 @@ unsafe fn node_test<const ISA: u8>(node: &CwBvhNode, ray: &Ray, oct_inv4: u32) -
     node.intersect_ray(ray, oct_inv4)
 }
 
+/// In `traverse!`'s primitive block: the node visit's whole primitive group at once,
+/// its first primitive and the bits of the one just taken and the ones left, which the
+/// walk then skips.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn take_group(state: &mut obvhs::cwbvh::Traversal) -> (u32, u32) {
+    let first = state.primitive_group.x;
+    let group = state.primitive_group.y | (1 << (state.primitive_id - first));
+    state.primitive_group.y = 0;
+    (first, group)
+}
+
 /// [`Accel::occluded_with`] for a triangle-only BVH in AVX2 (see
 /// `Accel::intersect_triangles_avx2`).
 #[cfg(target_arch = "x86_64")]
@@ -684,9 +692,7 @@ fn occluded_triangles_avx2(bvh: &CwBvh, leaf: &LeafTriangles, o: Vec3, d: Vec3, 
             state,
             node_hits_avx2(node, &ray, state.oct_inv4),
             {
-                let first = state.primitive_group.x;
-                let group = state.primitive_group.y | (1 << (state.primitive_id - first));
-                state.primitive_group.y = 0;
+                let (first, group) = take_group(&mut state);
                 if leaf.any_avx2(first, group, o, d, tmax) {
                     blocked = true;
                     break 'walk;

@@ -21,7 +21,7 @@
 
 #![cfg(target_arch = "x86_64")]
 
-use super::flat_simd::{moller_trumbore_256, splat3_256};
+use super::flat_simd::{hmin_256, moller_trumbore_256, splat3_256};
 use super::triangle::TriangleGeom;
 use glam::{Vec3, Vec3A};
 use obvhs::cwbvh::node::CwBvhNode;
@@ -56,27 +56,15 @@ pub fn node_hits_avx2(node: &CwBvhNode, ray: &Ray, oct_inv4: u32) -> u32 {
             _mm256_add_ps(_mm256_mul_ps(far, inv), o),
         )
     };
-    let (tmin_x, tmax_x) = axis(
-        &node.child_min_x,
-        &node.child_max_x,
-        ray.direction.x < 0.0,
-        dir_inv.x,
-        orig.x,
-    );
-    let (tmin_y, tmax_y) = axis(
-        &node.child_min_y,
-        &node.child_max_y,
-        ray.direction.y < 0.0,
-        dir_inv.y,
-        orig.y,
-    );
-    let (tmin_z, tmax_z) = axis(
-        &node.child_min_z,
-        &node.child_max_z,
-        ray.direction.z < 0.0,
-        dir_inv.z,
-        orig.z,
-    );
+    let planes = [
+        (&node.child_min_x, &node.child_max_x),
+        (&node.child_min_y, &node.child_max_y),
+        (&node.child_min_z, &node.child_max_z),
+    ];
+    let [(tmin_x, tmax_x), (tmin_y, tmax_y), (tmin_z, tmax_z)] = std::array::from_fn(|k| {
+        let (lo, hi) = planes[k];
+        axis(lo, hi, ray.direction[k] < 0.0, dir_inv[k], orig[k])
+    });
     let tmin = _mm256_max_ps(tmin_x, _mm256_max_ps(tmin_y, tmin_z));
     let tmax = _mm256_min_ps(tmax_x, _mm256_min_ps(tmax_y, tmax_z));
     let tmin = _mm256_max_ps(tmin, _mm256_set1_ps(NODE_TMIN));
@@ -215,7 +203,7 @@ impl LeafTriangles {
                 lane_bits,
             );
             let t = _mm256_blendv_ps(inf, t, _mm256_castsi256_ps(wanted));
-            let m = hmin(t);
+            let m = hmin_256(t);
             if m < limit {
                 let at_m = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_EQ_OQ>(t, _mm256_set1_ps(m)));
                 let lane = 31 - (at_m as u32).leading_zeros();
@@ -256,15 +244,6 @@ impl LeafTriangles {
         }
         false
     }
-}
-
-#[target_feature(enable = "avx2")]
-#[inline]
-fn hmin(v: __m256) -> f32 {
-    let m = _mm_min_ps(_mm256_castps256_ps128(v), _mm256_extractf128_ps::<1>(v));
-    let m = _mm_min_ps(m, _mm_movehl_ps(m, m));
-    let m = _mm_min_ss(m, _mm_shuffle_ps::<0b01>(m, m));
-    _mm_cvtss_f32(m)
 }
 
 #[cfg(test)]

@@ -221,7 +221,7 @@ pub(super) fn splat3_256(v: Vec3) -> [__m256; 3] {
 
 #[target_feature(enable = "avx2")]
 #[inline]
-fn hmin_256(v: __m256) -> f32 {
+pub(super) fn hmin_256(v: __m256) -> f32 {
     let m = _mm_min_ps(_mm256_castps256_ps128(v), _mm256_extractf128_ps::<1>(v));
     let m = _mm_min_ps(m, _mm_movehl_ps(m, m));
     let m = _mm_min_ss(m, _mm_shuffle_ps::<0b01>(m, m));

@@ -20,7 +20,8 @@
 //! thread for surface scenes (two low-discrepancy vertices of 36 dimensions each) and
 //! 38.3 MB with media (four).
 
-use super::sampler::{permute, randomise, scramble_index, sobol_1, to_unit, PathSampler};
+use super::sampler::PathSampler;
+use super::sampler::{kensler_round, permute, randomise, scramble_index, sobol_1, to_unit};
 use super::sampler::{vertex_key, SLOTS};
 use crate::math::rng::{mix64, Pcg32};
 
@@ -163,29 +164,11 @@ impl SobolTable {
 /// value is always below `l`), `% l` as a mask. Branch-free, so a loop over `i`
 /// vectorises.
 #[inline(always)]
-fn permute_pow2(mut i: u32, w: u32, p: u32) -> u32 {
+fn permute_pow2(i: u32, w: u32, p: u32) -> u32 {
     if w == 0 {
         return 0;
     }
-    i ^= p;
-    i = i.wrapping_mul(0xe170_893d);
-    i ^= p >> 16;
-    i ^= (i & w) >> 4;
-    i ^= p >> 8;
-    i = i.wrapping_mul(0x0929_eb3f);
-    i ^= p >> 23;
-    i ^= (i & w) >> 1;
-    i = i.wrapping_mul(1 | (p >> 27));
-    i = i.wrapping_mul(0x6935_fa69);
-    i ^= (i & w) >> 11;
-    i = i.wrapping_mul(0x74dc_b303);
-    i ^= (i & w) >> 2;
-    i = i.wrapping_mul(0x9e50_1cc3);
-    i ^= (i & w) >> 2;
-    i = i.wrapping_mul(0xc860_a3df);
-    i &= w;
-    i ^= i >> 5;
-    i.wrapping_add(p) & w
+    kensler_round(i, w, p).wrapping_add(p) & w
 }
 
 /// The numbers of sample `index` of the table's replicate: vertices up to the table's
