@@ -192,11 +192,7 @@ impl LeafTriangles {
         let mut limit = tmax;
         // Highest chunk first: with a strict `<` across chunks and the highest lane
         // within one, ties go to the highest primitive.
-        for chunk in (0..3usize).rev() {
-            let bits = (group >> (8 * chunk)) & 0xff;
-            if bits == 0 {
-                continue;
-            }
+        for (chunk, bits) in chunks(group).rev() {
             let (t, b1, b2) = self.chunk(first as usize, chunk, ov, dv);
             let wanted = _mm256_cmpeq_epi32(
                 _mm256_and_si256(_mm256_set1_epi32(bits as i32), lane_bits),
@@ -231,11 +227,7 @@ impl LeafTriangles {
     pub fn any_avx2(&self, first: u32, group: u32, o: Vec3, d: Vec3, tmax: f32) -> bool {
         let (ov, dv) = (splat3_256(o), splat3_256(d));
         let limit = _mm256_set1_ps(tmax);
-        for chunk in 0..3usize {
-            let bits = (group >> (8 * chunk)) & 0xff;
-            if bits == 0 {
-                continue;
-            }
+        for (chunk, bits) in chunks(group) {
             let (t, _, _) = self.chunk(first as usize, chunk, ov, dv);
             let hit = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LT_OQ>(t, limit)) as u32;
             if hit & bits != 0 {
@@ -244,6 +236,15 @@ impl LeafTriangles {
         }
         false
     }
+}
+
+/// The registers of eight a group of at most 24 primitives needs: (chunk, its 8 bits),
+/// the empty ones left out.
+#[inline(always)]
+fn chunks(group: u32) -> impl DoubleEndedIterator<Item = (usize, u32)> {
+    (0..3usize)
+        .map(move |chunk| (chunk, (group >> (8 * chunk)) & 0xff))
+        .filter(|&(_, bits)| bits != 0)
 }
 
 #[cfg(test)]

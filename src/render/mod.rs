@@ -38,6 +38,16 @@ use deposits::PathDeposits;
 use gbuffer::{GAccum, GPixel};
 use integrator::PathTally;
 pub use pixel_sampling::{PixelPattern, PixelSampling};
+/// `(B, spp / B)` for `replicates` B >= 2, else `(1, spp)` (see
+/// [`RenderSettings::replicate_split`]).
+pub fn replicate_split(spp: u32, replicates: u32) -> (u32, u32) {
+    if replicates >= 2 {
+        (replicates, spp / replicates)
+    } else {
+        (1, spp)
+    }
+}
+
 /// Errors of the render settings.
 #[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
 pub enum RenderError {
@@ -71,11 +81,7 @@ impl RenderSettings {
     /// The replicates and their size: `(B, spp / B)`, or `(1, spp)` without replicates.
     /// [`RenderSettings::check_replicates`] makes sure B divides spp.
     pub fn replicate_split(&self) -> (u32, u32) {
-        if self.replicates >= 2 {
-            (self.replicates, self.spp / self.replicates)
-        } else {
-            (1, self.spp)
-        }
+        replicate_split(self.spp, self.replicates)
     }
 
     /// Whether `replicates` can split `spp`: 0 (none) or at least 2, dividing spp.
@@ -285,16 +291,8 @@ impl StreamingMemory {
         volumetric: bool,
     ) -> Self {
         if sampling == PixelSampling::Sobol {
-            let k = if replicates >= 2 {
-                spp / replicates
-            } else {
-                spp
-            };
-            let ld = if volumetric {
-                sampler::LD_VERTICES_VOLUMETRIC
-            } else {
-                sampler::LD_VERTICES
-            };
+            let (_, k) = replicate_split(spp, replicates);
+            let ld = sampler::ld_vertices(volumetric);
             self.per_row = self.per_row.saturating_add(SobolTable::max_bytes(k, ld));
         }
         self
@@ -342,11 +340,7 @@ fn render_row(
         let mut tally = PathTally::default();
         let (reps, k) = settings.replicate_split();
         // Volumetric paths keep more low-discrepancy vertices (see `sampler.rs`).
-        let ld_vertices = if scene.integrator.volumetric {
-            sampler::LD_VERTICES_VOLUMETRIC
-        } else {
-            sampler::LD_VERTICES
-        };
+        let ld_vertices = sampler::ld_vertices(scene.integrator.volumetric);
         for b in 0..reps {
             let positions = PixelPositions::new(settings, pixel, b, k);
             positions.start(&mut table, k, ld_vertices);

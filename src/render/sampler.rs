@@ -236,6 +236,16 @@ pub const LD_VERTICES: u64 = 1;
 /// medium, and the free flights and phase samples after the first vertex matter.
 pub const LD_VERTICES_VOLUMETRIC: u64 = 3;
 
+/// The low-discrepancy vertices of a scene's paths: [`LD_VERTICES_VOLUMETRIC`] under
+/// the media rules, else [`LD_VERTICES`].
+pub fn ld_vertices(volumetric: bool) -> u64 {
+    if volumetric {
+        LD_VERTICES_VOLUMETRIC
+    } else {
+        LD_VERTICES
+    }
+}
+
 /// The randomisation key of one replicate of one pixel (unrelated to the path streams
 /// of [`Pcg32::for_path`] and to the pixel patterns of `pixel_sampling`).
 pub fn replicate_key(seed: u64, pixel: u64, replicate: u32) -> u64 {

@@ -100,12 +100,7 @@ impl SobolTable {
     #[cold]
     fn one(&self, vertex: u64, slot: u32, coord: usize, index: u32) -> f32 {
         let (p, s) = self.hashes(vertex, slot, coord);
-        let i = permute(index, self.count, p);
-        to_unit(if coord == 0 {
-            scramble_index(i, s)
-        } else {
-            randomise(sobol_1(i), s)
-        })
+        number(permute(index, self.count, p), coord, s)
     }
 
     /// Appends the column of one dimension; returns 1 + its offset.
@@ -148,16 +143,21 @@ impl SobolTable {
             }
         } else {
             for (index, out) in (0..n).zip(column.iter_mut()) {
-                let i = permute(index, n, p);
-                *out = to_unit(if coord == 0 {
-                    scramble_index(i, s)
-                } else {
-                    randomise(sobol_1(i), s)
-                });
+                *out = number(permute(index, n, p), coord, s);
             }
         }
         start as u32 + 1
     }
+}
+
+/// Coordinate `coord` of the permuted index `i`, scrambled by `s`.
+#[inline(always)]
+fn number(i: u32, coord: usize, s: u64) -> f32 {
+    to_unit(if coord == 0 {
+        scramble_index(i, s)
+    } else {
+        randomise(sobol_1(i), s)
+    })
 }
 
 /// [`permute`] for `l = w + 1` a power of two: one round, no cycle walk (the masked
