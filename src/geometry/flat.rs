@@ -57,13 +57,28 @@ pub(super) struct Packet {
     pub(super) e2: [[f32; LANES]; 3],
     /// The caller's index of the triangle in each lane (`u32::MAX`: empty lane).
     pub(super) index: [u32; LANES],
-    lo: Vec3,
-    hi: Vec3,
+    pub(super) lo: Vec3,
+    pub(super) hi: Vec3,
 }
+
+/// The boxes of up to eight consecutive packets, one array per bound component, so that
+/// the AVX2 kernels test a ray against eight boxes in one pass (`flat_simd.rs`). Lanes
+/// past the last packet hold empty boxes (`lo = +inf`, `hi = -inf`) and are never
+/// read.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct BoxBlock {
+    pub(super) lo: [[f32; BOX_LANES]; 3],
+    pub(super) hi: [[f32; BOX_LANES]; 3],
+}
+
+/// Packets per [`BoxBlock`].
+pub(super) const BOX_LANES: usize = 8;
 
 #[derive(Clone, Debug)]
 pub struct FlatTriangles {
     packets: Vec<Packet>,
+    /// The packets' boxes, [`BOX_LANES`] per block, in packet order.
+    boxes: Vec<BoxBlock>,
 }
 
 impl FlatTriangles {
@@ -105,11 +120,33 @@ impl FlatTriangles {
             e.x * e.y + e.y * e.z + e.z * e.x
         };
         packets.sort_by(|a, b| area(b).total_cmp(&area(a)));
-        FlatTriangles { packets }
+        let boxes = packets
+            .chunks(BOX_LANES)
+            .map(|chunk| {
+                let mut b = BoxBlock {
+                    lo: [[f32::INFINITY; BOX_LANES]; 3],
+                    hi: [[f32::NEG_INFINITY; BOX_LANES]; 3],
+                };
+                for (k, p) in chunk.iter().enumerate() {
+                    for a in 0..3 {
+                        b.lo[a][k] = p.lo[a];
+                        b.hi[a][k] = p.hi[a];
+                    }
+                }
+                b
+            })
+            .collect();
+        FlatTriangles { packets, boxes }
     }
 
     pub(super) fn packets(&self) -> &[Packet] {
         &self.packets
+    }
+
+    /// The packets' boxes in blocks of [`BOX_LANES`]: block `j` holds packets
+    /// `j * BOX_LANES ..`.
+    pub(super) fn boxes(&self) -> &[BoxBlock] {
+        &self.boxes
     }
 
     fn pack(tris: &[TriangleGeom], members: &[usize]) -> Packet {
@@ -144,16 +181,19 @@ impl FlatTriangles {
     }
 
     /// Whether the ray `o + t d` (with `inv_d = 1 / d`) meets the packet's box at some
-    /// `t` in `[0, tmax)`. Conservative: a NaN slab (origin on a face, zero direction
-    /// component) constrains nothing.
+    /// `t` in `[0, tmax]`. Conservative: a slab with a NaN distance (the origin on a
+    /// face's plane, that direction component zero) constrains nothing.
     #[inline(always)]
     pub(super) fn box_hit(p: &Packet, o: Vec3, inv_d: Vec3, tmax: f32) -> bool {
         let t0 = (p.lo - o) * inv_d;
         let t1 = (p.hi - o) * inv_d;
-        let near = t0.min(t1);
-        let far = t0.max(t1);
-        let enter = 0.0f32.max(near.x).max(near.y).max(near.z);
-        let exit = tmax.min(far.x).min(far.y).min(far.z);
+        let (mut enter, mut exit) = (0.0f32, tmax);
+        for a in 0..3 {
+            if !(t0[a].is_nan() || t1[a].is_nan()) {
+                enter = enter.max(t0[a].min(t1[a]));
+                exit = exit.min(t0[a].max(t1[a]));
+            }
+        }
         enter <= exit
     }
 

@@ -174,6 +174,20 @@ pub enum Bsdf {
 }
 
 impl Bsdf {
+    /// [`BsdfModel::eta`] of the models that can refract and of the wrappers.
+    #[inline(never)]
+    fn eta_refracting(&self, wo: Vec3, wi: Vec3) -> f32 {
+        match self {
+            Bsdf::RoughDielectric(b) => b.eta(wo, wi),
+            Bsdf::Principled(b) => b.eta(wo, wi),
+            Bsdf::Mask(m) => m.nested.eta(wo, wi),
+            Bsdf::Separable(s) => s.inner.eta(wo, wi),
+            Bsdf::Blend(b) => b.eta(wo, wi),
+            Bsdf::Perturbed(p) => p.eta(wo, wi),
+            _ => 1.0,
+        }
+    }
+
     /// Whether the G-buffer looks through this surface although it has a lobe with a
     /// density (a mostly transparent `mask`); delta-only surfaces are looked through
     /// anyway.
@@ -411,15 +425,19 @@ impl BsdfModel for Bsdf {
     /// Only rough dielectrics and `principled` with `spec_trans` refract through a
     /// non-delta lobe (also inside `mask` and `Separable`); every other model (the
     /// default, `principledthin` included) crosses no interface towards a light. A `Composed` vertex is resolved into a child before anyone asks.
+    ///
+    /// The common answer, 1, is inlined; the models that can refract (and those that
+    /// wrap one) go through [`Bsdf::eta_refracting`], so that the recursion through
+    /// wrappers does not keep this from inlining.
     #[inline(always)]
     fn eta(&self, wo: Vec3, wi: Vec3) -> f32 {
         match self {
-            Bsdf::RoughDielectric(b) => b.eta(wo, wi),
-            Bsdf::Principled(b) => b.eta(wo, wi),
-            Bsdf::Mask(m) => m.nested.eta(wo, wi),
-            Bsdf::Separable(s) => s.inner.eta(wo, wi),
-            Bsdf::Blend(b) => b.eta(wo, wi),
-            Bsdf::Perturbed(p) => p.eta(wo, wi),
+            Bsdf::RoughDielectric(_)
+            | Bsdf::Principled(_)
+            | Bsdf::Mask(_)
+            | Bsdf::Separable(_)
+            | Bsdf::Blend(_)
+            | Bsdf::Perturbed(_) => self.eta_refracting(wo, wi),
             _ => 1.0,
         }
     }

@@ -81,6 +81,17 @@ struct PathState {
     nulls_in_a_row: u32,
 }
 
+/// The emitter that `u_sel` in [0, 1) selects among `n` (uniformly); one emitter needs
+/// no arithmetic (the general form gives 0 too).
+#[inline(always)]
+fn pick_emitter(u_sel: f32, n: usize) -> usize {
+    if n == 1 {
+        0
+    } else {
+        ((u_sel * n as f32) as usize).min(n - 1)
+    }
+}
+
 /// `max_depth` as a count (negative: unbounded).
 #[inline(always)]
 fn max_depth(scene: &Scene) -> u64 {
@@ -470,7 +481,7 @@ unsafe fn shade<const ISA: u8, const MEDIA: bool, S: PathSampler>(
         let u_sel = rng.get1(slot::LIGHT_SELECT);
         let u1 = rng.get1(slot::LIGHT_1);
         let u2 = rng.get2(slot::LIGHT_2);
-        let idx = ((u_sel * n_emitters as f32) as usize).min(n_emitters - 1);
+        let idx = pick_emitter(u_sel, n_emitters);
         let emitter = &scene.emitters[idx];
         if let Some(ls) = emitter.sample(&scene.shapes, sp.p, select_pdf, u1, u2) {
             let wi = frame.to_local(ls.wi);
@@ -636,7 +647,7 @@ unsafe fn scatter_in_medium<const ISA: u8, S: PathSampler>(
         let u_sel = rng.get1(slot::LIGHT_SELECT);
         let u1 = rng.get1(slot::LIGHT_1);
         let u2 = rng.get2(slot::LIGHT_2);
-        let idx = ((u_sel * n_emitters as f32) as usize).min(n_emitters - 1);
+        let idx = pick_emitter(u_sel, n_emitters);
         let emitter = &scene.emitters[idx];
         if let Some(ls) = emitter.sample(&scene.shapes, p, select_pdf, u1, u2) {
             let f = m.phase().eval(wi, ls.wi);
