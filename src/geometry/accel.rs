@@ -502,11 +502,13 @@ impl Accel {
     pub unsafe fn occluded_with<const ISA: u8>(&self, o: Vec3, d: Vec3, tmax: f32) -> bool {
         if let Some(flat) = &self.flat {
             // SAFETY: passed on from the caller.
+            // (The emptiness test keeps the call to `any` out of triangle-only scenes.)
             return unsafe { flat_occluded_with::<ISA>(&flat.tris, o, d, tmax) }
-                || flat
-                    .sphere_prims
-                    .iter()
-                    .any(|&i| self.prim_t(i, o, d, 0.0) < tmax);
+                || (!flat.sphere_prims.is_empty()
+                    && flat
+                        .sphere_prims
+                        .iter()
+                        .any(|&i| self.prim_t(i, o, d, 0.0) < tmax));
         }
         let Some(bvh) = self.bvh.as_ref() else {
             return false;
