@@ -64,11 +64,13 @@ pub(super) struct Packet {
 /// The boxes of up to eight consecutive packets, one array per bound component, so that
 /// the AVX2 kernels test a ray against eight boxes in one pass (`flat_simd.rs`). Lanes
 /// past the last packet hold empty boxes (`lo = +inf`, `hi = -inf`) and are never
-/// read.
+/// met (`lanes`).
 #[derive(Clone, Copy, Debug)]
 pub(super) struct BoxBlock {
     pub(super) lo: [[f32; BOX_LANES]; 3],
     pub(super) hi: [[f32; BOX_LANES]; 3],
+    /// The lanes holding a packet's box (bit per lane).
+    pub(super) lanes: u32,
 }
 
 /// Packets per [`BoxBlock`].
@@ -126,6 +128,7 @@ impl FlatTriangles {
                 let mut b = BoxBlock {
                     lo: [[f32::INFINITY; BOX_LANES]; 3],
                     hi: [[f32::NEG_INFINITY; BOX_LANES]; 3],
+                    lanes: (1u32 << chunk.len()) - 1,
                 };
                 for (k, p) in chunk.iter().enumerate() {
                     for a in 0..3 {
@@ -181,19 +184,19 @@ impl FlatTriangles {
     }
 
     /// Whether the ray `o + t d` (with `inv_d = 1 / d`) meets the packet's box at some
-    /// `t` in `[0, tmax]`. Conservative: a slab with a NaN distance (the origin on a
-    /// face's plane, that direction component zero) constrains nothing.
+    /// `t` in `[0, tmax]`. Never skips a packet the ray can hit: rounding is covered by
+    /// the box's padding, and a slab whose distance is NaN (the origin on a face's
+    /// plane, that direction component zero) only arises for a ray that runs in that
+    /// plane, outside the triangles' own box, so it hits none of them whatever the
+    /// test says (`tests::a_ray_in_a_padded_face_plane_hits_no_triangle`).
     #[inline(always)]
     pub(super) fn box_hit(p: &Packet, o: Vec3, inv_d: Vec3, tmax: f32) -> bool {
         let t0 = (p.lo - o) * inv_d;
         let t1 = (p.hi - o) * inv_d;
-        let (mut enter, mut exit) = (0.0f32, tmax);
-        for a in 0..3 {
-            if !(t0[a].is_nan() || t1[a].is_nan()) {
-                enter = enter.max(t0[a].min(t1[a]));
-                exit = exit.min(t0[a].max(t1[a]));
-            }
-        }
+        let near = t0.min(t1);
+        let far = t0.max(t1);
+        let enter = 0.0f32.max(near.x).max(near.y).max(near.z);
+        let exit = tmax.min(far.x).min(far.y).min(far.z);
         enter <= exit
     }
 
@@ -347,6 +350,15 @@ mod tests {
         for flat in &flats {
             check(&tris, flat);
         }
+        // More than one block of eight boxes (runs of nine: a packet each), and a
+        // single packet (its own path in the AVX2 kernels).
+        let nines: Vec<u32> = (0..tris.len() as u32).map(|i| i / 9).collect();
+        let blocks = FlatTriangles::with_groups(&tris, &nines);
+        assert!(blocks.boxes().len() > 1, "{}", blocks.packets().len());
+        check(&tris, &blocks);
+        let one = FlatTriangles::new(&tris[..12]);
+        assert_eq!(one.packets().len(), 1);
+        check(&tris[..12], &one);
     }
 
     fn check(tris: &[TriangleGeom], flat: &FlatTriangles) {
@@ -401,5 +413,33 @@ mod tests {
             }
         }
         assert!(hits > 200, "{hits}");
+    }
+
+    /// The box test's NaN case is harmless: a ray that starts on a padded face plane of
+    /// a packet's box and runs in that plane hits none of the packet's triangles.
+    #[test]
+    fn a_ray_in_a_padded_face_plane_hits_no_triangle() {
+        let mut rng = Pcg32::new(7, 8);
+        let mut r = || Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 2.0 - Vec3::ONE;
+        for _ in 0..50 {
+            let tris: Vec<TriangleGeom> =
+                (0..16).map(|_| TriangleGeom::new(r(), r(), r())).collect();
+            let flat = FlatTriangles::new(&tris);
+            let p = &flat.packets()[0];
+            for a in 0..3 {
+                for face in [p.lo[a], p.hi[a]] {
+                    for _ in 0..40 {
+                        let mut o = r() * 1.5;
+                        o[a] = face;
+                        let mut d = r();
+                        d[a] = 0.0;
+                        let d = d.normalize();
+                        for t in &tris {
+                            assert!(t.intersect(o, d, 0.0).is_none());
+                        }
+                    }
+                }
+            }
+        }
     }
 }

@@ -228,15 +228,13 @@ pub(super) fn hmin_256(v: __m256) -> f32 {
     _mm_cvtss_f32(m)
 }
 
-/// The entry distance of the ray (origin `o`, reciprocal direction `inv`) into each
-/// box of block `b` within `[0, tmax]`, or infinity where it misses. A slab whose
-/// distances are NaN (the origin on a face's plane, that direction component zero)
-/// constrains nothing, so the test never skips a packet the ray can hit (the scalar
-/// `FlatTriangles::box_hit`'s rule).
+/// The boxes of block `b` that the ray (origin `o`, reciprocal direction `inv`) meets
+/// within `[0, tmax]` (bit per lane), and its entry distance into each: the scalar
+/// `FlatTriangles::box_hit` on eight boxes at once (the same decisions except on NaN
+/// slabs, where neither can skip a packet the ray hits).
 #[target_feature(enable = "avx2")]
 #[inline]
-fn box_entries(b: &BoxBlock, o: [__m256; 3], inv: [__m256; 3], tmax: f32) -> [f32; BOX_LANES] {
-    let inf = _mm256_set1_ps(f32::INFINITY);
+fn box_entries(b: &BoxBlock, o: [__m256; 3], inv: [__m256; 3], tmax: f32) -> (__m256, u32) {
     let mut enter = _mm256_setzero_ps();
     let mut exit = _mm256_set1_ps(tmax);
     for a in 0..3 {
@@ -245,34 +243,11 @@ fn box_entries(b: &BoxBlock, o: [__m256; 3], inv: [__m256; 3], tmax: f32) -> [f3
         let hi = unsafe { _mm256_loadu_ps(b.hi[a].as_ptr()) };
         let t0 = _mm256_mul_ps(_mm256_sub_ps(lo, o[a]), inv[a]);
         let t1 = _mm256_mul_ps(_mm256_sub_ps(hi, o[a]), inv[a]);
-        let nan = _mm256_cmp_ps::<_CMP_UNORD_Q>(t0, t1);
-        let near = _mm256_andnot_ps(nan, _mm256_min_ps(t0, t1));
-        let far = _mm256_blendv_ps(_mm256_max_ps(t0, t1), inf, nan);
-        // `near` is 0 on a NaN slab: it cannot raise `enter` (>= 0).
-        enter = _mm256_max_ps(enter, near);
-        exit = _mm256_min_ps(exit, far);
+        enter = _mm256_max_ps(_mm256_min_ps(t0, t1), enter);
+        exit = _mm256_min_ps(_mm256_max_ps(t0, t1), exit);
     }
-    let entries = _mm256_blendv_ps(inf, enter, _mm256_cmp_ps::<_CMP_LE_OQ>(enter, exit));
-    let mut out = [0.0f32; BOX_LANES];
-    // SAFETY: BOX_LANES = 8 f32.
-    unsafe { _mm256_storeu_ps(out.as_mut_ptr(), entries) };
-    out
-}
-
-/// Whether half `h` of the packet holds a triangle (lanes are filled from the first).
-#[inline(always)]
-fn half_used(p: &Packet, h: usize) -> bool {
-    p.index[h * HALF] != u32::MAX
-}
-
-/// The unsigned minimum of the eight lanes.
-#[target_feature(enable = "avx2")]
-#[inline]
-fn hmin_epu32(v: __m256i) -> u32 {
-    let m = _mm_min_epu32(_mm256_castsi256_si128(v), _mm256_extracti128_si256::<1>(v));
-    let m = _mm_min_epu32(m, _mm_shuffle_epi32::<0b01_00_11_10>(m));
-    let m = _mm_min_epu32(m, _mm_shuffle_epi32::<0b10_11_00_01>(m));
-    _mm_cvtsi128_si32(m) as u32
+    let met = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(enter, exit)) as u32;
+    (enter, met & b.lanes)
 }
 
 /// Lane `k` (0..8) of `v`.
@@ -289,48 +264,58 @@ fn lane_ps(v: __m256, k: u32) -> f32 {
 #[inline]
 pub fn intersect_avx2(f: &FlatTriangles, o: Vec3, d: Vec3, tmax: f32) -> Option<Nearest> {
     let (ov, dv) = (splat3_256(o), splat3_256(d));
-    let inv = splat3_256(d.recip());
+    let inv_d = d.recip();
+    let inv = splat3_256(inv_d);
     let mut best_t = [_mm256_set1_ps(tmax); 2];
     let mut best_i = [_mm256_set1_epi32(-1); 2]; // u32::MAX
     let mut best_b1 = [_mm256_setzero_ps(); 2];
     let mut best_b2 = [_mm256_setzero_ps(); 2];
-    let mut nearest = tmax;
     // Unsigned a < b as signed compares with the sign bit flipped.
     let flip = _mm256_set1_epi32(i32::MIN);
-    for (packets, b) in f.packets().chunks(BOX_LANES).zip(f.boxes()) {
-        let entries = box_entries(b, ov, inv, tmax);
-        for (p, &enter) in packets.iter().zip(&entries) {
-            // The box test against the nearest hit so far (`FlatTriangles::box_hit`'s);
-            // a miss enters at infinity.
-            if enter > nearest || enter == f32::INFINITY {
-                continue;
-            }
-            for h in 0..2 {
-                if !half_used(p, h) {
-                    break;
+    // One packet's triangles against the ray; returns the nearest hit so far.
+    let mut visit = |p: &Packet| {
+        for h in 0..2 {
+            let (t, b1, b2) = packet_256(p, h, ov, dv);
+            // SAFETY: 16 u32; h is 0 or 1.
+            let idx =
+                unsafe { _mm256_loadu_si256(p.index.as_ptr().add(h * HALF) as *const __m256i) };
+            let idx_lt = _mm256_castsi256_ps(_mm256_cmpgt_epi32(
+                _mm256_xor_si256(best_i[h], flip),
+                _mm256_xor_si256(idx, flip),
+            ));
+            let closer = _mm256_or_ps(
+                _mm256_cmp_ps::<_CMP_LT_OQ>(t, best_t[h]),
+                _mm256_and_ps(_mm256_cmp_ps::<_CMP_EQ_OQ>(t, best_t[h]), idx_lt),
+            );
+            best_t[h] = _mm256_blendv_ps(best_t[h], t, closer);
+            best_i[h] = _mm256_castps_si256(_mm256_blendv_ps(
+                _mm256_castsi256_ps(best_i[h]),
+                _mm256_castsi256_ps(idx),
+                closer,
+            ));
+            best_b1[h] = _mm256_blendv_ps(best_b1[h], b1, closer);
+            best_b2[h] = _mm256_blendv_ps(best_b2[h], b2, closer);
+        }
+        hmin_256(_mm256_min_ps(best_t[0], best_t[1]))
+    };
+    let packets = f.packets();
+    if let [p] = packets {
+        // One packet: the scalar box test costs less than a pass over a block.
+        if FlatTriangles::box_hit(p, o, inv_d, tmax) {
+            visit(p);
+        }
+    } else {
+        let mut nearest = tmax;
+        for (j, b) in f.boxes().iter().enumerate() {
+            let (entries, mut met) = box_entries(b, ov, inv, tmax);
+            while met != 0 {
+                let k = met.trailing_zeros();
+                met &= met - 1;
+                // The box test against the nearest hit so far (`FlatTriangles::box_hit`'s).
+                if lane_ps(entries, k) <= nearest {
+                    nearest = nearest.min(visit(&packets[j * BOX_LANES + k as usize]));
                 }
-                let (t, b1, b2) = packet_256(p, h, ov, dv);
-                // SAFETY: 16 u32; h is 0 or 1.
-                let idx =
-                    unsafe { _mm256_loadu_si256(p.index.as_ptr().add(h * HALF) as *const __m256i) };
-                let idx_lt = _mm256_castsi256_ps(_mm256_cmpgt_epi32(
-                    _mm256_xor_si256(best_i[h], flip),
-                    _mm256_xor_si256(idx, flip),
-                ));
-                let closer = _mm256_or_ps(
-                    _mm256_cmp_ps::<_CMP_LT_OQ>(t, best_t[h]),
-                    _mm256_and_ps(_mm256_cmp_ps::<_CMP_EQ_OQ>(t, best_t[h]), idx_lt),
-                );
-                best_t[h] = _mm256_blendv_ps(best_t[h], t, closer);
-                best_i[h] = _mm256_castps_si256(_mm256_blendv_ps(
-                    _mm256_castsi256_ps(best_i[h]),
-                    _mm256_castsi256_ps(idx),
-                    closer,
-                ));
-                best_b1[h] = _mm256_blendv_ps(best_b1[h], b1, closer);
-                best_b2[h] = _mm256_blendv_ps(best_b2[h], b2, closer);
             }
-            nearest = nearest.min(hmin_256(_mm256_min_ps(best_t[0], best_t[1])));
         }
     }
     let m = hmin_256(_mm256_min_ps(best_t[0], best_t[1]));
@@ -338,54 +323,55 @@ pub fn intersect_avx2(f: &FlatTriangles, o: Vec3, d: Vec3, tmax: f32) -> Option<
     if m >= tmax {
         return None;
     }
-    // Among the lanes at the nearest distance, the lowest triangle index (`LaneBest::
-    // pick`'s rule; a triangle sits in one lane only, so the index names the lane).
     let mv = _mm256_set1_ps(m);
-    let none = _mm256_set1_epi32(-1);
-    let at_m = |h: usize| {
-        _mm256_castps_si256(_mm256_blendv_ps(
-            _mm256_castsi256_ps(none),
-            _mm256_castsi256_ps(best_i[h]),
-            _mm256_cmp_ps::<_CMP_EQ_OQ>(best_t[h], mv),
-        ))
+    let mask = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_EQ_OQ>(best_t[0], mv)) as u32
+        | (_mm256_movemask_ps(_mm256_cmp_ps::<_CMP_EQ_OQ>(best_t[1], mv)) as u32) << HALF;
+    let mut out = LaneBest {
+        t: [m; LANES],
+        index: [0; LANES],
+        b1: [0.0; LANES],
+        b2: [0.0; LANES],
     };
-    let index = hmin_epu32(_mm256_min_epu32(at_m(0), at_m(1)));
-    let iv = _mm256_set1_epi32(index as i32);
-    let lanes = |h: usize| {
-        _mm256_movemask_ps(_mm256_castsi256_ps(_mm256_cmpeq_epi32(best_i[h], iv))) as u32
-    };
-    let (h, k) = match lanes(0) {
-        0 => (1, lanes(1).trailing_zeros()),
-        l => (0, l.trailing_zeros()),
-    };
-    Some((
-        index as usize,
-        m,
-        lane_ps(best_b1[h], k),
-        lane_ps(best_b2[h], k),
-    ))
+    for h in 0..2 {
+        // SAFETY: 16 lanes each; h is 0 or 1.
+        unsafe {
+            _mm256_storeu_si256(
+                out.index.as_mut_ptr().add(h * HALF) as *mut __m256i,
+                best_i[h],
+            );
+            _mm256_storeu_ps(out.b1.as_mut_ptr().add(h * HALF), best_b1[h]);
+            _mm256_storeu_ps(out.b2.as_mut_ptr().add(h * HALF), best_b2[h]);
+        }
+    }
+    out.pick(mask)
 }
 
 #[target_feature(enable = "avx2")]
 #[inline]
 pub fn occluded_avx2(f: &FlatTriangles, o: Vec3, d: Vec3, tmax: f32) -> bool {
     let (ov, dv) = (splat3_256(o), splat3_256(d));
-    let inv = splat3_256(d.recip());
+    let inv_d = d.recip();
+    let inv = splat3_256(inv_d);
     let limit = _mm256_set1_ps(tmax);
-    for (packets, b) in f.packets().chunks(BOX_LANES).zip(f.boxes()) {
-        let entries = box_entries(b, ov, inv, tmax);
-        for (p, &enter) in packets.iter().zip(&entries) {
-            if enter == f32::INFINITY {
-                continue;
-            }
-            for h in 0..2 {
-                if !half_used(p, h) {
-                    break;
-                }
-                let (t, _, _) = packet_256(p, h, ov, dv);
-                if _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LT_OQ>(t, limit)) != 0 {
-                    return true;
-                }
+    // Whether one packet's triangles block the ray.
+    let blocks = |p: &Packet| {
+        (0..2).any(|h| {
+            let (t, _, _) = packet_256(p, h, ov, dv);
+            _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LT_OQ>(t, limit)) != 0
+        })
+    };
+    let packets = f.packets();
+    if let [p] = packets {
+        // As in `intersect_avx2`.
+        return FlatTriangles::box_hit(p, o, inv_d, tmax) && blocks(p);
+    }
+    for (j, b) in f.boxes().iter().enumerate() {
+        let (_, mut met) = box_entries(b, ov, inv, tmax);
+        while met != 0 {
+            let k = met.trailing_zeros();
+            met &= met - 1;
+            if blocks(&packets[j * BOX_LANES + k as usize]) {
+                return true;
             }
         }
     }
@@ -399,8 +385,8 @@ mod tests {
     use crate::geometry::triangle::TriangleGeom;
     use crate::math::rng::Pcg32;
 
-    /// The AVX2 pass over eight boxes decides as the scalar `box_hit` does, on random
-    /// rays and on rays along a box's face plane (NaN slabs: they constrain nothing).
+    /// The AVX2 pass over eight boxes decides as the scalar `box_hit` does, and its
+    /// entries lie in [0, tmax].
     #[test]
     fn box_entries_match_the_scalar_box_test() {
         if !Isa::Avx2.supported() {
@@ -423,7 +409,7 @@ mod tests {
         assert_eq!(flat.packets().len(), 11);
         assert_eq!(flat.boxes().len(), 2);
         // Half towards a cluster, half anywhere.
-        let mut rays: Vec<(Vec3, Vec3)> = (0..3000)
+        let rays: Vec<(Vec3, Vec3)> = (0..3000)
             .map(|i| {
                 let o = r() * 2.0;
                 let towards = centres[i % 11] + r() * 0.1 - o;
@@ -437,58 +423,36 @@ mod tests {
                 )
             })
             .collect();
-        // Axis-parallel rays starting on a packet's face plane.
-        for p in flat.packets() {
-            for a in 0..3 {
-                let mut o = (p.lo + p.hi) * 0.5;
-                o[a] = p.lo[a];
-                let mut d = Vec3::ZERO;
-                d[(a + 1) % 3] = 1.0;
-                rays.push((o, d));
-                rays.push((o, -d));
-            }
-        }
         let mut met = 0;
         for (o, d) in rays {
             let inv_d = d.recip();
             for tmax in [f32::INFINITY, 0.7] {
                 // SAFETY: AVX2 is checked above.
-                let entries: Vec<f32> = unsafe {
+                let lanes: Vec<(f32, bool)> = unsafe {
                     let (ov, inv) = (splat3_256(o), splat3_256(inv_d));
                     flat.boxes()
                         .iter()
-                        .flat_map(|b| box_entries(b, ov, inv, tmax))
+                        .flat_map(|b| {
+                            let (entries, met) = box_entries(b, ov, inv, tmax);
+                            (0..BOX_LANES as u32)
+                                .map(move |k| (lane_ps(entries, k), met >> k & 1 == 1))
+                        })
                         .collect()
                 };
                 for (k, p) in flat.packets().iter().enumerate() {
                     let scalar = FlatTriangles::box_hit(p, o, inv_d, tmax);
-                    assert_eq!(entries[k] != f32::INFINITY, scalar, "{o} {d} {tmax}");
+                    assert_eq!(lanes[k].1, scalar, "{o} {d} {tmax}");
                     met += scalar as usize;
+                    // The entry: where the ray enters the (unpadded-by-tmax) box, or
+                    // where it starts when inside.
+                    if scalar {
+                        assert!(lanes[k].0 >= 0.0 && lanes[k].0 <= tmax);
+                    }
                 }
+                // Lanes past the last packet are never met.
+                assert!(lanes[flat.packets().len()..].iter().all(|l| !l.1));
             }
         }
         assert!(met > 2000 && met < 60_000, "{met}");
-    }
-
-    /// A NaN slab constrains nothing: a ray along a face's plane, inside the box's other
-    /// slabs, meets the box.
-    #[test]
-    fn a_ray_along_a_face_plane_meets_the_box() {
-        let tri = TriangleGeom::new(Vec3::ZERO, Vec3::X, Vec3::Y);
-        let flat = FlatTriangles::new(&[tri]);
-        let p = &flat.packets()[0];
-        let o = Vec3::new(p.lo.x, 0.25, 0.0);
-        assert!(FlatTriangles::box_hit(
-            p,
-            o,
-            Vec3::new(0.0, 1.0, 0.0).recip(),
-            10.0
-        ));
-        assert!(FlatTriangles::box_hit(
-            p,
-            o,
-            Vec3::new(0.0, -1.0, 0.0).recip(),
-            10.0
-        ));
     }
 }
