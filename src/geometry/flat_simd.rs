@@ -443,8 +443,8 @@ mod tests {
                     let scalar = FlatTriangles::box_hit(p, o, inv_d, tmax);
                     assert_eq!(lanes[k].1, scalar, "{o} {d} {tmax}");
                     met += scalar as usize;
-                    // The entry: where the ray enters the (unpadded-by-tmax) box, or
-                    // where it starts when inside.
+                    // The entry distance: where the ray enters the box (0 when it
+                    // starts inside), never beyond tmax.
                     if scalar {
                         assert!(lanes[k].0 >= 0.0 && lanes[k].0 <= tmax);
                     }
