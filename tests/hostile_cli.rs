@@ -4,107 +4,13 @@
 //! leaving anything behind: the whole working directory (inputs, pre-existing files,
 //! hidden temporary names) is compared before and after every case.
 
-use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
-use std::process::{Command, Stdio};
+#[path = "common/hostile.rs"]
+mod hostile;
+
+use hostile::{bin, check_failure};
+use std::path::Path;
+use std::process::Command;
 use std::time::{Duration, Instant};
-
-const TIME_LIMIT: Duration = Duration::from_secs(20);
-/// Address-space limit for every run (bytes).
-const MEMORY_LIMIT: u64 = 2_000_000_000;
-
-fn bin() -> &'static str {
-    env!("CARGO_BIN_EXE_tstat")
-}
-
-/// The binary under an address-space limit: `prlimit` if present, else `ulimit -v`.
-fn limited(args: &[String], dir: &Path) -> Command {
-    let prlimit = ["/usr/bin/prlimit", "/bin/prlimit"]
-        .into_iter()
-        .find(|p| Path::new(p).exists());
-    let mut c = match prlimit {
-        Some(p) => {
-            let mut c = Command::new(p);
-            c.arg(format!("--as={MEMORY_LIMIT}")).arg(bin());
-            c
-        }
-        None => {
-            let mut c = Command::new("sh");
-            c.arg("-c")
-                .arg(format!(
-                    "ulimit -v {}; exec \"$0\" \"$@\"",
-                    MEMORY_LIMIT / 1000
-                ))
-                .arg(bin());
-            c
-        }
-    };
-    c.args(args).current_dir(dir);
-    c
-}
-
-struct Run {
-    code: Option<i32>,
-    stderr: String,
-    timed_out: bool,
-}
-
-/// Runs with a deadline: a run that takes longer is killed (and reported).
-fn run(mut cmd: Command) -> Run {
-    let mut child = cmd
-        .stdin(Stdio::null())
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("spawn tstat");
-    let mut err = child.stderr.take().unwrap();
-    let reader = std::thread::spawn(move || {
-        let mut s = String::new();
-        std::io::Read::read_to_string(&mut err, &mut s).ok();
-        s
-    });
-    let start = Instant::now();
-    let mut timed_out = false;
-    let status = loop {
-        if let Some(s) = child.try_wait().unwrap() {
-            break s;
-        }
-        if start.elapsed() > TIME_LIMIT {
-            timed_out = true;
-            let _ = child.kill();
-            break child.wait().unwrap();
-        }
-        std::thread::sleep(Duration::from_millis(5));
-    };
-    Run {
-        code: status.code(),
-        stderr: reader.join().unwrap(),
-        timed_out,
-    }
-}
-
-/// Every entry under `dir` (hidden ones too): file contents, directories, link targets.
-fn snapshot(dir: &Path) -> BTreeMap<PathBuf, Vec<u8>> {
-    fn walk(root: &Path, dir: &Path, out: &mut BTreeMap<PathBuf, Vec<u8>>) {
-        for e in std::fs::read_dir(dir).unwrap().flatten() {
-            let p = e.path();
-            let rel = p.strip_prefix(root).unwrap().to_path_buf();
-            let meta = std::fs::symlink_metadata(&p).unwrap();
-            if meta.file_type().is_symlink() {
-                let t = std::fs::read_link(&p).unwrap();
-                out.insert(rel, format!("link {}", t.display()).into_bytes());
-            } else if meta.is_dir() {
-                out.insert(rel, b"dir".to_vec());
-                walk(root, &p, out);
-            } else {
-                out.insert(rel, std::fs::read(&p).unwrap());
-            }
-        }
-    }
-    let mut out = BTreeMap::new();
-    walk(dir, dir, &mut out);
-    out
-}
 
 fn ok(mut c: Command) {
     let out = c.output().unwrap();
@@ -288,44 +194,13 @@ fn hostile_command_lines_fail_cleanly_and_leave_nothing() {
     for (k, (args, exit, want)) in CASES.iter().enumerate() {
         let args: Vec<String> = args.iter().map(|a| a.to_string()).collect();
         let what = format!("case {k}: tstat {}", args.join(" "));
-        let before = snapshot(dir);
-        let r = run(limited(&args, dir));
-        let after = snapshot(dir);
-        let first = r.stderr.lines().next().unwrap_or_default();
         let want_code = match exit {
             Ours => 1,
             Usage => 2,
         };
-        let mut problems = Vec::new();
-        if r.timed_out {
-            problems.push(format!("killed after {TIME_LIMIT:?}"));
-        }
-        if r.code != Some(want_code) {
-            problems.push(format!("exit {:?}, expected {want_code}", r.code));
-        }
-        if !first.starts_with("error: ") || !first.contains(want) {
-            problems.push(format!("first stderr line {first:?} lacks {want:?}"));
-        }
-        if r.stderr.contains("panicked") {
-            problems.push("panicked".into());
-        }
-        if *exit == Ours && r.stderr.lines().filter(|l| l.starts_with("error")).count() != 1 {
-            problems.push("more than one error line".into());
-        }
-        if before != after {
-            let changed: Vec<_> = before
-                .keys()
-                .chain(after.keys())
-                .filter(|p| before.get(*p) != after.get(*p))
-                .collect();
-            problems.push(format!("changed on disk: {changed:?}"));
-        }
+        let problems = check_failure(&args, dir, want_code, want);
         if !problems.is_empty() {
-            failures.push(format!(
-                "{what}\n  {}\n  stderr: {}",
-                problems.join("; "),
-                r.stderr
-            ));
+            failures.push(format!("{what}\n  {}", problems.join("\n  ")));
         }
     }
     assert!(

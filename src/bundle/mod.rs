@@ -2,6 +2,7 @@
 //! arrays. The only interface between rendering and everything after it.
 
 pub mod capture;
+pub mod float_rows;
 pub mod manifest;
 pub mod merge;
 pub mod npy;

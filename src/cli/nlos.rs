@@ -47,6 +47,11 @@ pub struct MipArgs {
     /// Pixels per voxel (default: enough for 512 pixels across, at most 64).
     #[arg(long)]
     pub scale: Option<usize>,
+    /// The most memory the projection may take (e.g. 1G; default 8G): the volume is
+    /// read a band of x slices at a time, so this bounds the band, the projection and
+    /// the picture, not the volume.
+    #[arg(long)]
+    pub max_memory: Option<String>,
     /// The picture (.png).
     #[arg(long)]
     pub out: PathBuf,
@@ -273,64 +278,129 @@ pub fn run(a: NlosArgs) -> anyhow::Result<()> {
     }
 }
 
+/// The widest picture `nlos mip` writes, in pixels.
+const MAX_PICTURE: usize = 16384;
+
+/// Bytes of a volume read at once by `nlos mip` and `--denoised` (one band).
+const BAND_BYTES: u64 = 64 << 20;
+
 fn mip(m: MipArgs) -> anyhow::Result<()> {
-    use crate::viz::mip::{picture, project, Axis};
+    use crate::bundle::float_rows::{bands, FloatRows};
+    use crate::viz::mip::{picture, Axis, Projector};
     if m.out.extension().is_none_or(|e| e != "png") {
         bail!(
             "--out {}: the projection is written as .png",
             m.out.display()
         );
     }
+    let budget = memory_budget(m.max_memory.as_deref())?;
     check_outputs(
         &[arg("volume", &m.volume)],
         &[(arg("--out", &m.out), Kind::File)],
         m.force,
     )?;
-    let read_err = |e: ndarray_npy::ReadNpyError| {
+    let not_volume = |e: &dyn std::fmt::Display| {
         anyhow!(
             "{}: not an (NX, NY, NZ) f32 or f64 .npy volume ({e})",
             m.volume.display()
         )
     };
-    let v: ndarray::Array3<f32> = match ndarray_npy::read_npy::<_, ndarray::Array3<f32>>(&m.volume)
-    {
-        Ok(v) => v,
-        Err(ndarray_npy::ReadNpyError::WrongDescriptor(_)) => {
-            ndarray_npy::read_npy::<_, ndarray::Array3<f64>>(&m.volume)
-                .map_err(read_err)?
-                .mapv(|x| x as f32)
-        }
-        Err(e) => return Err(read_err(e)),
+    let mut volume = FloatRows::open(&m.volume).map_err(|e| not_volume(&e))?;
+    let n = match *volume.shape() {
+        [nx, ny, nz] if nx > 0 && ny > 0 && nz > 0 => [nx, ny, nz],
+        ref s => bail!(
+            "{}: shape {s:?} is not a non-empty (NX, NY, NZ) volume",
+            m.volume.display()
+        ),
     };
-    let shape = v.shape().to_vec();
-    if shape.contains(&0) {
-        bail!("{}: an empty volume {shape:?}", m.volume.display());
-    }
-    let n = [shape[0], shape[1], shape[2]];
     let axis = match m.axis {
         MipAxis::X => Axis::X,
         MipAxis::Y => Axis::Y,
         MipAxis::Z => Axis::Z,
     };
-    let values: Vec<f32> = v.iter().copied().collect();
-    let p = project(&values, n, axis);
+    let projector = Projector::new(n, axis);
+    let (width, height) = projector.size();
+    let across = width.max(height);
     let scale = match m.scale {
         Some(0) => bail!("--scale 0: at least one pixel per voxel"),
-        Some(k) if k.saturating_mul(p.width.max(p.height)) > 16384 => {
-            bail!("--scale {k}: the picture would be over 16384 pixels across")
-        }
         Some(k) => k,
-        None => (512 / p.width.max(p.height)).clamp(1, 64),
+        None => (512 / across).clamp(1, 64),
     };
-    let (w, h, px) = picture(&p, scale);
+    if scale.saturating_mul(across) > MAX_PICTURE {
+        bail!(
+            "{}: a projection of {width} x {height} cells at {scale} pixels per cell would be over {MAX_PICTURE} pixels across{}",
+            m.volume.display(),
+            if m.scale.is_some() { " (--scale)" } else { "" }
+        );
+    }
+    // The projection (f32 per cell), the picture (RGB8) and one band of slices.
+    let band = BAND_BYTES.min(volume.row_bytes().saturating_mul(n[0] as u64));
+    let need = (width * height) as u64 * 4
+        + (width * height * scale * scale) as u64 * 3
+        + band.max(volume.row_bytes());
+    if need > budget {
+        bail!(
+            "{}: projecting {n:?} along {} needs {} of memory, over --max-memory {}",
+            m.volume.display(),
+            axis_name(m.axis),
+            human_bytes(need),
+            human_bytes(budget)
+        );
+    }
+    let mut projector = projector;
+    let mut values = Vec::new();
+    for rows in bands(n[0], volume.row_bytes(), band) {
+        let x0 = rows.start;
+        volume
+            .read_rows(rows, &mut values, &["x", "y", "z"])
+            .map_err(|e| anyhow!("{}: {e}", m.volume.display()))?;
+        projector.add(x0, &values);
+    }
+    drop(values);
+    let (w, h, px) = picture(&projector.finish(), scale);
     crate::report::plot::save_png_rgb(&m.out, &px, w, h)
         .map_err(|e| anyhow!("{}: {e}", m.out.display()))?;
     say!(
-        "wrote {} ({w} x {h} px, the maximum along {:?} of {:?})",
+        "wrote {} ({w} x {h} px, the maximum along {} of {:?})",
         m.out.display(),
-        m.axis,
+        axis_name(m.axis),
         n
     );
+    Ok(())
+}
+
+/// The axis as the command line spells it.
+fn axis_name(a: MipAxis) -> &'static str {
+    match a {
+        MipAxis::X => "x",
+        MipAxis::Y => "y",
+        MipAxis::Z => "z",
+    }
+}
+
+/// Replaces the capture's H by the denoised volume `d` of the bundle `dir`, read a
+/// band of film rows at a time (checked finite, its shape against the capture's film
+/// before anything is read).
+fn read_denoised(capture: &mut Capture, dir: &Path, d: &Path) -> anyhow::Result<()> {
+    use crate::bundle::float_rows::{bands, FloatRows};
+    let name = || format!("--denoised {}", d.display());
+    let bundle = Bundle::open(dir)?;
+    let rec = bundle
+        .manifest
+        .nlos
+        .as_ref()
+        .ok_or_else(|| anyhow!("{}: not an NLOS capture", dir.display()))?;
+    let mut v = FloatRows::open(d)
+        .map_err(|e| anyhow!("{}: not an f32 (rows, Sx, T, C) .npy volume ({e})", name()))?;
+    let shape = v.shape().to_vec();
+    crate::nlos::denoised::check_shape(capture, rec, &shape)
+        .map_err(|e| anyhow!("{}: {e}", name()))?;
+    let mut band = Vec::new();
+    for rows in bands(shape[0], v.row_bytes(), BAND_BYTES) {
+        v.read_rows(rows.clone(), &mut band, &["y", "x", "t", "c"])
+            .map_err(|e| anyhow!("{}: {e}", name()))?;
+        crate::nlos::denoised::replace_rows(capture, rec, rows, &band, shape[3]);
+    }
     Ok(())
 }
 
@@ -343,17 +413,9 @@ fn reconstruct(r: ReconstructArgs) -> anyhow::Result<()> {
             r.out.display()
         );
     }
-    check_outputs(
-        &[arg("capture", &r.capture)],
-        &[(arg("--out", &r.out), Kind::File)],
-        r.force,
-    )?;
-    if let Some(d) = &r.denoised {
-        if !d.is_file() {
-            bail!("--denoised {}: no such file", d.display());
-        }
-    }
-    let mut capture = load(&r.capture)?;
+    let mut inputs = vec![arg("capture", &r.capture)];
+    inputs.extend(r.denoised.iter().map(|d| arg("--denoised", d)));
+    check_outputs(&inputs, &[(arg("--out", &r.out), Kind::File)], r.force)?;
     if let Some(d) = &r.denoised {
         if !r.capture.is_dir() {
             bail!(
@@ -361,21 +423,12 @@ fn reconstruct(r: ReconstructArgs) -> anyhow::Result<()> {
                 d.display()
             );
         }
-        let bundle = Bundle::open(&r.capture)?;
-        let rec = bundle.manifest.nlos.as_ref().expect("loaded as a capture");
-        let v: ndarray::Array4<f32> = ndarray_npy::read_npy(d).map_err(|e| {
-            anyhow!(
-                "--denoised {}: not an f32 (rows, Sx, T, C) .npy volume ({e})",
-                d.display()
-            )
-        })?;
-        let s = v.shape();
-        let shape = [s[0], s[1], s[2], s[3]];
-        let values: Vec<f32> = v.iter().copied().collect();
-        crate::nlos::denoised::replace_h(&mut capture, rec, &values, shape)
-            .map_err(|e| anyhow!("--denoised {}: {e}", d.display()))?;
     }
     let budget = memory_budget(r.max_memory.as_deref())?;
+    let mut capture = load(&r.capture)?;
+    if let Some(d) = &r.denoised {
+        read_denoised(&mut capture, &r.capture, d)?;
+    }
     check_reconstruction(&method, &capture, &grid, budget)?;
     let start = std::time::Instant::now();
     let volume = method.run(&capture, &grid)?;

@@ -2,11 +2,13 @@
 //! self-contained HTML page to look at the volume (see `viz::view`).
 
 use super::util::{arg, check_outputs, human_bytes, parse_bytes, Kind};
+use crate::bundle::float_rows::FloatRows;
 use crate::bundle::write::replace_file;
 use crate::bundle::Bundle;
-use crate::report::volume::load_volume;
-use crate::viz::view::{build_page, Extra, MembershipShown};
-use anyhow::{anyhow, ensure};
+use crate::viz::view::{
+    block_size, build_page, bundle_row_bytes, page_memory, Extra, MembershipShown, Source,
+};
+use anyhow::{anyhow, bail, ensure};
 use clap::Args;
 use std::path::PathBuf;
 
@@ -27,6 +29,11 @@ pub struct ViewArgs {
     /// volumes are averaged over pixel blocks, as the page then says.
     #[arg(long, allow_hyphen_values = true)]
     pub max_bytes: Option<String>,
+    /// The most memory building the page may take (e.g. 2G; default 8G): the volumes
+    /// are read a row at a time and block-averaged as they are read, so this bounds a
+    /// row, the page and the G-buffers, not the volumes.
+    #[arg(long)]
+    pub max_memory: Option<String>,
     /// Replace an existing output.
     #[arg(long)]
     pub force: bool,
@@ -42,24 +49,63 @@ pub fn run(a: ViewArgs) -> anyhow::Result<()> {
         None => 48 << 20,
     };
     ensure!(budget >= 1024, "--max-bytes {budget}: at least 1K");
+    let memory = super::nlos::memory_budget(a.max_memory.as_deref())?;
     let bundle = Bundle::open(&a.bundle)?;
     let m = &bundle.manifest;
-    let want = (m.height, m.width, m.bins, 3);
+    let want = [m.height, m.width, m.bins, 3];
+    let film = (m.height, m.width, m.bins, 3);
     let mut extras = Vec::new();
-    for (label, path) in [("denoised", &a.denoised), ("reference", &a.reference)] {
-        if let Some(p) = path {
-            let v = load_volume(p)?.volume;
+    let mut row_bytes = bundle_row_bytes(&bundle);
+    for (label, path) in [("--denoised", &a.denoised), ("--reference", &a.reference)] {
+        let Some(p) = path else { continue };
+        let source = if p.is_dir() {
+            let b = Bundle::open(p)?;
+            let s = [b.manifest.height, b.manifest.width, b.manifest.bins, 3];
             ensure!(
-                v.dim() == want,
-                "--{label} {}: shape {:?} does not match the bundle's (H, W, T, C) = {want:?}",
-                p.display(),
-                v.shape()
+                s == want,
+                "{label} {}: shape {s:?} does not match the bundle's (H, W, T, C) = {film:?}",
+                p.display()
             );
-            extras.push(Extra {
-                label: label.into(),
-                volume: v,
-            });
-        }
+            row_bytes += bundle_row_bytes(&b);
+            Source::Bundle(Box::new(b))
+        } else {
+            let rows = FloatRows::open(p).map_err(|e| anyhow!("{label} {}: {e}", p.display()))?;
+            ensure!(
+                rows.shape() == want,
+                "{label} {}: shape {:?} does not match the bundle's (H, W, T, C) = {film:?}",
+                p.display(),
+                rows.shape()
+            );
+            row_bytes += rows.row_bytes();
+            Source::Npy {
+                path: p.clone(),
+                rows,
+            }
+        };
+        extras.push(Extra {
+            label: label.into(),
+            source,
+        });
+    }
+    let volumes = 1 + extras.len() + usize::from(m.transform.is_identity());
+    let Some(k) = block_size(volumes, m.height, m.width, m.bins, budget) else {
+        bail!(
+            "--max-bytes {}: too small for {} bins of {volumes} volumes even averaged over the whole image (at least {})",
+            a.max_bytes.as_deref().unwrap_or_default(),
+            m.bins,
+            human_bytes(crate::viz::view::page_data_bytes(volumes, 1, 1, m.bins, 1))
+        );
+    };
+    let need = page_memory(volumes, m.height, m.width, m.bins, k, row_bytes);
+    if need > memory {
+        bail!(
+            "{}: a page of {} x {} px blocks needs {} of memory, over --max-memory {}",
+            a.bundle.display(),
+            k,
+            k,
+            human_bytes(need),
+            human_bytes(memory)
+        );
     }
     let name = a.bundle.file_name().map_or_else(
         || a.bundle.display().to_string(),
@@ -73,7 +119,7 @@ pub fn run(a: ViewArgs) -> anyhow::Result<()> {
         t2_max: tp.t2_max,
         depth_align: tp.depth_align,
     };
-    let (page, s) = build_page(&bundle, &name, &extras, shown, budget as usize)?;
+    let (page, s) = build_page(&bundle, &name, &mut extras, shown, k)?;
     // check_outputs refused an existing output without --force.
     replace_file(&a.out, |tmp| {
         std::fs::write(tmp, &page).map_err(|e| e.to_string())

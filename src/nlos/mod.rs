@@ -41,7 +41,7 @@ pub enum NlosError {
     /// A denoised volume that is not of the capture's film, (rows, Sx, T, C).
     #[error("the denoised volume is {shape:?}; the capture's film is ({rows}, {sx}, {bins}, C)")]
     DenoisedShape {
-        shape: [usize; 4],
+        shape: Vec<usize>,
         rows: usize,
         sx: usize,
         bins: usize,

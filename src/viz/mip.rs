@@ -28,44 +28,87 @@ pub struct Projection {
 
 /// The projection of `v` ((NX, NY, NZ) row-major) along `axis`; NaN cells count as 0.
 pub fn project(v: &[f32], n: [usize; 3], axis: Axis) -> Projection {
-    let [nx, ny, nz] = n;
-    assert_eq!(v.len(), nx * ny * nz, "volume of {n:?} voxels");
-    let at = |i: usize, j: usize, k: usize| {
-        let x = v[(i * ny + j) * nz + k];
-        if x.is_nan() {
-            0.0
-        } else {
-            x
-        }
-    };
-    // (width, height, cell of image column c and row r -> the ray's voxels)
-    let (width, height) = match axis {
-        Axis::Z => (nx, ny),
-        Axis::X => (nz, ny),
-        Axis::Y => (nx, nz),
-    };
-    let mut values = vec![f32::NEG_INFINITY; width * height];
-    for r in 0..height {
-        let up = height - 1 - r;
-        for c in 0..width {
-            let m = match axis {
-                Axis::Z => (0..nz)
-                    .map(|k| at(c, up, k))
-                    .fold(f32::NEG_INFINITY, f32::max),
-                Axis::X => (0..nx)
-                    .map(|i| at(i, up, c))
-                    .fold(f32::NEG_INFINITY, f32::max),
-                Axis::Y => (0..ny)
-                    .map(|j| at(c, j, up))
-                    .fold(f32::NEG_INFINITY, f32::max),
-            };
-            values[r * width + c] = m;
+    assert_eq!(v.len(), n[0] * n[1] * n[2], "volume of {n:?} voxels");
+    let mut p = Projector::new(n, axis);
+    p.add(0, v);
+    p.finish()
+}
+
+/// A projection built while the volume is read, a band of x slices at a time (the
+/// volume is never held whole): memory is the projection's cells.
+pub struct Projector {
+    n: [usize; 3],
+    axis: Axis,
+    p: Projection,
+}
+
+impl Projector {
+    pub fn new(n: [usize; 3], axis: Axis) -> Projector {
+        let [nx, ny, nz] = n;
+        let (width, height) = match axis {
+            Axis::Z => (nx, ny),
+            Axis::X => (nz, ny),
+            Axis::Y => (nx, nz),
+        };
+        Projector {
+            n,
+            axis,
+            p: Projection {
+                width,
+                height,
+                values: vec![f32::NEG_INFINITY; width * height],
+            },
         }
     }
-    Projection {
-        width,
-        height,
-        values,
+
+    /// The projection's (width, height).
+    pub fn size(&self) -> (usize, usize) {
+        (self.p.width, self.p.height)
+    }
+
+    /// Adds x slices `x0..` given as `band` (whole (NY, NZ) slices, row-major); NaN
+    /// cells count as 0.
+    pub fn add(&mut self, x0: usize, band: &[f32]) {
+        let [_, ny, nz] = self.n;
+        let slice = ny * nz;
+        assert!(
+            slice > 0 && band.len().is_multiple_of(slice),
+            "whole x slices"
+        );
+        let (w, h) = (self.p.width, self.p.height);
+        let values = &mut self.p.values;
+        let zero_nan = |x: f32| if x.is_nan() { 0.0 } else { x };
+        for (di, s) in band.chunks_exact(slice).enumerate() {
+            let i = x0 + di;
+            // Voxel (i, j, k) lands on one cell; row 0 of the projection at the top.
+            for (j, line) in s.chunks_exact(nz).enumerate() {
+                match self.axis {
+                    Axis::Z => {
+                        let m = line
+                            .iter()
+                            .fold(f32::NEG_INFINITY, |a, &x| a.max(zero_nan(x)));
+                        let cell = &mut values[(h - 1 - j) * w + i];
+                        *cell = cell.max(m);
+                    }
+                    Axis::X => {
+                        let row = &mut values[(h - 1 - j) * w..(h - j) * w];
+                        for (cell, &x) in row.iter_mut().zip(line) {
+                            *cell = cell.max(zero_nan(x));
+                        }
+                    }
+                    Axis::Y => {
+                        for (k, &x) in line.iter().enumerate() {
+                            let cell = &mut values[(h - 1 - k) * w + i];
+                            *cell = cell.max(zero_nan(x));
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    pub fn finish(self) -> Projection {
+        self.p
     }
 }
 
@@ -126,7 +169,78 @@ pub fn side_by_side(pictures: &[(u32, u32, Vec<u8>)], gap: u32) -> (u32, u32, Ve
 
 #[cfg(test)]
 mod tests {
-    use super::side_by_side;
+    use super::*;
+
+    /// The definition, one projected cell at a time.
+    fn reference(v: &[f32], n: [usize; 3], axis: Axis) -> Vec<f32> {
+        let [nx, ny, nz] = n;
+        let at = |i: usize, j: usize, k: usize| {
+            let x = v[(i * ny + j) * nz + k];
+            if x.is_nan() {
+                0.0
+            } else {
+                x
+            }
+        };
+        let (width, height) = match axis {
+            Axis::Z => (nx, ny),
+            Axis::X => (nz, ny),
+            Axis::Y => (nx, nz),
+        };
+        let mut out = Vec::new();
+        for r in 0..height {
+            let up = height - 1 - r;
+            for c in 0..width {
+                out.push(match axis {
+                    Axis::Z => (0..nz)
+                        .map(|k| at(c, up, k))
+                        .fold(f32::NEG_INFINITY, f32::max),
+                    Axis::X => (0..nx)
+                        .map(|i| at(i, up, c))
+                        .fold(f32::NEG_INFINITY, f32::max),
+                    Axis::Y => (0..ny)
+                        .map(|j| at(c, j, up))
+                        .fold(f32::NEG_INFINITY, f32::max),
+                });
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn projections_in_bands_equal_the_definition() {
+        let n = [5, 4, 3];
+        let mut state = 7u64;
+        let v: Vec<f32> = (0..60)
+            .map(|i| {
+                state = crate::math::rng::mix64(state ^ i);
+                if i == 17 {
+                    f32::NAN
+                } else {
+                    (state >> 40) as f32 / (1u64 << 24) as f32 - 0.3
+                }
+            })
+            .collect();
+        for axis in [Axis::X, Axis::Y, Axis::Z] {
+            let want = reference(&v, n, axis);
+            assert_eq!(project(&v, n, axis).values, want, "{axis:?}");
+            // Bands of 2, 2 and 1 x slices.
+            let mut p = Projector::new(n, axis);
+            for (x0, x1) in [(0, 2), (2, 4), (4, 5)] {
+                p.add(x0, &v[x0 * 12..x1 * 12]);
+            }
+            let p = p.finish();
+            assert_eq!(p.values, want, "{axis:?} in bands");
+            assert_eq!(p.width * p.height, want.len());
+        }
+        // The picture is the projection's orientation: voxel (4, 0, 0) alone lit is the
+        // bottom-right cell of the view along z.
+        let mut one = vec![0f32; 60];
+        one[4 * 12] = 1.0;
+        let p = project(&one, n, Axis::Z);
+        assert_eq!(p.values[(p.height - 1) * p.width + 4], 1.0);
+        assert_eq!(p.values.iter().filter(|&&x| x == 1.0).count(), 1);
+    }
 
     #[test]
     fn side_by_side_puts_each_picture_in_its_columns() {

@@ -11,6 +11,8 @@
 //! pixel blocks (the smallest k that fits; V of a block mean is the sum of the pixels'
 //! V over k^4), and the page says so.
 
+use crate::bundle::float_rows::FloatRows;
+use crate::bundle::npy::NpyError;
 use crate::bundle::{Bundle, BundleError, RowSums};
 use crate::denoise::critical::student_t_quantile;
 use crate::stats::accumulators::CHANNELS;
@@ -18,6 +20,7 @@ use crate::stats::estimators::{estimate, estimate_replicates, Sums};
 use base64::Engine;
 use ndarray::{Array3, Array4};
 use serde_json::json;
+use std::path::PathBuf;
 
 /// The page, with `/*DATA*/` where the JSON data go.
 const PAGE: &str = include_str!("view.html");
@@ -30,11 +33,30 @@ pub struct MembershipShown {
     pub depth_align: bool,
 }
 
-/// Volumes beside the bundle's own noisy mean.
+/// Where a volume beside the bundle's own noisy mean comes from: an (H, W, T, C)
+/// `.npy` of f32 or f64 (shape checked by the caller), or another bundle's noisy mean.
+pub enum Source {
+    Npy { path: PathBuf, rows: FloatRows },
+    Bundle(Box<Bundle>),
+}
+
+/// A volume beside the bundle's own noisy mean, read a row at a time.
 pub struct Extra {
     pub label: String,
-    /// f32 (H, W, T, C).
-    pub volume: Array4<f32>,
+    pub source: Source,
+}
+
+/// Why the page cannot be built.
+#[derive(Debug, thiserror::Error)]
+pub enum ViewError {
+    #[error(transparent)]
+    Bundle(#[from] BundleError),
+    #[error("{label} {}: {error}", .path.display())]
+    Volume {
+        label: String,
+        path: PathBuf,
+        error: Box<NpyError>,
+    },
 }
 
 /// What the page was built from, for the command's summary line.
@@ -44,26 +66,73 @@ pub struct PageSummary {
     pub band: bool,
 }
 
-/// The noisy mean and, for identity-transform bundles, the standard deviation of the
-/// mean sqrt(V) (from the replicates when the bundle has them), both (H, W, T, C).
-fn mean_and_sd(b: &Bundle) -> Result<(Array4<f32>, Option<Array4<f32>>), BundleError> {
+/// The pixel block size k (k x k pixels averaged) that keeps `volumes` f16 volumes of
+/// the film (h, w, t) within `budget` bytes: the smallest that fits, or None when even
+/// one block over the whole film does not (the time axis alone is too long).
+pub fn block_size(volumes: usize, h: usize, w: usize, t: usize, budget: u64) -> Option<usize> {
+    let bytes_at = |k: usize| page_data_bytes(volumes, h, w, t, k);
+    let mut k = 1;
+    while bytes_at(k) > budget && (h.div_ceil(k) > 1 || w.div_ceil(k) > 1) {
+        k += 1;
+    }
+    (bytes_at(k) <= budget).then_some(k)
+}
+
+/// The f16 volumes' bytes at block size `k`.
+pub fn page_data_bytes(volumes: usize, h: usize, w: usize, t: usize, k: usize) -> u64 {
+    (volumes * h.div_ceil(k) * w.div_ceil(k) * t * CHANNELS * 2) as u64
+}
+
+/// The most memory [`build_page`] takes for a film (h, w, t) with `volumes` volumes
+/// at block size `k`, and rows of `row_bytes` read at once (the bundle's sums and the
+/// extras' one image row): the block accumulators (f64) of one row of blocks, the
+/// block-averaged volumes (f32), their f16 bytes, base64 and the page text (about
+/// five times the f16 bytes in all), and the G-buffers (8 f32 per pixel, read whole,
+/// and their block averages).
+pub fn page_memory(volumes: usize, h: usize, w: usize, t: usize, k: usize, row_bytes: u64) -> u64 {
+    let data = page_data_bytes(volumes, h, w, t, k);
+    let acc = (volumes * w.div_ceil(k) * t * CHANNELS * 8) as u64;
+    let gbuffers = (h * w * 8 * 4) as u64 + (h.div_ceil(k) * w.div_ceil(k) * 8 * 4) as u64;
+    row_bytes + acc + 2 * data + 5 * data + gbuffers
+}
+
+/// Bytes of one image row that [`build_page`] reads from a bundle at once: the counts
+/// and every sum array.
+pub fn bundle_row_bytes(b: &Bundle) -> u64 {
     let m = &b.manifest;
-    let (h, w, t) = (m.height, m.width, m.bins);
-    let mut mean = Array4::<f32>::zeros((h, w, t, CHANNELS));
-    let identity = m.transform.is_identity();
-    let mut sd = identity.then(|| Array4::<f32>::zeros((h, w, t, CHANNELS)));
-    let reader = b.row_reader()?;
-    let mut rows = RowSums::default();
-    let n = m.spp;
-    let z0 = m.transform.at_zero();
-    for y0 in (0..h).step_by(8) {
-        let y1 = (y0 + 8).min(h);
-        reader.read(y0..y1, &mut rows)?;
+    let voxels = (m.width * m.bins) as u64;
+    let sums = 3 + u64::from(!m.transform.is_identity()) + u64::from(m.replicates.is_some());
+    voxels * 4 + voxels * CHANNELS as u64 * 8 * sums
+}
+
+/// One row of a bundle read as its noisy mean S / n and, for identity-transform
+/// bundles, the standard deviation of the mean sqrt(V) (from the replicates when the
+/// bundle has them), each (W, T, C).
+#[derive(Default)]
+struct MeanRows {
+    sums: RowSums,
+}
+
+impl MeanRows {
+    fn read(
+        &mut self,
+        b: &Bundle,
+        y: usize,
+        mean: &mut Vec<f32>,
+        sd: Option<&mut Vec<f32>>,
+    ) -> Result<(), BundleError> {
+        let m = &b.manifest;
+        b.row_reader()?.read(y..y + 1, &mut self.sums)?;
+        let rows = &self.sums;
+        let identity = m.transform.is_identity();
+        let n = m.spp;
         let radiance = if identity { &rows.x1 } else { &rows.sum };
-        for (i, &s) in radiance.iter().enumerate() {
-            let flat = y0 * w * t * CHANNELS + i;
-            mean.as_slice_mut().unwrap()[flat] = (s / n as f64) as f32;
-            if let Some(sd) = sd.as_mut() {
+        mean.clear();
+        mean.extend(radiance.iter().map(|&s| (s / n as f64) as f32));
+        if let Some(sd) = sd {
+            let z0 = m.transform.at_zero();
+            sd.clear();
+            sd.extend((0..radiance.len()).map(|i| {
                 let nz = rows.nonzero[i / CHANNELS];
                 let e = match m.replicates {
                     Some(bb) => estimate_replicates(rows.x1[i], rows.r2[i], nz, n, bb, z0),
@@ -78,19 +147,83 @@ fn mean_and_sd(b: &Bundle) -> Result<(Array4<f32>, Option<Array4<f32>>), BundleE
                         z0,
                     ),
                 };
-                sd.as_slice_mut().unwrap()[flat] = e.v.sqrt() as f32;
-            }
+                e.v.sqrt() as f32
+            }));
         }
+        Ok(())
     }
-    Ok((mean, sd))
 }
 
-/// Averages k x k pixel blocks (the last blocks may be smaller). With `sd`, the values
-/// are standard deviations of pixel means: the block mean's is sqrt(sum sd^2) / count.
-fn block_average(v: &Array4<f32>, k: usize, sd: bool) -> Array4<f32> {
-    if k == 1 {
-        return v.clone();
+/// Block averages of a volume (H, W, T, C) built row by row: k x k pixel blocks (the
+/// last ones may be smaller). For standard deviations of pixel means (`sd`), the
+/// block mean's is sqrt(sum sd^2) / count.
+struct BlockRows {
+    k: usize,
+    w: usize,
+    /// Values per pixel (T C).
+    tc: usize,
+    sd: bool,
+    /// The current row of blocks: f64 sums, (W / k, T, C).
+    acc: Vec<f64>,
+    /// Image rows added to the current row of blocks.
+    rows: usize,
+    /// The finished block rows, (H / k, W / k, T, C).
+    out: Vec<f32>,
+}
+
+impl BlockRows {
+    fn new(h: usize, w: usize, t: usize, k: usize, sd: bool) -> BlockRows {
+        let tc = t * CHANNELS;
+        BlockRows {
+            k,
+            w,
+            tc,
+            sd,
+            acc: vec![0.0; w.div_ceil(k) * tc],
+            rows: 0,
+            out: Vec::with_capacity(h.div_ceil(k) * w.div_ceil(k) * tc),
+        }
     }
+
+    /// Adds the next image row (W, T, C); the last row of an image closes its blocks
+    /// with `last`.
+    fn add(&mut self, row: &[f32], last: bool) {
+        let (k, tc) = (self.k, self.tc);
+        debug_assert_eq!(row.len(), self.w * tc);
+        for (x, px) in row.chunks_exact(tc).enumerate() {
+            let acc = &mut self.acc[(x / k) * tc..(x / k + 1) * tc];
+            for (a, &v) in acc.iter_mut().zip(px) {
+                let v = v as f64;
+                *a += if self.sd { v * v } else { v };
+            }
+        }
+        self.rows += 1;
+        if self.rows == k || last {
+            for (bx, block) in self.acc.chunks_exact_mut(tc).enumerate() {
+                let cols = ((bx + 1) * k).min(self.w) - bx * k;
+                let count = (self.rows * cols) as f64;
+                self.out.extend(block.iter().map(|&a| {
+                    if self.sd {
+                        (a.sqrt() / count) as f32
+                    } else {
+                        (a / count) as f32
+                    }
+                }));
+                block.fill(0.0);
+            }
+            self.rows = 0;
+        }
+    }
+
+    fn finish(self, h: usize, t: usize) -> Array4<f32> {
+        let shape = (h.div_ceil(self.k), self.w.div_ceil(self.k), t, CHANNELS);
+        Array4::from_shape_vec(shape, self.out).expect("every row of blocks closed")
+    }
+}
+
+/// Averages k x k pixel blocks of a whole volume (the reference for [`BlockRows`]).
+#[cfg(test)]
+fn block_average(v: &Array4<f32>, k: usize, sd: bool) -> Array4<f32> {
     let (h, w, t, c) = v.dim();
     let (bh, bw) = (h.div_ceil(k), w.div_ceil(k));
     let mut out = Array4::<f32>::zeros((bh, bw, t, c));
@@ -120,12 +253,27 @@ fn block_average(v: &Array4<f32>, k: usize, sd: bool) -> Array4<f32> {
     out
 }
 
-fn block_average_pixels(v: &Array3<f32>, k: usize) -> Array3<f32> {
+/// Averages k x k pixel blocks of an (H, W, C) image.
+fn block_average_image(v: &Array3<f32>, k: usize) -> Array3<f32> {
     let (h, w, c) = v.dim();
-    let v4 = v.to_shape((h, w, 1, c)).unwrap().to_owned();
-    let out = block_average(&v4, k, false);
-    let (bh, bw, _, _) = out.dim();
-    out.into_shape_with_order((bh, bw, c)).unwrap()
+    if k == 1 {
+        return v.clone();
+    }
+    let mut blocks = BlockRows {
+        k,
+        w,
+        tc: c,
+        sd: false,
+        acc: vec![0.0; w.div_ceil(k) * c],
+        rows: 0,
+        out: Vec::with_capacity(h.div_ceil(k) * w.div_ceil(k) * c),
+    };
+    let flat = v.as_standard_layout();
+    let flat = flat.as_slice().expect("standard layout");
+    for (y, row) in flat.chunks_exact(w * c).enumerate() {
+        blocks.add(row, y + 1 == h);
+    }
+    Array3::from_shape_vec((h.div_ceil(k), w.div_ceil(k), c), blocks.out).expect("blocks")
 }
 
 /// f16 base64 of `v` in (T, H, W, C) order (a frame contiguous) divided by a power of
@@ -163,42 +311,75 @@ fn encode_f32(v: impl Iterator<Item = f32>) -> String {
     base64::engine::general_purpose::STANDARD.encode(bytes)
 }
 
-/// Builds the page for `bundle` with `extras` (each (H, W, T, C) like the bundle),
-/// keeping the volumes' f16 data under `budget` bytes.
+/// Builds the page for `bundle` with `extras` (each (H, W, T, C) like the bundle, as
+/// the caller checked) at pixel block size `k` (see [`block_size`]), reading every
+/// volume a row at a time: the full-resolution volumes are never held.
 pub fn build_page(
     bundle: &Bundle,
     name: &str,
-    extras: &[Extra],
+    extras: &mut [Extra],
     shown: MembershipShown,
-    budget: usize,
-) -> Result<(String, PageSummary), BundleError> {
+    k: usize,
+) -> Result<(String, PageSummary), ViewError> {
     let m = &bundle.manifest;
     let (h, w, t) = (m.height, m.width, m.bins);
-    let (mean, sd) = mean_and_sd(bundle)?;
-    let volumes = 1 + extras.len() + usize::from(sd.is_some());
-    let bytes_at = |k: usize| volumes * h.div_ceil(k) * w.div_ceil(k) * t * CHANNELS * 2;
-    let mut k = 1;
-    while bytes_at(k) > budget && (h.div_ceil(k) > 1 || w.div_ceil(k) > 1) {
-        k += 1;
+    let with_sd = m.transform.is_identity();
+    let mut means = MeanRows::default();
+    let mut blocks: Vec<BlockRows> = Vec::new();
+    blocks.push(BlockRows::new(h, w, t, k, false));
+    if with_sd {
+        blocks.push(BlockRows::new(h, w, t, k, true));
     }
-    let (ph, pw) = (h.div_ceil(k), w.div_ceil(k));
+    let mut extra_means: Vec<MeanRows> = Vec::new();
+    for _ in extras.iter() {
+        blocks.push(BlockRows::new(h, w, t, k, false));
+        extra_means.push(MeanRows::default());
+    }
+    let (mut mean, mut sd, mut row) = (Vec::new(), Vec::new(), Vec::new());
+    for y in 0..h {
+        let last = y + 1 == h;
+        means.read(bundle, y, &mut mean, with_sd.then_some(&mut sd))?;
+        blocks[0].add(&mean, last);
+        if with_sd {
+            blocks[1].add(&sd, last);
+        }
+        let first_extra = 1 + usize::from(with_sd);
+        for (i, (e, reader)) in extras.iter_mut().zip(&mut extra_means).enumerate() {
+            match &mut e.source {
+                Source::Npy { path, rows } => {
+                    rows.read_rows(y..y + 1, &mut row, &["y", "x", "t", "c"])
+                        .map_err(|error| ViewError::Volume {
+                            label: e.label.clone(),
+                            path: path.clone(),
+                            error: Box::new(error),
+                        })?;
+                }
+                Source::Bundle(b) => reader.read(b, y, &mut row, None)?,
+            }
+            blocks[first_extra + i].add(&row, last);
+        }
+    }
+    drop((mean, sd, row));
+    let mut blocks = blocks.into_iter().map(|b| b.finish(h, t));
     let mut vols = Vec::new();
-    let mut push = |label: &str, kind: &str, v: &Array4<f32>, sd: bool| {
-        let (data, scale) = encode_frames(&block_average(v, k, sd));
+    let mut push = |label: &str, kind: &str, v: Array4<f32>| {
+        let (data, scale) = encode_frames(&v);
         vols.push(json!({"label": label, "kind": kind, "data": data, "scale": scale}));
     };
-    push("noisy", "mean", &mean, false);
-    if let Some(sd) = &sd {
-        push("noisy sd of the mean", "sd", sd, true);
+    push("noisy", "mean", blocks.next().expect("the noisy mean"));
+    if with_sd {
+        push("noisy sd of the mean", "sd", blocks.next().expect("its sd"));
     }
-    for e in extras {
-        push(&e.label, "mean", &e.volume, false);
+    for e in extras.iter() {
+        let label = e.label.trim_start_matches('-');
+        push(label, "mean", blocks.next().expect("one per extra"));
     }
-    let albedo = block_average_pixels(&bundle.albedo()?, k);
-    let normal = block_average_pixels(&bundle.normal()?, k);
+    let (ph, pw) = (h.div_ceil(k), w.div_ceil(k));
+    let albedo = block_average_image(&bundle.albedo()?, k);
+    let normal = block_average_image(&bundle.normal()?, k);
     let flat2 = |a: ndarray::Array2<f32>| {
         let (hh, ww) = a.dim();
-        block_average_pixels(&a.into_shape_with_order((hh, ww, 1)).unwrap(), k)
+        block_average_image(&a.into_shape_with_order((hh, ww, 1)).unwrap(), k)
     };
     let depth = flat2(bundle.depth()?);
     let emitter = flat2(bundle.emitter()?);
@@ -235,7 +416,7 @@ pub fn build_page(
     let summary = PageSummary {
         bytes: page.len(),
         block: k,
-        band: sd.is_some(),
+        band: with_sd,
     };
     Ok((page, summary))
 }
@@ -258,6 +439,55 @@ mod tests {
         // sd of the mean of 4 independent values of sd 2: 2 / sqrt(4) = 1.
         let s = block_average(&Array4::from_elem((2, 2, 1, 1), 2.0f32), 2, true);
         assert!((s[[0, 0, 0, 0]] - 1.0).abs() < 1e-6);
+    }
+
+    #[test]
+    fn blocks_built_row_by_row_equal_the_whole_volume_average() {
+        let (h, w, t) = (7, 5, 2);
+        let v = Array4::from_shape_fn((h, w, t, CHANNELS), |(y, x, tt, c)| {
+            ((y * 31 + x * 7 + tt * 3 + c) % 11) as f32 * 0.25 - 1.0
+        });
+        for k in [1, 2, 3, 5, 7, 9] {
+            for sd in [false, true] {
+                let mut b = BlockRows::new(h, w, t, k, sd);
+                let flat = v.as_slice().unwrap();
+                for (y, row) in flat.chunks_exact(w * t * CHANNELS).enumerate() {
+                    b.add(row, y + 1 == h);
+                }
+                let got = b.finish(h, t);
+                let want = block_average(&v, k, sd);
+                assert_eq!(got.dim(), want.dim(), "k {k}");
+                for (a, b) in got.iter().zip(want.iter()) {
+                    assert!(
+                        (a - b).abs() <= 1e-6 * b.abs().max(1.0),
+                        "k {k} sd {sd}: {a} vs {b}"
+                    );
+                }
+            }
+        }
+        // Images (H, W, C) through the same blocks.
+        let img = Array3::from_shape_fn((h, w, 3), |(y, x, c)| (y * w + x + c) as f32);
+        let got = block_average_image(&img, 3);
+        let v4 = img.clone().into_shape_with_order((h, w, 1, 3)).unwrap();
+        let want = block_average(&v4, 3, false);
+        assert_eq!(got.as_slice().unwrap(), want.as_slice().unwrap());
+    }
+
+    #[test]
+    fn block_size_is_the_smallest_that_fits_or_none() {
+        // 2 volumes of 8 x 8 px x 4 bins x 3 channels, 2 bytes each: 3072 bytes at
+        // k = 1, 768 at k = 2, 48 at k = 8.
+        assert_eq!(block_size(2, 8, 8, 4, 3072), Some(1));
+        assert_eq!(block_size(2, 8, 8, 4, 3071), Some(2));
+        assert_eq!(block_size(2, 8, 8, 4, 767), Some(3));
+        assert_eq!(block_size(2, 8, 8, 4, 48), Some(8));
+        assert_eq!(block_size(2, 8, 8, 4, 47), None);
+        for budget in [47u64, 48, 100, 400, 767, 768, 3071, 3072, 5000] {
+            if let Some(k) = block_size(2, 8, 8, 4, budget) {
+                assert!(page_data_bytes(2, 8, 8, 4, k) <= budget);
+                assert!(k == 1 || page_data_bytes(2, 8, 8, 4, k - 1) > budget);
+            }
+        }
     }
 
     #[test]
