@@ -195,6 +195,8 @@ pub enum TalProblem {
     NotRegular(&'static str),
     #[error("the file is {}, over the memory budget of {} (the HDF5 reader holds the whole file in memory; --max-memory sets the budget)", gb(*.size), gb(*.budget))]
     FileTooLarge { size: u64, budget: u64 },
+    #[error("the file is truncated: {size} bytes of the {declared} its superblock declares")]
+    Truncated { size: u64, declared: u64 },
     #[error("the file changed size while it was read")]
     Changed,
     /// The HDF5 reader's error on `what` (a dataset, or "not an HDF5 file").
@@ -209,10 +211,11 @@ pub enum TalProblem {
     MissingDataset(String),
     #[error("{name}: shape {shape:?} has more elements than 64 bits count")]
     ShapeOverflow { name: String, shape: Vec<u64> },
-    #[error("{name}: shape {shape:?} declares more than the {max} values H's shape allows")]
+    #[error("{name}: shape {shape:?} declares {count} values; at most {max} fit the capture (H's shape)")]
     TooManyValues {
         name: String,
         shape: Vec<u64>,
+        count: u64,
         max: u64,
     },
     #[error("{name}: datatype {dtype} is not a number")]

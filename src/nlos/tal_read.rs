@@ -5,6 +5,8 @@
 //!   such; the metadata is checked before opening, and the open is non-blocking, so a
 //!   FIFO never blocks), no larger than the memory budget: `hdf5-pure` parses a file
 //!   held whole in memory (`File::from_bytes`; its `File::open` is a `std::fs::read`).
+//! - The superblock's end-of-file address: not beyond the file's end (a truncated
+//!   file is refused as such, as HDF5's library does).
 //! - Every dataset: its declared shape (elements counted with overflow checks) against
 //!   what the capture needs (H's shape against the grids' point counts, a scalar one
 //!   value, a grid 3 per point), its datatype (numbers), its storage against the file
@@ -153,6 +155,7 @@ impl Reader {
             return Err(TalProblem::TooManyValues {
                 name: name.to_string(),
                 shape,
+                count,
                 max,
             });
         }
@@ -487,6 +490,15 @@ pub(super) fn read(path: &Path, budget: u64) -> Result<Capture, NlosError> {
     // The last resort: a panic inside the HDF5 parser is an error like any other.
     let parsed = std::panic::catch_unwind(std::panic::AssertUnwindSafe(move || {
         let file = hdf5_pure::File::from_bytes(bytes).map_err(hdf5("not an HDF5 file"))?;
+        // A file shorter than its superblock says was cut short (HDF5's own check).
+        let sb = file.superblock();
+        let declared = sb.base_address.get().saturating_add(sb.eof_address);
+        if declared > file_size {
+            return Err(TalProblem::Truncated {
+                size: file_size,
+                declared,
+            });
+        }
         let names = file.root().datasets().map_err(hdf5("the root group"))?;
         let mut r = Reader {
             file,
