@@ -536,7 +536,7 @@ fn cases() -> Vec<Case> {
         what: "a file over --max-memory",
         input: Input::Bytes(std::fs::read(fixture("contiguous.hdf5")).unwrap()),
         flags: &["--max-memory", "4k"],
-        want: "the file is 0.00 GB, over the memory budget of 0.00 GB (the HDF5 reader holds the whole file in memory",
+        want: "the file is 12.4 kB, over the memory budget of 4.0 kB (the HDF5 reader holds the whole file in memory",
     });
     out.push(Case {
         what: "H over --max-memory (gzip: a small file)",
@@ -548,6 +548,14 @@ fn cases() -> Vec<Case> {
         }),
         flags: &["--max-memory", "1M"],
         want: "reading H would take",
+    });
+    out.push(Case {
+        what: "a chunk that decodes to more than --max-memory",
+        input: Input::Bytes(fixture_with("gzip.hdf5", |b| {
+            assert!(patch_chunk_dims(b, &[16, 4, 4, 4], &[60000, 4, 4, 4]) > 0);
+        })),
+        flags: &["--max-memory", "1M"],
+        want: "reading H would take 3.86 MB with the file and what was read before, over the memory budget of 1.00 MB",
     });
     // Not regular files.
     for (what, path, want) in [

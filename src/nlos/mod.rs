@@ -193,7 +193,7 @@ pub enum TalProblem {
     /// What the path names instead (`"a FIFO"`, `"a directory"`, ...).
     #[error("not a regular file ({0}); a y-tal capture is an HDF5 file")]
     NotRegular(&'static str),
-    #[error("the file is {}, over the memory budget of {} (the HDF5 reader holds the whole file in memory; --max-memory sets the budget)", gb(*.size), gb(*.budget))]
+    #[error("the file is {}, over the memory budget of {} (the HDF5 reader holds the whole file in memory; --max-memory sets the budget)", size_text(*.size), size_text(*.budget))]
     FileTooLarge { size: u64, budget: u64 },
     #[error("the file is truncated: {size} bytes of the {declared} its superblock declares")]
     Truncated { size: u64, declared: u64 },
@@ -225,7 +225,7 @@ pub enum TalProblem {
     Storage { name: String, why: String },
     #[error("{name}: HDF5 filter {filter} is not supported (tstat reads deflate/gzip, shuffle and fletcher32)")]
     Filter { name: String, filter: u16 },
-    #[error("reading {name} would take {} with the file and what was read before, over the memory budget of {} (--max-memory sets it)", gb(*.bytes), gb(*.budget))]
+    #[error("reading {name} would take {} with the file and what was read before, over the memory budget of {} (--max-memory sets it)", size_text(*.bytes), size_text(*.budget))]
     OverBudget {
         name: String,
         bytes: u64,
@@ -287,7 +287,14 @@ pub enum TalProblem {
     NoOrigins,
 }
 
-/// A byte count for messages: "2.40 GB".
-fn gb(b: u64) -> String {
-    format!("{:.2} GB", b as f64 / 1e9)
+/// A byte count for messages: "2.40 GB", "3.86 MB", "12.4 kB".
+fn size_text(b: u64) -> String {
+    let b = b as f64;
+    if b >= 1e9 {
+        format!("{:.2} GB", b / 1e9)
+    } else if b >= 1e6 {
+        format!("{:.2} MB", b / 1e6)
+    } else {
+        format!("{:.1} kB", b / 1e3)
+    }
 }

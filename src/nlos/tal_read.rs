@@ -244,6 +244,14 @@ impl Reader {
                         "chunks of {chunk_bytes} bytes (HDF5's limit is 4 GiB)"
                     )));
                 }
+                // A chunk is decoded whole, even where it overhangs the dataset.
+                if self.taken.saturating_add(chunk_bytes) > self.budget {
+                    return Err(TalProblem::OverBudget {
+                        name: name.to_string(),
+                        bytes: self.taken.saturating_add(chunk_bytes),
+                        budget: self.budget,
+                    });
+                }
                 if bytes == 0 {
                     return Ok(());
                 }
@@ -460,7 +468,7 @@ fn element(name: &str, shape: &[u64], k: usize) -> String {
 /// Refuses the first value of `v` that is not finite or above `max` in magnitude,
 /// naming it by its index in `shape`.
 fn check_values(name: &str, shape: &[u64], v: &[f32], max: f32) -> Problem<()> {
-    if let Some(k) = v.iter().position(|x| !(x.abs() <= max)) {
+    if let Some(k) = v.iter().position(|x| !x.is_finite() || x.abs() > max) {
         let x = v[k];
         let what = if x.is_nan() {
             "NaN".to_string()
