@@ -116,7 +116,8 @@ pub struct ReconstructArgs {
     #[arg(long)]
     pub snr: Option<f64>,
     /// The most working memory the reconstruction may take (e.g. 4G; default 8G); the
-    /// capture itself (T L S f32) comes on top.
+    /// capture itself (T L S f32) comes on top. A y-tal file is also read within it
+    /// (the file, held whole while it is parsed, and H).
     #[arg(long)]
     pub max_memory: Option<String>,
     /// The reconstruction, f32 (NX, NY, NZ) .npy.
@@ -250,20 +251,22 @@ pub fn memory_budget(s: Option<&str>) -> anyhow::Result<u64> {
     }
 }
 
-fn load(path: &Path) -> anyhow::Result<Capture> {
-    if path.is_dir() {
-        let bundle = Bundle::open(path)?;
-        return Ok(Capture::from_bundle(&bundle)?);
-    }
+/// The capture at `path`: a bundle directory, or a y-tal HDF5 file read within
+/// `budget` bytes (the file and H; `Capture::from_tal_within`).
+fn load(path: &Path, budget: u64) -> anyhow::Result<Capture> {
     let ext = path
         .extension()
         .map(|e| e.to_string_lossy().to_lowercase())
         .unwrap_or_default();
-    if ext == "hdf5" || ext == "h5" {
-        if !path.is_file() {
-            bail!("{}: no such capture file", path.display());
-        }
-        return Ok(Capture::from_tal(path)?);
+    let hdf5 = ext == "hdf5" || ext == "h5";
+    if path.is_dir() && !hdf5 {
+        let bundle = Bundle::open(path)?;
+        return Ok(Capture::from_bundle(&bundle)?);
+    }
+    if hdf5 {
+        // Not-found, directories, FIFOs and devices are told apart there, before
+        // anything is opened.
+        return Ok(Capture::from_tal_within(path, budget)?);
     }
     bail!(
         "{}: a capture is a tstat bundle directory or a y-tal .hdf5 / .h5 file",
@@ -425,7 +428,7 @@ fn reconstruct(r: ReconstructArgs) -> anyhow::Result<()> {
         }
     }
     let budget = memory_budget(r.max_memory.as_deref())?;
-    let mut capture = load(&r.capture)?;
+    let mut capture = load(&r.capture, budget)?;
     if let Some(d) = &r.denoised {
         read_denoised(&mut capture, &r.capture, d)?;
     }

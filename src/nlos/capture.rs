@@ -6,7 +6,7 @@
 //! Memory: H is held whole, `T L S` f32 (a 64 x 64 confocal scan of 512 bins: 8 MB;
 //! an exhaustive 16^4 of 512 bins: 134 MB).
 
-use super::{NlosError, TalProblem};
+use super::NlosError;
 use crate::bundle::capture::CaptureRecord;
 use crate::bundle::Bundle;
 use crate::scene::nlos::CaptureType;
@@ -117,134 +117,17 @@ impl Capture {
     }
 
     /// A y-tal HDF5 capture (`tal.io.write_capture`'s layout, or `tstat export --tal`):
-    /// H formats T_Sx_Sy and T_Lx_Ly_Sx_Sy, grids X_Y_3 or N_3.
+    /// H formats T_Sx_Sy and T_Lx_Ly_Sx_Sy, grids X_Y_3 or N_3; read within the
+    /// default budget of 8 GiB (see [`Capture::from_tal_within`]).
     pub fn from_tal(path: &Path) -> Result<Capture, NlosError> {
-        let fail = |problem: TalProblem| NlosError::Tal {
-            path: path.to_path_buf(),
-            problem,
-        };
-        let err = |what: &str, error: hdf5_pure::Error| {
-            fail(TalProblem::Hdf5 {
-                what: what.to_string(),
-                error,
-            })
-        };
-        let file = hdf5_pure::File::open(path).map_err(|e| err("not an HDF5 file", e))?;
-        let ds = |name: &str| file.dataset(name).map_err(|e| err(name, e));
-        let h_ds = ds("H")?;
-        let shape = h_ds.shape().map_err(|e| err("H", e))?;
-        let format = match file.dataset("H_format") {
-            Ok(f) => f
-                .read_i32()
-                .map_err(|e| err("H_format", e))?
-                .first()
-                .copied(),
-            Err(_) => None,
-        };
-        let shape: Vec<usize> = shape.iter().map(|&d| d as usize).collect();
-        let (bins, laser_dims, sensor_dims) = match (format, shape.as_slice()) {
-            (Some(1) | None, &[t, sx, sy]) => (t, [1, 1], [sx, sy]),
-            (Some(2) | None, &[t, lx, ly, sx, sy]) => (t, [lx, ly], [sx, sy]),
-            (f, s) => {
-                return Err(fail(TalProblem::HFormat {
-                    shape: s.to_vec(),
-                    format: f,
-                }))
-            }
-        };
-        let (lasers, sensors) = (
-            laser_dims[0] * laser_dims[1],
-            sensor_dims[0] * sensor_dims[1],
-        );
-        let h = h_ds.read_f32().map_err(|e| err("H", e))?;
-        if h.len() != bins * lasers * sensors || bins == 0 || sensors == 0 {
-            return Err(fail(TalProblem::HValues {
-                values: h.len(),
-                shape,
-            }));
-        }
-        let points = |name: &str| -> Result<Vec<[f32; 3]>, NlosError> {
-            let v = ds(name)?.read_f32().map_err(|e| err(name, e))?;
-            if v.len() % 3 != 0 || v.iter().any(|x| !x.is_finite()) {
-                return Err(fail(TalProblem::Points(name.to_string())));
-            }
-            Ok(v.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect())
-        };
-        let sensor_grid = points("sensor_grid_xyz")?;
-        let laser_grid = points("laser_grid_xyz")?;
-        if sensor_grid.len() != sensors {
-            return Err(fail(TalProblem::SensorPoints {
-                got: sensor_grid.len(),
-                want: sensors,
-            }));
-        }
-        // y-tal's `is_laser_paired_to_sensor`: a laser grid as large as the sensor's
-        // with one laser axis entry.
-        let paired = lasers == 1 && laser_grid.len() == sensors && sensors > 1;
-        if !paired && laser_grid.len() != lasers {
-            return Err(fail(TalProblem::LaserPoints {
-                got: laser_grid.len(),
-                want: lasers,
-            }));
-        }
-        let scalar = |name: &str| -> Result<f64, NlosError> {
-            ds(name)?
-                .read_f64()
-                .map_err(|e| err(name, e))?
-                .first()
-                .copied()
-                .filter(|v| v.is_finite())
-                .ok_or_else(|| fail(TalProblem::NotFinite(name.to_string())))
-        };
-        let point = |name: &str| -> Option<[f32; 3]> {
-            let v = file.dataset(name).ok()?.read_f32().ok()?;
-            (v.len() == 3).then(|| [v[0], v[1], v[2]])
-        };
-        let accounts = match file.dataset("t_accounts_first_and_last_bounces") {
-            Ok(d) => d
-                .read_i8()
-                .map_err(|e| err("t_accounts_first_and_last_bounces", e))?
-                .first()
-                .is_some_and(|&v| v != 0),
-            Err(_) => false,
-        };
-        let delta_t = scalar("delta_t")?;
-        if delta_t <= 0.0 {
-            return Err(fail(TalProblem::DeltaT(delta_t)));
-        }
-        let normal = match file.dataset("sensor_grid_normals") {
-            Ok(d) => {
-                let v = d.read_f32().map_err(|e| err("sensor_grid_normals", e))?;
-                let n = (v.len() >= 3).then(|| [v[0], v[1], v[2]]);
-                let len = n.map_or(0.0, |n| (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt());
-                if !(len.is_finite() && len > 0.0) {
-                    return Err(fail(TalProblem::Normals));
-                }
-                n.expect("checked").map(|x| x / len)
-            }
-            Err(_) => [0.0, 0.0, 1.0],
-        };
-        let c = Capture {
-            bins,
-            lasers,
-            sensors,
-            sensor_dims,
-            laser_dims,
-            normal,
-            h,
-            laser_grid,
-            sensor_grid,
-            paired,
-            laser_xyz: point("laser_xyz"),
-            sensor_xyz: point("sensor_xyz"),
-            t_start: scalar("t_start")?,
-            delta_t,
-            accounts_first_and_last_bounces: accounts,
-        };
-        if accounts && (c.laser_xyz.is_none() || c.sensor_xyz.is_none()) {
-            return Err(fail(TalProblem::NoOrigins));
-        }
-        Ok(c)
+        Capture::from_tal_within(path, 8 << 30)
+    }
+
+    /// [`Capture::from_tal`] within `budget` bytes of memory (the file, which the HDF5
+    /// reader holds whole, and every dataset read), checking everything the file
+    /// declares before allocating from it (`tal_read.rs`).
+    pub fn from_tal_within(path: &Path, budget: u64) -> Result<Capture, NlosError> {
+        super::tal_read::read(path, budget)
     }
 
     /// The time series `q` of `qs` (`q = l S + s`), one after the other, `bins` values

@@ -15,6 +15,7 @@ pub mod lct;
 pub mod pf;
 pub mod reconstruct;
 pub mod tal;
+mod tal_read;
 pub mod wave;
 
 use std::path::PathBuf;
@@ -181,36 +182,119 @@ pub enum NlosError {
     Memory { what: &'static str, len: usize },
 }
 
-/// Why a y-tal HDF5 capture cannot be read (after "PATH: ").
+/// Why a y-tal HDF5 capture cannot be read (after "PATH: "); `tal_read.rs` lists
+/// the checks.
 #[derive(Debug, thiserror::Error)]
 pub enum TalProblem {
+    #[error("no such capture file")]
+    Missing,
+    #[error("{0}")]
+    Io(std::io::Error),
+    /// What the path names instead (`"a FIFO"`, `"a directory"`, ...).
+    #[error("not a regular file ({0}); a y-tal capture is an HDF5 file")]
+    NotRegular(&'static str),
+    #[error("the file is {}, over the memory budget of {} (the HDF5 reader holds the whole file in memory; --max-memory sets the budget)", size_text(*.size), size_text(*.budget))]
+    FileTooLarge { size: u64, budget: u64 },
+    #[error("the file is truncated: {size} bytes of the {declared} its superblock declares")]
+    Truncated { size: u64, declared: u64 },
+    #[error("the file changed size while it was read")]
+    Changed,
     /// The HDF5 reader's error on `what` (a dataset, or "not an HDF5 file").
     #[error("{what}: {error}")]
     Hdf5 {
         what: String,
         error: hdf5_pure::Error,
     },
+    #[error("the HDF5 reader failed (an internal panic) on this file")]
+    ReaderPanic,
+    #[error("{0}: no such dataset")]
+    MissingDataset(String),
+    #[error("{name}: shape {shape:?} has more elements than 64 bits count")]
+    ShapeOverflow { name: String, shape: Vec<u64> },
+    #[error("{name}: shape {shape:?} declares {count} values; at most {max} fit the capture (H's shape)")]
+    TooManyValues {
+        name: String,
+        shape: Vec<u64>,
+        count: u64,
+        max: u64,
+    },
+    #[error("{name}: datatype {dtype} is not a number")]
+    NotNumbers { name: String, dtype: String },
+    /// A dataset whose storage in the file cannot hold what it declares.
+    #[error("{name}: its storage does not match its shape: {why}")]
+    Storage { name: String, why: String },
+    #[error("{name}: HDF5 filter {filter} is not supported (tstat reads deflate/gzip, shuffle and fletcher32)")]
+    Filter { name: String, filter: u16 },
+    #[error("reading {name} would take {} with the file and what was read before, over the memory budget of {} (--max-memory sets it)", size_text(*.bytes), size_text(*.budget))]
+    OverBudget {
+        name: String,
+        bytes: u64,
+        budget: u64,
+    },
+    #[error("{name}: {values} values read for shape {shape:?}")]
+    ValueCount {
+        name: String,
+        values: usize,
+        shape: Vec<u64>,
+    },
+    #[error("{0}: not one value")]
+    NotAScalar(String),
     #[error("H of shape {shape:?} (H_format {format:?}): tstat reads T_Sx_Sy (1) and T_Lx_Ly_Sx_Sy (2) captures")]
     HFormat {
-        shape: Vec<usize>,
-        format: Option<i32>,
+        shape: Vec<u64>,
+        format: Option<f64>,
     },
-    #[error("H holds {values} values for shape {shape:?}")]
-    HValues { values: usize, shape: Vec<usize> },
-    #[error("{0} is not a grid of finite 3D points")]
-    Points(String),
-    #[error("{got} sensor grid points for H's {want}")]
-    SensorPoints { got: usize, want: usize },
-    #[error("{got} laser grid points for H's {want}")]
-    LaserPoints { got: usize, want: usize },
+    #[error("H of shape {0:?} is empty")]
+    EmptyH(Vec<u64>),
+    #[error("{name} of shape {shape:?} is not a grid of 3D points (X_Y_3 or N_3)")]
+    Points { name: String, shape: Vec<u64> },
+    #[error("{name} of shape {shape:?} is not one 3D point")]
+    NotAPoint { name: String, shape: Vec<u64> },
+    #[error("{got} sensor grid points for the {want} of H's shape {shape:?}")]
+    SensorPoints {
+        got: u64,
+        want: usize,
+        shape: Vec<u64>,
+    },
+    #[error("{got} laser grid points for the {want} of H's shape {shape:?}")]
+    LaserPoints {
+        got: u64,
+        want: usize,
+        shape: Vec<u64>,
+    },
+    /// A value that is not finite or too large, named by its index.
+    #[error("{name} ({at}) is {what}")]
+    BadValue {
+        name: String,
+        at: String,
+        what: String,
+    },
     #[error("{0} is not a finite number")]
     NotFinite(String),
+    #[error("{what} is {value:e}, beyond {max:e} in magnitude")]
+    TooLarge { what: String, value: f64, max: f64 },
     #[error("delta_t must be positive, got {0}")]
     DeltaT(f64),
+    #[error("delta_t {delta_t:e} is too small for the capture's extent {extent:e}: more than {max:e} bins")]
+    BinsTooSmall { delta_t: f64, extent: f64, max: f64 },
     #[error("sensor_grid_normals is not a grid of non-zero normals")]
     Normals,
+    #[error("t_accounts_first_and_last_bounces is {0}, not a boolean")]
+    NotABool(f64),
     #[error(
         "its times include the first and last bounces, but laser_xyz or sensor_xyz is missing"
     )]
     NoOrigins,
+}
+
+/// A byte count for messages: "2.40 GB", "3.86 MB", "12.4 kB".
+fn size_text(b: u64) -> String {
+    let b = b as f64;
+    if b >= 1e9 {
+        format!("{:.2} GB", b / 1e9)
+    } else if b >= 1e6 {
+        format!("{:.2} MB", b / 1e6)
+    } else {
+        format!("{:.1} kB", b / 1e3)
+    }
 }
