@@ -55,11 +55,11 @@ pub struct Common {
     pub cpus: i64,
     /// Memory of one render task, 64Mi to 1Pi (e.g. 4Gi; 4G is 4e9 bytes; default:
     /// twice the render's own estimate at --cpus threads, at least 1Gi).
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     pub mem: Option<String>,
     /// Memory of the merge (and denoise) task, at most 1Pi; the merge's per-pixel images
     /// take about 160 bytes a pixel plus 64Mi, its bands and the denoiser the rest.
-    #[arg(long, default_value = "2Gi")]
+    #[arg(long, default_value = "2Gi", allow_hyphen_values = true)]
     pub merge_mem: String,
     /// Also denoise the merged bundle into DIR/denoised.npy.
     #[arg(long)]
@@ -80,7 +80,7 @@ pub struct SlurmArgs {
     pub common: Common,
     /// Time limit of each task (Slurm's format: minutes, M:S, H:M:S, D-H, D-H:M or
     /// D-H:M:S; above 0, at most 365 days).
-    #[arg(long, default_value = "02:00:00")]
+    #[arg(long, default_value = "02:00:00", allow_hyphen_values = true)]
     pub time: String,
     /// Partition to submit to (default: the cluster's default).
     #[arg(long)]
@@ -157,8 +157,9 @@ struct Plan {
 }
 
 /// Checks the job and makes its description (numbers, sizes, render options, paths,
-/// the scene loaded, shares, memory). Prints nothing and creates nothing.
-fn plan(c: &Common, binary: String, max_shards: u64) -> anyhow::Result<Plan> {
+/// the scene loaded, shares, memory). `directive`: DIR goes into `#SBATCH` lines
+/// (Slurm). Prints nothing and creates nothing.
+fn plan(c: &Common, binary: String, max_shards: u64, directive: bool) -> anyhow::Result<Plan> {
     let shards = int_flag("--shards", c.shards, 2, max_shards as i64).map_err(|e| {
         if c.shards < 2 {
             anyhow!(
@@ -196,7 +197,7 @@ fn plan(c: &Common, binary: String, max_shards: u64) -> anyhow::Result<Plan> {
     let scene_path = absolute(&r.scene, "the scene")?;
     let dir = absolute(&c.out, "--out")?;
     check_path(&scene_path, "the scene", false)?;
-    check_path(&dir, "--out", true)?;
+    check_path(&dir, "--out", directive)?;
     // Search folders (-a) as absolute paths.
     let mut render_options = Vec::with_capacity(c.render_options.len());
     let mut search_folders = Vec::new();
@@ -306,7 +307,9 @@ fn check_out(job: &Job, files: &[&str], inputs: &[Arg], force: bool) -> anyhow::
     outputs.push(arg("--out", job.merged()));
     outputs.push(arg("--out", job.denoised()));
     check_collisions(inputs, &outputs)?;
-    for p in [d.clone(), d.join("shards"), d.join("logs")] {
+    // DIR's nearest existing ancestor (or DIR itself), shards/ and logs/: folders.
+    let nearest = d.ancestors().find(|a| a.exists()).unwrap_or(d);
+    for p in [nearest.to_path_buf(), d.join("shards"), d.join("logs")] {
         anyhow::ensure!(
             !p.exists() || p.is_dir(),
             "--out {}: {} exists and is not a folder",
@@ -483,7 +486,7 @@ pub fn run(a: ClusterArgs) -> anyhow::Result<()> {
                 summary,
                 mut inputs,
                 ..
-            } = plan(&s.common, exe.display().to_string(), MAX_SLURM_SHARDS)?;
+            } = plan(&s.common, exe.display().to_string(), MAX_SLURM_SHARDS, true)?;
             inputs.push(arg("the tstat binary", &exe));
             let files = ["render.sbatch", "merge.sbatch"];
             check_out(&job, &files, &inputs, s.common.force)?;
@@ -524,7 +527,7 @@ pub fn run(a: ClusterArgs) -> anyhow::Result<()> {
                 summary,
                 inputs,
                 search_folders,
-            } = plan(&k.common, k.binary.clone(), k8s::MAX_SHARDS)?;
+            } = plan(&k.common, k.binary.clone(), k8s::MAX_SHARDS, false)?;
             let mount = normalize(Path::new(&k.mount)).display().to_string();
             k8s::check_under(&job.scene, &mount, "the scene")?;
             k8s::check_under(&job.dir, &mount, "--out")?;
@@ -563,4 +566,119 @@ pub fn run(a: ClusterArgs) -> anyhow::Result<()> {
         }
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::collections::BTreeSet;
+
+    fn job(dir: &Path) -> Job {
+        Job {
+            binary: "tstat".into(),
+            scene: dir.join("s.xml"),
+            dir: dir.to_path_buf(),
+            shards: 2,
+            render_options: Vec::new(),
+            denoise: false,
+            cpus: 1,
+            render_mib: 1024,
+            merge_mib: 1024,
+            band_mib: 512,
+        }
+    }
+
+    /// Every path under `root`, relative, with file contents.
+    fn tree(root: &Path) -> BTreeSet<(PathBuf, Vec<u8>)> {
+        let mut out = BTreeSet::new();
+        let mut stack = vec![root.to_path_buf()];
+        while let Some(d) = stack.pop() {
+            for e in std::fs::read_dir(&d).unwrap().flatten() {
+                let p = e.path();
+                let rel = p.strip_prefix(root).unwrap().to_path_buf();
+                if p.is_dir() {
+                    stack.push(p);
+                    out.insert((rel, b"dir".to_vec()));
+                } else {
+                    out.insert((rel, std::fs::read(&p).unwrap()));
+                }
+            }
+        }
+        out
+    }
+
+    fn files() -> Vec<(&'static str, String)> {
+        vec![
+            ("render.sbatch", "r\n".into()),
+            ("merge.sbatch", "m\n".into()),
+        ]
+    }
+
+    #[test]
+    fn recipes_are_written_and_kept() {
+        let t = tempfile::tempdir().unwrap();
+        let d = t.path().join("a/b/run");
+        write_recipes(&job(&d), &files(), false).unwrap();
+        let names: Vec<PathBuf> = tree(t.path()).into_iter().map(|(p, _)| p).collect();
+        let want = [
+            "a",
+            "a/b",
+            "a/b/run",
+            "a/b/run/logs",
+            "a/b/run/merge.sbatch",
+            "a/b/run/render.sbatch",
+            "a/b/run/shards",
+        ];
+        assert_eq!(names, want.map(PathBuf::from));
+        assert_eq!(std::fs::read(d.join("merge.sbatch")).unwrap(), b"m\n");
+    }
+
+    /// A failure after some recipes are in place: everything this run created goes
+    /// (the placed recipe, the temporary file, the folders), what was there stays.
+    #[test]
+    fn a_failed_write_removes_what_it_created() {
+        let t = tempfile::tempdir().unwrap();
+        let d = t.path().join("run");
+        std::fs::create_dir_all(d.join("merge.sbatch")).unwrap();
+        std::fs::write(d.join("merge.sbatch/keep"), "precious").unwrap();
+        let before = tree(t.path());
+        // With --force a file is renamed over merge.sbatch, a non-empty folder: fails
+        // after render.sbatch is in place.
+        let e = write_recipes(&job(&d), &files(), true).unwrap_err();
+        assert!(e.to_string().starts_with("writing "), "{e}");
+        assert_eq!(tree(t.path()), before);
+        // Missing parents created by the run go too; the temporary file is
+        // written into a folder that does not exist.
+        let deep = t.path().join("x/y/z");
+        let e = write_recipes(
+            &job(&deep),
+            &[("render.sbatch", "r".into()), ("no/such", "m".into())],
+            false,
+        )
+        .unwrap_err();
+        assert!(e.to_string().contains("no/such"), "{e}");
+        assert_eq!(tree(t.path()), before);
+    }
+
+    /// Without --force an existing recipe is never replaced, even one that appears
+    /// after the checks (the hard link refuses an existing name).
+    #[test]
+    fn existing_recipes_are_not_replaced_without_force() {
+        let t = tempfile::tempdir().unwrap();
+        let d = t.path().join("run");
+        std::fs::create_dir(&d).unwrap();
+        std::fs::write(d.join("merge.sbatch"), "mine").unwrap();
+        let before = tree(t.path());
+        let e = write_recipes(&job(&d), &files(), false).unwrap_err();
+        assert!(
+            e.to_string()
+                .ends_with("merge.sbatch: already exists (use --force to replace it)"),
+            "{e}"
+        );
+        assert_eq!(tree(t.path()), before);
+        let e = check_out(&job(&d), &["render.sbatch", "merge.sbatch"], &[], false).unwrap_err();
+        assert!(e.to_string().contains("already exists"), "{e}");
+        write_recipes(&job(&d), &files(), true).unwrap();
+        assert_eq!(std::fs::read(d.join("merge.sbatch")).unwrap(), b"m\n");
+    }
 }

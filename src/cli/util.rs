@@ -750,5 +750,16 @@ mod tests {
     #[test]
     fn value_enums_are_named_as_typed() {
         assert_eq!(cli_name(&crate::render::PixelSampling::Sobol), "sobol");
+        use crate::cli::nlos::{reconstruction, Method};
+        for (m, name) in [(Method::Fbp, "fbp"), (Method::Pf, "pf")] {
+            let e = reconstruction(m, None, None, None)
+                .err()
+                .unwrap()
+                .to_string();
+            assert!(
+                e.starts_with(&format!("--method {name} needs --wl-mean")),
+                "{e}"
+            );
+        }
     }
 }

@@ -251,29 +251,196 @@ mod tests {
         assert!(check_path(Path::new("/scratch/a\nb"), "the scene", false).is_err());
     }
 
+    /// The shells to check against: POSIX sh (dash here) and bash, where present.
+    fn shells() -> Vec<&'static str> {
+        ["sh", "bash"]
+            .into_iter()
+            .filter(|sh| {
+                std::process::Command::new(sh)
+                    .args(["-c", ":"])
+                    .output()
+                    .is_ok_and(|o| o.status.success())
+            })
+            .collect()
+    }
+
+    /// What `shell` prints for `printf %s WORDS`: the words joined by the shell's
+    /// argument splitting, each printed back to back.
+    fn printed(shell: &str, words: &str) -> Vec<u8> {
+        let out = std::process::Command::new(shell)
+            .arg("-c")
+            .arg(format!("printf %s {words}"))
+            .env("LC_ALL", "C.UTF-8")
+            .output()
+            .expect("run the shell");
+        assert!(
+            out.status.success(),
+            "{shell} -c 'printf %s {words}': {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        out.stdout
+    }
+
+    /// A reference reader of the words `quote` writes: plain characters, and
+    /// single-quoted runs with `\'` between them. Returns the word, or `None` when the
+    /// text holds anything else (a character a shell would treat specially).
+    fn read_word(q: &str) -> Option<String> {
+        let mut out = String::new();
+        let mut it = q.chars().peekable();
+        while let Some(c) = it.next() {
+            match c {
+                '\'' => loop {
+                    match it.next()? {
+                        '\'' => break,
+                        c => out.push(c),
+                    }
+                },
+                '\\' => out.push(it.next().filter(|&c| c == '\'')?),
+                c if c.is_ascii_alphanumeric() || "/._-+:,@%=".contains(c) => out.push(c),
+                _ => return None,
+            }
+        }
+        (!q.is_empty()).then_some(out)
+    }
+
+    const HOSTILE: &[&str] = &[
+        "plain/path.xml",
+        "a b",
+        "it's",
+        "''",
+        "'\\''",
+        "{shard}",
+        "$HOME",
+        "$(touch x)",
+        "d$(touch${IFS}x)",
+        "`touch x`",
+        "a;touch x",
+        "a&&b||c|d&",
+        "x\"y",
+        "\"$(id)\"",
+        "a\nb",
+        "a\tb\r",
+        "\\",
+        "\\'",
+        "-rf",
+        "--out=x",
+        "~",
+        "~root/x",
+        "a~b",
+        "*",
+        "/tmp/*.tstats",
+        "[a]",
+        "?",
+        "#comment",
+        "a#b",
+        "!x",
+        "=ls",
+        "%1",
+        "A=b",
+        "_x=1",
+        "PATH=/x",
+        "1x=y",
+        "<in",
+        ">out",
+        "(sub)",
+        "{a,b}",
+        "éé ü/雪/🦀",
+        "\u{2028}",
+        "",
+        " ",
+    ];
+
     #[test]
-    fn quoting_survives_bash() {
-        for s in [
-            "plain/path.xml",
-            "a b",
-            "it's",
-            "{shard}",
-            "$HOME",
-            "",
-            "x\"y",
-            "a\nb",
-        ] {
-            let out = std::process::Command::new("bash")
+    fn quoting_survives_posix_shells() {
+        for s in HOSTILE {
+            let q = quote(s);
+            assert_eq!(read_word(&q).as_deref(), Some(*s), "{s:?} -> {q}");
+            for sh in shells() {
+                assert_eq!(printed(sh, &q), s.as_bytes(), "{sh}: {s:?} -> {q}");
+            }
+        }
+        // Several words on one line stay separate words.
+        let line = command_line(HOSTILE);
+        for sh in shells() {
+            let out = std::process::Command::new(sh)
                 .arg("-c")
-                .arg(format!("printf %s {}", quote(s)))
-                .output();
-            let Ok(out) = out else { return }; // no bash: nothing to check against
-            assert_eq!(
-                String::from_utf8_lossy(&out.stdout),
-                s,
-                "{s:?} -> {}",
-                quote(s)
+                .arg(format!("for a in {line}; do printf '%s\\0' \"$a\"; done"))
+                .output()
+                .unwrap();
+            let got: Vec<&[u8]> = out.stdout.split(|&b| b == 0).collect();
+            let want: Vec<&[u8]> = HOSTILE
+                .iter()
+                .map(|s| s.as_bytes())
+                .chain([&b""[..]])
+                .collect();
+            assert_eq!(got, want, "{sh}: {line}");
+        }
+    }
+
+    #[test]
+    fn plain_words_stay_readable_and_assignments_are_quoted() {
+        for s in [
+            "/scratch/run1/render.sbatch",
+            "--spp",
+            "4096",
+            "auto/16",
+            "-D",
+            "--for=condition=complete",
+            "job/x-render",
+            "a:b,c@d+e%f",
+        ] {
+            assert_eq!(quote(s), *s);
+        }
+        for (s, q) in [
+            ("A=b", "'A=b'"),
+            ("=x", "'=x'"),
+            ("%1", "'%1'"),
+            ("it's", r"'it'\''s'"),
+            ("", "''"),
+            ("~", "'~'"),
+        ] {
+            assert_eq!(quote(s), q);
+        }
+        // In command position a quoted `A=b` is a command name, not an assignment.
+        for sh in shells() {
+            let out = std::process::Command::new(sh)
+                .arg("-c")
+                .arg(format!("{} 2>/dev/null; echo $?", quote("A=b")))
+                .output()
+                .unwrap();
+            assert_eq!(String::from_utf8_lossy(&out.stdout).trim(), "127", "{sh}");
+        }
+    }
+
+    mod prop {
+        use super::*;
+        use proptest::prelude::*;
+
+        /// Strings of any characters but NUL, weighted towards the ones shells treat
+        /// specially.
+        fn hostile_string() -> impl Strategy<Value = String> {
+            let special = proptest::sample::select(
+                "'\"\\$`;&|<>(){}[]*?~#!= \t\n%-/.^@:,+"
+                    .chars()
+                    .collect::<Vec<_>>(),
             );
+            let any = any::<char>().prop_filter("no NUL", |&c| c != '\0');
+            let byte = (1u8..=255).prop_map(char::from);
+            proptest::collection::vec(prop_oneof![3 => special, 2 => byte, 1 => any], 0..24)
+                .prop_map(|v| v.into_iter().collect())
+        }
+
+        proptest! {
+            #![proptest_config(ProptestConfig { cases: 256, failure_persistence: None, ..ProptestConfig::default() })]
+
+            #[test]
+            fn quote_round_trips(s in hostile_string()) {
+                let q = quote(&s);
+                prop_assert_eq!(read_word(&q), Some(s.clone()), "{:?} -> {}", s, q);
+                for sh in shells() {
+                    prop_assert_eq!(printed(sh, &q), s.as_bytes().to_vec(), "{}: {:?} -> {}", sh, s, q);
+                }
+            }
         }
     }
 }
