@@ -121,8 +121,8 @@ const CASES: &[Case] = &[
     (&["denoise", "b.tstats", "--out", "e/d.npy", "--exr", "e"], Ours, "is inside --exr e"),
     (&["denoise", "b.tstats", "--out", "b.tstats/x.npy"], Ours, "is inside the input bundle b.tstats"),
     // The denoiser's memory budget: a size, and at least one row and its halo.
-    (&["denoise", "b.tstats", "--out", "d.npy", "--max-memory", "-1G"], Ours, "--max-memory: '-1G' is not a size"),
-    (&["denoise", "b.tstats", "--out", "d.npy", "--max-memory", "1k"], Ours, "--max-memory 1.0 kB: denoising"),
+    (&["denoise", "b.tstats", "--out", "d.npy", "--max-memory", "-1G"], Ours, "--max-memory -1G: not a size"),
+    (&["denoise", "b.tstats", "--out", "d.npy", "--max-memory", "1k"], Ours, "--max-memory 1k: denoising"),
     // The denoiser's membership settings.
     (&["denoise", "b.tstats", "--out", "d.npy", "--t2-max", "-1"], Ours, "--t2-max -1: must be a positive number"),
     (&["denoise", "b.tstats", "--out", "d.npy", "--t2-patch", "nan"], Ours, "--t2-patch NaN: must be a positive number"),

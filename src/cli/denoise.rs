@@ -1,7 +1,7 @@
 //! `tstat denoise NAME.tstats --out denoised.npy`: the statistical spatio-temporal filter.
 
 use super::export::write_exr_rgb;
-use super::util::{arg, check_outputs, human_bytes, parse_bytes, threads, with_threads, Kind};
+use super::util::{arg, check_outputs, human_bytes, size_flag, threads, with_threads, Kind};
 use crate::bundle::write::{stage, Staged};
 use crate::bundle::{Bundle, BundleError};
 use crate::denoise::base_filter::{BaseKind, Sigmas};
@@ -10,7 +10,7 @@ use crate::denoise::slab::{denoise_bundle_to_npy, halo, Dims, SlabPlan, DEFAULT_
 use crate::denoise::tstat::TstatParams;
 use crate::denoise::{memory_bytes, DenoiseParams, Method};
 use crate::stats::accumulators::CHANNELS;
-use anyhow::{anyhow, bail, ensure};
+use anyhow::{bail, ensure};
 use clap::{Args, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
 use ndarray::{s, Array3, Array4};
@@ -272,7 +272,7 @@ pub fn run(a: DenoiseArgs) -> anyhow::Result<()> {
     }
     let threads = threads(a.threads)?;
     let budget = match &a.max_memory {
-        Some(s) => parse_bytes(s).map_err(|e| anyhow!("--max-memory: {e}"))?,
+        Some(s) => size_flag("--max-memory", s)?,
         None => DEFAULT_BUDGET,
     };
     let mut outputs = vec![(arg("--out", &a.out), Kind::File)];
@@ -301,7 +301,7 @@ pub fn run(a: DenoiseArgs) -> anyhow::Result<()> {
     ensure!(
         need <= budget,
         "--max-memory {}: denoising {}x{} px x {} bins needs at least {} (one row and its halo of {halo} rows on each side)",
-        human_bytes(budget),
+        a.max_memory.clone().unwrap_or_else(|| human_bytes(budget)),
         m.width,
         m.height,
         m.bins,

@@ -65,9 +65,7 @@ pub fn run(a: ExportArgs) -> anyhow::Result<()> {
     }
     let tal_memory = match (&a.max_memory, &a.tal) {
         (Some(_), None) => bail!("--max-memory bounds the --tal export; give --tal"),
-        (Some(s), Some(_)) => {
-            super::util::parse_bytes(s).map_err(|e| anyhow::anyhow!("--max-memory: {e}"))?
-        }
+        (Some(s), Some(_)) => super::util::size_flag("--max-memory", s)?,
         (None, _) => TAL_MEMORY,
     };
     if let Some(out) = &a.out {

@@ -2,9 +2,8 @@
 //! same scene and settings with different seeds (e.g. from several machines, or the
 //! shards of one `--shard` job), streamed in bounded memory.
 
-use super::util::{arg, check_outputs, human_bytes, parse_bytes, Kind};
+use super::util::{arg, check_outputs, human_bytes, size_flag, Kind};
 use crate::bundle::merge::{merge_bundles, MergeOptions};
-use anyhow::anyhow;
 use clap::Args;
 use std::path::PathBuf;
 
@@ -39,7 +38,7 @@ pub fn run(a: MergeArgs) -> anyhow::Result<()> {
         ..MergeOptions::default()
     };
     if let Some(s) = &a.max_memory {
-        opts.memory = parse_bytes(s).map_err(|e| anyhow!("--max-memory: {e}"))?;
+        opts.memory = size_flag("--max-memory", s)?;
     }
     let m = merge_bundles(&a.bundles, &a.out, opts)?;
     let shards = match &m.shard {

@@ -2,7 +2,7 @@
 //! --volume X0,X1,Y0,Y1,Z0,Z1 --voxels NX,NY,NZ --out VOLUME.npy`: a reconstruction of the hidden scene from an
 //! NLOS capture (a tstat bundle or a y-tal HDF5 capture), as y-tal computes it.
 
-use super::util::{arg, check_outputs, human_bytes, parse_bytes, Kind};
+use super::util::{arg, check_outputs, human_bytes, size_flag, Kind};
 use crate::bundle::write::stage;
 use crate::bundle::{Bundle, BundleError};
 use crate::nlos::bp::VoxelGrid;
@@ -189,8 +189,8 @@ pub fn reconstruction(
         (false, None, None) => None,
         (false, _, _) => bail!("--wl-mean and --wl-sigma belong to --method fbp and pf"),
         (true, None, _) => bail!(
-            "--method {:?} needs --wl-mean (the virtual pulse's wavelength)",
-            method
+            "--method {} needs --wl-mean (the virtual pulse's wavelength)",
+            super::util::cli_name(&method)
         ),
         (true, Some(m), sigma) => {
             let s = sigma.unwrap_or(m / std::f64::consts::SQRT_2);
@@ -246,7 +246,7 @@ pub fn check_reconstruction(
 /// `--max-memory` (default [`DEFAULT_MAX_MEMORY`]).
 pub fn memory_budget(s: Option<&str>) -> anyhow::Result<u64> {
     match s {
-        Some(s) => parse_bytes(s).map_err(|e| anyhow!("--max-memory: {e}")),
+        Some(s) => size_flag("--max-memory", s),
         None => Ok(DEFAULT_MAX_MEMORY),
     }
 }
@@ -345,7 +345,7 @@ fn mip(m: MipArgs) -> anyhow::Result<()> {
         bail!(
             "{}: projecting {n:?} along {} needs {} of memory, over --max-memory {}",
             m.volume.display(),
-            axis_name(m.axis),
+            super::util::cli_name(&m.axis),
             human_bytes(need),
             human_bytes(budget)
         );
@@ -366,19 +366,10 @@ fn mip(m: MipArgs) -> anyhow::Result<()> {
     say!(
         "wrote {} ({w} x {h} px, the maximum along {} of {:?})",
         m.out.display(),
-        axis_name(m.axis),
+        super::util::cli_name(&m.axis),
         n
     );
     Ok(())
-}
-
-/// The axis as the command line spells it.
-fn axis_name(a: MipAxis) -> &'static str {
-    match a {
-        MipAxis::X => "x",
-        MipAxis::Y => "y",
-        MipAxis::Z => "z",
-    }
 }
 
 /// Replaces the capture's H by the denoised volume `d` of the bundle `dir`, read a
@@ -443,10 +434,10 @@ fn reconstruct(r: ReconstructArgs) -> anyhow::Result<()> {
     })?
     .commit()?;
     say!(
-        "wrote {} (f32 {:?}, {:?} in {seconds:.2} s: {} laser x {} sensor points, {} bins)",
+        "wrote {} (f32 {:?}, {} in {seconds:.2} s: {} laser x {} sensor points, {} bins)",
         r.out.display(),
         array.shape(),
-        r.method,
+        super::util::cli_name(&r.method),
         capture.lasers,
         capture.sensors,
         capture.bins

@@ -1,8 +1,8 @@
 //! `tstat render SCENE.xml --out NAME.tstats`: render and write a statistics bundle.
 
 use super::util::{
-    arg, check_outputs, disk_size, finite, human_bytes, opt_int, parse_bytes, physical_memory,
-    positive, seed, threads, with_threads, Kind, MAX_FILM_SIDE,
+    arg, check_outputs, disk_size, finite, human_bytes, opt_int, physical_memory, positive, seed,
+    size_flag, threads, with_threads, Kind, MAX_FILM_SIDE,
 };
 use crate::bundle::shard::{shard_seed, Shard, PLACEHOLDER};
 use crate::bundle::write::{bundle_bytes_with, BundleMeta, BundleWriter, JobShard};
@@ -191,7 +191,7 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
     let threads = threads(a.threads)?;
     let seed = seed(a.seed)?;
     let limit = match &a.max_memory {
-        Some(s) => Some(parse_bytes(s).map_err(|e| anyhow::anyhow!("--max-memory: {e}"))?),
+        Some(s) => Some(size_flag("--max-memory", s)?),
         None => None,
     };
     let (shard, out) = shard_and_out(a.shard.as_deref(), &a.out)?;

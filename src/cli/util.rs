@@ -21,44 +21,98 @@ pub fn human_bytes(b: u64) -> String {
     }
 }
 
-/// A size that does not parse; `binary`: it was given in binary units (Ki, Mi, ...).
+/// A size that does not parse or does not fit; shown after the flag and what the user
+/// typed (see [`size_flag`]).
 #[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
 pub enum SizeError {
-    #[error("'{0}' is not a size such as 512M, 8G or 4Gi")]
-    Binary(String),
-    #[error("'{0}' is not a size such as 512M or 8G")]
-    Decimal(String),
+    #[error("not a size such as 512M, 8G or 4Gi (a number, then K, M, G, T, P or E for powers of 1000, Ki, Mi, Gi, Ti, Pi or Ei for powers of 1024, and an optional B)")]
+    Syntax,
+    #[error("less than one byte")]
+    Zero,
+    #[error("more than 2^64 - 1 bytes (16Ei), the largest size")]
+    Overflow,
 }
 
-/// Parses "512M", "8G", "1.5GB", "1000000" (decimal units) into bytes.
+/// The sizes' units: `K` = 1000, `Ki` = 1024, up to `E` and `Ei`.
+const SIZE_UNITS: &str = "KMGTPE";
+
+/// Parses a size in bytes: a decimal number (`512`, `1.5`; no sign, no exponent), then
+/// an optional unit (`K`, `M`, `G`, `T`, `P`, `E`: powers of 1000; `Ki` ... `Ei`:
+/// powers of 1024; any case) and an optional `B`. Exact integer arithmetic: a fraction
+/// of a byte is dropped (`1.5K` = 1500, `0.3Ki` = 307), a size of 0 bytes or beyond
+/// 2^64 - 1 is refused, never clamped. Use [`size_flag`] for a flag.
 pub fn parse_bytes(s: &str) -> Result<u64, SizeError> {
-    let t = s.trim().to_ascii_uppercase();
-    let t = t.strip_suffix('B').unwrap_or(&t);
-    // Binary units: Ki, Mi, Gi, Ti (KiB ...).
-    if let Some(head) = t.strip_suffix('I') {
-        let (num, shift) = match head.chars().last() {
-            Some('K') => (&head[..head.len() - 1], 10),
-            Some('M') => (&head[..head.len() - 1], 20),
-            Some('G') => (&head[..head.len() - 1], 30),
-            Some('T') => (&head[..head.len() - 1], 40),
-            _ => return Err(SizeError::Binary(s.to_string())),
-        };
-        return match num.trim().parse::<f64>() {
-            Ok(v) if v.is_finite() && v > 0.0 => Ok((v * (1u64 << shift) as f64) as u64),
-            _ => Err(SizeError::Binary(s.to_string())),
-        };
-    }
-    let (num, mult) = match t.chars().last() {
-        Some('K') => (&t[..t.len() - 1], 1e3),
-        Some('M') => (&t[..t.len() - 1], 1e6),
-        Some('G') => (&t[..t.len() - 1], 1e9),
-        Some('T') => (&t[..t.len() - 1], 1e12),
-        _ => (t, 1.0),
+    let t = s.trim();
+    let t = t.strip_suffix(['B', 'b']).unwrap_or(t);
+    let (t, binary) = match t.strip_suffix(['i', 'I']) {
+        Some(head) => (head, true),
+        None => (t, false),
     };
-    match num.trim().parse::<f64>() {
-        Ok(v) if v.is_finite() && v > 0.0 => Ok((v * mult) as u64),
-        _ => Err(SizeError::Decimal(s.to_string())),
+    let unit = t
+        .chars()
+        .next_back()
+        .and_then(|c| SIZE_UNITS.find(c.to_ascii_uppercase()));
+    let (num, mult) = match unit {
+        Some(k) => {
+            let k = k as u32 + 1;
+            let mult = if binary {
+                1u128 << (10 * k)
+            } else {
+                1000u128.pow(k)
+            };
+            (t[..t.len() - 1].trim_end(), mult)
+        }
+        None if binary => return Err(SizeError::Syntax),
+        None => (t, 1),
+    };
+    let (int, frac) = num.split_once('.').unwrap_or((num, ""));
+    let digits = |d: &str| d.bytes().all(|b| b.is_ascii_digit());
+    // At most 18 decimals: their value times the largest unit (2^60) fits a u128.
+    if (int.is_empty() && frac.is_empty()) || !digits(int) || !digits(frac) || frac.len() > 18 {
+        return Err(SizeError::Syntax);
     }
+    let whole = int
+        .bytes()
+        .try_fold(0u128, |a, d| {
+            a.checked_mul(10)?.checked_add(u128::from(d - b'0'))
+        })
+        .and_then(|v| v.checked_mul(mult))
+        .ok_or(SizeError::Overflow)?;
+    let frac_value: u128 = frac.parse().unwrap_or(0);
+    let part = frac_value * mult / 10u128.pow(frac.len() as u32);
+    let bytes = whole.checked_add(part).ok_or(SizeError::Overflow)?;
+    match u64::try_from(bytes) {
+        Ok(0) => Err(SizeError::Zero),
+        Ok(b) => Ok(b),
+        Err(_) => Err(SizeError::Overflow),
+    }
+}
+
+/// A size flag (`--max-memory 8G`), parsed by [`parse_bytes`]; errors name the flag and
+/// echo what was typed: "--max-memory 8Q: not a size such as ...".
+pub fn size_flag(flag: &str, s: &str) -> anyhow::Result<u64> {
+    parse_bytes(s).map_err(|e| anyhow!("{flag} {s}: {e}"))
+}
+
+/// [`size_flag`] within `min..=max` bytes; the bounds are shown as written in `min_text`
+/// and `max_text` (e.g. "1Ki", "1Pi").
+pub fn size_flag_in(
+    flag: &str,
+    s: &str,
+    (min, min_text): (u64, &str),
+    (max, max_text): (u64, &str),
+) -> anyhow::Result<u64> {
+    let b = size_flag(flag, s)?;
+    ensure!(b >= min, "{flag} {s}: at least {min_text}");
+    ensure!(b <= max, "{flag} {s}: at most {max_text}");
+    Ok(b)
+}
+
+/// The spelling of a clap `ValueEnum` value on the command line (`fbp`, not `Fbp`), for
+/// messages.
+pub fn cli_name<T: clap::ValueEnum>(v: &T) -> String {
+    v.to_possible_value()
+        .map_or_else(String::new, |p| p.get_name().to_string())
 }
 
 /// Physical memory in bytes (from /proc/meminfo), if known.
@@ -585,8 +639,127 @@ mod tests {
         assert_eq!(parse_bytes("512Mi"), Ok(512 << 20));
         assert_eq!(parse_bytes("4GiB"), Ok(4 << 30));
         assert_eq!(parse_bytes("2ki"), Ok(2048));
+        assert_eq!(parse_bytes(" 3 K "), Ok(3000));
+        assert_eq!(parse_bytes("7b"), Ok(7));
         assert!(parse_bytes("4i").is_err());
         assert!(parse_bytes("-1G").is_err());
         assert!(parse_bytes("lots").is_err());
+    }
+
+    #[test]
+    fn every_unit_is_exact() {
+        let units = ["K", "M", "G", "T", "P", "E"];
+        for (k, u) in units.iter().enumerate() {
+            let k = k as u32 + 1;
+            let dec = 1000u64.pow(k);
+            let bin = 1u64 << (10 * k);
+            for spelled in [
+                u.to_string(),
+                u.to_lowercase(),
+                format!("{u}B"),
+                format!("{u}b"),
+            ] {
+                assert_eq!(parse_bytes(&format!("1{spelled}")), Ok(dec), "1{spelled}");
+            }
+            for spelled in [
+                format!("{u}i"),
+                format!("{u}iB"),
+                format!("{}I", u.to_lowercase()),
+            ] {
+                assert_eq!(parse_bytes(&format!("1{spelled}")), Ok(bin), "1{spelled}");
+            }
+            assert_eq!(parse_bytes(&format!("1.5{u}")), Ok(dec + dec / 2));
+            assert_eq!(parse_bytes(&format!("0.5{u}i")), Ok(bin / 2));
+            assert_eq!(parse_bytes(&format!(".25{u}i")), Ok(bin / 4));
+        }
+        // A fraction of a byte is dropped, never rounded up.
+        assert_eq!(parse_bytes("0.3Ki"), Ok(307));
+        assert_eq!(parse_bytes("1.9"), Ok(1));
+        assert_eq!(
+            parse_bytes("1.000000000000000001E"),
+            Ok(1_000_000_000_000_000_001)
+        );
+        // Exact where f64 is not: 2^53 + 1.
+        assert_eq!(parse_bytes("9007199254740993"), Ok(9_007_199_254_740_993));
+    }
+
+    #[test]
+    fn sizes_beyond_u64_are_refused_not_clamped() {
+        assert_eq!(parse_bytes("18446744073709551615"), Ok(u64::MAX));
+        assert_eq!(parse_bytes("18446744073709551615B"), Ok(u64::MAX));
+        for s in [
+            "18446744073709551616",
+            "99999999999999999999",
+            "16Ei",
+            "18.446744073709551616E",
+            "18446744073709551616.0",
+            "20E",
+            "1000000000000000000000000000000000000000000000K",
+            "99999999999999999999999999999999999999999",
+        ] {
+            assert_eq!(parse_bytes(s), Err(SizeError::Overflow), "{s}");
+        }
+        assert_eq!(
+            parse_bytes("15.999999999999999999Ei"),
+            Ok(18_446_744_073_709_551_614)
+        );
+        assert_eq!(parse_bytes("18.446744073709551615E"), Ok(u64::MAX));
+        for s in ["0", "0K", "0.0001", "0.0000000001K"] {
+            assert_eq!(parse_bytes(s), Err(SizeError::Zero), "{s}");
+        }
+        for s in [
+            "",
+            ".",
+            "K",
+            "Ki",
+            "B",
+            "iB",
+            "1e9",
+            "1..5K",
+            "1.5.K",
+            "+1K",
+            "-0",
+            "1 2K",
+            "1KK",
+            "1Bi",
+            "1XiB",
+            "nan",
+            "inf",
+            "0x10",
+            "1.0000000000000000001K",
+            "１K",
+            "1K\u{0}",
+        ] {
+            assert_eq!(parse_bytes(s), Err(SizeError::Syntax), "{s:?}");
+        }
+        let e = size_flag("--mem", "99999999999999999999").unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "--mem 99999999999999999999: more than 2^64 - 1 bytes (16Ei), the largest size"
+        );
+        let e = size_flag_in("--max-bytes", "1K", (1024, "1Ki"), (u64::MAX, "16Ei")).unwrap_err();
+        assert_eq!(e.to_string(), "--max-bytes 1K: at least 1Ki");
+        assert_eq!(
+            size_flag_in("--max-bytes", "1Ki", (1024, "1Ki"), (u64::MAX, "16Ei")).unwrap(),
+            1024
+        );
+        let e = size_flag_in("--mem", "2Pi", (1, "1"), (1 << 50, "1Pi")).unwrap_err();
+        assert_eq!(e.to_string(), "--mem 2Pi: at most 1Pi");
+    }
+
+    #[test]
+    fn value_enums_are_named_as_typed() {
+        assert_eq!(cli_name(&crate::render::PixelSampling::Sobol), "sobol");
+        use crate::cli::nlos::{reconstruction, Method};
+        for (m, name) in [(Method::Fbp, "fbp"), (Method::Pf, "pf")] {
+            let e = reconstruction(m, None, None, None)
+                .err()
+                .unwrap()
+                .to_string();
+            assert!(
+                e.starts_with(&format!("--method {name} needs --wl-mean")),
+                "{e}"
+            );
+        }
     }
 }

@@ -1,7 +1,7 @@
 //! `tstat view BUNDLE [--denoised D.npy] [--reference R.npy] --out view.html`: one
 //! self-contained HTML page to look at the volume (see `viz::view`).
 
-use super::util::{arg, check_outputs, human_bytes, parse_bytes, Kind};
+use super::util::{arg, check_outputs, human_bytes, size_flag_in, Kind};
 use crate::bundle::float_rows::FloatRows;
 use crate::bundle::write::replace_file;
 use crate::bundle::Bundle;
@@ -45,10 +45,9 @@ pub fn run(a: ViewArgs) -> anyhow::Result<()> {
     inputs.extend(a.reference.iter().map(|p| arg("--reference", p)));
     check_outputs(&inputs, &[(arg("--out", &a.out), Kind::File)], a.force)?;
     let budget = match &a.max_bytes {
-        Some(s) => parse_bytes(s).map_err(|e| anyhow!("--max-bytes: {e}"))?,
+        Some(s) => size_flag_in("--max-bytes", s, (1024, "1Ki"), (u64::MAX, "16Ei"))?,
         None => 48 << 20,
     };
-    ensure!(budget >= 1024, "--max-bytes {budget}: at least 1K");
     let memory = super::nlos::memory_budget(a.max_memory.as_deref())?;
     let bundle = Bundle::open(&a.bundle)?;
     let m = &bundle.manifest;

@@ -9,7 +9,7 @@
 //! `tstat cluster k8s` ran, e.g. a shared file system mounted at the same place), and
 //! the image must hold the tstat binary (`binary`, default `tstat` on its PATH).
 
-use super::{merge_commands, ClusterError, Job};
+use super::{command_line, merge_commands, unprintable, ClusterError, Job};
 use serde_json::{json, Value};
 use std::path::Path;
 
@@ -53,6 +53,69 @@ pub fn check_under(path: &Path, mount: &str, what: &str) -> Result<(), ClusterEr
             mount: mount.to_string(),
         })
     }
+}
+
+/// The most shards of a Kubernetes recipe: an indexed Job takes at most 100,000
+/// completions.
+pub const MAX_SHARDS: u64 = 100_000;
+
+/// `--claim`: a persistent volume claim's name, a DNS-1123 subdomain (lowercase
+/// letters, digits, `-` and `.`, starting and ending with a letter or digit, at most
+/// 253 characters).
+pub fn check_claim(s: &str) -> Result<(), ClusterError> {
+    let ends = |c: Option<char>| c.is_some_and(|c| c.is_ascii_lowercase() || c.is_ascii_digit());
+    let ok = s.len() <= 253
+        && ends(s.chars().next())
+        && ends(s.chars().next_back())
+        && s.chars()
+            .all(|c| c.is_ascii_lowercase() || c.is_ascii_digit() || c == '-' || c == '.');
+    if ok {
+        Ok(())
+    } else {
+        Err(ClusterError::Value {
+            what: "--claim",
+            value: s.to_string(),
+            reason: "not a Kubernetes name (lowercase letters, digits, '-' and '.', starting and ending with a letter or digit)",
+        })
+    }
+}
+
+/// `--image` and `--binary`: not empty, no whitespace, control characters or line
+/// breaks (an image reference has none; a binary name with them is a mistake).
+pub fn check_word(s: &str, what: &'static str) -> Result<(), ClusterError> {
+    if s.is_empty() || s.chars().any(|c| c.is_whitespace() || unprintable(c)) {
+        Err(ClusterError::Value {
+            what,
+            value: s.to_string(),
+            reason: "empty, or holds whitespace or control characters",
+        })
+    } else {
+        Ok(())
+    }
+}
+
+/// The commands `tstat cluster k8s` prints to run the Jobs: apply the render Job, wait
+/// for it, apply the merge Job; every word quoted ([`super::quote`]).
+pub fn run_commands(c: &Cluster, job: &Job) -> Vec<String> {
+    let apply = |name: &str| {
+        command_line(&[
+            "kubectl",
+            "apply",
+            "-f",
+            &job.dir.join(name).to_string_lossy(),
+        ])
+    };
+    vec![
+        apply("render-job.json"),
+        command_line(&[
+            "kubectl",
+            "wait",
+            "--for=condition=complete",
+            "--timeout=24h",
+            &format!("job/{}-render", c.name),
+        ]),
+        apply("merge-job.json"),
+    ]
 }
 
 fn pod(c: &Cluster, job: &Job, container: &str, command: Vec<String>, mib: u64) -> Value {

@@ -13,8 +13,8 @@ use std::path::PathBuf;
 /// `what` names the option or path ("--out", "the scene").
 #[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
 pub enum ClusterError {
-    #[error("--time {0:?}: expected a Slurm time limit such as 30, 02:00:00 or 1-00:00:00")]
-    Time(String),
+    #[error("--time {value}: {reason}")]
+    Time { value: String, reason: &'static str },
     #[error("--partition {0:?}: not a Slurm partition name")]
     Partition(String),
     #[error("{what} {}: not UTF-8", .path.display())]
@@ -28,6 +28,13 @@ pub enum ClusterError {
         c: char,
         directive: bool,
     },
+    /// An option's value that cannot go into a recipe, and why.
+    #[error("{what} {}: {reason}", .value.escape_debug())]
+    Value {
+        what: &'static str,
+        value: String,
+        reason: &'static str,
+    },
     #[error("{what} {} is not under the volume's mount point {mount} (--mount): the pods could not see it", .path.display())]
     NotUnderMount {
         what: String,
@@ -38,9 +45,9 @@ pub enum ClusterError {
 
 fn directive_note(directive: &bool) -> &'static str {
     if *directive {
-        " (Slurm directive lines take no spaces, quotes or %)"
+        " (Slurm directive lines take no spaces, quotes, %, \\ or #)"
     } else {
-        ""
+        " (no control characters or line breaks)"
     }
 }
 
@@ -109,17 +116,18 @@ impl Job {
 /// variable the shell expands, double-quoted).
 pub fn merge_commands(job: &Job, threads: &str) -> Vec<String> {
     let b = quote(&job.binary);
+    // The folder quoted, the glob after it left to the shell.
     let mut v = vec![format!(
         "{b} merge {}/shard-*.tstats --out {} --max-memory {}Mi",
-        quote(&job.dir.join("shards").display().to_string()),
-        quote(&job.merged().display().to_string()),
+        quote_path(&job.dir.join("shards")),
+        quote_path(&job.merged()),
         job.band_mib
     )];
     if job.denoise {
         v.push(format!(
             "{b} denoise {} --out {} --threads \"{threads}\" --max-memory {}Mi",
-            quote(&job.merged().display().to_string()),
-            quote(&job.denoised().display().to_string()),
+            quote_path(&job.merged()),
+            quote_path(&job.denoised()),
             job.band_mib
         ));
     }
@@ -143,15 +151,32 @@ pub fn normalize(path: &std::path::Path) -> PathBuf {
     out
 }
 
-/// Refuses a path the recipes cannot carry safely: control characters always, and for
-/// paths in `#SBATCH` lines (`directive`) also whitespace, quotes and `%` (Slurm reads
-/// directive values up to whitespace and `%` as a file name pattern).
+/// Whether `c` cannot go into a recipe at all: a control character (newline, tab,
+/// escape, ...) or a Unicode line or paragraph separator. A newline would end an
+/// `#SBATCH` directive or a comment line, and a quoted word spanning lines is legal
+/// shell but unreadable in the printed commands, so these are refused everywhere.
+pub fn unprintable(c: char) -> bool {
+    c.is_control() || matches!(c, '\u{2028}' | '\u{2029}')
+}
+
+/// Refuses a path the recipes cannot carry safely: non-UTF-8 and [`unprintable`]
+/// characters always, and for paths in `#SBATCH` lines (`directive`) also whitespace,
+/// quotes, `%`, `\` and `#` (Slurm reads a directive's value up to whitespace or `#`,
+/// takes `%` as a file name pattern, `"` as a quote and `\` as its escape). Every other character (`$`, backticks,
+/// `;`, `*`, `~`, ...) is allowed: the recipes and the printed commands quote every
+/// path with [`quote`].
 pub fn check_path(path: &std::path::Path, what: &str, directive: bool) -> Result<(), ClusterError> {
     let s = path.to_str().ok_or_else(|| ClusterError::NotUtf8 {
         what: what.to_string(),
         path: path.to_path_buf(),
     })?;
-    let bad = |c: char| c.is_control() || (directive && (c.is_whitespace() || "%\"'".contains(c)));
+    check_text(s, what, directive)
+}
+
+/// [`check_path`] for any text going into the recipes (an option's value).
+pub fn check_text(s: &str, what: &str, directive: bool) -> Result<(), ClusterError> {
+    let bad =
+        |c: char| unprintable(c) || (directive && (c.is_whitespace() || "%\"'\\#".contains(c)));
     match s.chars().find(|&c| bad(c)) {
         Some(c) => Err(ClusterError::Character {
             what: what.to_string(),
@@ -163,16 +188,49 @@ pub fn check_path(path: &std::path::Path, what: &str, directive: bool) -> Result
     }
 }
 
-/// One argument quoted for bash: single quotes, with `'` written as `'\''`.
-pub fn quote(s: &str) -> String {
-    if !s.is_empty()
+/// Whether `s` reads the same unquoted in a POSIX shell, wherever it stands: ASCII
+/// letters, digits and `/._-+:,@%=`, not starting with `=` or `%`, and not an
+/// assignment when it stands first (`NAME=...`).
+fn plain_word(s: &str) -> bool {
+    let chars = !s.is_empty()
         && s.chars()
-            .all(|c| c.is_ascii_alphanumeric() || "/._-+=:,@%".contains(c))
-    {
+            .all(|c| c.is_ascii_alphanumeric() || "/._-+:,@%=".contains(c));
+    let assignment = s.split_once('=').is_some_and(|(name, _)| {
+        name.chars().next().is_some_and(|c| !c.is_ascii_digit())
+            && name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_')
+    });
+    // zsh expands a leading `=` (the path of a command); interactive bash takes a
+    // command `%1` as `fg %1`.
+    chars && !assignment && !s.starts_with(['=', '%'])
+}
+
+/// One word for a POSIX shell (sh, bash, dash, zsh in sh mode): `s` itself when it is
+/// plain (letters, digits and `/._-+:,@%=`; readable), else single-quoted with each `'`
+/// written `'\''`. Inside single quotes nothing is special, so the shell reads back
+/// exactly `s` (any bytes but NUL, which no argument can hold). Every path and argument
+/// `tstat cluster` writes into a script or prints as a command goes through here. A
+/// leading `-` is left to the program that reads the word (the recipes' paths are
+/// absolute, so none starts with `-`).
+pub fn quote(s: &str) -> String {
+    if plain_word(s) {
         s.to_string()
     } else {
         format!("'{}'", s.replace('\'', r"'\''"))
     }
+}
+
+/// A command line of quoted words.
+pub fn command_line<S: AsRef<str>>(words: &[S]) -> String {
+    words
+        .iter()
+        .map(|w| quote(w.as_ref()))
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
+/// [`quote`] of a path (the recipes' paths are checked UTF-8).
+pub fn quote_path(p: &std::path::Path) -> String {
+    quote(&p.to_string_lossy())
 }
 
 #[cfg(test)]
@@ -193,29 +251,196 @@ mod tests {
         assert!(check_path(Path::new("/scratch/a\nb"), "the scene", false).is_err());
     }
 
+    /// The shells to check against: POSIX sh (dash here) and bash, where present.
+    fn shells() -> Vec<&'static str> {
+        ["sh", "bash"]
+            .into_iter()
+            .filter(|sh| {
+                std::process::Command::new(sh)
+                    .args(["-c", ":"])
+                    .output()
+                    .is_ok_and(|o| o.status.success())
+            })
+            .collect()
+    }
+
+    /// What `shell` prints for `printf %s WORDS`: the words joined by the shell's
+    /// argument splitting, each printed back to back.
+    fn printed(shell: &str, words: &str) -> Vec<u8> {
+        let out = std::process::Command::new(shell)
+            .arg("-c")
+            .arg(format!("printf %s {words}"))
+            .env("LC_ALL", "C.UTF-8")
+            .output()
+            .expect("run the shell");
+        assert!(
+            out.status.success(),
+            "{shell} -c 'printf %s {words}': {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        out.stdout
+    }
+
+    /// A reference reader of the words `quote` writes: plain characters, and
+    /// single-quoted runs with `\'` between them. Returns the word, or `None` when the
+    /// text holds anything else (a character a shell would treat specially).
+    fn read_word(q: &str) -> Option<String> {
+        let mut out = String::new();
+        let mut it = q.chars().peekable();
+        while let Some(c) = it.next() {
+            match c {
+                '\'' => loop {
+                    match it.next()? {
+                        '\'' => break,
+                        c => out.push(c),
+                    }
+                },
+                '\\' => out.push(it.next().filter(|&c| c == '\'')?),
+                c if c.is_ascii_alphanumeric() || "/._-+:,@%=".contains(c) => out.push(c),
+                _ => return None,
+            }
+        }
+        (!q.is_empty()).then_some(out)
+    }
+
+    const HOSTILE: &[&str] = &[
+        "plain/path.xml",
+        "a b",
+        "it's",
+        "''",
+        "'\\''",
+        "{shard}",
+        "$HOME",
+        "$(touch x)",
+        "d$(touch${IFS}x)",
+        "`touch x`",
+        "a;touch x",
+        "a&&b||c|d&",
+        "x\"y",
+        "\"$(id)\"",
+        "a\nb",
+        "a\tb\r",
+        "\\",
+        "\\'",
+        "-rf",
+        "--out=x",
+        "~",
+        "~root/x",
+        "a~b",
+        "*",
+        "/tmp/*.tstats",
+        "[a]",
+        "?",
+        "#comment",
+        "a#b",
+        "!x",
+        "=ls",
+        "%1",
+        "A=b",
+        "_x=1",
+        "PATH=/x",
+        "1x=y",
+        "<in",
+        ">out",
+        "(sub)",
+        "{a,b}",
+        "éé ü/雪/🦀",
+        "\u{2028}",
+        "",
+        " ",
+    ];
+
     #[test]
-    fn quoting_survives_bash() {
-        for s in [
-            "plain/path.xml",
-            "a b",
-            "it's",
-            "{shard}",
-            "$HOME",
-            "",
-            "x\"y",
-            "a\nb",
-        ] {
-            let out = std::process::Command::new("bash")
+    fn quoting_survives_posix_shells() {
+        for s in HOSTILE {
+            let q = quote(s);
+            assert_eq!(read_word(&q).as_deref(), Some(*s), "{s:?} -> {q}");
+            for sh in shells() {
+                assert_eq!(printed(sh, &q), s.as_bytes(), "{sh}: {s:?} -> {q}");
+            }
+        }
+        // Several words on one line stay separate words.
+        let line = command_line(HOSTILE);
+        for sh in shells() {
+            let out = std::process::Command::new(sh)
                 .arg("-c")
-                .arg(format!("printf %s {}", quote(s)))
-                .output();
-            let Ok(out) = out else { return }; // no bash: nothing to check against
-            assert_eq!(
-                String::from_utf8_lossy(&out.stdout),
-                s,
-                "{s:?} -> {}",
-                quote(s)
+                .arg(format!("for a in {line}; do printf '%s\\0' \"$a\"; done"))
+                .output()
+                .unwrap();
+            let got: Vec<&[u8]> = out.stdout.split(|&b| b == 0).collect();
+            let want: Vec<&[u8]> = HOSTILE
+                .iter()
+                .map(|s| s.as_bytes())
+                .chain([&b""[..]])
+                .collect();
+            assert_eq!(got, want, "{sh}: {line}");
+        }
+    }
+
+    #[test]
+    fn plain_words_stay_readable_and_assignments_are_quoted() {
+        for s in [
+            "/scratch/run1/render.sbatch",
+            "--spp",
+            "4096",
+            "auto/16",
+            "-D",
+            "--for=condition=complete",
+            "job/x-render",
+            "a:b,c@d+e%f",
+        ] {
+            assert_eq!(quote(s), *s);
+        }
+        for (s, q) in [
+            ("A=b", "'A=b'"),
+            ("=x", "'=x'"),
+            ("%1", "'%1'"),
+            ("it's", r"'it'\''s'"),
+            ("", "''"),
+            ("~", "'~'"),
+        ] {
+            assert_eq!(quote(s), q);
+        }
+        // In command position a quoted `A=b` is a command name, not an assignment.
+        for sh in shells() {
+            let out = std::process::Command::new(sh)
+                .arg("-c")
+                .arg(format!("{} 2>/dev/null; echo $?", quote("A=b")))
+                .output()
+                .unwrap();
+            assert_eq!(String::from_utf8_lossy(&out.stdout).trim(), "127", "{sh}");
+        }
+    }
+
+    mod prop {
+        use super::*;
+        use proptest::prelude::*;
+
+        /// Strings of any characters but NUL, weighted towards the ones shells treat
+        /// specially.
+        fn hostile_string() -> impl Strategy<Value = String> {
+            let special = proptest::sample::select(
+                "'\"\\$`;&|<>(){}[]*?~#!= \t\n%-/.^@:,+"
+                    .chars()
+                    .collect::<Vec<_>>(),
             );
+            let any = any::<char>().prop_filter("no NUL", |&c| c != '\0');
+            let byte = (1u8..=255).prop_map(char::from);
+            proptest::collection::vec(prop_oneof![3 => special, 2 => byte, 1 => any], 0..24)
+                .prop_map(|v| v.into_iter().collect())
+        }
+
+        proptest! {
+            #![proptest_config(ProptestConfig { cases: 256, failure_persistence: None, ..ProptestConfig::default() })]
+
+            #[test]
+            fn quote_round_trips(s in hostile_string()) {
+                let q = quote(&s);
+                prop_assert_eq!(read_word(&q), Some(s.clone()), "{:?} -> {}", s, q);
+                for sh in shells() {
+                    prop_assert_eq!(printed(sh, &q), s.as_bytes().to_vec(), "{}: {:?} -> {}", sh, s, q);
+                }
+            }
         }
     }
 }

@@ -1,26 +1,86 @@
 //! Slurm: `render.sbatch`, an array job of N tasks (`--array=0-(N-1)`, so
 //! `SLURM_ARRAY_TASK_ID` is the shard index), and `merge.sbatch`, one task that
-//! merges the shards (and may denoise). Submitted as
-//! `sbatch DIR/render.sbatch`, then `sbatch --dependency=afterok:<job id> DIR/merge.sbatch`.
+//! merges the shards (and may denoise). Submitted by [`submit_command`]: `sbatch
+//! DIR/render.sbatch`, then `sbatch --dependency=afterok:<its job id> DIR/merge.sbatch`.
 //! Every path is absolute, so both can be submitted from any folder; Slurm does not
 //! create the log folder, so `tstat cluster` does.
 
-use super::{merge_commands, quote, ClusterError, Job, SLURM_THREADS};
+use super::{command_line, merge_commands, quote, quote_path, ClusterError, Job, SLURM_THREADS};
 
 /// Where `Job::render_args` puts the threads value.
 const THREADS_AT: usize = 8;
 
-/// `#SBATCH` time limit, `D-HH:MM:SS` or `HH:MM:SS` or minutes.
-pub fn check_time(t: &str) -> Result<(), ClusterError> {
-    let ok = !t.is_empty()
-        && t.chars()
-            .all(|c| c.is_ascii_digit() || c == ':' || c == '-')
-        && t.split(['-', ':']).all(|p| !p.is_empty());
-    if ok {
-        Ok(())
-    } else {
-        Err(ClusterError::Time(t.to_string()))
+/// The longest `--time` taken: a year (a shard that runs longer is no plan).
+pub const MAX_TIME_SECONDS: u64 = 365 * 24 * 3600;
+
+/// A Slurm time limit (`sbatch --time`) in seconds: `M`, `M:S`, `H:M:S`, `D-H`, `D-H:M`
+/// or `D-H:M:S`, each field digits only; minutes and seconds below 60 where a larger
+/// field precedes them; more than 0 (Slurm reads 0 as no limit) and at most
+/// [`MAX_TIME_SECONDS`].
+pub fn parse_time(t: &str) -> Result<u64, ClusterError> {
+    let err = |reason| ClusterError::Time {
+        value: t.to_string(),
+        reason,
+    };
+    const FORMAT: &str = "expected a Slurm time limit: minutes, M:S, H:M:S, D-H, D-H:M or D-H:M:S (e.g. 30, 02:00:00 or 1-00:00:00)";
+    let (days, rest) = match t.split_once('-') {
+        Some((d, rest)) => (Some(d), rest),
+        None => (None, t),
+    };
+    let fields: Vec<&str> = rest.split(':').collect();
+    // Nine digits at most: no field can overflow, and none that long is a real limit.
+    let number = |f: &str| -> Result<u64, ClusterError> {
+        if f.is_empty() || f.len() > 9 || !f.bytes().all(|b| b.is_ascii_digit()) {
+            return Err(err(FORMAT));
+        }
+        Ok(f.parse().unwrap_or(0))
+    };
+    let v: Vec<u64> = fields.iter().map(|f| number(f)).collect::<Result<_, _>>()?;
+    // (days, hours, minutes, seconds)
+    let (d, h, m, s) = match (days, v.as_slice()) {
+        (None, &[m]) => (0, 0, m, 0),
+        (None, &[m, s]) => (0, 0, m, s),
+        (None, &[h, m, s]) => (0, h, m, s),
+        (Some(d), &[h]) => (number(d)?, h, 0, 0),
+        (Some(d), &[h, m]) => (number(d)?, h, m, 0),
+        (Some(d), &[h, m, s]) => (number(d)?, h, m, s),
+        _ => return Err(err(FORMAT)),
+    };
+    let minutes_bounded = days.is_some() || v.len() == 3;
+    if s >= 60 || (minutes_bounded && m >= 60) || (days.is_some() && h >= 24) {
+        return Err(err(
+            "hours run from 0 to 23 after days, minutes and seconds from 0 to 59 after a larger unit",
+        ));
     }
+    let total = ((d * 24 + h) * 60 + m) * 60 + s;
+    if total == 0 {
+        return Err(err("give a time limit above 0 (Slurm reads 0 as no limit)"));
+    }
+    if total > MAX_TIME_SECONDS {
+        return Err(err("at most 365 days (365-00:00:00)"));
+    }
+    Ok(total)
+}
+
+/// Checks `--time` ([`parse_time`]).
+pub fn check_time(t: &str) -> Result<(), ClusterError> {
+    parse_time(t).map(|_| ())
+}
+
+/// The commands that submit both scripts, one line of POSIX shell: the render array,
+/// then the merge once every task of it succeeded (`--parsable` prints the job id, with
+/// `;cluster` on a multi-cluster setup).
+pub fn submit_command(job: &Job) -> String {
+    format!(
+        "jid=$({}) && {}\"${{jid%%;*}}\" {}",
+        command_line(&[
+            "sbatch",
+            "--parsable",
+            &job.dir.join("render.sbatch").to_string_lossy(),
+        ]),
+        "sbatch --dependency=afterok:",
+        quote_path(&job.dir.join("merge.sbatch"))
+    )
 }
 
 /// A partition name as Slurm takes it.
@@ -48,6 +108,8 @@ fn header(
     s += &format!("#SBATCH --cpus-per-task={}\n", job.cpus);
     s += &format!("#SBATCH --mem={mib}M\n");
     s += &format!("#SBATCH --time={time}\n");
+    // Checked to hold no whitespace, quotes, `%`, `\\` or `#` (`check_path`): Slurm
+    // reads it as written.
     s += &format!(
         "#SBATCH --output={}\n",
         job.dir.join("logs").join(log).display()
@@ -73,13 +135,9 @@ pub fn render_script(job: &Job, time: &str, partition: Option<&str>) -> String {
         "# Written by tstat {}: shard $SLURM_ARRAY_TASK_ID of {} of {}.\n",
         env!("CARGO_PKG_VERSION"),
         job.shards,
-        job.scene.display()
+        quote_path(&job.scene)
     );
-    s += &format!(
-        "# Submit: sbatch {} && sbatch --dependency=afterok:<job id> {}\n",
-        job.dir.join("render.sbatch").display(),
-        job.dir.join("merge.sbatch").display()
-    );
+    s += &format!("# Submit: {}\n", submit_command(job));
     s += "set -euo pipefail\n";
     // Every argument single-quoted but the threads variable (at its own place).
     let args: Vec<String> = job
@@ -113,7 +171,7 @@ pub fn merge_script(job: &Job, time: &str, partition: Option<&str>) -> String {
         "# Written by tstat {}: merges the {} shards of {}.\n",
         env!("CARGO_PKG_VERSION"),
         job.shards,
-        job.scene.display()
+        quote_path(&job.scene)
     );
     s += "set -euo pipefail\n";
     for line in merge_commands(job, SLURM_THREADS) {
@@ -181,6 +239,45 @@ mod tests {
         for t in ["", "2h", "1:", "$(rm)"] {
             assert!(check_time(t).is_err(), "{t}");
         }
+        for (t, s) in [
+            ("30", 1800),
+            ("90:30", 5430),
+            ("1:00:00", 3600),
+            ("2-3", (2 * 24 + 3) * 3600),
+            ("2-3:04", (2 * 24 + 3) * 3600 + 240),
+            ("1-00:00:01", 86401),
+            ("525600", MAX_TIME_SECONDS),
+            ("365-00:00:00", MAX_TIME_SECONDS),
+        ] {
+            assert_eq!(parse_time(t), Ok(s), "{t}");
+        }
+        for t in [
+            "0",
+            "00:00:00",
+            "0-0",
+            "525601",
+            "366-0",
+            "1:60",
+            "1:60:00",
+            "1-24",
+            "1-1-1",
+            "1:2:3:4",
+            "1-",
+            "-1",
+            ":5",
+            "9999999999",
+            "99999999999999999999",
+            "1 ",
+            "+5",
+            "１",
+        ] {
+            assert!(parse_time(t).is_err(), "{t:?}");
+        }
+        let e = parse_time("99999999999999999999").unwrap_err().to_string();
+        assert!(
+            e.starts_with("--time 99999999999999999999: expected"),
+            "{e}"
+        );
         assert!(check_partition("normal").is_ok());
         assert!(check_partition("a b").is_err());
     }
