@@ -53,6 +53,10 @@ pub enum BundleError {
     /// The file or directory is not a bundle, or not a valid one, and why.
     #[error("{}: invalid bundle: {}", .0.display(), .1)]
     Invalid(PathBuf, Box<Problem>),
+    /// A manifest the reader would refuse, refused before it is written (the path is
+    /// the bundle to be written): the same check as reading ([`read::manifest_json`]).
+    #[error("{}: refusing to write a bundle that could not be read back: {}", .0.display(), .1)]
+    Unwritable(PathBuf, Box<Problem>),
     /// The `--shard` argument ([`shard::Shard::parse`], [`shard::Shard::share`]).
     #[error(transparent)]
     Shard(#[from] shard::ShardError),
@@ -131,10 +135,17 @@ pub enum Problem {
         points: usize,
         laser_grid: [usize; 2],
     },
-    #[error("nlos: the sensor origin and the relay wall must be finite")]
-    CaptureNotFinite,
-    #[error("channels {0:?}: the format holds [\"R\", \"G\", \"B\"]")]
-    Channels(Vec<String>),
+    /// A number out of its range: where (a manifest field), the value and the rule
+    /// (see `read::validate` and docs/bundle.md, "Bounds").
+    #[error("{at} = {value}: {rule}")]
+    Value {
+        at: String,
+        value: String,
+        rule: String,
+    },
+    /// `channels`, shown shortened.
+    #[error("channels {0}: the format holds [\"R\", \"G\", \"B\"]")]
+    Channels(String),
     #[error("scene.sha256 {0:?} is not a SHA-256 (64 hexadecimal digits); merge compares it")]
     SceneHash(String),
     #[error("{0}")]
@@ -143,8 +154,6 @@ pub enum Problem {
         "replicates = {replicates} with spp = {spp}: replicates are at least 2 and divide spp"
     )]
     Replicates { replicates: u64, spp: u64 },
-    #[error("bad time axis (bin_width_opl and unit_m must be positive, start_opl finite)")]
-    TimeAxis,
     /// The seconds do not restate the OPL axis; `start` and `bin_width` are the
     /// seconds the OPL axis gives.
     #[error("start_seconds = {start_seconds} and bin_width_seconds = {bin_width_seconds} do not restate start_opl and bin_width_opl in seconds ({start} and {bin_width} at unit_m = {unit_m})")]
@@ -161,16 +170,30 @@ pub enum Problem {
     MaxDepth(i32),
     #[error("merged_seeds lists seed {0} twice")]
     MergedSeedTwice(u64),
-    #[error("shard {{job {job:?}, count {count}, indices {indices:?}}}: expected a 16-digit hexadecimal job, a count of at most 2^32 and increasing indices below count")]
-    ShardRecord {
-        job: String,
-        count: u64,
-        indices: Vec<u64>,
-    },
+    /// More merged renders than the spp allows (each render has at least 2 samples).
+    #[error("merged_seeds lists {len} seeds, but spp = {spp} holds at most {} renders of at least 2 samples each", .spp / 2)]
+    MergedSeedsTooMany { len: usize, spp: u64 },
+    /// A `shard` record that breaks a rule: which one.
+    #[error("shard: {0} (a shard record has a 16-digit hexadecimal job, a count from 1 to 2^32 and increasing indices below count)")]
+    ShardRecord(String),
+    /// A scene identity list (`inputs` or `defaults`) naming an entry twice.
+    #[error("scene.identity.{list} lists '{name}' twice")]
+    IdentityTwice { list: &'static str, name: String },
+    /// A manifest too large for the reader's limit (`io::MAX_MANIFEST_BYTES`).
+    #[error("the manifest is {bytes} bytes, above the limit of {limit} bytes for manifests")]
+    ManifestTooLarge { bytes: usize, limit: u64 },
+    /// A manifest that does not read back as the one written (never expected: every
+    /// field round-trips through JSON exactly).
+    #[error("the manifest does not read back as written")]
+    NotRoundTrip,
 
     // The arrays.
     #[error("lists the array '{0}' twice")]
     ArrayTwice(String),
+    #[error("lists {0} arrays; a bundle has at most {max}", max = read::MAX_ARRAYS)]
+    TooManyArrays(usize),
+    #[error("lists '{name}' with {dims} dimensions; an array has at most {max}", max = read::MAX_DIMS)]
+    TooManyDims { name: String, dims: usize },
     #[error("lists '{name}' as {dtype:?} {shape:?}; the film's sizes need {want_dtype:?} {want_shape:?}")]
     ArrayListing {
         name: &'static str,
