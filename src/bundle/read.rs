@@ -965,3 +965,142 @@ fn npy_error(path: &Path, e: npy::NpyError) -> BundleError {
 fn unreadable(path: &Path, e: std::io::Error) -> BundleError {
     BundleError::invalid(path.to_path_buf(), Problem::Unreadable(e.into()))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A valid manifest of a 4 x 4 confocal capture, 8 bins, 4 spp.
+    fn manifest() -> Manifest {
+        let text = r#"{"format":"tstats","version":1,"width":4,"height":4,"bins":8,
+            "channels":["R","G","B"],"spp":4,"start_opl":1.902,"bin_width_opl":0.004,
+            "unit_m":1.0,"start_seconds":6.344389090668851e-9,
+            "bin_width_seconds":1.3342563807926083e-11,"transform":{"kind":"identity"},
+            "pixel_sampling":"sobol","seed":0,
+            "nlos":{"capture":"confocal","sensor_grid":[4,4],"laser_grid":[1,1],
+              "sensor_origin":[-2.0,0.0,2.0],"laser_origin":[-2.0,0.0,2.0],
+              "wall_corner":[-1.0,-1.0,0.0],"wall_du":[2.0,0.0,0.0],"wall_dv":[0.0,2.0,0.0],
+              "wall_normal":[0.0,0.0,1.0],"laser_points":[],
+              "account_first_and_last_bounces":false},
+            "scene":{"path":"s.xml","sha256":"6d0d7fcb6b2916efc8a4e20145184a6daa1094f452468e19c198f5264ace0288",
+              "identity":{"inputs":[],"defaults":[["bins","8"],["res","4"]]}},
+            "max_depth":-1,"render_seconds":0.5,"dropped_nonfinite":0,
+            "program":{"name":"tstat","version":"0.1.0"},"arrays":[]}"#;
+        parse_manifest(text).unwrap()
+    }
+
+    /// A million merged seeds (and the same with one repeated at the end) validate in
+    /// well under a second: the check is a sort. The quadratic check it replaces
+    /// takes about a minute on this list (and any quadratic check would exceed the
+    /// corpus's 20 s limit), so this test is its regression test without a timer.
+    #[test]
+    fn a_million_merged_seeds_validate_in_linear_time() {
+        let mut m = manifest();
+        m.spp = 4_000_000;
+        m.merged_seeds = (1..=1_000_000).rev().collect();
+        validate(&m).unwrap();
+        let text = serde_json::to_string(&m).unwrap();
+        assert_eq!(parse_manifest(&text).unwrap(), m);
+        m.merged_seeds.push(777_777);
+        assert!(matches!(
+            validate(&m),
+            Err(Problem::MergedSeedTwice(777_777))
+        ));
+        m.spp = 4;
+        assert!(matches!(
+            validate(&m),
+            Err(Problem::MergedSeedsTooMany {
+                len: 1_000_001,
+                spp: 4
+            })
+        ));
+    }
+
+    /// The other lists: a million shard indices, -D values, scene inputs and channels
+    /// are checked in linear (or n log n) time, and the messages stay one short line.
+    #[test]
+    fn a_million_entries_in_any_list_validate_quickly_with_short_messages() {
+        let mut m = manifest();
+        m.shard = Some(super::super::shard::ShardRecord {
+            job: "0123456789abcdef".into(),
+            count: 1 << 32,
+            indices: (0..1_000_000).collect(),
+        });
+        validate(&m).unwrap();
+        m.shard.as_mut().unwrap().indices.push(3);
+        let e = validate(&m).unwrap_err().to_string();
+        assert!(e.contains("indices 999999 then 3 do not increase"), "{e}");
+        assert!(e.len() < 300, "{e}");
+        m.shard = None;
+        let id = m.scene.identity.as_mut().unwrap();
+        id.defaults = (0..1_000_000)
+            .map(|i| (format!("d{i:07}"), "1".into()))
+            .collect();
+        id.inputs = (0..1_000_000)
+            .map(|i| (format!("f{i:07}"), "0".into()))
+            .collect();
+        validate(&m).unwrap();
+        let id = m.scene.identity.as_mut().unwrap();
+        id.inputs.push(("f0000042".into(), "1".into()));
+        let e = validate(&m).unwrap_err().to_string();
+        assert!(e.contains("inputs lists 'f0000042' twice"), "{e}");
+        m.scene.identity = None;
+        m.channels = vec!["R".to_string(); 1_000_000];
+        let e = validate(&m).unwrap_err().to_string();
+        assert!(e.contains("(1000000 in all)") && e.len() < 300, "{e}");
+    }
+
+    /// What the writer writes reads back as written, and what the reader refuses the
+    /// writer refuses, with the reader's reason (never JSON's `null` for a NaN).
+    #[test]
+    fn the_writer_refuses_what_the_reader_refuses() {
+        let m = manifest();
+        let json = manifest_json(&m).unwrap();
+        assert_eq!(parse_manifest(&json).unwrap(), m);
+        let refused = |edit: &dyn Fn(&mut Manifest), want: &str| {
+            let mut bad = manifest();
+            edit(&mut bad);
+            let e = manifest_json(&bad).unwrap_err().to_string();
+            assert!(e.contains(want), "{want}: {e}");
+            // The reader refuses the same manifest, written as serde writes it.
+            let text = serde_json::to_string(&bad).unwrap();
+            assert!(parse_manifest(&text).is_err(), "{want}: read back");
+        };
+        refused(&|m| m.start_opl = f64::NAN, "start_opl = NaN");
+        refused(&|m| m.bin_width_opl = 0.0, "bin_width_opl = 0e0");
+        refused(&|m| m.unit_m = f64::INFINITY, "unit_m = +inf");
+        let nlos = |f: fn(&mut super::super::capture::CaptureRecord)| {
+            move |m: &mut Manifest| f(m.nlos.as_mut().unwrap())
+        };
+        refused(
+            &nlos(|n| n.wall_corner[0] = 1e300),
+            "nlos.wall_corner[0] = 1e300",
+        );
+        refused(
+            &nlos(|n| n.laser_origin = Some([f64::NAN; 3])),
+            "nlos.laser_origin[0] = NaN",
+        );
+        refused(
+            &nlos(|n| n.wall_normal = [0.0, 0.0, 2.0]),
+            "|nlos.wall_normal| = 2e0",
+        );
+        refused(
+            &|m| m.scene.path = "a\nb.xml".into(),
+            "control character U+000A",
+        );
+        refused(
+            &|m| m.scene.identity.as_mut().unwrap().defaults[0].1 = "\u{1b}[2J".into(),
+            "control character U+001B",
+        );
+        refused(&|m| m.merged_seeds = vec![1, 1], "seed 1 twice");
+        // An unknown laser is representable: null, read back as None.
+        let mut m = manifest();
+        let n = m.nlos.as_mut().unwrap();
+        n.capture = crate::scene::nlos::CaptureType::Single;
+        n.laser_origin = None;
+        n.laser_points = vec![None];
+        let json = manifest_json(&m).unwrap();
+        assert!(json.contains("\"laser_origin\": null"), "{json}");
+        assert_eq!(parse_manifest(&json).unwrap(), m);
+    }
+}
