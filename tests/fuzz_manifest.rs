@@ -1,7 +1,7 @@
 //! Fuzzing of manifests and shard records (issue 41), in the style of `tests/fuzz.rs`:
 //! property tests that mutate the manifests of small valid NLOS capture bundles (a
 //! capture, a shard of a job, a merge of two renders) -- JSON-aware mutations that put
-//! NaN, infinities, 1e300, -0, huge lists and control characters where numbers, lists
+//! NaN, infinities, 1e300, -0, long lists and control characters where numbers, lists
 //! and strings were, and byte mutations of the text -- and shard records, calling the
 //! library in-process. Each case must give a clean one-line error or a valid result:
 //!
@@ -168,11 +168,12 @@ fn edit() -> impl Strategy<Value = Edit> {
             .prop_map(|(at, bytes)| ByteEdit::Insert { at, bytes }),
         (0.0..1.0f64, 0..8u8).prop_map(|(at, bit)| ByteEdit::Flip { at, bit }),
     ];
+    // Lists of a million entries are the corpus's (tests/hostile_manifest.rs) and the
+    // unit tests'; here 200 000, rarely, to keep the default run short.
     let len = prop_oneof![
-        4 => 0..4usize,
-        4 => 0..100usize,
-        1 => Just(1_000_000usize),
-        1 => Just(600_000usize),
+        8 => 0..4usize,
+        8 => 0..100usize,
+        1 => Just(200_000usize),
     ];
     prop_oneof![
         6 => (k.clone(), 0..RAW.len()).prop_map(|(k, token)| Edit::Raw { k, token }),
