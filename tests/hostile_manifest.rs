@@ -540,9 +540,12 @@ fn shard(indices: impl Iterator<Item = u64>) -> Value {
     json!({"job": "0123456789abcdef", "count": 1u64 << 32, "indices": indices.collect::<Vec<_>>()})
 }
 
+/// Prepares a case: the fixture's root and the bundle to damage.
+type Make = Box<dyn Fn(&Path, &Path)>;
+
 struct ManifestCase {
     name: &'static str,
-    make: Box<dyn Fn(&Path, &Path)>,
+    make: Make,
     cmds: &'static [Cmd],
     want: &'static [&'static str],
 }
@@ -833,7 +836,7 @@ fn manifest_cases() -> Vec<ManifestCase> {
             |b| {
                 edit(b, |m| {
                     m["channels"] =
-                        Value::from(vec!["R", "G", "B"].repeat(333_334)[..1_000_000].to_vec())
+                        Value::from(["R", "G", "B"].repeat(333_334)[..1_000_000].to_vec())
                 })
             },
         ),

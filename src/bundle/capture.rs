@@ -193,7 +193,8 @@ impl CaptureRecord {
             ("nlos.wall_du", self.wall_du),
             ("nlos.wall_dv", self.wall_dv),
         ] {
-            if !(len(v) > 0.0) {
+            // Finite (checked above): the length is finite too.
+            if len(v) == 0.0 {
                 return Err(bad_value(
                     format!("|{at}|"),
                     len(v),
@@ -202,7 +203,7 @@ impl CaptureRecord {
             }
         }
         let n = len(self.wall_normal);
-        if !((n - 1.0).abs() <= UNIT_TOLERANCE) {
+        if (n - 1.0).abs() > UNIT_TOLERANCE {
             return Err(bad_value(
                 "|nlos.wall_normal|",
                 n,
