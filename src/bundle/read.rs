@@ -260,15 +260,15 @@ pub fn validate(m: &Manifest) -> Result<(), Problem> {
     if m.max_depth < -1 {
         return Err(Problem::MaxDepth(m.max_depth));
     }
+    if let Some(s) = first_repeated(&m.merged_seeds) {
+        return Err(Problem::MergedSeedTwice(s));
+    }
     // Every merged render has at least 2 samples: that bounds the list.
     if m.merged_seeds.len() as u64 > m.spp / 2 {
         return Err(Problem::MergedSeedsTooMany {
             len: m.merged_seeds.len(),
             spp: m.spp,
         });
-    }
-    if let Some(s) = first_repeated(&m.merged_seeds) {
-        return Err(Problem::MergedSeedTwice(s));
     }
     if let Some(s) = &m.shard {
         check_shard_record(s)?;
@@ -1006,11 +1006,12 @@ mod tests {
             validate(&m),
             Err(Problem::MergedSeedTwice(777_777))
         ));
+        m.merged_seeds.pop();
         m.spp = 4;
         assert!(matches!(
             validate(&m),
             Err(Problem::MergedSeedsTooMany {
-                len: 1_000_001,
+                len: 1_000_000,
                 spp: 4
             })
         ));
