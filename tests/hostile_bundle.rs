@@ -375,7 +375,7 @@ fn cases() -> Vec<Case> {
             make: |_, b| edit_manifest(b, |v| v["bin_width_opl"] = (-0.5).into()),
             bundle: true,
             cmds: BUNDLE,
-            want: &["manifest.json", "bad time axis"],
+            want: &["manifest.json", "bin_width_opl = -5e-1: must be positive"],
         },
         Case {
             name: "Box-Cox lambda 0",

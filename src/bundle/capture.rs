@@ -21,8 +21,9 @@ pub struct CaptureRecord {
     /// (Lx, Ly): 1 x 1 for single and confocal captures.
     pub laser_grid: [usize; 2],
     pub sensor_origin: [f64; 3],
-    /// The laser's position; NaN when the scene has no positioned laser.
-    pub laser_origin: [f64; 3],
+    /// The laser's position; `None` (JSON `null`) when the scene has no positioned
+    /// laser (a `transient_path` render with a capture meter and another emitter).
+    pub laser_origin: Option<[f64; 3]>,
     /// The relay wall: grid point (sx, sy) is `corner + du (sx + 1/2) / Sx + dv (sy +
     /// 1/2) / Sy`; `normal` its unit normal.
     pub wall_corner: [f64; 3],
@@ -30,8 +31,11 @@ pub struct CaptureRecord {
     pub wall_dv: [f64; 3],
     pub wall_normal: [f64; 3],
     /// The lit points, row-major over the laser grid; empty when they are the sensor
-    /// grid's points (confocal captures, exhaustive ones with equal grids).
-    pub laser_points: Vec<[f64; 3]>,
+    /// grid's points (confocal captures, exhaustive ones with equal grids). `None`
+    /// (JSON `null`): not known, in a `transient_path` render whose laser is not
+    /// positioned or whose axis meets nothing (a `transient_nlos_path` scene whose
+    /// laser or scan misses the scene is refused when it loads).
+    pub laser_points: Vec<Option<[f64; 3]>>,
     /// Whether times include the sensor-to-wall and wall-to-laser segments.
     pub account_first_and_last_bounces: bool,
 }
@@ -55,15 +59,14 @@ impl CaptureRecord {
                     let points = if equal {
                         Vec::new()
                     } else {
-                        let point = |h: &Option<crate::geometry::accel::Hit>| {
-                            h.map_or([f64::NAN; 3], |h| arr(h.surface.p))
-                        };
+                        let point =
+                            |h: &Option<crate::geometry::accel::Hit>| h.map(|h| arr(h.surface.p));
                         setup.laser_hits.iter().map(point).collect()
                     };
                     (
                         n.capture,
                         setup.laser_grid,
-                        arr(setup.laser_origin),
+                        Some(arr(setup.laser_origin)),
                         points,
                         n.account_first_and_last_bounces,
                     )
@@ -80,10 +83,10 @@ impl CaptureRecord {
                             let hit = scene
                                 .accel
                                 .intersect(&scene.shapes, o, axis.normalize(), f32::INFINITY)
-                                .map_or(Vec3::NAN, |h| h.surface.p);
-                            (arr(o), vec![arr(hit)])
+                                .map(|h| arr(h.surface.p));
+                            (Some(arr(o)), vec![hit])
                         }
-                        None => ([f64::NAN; 3], vec![[f64::NAN; 3]]),
+                        None => (None, vec![None]),
                     };
                     (
                         CaptureType::Single,
@@ -129,13 +132,18 @@ impl CaptureRecord {
         (c + du * ((sx as f64 + 0.5) / w as f64) + dv * ((sy as f64 + 0.5) / h as f64)).to_array()
     }
 
-    /// Laser grid point (lx, ly).
+    /// Laser grid point (lx, ly); NaN where it is not known (see `laser_points`).
     pub fn laser_point(&self, lx: usize, ly: usize) -> [f64; 3] {
         if self.laser_points.is_empty() {
             self.sensor_point(lx, ly)
         } else {
-            self.laser_points[ly * self.laser_grid[0] + lx]
+            self.laser_points[ly * self.laser_grid[0] + lx].unwrap_or([f64::NAN; 3])
         }
+    }
+
+    /// Whether every lit point is known (a reconstruction or an export needs them).
+    pub fn lit_points_known(&self) -> bool {
+        self.laser_points.iter().all(Option::is_some)
     }
 
     /// Checks a record read from a manifest against the film it describes.
@@ -164,18 +172,46 @@ impl CaptureRecord {
                 laser_grid: self.laser_grid,
             });
         }
-        let finite = [
-            self.sensor_origin,
-            self.wall_corner,
-            self.wall_du,
-            self.wall_dv,
-            self.wall_normal,
-        ]
-        .iter()
-        .all(|v| v.iter().all(|x| x.is_finite()));
-        if !finite {
-            return Err(Problem::CaptureNotFinite);
+        // Magnitudes, not only finiteness (docs/bundle.md, "Bounds"): a wall of 1e300
+        // is finite, and its squared distances are not.
+        use super::read::{bad_value, check_point, UNIT_TOLERANCE};
+        check_point("nlos.sensor_origin", self.sensor_origin)?;
+        if let Some(o) = self.laser_origin {
+            check_point("nlos.laser_origin", o)?;
         }
+        check_point("nlos.wall_corner", self.wall_corner)?;
+        check_point("nlos.wall_du", self.wall_du)?;
+        check_point("nlos.wall_dv", self.wall_dv)?;
+        check_point("nlos.wall_normal", self.wall_normal)?;
+        for (i, p) in self.laser_points.iter().enumerate() {
+            if let Some(p) = p {
+                check_point(&format!("nlos.laser_points[{i}]"), *p)?;
+            }
+        }
+        let len = |v: [f64; 3]| glam::DVec3::from_array(v).length();
+        for (at, v) in [
+            ("nlos.wall_du", self.wall_du),
+            ("nlos.wall_dv", self.wall_dv),
+        ] {
+            // Finite (checked above): the length is finite too.
+            if len(v) == 0.0 {
+                return Err(bad_value(
+                    format!("|{at}|"),
+                    len(v),
+                    "the relay wall's edges must have a length",
+                ));
+            }
+        }
+        let n = len(self.wall_normal);
+        if (n - 1.0).abs() > UNIT_TOLERANCE {
+            return Err(bad_value(
+                "|nlos.wall_normal|",
+                n,
+                format!("the relay wall's normal must be a unit vector (within {UNIT_TOLERANCE})"),
+            ));
+        }
+        // The sensor points lie in the wall's parallelogram: with every component
+        // below the bound, they are below 3 times it.
         Ok(())
     }
 }

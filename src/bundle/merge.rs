@@ -82,11 +82,12 @@ fn same_settings(a: &Manifest, b: &Manifest) -> Result<(), Problem> {
     Ok(())
 }
 
-fn seeds(m: &Manifest) -> Vec<u64> {
+/// The seeds of the renders summed in `m`.
+fn seeds(m: &Manifest) -> &[u64] {
     if m.merged_seeds.is_empty() {
-        vec![m.seed]
+        std::slice::from_ref(&m.seed)
     } else {
-        m.merged_seeds.clone()
+        &m.merged_seeds
     }
 }
 
@@ -177,19 +178,27 @@ pub fn merge_bundles(
     }
     // Shards before seeds: a repeated shard is named as such.
     let records: Vec<_> = bundles.iter().map(|b| b.manifest.shard.as_ref()).collect();
-    let shard = merge_records(&records, opts.partial)
-        .map_err(|e| BundleError::invalid(out.to_path_buf(), Problem::Shards(e)))?;
-    let mut all_seeds: Vec<u64> = Vec::new();
+    // An error names the input that repeats a shard or disagrees on the job's size;
+    // shards missing are the job's (no input is wrong).
+    let shard = merge_records(&records, opts.partial).map_err(|e| match e.input {
+        Some(i) => BundleError::invalid(bundles[i].dir.clone(), Problem::Shards(e.error)),
+        None => BundleError::Shard(e.error),
+    })?;
+    // Linear in the seeds: a hash set of those seen.
+    let total_seeds: usize = bundles.iter().map(|b| seeds(&b.manifest).len()).sum();
+    let mut all_seeds: Vec<u64> = Vec::with_capacity(total_seeds);
+    let mut seen = std::collections::HashSet::with_capacity(total_seeds);
     for b in &bundles {
-        for s in seeds(&b.manifest) {
-            if all_seeds.contains(&s) {
+        for &s in seeds(&b.manifest) {
+            if !seen.insert(s) {
                 return Err(BundleError::invalid(b.dir.clone(), Problem::SeedTwice(s)));
             }
             all_seeds.push(s);
         }
     }
+    drop(seen);
     // The canonical order: seeds are unique across the inputs.
-    bundles.sort_by_key(|b| seeds(&b.manifest).into_iter().min());
+    bundles.sort_by_cached_key(|b| seeds(&b.manifest).iter().min().copied());
     let first = bundles[0].manifest.clone();
     let (h, w, t) = (first.height, first.width, first.bins);
     let total_spp = bundles
@@ -243,6 +252,9 @@ pub fn merge_bundles(
         .iter()
         .fold(0u64, |a, b| a.saturating_add(b.manifest.dropped_nonfinite));
     manifest.arrays.clear();
+    // What cannot be read back is refused before the merge's work (and checked
+    // again, with the arrays, when written).
+    super::write::check_planned(out, &manifest)?;
     let band = usize::try_from(opts.memory / row_bytes(&first).max(1))
         .unwrap_or(usize::MAX)
         .clamp(1, h.max(1));
@@ -276,9 +288,7 @@ pub fn merge_bundles(
             npy(dir, "medium", "<f4", &m.mapv(|v| v as f32), arrays)?;
         }
         npy(dir, "steady", "<f8", &steady, arrays)?;
-        let json = serde_json::to_string_pretty(&manifest).expect("manifest serialises");
-        let mpath = dir.join("manifest.json");
-        std::fs::write(&mpath, json).map_err(|e| BundleError::io(mpath, e))
+        super::write::write_manifest(dir, out, &manifest)
     })?;
     Ok(manifest)
 }

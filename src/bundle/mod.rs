@@ -54,6 +54,10 @@ pub enum BundleError {
     /// The file or directory is not a bundle, or not a valid one, and why.
     #[error("{}: invalid bundle: {}", .0.display(), .1)]
     Invalid(PathBuf, Box<Problem>),
+    /// A manifest the reader would refuse, refused before it is written (the path is
+    /// the bundle to be written): the same check as reading ([`read::manifest_json`]).
+    #[error("{}: refusing to write a bundle that could not be read back: {}", .0.display(), .1)]
+    Unwritable(PathBuf, Box<Problem>),
     /// The `--shard` argument ([`shard::Shard::parse`], [`shard::Shard::share`]).
     #[error(transparent)]
     Shard(#[from] shard::ShardError),
@@ -85,17 +89,17 @@ pub enum Problem {
     NoSuchDirectory,
     #[error("cannot read: {0}")]
     Unreadable(crate::io::ReadError),
-    #[error("not valid JSON: {0}")]
+    #[error("not valid JSON: {}", short(.0))]
     NotJson(serde_json::Error),
     #[error("not a '{format}' manifest", format = manifest::FORMAT)]
     NotThisFormat,
     /// `found`: the manifest's version as JSON, or "missing".
-    #[error("format version {found} is not the supported version {version}", version = manifest::VERSION)]
+    #[error("format version {} is not the supported version {version}", clip(.found), version = manifest::VERSION)]
     Version { found: String },
     /// A string holding a control character: where (a JSON path) and its code point.
-    #[error("the text at {at} holds the control character U+{code:04X} (a manifest's strings are printed as they are)")]
+    #[error("the text at {} holds the control character U+{code:04X} (a manifest's strings are printed as they are)", clip(.at))]
     ControlCharacter { at: String, code: u32 },
-    #[error("bad manifest: {0}")]
+    #[error("bad manifest: {}", short(.0))]
     BadManifest(serde_json::Error),
 
     // The manifest's fields (see `read::validate`).
@@ -132,10 +136,17 @@ pub enum Problem {
         points: usize,
         laser_grid: [usize; 2],
     },
-    #[error("nlos: the sensor origin and the relay wall must be finite")]
-    CaptureNotFinite,
-    #[error("channels {0:?}: the format holds [\"R\", \"G\", \"B\"]")]
-    Channels(Vec<String>),
+    /// A number out of its range: where (a manifest field), the value and the rule
+    /// (see `read::validate` and docs/bundle.md, "Bounds").
+    #[error("{at} = {value}: {rule}")]
+    Value {
+        at: String,
+        value: String,
+        rule: String,
+    },
+    /// `channels`, shown shortened.
+    #[error("channels {0}: the format holds [\"R\", \"G\", \"B\"]")]
+    Channels(String),
     #[error("scene.sha256 {0:?} is not a SHA-256 (64 hexadecimal digits); merge compares it")]
     SceneHash(String),
     #[error("{0}")]
@@ -144,8 +155,6 @@ pub enum Problem {
         "replicates = {replicates} with spp = {spp}: replicates are at least 2 and divide spp"
     )]
     Replicates { replicates: u64, spp: u64 },
-    #[error("bad time axis (bin_width_opl and unit_m must be positive, start_opl finite)")]
-    TimeAxis,
     /// The seconds do not restate the OPL axis; `start` and `bin_width` are the
     /// seconds the OPL axis gives.
     #[error("start_seconds = {start_seconds} and bin_width_seconds = {bin_width_seconds} do not restate start_opl and bin_width_opl in seconds ({start} and {bin_width} at unit_m = {unit_m})")]
@@ -162,17 +171,31 @@ pub enum Problem {
     MaxDepth(i32),
     #[error("merged_seeds lists seed {0} twice")]
     MergedSeedTwice(u64),
-    #[error("shard {{job {job:?}, count {count}, indices {indices:?}}}: expected a 16-digit hexadecimal job, a count of at most 2^32 and increasing indices below count")]
-    ShardRecord {
-        job: String,
-        count: u64,
-        indices: Vec<u64>,
-    },
+    /// More merged renders than the spp allows (each render has at least 2 samples).
+    #[error("merged_seeds lists {len} seeds, but spp = {spp} holds at most {} renders of at least 2 samples each", .spp / 2)]
+    MergedSeedsTooMany { len: usize, spp: u64 },
+    /// A `shard` record that breaks a rule: which one.
+    #[error("shard: {0} (a shard record has a 16-digit hexadecimal job, a count from 1 to 2^32 and increasing indices below count)")]
+    ShardRecord(String),
+    /// A scene identity list (`inputs` or `defaults`) naming an entry twice.
+    #[error("scene.identity.{list} lists '{}' twice", clip(.name))]
+    IdentityTwice { list: &'static str, name: String },
+    /// A manifest too large for the reader's limit (`io::MAX_MANIFEST_BYTES`).
+    #[error("the manifest is {bytes} bytes, above the limit of {limit} bytes for manifests")]
+    ManifestTooLarge { bytes: usize, limit: u64 },
+    /// A manifest that does not read back as the one written (never expected: every
+    /// field round-trips through JSON exactly).
+    #[error("the manifest does not read back as written")]
+    NotRoundTrip,
 
     // The arrays.
-    #[error("lists the array '{0}' twice")]
+    #[error("lists the array '{}' twice", clip(.0))]
     ArrayTwice(String),
-    #[error("lists '{name}' as {dtype:?} {shape:?}; the film's sizes need {want_dtype:?} {want_shape:?}")]
+    #[error("lists {0} arrays; a bundle has at most {max}", max = read::MAX_ARRAYS)]
+    TooManyArrays(usize),
+    #[error("lists '{name}' with {dims} dimensions; an array has at most {max}", max = read::MAX_DIMS)]
+    TooManyDims { name: String, dims: usize },
+    #[error("lists '{name}' as {:?} {shape:?}; the film's sizes need {want_dtype:?} {want_shape:?}", clip(.dtype))]
     ArrayListing {
         name: &'static str,
         dtype: String,
@@ -188,7 +211,7 @@ pub enum Problem {
     },
     #[error("lists no array '{0}'")]
     NoArray(String),
-    #[error("array '{name}' is in {file:?}, which is not a file name inside the bundle")]
+    #[error("array '{name}' is in {:?}, which is not a file name inside the bundle", clip(.file))]
     ArrayFile { name: String, file: String },
     #[error("missing")]
     Missing,
@@ -197,7 +220,7 @@ pub enum Problem {
     /// The `.npy` file, its header or a value in it.
     #[error("{0}")]
     Npy(npy::NpyError),
-    #[error("dtype {found:?} is not the format's {want:?}")]
+    #[error("dtype {:?} is not the format's {want:?}", clip(.found))]
     HeaderDtype { found: String, want: String },
     #[error("shape {found:?} does not match the manifest's {want:?}")]
     HeaderShape { found: Vec<usize>, want: Vec<usize> },
@@ -220,13 +243,13 @@ pub enum Problem {
     #[error("it has {} where the first bundle has {}: only bundles with replicates of equal size (or none) merge", show_replicates(.it), show_replicates(.first))]
     ReplicateSizes { it: Option<u64>, first: Option<u64> },
     /// A `-D` value that differs from the first bundle's (`None`: unset).
-    #[error("it was rendered with -D {key} {} where the first bundle has {}", show_define(.it), show_define(.first))]
+    #[error("it was rendered with -D {} {} where the first bundle has {}", clip(.key), show_define(.it), show_define(.first))]
     Define {
         key: String,
         it: Option<String>,
         first: Option<String>,
     },
-    #[error("the scene's file '{0}' (an include, mesh, image, volume or spectrum) differs from the first bundle's, or only one of them read it")]
+    #[error("the scene's file '{}' (an include, mesh, image, volume or spectrum) differs from the first bundle's, or only one of them read it", clip(.0))]
     SceneInput(String),
     /// Shards of a job missing, repeated, or of other jobs.
     #[error("{0}")]
@@ -237,6 +260,26 @@ pub enum Problem {
     SppOverflow,
 }
 
+/// A JSON error, shortened: serde's messages quote the offending value, which in a
+/// hostile manifest may be a string of megabytes.
+fn short(e: &serde_json::Error) -> String {
+    const MAX: usize = 200;
+    let s = e.to_string();
+    if s.len() <= MAX {
+        return s;
+    }
+    let cut = (0..=MAX)
+        .rev()
+        .find(|&i| s.is_char_boundary(i))
+        .unwrap_or(0);
+    format!(
+        "{}... (at line {}, column {})",
+        &s[..cut],
+        e.line(),
+        e.column()
+    )
+}
+
 fn show_replicates(size: &Option<u64>) -> String {
     match size {
         Some(k) => format!("replicates of {k} samples"),
@@ -245,5 +288,16 @@ fn show_replicates(size: &Option<u64>) -> String {
 }
 
 fn show_define(v: &Option<String>) -> String {
-    v.as_ref().map_or("unset".to_string(), |v| format!("'{v}'"))
+    v.as_ref()
+        .map_or("unset".to_string(), |v| format!("'{}'", clip(v)))
+}
+
+/// Text from a manifest, shortened for a message (a hostile manifest may hold strings
+/// of megabytes): at most 80 characters, then "...".
+pub(crate) fn clip(s: &str) -> String {
+    const MAX: usize = 80;
+    match s.char_indices().nth(MAX) {
+        None => s.to_string(),
+        Some((i, _)) => format!("{}...", &s[..i]),
+    }
 }

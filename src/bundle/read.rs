@@ -106,8 +106,90 @@ pub fn required_arrays(m: &Manifest) -> Vec<(&'static str, &'static str, Vec<usi
     v
 }
 
+/// The largest magnitude of a length, coordinate or OPL in a manifest, in scene units
+/// (docs/bundle.md, "Bounds"): far beyond any scene (f32 geometry is meaningless long
+/// before), small enough that squares and sums of a few stay finite in f32 (1e30)
+/// and f64, so no reader turns a valid manifest into infinities or NaN.
+pub const MAX_MAGNITUDE: f64 = 1e15;
+
+/// The most entries `arrays` may list: the format has 12 arrays (unknown entries are
+/// ignored, for forward compatibility, but not without bound).
+pub const MAX_ARRAYS: usize = 64;
+
+/// The most dimensions of a listed array (NumPy's own limit is 64; the format uses 4).
+pub const MAX_DIMS: usize = 32;
+
+/// How far from 1 the length of a unit vector of the capture record may be (it is an
+/// f32 normal written as f64).
+pub const UNIT_TOLERANCE: f64 = 1e-3;
+
+/// `v` as a manifest shows it (NaN and infinities by name, as JSON cannot hold them).
+fn show_f64(v: f64) -> String {
+    if v.is_finite() {
+        format!("{v:e}")
+    } else {
+        show(v)
+    }
+}
+
+/// A [`Problem::Value`].
+pub(crate) fn bad_value(at: impl Into<String>, v: f64, rule: impl Into<String>) -> Problem {
+    Problem::Value {
+        at: at.into(),
+        value: show_f64(v),
+        rule: rule.into(),
+    }
+}
+
+/// A length or coordinate: finite, of magnitude below [`MAX_MAGNITUDE`].
+pub(crate) fn check_magnitude(at: &str, v: f64) -> Result<(), Problem> {
+    if v.is_finite() && v.abs() < MAX_MAGNITUDE {
+        Ok(())
+    } else {
+        Err(bad_value(
+            at,
+            v,
+            format!("must be finite and of magnitude below {MAX_MAGNITUDE:e} scene units"),
+        ))
+    }
+}
+
+/// A point or vector: each component as [`check_magnitude`].
+pub(crate) fn check_point(at: &str, p: [f64; 3]) -> Result<(), Problem> {
+    p.iter()
+        .enumerate()
+        .try_for_each(|(i, &v)| check_magnitude(&format!("{at}[{i}]"), v))
+}
+
+/// The first value of `v` that occurs twice, in O(n log n) time (a sorted copy).
+pub(crate) fn first_repeated<T: Ord + Clone>(v: &[T]) -> Option<T> {
+    let mut sorted = v.to_vec();
+    sorted.sort_unstable();
+    sorted
+        .windows(2)
+        .find(|w| w[0] == w[1])
+        .map(|w| w[0].clone())
+}
+
+/// `channels` shortened for a message (a hostile list may be long).
+fn show_channels(c: &[String]) -> String {
+    let shown: Vec<String> = c.iter().take(4).map(|s| format!("{s:?}")).collect();
+    let more = if c.len() > 4 {
+        format!(", ... ({} in all)", c.len())
+    } else {
+        String::new()
+    };
+    format!("[{}{more}]", shown.join(", "))
+}
+
 /// The manifest's own fields (after the format and version are known): sizes,
-/// sample count, time axis, transform, metadata. The error is a short reason.
+/// sample count, time axis, transform, capture geometry, lists, metadata. The error is
+/// a short reason. Every check is linear (or n log n) in the length of any list, so a
+/// manifest of [`crate::io::MAX_MANIFEST_BYTES`] is checked in well under a second.
+///
+/// Reading ([`Bundle::open`]) and writing ([`manifest_json`], which every writer of a
+/// manifest calls, and `write::check_render`, before a render starts) share it: what
+/// is written can be read back.
 pub fn validate(m: &Manifest) -> Result<(), Problem> {
     m.transform.validate().map_err(Problem::Transform)?;
     if m.width == 0 || m.height == 0 || m.bins == 0 {
@@ -132,11 +214,26 @@ pub fn validate(m: &Manifest) -> Result<(), Problem> {
         n.validate(m.width, m.height)?;
     }
     if m.channels != ["R", "G", "B"] {
-        return Err(Problem::Channels(m.channels.clone()));
+        return Err(Problem::Channels(show_channels(&m.channels)));
     }
     let sha = &m.scene.sha256;
     if sha.len() != 64 || !sha.bytes().all(|b| b.is_ascii_hexdigit()) {
-        return Err(Problem::SceneHash(sha.clone()));
+        return Err(Problem::SceneHash(sha.chars().take(80).collect()));
+    }
+    if let Some(id) = &m.scene.identity {
+        let names = |l: &[(String, String)]| l.iter().map(|(k, _)| k.clone()).collect::<Vec<_>>();
+        if let Some(name) = first_repeated(&names(&id.inputs)) {
+            return Err(Problem::IdentityTwice {
+                list: "inputs",
+                name,
+            });
+        }
+        if let Some(name) = first_repeated(&names(&id.defaults)) {
+            return Err(Problem::IdentityTwice {
+                list: "defaults",
+                name,
+            });
+        }
     }
     check_spp(m.spp).map_err(Problem::Spp)?;
     if let Some(b) = m.replicates {
@@ -147,9 +244,90 @@ pub fn validate(m: &Manifest) -> Result<(), Problem> {
             });
         }
     }
-    let finite_positive = |v: f64| v > 0.0 && v.is_finite();
-    if !(finite_positive(m.bin_width_opl) && finite_positive(m.unit_m) && m.start_opl.is_finite()) {
-        return Err(Problem::TimeAxis);
+    check_time_axis(m)?;
+    if let Some(s) = m.time_filter_stddev_bins {
+        if !(s > 0.0 && s < MAX_MAGNITUDE) {
+            return Err(bad_value(
+                "time_filter_stddev_bins",
+                s,
+                format!("must be positive, finite and below {MAX_MAGNITUDE:e} bins"),
+            ));
+        }
+    }
+    if !(m.render_seconds.is_finite() && m.render_seconds >= 0.0) {
+        return Err(Problem::RenderSeconds(m.render_seconds));
+    }
+    if m.max_depth < -1 {
+        return Err(Problem::MaxDepth(m.max_depth));
+    }
+    if let Some(s) = first_repeated(&m.merged_seeds) {
+        return Err(Problem::MergedSeedTwice(s));
+    }
+    // Every merged render has at least 2 samples: that bounds the list.
+    if m.merged_seeds.len() as u64 > m.spp / 2 {
+        return Err(Problem::MergedSeedsTooMany {
+            len: m.merged_seeds.len(),
+            spp: m.spp,
+        });
+    }
+    if let Some(s) = &m.shard {
+        check_shard_record(s)?;
+    }
+    if m.arrays.len() > MAX_ARRAYS {
+        return Err(Problem::TooManyArrays(m.arrays.len()));
+    }
+    if let Some(a) = m.arrays.iter().find(|a| a.shape.len() > MAX_DIMS) {
+        return Err(Problem::TooManyDims {
+            name: a.name.chars().take(80).collect(),
+            dims: a.shape.len(),
+        });
+    }
+    let names: Vec<&str> = m.arrays.iter().map(|a| a.name.as_str()).collect();
+    if let Some(name) = first_repeated(&names) {
+        return Err(Problem::ArrayTwice(name.to_string()));
+    }
+    Ok(())
+}
+
+/// The time axis: `unit_m`, `start_opl`, `bin_width_opl` and the bins' end (see
+/// docs/bundle.md, "Bounds"), and the seconds that restate them.
+fn check_time_axis(m: &Manifest) -> Result<(), Problem> {
+    if !(m.unit_m > 0.0 && m.unit_m < MAX_MAGNITUDE) {
+        return Err(bad_value(
+            "unit_m",
+            m.unit_m,
+            format!("metres per scene unit must be positive, finite and below {MAX_MAGNITUDE:e}"),
+        ));
+    }
+    check_magnitude("start_opl", m.start_opl)?;
+    if !(m.bin_width_opl > 0.0 && m.bin_width_opl < MAX_MAGNITUDE) {
+        return Err(bad_value(
+            "bin_width_opl",
+            m.bin_width_opl,
+            format!("must be positive, finite and below {MAX_MAGNITUDE:e} scene units"),
+        ));
+    }
+    // The end of the last bin: finite, bounded, and the first bin not lost to
+    // rounding (start + width > start).
+    let end = m.start_opl + m.bins as f64 * m.bin_width_opl;
+    if !(end.is_finite() && end.abs() < MAX_MAGNITUDE) {
+        return Err(bad_value(
+            "start_opl + bins * bin_width_opl",
+            end,
+            format!(
+                "the end of the last bin must be of magnitude below {MAX_MAGNITUDE:e} scene units"
+            ),
+        ));
+    }
+    if m.start_opl + m.bin_width_opl <= m.start_opl {
+        return Err(bad_value(
+            "bin_width_opl",
+            m.bin_width_opl,
+            format!(
+                "too small to be added to start_opl = {} (the bins would not be distinct)",
+                show_f64(m.start_opl)
+            ),
+        ));
     }
     // The seconds are derived (opl * unit_m / c); `info` shows them, so they must
     // agree with the OPL axis they restate.
@@ -167,35 +345,78 @@ pub fn validate(m: &Manifest) -> Result<(), Problem> {
             unit_m: m.unit_m,
         });
     }
-    if !(m.render_seconds.is_finite() && m.render_seconds >= 0.0) {
-        return Err(Problem::RenderSeconds(m.render_seconds));
-    }
-    if m.max_depth < -1 {
-        return Err(Problem::MaxDepth(m.max_depth));
-    }
-    if let Some(i) =
-        (1..m.merged_seeds.len()).find(|&i| m.merged_seeds[..i].contains(&m.merged_seeds[i]))
-    {
-        return Err(Problem::MergedSeedTwice(m.merged_seeds[i]));
-    }
-    if let Some(s) = &m.shard {
-        let hex = s.job.len() == 16 && s.job.bytes().all(|b| b.is_ascii_hexdigit());
-        let ordered = s.indices.windows(2).all(|w| w[0] < w[1]);
-        if !hex
-            || s.count == 0
-            || s.count > MAX_SHARDS
-            || s.indices.is_empty()
-            || !ordered
-            || s.indices.iter().any(|&i| i >= s.count)
-        {
-            return Err(Problem::ShardRecord {
-                job: s.job.clone(),
-                count: s.count,
-                indices: s.indices.clone(),
-            });
-        }
-    }
     Ok(())
+}
+
+/// A bundle's `shard` record: a 16-digit hexadecimal job, a count from 1 to
+/// [`MAX_SHARDS`], and strictly increasing indices below count (so at most count of
+/// them, and no index twice), in linear time.
+pub fn check_shard_record(s: &super::shard::ShardRecord) -> Result<(), Problem> {
+    let why = if !(s.job.len() == 16 && s.job.bytes().all(|b| b.is_ascii_hexdigit())) {
+        format!(
+            "job {:?} is not 16 hexadecimal digits",
+            s.job.chars().take(40).collect::<String>()
+        )
+    } else if s.count == 0 || s.count > MAX_SHARDS {
+        format!("count {} is not from 1 to 2^32", s.count)
+    } else if s.indices.is_empty() {
+        "no indices".to_string()
+    } else if let Some(w) = s.indices.windows(2).find(|w| w[0] >= w[1]) {
+        format!("indices {} then {} do not increase", w[0], w[1])
+    } else if let Some(i) = s.indices.iter().find(|&&i| i >= s.count) {
+        format!("index {i} is not below count {}", s.count)
+    } else {
+        return Ok(());
+    };
+    Err(Problem::ShardRecord(why))
+}
+
+/// The manifest in `text` (a `manifest.json`), checked: size, JSON, format and
+/// version, no control characters in any string, then the fields ([`validate`]). The
+/// one parser of manifests: [`Bundle::open`] reads with it and [`manifest_json`]
+/// checks with it what every writer writes.
+pub fn parse_manifest(text: &str) -> Result<Manifest, Problem> {
+    let limit = crate::io::MAX_MANIFEST_BYTES;
+    if text.len() as u64 > limit {
+        return Err(Problem::ManifestTooLarge {
+            bytes: text.len(),
+            limit,
+        });
+    }
+    let value: serde_json::Value = serde_json::from_str(text).map_err(Problem::NotJson)?;
+    if value.get("format").and_then(|f| f.as_str()) != Some(FORMAT) {
+        return Err(Problem::NotThisFormat);
+    }
+    let version = value.get("version").and_then(|v| v.as_u64());
+    if version != Some(VERSION as u64) {
+        let found = value
+            .get("version")
+            .map_or("missing".to_string(), |v| v.to_string());
+        return Err(Problem::Version { found });
+    }
+    if let Some((at, c)) = control_character(&value, &mut String::new()) {
+        return Err(Problem::ControlCharacter { at, code: c as u32 });
+    }
+    // From the text, not the value: a key given twice ("spp": 4, "spp": 64) is an
+    // error there, where a JSON value silently keeps the last one.
+    let manifest: Manifest = serde_json::from_str(text).map_err(Problem::BadManifest)?;
+    validate(&manifest)?;
+    Ok(manifest)
+}
+
+/// The text of `m` as `manifest.json`, refused (with the reader's reason) unless
+/// [`parse_manifest`] reads it back as `m`: every writer of a manifest goes through
+/// here, so nothing writes a manifest that the reader refuses. The fields are
+/// checked first ([`validate`]), so that a NaN is named rather than written as
+/// JSON's `null`.
+pub fn manifest_json(m: &Manifest) -> Result<String, Problem> {
+    validate(m)?;
+    let json = serde_json::to_string_pretty(m).map_err(Problem::BadManifest)?;
+    let back = parse_manifest(&json)?;
+    if back != *m {
+        return Err(Problem::NotRoundTrip);
+    }
+    Ok(json)
 }
 
 impl Bundle {
@@ -209,31 +430,10 @@ impl Bundle {
             };
             return Err(BundleError::invalid(dir.to_path_buf(), why));
         }
+        // The size is checked (from the file's metadata) before anything is read.
         let text = crate::io::read_regular_text(&mpath, crate::io::MAX_MANIFEST_BYTES)
             .map_err(|e| BundleError::invalid(mpath.clone(), Problem::Unreadable(e)))?;
-        let value: serde_json::Value = serde_json::from_str(&text)
-            .map_err(|e| BundleError::invalid(mpath.clone(), Problem::NotJson(e)))?;
-        if value.get("format").and_then(|f| f.as_str()) != Some(FORMAT) {
-            return Err(BundleError::invalid(mpath, Problem::NotThisFormat));
-        }
-        let version = value.get("version").and_then(|v| v.as_u64());
-        if version != Some(VERSION as u64) {
-            let found = value
-                .get("version")
-                .map_or("missing".to_string(), |v| v.to_string());
-            return Err(BundleError::invalid(mpath, Problem::Version { found }));
-        }
-        if let Some((at, c)) = control_character(&value, &mut String::new()) {
-            return Err(BundleError::invalid(
-                mpath,
-                Problem::ControlCharacter { at, code: c as u32 },
-            ));
-        }
-        // From the text, not the value: a key given twice ("spp": 4, "spp": 64) is an
-        // error there, where a JSON value silently keeps the last one.
-        let manifest: Manifest = serde_json::from_str(&text)
-            .map_err(|e| BundleError::invalid(mpath.clone(), Problem::BadManifest(e)))?;
-        validate(&manifest).map_err(|e| BundleError::invalid(mpath.clone(), e))?;
+        let manifest = parse_manifest(&text).map_err(|e| BundleError::invalid(mpath, e))?;
         let bundle = Bundle {
             dir: dir.to_path_buf(),
             manifest,
@@ -249,12 +449,7 @@ impl Bundle {
     /// The listing of every required array, and each file's header (cheap: a few
     /// hundred bytes per file).
     fn check_arrays(&self) -> Result<(), BundleError> {
-        let arrays = &self.manifest.arrays;
-        if let Some(i) =
-            (1..arrays.len()).find(|&i| arrays[..i].iter().any(|a| a.name == arrays[i].name))
-        {
-            return Err(self.manifest_error(Problem::ArrayTwice(arrays[i].name.clone())));
-        }
+        // (`validate` refused an array listed twice and bounded the list.)
         let mut files: Vec<(PathBuf, &'static str)> = Vec::new();
         for (name, dtype, shape) in required_arrays(&self.manifest) {
             let info = self.info(name)?;
@@ -769,4 +964,144 @@ fn npy_error(path: &Path, e: npy::NpyError) -> BundleError {
 /// A file or directory of the bundle that cannot be read.
 fn unreadable(path: &Path, e: std::io::Error) -> BundleError {
     BundleError::invalid(path.to_path_buf(), Problem::Unreadable(e.into()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A valid manifest of a 4 x 4 confocal capture, 8 bins, 4 spp.
+    fn manifest() -> Manifest {
+        let text = r#"{"format":"tstats","version":1,"width":4,"height":4,"bins":8,
+            "channels":["R","G","B"],"spp":4,"start_opl":1.902,"bin_width_opl":0.004,
+            "unit_m":1.0,"start_seconds":6.344389090668851e-9,
+            "bin_width_seconds":1.3342563807926083e-11,"transform":{"kind":"identity"},
+            "pixel_sampling":"sobol","seed":0,
+            "nlos":{"capture":"confocal","sensor_grid":[4,4],"laser_grid":[1,1],
+              "sensor_origin":[-2.0,0.0,2.0],"laser_origin":[-2.0,0.0,2.0],
+              "wall_corner":[-1.0,-1.0,0.0],"wall_du":[2.0,0.0,0.0],"wall_dv":[0.0,2.0,0.0],
+              "wall_normal":[0.0,0.0,1.0],"laser_points":[],
+              "account_first_and_last_bounces":false},
+            "scene":{"path":"s.xml","sha256":"6d0d7fcb6b2916efc8a4e20145184a6daa1094f452468e19c198f5264ace0288",
+              "identity":{"inputs":[],"defaults":[["bins","8"],["res","4"]]}},
+            "max_depth":-1,"render_seconds":0.5,"dropped_nonfinite":0,
+            "program":{"name":"tstat","version":"0.1.0"},"arrays":[]}"#;
+        parse_manifest(text).unwrap()
+    }
+
+    /// A million merged seeds (and the same with one repeated at the end) validate in
+    /// well under a second: the check is a sort. The quadratic check it replaces
+    /// takes about a minute on this list (and any quadratic check would exceed the
+    /// corpus's 20 s limit), so this test is its regression test without a timer.
+    #[test]
+    fn a_million_merged_seeds_validate_in_linear_time() {
+        let mut m = manifest();
+        m.spp = 4_000_000;
+        m.merged_seeds = (1..=1_000_000).rev().collect();
+        validate(&m).unwrap();
+        let text = serde_json::to_string(&m).unwrap();
+        assert_eq!(parse_manifest(&text).unwrap(), m);
+        m.merged_seeds.push(777_777);
+        assert!(matches!(
+            validate(&m),
+            Err(Problem::MergedSeedTwice(777_777))
+        ));
+        m.merged_seeds.pop();
+        m.spp = 4;
+        assert!(matches!(
+            validate(&m),
+            Err(Problem::MergedSeedsTooMany {
+                len: 1_000_000,
+                spp: 4
+            })
+        ));
+    }
+
+    /// The other lists: a million shard indices, -D values, scene inputs and channels
+    /// are checked in linear (or n log n) time, and the messages stay one short line.
+    #[test]
+    fn a_million_entries_in_any_list_validate_quickly_with_short_messages() {
+        let mut m = manifest();
+        m.shard = Some(super::super::shard::ShardRecord {
+            job: "0123456789abcdef".into(),
+            count: 1 << 32,
+            indices: (0..1_000_000).collect(),
+        });
+        validate(&m).unwrap();
+        m.shard.as_mut().unwrap().indices.push(3);
+        let e = validate(&m).unwrap_err().to_string();
+        assert!(e.contains("indices 999999 then 3 do not increase"), "{e}");
+        assert!(e.len() < 300, "{e}");
+        m.shard = None;
+        let id = m.scene.identity.as_mut().unwrap();
+        id.defaults = (0..1_000_000)
+            .map(|i| (format!("d{i:07}"), "1".into()))
+            .collect();
+        id.inputs = (0..1_000_000)
+            .map(|i| (format!("f{i:07}"), "0".into()))
+            .collect();
+        validate(&m).unwrap();
+        let id = m.scene.identity.as_mut().unwrap();
+        id.inputs.push(("f0000042".into(), "1".into()));
+        let e = validate(&m).unwrap_err().to_string();
+        assert!(e.contains("inputs lists 'f0000042' twice"), "{e}");
+        m.scene.identity = None;
+        m.channels = vec!["R".to_string(); 1_000_000];
+        let e = validate(&m).unwrap_err().to_string();
+        assert!(e.contains("(1000000 in all)") && e.len() < 300, "{e}");
+    }
+
+    /// What the writer writes reads back as written, and what the reader refuses the
+    /// writer refuses, with the reader's reason (never JSON's `null` for a NaN).
+    #[test]
+    fn the_writer_refuses_what_the_reader_refuses() {
+        let m = manifest();
+        let json = manifest_json(&m).unwrap();
+        assert_eq!(parse_manifest(&json).unwrap(), m);
+        let refused = |edit: &dyn Fn(&mut Manifest), want: &str| {
+            let mut bad = manifest();
+            edit(&mut bad);
+            let e = manifest_json(&bad).unwrap_err().to_string();
+            assert!(e.contains(want), "{want}: {e}");
+            // The reader refuses the same manifest, written as serde writes it.
+            let text = serde_json::to_string(&bad).unwrap();
+            assert!(parse_manifest(&text).is_err(), "{want}: read back");
+        };
+        refused(&|m| m.start_opl = f64::NAN, "start_opl = NaN");
+        refused(&|m| m.bin_width_opl = 0.0, "bin_width_opl = 0e0");
+        refused(&|m| m.unit_m = f64::INFINITY, "unit_m = +inf");
+        let nlos = |f: fn(&mut super::super::capture::CaptureRecord)| {
+            move |m: &mut Manifest| f(m.nlos.as_mut().unwrap())
+        };
+        refused(
+            &nlos(|n| n.wall_corner[0] = 1e300),
+            "nlos.wall_corner[0] = 1e300",
+        );
+        refused(
+            &nlos(|n| n.laser_origin = Some([f64::NAN; 3])),
+            "nlos.laser_origin[0] = NaN",
+        );
+        refused(
+            &nlos(|n| n.wall_normal = [0.0, 0.0, 2.0]),
+            "|nlos.wall_normal| = 2e0",
+        );
+        refused(
+            &|m| m.scene.path = "a\nb.xml".into(),
+            "control character U+000A",
+        );
+        refused(
+            &|m| m.scene.identity.as_mut().unwrap().defaults[0].1 = "\u{1b}[2J".into(),
+            "control character U+001B",
+        );
+        refused(&|m| m.merged_seeds = vec![1, 1], "seed 1 twice");
+        // An unknown laser is representable: null, read back as None.
+        let mut m = manifest();
+        let n = m.nlos.as_mut().unwrap();
+        n.capture = crate::scene::nlos::CaptureType::Single;
+        n.laser_origin = None;
+        n.laser_points = vec![None];
+        let json = manifest_json(&m).unwrap();
+        assert!(json.contains("\"laser_origin\": null"), "{json}");
+        assert_eq!(parse_manifest(&json).unwrap(), m);
+    }
 }

@@ -338,11 +338,55 @@ fn write_pixel_arrays(
     )
 }
 
-/// Writes the manifest, last: a bundle directory without one is not a bundle.
-fn write_manifest(dir: &Path, manifest: &Manifest) -> Result<(), BundleError> {
-    let json = serde_json::to_string_pretty(manifest).expect("manifest serialises");
+/// Writes the manifest, last: a bundle directory without one is not a bundle. The
+/// manifest is checked as the reader checks it ([`super::read::manifest_json`]) and
+/// refused, naming `out` (the bundle being written), unless it reads back as written.
+pub(crate) fn write_manifest(
+    dir: &Path,
+    out: &Path,
+    manifest: &Manifest,
+) -> Result<(), BundleError> {
+    let json = super::read::manifest_json(manifest)
+        .map_err(|p| BundleError::Unwritable(out.to_path_buf(), Box::new(p)))?;
     let mpath = dir.join("manifest.json");
     std::fs::write(&mpath, json).map_err(|e| BundleError::io(mpath, e))
+}
+
+/// Refuses, before any rendering work, a render of `scene` with `meta` into `out`
+/// whose manifest the reader would refuse (a capture record with a position beyond
+/// the bounds, a time axis that overflows, a `-D` value or scene path holding a
+/// control character, ...): the manifest the render will write, with the arrays it
+/// will list (its times and counts are not known yet, and never invalid), is checked
+/// by the same function as the written one. `recorded` is the scene path the
+/// manifest will record (`scene.file`, or where `tstat run` moves the scene).
+pub fn check_render(
+    out: &Path,
+    scene: &Scene,
+    recorded: &Path,
+    meta: &BundleMeta,
+) -> Result<(), BundleError> {
+    let mut m = manifest(scene, meta, 0.0, 0);
+    m.scene.path = recorded.display().to_string();
+    check_planned(out, &m)
+}
+
+/// Refuses `m`, the manifest of a bundle about to be written to `out` without its
+/// array list, unless it will read back once the bundle's arrays are listed (see
+/// [`check_render`]; `merge` checks its output's manifest with it before merging).
+pub(crate) fn check_planned(out: &Path, m: &Manifest) -> Result<(), BundleError> {
+    let mut m = m.clone();
+    m.arrays = super::read::required_arrays(&m)
+        .into_iter()
+        .map(|(name, dtype, shape)| ArrayInfo {
+            name: name.into(),
+            file: format!("{name}.npy"),
+            dtype: dtype.into(),
+            shape,
+        })
+        .collect();
+    super::read::manifest_json(&m)
+        .map(|_| ())
+        .map_err(|p| BundleError::Unwritable(out.to_path_buf(), Box::new(p)))
 }
 
 /// Writes the bundle of a finished render to `out` (a directory, e.g. `NAME.tstats`).
@@ -411,7 +455,7 @@ pub fn write_bundle(
         )?;
         let media = written.media;
         write_pixel_arrays(dir, (h, w), &output.gbuffer, output.steady, media, arrays)?;
-        write_manifest(dir, written)
+        write_manifest(dir, out, written)
     })?;
     Ok(manifest)
 }
@@ -693,7 +737,7 @@ impl BundleWriter {
             manifest.media,
             &mut manifest.arrays,
         )?;
-        write_manifest(&dir, &manifest)?;
+        write_manifest(&dir, &self.staged.final_path, &manifest)?;
         self.staged.commit()?;
         Ok(manifest)
     }

@@ -89,7 +89,7 @@ pub fn run(a: InfoArgs) -> anyhow::Result<()> {
             "nlos        {} capture: {sx} x {sy} relay-wall points{lasers}; sensor at {}, laser at {}; times {} the sensor and laser segments",
             n.capture.name(),
             p(n.sensor_origin),
-            p(n.laser_origin),
+            n.laser_origin.map_or("(none)".to_string(), p),
             if n.account_first_and_last_bounces { "include" } else { "exclude" }
         );
     }

@@ -5,7 +5,7 @@ use super::util::{
     size_flag, threads, with_threads, Kind, MAX_FILM_SIDE,
 };
 use crate::bundle::shard::{shard_seed, Shard, PLACEHOLDER};
-use crate::bundle::write::{bundle_bytes_with, BundleMeta, BundleWriter, JobShard};
+use crate::bundle::write::{bundle_bytes_with, check_render, BundleMeta, BundleWriter, JobShard};
 use crate::render::{render_into, PixelSampling, RenderSettings, StreamingMemory};
 use crate::scene::{Overrides, Scene};
 use crate::stats::Transform;
@@ -233,7 +233,22 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
     check_memory(&memory, limit)?;
     let disk = bundle_bytes_with(film, &transform, !scene.media.is_empty(), replicates);
     check_disk(&out, disk, "the bundle")?;
-    if let Some(j) = &job {
+    let render_seed = match &job {
+        Some(j) => shard_seed(job_seed, j.shard.index),
+        None => job_seed,
+    };
+    let meta = BundleMeta {
+        seed: render_seed,
+        transform,
+        unit_m: a.unit_m,
+        pixel_sampling: a.scene_args.pixel_sampling,
+        replicates: replicate_count,
+        job,
+    };
+    // Before any rendering work: the manifest this render will write must read back
+    // (the same check as reading it).
+    check_render(&out, &scene, &scene.file, &meta)?;
+    if let Some(j) = &meta.job {
         eprintln!(
             "shard {} of {} (indices 0-{}): {} of the job's {} spp, seed {}",
             j.shard.index,
@@ -259,10 +274,7 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
 
     let settings = RenderSettings {
         spp: scene.spp,
-        seed: match &job {
-            Some(j) => shard_seed(job_seed, j.shard.index),
-            None => job_seed,
-        },
+        seed: render_seed,
         transform,
         pixel_sampling: a.scene_args.pixel_sampling,
         replicates: replicate_count,
@@ -284,14 +296,6 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
     .context("writing the bundle")?;
     bar.finish_and_clear();
     warn_if_empty(summary.voxel_samples, film);
-    let meta = BundleMeta {
-        seed: settings.seed,
-        transform,
-        unit_m: a.unit_m,
-        pixel_sampling: settings.pixel_sampling,
-        replicates: settings.replicates,
-        job,
-    };
     writer
         .finish(&scene, &meta, &summary)
         .context("writing the bundle")?;

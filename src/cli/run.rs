@@ -146,6 +146,18 @@ fn job(
     )
     .saturating_add(volume.saturating_mul(2));
     super::render::check_disk(&a.out, disk, "the run's output")?;
+    let bundle_path = dir.join("scene.tstats");
+    let meta = BundleMeta {
+        seed: o.seed.unwrap_or(scene.seed),
+        transform,
+        unit_m: 1.0,
+        pixel_sampling: a.scene_args.pixel_sampling,
+        replicates: a.scene_args.replicates,
+        job: None,
+    };
+    // Before any rendering work: the manifest must read back (with the scene's
+    // final path, as written).
+    crate::bundle::write::check_render(&bundle_path, &scene, &scene_record(a), &meta)?;
     eprintln!(
         "{}: {}x{} px, {} bins, {} spp ({}); memory {}, {} on disk",
         scene_record(a).display(),
@@ -164,7 +176,6 @@ fn job(
         pixel_sampling: a.scene_args.pixel_sampling,
         replicates: a.scene_args.replicates,
     };
-    let bundle_path = dir.join("scene.tstats");
     let writer = BundleWriter::create_with(&bundle_path, false, film, &transform, replicates)
         .context("writing the bundle")?;
     let summary = with_threads(o.threads, || {
@@ -177,14 +188,6 @@ fn job(
         summary.seconds,
         summary.paths as f64 / summary.seconds / 1e6
     );
-    let meta = BundleMeta {
-        seed: settings.seed,
-        transform,
-        unit_m: 1.0,
-        pixel_sampling: settings.pixel_sampling,
-        replicates: settings.replicates,
-        job: None,
-    };
     // The bundled scene sits in the temporary directory until that is renamed: the
     // manifest records where it will be.
     let scene = Scene {

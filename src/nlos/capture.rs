@@ -53,6 +53,9 @@ impl Capture {
             .nlos
             .as_ref()
             .ok_or_else(|| NlosError::NotACapture(bundle.dir.clone()))?;
+        if !rec.lit_points_known() {
+            return Err(NlosError::LitPointsUnknown(bundle.dir.clone()));
+        }
         let len = super::tal::h_per_bin(rec)
             .checked_mul(m.bins)
             .ok_or(NlosError::HOverflow)?;
@@ -108,7 +111,7 @@ impl Capture {
             laser_grid,
             sensor_grid,
             paired,
-            laser_xyz: finite(rec.laser_origin),
+            laser_xyz: rec.laser_origin.map(f32x3),
             sensor_xyz: finite(rec.sensor_origin),
             t_start,
             delta_t,

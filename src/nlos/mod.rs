@@ -55,6 +55,9 @@ pub enum NlosError {
     ExportNotACapture(PathBuf),
     #[error("{}: invalid bundle: its times include the laser's segment, but the scene has no positioned laser (a projector or spot) to record as laser_xyz", .0.display())]
     ExportNoLaser(PathBuf),
+    /// A capture whose lit points are not known (`CaptureRecord::laser_points`).
+    #[error("{}: the capture's lit points are not known (a transient_path render whose laser is not positioned or whose axis meets nothing): it cannot be reconstructed or exported", .0.display())]
+    LitPointsUnknown(PathBuf),
     #[error("{}: invalid bundle: H of {values} values does not fit the address space", .dir.display())]
     ExportTooLarge { dir: PathBuf, values: u64 },
     #[error("{}: invalid bundle: {error}", .dir.display())]

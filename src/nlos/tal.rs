@@ -139,9 +139,8 @@ fn stage_meta(b: &mut FileBuilder, bundle: &Bundle, rec: &CaptureRecord) {
     let point = |p: [f64; 3]| p.map(|v| (v * unit) as f32);
     b.create_dataset("sensor_xyz")
         .with_f32_data(&point(rec.sensor_origin));
-    if rec.laser_origin.iter().all(|v| v.is_finite()) {
-        b.create_dataset("laser_xyz")
-            .with_f32_data(&point(rec.laser_origin));
+    if let Some(o) = rec.laser_origin {
+        b.create_dataset("laser_xyz").with_f32_data(&point(o));
     }
     b.create_dataset("delta_t")
         .with_f64_data(&[m.bin_width_opl * unit])
@@ -233,8 +232,11 @@ pub fn write_capture(bundle: &Bundle, path: &Path, max_bytes: u64) -> Result<Wri
         .nlos
         .as_ref()
         .ok_or_else(|| NlosError::ExportNotACapture(dir.clone()))?;
-    if rec.account_first_and_last_bounces && !rec.laser_origin.iter().all(|v| v.is_finite()) {
+    if rec.account_first_and_last_bounces && rec.laser_origin.is_none() {
         return Err(NlosError::ExportNoLaser(dir.clone()));
+    }
+    if !rec.lit_points_known() {
+        return Err(NlosError::LitPointsUnknown(dir.clone()));
     }
     let shape = h_shape(rec, m.bins);
     let n = shape

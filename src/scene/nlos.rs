@@ -506,6 +506,9 @@ pub enum NlosError {
         "transient_nlos_path: the laser must be a projector or a spot emitter (a positioned light with an axis)"
     )]
     LaserKind,
+    /// A laser whose position is not finite (its `to_world` overflows).
+    #[error("transient_nlos_path: the laser's position ({}, {}, {}) is not finite: its to_world overflows", .origin[0], .origin[1], .origin[2])]
+    LaserOrigin { origin: [f32; 3] },
     /// A laser whose `to_world` maps its axis to zero.
     #[error("transient_nlos_path: the laser's to_world maps its axis to zero")]
     LaserAxis,
@@ -562,6 +565,14 @@ pub enum NlosError {
     /// No ray of the laser scan meets the scene.
     #[error("the laser's scan (illumination_scan_fov) meets nothing in the scene")]
     ScanMissesScene,
+    /// Rays of the laser scan that meet nothing: their lit points would not exist
+    /// (the bundle records every lit point).
+    #[error("{missed} of the laser scan's {total} rays meet nothing (the first is laser point ({}, {})): narrow illumination_scan_fov so that every ray meets the relay wall", .first[0], .first[1])]
+    ScanMisses {
+        missed: usize,
+        total: usize,
+        first: [usize; 2],
+    },
     /// Hidden-geometry sampling with a shape that has no area (a curve or an SDF grid).
     #[error(
         "nlos_hidden_geometry_sampling samples points on every shape by area; shape '{shape}' (a curve or an SDF grid) has no area to sample"
@@ -592,6 +603,11 @@ pub fn prepare(
         });
     }
     let (laser_origin, axis) = emitters[0].laser_frame().ok_or(NlosError::LaserKind)?;
+    if !laser_origin.is_finite() {
+        return Err(NlosError::LaserOrigin {
+            origin: laser_origin.to_array(),
+        });
+    }
     let laser_axis = axis.normalize();
     if !laser_axis.is_finite() {
         return Err(NlosError::LaserAxis);
@@ -669,7 +685,6 @@ pub fn prepare(
                 laser_grid,
                 shapes,
                 accel,
-                warn,
             )?,
         }
     };
@@ -758,7 +773,6 @@ fn scan_targets(
     grid: [usize; 2],
     shapes: &[Shape],
     accel: &Accel,
-    warn: &mut dyn FnMut(String),
 ) -> Result<Vec<Option<Hit>>, NlosError> {
     let (origin, axes) = emitters[0].laser_axes().ok_or(NlosError::ScanLaserKind)?;
     let t = (0.5 * fov.to_radians()).tan() as f32;
@@ -780,11 +794,12 @@ fn scan_targets(
     if missed == out.len() {
         return Err(NlosError::ScanMissesScene);
     }
-    if missed > 0 {
-        warn(format!(
-            "{missed} of the laser scan's {} rays meet nothing: those laser points light nothing",
-            out.len()
-        ));
+    if let Some(i) = out.iter().position(Option::is_none) {
+        return Err(NlosError::ScanMisses {
+            missed,
+            total: out.len(),
+            first: [i % grid[0], i / grid[0]],
+        });
     }
     Ok(out)
 }
