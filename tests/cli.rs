@@ -551,7 +551,7 @@ fn denoise_in_slabs_writes_the_same_bytes() {
     let err = String::from_utf8_lossy(&r.stderr);
     assert_eq!(r.status.code(), Some(1), "{err}");
     assert!(
-        err.contains("--max-memory 400.0 kB") && err.contains("needs at least"),
+        err.contains("--max-memory 400k") && err.contains("needs at least"),
         "{err}"
     );
     assert!(!bad.exists());

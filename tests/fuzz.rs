@@ -8,8 +8,11 @@
 //! with `TSTAT_FUZZ_CASES=20000 TSTAT_FUZZ_SEED=$RANDOM cargo test --release --test fuzz`
 //! (docs/hostile-input.md, "Fuzzing"); CI's seed is fixed so its runs are reproducible.
 
+#[path = "common/fuzz_runner.rs"]
+mod fuzz_runner;
+
 use proptest::prelude::*;
-use proptest::test_runner::{Config, RngAlgorithm, TestCaseError, TestRng, TestRunner};
+use proptest::test_runner::TestCaseError;
 use std::path::{Path, PathBuf};
 use tstat::bundle::Bundle;
 use tstat::denoise::LoadedSums;
@@ -19,29 +22,9 @@ use tstat::scene::serialized::load_serialized;
 use tstat::scene::{Overrides, Scene};
 use tstat::stats::Transform;
 
-/// Cases per target: `TSTAT_FUZZ_CASES` or the CI default.
-fn cases(default: u32) -> u32 {
-    std::env::var("TSTAT_FUZZ_CASES")
-        .ok()
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(default)
-}
-
-/// A runner with a fixed seed, so CI is reproducible; `TSTAT_FUZZ_SEED=N` explores
-/// other inputs.
-fn runner(default_cases: u32) -> TestRunner {
-    let seed: u64 = std::env::var("TSTAT_FUZZ_SEED")
-        .ok()
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(20261202);
-    let mut bytes = [0u8; 32];
-    bytes[..8].copy_from_slice(&seed.to_le_bytes());
-    let config = Config {
-        cases: cases(default_cases),
-        failure_persistence: None,
-        ..Config::default()
-    };
-    TestRunner::new_with_rng(config, TestRng::from_seed(RngAlgorithm::ChaCha, &bytes))
+/// This target's runner (see `common/fuzz_runner.rs`).
+fn runner(default_cases: u32) -> proptest::test_runner::TestRunner {
+    fuzz_runner::runner(default_cases, 20261202)
 }
 
 /// Numbers and words that break parsers and the arithmetic behind them.

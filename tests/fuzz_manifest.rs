@@ -15,37 +15,20 @@
 //! CI runs 1500 + 1500 + 3000 cases (a few seconds); a longer campaign:
 //! `TSTAT_FUZZ_CASES=50000 TSTAT_FUZZ_SEED=$RANDOM cargo test --release --test fuzz_manifest`.
 
+#[path = "common/fuzz_runner.rs"]
+mod fuzz_runner;
+
 use proptest::prelude::*;
-use proptest::test_runner::{Config, RngAlgorithm, TestCaseError, TestRng, TestRunner};
+use proptest::test_runner::TestCaseError;
 use serde_json::{json, Value};
 use std::path::{Path, PathBuf};
 use tstat::bundle::read::{check_shard_record, manifest_json, parse_manifest};
 use tstat::bundle::shard::{merge_records, ShardRecord};
 use tstat::bundle::Bundle;
 
-/// Cases per target: `TSTAT_FUZZ_CASES` or the CI default.
-fn cases(default: u32) -> u32 {
-    std::env::var("TSTAT_FUZZ_CASES")
-        .ok()
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(default)
-}
-
-/// A runner with a fixed seed, so CI is reproducible; `TSTAT_FUZZ_SEED=N` explores
-/// other inputs.
-fn runner(default_cases: u32) -> TestRunner {
-    let seed: u64 = std::env::var("TSTAT_FUZZ_SEED")
-        .ok()
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(20261206);
-    let mut bytes = [0u8; 32];
-    bytes[..8].copy_from_slice(&seed.to_le_bytes());
-    let config = Config {
-        cases: cases(default_cases),
-        failure_persistence: None,
-        ..Config::default()
-    };
-    TestRunner::new_with_rng(config, TestRng::from_seed(RngAlgorithm::ChaCha, &bytes))
+/// This target's runner (see `common/fuzz_runner.rs`).
+fn runner(default_cases: u32) -> proptest::test_runner::TestRunner {
+    fuzz_runner::runner(default_cases, 20261206)
 }
 
 fn bin() -> &'static str {

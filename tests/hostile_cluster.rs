@@ -11,112 +11,12 @@
 //!   as meant and no injected command may run. The Kubernetes manifests are parsed and
 //!   their commands compared (the merge pod's `sh -c` script is run the same way).
 
-use std::collections::BTreeMap;
+#[path = "common/hostile.rs"]
+mod hostile;
+use hostile::{bin, limited, run, snapshot, TIME_LIMIT};
 use std::path::{Path, PathBuf};
-use std::process::{Command, Stdio};
+use std::process::Command;
 use std::time::{Duration, Instant};
-
-const TIME_LIMIT: Duration = Duration::from_secs(20);
-/// Address-space limit for every run (bytes).
-const MEMORY_LIMIT: u64 = 2_000_000_000;
-
-fn bin() -> &'static str {
-    env!("CARGO_BIN_EXE_tstat")
-}
-
-/// The binary under an address-space limit: `prlimit` if present, else `ulimit -v`.
-fn limited(args: &[String], dir: &Path) -> Command {
-    let prlimit = ["/usr/bin/prlimit", "/bin/prlimit"]
-        .into_iter()
-        .find(|p| Path::new(p).exists());
-    let mut c = match prlimit {
-        Some(p) => {
-            let mut c = Command::new(p);
-            c.arg(format!("--as={MEMORY_LIMIT}")).arg(bin());
-            c
-        }
-        None => {
-            let mut c = Command::new("sh");
-            c.arg("-c")
-                .arg(format!(
-                    "ulimit -v {}; exec \"$0\" \"$@\"",
-                    MEMORY_LIMIT / 1000
-                ))
-                .arg(bin());
-            c
-        }
-    };
-    c.args(args).current_dir(dir);
-    c
-}
-
-struct Run {
-    code: Option<i32>,
-    stdout: String,
-    stderr: String,
-    timed_out: bool,
-}
-
-/// Runs with a deadline: a run that takes longer is killed (and reported).
-fn run(mut cmd: Command) -> Run {
-    let mut child = cmd
-        .stdin(Stdio::null())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("spawn tstat");
-    fn reader(mut r: impl std::io::Read + Send + 'static) -> std::thread::JoinHandle<String> {
-        std::thread::spawn(move || {
-            let mut s = String::new();
-            r.read_to_string(&mut s).ok();
-            s
-        })
-    }
-    let out = reader(child.stdout.take().unwrap());
-    let err = reader(child.stderr.take().unwrap());
-    let start = Instant::now();
-    let mut timed_out = false;
-    let status = loop {
-        if let Some(s) = child.try_wait().unwrap() {
-            break s;
-        }
-        if start.elapsed() > TIME_LIMIT {
-            timed_out = true;
-            let _ = child.kill();
-            break child.wait().unwrap();
-        }
-        std::thread::sleep(Duration::from_millis(5));
-    };
-    Run {
-        code: status.code(),
-        stdout: out.join().unwrap(),
-        stderr: err.join().unwrap(),
-        timed_out,
-    }
-}
-
-/// Every entry under `dir` (hidden ones too): file contents, directories, link targets.
-fn snapshot(dir: &Path) -> BTreeMap<PathBuf, Vec<u8>> {
-    fn walk(root: &Path, dir: &Path, out: &mut BTreeMap<PathBuf, Vec<u8>>) {
-        for e in std::fs::read_dir(dir).unwrap().flatten() {
-            let p = e.path();
-            let rel = p.strip_prefix(root).unwrap().to_path_buf();
-            let meta = std::fs::symlink_metadata(&p).unwrap();
-            if meta.file_type().is_symlink() {
-                let t = std::fs::read_link(&p).unwrap();
-                out.insert(rel, format!("link {}", t.display()).into_bytes());
-            } else if meta.is_dir() {
-                out.insert(rel, b"dir".to_vec());
-                walk(root, &p, out);
-            } else {
-                out.insert(rel, std::fs::read(&p).unwrap());
-            }
-        }
-    }
-    let mut out = BTreeMap::new();
-    walk(dir, dir, &mut out);
-    out
-}
 
 /// The inputs and earlier outputs the cases run against: the Cornell box s.xml (and a
 /// copy named like a newline), a precious file, a folder holding recipes of an earlier

@@ -10,113 +10,15 @@
 //! would refuse, and the reader refuses non-finite or absurd values (a relay wall of
 //! 1e300, a bin width of 0) and answers quickly on lists of a million entries.
 
+#[path = "common/hostile.rs"]
+mod hostile;
+use hostile::{bin, limited, run, snapshot, Run, TIME_LIMIT};
 use serde_json::{json, Value};
-use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
-use std::process::{Command, Stdio};
-use std::time::{Duration, Instant};
-
-const TIME_LIMIT: Duration = Duration::from_secs(20);
-/// Address-space limit for every run (bytes).
-const MEMORY_LIMIT: u64 = 2_000_000_000;
-
-fn bin() -> &'static str {
-    env!("CARGO_BIN_EXE_tstat")
-}
+use std::path::Path;
+use std::process::Command;
 
 fn s(p: &Path) -> String {
     p.to_str().unwrap().to_string()
-}
-
-/// The binary under an address-space limit: `prlimit` if present, else `ulimit -v`.
-fn limited(args: &[String], dir: &Path) -> Command {
-    let prlimit = ["/usr/bin/prlimit", "/bin/prlimit"]
-        .into_iter()
-        .find(|p| Path::new(p).exists());
-    let mut c = match prlimit {
-        Some(p) => {
-            let mut c = Command::new(p);
-            c.arg(format!("--as={MEMORY_LIMIT}")).arg(bin());
-            c
-        }
-        None => {
-            let mut c = Command::new("sh");
-            c.arg("-c")
-                .arg(format!(
-                    "ulimit -v {}; exec \"$0\" \"$@\"",
-                    MEMORY_LIMIT / 1000
-                ))
-                .arg(bin());
-            c
-        }
-    };
-    c.args(args).current_dir(dir);
-    c
-}
-
-struct Run {
-    code: Option<i32>,
-    stderr: String,
-    timed_out: bool,
-    seconds: f64,
-}
-
-/// Runs with a deadline: a run that takes longer is killed (and reported).
-fn run(args: &[String], dir: &Path) -> Run {
-    let mut child = limited(args, dir)
-        .stdin(Stdio::null())
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("spawn tstat");
-    let mut err = child.stderr.take().unwrap();
-    let reader = std::thread::spawn(move || {
-        let mut s = String::new();
-        std::io::Read::read_to_string(&mut err, &mut s).ok();
-        s
-    });
-    let start = Instant::now();
-    let mut timed_out = false;
-    let status = loop {
-        if let Some(s) = child.try_wait().unwrap() {
-            break s;
-        }
-        if start.elapsed() > TIME_LIMIT {
-            timed_out = true;
-            let _ = child.kill();
-            break child.wait().unwrap();
-        }
-        std::thread::sleep(Duration::from_millis(5));
-    };
-    Run {
-        code: status.code(),
-        stderr: reader.join().unwrap(),
-        timed_out,
-        seconds: start.elapsed().as_secs_f64(),
-    }
-}
-
-/// Every entry under `dir` (hidden ones too): file contents, directories, link targets.
-fn snapshot(dir: &Path) -> BTreeMap<PathBuf, Vec<u8>> {
-    fn walk(root: &Path, dir: &Path, out: &mut BTreeMap<PathBuf, Vec<u8>>) {
-        for e in std::fs::read_dir(dir).unwrap().flatten() {
-            let p = e.path();
-            let rel = p.strip_prefix(root).unwrap().to_path_buf();
-            let meta = std::fs::symlink_metadata(&p).unwrap();
-            if meta.file_type().is_symlink() {
-                let t = std::fs::read_link(&p).unwrap();
-                out.insert(rel, format!("link {}", t.display()).into_bytes());
-            } else if meta.is_dir() {
-                out.insert(rel, b"dir".to_vec());
-                walk(root, &p, out);
-            } else {
-                out.insert(rel, std::fs::read(&p).unwrap());
-            }
-        }
-    }
-    let mut out = BTreeMap::new();
-    walk(dir, dir, &mut out);
-    out
 }
 
 /// The problems of a run that should have failed cleanly with `want` in its error.
@@ -411,7 +313,7 @@ fn renders_whose_manifest_could_not_be_read_back_are_refused_up_front() {
         args.extend(with_small(&c.args));
         args.extend(["--out".into(), "out.tstats".into()]);
         let before = snapshot(&dir);
-        let r = run(&args, &dir);
+        let r = run(limited(&args, &dir));
         let after = snapshot(&dir);
         let mut problems = failure_problems(&r, c.want);
         if dir.join("out.tstats").exists() {
@@ -992,7 +894,7 @@ fn hostile_manifests_and_shard_records_fail_cleanly() {
             std::fs::create_dir(&out).unwrap();
             let args = command(root, cmd, &input, &out);
             let before = snapshot(&dir);
-            let r = run(&args, &out);
+            let r = run(limited(&args, &out));
             runs += 1;
             let mut problems = failure_problems(&r, c.want);
             if before != snapshot(&dir) {
@@ -1029,7 +931,7 @@ fn valid_manifests_with_a_million_entries_open_in_time() {
     let fx = fixture();
     let root = fx.path();
     let ok = |args: Vec<String>, what: &str| {
-        let r = run(&args, root);
+        let r = run(limited(&args, root));
         assert!(
             r.code == Some(0) && !r.timed_out,
             "{what}: exit {:?} after {:.1} s: {}",
@@ -1104,7 +1006,7 @@ fn valid_manifests_with_a_million_entries_open_in_time() {
     assert_eq!(m["nlos"]["laser_origin"], Value::Null);
     assert_eq!(m["nlos"]["laser_points"], json!([null]));
     ok(vec!["info".into(), "point.tstats".into()], "info, no laser");
-    let r = run(
+    let r = run(limited(
         &[
             "export".into(),
             "point.tstats".into(),
@@ -1112,7 +1014,7 @@ fn valid_manifests_with_a_million_entries_open_in_time() {
             "p.hdf5".into(),
         ],
         root,
-    );
+    ));
     let problems = failure_problems(&r, &["point.tstats"]);
     assert!(
         problems.is_empty(),

@@ -174,7 +174,7 @@ impl CaptureRecord {
         }
         // Magnitudes, not only finiteness (docs/bundle.md, "Bounds"): a wall of 1e300
         // is finite, and its squared distances are not.
-        use super::read::{bad_value, check_point, UNIT_TOLERANCE};
+        use super::bounds::{bad_value, check_point, UNIT_TOLERANCE};
         check_point("nlos.sensor_origin", self.sensor_origin)?;
         if let Some(o) = self.laser_origin {
             check_point("nlos.laser_origin", o)?;

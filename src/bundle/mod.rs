@@ -1,6 +1,7 @@
 //! The statistics bundle on disk (SPEC 9): a directory with `manifest.json` and NumPy
 //! arrays. The only interface between rendering and everything after it.
 
+pub mod bounds;
 pub mod capture;
 pub mod float_rows;
 pub mod manifest;

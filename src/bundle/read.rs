@@ -42,6 +42,7 @@
 //! nothing, unknown extra manifest fields, which are ignored for forward
 //! compatibility) loads silently.
 
+use super::bounds::{bad_value, check_magnitude, show_f64, MAX_MAGNITUDE};
 use super::manifest::{ArrayInfo, Manifest, C_M_PER_S, FORMAT, VERSION};
 use super::npy::{self, first_bad, show, Element};
 use super::shard::MAX_SHARDS;
@@ -106,60 +107,12 @@ pub fn required_arrays(m: &Manifest) -> Vec<(&'static str, &'static str, Vec<usi
     v
 }
 
-/// The largest magnitude of a length, coordinate or OPL in a manifest, in scene units
-/// (docs/bundle.md, "Bounds"): far beyond any scene (f32 geometry is meaningless long
-/// before), small enough that squares and sums of a few stay finite in f32 (1e30)
-/// and f64, so no reader turns a valid manifest into infinities or NaN.
-pub const MAX_MAGNITUDE: f64 = 1e15;
-
 /// The most entries `arrays` may list: the format has 12 arrays (unknown entries are
 /// ignored, for forward compatibility, but not without bound).
 pub const MAX_ARRAYS: usize = 64;
 
 /// The most dimensions of a listed array (NumPy's own limit is 64; the format uses 4).
 pub const MAX_DIMS: usize = 32;
-
-/// How far from 1 the length of a unit vector of the capture record may be (it is an
-/// f32 normal written as f64).
-pub const UNIT_TOLERANCE: f64 = 1e-3;
-
-/// `v` as a manifest shows it (NaN and infinities by name, as JSON cannot hold them).
-fn show_f64(v: f64) -> String {
-    if v.is_finite() {
-        format!("{v:e}")
-    } else {
-        show(v)
-    }
-}
-
-/// A [`Problem::Value`].
-pub(crate) fn bad_value(at: impl Into<String>, v: f64, rule: impl Into<String>) -> Problem {
-    Problem::Value {
-        at: at.into(),
-        value: show_f64(v),
-        rule: rule.into(),
-    }
-}
-
-/// A length or coordinate: finite, of magnitude below [`MAX_MAGNITUDE`].
-pub(crate) fn check_magnitude(at: &str, v: f64) -> Result<(), Problem> {
-    if v.is_finite() && v.abs() < MAX_MAGNITUDE {
-        Ok(())
-    } else {
-        Err(bad_value(
-            at,
-            v,
-            format!("must be finite and of magnitude below {MAX_MAGNITUDE:e} scene units"),
-        ))
-    }
-}
-
-/// A point or vector: each component as [`check_magnitude`].
-pub(crate) fn check_point(at: &str, p: [f64; 3]) -> Result<(), Problem> {
-    p.iter()
-        .enumerate()
-        .try_for_each(|(i, &v)| check_magnitude(&format!("{at}[{i}]"), v))
-}
 
 /// The first value of `v` that occurs twice, in O(n log n) time (a sorted copy).
 pub(crate) fn first_repeated<T: Ord + Clone>(v: &[T]) -> Option<T> {

@@ -10,7 +10,6 @@ use super::NlosError;
 use crate::bundle::capture::CaptureRecord;
 use crate::bundle::Bundle;
 use crate::scene::nlos::CaptureType;
-use std::path::Path;
 
 pub struct Capture {
     pub bins: usize,
@@ -117,20 +116,6 @@ impl Capture {
             delta_t,
             accounts_first_and_last_bounces: rec.account_first_and_last_bounces,
         }
-    }
-
-    /// A y-tal HDF5 capture (`tal.io.write_capture`'s layout, or `tstat export --tal`):
-    /// H formats T_Sx_Sy and T_Lx_Ly_Sx_Sy, grids X_Y_3 or N_3; read within the
-    /// default budget of 8 GiB (see [`Capture::from_tal_within`]).
-    pub fn from_tal(path: &Path) -> Result<Capture, NlosError> {
-        Capture::from_tal_within(path, 8 << 30)
-    }
-
-    /// [`Capture::from_tal`] within `budget` bytes of memory (the file, which the HDF5
-    /// reader holds whole, and every dataset read), checking everything the file
-    /// declares before allocating from it (`tal_read.rs`).
-    pub fn from_tal_within(path: &Path, budget: u64) -> Result<Capture, NlosError> {
-        super::tal_read::read(path, budget)
     }
 
     /// The time series `q` of `qs` (`q = l S + s`), one after the other, `bins` values

@@ -30,6 +30,22 @@ use hdf5_pure::{DType, Dataset, Layout};
 use std::io::Read;
 use std::path::Path;
 
+impl Capture {
+    /// A y-tal HDF5 capture (`tal.io.write_capture`'s layout, or `tstat export --tal`):
+    /// H formats T_Sx_Sy and T_Lx_Ly_Sx_Sy, grids X_Y_3 or N_3; read within the
+    /// default budget of 8 GiB (see [`Capture::from_tal_within`]).
+    pub fn from_tal(path: &Path) -> Result<Capture, NlosError> {
+        Capture::from_tal_within(path, 8 << 30)
+    }
+
+    /// [`Capture::from_tal`] within `budget` bytes of memory (the file, which the HDF5
+    /// reader holds whole, and every dataset read), checking everything the file
+    /// declares before allocating from it (this file).
+    pub fn from_tal_within(path: &Path, budget: u64) -> Result<Capture, NlosError> {
+        read(path, budget)
+    }
+}
+
 /// The largest magnitude of an H value: a sum of 2^64 of them stays below f32's
 /// largest (1e18 x 1.8e19 = 1.8e37 < 3.4e38).
 pub const MAX_H: f32 = 1e18;
@@ -488,7 +504,7 @@ fn check_values(name: &str, shape: &[u64], v: &[f32], max: f32) -> Problem<()> {
 
 /// [`Capture::from_tal_within`]'s body: the checks of the module's documentation, in
 /// the order that reads nothing large before it is known to fit.
-pub(super) fn read(path: &Path, budget: u64) -> Result<Capture, NlosError> {
+fn read(path: &Path, budget: u64) -> Result<Capture, NlosError> {
     let fail = |problem: TalProblem| NlosError::Tal {
         path: path.to_path_buf(),
         problem,

@@ -45,24 +45,29 @@ pub fn limited(args: &[String], dir: &Path) -> Command {
 
 pub struct Run {
     pub code: Option<i32>,
+    pub stdout: String,
     pub stderr: String,
     pub timed_out: bool,
+    pub seconds: f64,
 }
 
 /// Runs with a deadline: a run that takes longer is killed (and reported).
 pub fn run(mut cmd: Command) -> Run {
     let mut child = cmd
         .stdin(Stdio::null())
-        .stdout(Stdio::null())
+        .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()
         .expect("spawn tstat");
-    let mut err = child.stderr.take().unwrap();
-    let reader = std::thread::spawn(move || {
-        let mut s = String::new();
-        std::io::Read::read_to_string(&mut err, &mut s).ok();
-        s
-    });
+    fn reader(mut r: impl std::io::Read + Send + 'static) -> std::thread::JoinHandle<String> {
+        std::thread::spawn(move || {
+            let mut s = String::new();
+            r.read_to_string(&mut s).ok();
+            s
+        })
+    }
+    let out = reader(child.stdout.take().unwrap());
+    let err = reader(child.stderr.take().unwrap());
     let start = Instant::now();
     let mut timed_out = false;
     let status = loop {
@@ -78,12 +83,15 @@ pub fn run(mut cmd: Command) -> Run {
     };
     Run {
         code: status.code(),
-        stderr: reader.join().unwrap(),
+        stdout: out.join().unwrap(),
+        stderr: err.join().unwrap(),
         timed_out,
+        seconds: start.elapsed().as_secs_f64(),
     }
 }
 
-/// Every entry under `dir` (hidden ones too): file contents, directories, link targets.
+/// Every entry under `dir` (hidden ones too): file contents (FIFOs and sockets by
+/// kind, never read), directories, link targets.
 pub fn snapshot(dir: &Path) -> BTreeMap<PathBuf, Vec<u8>> {
     fn walk(root: &Path, dir: &Path, out: &mut BTreeMap<PathBuf, Vec<u8>>) {
         for e in std::fs::read_dir(dir).unwrap().flatten() {
