@@ -435,16 +435,9 @@ pub fn decode(bytes: &[u8], max_texels: u64) -> Result<Decoded, JpegError> {
                 }
                 restart_interval = u16::from_be_bytes([seg[0], seg[1]]) as usize;
             }
-            0xE0 => {
-                if seg.starts_with(b"JFIF\0") {
-                    saw_jfif = true;
-                }
-            }
-            0xEE => {
-                if seg.len() >= 12 && seg.starts_with(b"Adobe") {
-                    adobe_transform = Some(seg[11]);
-                }
-            }
+            // jdmarker.c examine_app0/examine_app14: JFIF needs 14 bytes, Adobe 12.
+            0xE0 if seg.len() >= 14 && seg.starts_with(b"JFIF\0") => saw_jfif = true,
+            0xEE if seg.len() >= 12 && seg.starts_with(b"Adobe") => adobe_transform = Some(seg[11]),
             0xDA => {
                 let f = frame
                     .as_mut()
