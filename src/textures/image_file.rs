@@ -1,6 +1,7 @@
-//! Decoding image files for `bitmap` textures into linear f32 texels: PNG and JPEG
-//! (8/16-bit, sRGB-encoded), Radiance HDR (linear), through the `image` crate; OpenEXR
-//! (linear) through the `exr` crate.
+//! Decoding image files for `bitmap` textures into linear f32 texels: PNG (8/16-bit,
+//! sRGB-encoded), BMP and Radiance HDR (linear) through the `image` crate; JPEG
+//! (sRGB-encoded) through [`crate::textures::jpeg`], which decodes as libjpeg (and so
+//! Mitsuba) does; OpenEXR (linear) through the `exr` crate.
 //!
 //! Hostile files end in an error, never a panic nor an unbounded allocation: the file
 //! is read through `io::read_regular` (regular files of bounded size), the dimensions
@@ -71,6 +72,9 @@ pub enum ImageFileError {
     /// The pixels could not be decoded.
     #[error("could not be decoded: {0}")]
     Decode(#[source] image::ImageError),
+    /// A JPEG that cannot be decoded (see [`crate::textures::jpeg`]).
+    #[error(transparent)]
+    Jpeg(#[from] crate::textures::jpeg::JpegError),
     /// A decoded pixel layout textures do not convert.
     #[error("has an unsupported pixel layout {color:?}")]
     PixelLayout { color: image::ColorType },
@@ -126,6 +130,8 @@ pub fn load_image_within(
     };
     if bytes.starts_with(&[0x76, 0x2f, 0x31, 0x01]) {
         decode_exr(&bytes, &limit)
+    } else if bytes.starts_with(&[0xFF, 0xD8, 0xFF]) {
+        decode_jpeg(&bytes, raw, &limit)
     } else {
         decode_ldr_or_hdr(&bytes, raw, &limit)
     }
@@ -247,6 +253,31 @@ fn decode_ldr_or_hdr(bytes: &[u8], raw: bool, limit: &Limit) -> Result<ImageData
         width,
         height,
         channels,
+        data,
+    })
+}
+
+/// JPEG through [`crate::textures::jpeg`], which decodes as libjpeg (Mitsuba's
+/// decoder) does: the size is checked from the frame header before decoding.
+fn decode_jpeg(bytes: &[u8], raw: bool, limit: &Limit) -> Result<ImageData, ImageFileError> {
+    use crate::textures::jpeg;
+    let (w, h) = jpeg::dimensions(bytes)?;
+    check_size(w as u64, h as u64, limit)?;
+    let img = jpeg::decode(bytes, limit.texels)?;
+    let mut data = texel_buffer(img.data.len())?;
+    if raw {
+        data.extend(img.data.iter().map(|&v| v as f32 / 255.0));
+    } else {
+        let mut lut = [0f32; 256];
+        for (i, l) in lut.iter_mut().enumerate() {
+            *l = srgb_to_linear(i as f32 / 255.0);
+        }
+        data.extend(img.data.iter().map(|&v| lut[v as usize]));
+    }
+    Ok(ImageData {
+        width: img.width,
+        height: img.height,
+        channels: img.channels,
         data,
     })
 }

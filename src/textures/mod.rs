@@ -4,7 +4,7 @@
 //!
 //! | plugin | file | what it is |
 //! |--------|------|------------|
-//! | `bitmap` | `bitmap.rs` (lookup), `image_file.rs` (decoding) | an image: PNG, JPEG, BMP, Radiance HDR, OpenEXR |
+//! | `bitmap` | `bitmap.rs` (lookup), `image_file.rs` (decoding), `jpeg.rs` (JPEG as libjpeg) | an image: PNG, JPEG, BMP, Radiance HDR, OpenEXR |
 //! | `checkerboard` | `checkerboard.rs` | two colours in a 2 x 2 pattern per unit square of uv |
 //! | `mesh_attribute` | `mesh_attribute.rs` | a mesh's per-vertex or per-face attribute (from its PLY file) |
 //! | `rawconstant` | (a [`Texture::Constant`]) | a value used as it is, 1 or 3 channels |
@@ -17,6 +17,7 @@
 pub mod bitmap;
 pub mod checkerboard;
 pub mod image_file;
+pub mod jpeg;
 pub mod mesh_attribute;
 pub mod uv_transform;
 
