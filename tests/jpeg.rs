@@ -96,8 +96,18 @@ fn cut_and_flipped_files_do_not_panic() {
                 assert!(!e.to_string().contains('\n'));
             }
         }
-        let mut s = 0x9E37_79B9u32;
-        for _ in 0..200 {
+        // A longer campaign: TSTAT_FUZZ_CASES=100000 (and TSTAT_FUZZ_SEED) as for the
+        // other fuzz targets.
+        let cases: usize = std::env::var("TSTAT_FUZZ_CASES")
+            .ok()
+            .and_then(|v| v.parse().ok())
+            .unwrap_or(200);
+        let mut s = std::env::var("TSTAT_FUZZ_SEED")
+            .ok()
+            .and_then(|v| v.parse().ok())
+            .unwrap_or(0x9E37_79B9u32)
+            | 1;
+        for _ in 0..cases {
             let mut b = bytes.clone();
             for _ in 0..3 {
                 s ^= s << 13;
@@ -107,7 +117,9 @@ fn cut_and_flipped_files_do_not_panic() {
                 b[i] ^= (s >> 8) as u8 | 1;
             }
             std::fs::write(&path, &b).unwrap();
-            let _ = load_image(&path, true);
+            if let Err(e) = load_image(&path, true) {
+                assert!(!e.to_string().contains('\n'), "{e}");
+            }
         }
     }
 }
