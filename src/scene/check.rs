@@ -112,7 +112,7 @@ fn scan_file(
     let doc = match roxmltree::Document::parse_with_options(&text, options) {
         Ok(d) => d,
         Err(e) => {
-            out.push(here(e.pos().row, format!("malformed XML: {e}")));
+            out.push(here(e.pos().row, super::xml::malformed(&e)));
             return;
         }
     };

@@ -59,7 +59,7 @@ pub fn load(path: &Path, overrides: &Overrides) -> Result<Scene, SceneError> {
             "more than {} XML nodes (elements, text, comments): far beyond any real scene",
             limits::MAX_NODES
         )),
-        e => SceneError::new(path, e.pos().row, "xml", format!("malformed XML: {e}")),
+        e => SceneError::new(path, e.pos().row, "xml", malformed(&e)),
     })?;
     if let Some(node) = limits::too_deep(&doc) {
         let empty = HashMap::new();
@@ -949,7 +949,7 @@ fn include(ctx: &Ctx, node: Node, o: &mut Objects, depth: usize) -> Result<(), S
         ..Default::default()
     };
     let doc = roxmltree::Document::parse_with_options(&text, options)
-        .map_err(|e| SceneError::new(&path, e.pos().row, "xml", format!("malformed XML: {e}")))?;
+        .map_err(|e| SceneError::new(&path, e.pos().row, "xml", malformed(&e)))?;
     let mut defaults = ctx.defaults.clone();
     for d in doc
         .root_element()
@@ -1095,9 +1095,40 @@ fn check_elements(ctx: &Ctx, root: Node) -> Result<(), SceneError> {
     Ok(())
 }
 
+/// "malformed XML: ..." for a parser error, its control characters escaped: roxmltree
+/// quotes the unexpected character as it is (`expected '>' not '\n'` would break the
+/// one-line error).
+pub(crate) fn malformed(e: &roxmltree::Error) -> String {
+    let text: String = e
+        .to_string()
+        .chars()
+        .flat_map(|c| {
+            let escaped: Vec<char> = if c.is_control() {
+                c.escape_default().collect()
+            } else {
+                vec![c]
+            };
+            escaped
+        })
+        .collect();
+    format!("malformed XML: {text}")
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn malformed_xml_errors_stay_on_one_line() {
+        let e = roxmltree::Document::parse("<a b='c'/\n>").unwrap_err();
+        assert!(
+            e.to_string().contains('\n'),
+            "roxmltree quotes the newline as it is"
+        );
+        let m = malformed(&e);
+        assert!(!m.contains('\n') && m.contains("\\n"), "{m}");
+        assert!(m.starts_with("malformed XML: "), "{m}");
+    }
 
     /// A small valid scene; `{shape}` is replaced by the test's shapes and emitters,
     /// `{sensor}` by extra sensor content.
