@@ -353,21 +353,24 @@ impl Reader {
     }
 
     fn read_f32(&mut self, ds: &Dataset, name: &str, d: &Declared) -> Problem<Vec<f32>> {
-        self.take(name, d.count.saturating_mul(4))?;
-        let v = ds.read_f32().map_err(hdf5(name))?;
-        if v.len() as u64 != d.count {
-            return Err(TalProblem::ValueCount {
-                name: name.to_string(),
-                values: v.len(),
-                shape: d.shape.clone(),
-            });
-        }
-        Ok(v)
+        self.read_as(name, d, 4, || ds.read_f32())
     }
 
     fn read_f64(&mut self, ds: &Dataset, name: &str, d: &Declared) -> Problem<Vec<f64>> {
-        self.take(name, d.count.saturating_mul(8))?;
-        let v = ds.read_f64().map_err(hdf5(name))?;
+        self.read_as(name, d, 8, || ds.read_f64())
+    }
+
+    /// Reads `d.count` values of `size` bytes with `read`, within the budget, and
+    /// refuses any other count.
+    fn read_as<T>(
+        &mut self,
+        name: &str,
+        d: &Declared,
+        size: u64,
+        read: impl FnOnce() -> Result<Vec<T>, hdf5_pure::Error>,
+    ) -> Problem<Vec<T>> {
+        self.take(name, d.count.saturating_mul(size))?;
+        let v = read().map_err(hdf5(name))?;
         if v.len() as u64 != d.count {
             return Err(TalProblem::ValueCount {
                 name: name.to_string(),

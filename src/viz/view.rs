@@ -172,8 +172,8 @@ struct BlockRows {
 }
 
 impl BlockRows {
-    fn new(h: usize, w: usize, t: usize, k: usize, sd: bool) -> BlockRows {
-        let tc = t * CHANNELS;
+    /// Blocks of an image (h, w) of `tc` values per pixel.
+    fn new(h: usize, w: usize, tc: usize, k: usize, sd: bool) -> BlockRows {
         BlockRows {
             k,
             w,
@@ -259,15 +259,7 @@ fn block_average_image(v: &Array3<f32>, k: usize) -> Array3<f32> {
     if k == 1 {
         return v.clone();
     }
-    let mut blocks = BlockRows {
-        k,
-        w,
-        tc: c,
-        sd: false,
-        acc: vec![0.0; w.div_ceil(k) * c],
-        rows: 0,
-        out: Vec::with_capacity(h.div_ceil(k) * w.div_ceil(k) * c),
-    };
+    let mut blocks = BlockRows::new(h, w, c, k, false);
     let flat = v.as_standard_layout();
     let flat = flat.as_slice().expect("standard layout");
     for (y, row) in flat.chunks_exact(w * c).enumerate() {
@@ -326,13 +318,13 @@ pub fn build_page(
     let with_sd = m.transform.is_identity();
     let mut means = MeanRows::default();
     let mut blocks: Vec<BlockRows> = Vec::new();
-    blocks.push(BlockRows::new(h, w, t, k, false));
+    blocks.push(BlockRows::new(h, w, t * CHANNELS, k, false));
     if with_sd {
-        blocks.push(BlockRows::new(h, w, t, k, true));
+        blocks.push(BlockRows::new(h, w, t * CHANNELS, k, true));
     }
     let mut extra_means: Vec<MeanRows> = Vec::new();
     for _ in extras.iter() {
-        blocks.push(BlockRows::new(h, w, t, k, false));
+        blocks.push(BlockRows::new(h, w, t * CHANNELS, k, false));
         extra_means.push(MeanRows::default());
     }
     let (mut mean, mut sd, mut row) = (Vec::new(), Vec::new(), Vec::new());
@@ -449,7 +441,7 @@ mod tests {
         });
         for k in [1, 2, 3, 5, 7, 9] {
             for sd in [false, true] {
-                let mut b = BlockRows::new(h, w, t, k, sd);
+                let mut b = BlockRows::new(h, w, t * CHANNELS, k, sd);
                 let flat = v.as_slice().unwrap();
                 for (y, row) in flat.chunks_exact(w * t * CHANNELS).enumerate() {
                     b.add(row, y + 1 == h);
