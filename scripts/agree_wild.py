@@ -13,9 +13,9 @@ Printed, one Markdown row per scene:
   second seed against the first (blocks whose mean is above 1% of the brightest);
 - space-time blocks (16 x 16 px x 5 bins): 95th percentile of the relative difference,
   same two columns;
-- near_clip is set to 1e-4 in the copy: mitransient times camera
-  rays from the near-clip plane, tstat from the pinhole (SPEC 2), and some published
-  scenes set near_clip = 10 (1.5 bins of theirs);
+- the copy changes nothing but the film size (and the spp): both renderers time
+  camera rays from the near-clip plane (tstat's default time origin), so a scene's
+  near_clip shows up in neither column, as its author rendered it;
 - the share of the steady image's energy that mitransient's transient holds (it drops
   what it cannot time, e.g. escapes to infinitely distant emitters) and tstat's.
 
@@ -104,16 +104,6 @@ def small_copy(path, width, out_dir):
         ET.SubElement(film, "integer", name="width", value=str(width))
     if "height" not in vals:
         ET.SubElement(film, "integer", name="height", value=str(nh))
-    # SPEC 2: tstat's OPL starts at the pinhole, Mitsuba's camera rays (and so
-    # mitransient's OPL) at the near-clip plane; with Mitsuba's default near_clip
-    # (0.01) they differ by 0.01, a few percent of a bin's mass at a sharp onset
-    # (a point light's first arrivals): the copy sets near_clip = 1e-4.
-    sensor = root.find("./sensor")
-    clip = [e for e in sensor if e.get("name") == "near_clip"]
-    if clip:
-        clip[0].set("value", "0.0001")
-    else:
-        sensor.insert(0, ET.Element("float", name="near_clip", value="0.0001"))
     p = ET.Element("path", value=os.path.dirname(os.path.abspath(path)))
     root.insert(0, p)
     out = os.path.join(out_dir, os.path.basename(path))

@@ -938,3 +938,86 @@ fn replicates_render_merge_and_refuse_mismatches() {
         );
     }
 }
+
+/// The time origin through the binary: `check` notes a near_clip of more than a tenth
+/// of a bin, the manifest and `info` record the origin, bundles of the two origins do
+/// not merge, and an NLOS capture refuses `--time-origin near_clip`.
+#[test]
+fn the_time_origin_is_noted_recorded_and_kept_apart() {
+    let far = VALID.replace(
+        r#"<float name="fov" value="40"/>"#,
+        r#"<float name="fov" value="40"/><float name="near_clip" value="0.2"/>"#,
+    );
+    let c = case(&far);
+    let sc = c.scene.to_str().unwrap();
+    let p = |n: &str| c.dir.path().join(n).display().to_string();
+    let out = String::from_utf8_lossy(&tstat(&["check", sc]).stdout).to_string();
+    // 0.2 / 0.5 = 0.4 bins at the centre; the corner's 1 / cos: 0.2 sqrt(1 + 2 tan^2 20).
+    let corner = 0.2 * (1.0 + 2.0 * 20f64.to_radians().tan().powi(2)).sqrt();
+    assert!(
+        out.contains(&format!("note: time origin: OPL counts from the near-clip plane (as mitransient), so arrivals are 0.2000..{corner:.4} OPL (0.40..{:.2} bins) earlier", corner / 0.5)),
+        "{out}"
+    );
+    // A near_clip of a twentieth of a bin is no note: the default scene (0.01).
+    let c2 = case(VALID);
+    let out =
+        String::from_utf8_lossy(&tstat(&["check", c2.scene.to_str().unwrap()]).stdout).to_string();
+    assert!(out.contains(": ok") && !out.contains("note"), "{out}");
+    for (name, seed, origin) in [("n.tstats", "1", None), ("p.tstats", "2", Some("pinhole"))] {
+        let out = p(name);
+        let mut args = vec!["render", sc, "--out", &out, "--seed", seed];
+        if let Some(o) = origin {
+            args.extend(["--time-origin", o]);
+        }
+        let r = tstat(&args);
+        assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    }
+    let manifest = |n: &str| -> serde_json::Value {
+        serde_json::from_str(
+            &std::fs::read_to_string(c.dir.path().join(n).join("manifest.json")).unwrap(),
+        )
+        .unwrap()
+    };
+    let (n, ph) = (manifest("n.tstats"), manifest("p.tstats"));
+    assert_eq!(n["time_origin"], "near_clip");
+    assert_eq!(n["near_clip"].as_f64(), Some(0.2f32 as f64));
+    assert_eq!(ph["time_origin"], "pinhole");
+    assert!(ph.get("near_clip").is_none());
+    let info = String::from_utf8_lossy(&tstat(&["info", &p("n.tstats")]).stdout).to_string();
+    assert!(
+        info.contains("time origin near_clip: OPL counts from the near-clip plane"),
+        "{info}"
+    );
+    let r = tstat(&[
+        "merge",
+        &p("n.tstats"),
+        &p("p.tstats"),
+        "--out",
+        &p("m.tstats"),
+    ]);
+    assert_eq!(r.status.code(), Some(1));
+    assert!(
+        String::from_utf8_lossy(&r.stderr).contains("time_origin"),
+        "{}",
+        String::from_utf8_lossy(&r.stderr)
+    );
+    assert!(!c.dir.path().join("m.tstats").exists());
+    // The meter has no near plane.
+    let r = tstat(&[
+        "render",
+        &scene("nlos_T.xml"),
+        "--out",
+        &p("nlos.tstats"),
+        "--spp",
+        "2",
+        "--time-origin",
+        "near_clip",
+    ]);
+    assert_eq!(r.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&r.stderr);
+    assert!(
+        err.contains("the meter has no near plane") && err.lines().count() == 1,
+        "{err}"
+    );
+    assert!(!c.dir.path().join("nlos.tstats").exists());
+}

@@ -167,7 +167,8 @@ fn plane(p: &Plane, bsdf: &str) -> Scene {
             .replace("SPP", &p.spp.to_string())
             .replace("BINS", &p.bins.to_string())
             .replace("BSDF", bsdf),
-        &Overrides::default(),
+        // The closed forms time the camera segment from the pinhole.
+        &common::PINHOLE,
     )
 }
 

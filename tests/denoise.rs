@@ -1717,6 +1717,8 @@ fn write_bundle(
         start_seconds: 2.0 / c,
         bin_width_seconds: b.bin_width / c,
         transform: b.transform,
+        time_origin: tstat::bundle::manifest::TimeOrigin::Pinhole,
+        near_clip: None,
         pixel_sampling: sampling,
         replicates: None,
         media: false,

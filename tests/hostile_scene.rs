@@ -1649,7 +1649,7 @@ fn cases() -> Vec<Case> {
         scene_case(
             "sensor_negative_near_clip",
             sensor_kind("orthographic", r#"<float name="near_clip" value="-1"/>"#),
-            "near_clip must be positive",
+            "near_clip must be in (0, 1e15]",
         ),
         scene_case(
             "sensor_far_clip_below_near",

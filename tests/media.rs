@@ -93,7 +93,8 @@ fn single_scattering_in_an_infinite_medium_matches_its_arrival_time_density() {
     ] {
         let scene = load(
             &CONFOCAL_MEDIUM.replace("PHASE", phase),
-            &Overrides::default(),
+            // The arrival-time density is written from the pinhole.
+            &common::PINHOLE,
         );
         let out = run(&scene, seed);
         let (t_bins, pixels) = (scene.film.bins, scene.film.pixels());

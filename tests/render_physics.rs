@@ -341,8 +341,9 @@ fn gbuffers_hold_albedo_normal_depth_and_emitter_fraction() {
     for g in &out.gbuffer {
         assert_eq!(g.albedo, [0.5, 0.6, 0.7]);
         assert!((g.normal[2] - 1.0).abs() < 1e-6 && g.normal[0].abs() < 1e-6);
-        // Depth 2 / cos(theta), theta under 1.5 degrees.
-        assert!(g.depth >= 2.0 && g.depth < 2.0 / (1.5f32).to_radians().cos());
+        // Depth (2 - near_clip) / cos(theta) from the near plane (the default time
+        // origin, near_clip 0.01), theta under 1.5 degrees.
+        assert!(g.depth >= 1.99 && g.depth < 1.99 / (1.5f32).to_radians().cos());
         assert_eq!(g.emitter, 0.0);
     }
     // In the Cornell box, the centre of the light is seen directly by every sample, and
@@ -733,7 +734,8 @@ fn projector_lights_a_plane_with_its_texture_at_pi_s_e_over_d_squared() {
     ] {
         let path = dir.path().join("scene.xml");
         std::fs::write(&path, projector_plane(fov, axis)).unwrap();
-        let scene = Scene::load(&path, &Overrides::default()).unwrap();
+        // OPL from the pinhole: no earlier than 2 d (below).
+        let scene = Scene::load(&path, &common::PINHOLE).unwrap();
         let out = run(&scene, 4);
         let (w, h, t_bins) = (4usize, 3usize, 60usize);
         let (rho, s, d) = ([0.5, 0.6, 0.7], 1.5, 2.0);

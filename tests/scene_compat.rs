@@ -491,14 +491,14 @@ fn check_lists_every_unsupported_feature_with_its_line() {
         matches!(check(&d.join("f.xml"), &[], &[]), Verdict::Fails(e) if e.contains("missing.ply"))
     );
     write(d, "g.xml", &scene(FOV, SHAPES));
-    assert!(matches!(check(&d.join("g.xml"), &[], &[]), Verdict::Ok));
+    assert!(matches!(check(&d.join("g.xml"), &[], &[]), Verdict::Ok(_)));
     // Every bundled scene checks ok.
     let scenes = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
     for e in std::fs::read_dir(scenes).unwrap() {
         let p = e.unwrap().path();
         if p.extension().is_some_and(|x| x == "xml") {
             assert!(
-                matches!(check(&p, &[], &[]), Verdict::Ok),
+                matches!(check(&p, &[], &[]), Verdict::Ok(_)),
                 "{}",
                 p.display()
             );
@@ -587,7 +587,10 @@ fn an_included_file_finds_its_includes_through_the_scene_folder_as_mitsuba_does(
     write(d, "inline.xml", &scene(FOV, SHAPES));
     let (a, b) = (load(d, "main.xml").unwrap(), load(d, "inline.xml").unwrap());
     assert_eq!(steady(&a), steady(&b));
-    assert!(matches!(check(&d.join("main.xml"), &[], &[]), Verdict::Ok));
+    assert!(matches!(
+        check(&d.join("main.xml"), &[], &[]),
+        Verdict::Ok(_)
+    ));
 }
 
 #[test]
@@ -810,7 +813,7 @@ fn search_folders_from_the_command_line_come_after_the_scene_folder() {
     let with_a = Scene::load(&d.join("scenes/s.xml"), &o).unwrap();
     assert!(matches!(
         check(&d.join("scenes/s.xml"), &[], &[d.join("common")]),
-        Verdict::Ok
+        Verdict::Ok(_)
     ));
     // A mesh beside the scene wins over the -a folder's (Mitsuba prepends the scene's
     // folder): an empty file there is found first and fails.

@@ -7,7 +7,7 @@ use tstat::render::RenderOutput;
 use tstat::scene::Overrides;
 
 mod common;
-use common::{load, run};
+use common::{load, run, PINHOLE};
 
 /// A scene with `sensor` (its inner XML given, film and sampler added) and `shapes`.
 fn scene_xml(sensor_type: &str, sensor: &str, film: &str, spp: u32, shapes: &str) -> String {
@@ -76,9 +76,10 @@ fn orthographic_plane_arrives_in_one_bin_across_its_extent() {
     // 16 pixels of 8 binomial samples (standard error 2 sqrt(0.24 / 128) = 0.087).
     let edge = edge / 16.0;
     assert!((edge - 1.2).abs() < 4.0 * 0.087, "{edge}");
-    // The G-buffer depth is the distance from the sensor plane: 3 everywhere it hits.
+    // The G-buffer depth is the distance from the near plane (near_clip 0.01 past the
+    // sensor plane, the default time origin): 2.99 everywhere it hits.
     for x in 5..=10 {
-        assert!((out.gbuffer[x].depth - 3.0).abs() < 1e-5);
+        assert!((out.gbuffer[x].depth - 2.99).abs() < 1e-5);
     }
     // The test can fail: a perspective camera at the same place spreads the plane's
     // arrival over several bins (OPL 3 / cos theta).
@@ -175,9 +176,10 @@ fn thin_lens_defocuses_an_edge_over_the_circle_of_confusion() {
         <emitter type="area"><rgb name="radiance" value="{l}, {l}, {l}"/></emitter>
       </shape>"#
     );
+    // OPL from the lens (the near-clip origin is tested below).
     let scene = load(
         &scene_xml("thinlens", &sensor, &film, spp, &shapes),
-        &Overrides::default(),
+        &PINHOLE,
     );
     let out = run(&scene, 3);
     let n = spp as f64;
@@ -238,9 +240,10 @@ fn temporal_gaussian_splits_one_arrival_over_its_neighbouring_bins() {
             r#"<integer name="max_depth" value="1"/><string name="temporal_filter" value="gaussian"/><float name="gaussian_stddev" value="{sd}"/>"#
         ),
     );
+    // OPL from the sensor plane: the arrival at the centre of bin 4.
     let (b, g) = (
-        run(&load(&boxed, &Overrides::default()), 1),
-        run(&load(&gauss, &Overrides::default()), 1),
+        run(&load(&boxed, &PINHOLE), 1),
+        run(&load(&gauss, &PINHOLE), 1),
     );
     assert_eq!(b.steady, g.steady);
     let (w, t) = (16, 10);
@@ -280,4 +283,49 @@ fn temporal_gaussian_splits_one_arrival_over_its_neighbouring_bins() {
     }
     // The box puts it all in bin 4: the test can tell them apart.
     assert_eq!(b.accum.nonzero[(y * w + 5) * t + 3], 0);
+}
+
+/// The time origin (SPEC 2, `sensors/time_origin.rs`): by default OPL counts from the
+/// near-clip plane, so a plane 3 away seen through a near_clip of 1 arrives at OPL
+/// 2 / cos(theta), and something nearer than the near plane is not seen (as Mitsuba);
+/// `--time-origin pinhole` counts from the pinhole (3 / cos(theta)) and sees it.
+#[test]
+fn the_near_clip_plane_is_the_default_time_origin() {
+    use tstat::sensors::time_origin::TimeOrigin;
+    let film = r#"<integer name="width" value="8"/><integer name="height" value="8"/>
+    <integer name="temporal_bins" value="12"/>
+    <float name="start_opl" value="1.95"/><float name="bin_width_opl" value="0.1"/>"#;
+    // An occluder 0.5 in front of the camera over the middle of the view.
+    let shapes = format!(
+        r#"{PLANE_AT_3}<shape type="rectangle">
+    <transform name="to_world"><scale x="0.02" y="0.02"/><translate z="-0.5"/></transform>
+  </shape>"#
+    );
+    let sensor = r#"<float name="fov" value="10"/><float name="near_clip" value="1"/>
+        <transform name="to_world"><lookat origin="0,0,0" target="0,0,-1" up="0,1,0"/></transform>"#;
+    let xml = scene_xml("perspective", sensor, film, 16, &shapes);
+    let (w, t) = (8, 12);
+    let lit_bins = |o: &Overrides| {
+        let scene = load(&xml, o);
+        let out = run(&scene, 1);
+        let bins: Vec<usize> = (0..t)
+            .filter(|&k| (0..w * w).any(|p| out.accum.nonzero[p * t + k] > 0))
+            .collect();
+        let centre = (0..t)
+            .map(|k| out.accum.nonzero[(4 * w + 4) * t + k])
+            .sum::<u32>();
+        (scene.camera.time_origin(), bins, centre, out)
+    };
+    // theta <= 5 degrees * sqrt(2): 2 / cos in [2, 2.0096], bin 0.
+    let (origin, bins, centre, out) = lit_bins(&Overrides::default());
+    assert_eq!(origin, TimeOrigin::NearClip);
+    assert_eq!(bins, [0]);
+    assert_eq!(centre, 16, "the occluder before the near plane is not seen");
+    // The depth is measured from where the ray starts: 2 at the centre.
+    assert!((out.gbuffer[4 * w + 4].depth - 2.0).abs() < 0.01);
+    // 3 / cos in [3, 3.0144]: bin 10; the occluder hides the centre pixel.
+    let (origin, bins, centre, _) = lit_bins(&PINHOLE);
+    assert_eq!(origin, TimeOrigin::Pinhole);
+    assert_eq!(bins, [10]);
+    assert_eq!(centre, 0);
 }

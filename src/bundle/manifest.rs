@@ -1,6 +1,7 @@
 //! `manifest.json`: what a statistics bundle holds and how it was made (SPEC 9).
 
 use crate::render::PixelSampling;
+pub use crate::sensors::time_origin::TimeOrigin;
 use crate::stats::Transform;
 use serde::{Deserialize, Serialize};
 
@@ -111,6 +112,15 @@ pub struct Manifest {
     pub start_seconds: f64,
     pub bin_width_seconds: f64,
     pub transform: Transform,
+    /// Where the OPL of camera paths starts (`sensors/time_origin.rs`): `near_clip`
+    /// (rays start on the near-clip plane, as mitransient) or `pinhole` (the camera's
+    /// origin; every NLOS capture). Bundles that predate the field: `pinhole`.
+    #[serde(default = "legacy_time_origin")]
+    pub time_origin: TimeOrigin,
+    /// The near-clip distance (scene units) with `time_origin` `near_clip`; absent
+    /// otherwise.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub near_clip: Option<f64>,
     /// Sub-pixel sampling of the primary rays; "independent" for bundles that predate
     /// the field. With "stratified" (or "mixed") samples, the variances estimated from
     /// the sums over-estimate the variance of the mean (see `render::pixel_sampling`).
@@ -149,7 +159,23 @@ pub struct Manifest {
     pub arrays: Vec<ArrayInfo>,
 }
 
+/// Bundles written before `time_origin` was recorded counted from the camera.
+fn legacy_time_origin() -> TimeOrigin {
+    TimeOrigin::Pinhole
+}
+
 impl Manifest {
+    /// Where OPL 0 is, for labels ("OPL from ..."): the recorded time origin of a
+    /// camera render; for an NLOS capture the relay wall (the sensor and laser
+    /// segments dropped) or the sensor.
+    pub fn time_zero(&self) -> &'static str {
+        match &self.nlos {
+            Some(n) if n.account_first_and_last_bounces => "the sensor",
+            Some(_) => "the relay wall",
+            None => self.time_origin.describe(),
+        }
+    }
+
     pub fn array(&self, name: &str) -> Option<&ArrayInfo> {
         self.arrays.iter().find(|a| a.name == name)
     }

@@ -22,7 +22,7 @@ use ndarray::{Array2, Array3};
 use std::path::{Path, PathBuf};
 
 fn same_settings(a: &Manifest, b: &Manifest) -> Result<(), Problem> {
-    let checks: [(&str, bool); 13] = [
+    let checks: [(&str, bool); 15] = [
         ("channels", a.channels == b.channels),
         ("scene (SHA-256)", a.scene.sha256 == b.scene.sha256),
         ("width", a.width == b.width),
@@ -31,6 +31,8 @@ fn same_settings(a: &Manifest, b: &Manifest) -> Result<(), Problem> {
         ("start_opl", a.start_opl == b.start_opl),
         ("bin_width_opl", a.bin_width_opl == b.bin_width_opl),
         ("transform", a.transform == b.transform),
+        ("time_origin", a.time_origin == b.time_origin),
+        ("near_clip", a.near_clip == b.near_clip),
         ("max_depth", a.max_depth == b.max_depth),
         ("unit_m", a.unit_m == b.unit_m),
         ("media", a.media == b.media),

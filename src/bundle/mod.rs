@@ -106,6 +106,8 @@ pub enum Problem {
     // The manifest's fields (see `read::validate`).
     #[error("transform: {0}")]
     Transform(crate::stats::StatsError),
+    #[error("time origin: {0}")]
+    TimeOrigin(String),
     #[error("empty film size ({width} x {height} px, {bins} bins)")]
     EmptyFilm {
         width: usize,

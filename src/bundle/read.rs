@@ -43,7 +43,7 @@
 //! compatibility) loads silently.
 
 use super::bounds::{bad_value, check_magnitude, show_f64, MAX_MAGNITUDE};
-use super::manifest::{ArrayInfo, Manifest, C_M_PER_S, FORMAT, VERSION};
+use super::manifest::{ArrayInfo, Manifest, TimeOrigin, C_M_PER_S, FORMAT, VERSION};
 use super::npy::{self, first_bad, show, Element};
 use super::shard::MAX_SHARDS;
 use super::{BundleError, Problem};
@@ -198,6 +198,7 @@ pub fn validate(m: &Manifest) -> Result<(), Problem> {
         }
     }
     check_time_axis(m)?;
+    check_time_origin(m)?;
     if let Some(s) = m.time_filter_stddev_bins {
         if !(s > 0.0 && s < MAX_MAGNITUDE) {
             return Err(bad_value(
@@ -299,6 +300,31 @@ fn check_time_axis(m: &Manifest) -> Result<(), Problem> {
         });
     }
     Ok(())
+}
+
+/// `time_origin` and `near_clip`: a near-clip distance (positive, bounded) exactly when
+/// the origin is the near-clip plane, and never for an NLOS capture (its meter has no
+/// near plane).
+fn check_time_origin(m: &Manifest) -> Result<(), Problem> {
+    match (m.time_origin, m.near_clip) {
+        (TimeOrigin::NearClip, Some(d)) if m.nlos.is_some() => Err(bad_value(
+            "near_clip",
+            d,
+            "an NLOS capture has no near plane (its time_origin is pinhole)",
+        )),
+        (TimeOrigin::NearClip, Some(d)) if !(d > 0.0 && d < MAX_MAGNITUDE) => Err(bad_value(
+            "near_clip",
+            d,
+            format!("must be positive, finite and below {MAX_MAGNITUDE:e} scene units"),
+        )),
+        (TimeOrigin::NearClip, Some(_)) | (TimeOrigin::Pinhole, None) => Ok(()),
+        (TimeOrigin::NearClip, None) => Err(Problem::TimeOrigin(
+            "time_origin near_clip without a near_clip distance".into(),
+        )),
+        (TimeOrigin::Pinhole, Some(_)) => Err(Problem::TimeOrigin(
+            "near_clip given with time_origin pinhole (which ignores it)".into(),
+        )),
+    }
 }
 
 /// A bundle's `shard` record: a 16-digit hexadecimal job, a count from 1 to
@@ -1056,5 +1082,61 @@ mod tests {
         let json = manifest_json(&m).unwrap();
         assert!(json.contains("\"laser_origin\": null"), "{json}");
         assert_eq!(parse_manifest(&json).unwrap(), m);
+    }
+
+    /// `time_origin` and `near_clip` go together; a manifest without them (written
+    /// before the time origin was recorded) reads as `pinhole`.
+    #[test]
+    fn time_origin_and_near_clip_go_together() {
+        let legacy = manifest();
+        assert_eq!(legacy.time_origin, TimeOrigin::Pinhole);
+        assert_eq!(legacy.near_clip, None);
+        let mut camera = manifest();
+        camera.nlos = None;
+        camera.time_origin = TimeOrigin::NearClip;
+        camera.near_clip = Some(0.5);
+        assert!(validate(&camera).is_ok());
+        let text = serde_json::to_string(&camera).unwrap();
+        assert!(
+            text.contains(r#""time_origin":"near_clip","near_clip":0.5"#),
+            "{text}"
+        );
+        assert_eq!(parse_manifest(&text).unwrap().near_clip, Some(0.5));
+        let refused = |m: &Manifest, why: &str| {
+            let e = validate(m).unwrap_err().to_string();
+            assert!(e.contains(why), "{e}");
+        };
+        for bad in [0.0, -1.0, f64::NAN, 1e300] {
+            refused(
+                &Manifest {
+                    near_clip: Some(bad),
+                    ..camera.clone()
+                },
+                "near_clip",
+            );
+        }
+        refused(
+            &Manifest {
+                near_clip: None,
+                ..camera.clone()
+            },
+            "without a near_clip",
+        );
+        refused(
+            &Manifest {
+                time_origin: TimeOrigin::Pinhole,
+                ..camera.clone()
+            },
+            "near_clip given with time_origin pinhole",
+        );
+        // An NLOS capture (the test manifest) has no near plane.
+        refused(
+            &Manifest {
+                time_origin: TimeOrigin::NearClip,
+                near_clip: Some(0.5),
+                ..manifest()
+            },
+            "no near plane",
+        );
     }
 }

@@ -230,6 +230,8 @@ fn manifest(scene: &Scene, meta: &BundleMeta, seconds: f64, dropped_nonfinite: u
         start_seconds: film.start_opl * meta.unit_m / super::manifest::C_M_PER_S,
         bin_width_seconds: film.bin_width_opl * meta.unit_m / super::manifest::C_M_PER_S,
         transform: meta.transform,
+        time_origin: scene.camera.time_origin(),
+        near_clip: scene.camera.near_clip.map(f64::from),
         pixel_sampling: meta.pixel_sampling.into(),
         replicates: (meta.replicates >= 2).then_some(u64::from(meta.replicates)),
         media: !scene.media.is_empty(),

@@ -33,7 +33,12 @@ pub fn run(a: CheckArgs) -> anyhow::Result<()> {
     let mut bad = 0;
     for scene in &a.scenes {
         match check(scene, &defaults, &search) {
-            Verdict::Ok => say!("{}: ok", scene.display()),
+            Verdict::Ok(notes) => {
+                say!("{}: ok", scene.display());
+                for n in notes {
+                    say!("  note: {n}");
+                }
+            }
             Verdict::Unsupported(found) => {
                 bad += 1;
                 say!("{}: {} unsupported:", scene.display(), found.len());

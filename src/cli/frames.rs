@@ -53,6 +53,7 @@ pub fn axis_of(bundle: &Bundle) -> TimeAxis {
         start_opl: m.start_opl,
         bin_width_opl: m.bin_width_opl,
         unit_m: m.unit_m,
+        origin: Some(m.time_zero()),
     }
 }
 
@@ -100,6 +101,7 @@ pub fn run(a: FramesArgs) -> anyhow::Result<()> {
             start_opl: s,
             bin_width_opl: h,
             unit_m: a.unit_m,
+            origin: None,
         })
     };
     let rows = v.shape()[0];

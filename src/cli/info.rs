@@ -38,6 +38,14 @@ pub fn run(a: InfoArgs) -> anyhow::Result<()> {
         m.unit_m
     );
     say!(
+        "time origin {}: OPL counts from {}{}",
+        m.time_origin.name(),
+        m.time_zero(),
+        m.near_clip.map_or(String::new(), |d| format!(
+            ", {d} in front of the camera (as mitransient)"
+        ))
+    );
+    say!(
         "samples     {} spp, seed {}, max_depth {}",
         m.spp,
         m.seed,

@@ -8,6 +8,7 @@ use crate::bundle::shard::{shard_seed, Shard, PLACEHOLDER};
 use crate::bundle::write::{bundle_bytes_with, check_render, BundleMeta, BundleWriter, JobShard};
 use crate::render::{render_into, PixelSampling, RenderSettings, StreamingMemory};
 use crate::scene::{Overrides, Scene};
+use crate::sensors::time_origin::TimeOrigin;
 use crate::stats::Transform;
 use anyhow::{anyhow, bail, Context};
 use clap::Args;
@@ -58,6 +59,13 @@ pub struct SceneArgs {
     /// 0: none. Adds `r2.npy`, 24 bytes a voxel (a third more).
     #[arg(long, default_value_t = 0)]
     pub replicates: u32,
+    /// Where camera paths' optical path length starts: near_clip (default; as Mitsuba
+    /// and mitransient, rays start on the near-clip plane, near_clip / cos(theta) from
+    /// the pinhole) or pinhole (the camera's origin; near_clip ignored). NLOS captures
+    /// count from the sensor (pinhole). `tstat check` says when the two differ by more
+    /// than a tenth of a bin.
+    #[arg(long, value_parser = ["near_clip", "near-clip", "pinhole"])]
+    pub time_origin: Option<String>,
 }
 
 impl SceneArgs {
@@ -95,6 +103,10 @@ impl SceneArgs {
             start_opl: self.start_opl,
             bin_width_opl: self.bin_width_opl,
             max_depth: opt_int("--max-depth", self.max_depth, -1, i32::MAX as i64)?,
+            time_origin: self.time_origin.as_deref().map(|o| match o {
+                "pinhole" => TimeOrigin::Pinhole,
+                _ => TimeOrigin::NearClip,
+            }),
             search_paths: super::util::search_folders(&self.search_paths)?,
         })
     }

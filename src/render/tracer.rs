@@ -143,7 +143,8 @@ fn trace_with<const MEDIA: bool, S: PathSampler>(
     }
 }
 
-/// Traces one camera path from the pinhole along unit direction `d` ([`trace`]).
+/// Traces one perspective camera path along unit direction `d` ([`trace`]), from
+/// where the camera starts it (the pinhole, or the near plane: `Camera::start`).
 #[inline]
 pub fn trace_path<S: PathSampler>(
     scene: &Scene,
@@ -152,7 +153,8 @@ pub fn trace_path<S: PathSampler>(
     deposits: &mut PathDeposits,
     tally: &mut PathTally,
 ) -> GSample {
-    trace(scene, scene.camera.origin, d, rng, deposits, tally)
+    let o = scene.camera.start(scene.camera.origin, d);
+    trace(scene, o, d, rng, deposits, tally)
 }
 
 #[cfg(target_arch = "x86_64")]

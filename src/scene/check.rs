@@ -33,8 +33,9 @@ impl std::fmt::Display for Finding {
 
 /// The outcome for one scene.
 pub enum Verdict {
-    /// Loads: it would render.
-    Ok,
+    /// Loads: it would render; with notes on what a user comparing renderers should
+    /// know (the time origin's shift).
+    Ok(Vec<String>),
     /// The unsupported features found by the scan (none missed by it: then the
     /// loader's first error).
     Unsupported(Vec<Finding>),
@@ -68,9 +69,26 @@ pub fn check(path: &Path, defaults: &[(String, String)], search: &[PathBuf]) -> 
         ..Default::default()
     };
     match Scene::load(path, &overrides) {
-        Ok(_) => Verdict::Ok,
+        Ok(scene) => Verdict::Ok(time_origin_note(&scene).into_iter().collect()),
         Err(e) => Verdict::Fails(e.to_string()),
     }
+}
+
+/// Says how far the default time origin (the near-clip plane) moves arrivals from the
+/// pinhole origin when that is more than a tenth of a bin.
+fn time_origin_note(scene: &Scene) -> Option<String> {
+    let [lo, hi] = scene.camera.near_offsets()?;
+    let h = scene.film.bin_width_opl;
+    (hi > 0.1 * h).then(|| {
+        let span = if hi - lo > 1e-9 * hi {
+            format!("{lo:.4}..{hi:.4} OPL ({:.2}..{:.2} bins)", lo / h, hi / h)
+        } else {
+            format!("{lo:.4} OPL ({:.2} bins)", lo / h)
+        };
+        format!(
+            "time origin: OPL counts from the near-clip plane (as mitransient), so arrivals are {span} earlier than counted from the camera (--time-origin pinhole)"
+        )
+    })
 }
 
 /// Scans one file (and the files it includes); problems reading or parsing a file

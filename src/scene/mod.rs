@@ -101,6 +101,9 @@ pub struct Overrides {
     pub start_opl: Option<f64>,
     pub bin_width_opl: Option<f64>,
     pub max_depth: Option<i32>,
+    /// `--time-origin`: where camera paths' OPL starts (default: `near_clip` for
+    /// cameras; a meter has no near plane, so `near_clip` is refused there).
+    pub time_origin: Option<crate::sensors::time_origin::TimeOrigin>,
     /// `-a DIR`: folders searched for the files a scene names, after the scene's own
     /// `<path>`s and folder (Mitsuba's `-a`).
     pub search_paths: Vec<PathBuf>,

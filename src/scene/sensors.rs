@@ -26,6 +26,9 @@ pub(super) struct Sensor {
     pub(super) kind: String,
     pub(super) to_world: DMat4,
     pub(super) projection: SensorProjection,
+    /// Where camera rays start with the time origin `near_clip` (`time_origin.rs`);
+    /// 0 for the meter, which has no near plane.
+    pub(super) near_clip: f64,
     pub(super) film: Film,
     pub(super) spp: u32,
     pub(super) seed: u64,
@@ -173,6 +176,7 @@ pub(super) fn parse_meter(
             laser_scan,
             legacy_laser,
         }),
+        near_clip: 0.0,
         film,
         spp,
         seed,
@@ -207,10 +211,10 @@ pub(super) fn parse_sensor(
     // defaults to far_clip.
     let near = p.float_or("near_clip", 1e-2)?;
     let far = p.float_or("far_clip", 1e4)?;
-    if !(near > 0.0 && near.is_finite()) {
+    if !(near > 0.0 && near <= MAX_COORDINATE) {
         return Err(p.err_at(
             "near_clip",
-            format!("near_clip must be positive, got {near}"),
+            format!("near_clip must be in (0, {MAX_COORDINATE:e}], got {near}"),
         ));
     }
     if !(far > near && far.is_finite()) {
@@ -322,6 +326,7 @@ pub(super) fn parse_sensor(
         kind,
         to_world,
         projection,
+        near_clip: near,
         film,
         spp,
         seed,

@@ -22,6 +22,7 @@ use crate::materials::{Bsdf, Material};
 use crate::media::Medium;
 use crate::scene::textures::{parse_texture, NamedTextures};
 use crate::sensors::camera::Camera;
+use crate::sensors::time_origin::TimeOrigin;
 use glam::{DMat4, Vec3};
 use roxmltree::Node;
 use sha2::{Digest, Sha256};
@@ -297,6 +298,19 @@ pub fn load(path: &Path, overrides: &Overrides) -> Result<Scene, SceneError> {
             Some(fov),
         ),
         SensorProjection::Orthographic => (Camera::orthographic(s.to_world, w, h), None),
+    };
+    let camera = match (overrides.time_origin, &s.projection) {
+        (Some(TimeOrigin::NearClip), SensorProjection::Meter(_)) => {
+            return Err(SceneError::new(
+                path,
+                s.line,
+                "sensor type=\"nlos_capture_meter\"",
+                "--time-origin near_clip: the meter has no near plane (its capture counts from the sensor; use pinhole or leave it out)",
+            ))
+        }
+        (origin, _) => {
+            camera.with_time_origin(origin.unwrap_or(TimeOrigin::NearClip), s.near_clip as f32)
+        }
     };
     if !camera
         .tan_half

@@ -7,3 +7,4 @@ pub mod camera;
 pub mod film;
 pub mod relay_wall;
 pub mod time_filter;
+pub mod time_origin;

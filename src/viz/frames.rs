@@ -16,12 +16,23 @@ pub struct TimeAxis {
     pub bin_width_opl: f64,
     /// Metres per scene unit.
     pub unit_m: f64,
+    /// Where OPL 0 is (`Manifest::time_zero`: "the near-clip plane", ...); `None`
+    /// when not known (a volume given with `--start-opl`).
+    pub origin: Option<&'static str>,
 }
 
 impl TimeAxis {
     pub fn opl(&self, bin: f64) -> f64 {
         self.start_opl + bin * self.bin_width_opl
     }
+    /// The axis's title: "time (OPL from the near-clip plane, scene units)".
+    pub fn label(&self) -> String {
+        match self.origin {
+            Some(o) => format!("time (OPL from {o}, scene units)"),
+            None => "time (OPL, scene units)".into(),
+        }
+    }
+
     pub fn picoseconds(&self, opl: f64) -> f64 {
         opl * self.unit_m / crate::bundle::manifest::C_M_PER_S * 1e12
     }
@@ -147,11 +158,7 @@ pub fn write_streak(
             chart
                 .configure_mesh()
                 .disable_mesh()
-                .x_desc(if axis.is_some() {
-                    "time (OPL, scene units)"
-                } else {
-                    "time (bin; axis unknown)"
-                })
+                .x_desc(axis.map_or_else(|| "time (bin; axis unknown)".into(), |a| a.label()))
                 .y_desc("pixel column")
                 .label_style(("sans-serif", 14))
                 .draw()?;

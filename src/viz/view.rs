@@ -390,6 +390,7 @@ pub fn build_page(
         "spp": m.spp, "replicates": m.replicates, "sampling": m.pixel_sampling.name(),
         "transform": m.transform.to_string(),
         "start_opl": m.start_opl, "bin_width_opl": m.bin_width_opl,
+        "time_zero": m.time_zero(),
         "start_ps": m.start_seconds * 1e12, "bin_ps": m.bin_width_seconds * 1e12,
         "t_quantile": tq, "dof": dof, "correlated": correlated,
         "membership": {"radius": shown.radius, "t2_max": shown.t2_max, "depth_align": shown.depth_align},

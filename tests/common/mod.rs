@@ -5,6 +5,21 @@ use tstat::render::{render, PixelSampling, RenderOutput, RenderSettings};
 use tstat::scene::{Overrides, Scene};
 use tstat::stats::Transform;
 
+/// OPL counted from the camera's origin (`--time-origin pinhole`), for closed forms
+/// written from the pinhole; the default origin is the near-clip plane.
+pub const PINHOLE: Overrides = Overrides {
+    defaults: Vec::new(),
+    spp: None,
+    width: None,
+    height: None,
+    bins: None,
+    start_opl: None,
+    bin_width_opl: None,
+    max_depth: None,
+    time_origin: Some(tstat::sensors::time_origin::TimeOrigin::Pinhole),
+    search_paths: Vec::new(),
+};
+
 /// Loads a scene written as XML text (from a temporary folder).
 pub fn load(xml: &str, overrides: &Overrides) -> Scene {
     let dir = tempfile::tempdir().unwrap();
