@@ -60,6 +60,7 @@ fn bench_denoise(c: &mut Criterion) {
         sum: &x1,
         nonzero: &nonzero,
         replicates: None,
+        pixel_spp: None,
     });
     let albedo: Vec<f32> = (0..h * w * 3)
         .map(|i| ((i / 3) % 7) as f32 / 10.0)

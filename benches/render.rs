@@ -37,6 +37,7 @@ fn settings(scene: &Scene, transform: Transform) -> RenderSettings {
         transform,
         pixel_sampling: PixelSampling::default(),
         replicates: 0,
+        pixel_spp: None,
     }
 }
 

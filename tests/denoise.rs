@@ -149,6 +149,7 @@ impl Bundle {
             },
             nonzero: &self.nonzero,
             replicates: None,
+            pixel_spp: None,
         }
     }
 
@@ -1581,6 +1582,7 @@ fn end_to_end_cbox_denoising_beats_the_noisy_render() {
             transform: Transform::Identity,
             pixel_sampling: PixelSampling::Independent,
             replicates: 0,
+            pixel_spp: None,
         };
         render(&scene, &settings, &|_| {})
     };
@@ -1607,6 +1609,7 @@ fn end_to_end_cbox_denoising_beats_the_noisy_render() {
         sum: &noisy.accum.x1,
         nonzero: &noisy.accum.nonzero,
         replicates: None,
+        pixel_spp: None,
     };
     let d = denoise_sums(&view, &g.features(), &DenoiseParams::default(), &|_| {});
     let truth: Vec<f64> = reference
@@ -1726,6 +1729,7 @@ fn write_bundle(
         merged_seeds: Vec::new(),
         shard: None,
         nlos: None,
+        adaptive: None,
         scene: SceneRef {
             path: "synthetic".into(),
             sha256: "0".repeat(64),

@@ -46,6 +46,7 @@ impl Volume {
                 bins: t,
                 bin_width,
                 spp: 16,
+                pixel_spp: None,
                 replicates: None,
                 stratified: false,
                 image_rows: h,

@@ -63,6 +63,7 @@ fn dense_scene_is_a_closed_outward_mesh_that_renders() {
         transform: Transform::Identity,
         pixel_sampling: PixelSampling::default(),
         replicates: 0,
+        pixel_spp: None,
     };
     let out = render(&loaded, &settings, &|_| {});
     assert!(out.steady.iter().all(|v| v.is_finite()));

@@ -187,6 +187,7 @@ fn render_tiny(scene: &Scene) -> Result<(), TestCaseError> {
             transform: Transform::Identity,
             pixel_sampling: PixelSampling::Stratified,
             replicates: 0,
+            pixel_spp: None,
         },
         &|_| {},
     );

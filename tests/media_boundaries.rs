@@ -147,6 +147,7 @@ fn replicates(scene: &Scene) -> Vec<Vec<f64>> {
                 transform: Transform::Identity,
                 pixel_sampling: PixelSampling::Independent,
                 replicates: 0,
+                pixel_spp: None,
             };
             let out = render(scene, &settings, &|_| {});
             assert_eq!(out.dropped_nonfinite, 0);

@@ -109,6 +109,7 @@ fn settings(scene: &Scene, seed: u64) -> RenderSettings {
         transform: Transform::Identity,
         pixel_sampling: PixelSampling::Independent,
         replicates: 0,
+        pixel_spp: None,
     }
 }
 

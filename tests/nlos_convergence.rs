@@ -49,6 +49,7 @@ fn reconstructions_see_the_bundles_capture() {
         transform: Transform::Identity,
         pixel_sampling: PixelSampling::Independent,
         replicates: 0,
+        pixel_spp: None,
     };
     let out = render(&s, &settings, &|_| {});
     let v = noisy_mean(&out, 16).unwrap();
@@ -61,6 +62,7 @@ fn reconstructions_see_the_bundles_capture() {
         pixel_sampling: PixelSampling::Independent,
         replicates: 0,
         job: None,
+        adaptive: None,
     };
     tstat::bundle::write::write_bundle(&b, true, &s, &meta, out).unwrap();
     let bundle = tstat::bundle::Bundle::open(&b).unwrap();

@@ -66,6 +66,7 @@ fn settings(spp: u32, seed: u64, pixel_sampling: PixelSampling) -> RenderSetting
         transform: Transform::Identity,
         pixel_sampling,
         replicates: 0,
+        pixel_spp: None,
     }
 }
 

@@ -64,6 +64,7 @@ fn steady(s: &Scene) -> Vec<f64> {
         transform: Transform::Identity,
         pixel_sampling: PixelSampling::Independent,
         replicates: 0,
+        pixel_spp: None,
     };
     render(s, &settings, &|_| {}).steady
 }
@@ -1089,6 +1090,7 @@ fn a_mesh_of_coincident_triangles_builds_its_bvh_in_bounded_time() {
             transform: tstat::stats::Transform::Identity,
             pixel_sampling: tstat::render::PixelSampling::Independent,
             replicates: 0,
+            pixel_spp: None,
         };
         tstat::render::render(s, &settings, &|_| {}).steady
     };

@@ -505,6 +505,7 @@ fn steady(s: &Scene) -> Vec<f64> {
         transform: Transform::Identity,
         pixel_sampling: PixelSampling::Independent,
         replicates: 0,
+        pixel_spp: None,
     };
     render(s, &settings, &|_| {}).steady
 }

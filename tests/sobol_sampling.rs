@@ -29,6 +29,7 @@ fn run(scene: &Scene, spp: u32, seed: u64, mode: PixelSampling) -> RenderOutput 
         transform: Transform::Identity,
         pixel_sampling: mode,
         replicates: 0,
+        pixel_spp: None,
     };
     render(scene, &settings, &|_| {})
 }
@@ -250,6 +251,7 @@ fn replicate_variances_match_the_spread_across_seeds() {
         transform: Transform::Identity,
         pixel_sampling: PixelSampling::Sobol,
         replicates: b,
+        pixel_spp: None,
     };
     let outs: Vec<RenderOutput> = (0..K)
         .map(|k| render(&scene, &settings(700 + k), &|_| {}))

@@ -33,6 +33,7 @@ fn settings(scene: &Scene, transform: Transform) -> RenderSettings {
         transform,
         pixel_sampling: PixelSampling::Stratified,
         replicates: 0,
+        pixel_spp: None,
     }
 }
 
@@ -44,6 +45,7 @@ fn meta(s: &RenderSettings) -> BundleMeta {
         pixel_sampling: s.pixel_sampling,
         replicates: s.replicates,
         job: None,
+        adaptive: None,
     }
 }
 
@@ -256,6 +258,7 @@ fn an_incomplete_render_is_not_committed() {
             sums: &sums,
             gbuffer: &g,
             steady: &steady,
+            rays: &[0; 8],
         };
         writer.put_row(&row).unwrap();
     }
@@ -271,6 +274,7 @@ fn an_incomplete_render_is_not_committed() {
         sums: &wide,
         gbuffer: &g,
         steady: &steady,
+        rays: &[0; 8],
     };
     let e = writer.put_row(&row).unwrap_err();
     assert!(e.to_string().contains("x1.npy: a row of"), "{e}");

@@ -6,7 +6,12 @@ use crate::stats::Transform;
 use serde::{Deserialize, Serialize};
 
 pub const FORMAT: &str = "tstats";
-pub const VERSION: u32 = 1;
+/// The newest format version: 2 for bundles of adaptive sampling (`pixel_spp.npy`), 1
+/// for every other bundle (so that readers which do not know per-pixel counts refuse
+/// only the bundles they would misread).
+pub const VERSION: u32 = 2;
+/// The version of bundles with the same samples in every pixel.
+pub const VERSION_UNIFORM: u32 = 1;
 
 /// Speed of light in vacuum, m/s (for the seconds in the metadata).
 pub const C_M_PER_S: f64 = 299_792_458.0;
@@ -140,6 +145,11 @@ pub struct Manifest {
     /// Seeds of every render summed into this bundle by `tstat merge` (empty otherwise).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub merged_seeds: Vec<u64>,
+    /// Adaptive sampling (`render/adaptive.rs`): each pixel's sample count is in
+    /// `pixel_spp.npy` ((H, W) u32) and `spp` is their mean; version 2. Absent: every
+    /// pixel has `spp` samples.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub adaptive: Option<AdaptiveRecord>,
     /// An NLOS capture's geometry (`capture.rs`): its sensor grid, laser points and
     /// relay wall; absent for camera renders.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -157,6 +167,19 @@ pub struct Manifest {
     pub dropped_nonfinite: u64,
     pub program: Program,
     pub arrays: Vec<ArrayInfo>,
+}
+
+/// How an adaptive render chose its per-pixel counts, and what it chose.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct AdaptiveRecord {
+    /// The error the allocation minimised.
+    pub measure: crate::render::adaptive::ErrorMeasure,
+    /// Samples per pixel of the pilot (not in the sums), and its time.
+    pub pilot_spp: u64,
+    pub pilot_seconds: f64,
+    /// The fewest and most samples of any pixel (`pixel_spp.npy`).
+    pub min_spp: u64,
+    pub max_spp: u64,
 }
 
 /// Bundles written before `time_origin` was recorded counted from the camera.

@@ -214,15 +214,40 @@ pub fn merge_bundles(
     let mut depth = Array2::<f64>::zeros((h, w));
     let mut emitter = Array2::<f64>::zeros((h, w));
     let mut medium = first.media.then(|| Array2::<f64>::zeros((h, w)));
+    // Adaptive inputs: each pixel's samples add, and its images are weighted by them.
+    let adaptive = bundles.iter().any(|b| b.pixel_spp.is_some());
+    let pixel_spp: Option<Array2<u64>> = adaptive.then(|| {
+        Array2::from_shape_fn((h, w), |(y, x)| {
+            bundles.iter().map(|b| b.samples(y * w + x)).sum::<u64>()
+        })
+    });
     for b in &bundles {
-        let wgt = b.manifest.spp as f64 / total_spp as f64;
-        steady.scaled_add(wgt, &b.steady()?);
-        albedo.scaled_add(wgt, &b.albedo()?.mapv(f64::from));
-        normal.scaled_add(wgt, &b.normal()?.mapv(f64::from));
-        depth.scaled_add(wgt, &b.depth()?.mapv(f64::from));
-        emitter.scaled_add(wgt, &b.emitter()?.mapv(f64::from));
-        if let (Some(m), Some(bm)) = (medium.as_mut(), b.medium()?) {
-            m.scaled_add(wgt, &bm.mapv(f64::from));
+        match &pixel_spp {
+            None => {
+                let wgt = b.manifest.spp as f64 / total_spp as f64;
+                steady.scaled_add(wgt, &b.steady()?);
+                albedo.scaled_add(wgt, &b.albedo()?.mapv(f64::from));
+                normal.scaled_add(wgt, &b.normal()?.mapv(f64::from));
+                depth.scaled_add(wgt, &b.depth()?.mapv(f64::from));
+                emitter.scaled_add(wgt, &b.emitter()?.mapv(f64::from));
+                if let (Some(m), Some(bm)) = (medium.as_mut(), b.medium()?) {
+                    m.scaled_add(wgt, &bm.mapv(f64::from));
+                }
+            }
+            Some(total) => {
+                let wgt = Array2::from_shape_fn((h, w), |(y, x)| {
+                    b.samples(y * w + x) as f64 / total[[y, x]] as f64
+                });
+                let w3 = wgt.clone().insert_axis(ndarray::Axis(2));
+                steady += &(&b.steady()? * &w3);
+                albedo += &(&b.albedo()?.mapv(f64::from) * &w3);
+                normal += &(&b.normal()?.mapv(f64::from) * &w3);
+                depth += &(&b.depth()?.mapv(f64::from) * &wgt);
+                emitter += &(&b.emitter()?.mapv(f64::from) * &wgt);
+                if let (Some(m), Some(bm)) = (medium.as_mut(), b.medium()?) {
+                    *m += &(&bm.mapv(f64::from) * &wgt);
+                }
+            }
         }
     }
     for mut n in normal.rows_mut() {
@@ -254,6 +279,32 @@ pub fn merge_bundles(
         .iter()
         .fold(0u64, |a, b| a.saturating_add(b.manifest.dropped_nonfinite));
     manifest.arrays.clear();
+    if let Some(total) = &pixel_spp {
+        let rec = bundles
+            .iter()
+            .find_map(|b| b.manifest.adaptive.clone())
+            .expect("an adaptive input");
+        let (lo, hi) = total
+            .iter()
+            .fold((u64::MAX, 0), |(lo, hi), &n| (lo.min(n), hi.max(n)));
+        manifest.version = super::manifest::VERSION;
+        manifest.adaptive = Some(super::manifest::AdaptiveRecord {
+            pilot_seconds: bundles
+                .iter()
+                .filter_map(|b| b.manifest.adaptive.as_ref().map(|a| a.pilot_seconds))
+                .sum::<f64>()
+                .min(f64::MAX),
+            min_spp: lo,
+            max_spp: hi,
+            ..rec
+        });
+        if hi > u64::from(u32::MAX) {
+            return Err(BundleError::invalid(
+                bundles[0].dir.clone(),
+                Problem::SppOverflow,
+            ));
+        }
+    }
     // What cannot be read back is refused before the merge's work (and checked
     // again, with the arrays, when written).
     super::write::check_planned(out, &manifest)?;
@@ -290,6 +341,9 @@ pub fn merge_bundles(
             npy(dir, "medium", "<f4", &m.mapv(|v| v as f32), arrays)?;
         }
         npy(dir, "steady", "<f8", &steady, arrays)?;
+        if let Some(total) = &pixel_spp {
+            npy(dir, "pixel_spp", "<u4", &total.mapv(|n| n as u32), arrays)?;
+        }
         super::write::write_manifest(dir, out, &manifest)
     })?;
     Ok(manifest)

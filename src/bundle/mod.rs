@@ -95,7 +95,7 @@ pub enum Problem {
     #[error("not a '{format}' manifest", format = manifest::FORMAT)]
     NotThisFormat,
     /// `found`: the manifest's version as JSON, or "missing".
-    #[error("format version {} is not the supported version {version}", clip(.found), version = manifest::VERSION)]
+    #[error("format version {} is not a supported version ({uniform} for uniform sampling, {version} for adaptive)", clip(.found), uniform = manifest::VERSION_UNIFORM, version = manifest::VERSION)]
     Version { found: String },
     /// A string holding a control character: where (a JSON path) and its code point.
     #[error("the text at {} holds the control character U+{code:04X} (a manifest's strings are printed as they are)", clip(.at))]
@@ -108,6 +108,16 @@ pub enum Problem {
     Transform(crate::stats::StatsError),
     #[error("time origin: {0}")]
     TimeOrigin(String),
+    #[error("adaptive record: {0}")]
+    Adaptive(String),
+    #[error("pixel_spp.npy sums to {sum} over {pixels} pixels (the manifest's spp {spp} each), from {lo} to {hi} samples a pixel: it does not match the manifest")]
+    PixelSpp {
+        sum: u64,
+        spp: u64,
+        pixels: u64,
+        lo: u64,
+        hi: u64,
+    },
     #[error("empty film size ({width} x {height} px, {bins} bins)")]
     EmptyFilm {
         width: usize,

@@ -43,7 +43,9 @@
 //! compatibility) loads silently.
 
 use super::bounds::{bad_value, check_magnitude, show_f64, MAX_MAGNITUDE};
-use super::manifest::{ArrayInfo, Manifest, TimeOrigin, C_M_PER_S, FORMAT, VERSION};
+use super::manifest::{
+    ArrayInfo, Manifest, TimeOrigin, C_M_PER_S, FORMAT, VERSION, VERSION_UNIFORM,
+};
 use super::npy::{self, first_bad, show, Element};
 use super::shard::MAX_SHARDS;
 use super::{BundleError, Problem};
@@ -55,6 +57,10 @@ use std::path::{Path, PathBuf};
 pub struct Bundle {
     pub dir: PathBuf,
     pub manifest: Manifest,
+    /// Samples of each pixel (row-major, H x W) of an adaptive render (checked: each
+    /// at least 2 and a multiple of the replicates, summing to spp x H x W); `None`:
+    /// every pixel has `manifest.spp`.
+    pub pixel_spp: Option<Vec<u32>>,
 }
 
 /// The four sum arrays of SPEC 5.
@@ -103,6 +109,9 @@ pub fn required_arrays(m: &Manifest) -> Vec<(&'static str, &'static str, Vec<usi
     ]);
     if m.media {
         v.push(("medium", f32::DTYPE, vec![h, w]));
+    }
+    if m.adaptive.is_some() {
+        v.push(("pixel_spp", u32::DTYPE, vec![h, w]));
     }
     v
 }
@@ -199,6 +208,33 @@ pub fn validate(m: &Manifest) -> Result<(), Problem> {
     }
     check_time_axis(m)?;
     check_time_origin(m)?;
+    let adaptive_version = if m.adaptive.is_some() {
+        VERSION
+    } else {
+        VERSION_UNIFORM
+    };
+    if m.version != adaptive_version {
+        return Err(Problem::Version {
+            found: format!(
+                "{} ({} adaptive record)",
+                m.version,
+                if m.adaptive.is_some() {
+                    "with an"
+                } else {
+                    "without an"
+                }
+            ),
+        });
+    }
+    if let Some(a) = &m.adaptive {
+        let counts = a.pilot_spp >= 2 && a.min_spp >= 2 && a.min_spp <= m.spp && m.spp <= a.max_spp;
+        if !(counts && a.pilot_seconds.is_finite() && a.pilot_seconds >= 0.0) {
+            return Err(Problem::Adaptive(format!(
+                "pilot_spp {}, min_spp {}, max_spp {}, pilot_seconds {} (need pilot_spp >= 2, 2 <= min_spp <= spp = {} <= max_spp, seconds >= 0)",
+                a.pilot_spp, a.min_spp, a.max_spp, show_f64(a.pilot_seconds), m.spp
+            )));
+        }
+    }
     if let Some(s) = m.time_filter_stddev_bins {
         if !(s > 0.0 && s < MAX_MAGNITUDE) {
             return Err(bad_value(
@@ -367,7 +403,7 @@ pub fn parse_manifest(text: &str) -> Result<Manifest, Problem> {
         return Err(Problem::NotThisFormat);
     }
     let version = value.get("version").and_then(|v| v.as_u64());
-    if version != Some(VERSION as u64) {
+    if !version.is_some_and(|v| (u64::from(VERSION_UNIFORM)..=u64::from(VERSION)).contains(&v)) {
         let found = value
             .get("version")
             .map_or("missing".to_string(), |v| v.to_string());
@@ -413,12 +449,70 @@ impl Bundle {
         let text = crate::io::read_regular_text(&mpath, crate::io::MAX_MANIFEST_BYTES)
             .map_err(|e| BundleError::invalid(mpath.clone(), Problem::Unreadable(e)))?;
         let manifest = parse_manifest(&text).map_err(|e| BundleError::invalid(mpath, e))?;
-        let bundle = Bundle {
+        let mut bundle = Bundle {
             dir: dir.to_path_buf(),
             manifest,
+            pixel_spp: None,
         };
+        bundle.pixel_spp = bundle.read_pixel_spp()?;
         bundle.check_arrays()?;
         Ok(bundle)
+    }
+
+    /// Samples of pixel `p` (row-major).
+    #[inline]
+    pub fn samples(&self, p: usize) -> u64 {
+        self.pixel_spp
+            .as_ref()
+            .map_or(self.manifest.spp, |n| u64::from(n[p]))
+    }
+
+    /// The fewest samples of any pixel (`spp` for a uniform bundle).
+    pub fn min_samples(&self) -> u64 {
+        self.pixel_spp.as_ref().map_or(self.manifest.spp, |n| {
+            n.iter().copied().min().map_or(self.manifest.spp, u64::from)
+        })
+    }
+
+    /// `pixel_spp.npy` of an adaptive bundle, checked against the manifest.
+    fn read_pixel_spp(&self) -> Result<Option<Vec<u32>>, BundleError> {
+        let m = &self.manifest;
+        let Some(rec) = &m.adaptive else {
+            return Ok(None);
+        };
+        let b = m.replicates.unwrap_or(1);
+        let (mut sum, mut lo, mut hi) = (0u64, u64::MAX, 0u64);
+        let n: Array2<u32> = self.read_checked(
+            "pixel_spp",
+            [m.height, m.width].into_dimension(),
+            &AXES2,
+            |s, block: &[u32]| {
+                for &v in block {
+                    let v = u64::from(v);
+                    sum = sum.saturating_add(v);
+                    (lo, hi) = (lo.min(v), hi.max(v));
+                }
+                first_bad(
+                    s,
+                    block,
+                    |_, v| v >= 2 && u64::from(v).is_multiple_of(b),
+                    |_, v| {
+                        format!("is {v}, but a pixel has at least 2 samples, a multiple of the replicates ({b})")
+                    },
+                )
+            },
+        )?;
+        let pixels = (m.height * m.width) as u64;
+        if Some(sum) != m.spp.checked_mul(pixels) || (lo, hi) != (rec.min_spp, rec.max_spp) {
+            return Err(self.manifest_error(Problem::PixelSpp {
+                sum,
+                spp: m.spp,
+                pixels,
+                lo,
+                hi,
+            }));
+        }
+        Ok(Some(n.into_raw_vec_and_offset().0))
     }
 
     fn manifest_error(&self, problem: Problem) -> BundleError {
@@ -535,7 +629,7 @@ impl Bundle {
             "nonzero",
             [m.height, m.width, m.bins].into_dimension(),
             &AXES3T,
-            self.count_check(),
+            self.count_check(0),
         )
     }
 
@@ -582,15 +676,17 @@ impl Bundle {
         self.read_checked(name, self.shape4().into_dimension(), &AXES4, check)
     }
 
-    /// The rule that a count is at most spp, as a block check.
-    fn count_check(&self) -> impl Fn(usize, &[u32]) -> npy::Bad {
-        let spp = self.manifest.spp;
+    /// The rule that a count is at most its pixel's samples, as a block check of a
+    /// read whose first voxel is `first` of the whole (H, W, T) volume.
+    fn count_check(&self, first: usize) -> impl Fn(usize, &[u32]) -> npy::Bad + '_ {
+        let bins = self.manifest.bins;
+        let spp = move |i: usize| self.samples((first + i) / bins);
         move |s, b: &[u32]| {
             first_bad(
                 s,
                 b,
-                |_, v| u64::from(v) <= spp,
-                |_, v| format!("counts {v} samples, more than spp = {spp}"),
+                |i, v| u64::from(v) <= spp(i),
+                |i, v| format!("counts {v} samples, more than the pixel's spp = {}", spp(i)),
             )
         }
     }
@@ -636,10 +732,11 @@ impl Bundle {
         // Radiance sums (S, which is X1 under the identity) become the f32 mean S / n
         // of every volume: a sum whose mean overflows f32 is refused here rather
         // than turned into infinities (and NaN neighbours) by the filter.
-        let spp = m.spp;
+        // The pixel with the fewest samples bounds every mean (a hostile bound).
+        let spp = self.min_samples();
         let is_radiance = name == "sum" || (name == "x1" && m.transform.is_identity());
         let max = if is_radiance {
-            f64::from(f32::MAX) * m.spp as f64
+            f64::from(f32::MAX) * spp as f64
         } else {
             f64::MAX
         };
@@ -795,9 +892,20 @@ impl Bundle {
         let (path, f) = self.open_npy(name)?;
         let shape = self.shape4();
         check_header(&path, &f.header, f64::DTYPE, &shape)?;
-        let data = f
-            .read_mapped(|s: f64| (s / n) as f32, check, &AXES4)
-            .map_err(|e| npy_error(&path, e))?;
+        let data = match &self.pixel_spp {
+            None => f
+                .read_mapped(|s: f64| (s / n) as f32, check, &AXES4)
+                .map_err(|e| npy_error(&path, e))?,
+            // Each pixel's own count (the sums are read whole in f64 first).
+            Some(counts) => {
+                let per_pixel = self.manifest.bins * CHANNELS;
+                let sums: Vec<f64> = f.read(check, &AXES4).map_err(|e| npy_error(&path, e))?;
+                sums.chunks_exact(per_pixel)
+                    .zip(counts)
+                    .flat_map(|(s, &k)| s.iter().map(move |&v| (v / f64::from(k)) as f32))
+                    .collect()
+            }
+        };
         Array::from_shape_vec(shape, data).map_err(|e| npy_error(&path, npy::NpyError::Layout(e)))
     }
 }
@@ -856,7 +964,8 @@ impl RowReader<'_> {
         } = into;
         *held = rows.start..rows.start;
         let (path, f) = &self.nonzero;
-        f.read_rows(rows.clone(), nonzero, b.count_check(), &AXES3T)
+        let first = rows.start * b.manifest.width * b.manifest.bins;
+        f.read_rows(rows.clone(), nonzero, b.count_check(first), &AXES3T)
             .map_err(|e| npy_error(path, e))?;
         let mut arrays = vec![
             (&self.sums[0], x1),

@@ -6,7 +6,9 @@
 //! render straight into its place in the preallocated `.npy` files (positioned writes;
 //! Linux/Unix), so a film larger than memory streams to disk.
 
-use super::manifest::{ArrayInfo, Manifest, Program, SceneRef, FORMAT, VERSION};
+use super::manifest::{
+    AdaptiveRecord, ArrayInfo, Manifest, Program, SceneRef, FORMAT, VERSION, VERSION_UNIFORM,
+};
 use super::{BundleError, RowSums};
 use crate::render::gbuffer::GPixel;
 use crate::render::sink::{PixelImages, Row, RowSink};
@@ -37,6 +39,9 @@ pub struct BundleMeta {
     pub replicates: u32,
     /// The job this render is a shard of (`--shard`), if any.
     pub job: Option<JobShard>,
+    /// Adaptive sampling: each pixel's samples (row-major) and the record of how they
+    /// were chosen; `None` for uniform renders.
+    pub adaptive: Option<(std::sync::Arc<[u32]>, AdaptiveRecord)>,
 }
 
 /// A shard's job: the shard, and the job's own seed, spp and replicates (the render's
@@ -218,7 +223,11 @@ fn manifest(scene: &Scene, meta: &BundleMeta, seconds: f64, dropped_nonfinite: u
     let film = &scene.film;
     let mut m = Manifest {
         format: FORMAT.into(),
-        version: VERSION,
+        version: if meta.adaptive.is_some() {
+            VERSION
+        } else {
+            VERSION_UNIFORM
+        },
         width: film.width,
         height: film.height,
         bins: film.bins,
@@ -231,7 +240,11 @@ fn manifest(scene: &Scene, meta: &BundleMeta, seconds: f64, dropped_nonfinite: u
         bin_width_seconds: film.bin_width_opl * meta.unit_m / super::manifest::C_M_PER_S,
         transform: meta.transform,
         time_origin: scene.camera.time_origin(),
-        near_clip: scene.camera.near_clip.map(f64::from),
+        // The f32's shortest decimal (0.001, not 0.0010000000474974513).
+        near_clip: scene
+            .camera
+            .near_clip
+            .map(|d| d.to_string().parse().unwrap_or(f64::from(d))),
         pixel_sampling: meta.pixel_sampling.into(),
         replicates: (meta.replicates >= 2).then_some(u64::from(meta.replicates)),
         media: !scene.media.is_empty(),
@@ -253,6 +266,7 @@ fn manifest(scene: &Scene, meta: &BundleMeta, seconds: f64, dropped_nonfinite: u
         arrays: Vec::new(),
         shard: None,
         nlos: super::capture::CaptureRecord::of_scene(scene),
+        adaptive: meta.adaptive.as_ref().map(|(_, r)| r.clone()),
     };
     if let Some(j) = &meta.job {
         m.shard = Some(job_record(&m, j));
@@ -271,6 +285,12 @@ fn job_record(m: &Manifest, j: &JobShard) -> super::shard::ShardRecord {
     key.scene.path = String::new();
     key.render_seconds = 0.0;
     key.dropped_nonfinite = 0;
+    // Shards of an adaptive job share the allocation (the job's pilot), each with
+    // its share of the counts: the measure and the pilot identify the job.
+    if let Some(a) = key.adaptive.as_mut() {
+        a.pilot_seconds = 0.0;
+        (a.min_spp, a.max_spp) = (0, 0);
+    }
     let json = serde_json::to_string(&key).expect("manifest serialises");
     super::shard::ShardRecord {
         job: super::shard::job_id(&format!("{json}\nshards {}", j.shard.count)),
@@ -739,6 +759,11 @@ impl BundleWriter {
             manifest.media,
             &mut manifest.arrays,
         )?;
+        if let Some((n, _)) = &meta.adaptive {
+            let counts =
+                Array2::from_shape_vec(hw, n.to_vec()).map_err(|e| BundleError::io(&dir, e))?;
+            npy(&dir, "pixel_spp", "<u4", &counts, &mut manifest.arrays)?;
+        }
         write_manifest(&dir, &self.staged.final_path, &manifest)?;
         self.staged.commit()?;
         Ok(manifest)
@@ -797,6 +822,7 @@ mod tests {
             transform: Transform::Identity,
             pixel_sampling: PixelSampling::Stratified,
             replicates: 0,
+            pixel_spp: None,
         };
         let out = dir.path().join("b.tstats");
         let mut writer =

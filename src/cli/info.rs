@@ -51,6 +51,17 @@ pub fn run(a: InfoArgs) -> anyhow::Result<()> {
         m.seed,
         m.max_depth
     );
+    if let Some(a) = &m.adaptive {
+        say!(
+            "adaptive    {} spp on average, {} to {} per pixel (pixel_spp.npy), allocated to minimise {} from a {}-spp pilot ({:.2} s, not in the sums)",
+            m.spp,
+            a.min_spp,
+            a.max_spp,
+            a.measure.name(),
+            a.pilot_spp,
+            a.pilot_seconds
+        );
+    }
     if !m.merged_seeds.is_empty() {
         say!("merged      from renders with seeds {:?}", m.merged_seeds);
     }

@@ -4,8 +4,10 @@ use super::util::{
     arg, check_outputs, disk_size, finite, human_bytes, opt_int, physical_memory, positive, seed,
     size_flag, threads, with_threads, Kind, MAX_FILM_SIDE,
 };
+use crate::bundle::manifest::AdaptiveRecord;
 use crate::bundle::shard::{shard_seed, Shard, PLACEHOLDER};
 use crate::bundle::write::{bundle_bytes_with, check_render, BundleMeta, BundleWriter, JobShard};
+use crate::render::adaptive::{self, AdaptiveOptions, ErrorMeasure};
 use crate::render::{render_into, PixelSampling, RenderSettings, StreamingMemory};
 use crate::scene::{Overrides, Scene};
 use crate::sensors::time_origin::TimeOrigin;
@@ -147,9 +149,58 @@ pub struct RenderArgs {
     /// bundles is the job's bundle.
     #[arg(long, value_name = "I/N")]
     pub shard: Option<String>,
+    /// Adaptive sampling: --spp becomes the mean per pixel, and each pixel gets samples
+    /// where they lower the volume's expected error most (n_i proportional to
+    /// sqrt(V_i / cost_i), from a pilot of --pilot-spp whose samples are not in the
+    /// sums; between spp / 4 and 16 spp a pixel). Adds `pixel_spp.npy` (4 bytes a pixel).
+    #[arg(long)]
+    pub adaptive: bool,
+    /// What adaptive sampling minimises: mse (all-voxel squared error, RMSE) or relmse
+    /// ((x - ref)^2 / (ref^2 + 0.01), which weights dark voxels up).
+    #[arg(long, value_parser = ["mse", "relmse"], default_value = "mse", requires = "adaptive")]
+    pub adaptive_measure: String,
+    /// Samples per pixel of the adaptive pilot (default max(4, spp / 16)).
+    #[arg(long, allow_negative_numbers = true, requires = "adaptive")]
+    pub pilot_spp: Option<i64>,
     /// Replace an existing output.
     #[arg(long)]
     pub force: bool,
+}
+
+/// Adaptive sampling's options for a job of `spp` (the whole job's, sharded or not).
+pub(super) fn adaptive_options(
+    a: &RenderArgs,
+    spp: u32,
+    replicates: u32,
+    shards: u32,
+) -> anyhow::Result<Option<AdaptiveOptions>> {
+    if !a.adaptive {
+        return Ok(None);
+    }
+    let measure = match a.adaptive_measure.as_str() {
+        "relmse" => ErrorMeasure::RelMse,
+        _ => ErrorMeasure::Mse,
+    };
+    let granule = replicates.max(1).saturating_mul(shards.max(1));
+    // Every shard needs at least 2 samples of each pixel.
+    let mut o = AdaptiveOptions::new(spp, measure, granule, 2 * shards.max(1));
+    if let Some(p) = a.pilot_spp {
+        o.pilot_spp =
+            opt_int("--pilot-spp", Some(p), 2, i64::from(u32::MAX))?.unwrap_or(o.pilot_spp);
+    }
+    o.validate().map_err(|e| {
+        anyhow!(
+            "--adaptive with --spp {spp}{}: {e} (floor {}, cap {}, multiples of {granule})",
+            if granule > 1 {
+                format!(", {replicates} replicates, {shards} shards")
+            } else {
+                String::new()
+            },
+            o.floor,
+            o.cap
+        )
+    })?;
+    Ok(Some(o))
 }
 
 /// The shard of `--shard` and the output path with `{shard}` filled in.
@@ -233,15 +284,19 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
     let film = &scene.film;
 
     RenderSettings::check_replicates(scene.spp, replicate_count)?;
+    let shards = shard.map_or(1, |s| s.count as u32);
+    let job_spp = job.map_or(scene.spp, |j| j.spp as u32);
+    let adaptive = adaptive_options(&a, job_spp, a.scene_args.replicates, shards)?;
     let replicates = replicate_count >= 2;
     let memory = StreamingMemory::new(film, &transform, pool_size(threads))
         .with_replicates(replicates, film)
         .with_sampler(
             a.scene_args.pixel_sampling,
-            scene.spp,
+            adaptive.map_or(scene.spp, |o| o.cap / shards),
             replicate_count,
             scene.integrator.volumetric,
-        );
+        )
+        .with_adaptive(adaptive.is_some(), film);
     check_memory(&memory, limit)?;
     let disk = bundle_bytes_with(film, &transform, !scene.media.is_empty(), replicates);
     check_disk(&out, disk, "the bundle")?;
@@ -256,6 +311,18 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
         pixel_sampling: a.scene_args.pixel_sampling,
         replicates: replicate_count,
         job,
+        // Checked before rendering with the counts' place-holder (the mean); the pilot
+        // fills them in.
+        adaptive: adaptive.map(|o| {
+            let record = AdaptiveRecord {
+                measure: o.measure,
+                pilot_spp: u64::from(o.pilot_spp),
+                pilot_seconds: 0.0,
+                min_spp: u64::from(scene.spp),
+                max_spp: u64::from(scene.spp),
+            };
+            (std::sync::Arc::from(vec![scene.spp; film.pixels()]), record)
+        }),
     };
     // Before any rendering work: the manifest this render will write must read back
     // (the same check as reading it).
@@ -284,14 +351,59 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
         human_bytes(disk)
     );
 
-    let settings = RenderSettings {
+    let mut settings = RenderSettings {
         spp: scene.spp,
         seed: render_seed,
         transform,
         pixel_sampling: a.scene_args.pixel_sampling,
         replicates: replicate_count,
+        pixel_spp: None,
     };
-    let total = film.pixels() as u64 * scene.spp as u64;
+    let mut meta = meta;
+    if let Some(o) = &adaptive {
+        // The pilot is the job's (its seed from the job's), so every shard allocates alike.
+        let job_settings = RenderSettings {
+            seed: AdaptiveOptions::pilot_seed(job_seed),
+            ..settings.clone()
+        };
+        let pilot_paths = film.pixels() as u64 * u64::from(o.pilot_spp);
+        let bar = ProgressBar::new(pilot_paths).with_style(
+            ProgressStyle::with_template(
+                "pilot {bar:34} {percent:>3}% {human_pos}/{human_len} paths, ETA {eta}",
+            )
+            .expect("valid template"),
+        );
+        let (measure, pilot) = with_threads(threads, || {
+            adaptive::pilot(&scene, &job_settings, o, &|n| bar.inc(n))
+        })?;
+        bar.finish_and_clear();
+        let counts: Vec<u32> = adaptive::allocate(&adaptive::weights(&measure), o)
+            .into_iter()
+            .map(|n| n / shards)
+            .collect();
+        let (lo, hi) = counts
+            .iter()
+            .fold((u32::MAX, 0), |(lo, hi), &n| (lo.min(n), hi.max(n)));
+        eprintln!(
+            "adaptive: {}-spp pilot in {:.2} s; {} to {} samples a pixel (mean {}), minimising {}",
+            o.pilot_spp,
+            pilot.seconds,
+            lo,
+            hi,
+            scene.spp,
+            o.measure.name()
+        );
+        let counts: std::sync::Arc<[u32]> = counts.into();
+        settings.pixel_spp = Some(counts.clone());
+        if let Some((n, r)) = meta.adaptive.as_mut() {
+            *n = counts;
+            r.pilot_seconds = pilot.seconds;
+            (r.min_spp, r.max_spp) = (u64::from(lo), u64::from(hi));
+        }
+    }
+    let total = (0..film.height)
+        .map(|y| settings.row_paths(y, film.width))
+        .sum::<u64>();
     let bar = ProgressBar::new(total).with_style(
         ProgressStyle::with_template(
             "{bar:40} {percent:>3}% {human_pos}/{human_len} paths, {per_sec}, ETA {eta}",

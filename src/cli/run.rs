@@ -154,6 +154,7 @@ fn job(
         pixel_sampling: a.scene_args.pixel_sampling,
         replicates: a.scene_args.replicates,
         job: None,
+        adaptive: None,
     };
     // Before any rendering work: the manifest must read back (with the scene's
     // final path, as written).
@@ -175,6 +176,7 @@ fn job(
         transform,
         pixel_sampling: a.scene_args.pixel_sampling,
         replicates: a.scene_args.replicates,
+        pixel_spp: None,
     };
     let writer = BundleWriter::create_with(&bundle_path, false, film, &transform, replicates)
         .context("writing the bundle")?;

@@ -35,8 +35,10 @@ pub struct Estimates {
     pub bins: usize,
     /// Bin width h in OPL (scene units).
     pub bin_width: f64,
-    /// Samples per pixel behind the estimates.
+    /// Samples per pixel behind the estimates (the mean, for adaptive renders).
     pub spp: u64,
+    /// Each pixel's samples (row-major over the whole image) of an adaptive render.
+    pub pixel_spp: Option<std::sync::Arc<[u32]>>,
     /// Replicates B behind `v` (SPEC 5), if the bundle has them.
     pub replicates: Option<u64>,
     /// Sub-pixel positions were stratified: `v` over-estimates the variance of the
@@ -67,24 +69,25 @@ pub struct Magnitudes {
 impl Magnitudes {
     /// The bounds over every voxel of `s` (a few operations a value, no estimates).
     pub fn scan(s: &SumsView) -> Magnitudes {
-        let (nf, c) = (s.spp as f64, s.z0);
+        let c = s.z0;
         let per_pixel = CHANNELS * s.bins;
         let (mean, y2) = (0..s.height * s.width)
             .into_par_iter()
             .map(|p| {
+                let nf = s.samples(p) as f64;
                 let (mut mean, mut y2) = (0f64, 0f64);
                 for k in p * per_pixel..(p + 1) * per_pixel {
                     let mc = f64::from(s.nonzero[k / CHANNELS]) * c;
                     mean = mean.max((s.sum[k] / nf).abs());
-                    // Sum of (z - c)^2 over the n samples, as in `estimate`.
-                    y2 = y2.max((s.x2[k] - 2.0 * c * s.x1[k] + mc * c).abs());
+                    // Sum of (z - c)^2 over the n samples, as in `estimate`, per sample.
+                    y2 = y2.max((s.x2[k] - 2.0 * c * s.x1[k] + mc * c).abs() / nf);
                 }
                 (mean, y2)
             })
             .reduce(|| (0.0, 0.0), |a, b| (a.0.max(b.0), a.1.max(b.1)));
         Magnitudes {
             mean,
-            theta: (y2 / nf).sqrt(),
+            theta: y2.sqrt(),
         }
     }
 
@@ -144,9 +147,10 @@ fn pow2(e: i32) -> f64 {
 #[inline]
 fn voxel_estimate(s: &SumsView, voxel: usize, c: usize) -> (f64, f64, f64) {
     let k = voxel * CHANNELS + c;
+    let spp = s.samples(voxel / s.bins);
     if let Some((b, r2)) = s.replicates {
-        let e = estimate_replicates(s.x1[k], r2[k], s.nonzero[voxel], s.spp, b, s.z0);
-        return (s.sum[k] / s.spp as f64, e.theta - s.z0, e.v);
+        let e = estimate_replicates(s.x1[k], r2[k], s.nonzero[voxel], spp, b, s.z0);
+        return (s.sum[k] / spp as f64, e.theta - s.z0, e.v);
     }
     let e = estimate(
         Sums {
@@ -155,10 +159,10 @@ fn voxel_estimate(s: &SumsView, voxel: usize, c: usize) -> (f64, f64, f64) {
             x3: s.x3[k],
         },
         s.nonzero[voxel],
-        s.spp,
+        spp,
         s.z0,
     );
-    (s.sum[k] / s.spp as f64, e.theta - s.z0, e.v)
+    (s.sum[k] / spp as f64, e.theta - s.z0, e.v)
 }
 
 /// The raw sums of a bundle, (H, W, T, C) row-major, as stored on disk; or of a band
@@ -185,6 +189,16 @@ pub struct SumsView<'a> {
     pub nonzero: &'a [u32],
     /// Replicate statistics: B and R2 (SPEC 5); then V comes from the replicates.
     pub replicates: Option<(u64, &'a [f64])>,
+    /// Each pixel's samples for the view's rows (adaptive renders); `None`: `spp`.
+    pub pixel_spp: Option<&'a [u32]>,
+}
+
+impl SumsView<'_> {
+    /// The samples of the view's pixel `p` (row-major within the view).
+    #[inline]
+    pub fn samples(&self, p: usize) -> u64 {
+        self.pixel_spp.map_or(self.spp, |n| u64::from(n[p]))
+    }
 }
 
 impl Estimates {
@@ -223,8 +237,17 @@ impl Estimates {
     /// The estimates of a whole volume.
     pub fn from_sums(s: &SumsView) -> Estimates {
         let mut e = Estimates::empty(s.height, s, Scale::of(Magnitudes::scan(s)));
+        e.pixel_spp = s.pixel_spp.map(Into::into);
         e.push_rows(s);
         e
+    }
+
+    /// The samples of the image's pixel `p` (row-major).
+    #[inline]
+    pub fn samples(&self, p: usize) -> u64 {
+        self.pixel_spp
+            .as_ref()
+            .map_or(self.spp, |n| u64::from(n[p]))
     }
 
     /// No rows yet of an image `height` rows high with the sizes and sampling of `s`,
@@ -236,6 +259,7 @@ impl Estimates {
             bins: s.bins,
             bin_width: s.bin_width,
             spp: s.spp,
+            pixel_spp: None,
             replicates: s.replicates.map(|(b, _)| b),
             stratified: s.stratified,
             image_rows: s.image_rows,

@@ -334,7 +334,14 @@ impl Shared<'_> {
                     if sees_emitter(f.emitter[i]) != class_j {
                         continue;
                     }
-                    if class_j && !same_coverage(f.emitter[i], f.emitter[j], self.e.spp, tp.t2_max)
+                    if class_j
+                        && !same_coverage(
+                            f.emitter[i],
+                            f.emitter[j],
+                            self.e.samples(i),
+                            self.e.samples(j),
+                            tp.t2_max,
+                        )
                     {
                         continue;
                     }

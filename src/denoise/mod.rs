@@ -249,6 +249,8 @@ pub struct LoadedSums {
     sum: Option<ndarray::Array4<f64>>,
     r2: Option<ndarray::Array4<f64>>,
     nonzero: ndarray::Array3<u32>,
+    /// Each pixel's samples of an adaptive render.
+    pixel_spp: Option<Vec<u32>>,
     pub gbuffers: GBuffers,
 }
 
@@ -273,6 +275,7 @@ impl LoadedSums {
                 None => None,
             },
             nonzero,
+            pixel_spp: bundle.pixel_spp.clone(),
             gbuffers: GBuffers::read(bundle)?,
         })
     }
@@ -294,6 +297,7 @@ impl LoadedSums {
             sum: std_slice(self.sum.as_ref().unwrap_or(&self.x1)),
             nonzero: std_slice(&self.nonzero),
             replicates: m.replicates.zip(self.r2.as_ref().map(std_slice)),
+            pixel_spp: self.pixel_spp.as_deref(),
         }
     }
 

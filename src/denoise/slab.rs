@@ -173,7 +173,7 @@ pub fn image_rows(m: &Manifest) -> usize {
 }
 
 /// The sums of the rows read, as the estimates take them.
-fn sums_view<'a>(m: &Manifest, s: &'a RowSums) -> SumsView<'a> {
+fn sums_view<'a>(m: &Manifest, s: &'a RowSums, pixel_spp: Option<&'a [u32]>) -> SumsView<'a> {
     SumsView {
         height: s.rows.len(),
         width: m.width,
@@ -193,6 +193,7 @@ fn sums_view<'a>(m: &Manifest, s: &'a RowSums) -> SumsView<'a> {
         },
         nonzero: &s.nonzero,
         replicates: m.replicates.map(|b| (b, &s.r2[..])),
+        pixel_spp: pixel_spp.map(|n| &n[s.rows.start * m.width..s.rows.end * m.width]),
     }
 }
 
@@ -236,15 +237,17 @@ pub fn denoise_slabs(
         plan.halo
     );
     let reader = bundle.row_reader()?;
+    let counts = bundle.pixel_spp.as_deref();
     let mut sums = RowSums::default();
     // A first pass over the sums fixes the estimates' scale from the whole volume,
     // so that it does not depend on the slabs.
     let mut magnitudes = Magnitudes::default();
     for y in (0..h).step_by(plan.chunk.max(1)) {
         reader.read(y..(y + plan.chunk.max(1)).min(h), &mut sums)?;
-        magnitudes = magnitudes.max(Magnitudes::scan(&sums_view(m, &sums)));
+        magnitudes = magnitudes.max(Magnitudes::scan(&sums_view(m, &sums, counts)));
     }
-    let mut est = Estimates::empty(h, &sums_view(m, &sums), Scale::of(magnitudes));
+    let mut est = Estimates::empty(h, &sums_view(m, &sums, counts), Scale::of(magnitudes));
+    est.pixel_spp = counts.map(Into::into);
     est.reserve_rows((rows + 2 * halo).min(h));
     let mut out = vec![0.0f32; rows.min(h) * est.row_len()];
     // Enough bands for every thread: the output does not depend on the tiling.
@@ -265,7 +268,7 @@ pub fn denoise_slabs(
             if sums.rows != next {
                 reader.read(next, &mut sums)?;
             }
-            est.push_rows(&sums_view(m, &sums));
+            est.push_rows(&sums_view(m, &sums, counts));
         }
         let slab = &mut out[..(y1 - y0) * est.row_len()];
         let f0 = std::time::Instant::now();

@@ -105,16 +105,16 @@ pub fn depth_shift(depth_p: f32, depth_q: f32, h: f64) -> i64 {
     }
 }
 
-/// Whether two emitter pixels saw the light over the same fraction of their `n`
-/// samples (their footprints cover the light alike), by the same Welch bound as the
-/// voxels: `(f_i - f_j)^2 <= t2_max (f_i (1 - f_i) + f_j (1 - f_j)) / n`, the binomial
-/// variances of the two fractions. Equal fractions pass; different ones with zero
-/// variance (both 0 or 1) fail.
+/// Whether two emitter pixels saw the light over the same fraction of their `n_i` and
+/// `n_j` samples (their footprints cover the light alike), by the same Welch bound as
+/// the voxels: `(f_i - f_j)^2 <= t2_max (f_i (1 - f_i) / n_i + f_j (1 - f_j) / n_j)`,
+/// the binomial variances of the two fractions. Equal fractions pass; different ones
+/// with zero variance (both 0 or 1) fail.
 #[inline]
-pub fn same_coverage(f_i: f32, f_j: f32, n: u64, t2_max: f64) -> bool {
+pub fn same_coverage(f_i: f32, f_j: f32, n_i: u64, n_j: u64, t2_max: f64) -> bool {
     let (f_i, f_j) = (f_i as f64, f_j as f64);
     let d = f_i - f_j;
-    let v = (f_i * (1.0 - f_i) + f_j * (1.0 - f_j)) / n.max(1) as f64;
+    let v = f_i * (1.0 - f_i) / n_i.max(1) as f64 + f_j * (1.0 - f_j) / n_j.max(1) as f64;
     d == 0.0 || d * d <= t2_max * v
 }
 
@@ -151,15 +151,15 @@ mod tests {
 
     #[test]
     fn coverage_test() {
-        assert!(same_coverage(1.0, 1.0, 16, 4.0));
-        assert!(!same_coverage(1.0, 0.9375, 1_000_000, 4.0));
+        assert!(same_coverage(1.0, 1.0, 16, 16, 4.0));
+        assert!(!same_coverage(1.0, 0.9375, 1_000_000, 1_000_000, 4.0));
         // d = 1/16, v = 0.0586 / 16: d^2 / v = 1.07.
-        assert!(same_coverage(1.0, 0.9375, 16, 4.0));
-        assert!(!same_coverage(1.0, 0.9375, 16, 1.0));
-        assert!(!same_coverage(0.5, 0.125, 16, 4.0));
+        assert!(same_coverage(1.0, 0.9375, 16, 16, 4.0));
+        assert!(!same_coverage(1.0, 0.9375, 16, 16, 1.0));
+        assert!(!same_coverage(0.5, 0.125, 16, 16, 4.0));
         assert_eq!(
-            same_coverage(0.3, 0.6, 8, 4.0),
-            same_coverage(0.6, 0.3, 8, 4.0)
+            same_coverage(0.3, 0.6, 8, 8, 4.0),
+            same_coverage(0.6, 0.3, 8, 8, 4.0)
         );
     }
 

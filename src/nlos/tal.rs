@@ -343,7 +343,8 @@ pub fn h_block(
         } else {
             &sums.sum
         };
-        let means = band_means(s, c, m.spp);
+        let first = r0 * m.width;
+        let means = band_means(s, c, m.bins, |p| bundle.samples(first + p));
         scatter_band(m, rec, r0..r1, bins.clone(), &means, out);
     }
     Ok(())
@@ -351,10 +352,11 @@ pub fn h_block(
 
 /// The noisy means of a band of radiance sums `s` ((rows, W, T, C)), summed over the
 /// channels: (rows, W, T).
-fn band_means(s: &[f64], c: usize, spp: u64) -> Vec<f32> {
-    let n = spp as f64;
+/// `samples(p)`: the samples of the band's pixel `p` (row-major within the band).
+fn band_means(s: &[f64], c: usize, bins: usize, samples: impl Fn(usize) -> u64) -> Vec<f32> {
     s.chunks_exact(c)
-        .map(|v| (v.iter().sum::<f64>() / n) as f32)
+        .enumerate()
+        .map(|(k, v)| (v.iter().sum::<f64>() / samples(k / bins) as f64) as f32)
         .collect()
 }
 
@@ -412,7 +414,7 @@ pub fn h_radiance(
     file.header
         .expect::<f64>(Some(&[h, w, m.bins, c]))
         .map_err(bad)?;
-    let spp = m.spp;
+    let spp = bundle.min_samples();
     let max = f64::from(f32::MAX) * spp as f64;
     let ok = move |_: usize, v: f64| v.is_finite() && v >= 0.0 && v <= max;
     let why = move |_: usize, v: f64| {
@@ -446,7 +448,8 @@ pub fn h_radiance(
                     &["y", "x", "t", "c"],
                 )
                 .map_err(bad)?;
-                Ok(band_means(&s, c, spp))
+                let first = rows.start * m.width;
+                Ok(band_means(&s, c, m.bins, |p| bundle.samples(first + p)))
             })
             .collect();
         for (rows, means) in group.iter().zip(means) {
@@ -481,6 +484,7 @@ mod tests {
             transform,
             pixel_sampling: PixelSampling::Independent,
             replicates: 0,
+            pixel_spp: None,
         };
         let output = render(&scene, &settings, &|_| {});
         let meta = BundleMeta {
@@ -490,6 +494,7 @@ mod tests {
             pixel_sampling: PixelSampling::Independent,
             replicates: 0,
             job: None,
+            adaptive: None,
         };
         let out = dir.join("b.tstats");
         write_bundle(&out, true, &scene, &meta, output).unwrap();

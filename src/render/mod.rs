@@ -17,6 +17,7 @@
 //! two numbers are drawn for the position, so everything after the primary ray uses
 //! the same random numbers in both modes, and independent renders are unchanged.
 
+pub mod adaptive;
 pub mod deposits;
 pub mod gbuffer;
 pub mod integrator;
@@ -75,6 +76,10 @@ pub struct RenderSettings {
     /// randomised sets of spp / B samples, with `R2 = sum_b m_b^2` accumulated per
     /// voxel; 0: none.
     pub replicates: u32,
+    /// Samples of each pixel (row-major, H x W; adaptive sampling, `adaptive.rs`):
+    /// pixel `p` traces samples `0..pixel_spp[p]` and its sums hold that many;
+    /// `None`: every pixel takes `spp`. Each count is a multiple of the replicates.
+    pub pixel_spp: Option<std::sync::Arc<[u32]>>,
 }
 
 impl RenderSettings {
@@ -82,6 +87,23 @@ impl RenderSettings {
     /// [`RenderSettings::check_replicates`] makes sure B divides spp.
     pub fn replicate_split(&self) -> (u32, u32) {
         replicate_split(self.spp, self.replicates)
+    }
+
+    /// The samples of pixel `p` (row-major): its adaptive count, else `spp`.
+    #[inline]
+    pub fn samples(&self, p: usize) -> u32 {
+        self.pixel_spp.as_ref().map_or(self.spp, |n| n[p])
+    }
+
+    /// The paths of row `y` of a film `width` pixels wide.
+    pub fn row_paths(&self, y: usize, width: usize) -> u64 {
+        match &self.pixel_spp {
+            Some(n) => n[y * width..(y + 1) * width]
+                .iter()
+                .map(|&k| u64::from(k))
+                .sum(),
+            None => width as u64 * u64::from(self.spp),
+        }
     }
 
     /// Whether `replicates` can split `spp`: 0 (none) or at least 2, dividing spp.
@@ -221,6 +243,7 @@ struct RowScratch {
     pixel: PixelSums,
     gbuffer: Vec<GPixel>,
     steady: Vec<f64>,
+    rays: Vec<u64>,
 }
 
 impl RowScratch {
@@ -237,12 +260,13 @@ impl RowScratch {
             pixel,
             gbuffer: vec![GPixel::default(); film.width],
             steady: vec![0.0; film.width * CHANNELS],
+            rays: vec![0; film.width],
         }
     }
 
     /// Bytes of one scratch (saturating).
     fn bytes(film: &Film, transform: &Transform) -> u64 {
-        let per_pixel = (std::mem::size_of::<GPixel>() + CHANNELS * 8) as u64;
+        let per_pixel = (std::mem::size_of::<GPixel>() + CHANNELS * 8 + 8) as u64;
         Accumulators::bytes(1, film.width, film.bins, transform)
             .saturating_add(PixelSums::bytes(film.bins, transform))
             .saturating_add((film.width as u64).saturating_mul(per_pixel))
@@ -277,6 +301,17 @@ impl StreamingMemory {
             let extra = Accumulators::r2_bytes(1, film.width, film.bins)
                 .saturating_add((film.bins as u64).saturating_mul(7 * 8));
             self.per_row = self.per_row.saturating_add(extra);
+        }
+        self
+    }
+
+    /// The same with adaptive sampling's per-pixel images: the pilot's measure (16
+    /// bytes a pixel) and the counts (4 bytes a pixel, held twice while written).
+    pub fn with_adaptive(mut self, adaptive: bool, film: &Film) -> Self {
+        if adaptive {
+            self.images = self
+                .images
+                .saturating_add((film.pixels() as u64).saturating_mul(24));
         }
         self
     }
@@ -322,7 +357,6 @@ fn render_row(
     z: &(impl Fn(f64) -> f64 + Sync),
 ) -> RowTally {
     let width = scene.film.width;
-    let n = settings.spp as f64;
     let z0 = settings.transform.at_zero();
     let mut deposits = PathDeposits::default();
     // The Sobol' sampler's columns of the replicate being traced (`sobol_table.rs`).
@@ -338,7 +372,8 @@ fn render_row(
         let pixel = (y * width + x) as u64;
         let mut g = GAccum::default();
         let mut tally = PathTally::default();
-        let (reps, k) = settings.replicate_split();
+        let spp = settings.samples(pixel as usize);
+        let (reps, k) = replicate_split(spp, settings.replicates);
         // Volumetric paths keep more low-discrepancy vertices (see `sampler.rs`).
         let ld_vertices = sampler::ld_vertices(scene.integrator.volumetric);
         for b in 0..reps {
@@ -367,11 +402,12 @@ fn render_row(
         }
         row.pixel.flush_into(&mut row.sums, x);
         for c in 0..CHANNELS {
-            row.steady[x * CHANNELS + c] = tally.steady[c] / n;
+            row.steady[x * CHANNELS + c] = tally.steady[c] / f64::from(spp);
         }
         row.gbuffer[x] = g.finish();
         result.dropped += tally.dropped_nonfinite;
         result.rays += tally.rays;
+        row.rays[x] = tally.rays;
     }
     result
 }
@@ -407,13 +443,11 @@ pub fn render_into<S: RowSink>(
 ) -> Result<RenderSummary, S::Error> {
     let start = std::time::Instant::now();
     let film = &scene.film;
-    let per_row = film.width as u64 * settings.spp as u64;
     let driver = Driver {
         scene,
         settings,
         sink,
         progress,
-        per_row,
         counts: Default::default(),
         allocated: AtomicUsize::new(0),
         idle: Mutex::new(Vec::new()),
@@ -428,7 +462,9 @@ pub fn render_into<S: RowSink>(
     Ok(RenderSummary {
         dropped_nonfinite: dropped,
         rays,
-        paths: per_row * film.height as u64,
+        paths: (0..film.height)
+            .map(|y| settings.row_paths(y, film.width))
+            .sum(),
         voxel_samples,
         row_scratches: driver.allocated.into_inner(),
         seconds: start.elapsed().as_secs_f64(),
@@ -441,7 +477,6 @@ struct Driver<'a, S> {
     settings: &'a RenderSettings,
     sink: &'a S,
     progress: &'a (dyn Fn(u64) + Sync),
-    per_row: u64,
     /// Dropped contributions, rays, voxel samples.
     counts: [AtomicU64; 3],
     allocated: AtomicUsize,
@@ -452,8 +487,17 @@ struct Driver<'a, S> {
 
 impl<S: RowSink> Driver<'_, S> {
     fn run<Z: Fn(f64) -> f64 + Sync>(&self, z: Z) -> Result<(), S::Error> {
-        (0..self.scene.film.height)
-            .into_par_iter()
+        let (h, w) = (self.scene.film.height, self.scene.film.width);
+        if self.settings.pixel_spp.is_none() {
+            return (0..h).into_par_iter().try_for_each(|y| self.row(y, &z));
+        }
+        // Adaptive counts make some rows far costlier: the costliest start first, one
+        // row per task, so no thread is left with a heavy row at the end. Each row's
+        // sums depend on its own samples alone: the order changes no bits.
+        let mut rows: Vec<usize> = (0..h).collect();
+        rows.sort_by_key(|&y| std::cmp::Reverse(self.settings.row_paths(y, w)));
+        rows.into_par_iter()
+            .with_max_len(1)
             .try_for_each(|y| self.row(y, &z))
     }
 
@@ -477,6 +521,7 @@ impl<S: RowSink> Driver<'_, S> {
             sums: &row.sums,
             gbuffer: &row.gbuffer,
             steady: &row.steady,
+            rays: &row.rays,
         })?;
         let values = [tally.dropped, tally.rays, tally.voxel_samples];
         for (count, v) in self.counts.iter().zip(values) {
@@ -486,7 +531,7 @@ impl<S: RowSink> Driver<'_, S> {
             .lock()
             .unwrap_or_else(PoisonError::into_inner)
             .push(row);
-        (self.progress)(self.per_row);
+        (self.progress)(self.settings.row_paths(y, self.scene.film.width));
         Ok(())
     }
 }

@@ -24,6 +24,8 @@ pub struct Row<'a> {
     pub gbuffer: &'a [GPixel],
     /// The row's steady-state mean radiance (W, 3).
     pub steady: &'a [f64],
+    /// Rays traced for each pixel of the row (W): the cost of its samples.
+    pub rays: &'a [u64],
 }
 
 /// Receives every row of a render exactly once, in any order, from worker threads.

@@ -201,6 +201,7 @@ pub fn sums_view<'a>(
         sum: a.sum.as_deref().unwrap_or(&a.x1),
         nonzero: &a.nonzero,
         replicates,
+        pixel_spp: None,
     }
 }
 
@@ -271,6 +272,7 @@ fn reference(
                 transform: Transform::Identity,
                 pixel_sampling: cfg.pixel_sampling,
                 replicates: 0,
+                pixel_spp: None,
             };
             let out = render(&scene, &settings, &|_| {});
             let v = noisy_mean(&out, *spp)?;
@@ -359,6 +361,7 @@ pub fn run_convergence(
             transform: cfg.transform,
             pixel_sampling: cfg.pixel_sampling,
             replicates: cfg.replicates,
+            pixel_spp: None,
         };
         let out = render(&scene, &settings, &|_| {});
         let g = gbuffers(&out);
@@ -380,6 +383,7 @@ pub fn run_convergence(
             let settings = RenderSettings {
                 pixel_sampling: PixelSampling::Independent,
                 replicates: 0,
+                pixel_spp: None,
                 seed: cfg.seed.wrapping_add(500_001 + k as u64),
                 ..settings
             };

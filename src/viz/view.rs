@@ -125,17 +125,23 @@ impl MeanRows {
         b.row_reader()?.read(y..y + 1, &mut self.sums)?;
         let rows = &self.sums;
         let identity = m.transform.is_identity();
-        let n = m.spp;
+        let per_pixel = m.bins * CHANNELS;
+        let n = |i: usize| b.samples(y * m.width + i / per_pixel);
         let radiance = if identity { &rows.x1 } else { &rows.sum };
         mean.clear();
-        mean.extend(radiance.iter().map(|&s| (s / n as f64) as f32));
+        mean.extend(
+            radiance
+                .iter()
+                .enumerate()
+                .map(|(i, &s)| (s / n(i) as f64) as f32),
+        );
         if let Some(sd) = sd {
             let z0 = m.transform.at_zero();
             sd.clear();
             sd.extend((0..radiance.len()).map(|i| {
                 let nz = rows.nonzero[i / CHANNELS];
                 let e = match m.replicates {
-                    Some(bb) => estimate_replicates(rows.x1[i], rows.r2[i], nz, n, bb, z0),
+                    Some(bb) => estimate_replicates(rows.x1[i], rows.r2[i], nz, n(i), bb, z0),
                     None => estimate(
                         Sums {
                             x1: rows.x1[i],
@@ -143,7 +149,7 @@ impl MeanRows {
                             x3: rows.x3[i],
                         },
                         nz,
-                        n,
+                        n(i),
                         z0,
                     ),
                 };
@@ -375,10 +381,11 @@ pub fn build_page(
     };
     let depth = flat2(bundle.depth()?);
     let emitter = flat2(bundle.emitter()?);
-    // The band's quantile: Student's t at the statistics' degrees of freedom.
+    // The band's quantile: Student's t at the statistics' degrees of freedom (of the
+    // pixel with the fewest samples, for an adaptive render: the widest band).
     let dof = match m.replicates {
         Some(b) => b - 1,
-        None => m.spp - 1,
+        None => bundle.min_samples() - 1,
     };
     let tq = student_t_quantile(0.975, dof as f64);
     let correlated = m.replicates.is_none()

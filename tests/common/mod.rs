@@ -44,6 +44,7 @@ pub fn run(scene: &Scene, seed: u64) -> RenderOutput {
         transform: Transform::Identity,
         pixel_sampling: PixelSampling::Independent,
         replicates: 0,
+        pixel_spp: None,
     };
     render(scene, &settings, &|_| {})
 }

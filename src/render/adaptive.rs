@@ -1,0 +1,427 @@
+//! Adaptive sampling (`tstat render --adaptive`): how many samples each pixel gets.
+//!
+//! A pilot render of `pilot_spp` samples per pixel, with its own seed (`pilot_seed`),
+//! measures per pixel `i` what one more sample is worth: the sum over its voxels of the
+//! per-sample variance, `V_i = sum_{t,c} sigma^2_{itc}` (all-voxel MSE), or the same with
+//! each voxel weighted by `1 / (mu^2 + EPS)` (relative MSE, [`RELMSE_EPS`]), and its cost
+//! `c_i`, the rays per path. The volume's expected squared error with `n_i` samples is
+//! `sum_i V_i / n_i`; at a fixed cost `sum_i c_i n_i` it is smallest for
+//! `n_i ∝ sqrt(V_i / c_i)` (Lagrange). [`allocate`] gives each pixel that share of the
+//! budget `N x pixels`, clamped to `[floor, cap]` (the floor guards pixels whose rare
+//! light the pilot missed; the cap bounds one pixel's time), in whole multiples of a
+//! granule (replicates x shards), with the total exactly the budget.
+//!
+//! Unbiasedness: the pilot's samples do not enter the estimate, and its seed is not the
+//! render's, so each pixel's count is independent of the samples that are averaged: the
+//! mean of `n_i` samples is unbiased for any rule that picks `n_i` from the pilot, and
+//! the variances the bundle claims (from the `n_i` samples) stay honest. The pilot costs
+//! `pilot_spp / N` of the budget on top (1/16 by default).
+//!
+//! Memory: the pilot keeps 2 f64 per pixel (16 bytes x H x W) besides one row's sums per
+//! thread; the counts are 4 bytes per pixel. Streaming renders stay streaming.
+
+use super::sink::{Row, RowSink};
+use super::{render_into, RenderSettings};
+use crate::math::rng::mix64;
+use crate::scene::Scene;
+use crate::stats::accumulators::CHANNELS;
+use std::sync::Mutex;
+
+/// The epsilon of the relative MSE's denominator, `(x - ref)^2 / (ref^2 + EPS)`: the
+/// report's (`report::metrics::REL_EPS`; a test keeps them equal).
+pub const RELMSE_EPS: f64 = 1e-2;
+
+/// Salt of the pilot's seed.
+const PILOT_SALT: u64 = 0x7069_6c6f_745f_7370;
+
+/// Which expected error the allocation minimises.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ErrorMeasure {
+    /// All-voxel mean squared error (RMSE).
+    Mse,
+    /// Relative MSE, `(x - ref)^2 / (ref^2 + EPS)`.
+    RelMse,
+}
+
+impl ErrorMeasure {
+    pub fn name(self) -> &'static str {
+        match self {
+            ErrorMeasure::Mse => "mse",
+            ErrorMeasure::RelMse => "relmse",
+        }
+    }
+}
+
+/// What the user asks of adaptive sampling.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AdaptiveOptions {
+    /// The mean samples per pixel N (the budget is N x pixels).
+    pub spp: u32,
+    pub measure: ErrorMeasure,
+    /// Samples per pixel of the pilot.
+    pub pilot_spp: u32,
+    /// Fewest and most samples a pixel gets.
+    pub floor: u32,
+    pub cap: u32,
+    /// Every count is a multiple of this (replicates x shards).
+    pub granule: u32,
+}
+
+impl AdaptiveOptions {
+    /// The defaults for a budget of `spp` in multiples of `granule`: a pilot of
+    /// max(4, N / 16) samples, a floor of N / 4 and a cap of 16 N (each rounded to the
+    /// granule; the floor at least `min_floor`, and at least 2).
+    pub fn new(spp: u32, measure: ErrorMeasure, granule: u32, min_floor: u32) -> Self {
+        let g = granule.max(1);
+        let round_up = |n: u32| n.div_ceil(g).saturating_mul(g);
+        AdaptiveOptions {
+            spp,
+            measure,
+            pilot_spp: (spp / 16).max(4),
+            floor: round_up((spp / 4).max(min_floor).max(2)),
+            cap: (spp.saturating_mul(16) / g).max(1).saturating_mul(g),
+            granule: g,
+        }
+    }
+
+    /// The pilot's seed, from the render's (the same for every shard of a job).
+    pub fn pilot_seed(seed: u64) -> u64 {
+        mix64(seed ^ PILOT_SALT)
+    }
+
+    pub fn validate(&self) -> Result<(), AdaptiveError> {
+        let g = self.granule;
+        let bad = |what: &'static str| Err(AdaptiveError::Options(what));
+        if g == 0 || !self.spp.is_multiple_of(g) {
+            return bad("the mean spp must be a multiple of replicates x shards");
+        }
+        if self.pilot_spp < 2 {
+            return bad("the pilot needs at least 2 samples per pixel");
+        }
+        if self.floor < 2 || !self.floor.is_multiple_of(g) || !self.cap.is_multiple_of(g) {
+            return bad(
+                "floor and cap must be multiples of replicates x shards, the floor at least 2",
+            );
+        }
+        if !(self.floor <= self.spp && self.spp <= self.cap) {
+            return bad("the floor must be at most the mean spp, and the cap at least it");
+        }
+        Ok(())
+    }
+}
+
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum AdaptiveError {
+    #[error("adaptive sampling: {0}")]
+    Options(&'static str),
+}
+
+/// What the pilot measured, per pixel (row-major).
+#[derive(Clone, Debug, PartialEq)]
+pub struct PilotMeasure {
+    /// `V_i`: the summed per-sample variance of the pixel's voxels (weighted for relMSE).
+    pub variance: Vec<f64>,
+    /// `c_i`: rays per path.
+    pub cost: Vec<f64>,
+}
+
+/// `V` of one pixel from its pilot sums: `sum_{t,c} w (x2 - x1^2 / n) / (n - 1)`, with
+/// `w = 1 / (mean^2 + EPS)` for relMSE.
+pub fn pixel_variance(x1: &[f64], x2: &[f64], n: u32, measure: ErrorMeasure) -> f64 {
+    let nf = f64::from(n);
+    x1.iter()
+        .zip(x2)
+        .map(|(&s1, &s2)| {
+            let var = ((s2 - s1 * s1 / nf) / (nf - 1.0)).max(0.0);
+            match measure {
+                ErrorMeasure::Mse => var,
+                ErrorMeasure::RelMse => {
+                    let m = s1 / nf;
+                    var / (m * m + RELMSE_EPS)
+                }
+            }
+        })
+        .sum()
+}
+
+/// Collects the pilot's rows into a [`PilotMeasure`].
+struct PilotSink {
+    width: usize,
+    spp: u32,
+    measure: ErrorMeasure,
+    out: Mutex<PilotMeasure>,
+}
+
+impl RowSink for PilotSink {
+    type Error = std::convert::Infallible;
+
+    fn put_row(&self, row: &Row<'_>) -> Result<(), Self::Error> {
+        let per_pixel = row.sums.bins * CHANNELS;
+        let w = self.width;
+        let (v, c): (Vec<f64>, Vec<f64>) = (0..w)
+            .map(|x| {
+                let r = x * per_pixel..(x + 1) * per_pixel;
+                (
+                    pixel_variance(
+                        &row.sums.x1[r.clone()],
+                        &row.sums.x2[r],
+                        self.spp,
+                        self.measure,
+                    ),
+                    row.rays[x] as f64 / f64::from(self.spp),
+                )
+            })
+            .unzip();
+        let mut out = self
+            .out
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        out.variance[row.y * w..(row.y + 1) * w].copy_from_slice(&v);
+        out.cost[row.y * w..(row.y + 1) * w].copy_from_slice(&c);
+        Ok(())
+    }
+}
+
+/// Renders the pilot of `scene` with the sampler and seed of `settings` (identity
+/// sums, no replicates) and measures each pixel. The caller passes the pilot's seed,
+/// [`AdaptiveOptions::pilot_seed`] of the job's: with the render's own seed the
+/// pilot's samples would be the render's first ones, and the counts would depend on
+/// the samples averaged (biased; the tests' mutation). Runs on the current rayon pool;
+/// the result does not depend on the number of threads.
+pub fn pilot(
+    scene: &Scene,
+    settings: &RenderSettings,
+    o: &AdaptiveOptions,
+    progress: &(dyn Fn(u64) + Sync),
+) -> (PilotMeasure, super::RenderSummary) {
+    let film = &scene.film;
+    let pixels = film.pixels();
+    let sink = PilotSink {
+        width: film.width,
+        spp: o.pilot_spp,
+        measure: o.measure,
+        out: Mutex::new(PilotMeasure {
+            variance: vec![0.0; pixels],
+            cost: vec![0.0; pixels],
+        }),
+    };
+    let pilot_settings = RenderSettings {
+        spp: o.pilot_spp,
+        seed: settings.seed,
+        transform: crate::stats::Transform::Identity,
+        pixel_sampling: settings.pixel_sampling,
+        replicates: 0,
+        pixel_spp: None,
+    };
+    let summary = match render_into(scene, &pilot_settings, &sink, progress) {
+        Ok(s) => s,
+        Err(never) => match never {},
+    };
+    let measure = sink
+        .out
+        .into_inner()
+        .unwrap_or_else(std::sync::PoisonError::into_inner);
+    (measure, summary)
+}
+
+/// The weight `sqrt(V_i / c_i)` of each pixel (0 where the pilot saw no variance).
+pub fn weights(m: &PilotMeasure) -> Vec<f64> {
+    m.variance
+        .iter()
+        .zip(&m.cost)
+        .map(|(&v, &c)| {
+            let w = (v / c.max(1.0)).sqrt();
+            if w.is_finite() {
+                w
+            } else {
+                0.0
+            }
+        })
+        .collect()
+}
+
+/// Samples per pixel: `n_i = clamp(lambda w_i, floor, cap)` with lambda such that the
+/// counts sum to `spp x pixels`, rounded to multiples of the granule by largest
+/// remainder (ties to the lower index), so the total is exact. Pixels of weight 0 get
+/// the floor; with every weight 0 (or none finite) each pixel gets `spp`.
+pub fn allocate(w: &[f64], o: &AdaptiveOptions) -> Vec<u32> {
+    let n = w.len();
+    let g = f64::from(o.granule);
+    let (lo, hi) = (f64::from(o.floor), f64::from(o.cap));
+    let total = f64::from(o.spp) * n as f64;
+    let units = (u64::from(o.spp) / u64::from(o.granule)) * n as u64;
+    let wmax = w.iter().cloned().fold(0.0, f64::max);
+    if n == 0 || wmax <= 0.0 {
+        return vec![o.spp; n];
+    }
+    let sum_at = |lambda: f64| -> f64 { w.iter().map(|&x| (lambda * x).clamp(lo, hi)).sum() };
+    // sum_at is non-decreasing in lambda, from n lo (<= total) to at most n hi (>= total).
+    let (mut a, mut b) = (0.0, hi / wmax * 2.0);
+    while sum_at(b) < total && b < f64::MAX / 4.0 {
+        b *= 2.0;
+    }
+    for _ in 0..200 {
+        let m = 0.5 * (a + b);
+        if sum_at(m) < total {
+            a = m;
+        } else {
+            b = m;
+        }
+    }
+    let target: Vec<f64> = w.iter().map(|&x| (b * x).clamp(lo, hi) / g).collect();
+    let mut counts: Vec<u64> = target.iter().map(|&t| t.floor() as u64).collect();
+    let assigned: u64 = counts.iter().sum();
+    let cap_units = (hi / g) as u64;
+    if assigned < units {
+        let mut order: Vec<usize> = (0..n).collect();
+        // Largest remainder first; a stable sort keeps ties in index order.
+        order.sort_by(|&i, &j| {
+            let (ri, rj) = (target[i] - target[i].floor(), target[j] - target[j].floor());
+            rj.total_cmp(&ri)
+        });
+        let mut left = units - assigned;
+        for &i in order.iter().cycle().take(order.len() * 2) {
+            if left == 0 {
+                break;
+            }
+            if counts[i] < cap_units {
+                counts[i] += 1;
+                left -= 1;
+            }
+        }
+    } else if assigned > units {
+        // Rounding down never exceeds the total; kept for safety: take from the largest.
+        let mut left = assigned - units;
+        let floor_units = (lo / g) as u64;
+        let mut order: Vec<usize> = (0..n).collect();
+        order.sort_by(|&i, &j| counts[j].cmp(&counts[i]));
+        for &i in order.iter().cycle().take(order.len() * 2) {
+            if left == 0 {
+                break;
+            }
+            if counts[i] > floor_units {
+                counts[i] -= 1;
+                left -= 1;
+            }
+        }
+    }
+    counts
+        .iter()
+        .map(|&u| (u * u64::from(o.granule)) as u32)
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn opts(spp: u32, granule: u32) -> AdaptiveOptions {
+        AdaptiveOptions::new(spp, ErrorMeasure::Mse, granule, 2)
+    }
+
+    /// The slow reference: the real-valued optimum clamped to [floor, cap], found by
+    /// scanning lambda on a fine grid.
+    fn reference_targets(w: &[f64], o: &AdaptiveOptions) -> Vec<f64> {
+        let total = f64::from(o.spp) * w.len() as f64;
+        let (lo, hi) = (f64::from(o.floor), f64::from(o.cap));
+        let wmax = w.iter().cloned().fold(0.0, f64::max);
+        let mut best = (f64::INFINITY, 0.0);
+        for k in 0..=2_000_000u64 {
+            let lambda = k as f64 * 1e-6 * (hi / wmax) * 2.0;
+            let s: f64 = w.iter().map(|&x| (lambda * x).clamp(lo, hi)).sum();
+            if (s - total).abs() < best.0 {
+                best = ((s - total).abs(), lambda);
+            }
+        }
+        w.iter().map(|&x| (best.1 * x).clamp(lo, hi)).collect()
+    }
+
+    #[test]
+    fn counts_follow_the_optimum_within_one_granule_and_sum_to_the_budget() {
+        let w = [0.0, 0.1, 0.5, 1.0, 3.0, 10.0, 0.2, 0.05];
+        for granule in [1, 2, 4] {
+            let o = opts(64, granule);
+            let n = allocate(&w, &o);
+            let want = reference_targets(&w, &o);
+            assert_eq!(
+                n.iter().map(|&k| u64::from(k)).sum::<u64>(),
+                64 * w.len() as u64
+            );
+            for (i, (&k, &t)) in n.iter().zip(&want).enumerate() {
+                assert!(k % granule == 0 && k >= o.floor && k <= o.cap, "{i}: {k}");
+                assert!(
+                    (f64::from(k) - t).abs() <= f64::from(granule) + 1e-3,
+                    "granule {granule} pixel {i}: {k} vs {t}"
+                );
+            }
+            // More weight, more samples.
+            assert!(n[5] >= n[4] && n[4] >= n[3] && n[3] >= n[2]);
+            // Weight 0: the floor.
+            assert_eq!(n[0], o.floor);
+        }
+    }
+
+    #[test]
+    fn flat_or_empty_weights_are_uniform_and_the_cap_holds() {
+        let o = opts(16, 1);
+        assert_eq!(allocate(&[0.0; 5], &o), vec![16; 5]);
+        assert_eq!(allocate(&[2.0; 5], &o), vec![16; 5]);
+        // One pixel with all the variance: capped at 16 N, the rest share what is left.
+        let mut w = vec![0.0; 100];
+        w[7] = 1.0;
+        let n = allocate(&w, &o);
+        assert_eq!(n[7], o.cap);
+        assert_eq!(n.iter().map(|&k| u64::from(k)).sum::<u64>(), 1600);
+        assert!(n.iter().enumerate().all(|(i, &k)| i == 7 || k >= o.floor));
+    }
+
+    #[test]
+    fn the_optimum_lowers_the_expected_error_below_uniform() {
+        // sum V_i / n_i at the allocation against at uniform N, same total.
+        let v = [1e-4, 1e-4, 4.0, 1e-2, 0.0, 9.0, 1e-3, 0.5];
+        let m = PilotMeasure {
+            variance: v.to_vec(),
+            cost: vec![1.0; v.len()],
+        };
+        let o = opts(64, 1);
+        let n = allocate(&weights(&m), &o);
+        let err = |n: &[u32]| {
+            v.iter()
+                .zip(n)
+                .map(|(&v, &k)| v / f64::from(k))
+                .sum::<f64>()
+        };
+        assert!(
+            err(&n) < 0.7 * err(&[64; 8]),
+            "{} vs {}",
+            err(&n),
+            err(&[64; 8])
+        );
+    }
+
+    #[test]
+    fn pixel_variance_is_the_unbiased_sample_variance_summed() {
+        // Samples of one voxel: 1, 3, 5 (variance 4); another: 0, 0, 6 (variance 12).
+        let x1 = [9.0, 6.0];
+        let x2 = [35.0, 36.0];
+        assert!((pixel_variance(&x1, &x2, 3, ErrorMeasure::Mse) - 16.0).abs() < 1e-12);
+        let rel = 4.0 / (9.0 + RELMSE_EPS) + 12.0 / (4.0 + RELMSE_EPS);
+        assert!((pixel_variance(&x1, &x2, 3, ErrorMeasure::RelMse) - rel).abs() < 1e-12);
+    }
+
+    #[test]
+    fn options_are_checked() {
+        assert!(opts(64, 4).validate().is_ok());
+        assert!(opts(64, 48).validate().is_err());
+        let mut o = opts(64, 1);
+        o.floor = 1;
+        assert!(o.validate().is_err());
+        o = opts(64, 1);
+        o.cap = 32;
+        assert!(o.validate().is_err());
+        o = opts(64, 1);
+        o.pilot_spp = 1;
+        assert!(o.validate().is_err());
+    }
+}

@@ -1,0 +1,373 @@
+//! Adaptive sampling (`render/adaptive.rs`): per-pixel counts render exactly the
+//! samples a plain loop traces, the same bits at 1 and 2 threads, uniform counts are
+//! today's render bit for bit; the pilot's allocation leaves the means unbiased
+//! (Welch tests over seeds against uniform sampling), and the test catches the
+//! mutation that lets the pilot's samples into the estimate. Through the binary: the
+//! bundle's `pixel_spp.npy`, and every reader dividing by each pixel's own count.
+
+use std::path::Path;
+use std::process::Command;
+use std::sync::Arc;
+use tstat::render::adaptive::{allocate, pilot, weights, AdaptiveOptions, ErrorMeasure};
+use tstat::render::deposits::PathDeposits;
+use tstat::render::integrator::PathTally;
+use tstat::render::tracer::trace_path;
+use tstat::render::{render, PixelSampling, RenderOutput, RenderSettings};
+use tstat::scene::{Overrides, Scene};
+use tstat::stats::Transform;
+
+mod common;
+use common::bundled;
+
+fn settings(spp: u32, seed: u64, sampling: PixelSampling) -> RenderSettings {
+    RenderSettings {
+        spp,
+        seed,
+        transform: Transform::Identity,
+        pixel_sampling: sampling,
+        replicates: 0,
+        pixel_spp: None,
+    }
+}
+
+fn small_cbox(width: usize, bins: usize, spp: u32) -> Scene {
+    bundled(
+        "cbox.xml",
+        &Overrides {
+            width: Some(width),
+            bins: Some(bins),
+            spp: Some(spp),
+            bin_width_opl: Some(0.25),
+            ..Default::default()
+        },
+    )
+}
+
+/// The counts adaptive sampling gives `scene` at mean `spp` (pilot seed `pilot_seed`).
+fn counts(scene: &Scene, spp: u32, pilot_seed: u64, s: &RenderSettings) -> Arc<[u32]> {
+    let o = AdaptiveOptions::new(spp, ErrorMeasure::Mse, 1, 2);
+    let ps = RenderSettings {
+        seed: pilot_seed,
+        ..s.clone()
+    };
+    let (m, _) = pilot(scene, &ps, &o, &|_| {});
+    allocate(&weights(&m), &o).into()
+}
+
+fn with_threads<T: Send>(n: usize, f: impl FnOnce() -> T + Send) -> T {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(n)
+        .build()
+        .unwrap()
+        .install(f)
+}
+
+#[test]
+fn per_pixel_counts_trace_what_a_plain_loop_traces() {
+    let scene = small_cbox(10, 12, 8);
+    let mut s = settings(8, 5, PixelSampling::Independent);
+    let n = counts(&scene, 8, AdaptiveOptions::pilot_seed(5), &s);
+    assert!(n.iter().any(|&k| k != 8), "the allocation is not uniform");
+    assert_eq!(n.iter().map(|&k| k as u64).sum::<u64>(), 8 * 100);
+    s.pixel_spp = Some(n.clone());
+    let out = render(&scene, &s, &|_| {});
+    let (w, bins) = (scene.film.width, scene.film.bins);
+    let mut deposits = PathDeposits::default();
+    for p in 0..scene.film.pixels() {
+        let mut x1 = vec![0.0f64; bins * 3];
+        let mut tally = PathTally::default();
+        for k in 0..n[p] {
+            let mut rng = tstat::math::rng::Pcg32::for_path(5, p as u64, k as u64);
+            let [u, v] = rng.next_2d();
+            let d = scene
+                .camera
+                .direction((p % w) as f32 + u, (p / w) as f32 + v);
+            trace_path(&scene, d, &mut rng, &mut deposits, &mut tally);
+            for (bin, c) in deposits.drain() {
+                for (ch, v) in c.iter().enumerate() {
+                    x1[bin as usize * 3 + ch] += v;
+                }
+            }
+        }
+        assert_eq!(
+            &out.accum.x1[p * bins * 3..(p + 1) * bins * 3],
+            &x1[..],
+            "pixel {p}"
+        );
+        for c in 0..3 {
+            let want = tally.steady[c] / f64::from(n[p]);
+            assert_eq!(out.steady[p * 3 + c], want, "pixel {p} steady");
+        }
+    }
+}
+
+#[test]
+fn adaptive_renders_are_the_same_bits_at_one_and_two_threads_and_uniform_counts_are_today() {
+    let scene = small_cbox(12, 16, 16);
+    for sampling in [PixelSampling::Sobol, PixelSampling::Stratified] {
+        let base = settings(16, 9, sampling);
+        let run = |threads: usize| -> (Arc<[u32]>, RenderOutput) {
+            with_threads(threads, || {
+                let n = counts(&scene, 16, AdaptiveOptions::pilot_seed(9), &base);
+                let s = RenderSettings {
+                    pixel_spp: Some(n.clone()),
+                    ..base.clone()
+                };
+                (n, render(&scene, &s, &|_| {}))
+            })
+        };
+        let (n1, a) = run(1);
+        let (n2, b) = run(2);
+        assert_eq!(n1, n2, "{sampling}: counts");
+        assert!(a.accum.x1 == b.accum.x1 && a.accum.x2 == b.accum.x2 && a.accum.x3 == b.accum.x3);
+        assert_eq!(a.accum.nonzero, b.accum.nonzero);
+        assert_eq!(a.steady, b.steady);
+        assert_eq!(a.paths, 16 * 144);
+        // Every pixel at spp: the uniform render's bits.
+        let uniform = render(&scene, &base, &|_| {});
+        let flat = RenderSettings {
+            pixel_spp: Some(vec![16u32; 144].into()),
+            ..base.clone()
+        };
+        let same = render(&scene, &flat, &|_| {});
+        assert!(uniform.accum.x1 == same.accum.x1 && uniform.accum.x3 == same.accum.x3);
+        assert_eq!(uniform.steady, same.steady);
+    }
+}
+
+/// Per pixel and channel, the steady means of `seeds` adaptive renders against as many
+/// uniform ones: the largest |Welch t| over the pixels, and the number of pixels whose
+/// |t| exceeds `crit`.
+fn welch_over_seeds(scene: &Scene, spp: u32, seeds: u64, mutated: bool, crit: f64) -> (f64, usize) {
+    let pixels = scene.film.pixels();
+    let mut acc = [vec![[0.0f64; 2]; pixels * 3], vec![[0.0f64; 2]; pixels * 3]];
+    for seed in 0..seeds {
+        let render_seed = 1000 + seed;
+        let base = settings(spp, render_seed, PixelSampling::Independent);
+        let pilot_seed = if mutated {
+            // The mutation: the pilot's samples are the render's first ones.
+            render_seed
+        } else {
+            AdaptiveOptions::pilot_seed(render_seed)
+        };
+        let n = counts(scene, spp, pilot_seed, &base);
+        let adaptive = render(
+            scene,
+            &RenderSettings {
+                pixel_spp: Some(n),
+                ..base.clone()
+            },
+            &|_| {},
+        );
+        let uniform = render(
+            scene,
+            &settings(spp, 500_000 + seed, PixelSampling::Independent),
+            &|_| {},
+        );
+        for (a, out) in acc.iter_mut().zip([&adaptive, &uniform]) {
+            for (s, &v) in a.iter_mut().zip(&out.steady) {
+                s[0] += v;
+                s[1] += v * v;
+            }
+        }
+    }
+    let k = seeds as f64;
+    let (mut worst, mut over) = (0.0f64, 0);
+    for (a, u) in acc[0].iter().zip(&acc[1]) {
+        let stat = |s: [f64; 2]| {
+            let m = s[0] / k;
+            (m, ((s[1] / k - m * m) * k / (k - 1.0)).max(0.0) / k)
+        };
+        let ((ma, va), (mu, vu)) = (stat(*a), stat(*u));
+        if va + vu > 0.0 {
+            let t = (ma - mu).abs() / (va + vu).sqrt();
+            worst = worst.max(t);
+            over += (t > crit) as usize;
+        }
+    }
+    (worst, over)
+}
+
+/// The means of adaptive renders are those of uniform ones: over 128 seeds, per pixel
+/// and channel of a 6 x 6 box at 8 spp, no Welch t beyond the Bonferroni bound of the
+/// 108 tests at 1%; letting the pilot's samples into the estimate (the mutation) gives
+/// a bias the same test finds in many pixels.
+#[test]
+fn the_pilot_leaves_the_means_unbiased_and_the_mutation_is_caught() {
+    let scene = small_cbox(6, 4, 8);
+    let tests = (scene.film.pixels() * 3) as f64;
+    // Two-sided 1% over the family: |t| > z(1 - 0.005 / 108), about 3.9 (normal: 128
+    // seeds leave the t distribution's tails close to it).
+    let crit = 3.9 + 0.1;
+    assert!(tests == 108.0);
+    let (worst, over) = welch_over_seeds(&scene, 8, 128, false, crit);
+    assert_eq!(over, 0, "unbiased allocation: worst |t| {worst}");
+    let (worst_m, over_m) = welch_over_seeds(&scene, 8, 128, true, crit);
+    eprintln!("unbiased: worst |t| {worst:.2}; mutation: worst |t| {worst_m:.2}, {over_m} of 108 over {crit}");
+    assert!(
+        over_m >= 3,
+        "the mutation went unseen: worst |t| {worst_m}, {over_m} over"
+    );
+}
+
+fn tstat(args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_tstat"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+fn npy_u32(p: &Path) -> ndarray::ArrayD<u32> {
+    ndarray_npy::read_npy(p).unwrap()
+}
+
+fn npy_f64(p: &Path) -> ndarray::ArrayD<f64> {
+    ndarray_npy::read_npy(p).unwrap()
+}
+
+#[test]
+fn the_bundle_holds_the_counts_and_every_reader_divides_by_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let p = |n: &str| d.join(n).display().to_string();
+    let cbox = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cbox.xml");
+    let sc = cbox.to_str().unwrap();
+    let common = ["--width", "12", "--bins", "20", "--bin-width-opl", "0.2"];
+    let render = |out: &str, extra: &[&str]| {
+        let mut args = vec!["render", sc, "--out", out, "--spp", "16"];
+        args.extend(common);
+        args.extend(extra);
+        let r = tstat(&args);
+        assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    };
+    render(&p("a.tstats"), &["--adaptive", "--seed", "1"]);
+    let m: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(d.join("a.tstats/manifest.json")).unwrap())
+            .unwrap();
+    assert_eq!(m["version"], 2);
+    assert_eq!(m["spp"], 16);
+    assert_eq!(m["adaptive"]["measure"], "mse");
+    let n = npy_u32(&d.join("a.tstats/pixel_spp.npy"));
+    assert_eq!(n.shape(), &[12, 12]);
+    assert_eq!(n.iter().map(|&k| k as u64).sum::<u64>(), 16 * 144);
+    assert!(n.iter().any(|&k| k != 16));
+    assert_eq!(m["adaptive"]["min_spp"], *n.iter().min().unwrap());
+    // export: X1 / n per pixel.
+    assert!(tstat(&["export", &p("a.tstats"), "--out", &p("a.npy")])
+        .status
+        .success());
+    let mean: ndarray::ArrayD<f32> = ndarray_npy::read_npy(d.join("a.npy")).unwrap();
+    let x1 = npy_f64(&d.join("a.tstats/x1.npy"));
+    for ((y, x), &k) in (0..12)
+        .flat_map(|y| (0..12).map(move |x| (y, x)))
+        .zip(n.iter())
+    {
+        for t in 0..20 {
+            for c in 0..3 {
+                let want = (x1[[y, x, t, c]] / k as f64) as f32;
+                assert_eq!(mean[[y, x, t, c]], want, "({y}, {x}, {t}, {c})");
+            }
+        }
+    }
+    // Counts above a pixel's own samples are refused.
+    let r = tstat(&["info", &p("a.tstats")]);
+    assert!(String::from_utf8_lossy(&r.stdout).contains("per pixel (pixel_spp.npy)"));
+    // denoise and view read it.
+    assert!(tstat(&["denoise", &p("a.tstats"), "--out", &p("ad.npy")])
+        .status
+        .success());
+    assert!(tstat(&["view", &p("a.tstats"), "--out", &p("a.html")])
+        .status
+        .success());
+    // merge with a uniform render: the counts add, the steady image is weighted by them.
+    render(&p("u.tstats"), &["--seed", "2"]);
+    let r = tstat(&[
+        "merge",
+        &p("a.tstats"),
+        &p("u.tstats"),
+        "--out",
+        &p("m.tstats"),
+    ]);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let nm = npy_u32(&d.join("m.tstats/pixel_spp.npy"));
+    assert_eq!(nm, n.mapv(|k| k + 16));
+    let (sa, su, sm) = (
+        npy_f64(&d.join("a.tstats/steady.npy")),
+        npy_f64(&d.join("u.tstats/steady.npy")),
+        npy_f64(&d.join("m.tstats/steady.npy")),
+    );
+    for y in 0..12 {
+        for x in 0..12 {
+            let (ka, km) = (n[[y, x]] as f64, nm[[y, x]] as f64);
+            for c in 0..3 {
+                let want = (sa[[y, x, c]] * ka + su[[y, x, c]] * 16.0) / km;
+                assert!((sm[[y, x, c]] - want).abs() <= 1e-12 * want.abs().max(1e-300));
+            }
+        }
+    }
+    assert!(tstat(&["export", &p("m.tstats"), "--out", &p("m.npy")])
+        .status
+        .success());
+    // A bundle whose counts do not match its manifest is refused.
+    let mut bad = npy_u32(&d.join("a.tstats/pixel_spp.npy"));
+    bad[[0, 0]] += 2;
+    ndarray_npy::write_npy(d.join("a.tstats/pixel_spp.npy"), &bad).unwrap();
+    let r = tstat(&["info", &p("a.tstats")]);
+    assert_eq!(r.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&r.stderr);
+    assert!(
+        err.contains("pixel_spp.npy sums to") && err.lines().count() == 1,
+        "{err}"
+    );
+}
+
+/// Shards of an adaptive job share one pilot (the job's seed): each renders its share
+/// of every pixel's count, and their merge holds the job's allocation.
+#[test]
+fn adaptive_shards_merge_to_the_job_allocation() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let p = |n: &str| d.join(n).display().to_string();
+    let cbox = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cbox.xml");
+    let sc = cbox.to_str().unwrap();
+    let base = [
+        "--width",
+        "10",
+        "--bins",
+        "10",
+        "--spp",
+        "32",
+        "--seed",
+        "4",
+        "--adaptive",
+    ];
+    for i in 0..2 {
+        let shard = format!("{i}/2");
+        let out = p(&format!("s{i}.tstats"));
+        let mut args = vec!["render", sc, "--out", &out, "--shard", &shard];
+        args.extend(base);
+        let r = tstat(&args);
+        assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    }
+    let r = tstat(&[
+        "merge",
+        &p("s0.tstats"),
+        &p("s1.tstats"),
+        "--out",
+        &p("job.tstats"),
+    ]);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let whole_out = p("whole.tstats");
+    let mut args = vec!["render", sc, "--out", &whole_out];
+    args.extend(base);
+    assert!(tstat(&args).status.success());
+    let (s0, s1, job, whole) = (
+        npy_u32(&d.join("s0.tstats/pixel_spp.npy")),
+        npy_u32(&d.join("s1.tstats/pixel_spp.npy")),
+        npy_u32(&d.join("job.tstats/pixel_spp.npy")),
+        npy_u32(&d.join("whole.tstats/pixel_spp.npy")),
+    );
+    assert_eq!(s0, s1);
+    assert_eq!(job, whole);
+    assert_eq!(job, s0.mapv(|k| 2 * k));
+}
