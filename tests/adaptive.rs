@@ -51,7 +51,7 @@ fn counts(scene: &Scene, spp: u32, pilot_seed: u64, s: &RenderSettings) -> Arc<[
         ..s.clone()
     };
     let (m, _) = pilot(scene, &ps, &o, &|_| {});
-    allocate(&weights(&m), &o).into()
+    allocate(&weights(&m, scene.film.width), &o).into()
 }
 
 fn with_threads<T: Send>(n: usize, f: impl FnOnce() -> T + Send) -> T {
@@ -370,4 +370,49 @@ fn adaptive_shards_merge_to_the_job_allocation() {
     assert_eq!(s0, s1);
     assert_eq!(job, whole);
     assert_eq!(job, s0.mapv(|k| 2 * k));
+}
+
+/// An adaptive NLOS capture: each wall point's transient in H (what `nlos reconstruct`
+/// and `export --tal` use) is its sums over its own count.
+#[test]
+fn an_adaptive_capture_divides_each_wall_point_by_its_count() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("c.tstats");
+    let xml = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/nlos_T.xml");
+    let r = tstat(&[
+        "render",
+        xml.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--spp",
+        "16",
+        "--width",
+        "8",
+        "--adaptive",
+    ]);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let bundle = tstat::bundle::Bundle::open(&out).unwrap();
+    let n = bundle.pixel_spp.clone().expect("adaptive counts");
+    assert!(n.iter().any(|&k| k != 16));
+    let cap = tstat::nlos::capture::Capture::from_bundle(&bundle).unwrap();
+    let x1 = npy_f64(&out.join("x1.npy"));
+    let (h, w, t) = (
+        bundle.manifest.height,
+        bundle.manifest.width,
+        bundle.manifest.bins,
+    );
+    let s = cap.sensor_dims[1];
+    for y in 0..h {
+        for x in 0..w {
+            let k = n[y * w + x] as f64;
+            for b in 0..t {
+                let want = (0..3).map(|c| x1[[y, x, b, c]]).sum::<f64>() / k;
+                let got = cap.h[b * cap.sensors + x * s + y] as f64;
+                assert!(
+                    (got - want).abs() <= 1e-6 * want.abs() + 1e-30,
+                    "({y}, {x}) bin {b}: {got} vs {want}"
+                );
+            }
+        }
+    }
 }

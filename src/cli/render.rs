@@ -152,7 +152,7 @@ pub struct RenderArgs {
     /// Adaptive sampling: --spp becomes the mean per pixel, and each pixel gets samples
     /// where they lower the volume's expected error most (n_i proportional to
     /// sqrt(V_i / cost_i), from a pilot of --pilot-spp whose samples are not in the
-    /// sums; between spp / 4 and 16 spp a pixel). Adds `pixel_spp.npy` (4 bytes a pixel).
+    /// sums; between spp / 2 and 16 spp a pixel). Adds `pixel_spp.npy` (4 bytes a pixel).
     #[arg(long)]
     pub adaptive: bool,
     /// What adaptive sampling minimises: mse (all-voxel squared error, RMSE) or relmse
@@ -377,7 +377,7 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
             adaptive::pilot(&scene, &job_settings, o, &|n| bar.inc(n))
         })?;
         bar.finish_and_clear();
-        let counts: Vec<u32> = adaptive::allocate(&adaptive::weights(&measure), o)
+        let counts: Vec<u32> = adaptive::allocate(&adaptive::weights(&measure, film.width), o)
             .into_iter()
             .map(|n| n / shards)
             .collect();
