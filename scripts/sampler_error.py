@@ -36,6 +36,9 @@ def load_reference(bundle, tmp):
     mean = np.load(ref_npy).astype(np.float64)
     light = np.load(os.path.join(bundle, "emitter.npy")) > 0
     n = json.load(open(os.path.join(bundle, "manifest.json")))["spp"]
+    counts = os.path.join(bundle, "pixel_spp.npy")
+    if os.path.exists(counts):  # an adaptive reference: each pixel's own count
+        n = np.load(counts).astype(np.float64)[:, :, None, None]
     x1 = np.load(os.path.join(bundle, "x1.npy"))
     x2 = np.load(os.path.join(bundle, "x2.npy"))
     return mean, light, np.maximum(x2 / n - (x1 / n) ** 2, 0) / (n - 1)

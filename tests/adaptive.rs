@@ -45,7 +45,20 @@ fn small_cbox(width: usize, bins: usize, spp: u32) -> Scene {
 
 /// The counts adaptive sampling gives `scene` at mean `spp` (pilot seed `pilot_seed`).
 fn counts(scene: &Scene, spp: u32, pilot_seed: u64, s: &RenderSettings) -> Arc<[u32]> {
-    let o = AdaptiveOptions::new(spp, ErrorMeasure::Mse, 1, 2);
+    counts_with(
+        scene,
+        AdaptiveOptions::new(spp, ErrorMeasure::Mse, 1, 2),
+        pilot_seed,
+        s,
+    )
+}
+
+fn counts_with(
+    scene: &Scene,
+    o: AdaptiveOptions,
+    pilot_seed: u64,
+    s: &RenderSettings,
+) -> Arc<[u32]> {
     let ps = RenderSettings {
         seed: pilot_seed,
         ..s.clone()
@@ -138,19 +151,27 @@ fn adaptive_renders_are_the_same_bits_at_one_and_two_threads_and_uniform_counts_
 /// Per pixel and channel, the steady means of `seeds` adaptive renders against as many
 /// uniform ones: the largest |Welch t| over the pixels, and the number of pixels whose
 /// |t| exceeds `crit`.
+/// Seeds of each arm of the bias test.
+const SEEDS: u64 = 2048;
+
 fn welch_over_seeds(scene: &Scene, spp: u32, seeds: u64, mutated: bool, crit: f64) -> (f64, usize) {
     let pixels = scene.film.pixels();
     let mut acc = [vec![[0.0f64; 2]; pixels * 3], vec![[0.0f64; 2]; pixels * 3]];
     for seed in 0..seeds {
         let render_seed = 1000 + seed;
         let base = settings(spp, render_seed, PixelSampling::Independent);
-        let pilot_seed = if mutated {
-            // The mutation: the pilot's samples are the render's first ones.
-            render_seed
+        let o = AdaptiveOptions::new(spp, ErrorMeasure::Mse, 1, 2);
+        let n = if mutated {
+            // The mutation: the allocation from the render's own samples (a pilot of
+            // all spp with the render's seed: the estimate's first spp samples).
+            let o = AdaptiveOptions {
+                pilot_spp: spp,
+                ..o
+            };
+            counts_with(scene, o, render_seed, &base)
         } else {
-            AdaptiveOptions::pilot_seed(render_seed)
+            counts_with(scene, o, AdaptiveOptions::pilot_seed(render_seed), &base)
         };
-        let n = counts(scene, spp, pilot_seed, &base);
         let adaptive = render(
             scene,
             &RenderSettings {
@@ -188,22 +209,41 @@ fn welch_over_seeds(scene: &Scene, spp: u32, seeds: u64, mutated: bool, crit: f6
     (worst, over)
 }
 
-/// The means of adaptive renders are those of uniform ones: over 128 seeds, per pixel
-/// and channel of a 6 x 6 box at 8 spp, no Welch t beyond the Bonferroni bound of the
-/// 108 tests at 1%; letting the pilot's samples into the estimate (the mutation) gives
-/// a bias the same test finds in many pixels.
+/// The means of adaptive renders are those of uniform ones: over 2048 seeds, per
+/// pixel and channel of a 6 x 6 film at 8 spp, no Welch t beyond the Bonferroni bound
+/// of the 108 tests at 1%, on the box, the fog and an NLOS capture; the allocation
+/// from the render's own samples (the mutation) gives a bias the same test finds in
+/// several pixels of the box. (cbox_spheres is left out: its glass's caustic samples
+/// are too heavy-tailed for the t-test's normal approximation at this size: uniform
+/// renders against uniform renders of other seeds reach |t| 4.16 there too, the same
+/// as adaptive against uniform.)
 #[test]
 fn the_pilot_leaves_the_means_unbiased_and_the_mutation_is_caught() {
+    // Two-sided 1% over the family: |t| > z(1 - 0.005 / 108) = 3.9 (2048 seeds: the t
+    // distribution's tails are the normal's), with 0.1 to spare.
+    let crit = 4.0;
+    let film = |name: &str| {
+        bundled(
+            name,
+            &Overrides {
+                width: Some(6),
+                height: Some(6),
+                bins: Some(4),
+                spp: Some(8),
+                ..Default::default()
+            },
+        )
+    };
+    for name in ["cbox.xml", "cbox_fog.xml", "nlos_T.xml"] {
+        let scene = film(name);
+        assert_eq!(scene.film.pixels() * 3, 108);
+        let (worst, over) = welch_over_seeds(&scene, 8, SEEDS, false, crit);
+        eprintln!("{name}: unbiased, worst |t| {worst:.2}");
+        assert_eq!(over, 0, "{name}: unbiased allocation, worst |t| {worst}");
+    }
     let scene = small_cbox(6, 4, 8);
-    let tests = (scene.film.pixels() * 3) as f64;
-    // Two-sided 1% over the family: |t| > z(1 - 0.005 / 108), about 3.9 (normal: 128
-    // seeds leave the t distribution's tails close to it).
-    let crit = 3.9 + 0.1;
-    assert!(tests == 108.0);
-    let (worst, over) = welch_over_seeds(&scene, 8, 128, false, crit);
-    assert_eq!(over, 0, "unbiased allocation: worst |t| {worst}");
-    let (worst_m, over_m) = welch_over_seeds(&scene, 8, 128, true, crit);
-    eprintln!("unbiased: worst |t| {worst:.2}; mutation: worst |t| {worst_m:.2}, {over_m} of 108 over {crit}");
+    let (worst_m, over_m) = welch_over_seeds(&scene, 8, SEEDS, true, crit);
+    eprintln!("mutation: worst |t| {worst_m:.2}, {over_m} of 108 over {crit}");
     assert!(
         over_m >= 3,
         "the mutation went unseen: worst |t| {worst_m}, {over_m} over"

@@ -980,7 +980,8 @@ fn the_time_origin_is_noted_recorded_and_kept_apart() {
     };
     let (n, ph) = (manifest("n.tstats"), manifest("p.tstats"));
     assert_eq!(n["time_origin"], "near_clip");
-    assert_eq!(n["near_clip"].as_f64(), Some(0.2f32 as f64));
+    // The f32's shortest decimal.
+    assert_eq!(n["near_clip"].as_f64(), Some(0.2));
     assert_eq!(ph["time_origin"], "pinhole");
     assert!(ph.get("near_clip").is_none());
     let info = String::from_utf8_lossy(&tstat(&["info", &p("n.tstats")]).stdout).to_string();

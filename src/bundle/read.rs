@@ -681,12 +681,17 @@ impl Bundle {
     fn count_check(&self, first: usize) -> impl Fn(usize, &[u32]) -> npy::Bad + '_ {
         let bins = self.manifest.bins;
         let spp = move |i: usize| self.samples((first + i) / bins);
+        let whose = if self.pixel_spp.is_some() {
+            "the pixel's "
+        } else {
+            ""
+        };
         move |s, b: &[u32]| {
             first_bad(
                 s,
                 b,
                 |i, v| u64::from(v) <= spp(i),
-                |i, v| format!("counts {v} samples, more than the pixel's spp = {}", spp(i)),
+                |i, v| format!("counts {v} samples, more than {whose}spp = {}", spp(i)),
             )
         }
     }
