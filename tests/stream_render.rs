@@ -212,8 +212,9 @@ fn the_streaming_footprint_grows_with_threads_and_width_not_height() {
         StreamingMemory::new(&small, &t, 4).bytes() - a.bytes(),
         2 * a.per_row
     );
-    // One row: 76 bytes per voxel, plus the pixel's records and G-buffer row.
-    assert!(a.per_row >= 64 * 100 * 76 && a.per_row < 64 * 100 * 76 + 100 * 80 + 64 * 64);
+    // One row: 76 bytes per voxel, plus the pixel's records and the row's G-buffer,
+    // steady values and ray counts (72 bytes a pixel at most).
+    assert!(a.per_row >= 64 * 100 * 76 && a.per_row < 64 * 100 * 76 + 100 * 80 + 64 * 72);
 }
 
 #[test]
