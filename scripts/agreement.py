@@ -89,10 +89,7 @@ EXPLAINED = [
 # Rows still outside the yardstick whose cause is known but not fixed (they stay
 # OPEN): (pattern on the scene's name, diagnosis).
 DIAGNOSED = [
-    (r"staircase/scene\.xml",
-     "JPEG decoding: the `image` crate's decoder (zune-jpeg) and libjpeg (Mitsuba) give "
-     "texel means up to 0.6% (R) and 1.4% (B) apart on this scene's photographs "
-     "(BrushedAluminium.jpg), the same sign and size as the steady offsets"),
+    # (The staircase's JPEG offsets are gone: `textures/jpeg.rs` decodes as libjpeg.)
 ]
 
 
