@@ -456,3 +456,110 @@ fn an_adaptive_capture_divides_each_wall_point_by_its_count() {
         }
     }
 }
+
+/// `--target-error` and `--time-budget` choose the mean spp from the pilot and record
+/// the goal; the error the manifest says was reached is the bundle's own estimate
+/// (each voxel's variance of the mean from X1, X2 and its pixel's count).
+#[test]
+fn goals_choose_the_spp_and_the_reached_error_is_the_bundles_own() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let p = |n: &str| d.join(n).display().to_string();
+    let cbox = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cbox.xml");
+    let sc = cbox.to_str().unwrap();
+    let film = [
+        "--width",
+        "24",
+        "--bins",
+        "30",
+        "--bin-width-opl",
+        "0.2",
+        "--adaptive",
+    ];
+    let run = |out: &str, extra: &[&str]| {
+        let mut args = vec!["render", sc, "--out", out];
+        args.extend(film);
+        args.extend(extra);
+        tstat(&args)
+    };
+    let r = run(&p("e.tstats"), &["--target-error", "0.004"]);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let m: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(d.join("e.tstats/manifest.json")).unwrap())
+            .unwrap();
+    let a = &m["adaptive"];
+    assert_eq!(a["goal"]["kind"], "target_error");
+    assert_eq!(a["goal"]["value"], 0.004);
+    assert!(a["goal"]["predicted_error"].as_f64().unwrap() <= 0.004);
+    let spp = m["spp"].as_u64().unwrap();
+    assert!(spp > 4, "{spp}");
+    // The reached error, recomputed from the bundle.
+    let (x1, x2) = (
+        npy_f64(&d.join("e.tstats/x1.npy")),
+        npy_f64(&d.join("e.tstats/x2.npy")),
+    );
+    let n = npy_u32(&d.join("e.tstats/pixel_spp.npy"));
+    let mut total = 0.0;
+    let sh = x1.shape().to_vec();
+    for y in 0..sh[0] {
+        for x in 0..sh[1] {
+            let k = n[[y, x]] as f64;
+            for t in 0..sh[2] {
+                for c in 0..sh[3] {
+                    let (s1, s2) = (x1[[y, x, t, c]], x2[[y, x, t, c]]);
+                    total += ((s2 - s1 * s1 / k) / (k - 1.0)).max(0.0) / k;
+                }
+            }
+        }
+    }
+    let voxels = (sh[0] * sh[1] * sh[2] * sh[3]) as f64;
+    let reached = a["estimated_error"].as_f64().unwrap();
+    assert!(
+        (reached - (total / voxels).sqrt()).abs() <= 1e-9 * reached,
+        "{reached}"
+    );
+    // The pilot's prediction is for the same samples: the estimate lands near it.
+    assert!(reached > 0.004 / 2.0 && reached < 0.004 * 2.0, "{reached}");
+    // A time budget records its goal too.
+    let r = run(&p("t.tstats"), &["--time-budget", "1s"]);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let m: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(d.join("t.tstats/manifest.json")).unwrap())
+            .unwrap();
+    assert_eq!(m["adaptive"]["goal"]["kind"], "time_budget_seconds");
+    // Refused: bad durations, goals with shards, goals without --adaptive.
+    for (extra, want) in [
+        (
+            vec!["--time-budget", "5x"],
+            "a duration is a number of seconds",
+        ),
+        (vec!["--time-budget", "-3"], "must be positive"),
+        (vec!["--target-error", "0"], "--target-error"),
+        (
+            vec!["--target-error", "0.01", "--shard", "0/2"],
+            "not with --shard",
+        ),
+    ] {
+        let r = run(&p("x.tstats"), &extra);
+        assert_eq!(r.status.code(), Some(1), "{extra:?}");
+        let err = String::from_utf8_lossy(&r.stderr);
+        assert!(
+            err.contains(want) && err.lines().count() == 1,
+            "{extra:?}: {err}"
+        );
+        assert!(!d.join("x.tstats").exists());
+    }
+    let r = tstat(&[
+        "render",
+        sc,
+        "--out",
+        &p("y.tstats"),
+        "--target-error",
+        "0.01",
+    ]);
+    assert_eq!(
+        r.status.code(),
+        Some(2),
+        "clap refuses a goal without --adaptive"
+    );
+}

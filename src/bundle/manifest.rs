@@ -180,6 +180,24 @@ pub struct AdaptiveRecord {
     /// The fewest and most samples of any pixel (`pixel_spp.npy`).
     pub min_spp: u64,
     pub max_spp: u64,
+    /// What decided the mean spp when the user asked for a time or an error
+    /// (`--time-budget`, `--target-error`), and the error the pilot predicted.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub goal: Option<GoalRecord>,
+    /// The noisy volume's error estimated from its own sums (sum of each voxel's
+    /// variance of the mean; the RMSE for `mse`, the relMSE for `relmse`); absent
+    /// under a transform (the sums are then not of radiance).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub estimated_error: Option<f64>,
+}
+
+/// A goal of adaptive sampling and what the pilot predicted for the spp chosen.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct GoalRecord {
+    /// `time_budget_seconds` or `target_error`, as asked.
+    pub kind: String,
+    pub value: f64,
+    pub predicted_error: f64,
 }
 
 /// Bundles written before `time_origin` was recorded counted from the camera.

@@ -296,6 +296,9 @@ pub fn merge_bundles(
                 .min(f64::MAX),
             min_spp: lo,
             max_spp: hi,
+            // The inputs' goals and error estimates are theirs, not the merge's.
+            goal: None,
+            estimated_error: None,
             ..rec
         });
         if hi > u64::from(u32::MAX) {

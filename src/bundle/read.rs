@@ -228,7 +228,14 @@ pub fn validate(m: &Manifest) -> Result<(), Problem> {
     }
     if let Some(a) = &m.adaptive {
         let counts = a.pilot_spp >= 2 && a.min_spp >= 2 && a.min_spp <= m.spp && m.spp <= a.max_spp;
-        if !(counts && a.pilot_seconds.is_finite() && a.pilot_seconds >= 0.0) {
+        let finite = |v: f64| (0.0..MAX_MAGNITUDE).contains(&v);
+        let goal = a.goal.as_ref().is_none_or(|g| {
+            matches!(g.kind.as_str(), "time_budget_seconds" | "target_error")
+                && finite(g.value)
+                && g.value > 0.0
+                && finite(g.predicted_error)
+        });
+        if !(counts && finite(a.pilot_seconds) && goal && a.estimated_error.is_none_or(finite)) {
             return Err(Problem::Adaptive(format!(
                 "pilot_spp {}, min_spp {}, max_spp {}, pilot_seconds {} (need pilot_spp >= 2, 2 <= min_spp <= spp = {} <= max_spp, seconds >= 0)",
                 a.pilot_spp, a.min_spp, a.max_spp, show_f64(a.pilot_seconds), m.spp

@@ -290,6 +290,7 @@ fn job_record(m: &Manifest, j: &JobShard) -> super::shard::ShardRecord {
     if let Some(a) = key.adaptive.as_mut() {
         a.pilot_seconds = 0.0;
         (a.min_spp, a.max_spp) = (0, 0);
+        a.estimated_error = None;
     }
     let json = serde_json::to_string(&key).expect("manifest serialises");
     super::shard::ShardRecord {

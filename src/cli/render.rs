@@ -162,6 +162,22 @@ pub struct RenderArgs {
     /// Samples per pixel of the adaptive pilot (default max(4, spp / 16)).
     #[arg(long, allow_negative_numbers = true, requires = "adaptive")]
     pub pilot_spp: Option<i64>,
+    /// Adaptive sampling with a time instead of an spp: the mean spp is the most the
+    /// pilot predicts to fit in this time, pilot included (90s, 5m, 1.5h; --spp, if
+    /// given, is the most it may choose; not with --shard).
+    #[arg(
+        long,
+        requires = "adaptive",
+        conflicts_with = "target_error",
+        allow_hyphen_values = true
+    )]
+    pub time_budget: Option<String>,
+    /// Adaptive sampling to an error: the mean spp is the least the pilot predicts to
+    /// reach this RMSE of the noisy volume (--adaptive-measure mse) or relMSE (relmse),
+    /// for independent samples (Sobol' usually does better); --spp, if given, is the
+    /// most it may choose; not with --shard.
+    #[arg(long, requires = "adaptive", allow_negative_numbers = true)]
+    pub target_error: Option<f64>,
     /// Replace an existing output.
     #[arg(long)]
     pub force: bool,
@@ -257,6 +273,22 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
         Some(s) => Some(size_flag("--max-memory", s)?),
         None => None,
     };
+    let started = std::time::Instant::now();
+    let goal = match (&a.time_budget, a.target_error) {
+        (Some(t), _) => Some((
+            "time_budget_seconds",
+            super::util::duration_flag("--time-budget", t)?,
+        )),
+        (None, Some(e)) => {
+            positive("--target-error", e)?;
+            Some(("target_error", e))
+        }
+        (None, None) => None,
+    };
+    anyhow::ensure!(
+        goal.is_none() || a.shard.is_none(),
+        "--time-budget and --target-error choose the spp from the pilot's time or samples: not with --shard (give the job an --spp)"
+    );
     let (shard, out) = shard_and_out(a.shard.as_deref(), &a.out)?;
     check_outputs(
         &[arg("scene", &a.scene)],
@@ -320,6 +352,8 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
                 pilot_seconds: 0.0,
                 min_spp: u64::from(scene.spp),
                 max_spp: u64::from(scene.spp),
+                goal: None,
+                estimated_error: None,
             };
             (std::sync::Arc::from(vec![scene.spp; film.pixels()]), record)
         }),
@@ -360,7 +394,8 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
         pixel_spp: None,
     };
     let mut meta = meta;
-    if let Some(o) = &adaptive {
+    let mut adaptive = adaptive;
+    if let Some(o) = adaptive.as_mut() {
         // The pilot is the job's (its seed from the job's), so every shard allocates alike.
         let job_settings = RenderSettings {
             seed: AdaptiveOptions::pilot_seed(job_seed),
@@ -377,7 +412,55 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
             adaptive::pilot(&scene, &job_settings, o, &|n| bar.inc(n))
         })?;
         bar.finish_and_clear();
-        let counts: Vec<u32> = adaptive::allocate(&adaptive::weights(&measure, film.width), o)
+        let weights = adaptive::weights(&measure, film.width);
+        let voxels = (film.pixels() * film.bins * crate::stats::accumulators::CHANNELS) as f64;
+        if let Some((kind, value)) = goal {
+            let target = if kind == "target_error" {
+                adaptive::Goal::Error(value)
+            } else {
+                let rays_per_second = pilot.rays as f64 / pilot.seconds.max(1e-9);
+                let left = (value - started.elapsed().as_secs_f64()).max(0.0);
+                adaptive::Goal::Rays(left * rays_per_second)
+            };
+            let most = if a.spp.is_some() { scene.spp } else { 1 << 16 };
+            let spp = adaptive::choose_spp(&measure, &weights, o, voxels, target, most, 2);
+            *o = AdaptiveOptions {
+                pilot_spp: o.pilot_spp,
+                ..AdaptiveOptions::new(spp, o.measure, o.granule, 2)
+            };
+            let (predicted, _) = adaptive::predict(&measure, &weights, o, voxels);
+            scene.spp = spp;
+            settings.spp = spp;
+            check_memory(
+                &StreamingMemory::new(film, &transform, pool_size(threads))
+                    .with_replicates(replicates, film)
+                    .with_sampler(
+                        a.scene_args.pixel_sampling,
+                        o.cap,
+                        replicate_count,
+                        scene.integrator.volumetric,
+                    )
+                    .with_adaptive(true, film),
+                limit,
+            )?;
+            eprintln!(
+                "adaptive: {} {value} -> {spp} spp on average (predicted {} {predicted:.4e})",
+                kind.replace('_', " "),
+                if o.measure == ErrorMeasure::Mse {
+                    "RMSE"
+                } else {
+                    "relMSE"
+                }
+            );
+            if let Some((_, r)) = meta.adaptive.as_mut() {
+                r.goal = Some(crate::bundle::manifest::GoalRecord {
+                    kind: kind.into(),
+                    value,
+                    predicted_error: predicted,
+                });
+            }
+        }
+        let counts: Vec<u32> = adaptive::allocate(&weights, o)
             .into_iter()
             .map(|n| n / shards)
             .collect();
@@ -414,12 +497,30 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
     // an interrupted render) leaves nothing that looks like a bundle.
     let writer = BundleWriter::create_with(&out, a.force, film, &transform, replicates)
         .context("writing the bundle")?;
-    let summary = with_threads(threads, || {
-        render_into(&scene, &settings, &writer, &|n| bar.inc(n))
+    // Adaptive renders of radiance sums also estimate the error they reached.
+    let tally = adaptive
+        .filter(|_| transform.is_identity())
+        .map(|o| adaptive::ErrorTally::new(&writer, &settings, o.measure, film.height, film.width));
+    let summary = with_threads(threads, || match &tally {
+        Some(t) => render_into(&scene, &settings, t, &|n| bar.inc(n)),
+        None => render_into(&scene, &settings, &writer, &|n| bar.inc(n)),
     })?
     .context("writing the bundle")?;
     bar.finish_and_clear();
     warn_if_empty(summary.voxel_samples, film);
+    if let (Some(t), Some((_, r))) = (&tally, meta.adaptive.as_mut()) {
+        let voxels = (film.pixels() * film.bins * crate::stats::accumulators::CHANNELS) as f64;
+        let e = t.error(voxels);
+        eprintln!(
+            "adaptive: estimated {} of the noisy volume {e:.4e}",
+            if r.measure == ErrorMeasure::Mse {
+                "RMSE"
+            } else {
+                "relMSE"
+            }
+        );
+        r.estimated_error = e.is_finite().then_some(e);
+    }
     writer
         .finish(&scene, &meta, &summary)
         .context("writing the bundle")?;

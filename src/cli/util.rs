@@ -626,6 +626,31 @@ pub fn search_folders(dirs: &[std::path::PathBuf]) -> anyhow::Result<Vec<std::pa
     Ok(dirs.to_vec())
 }
 
+/// A duration flag: seconds, or a number with `s`, `m` or `h` ("90", "90s", "5m",
+/// "1.5h"); positive and at most a year.
+pub fn duration_flag(flag: &str, text: &str) -> anyhow::Result<f64> {
+    let t = text.trim();
+    let (num, unit) = match t.char_indices().last() {
+        Some((i, c)) if c.is_ascii_alphabetic() => (&t[..i], c),
+        _ => (t, 's'),
+    };
+    let scale = match unit {
+        's' => 1.0,
+        'm' => 60.0,
+        'h' => 3600.0,
+        _ => anyhow::bail!("{flag} {text:?}: a duration is a number of seconds, or one with s, m or h (90s, 5m, 1.5h)"),
+    };
+    let v: f64 = num
+        .parse()
+        .map_err(|_| anyhow::anyhow!("{flag} {text:?}: a duration is a number of seconds, or one with s, m or h (90s, 5m, 1.5h)"))?;
+    let secs = v * scale;
+    anyhow::ensure!(
+        secs > 0.0 && secs <= 3.2e7,
+        "{flag} {text:?}: must be positive and at most a year"
+    );
+    Ok(secs)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

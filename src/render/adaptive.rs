@@ -346,6 +346,173 @@ pub fn allocate(w: &[f64], o: &AdaptiveOptions) -> Vec<u32> {
         .collect()
 }
 
+/// A sink that passes every row on to `inner` and estimates the noisy volume's error
+/// from the rows' own sums (identity sums: X1 and X2 of radiance): per voxel the
+/// variance of its mean, `(X2 - X1^2 / n) / ((n - 1) n)` with the pixel's `n`,
+/// weighted by `1 / (mean^2 + EPS)` for relMSE. Rows are summed in image order at the
+/// end, so the estimate does not depend on the threads.
+pub struct ErrorTally<'a, S> {
+    pub inner: &'a S,
+    settings: &'a RenderSettings,
+    measure: ErrorMeasure,
+    width: usize,
+    rows: Mutex<Vec<f64>>,
+}
+
+impl<'a, S: RowSink> ErrorTally<'a, S> {
+    pub fn new(
+        inner: &'a S,
+        settings: &'a RenderSettings,
+        measure: ErrorMeasure,
+        height: usize,
+        width: usize,
+    ) -> Self {
+        ErrorTally {
+            inner,
+            settings,
+            measure,
+            width,
+            rows: Mutex::new(vec![0.0; height]),
+        }
+    }
+
+    /// The estimated error of the whole volume of `voxels` (H W T C): the RMSE for
+    /// MSE, the relMSE for relMSE.
+    pub fn error(&self, voxels: f64) -> f64 {
+        let rows = self
+            .rows
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        let sum: f64 = rows.iter().sum();
+        match self.measure {
+            ErrorMeasure::Mse => (sum / voxels).sqrt(),
+            ErrorMeasure::RelMse => sum / voxels,
+        }
+    }
+}
+
+impl<S: RowSink> RowSink for ErrorTally<'_, S> {
+    type Error = S::Error;
+
+    fn put_row(&self, row: &Row<'_>) -> Result<(), S::Error> {
+        let per_pixel = row.sums.bins * CHANNELS;
+        let mut sum = 0.0;
+        for x in 0..self.width {
+            let n = f64::from(self.settings.samples(row.y * self.width + x));
+            let r = x * per_pixel..(x + 1) * per_pixel;
+            sum += pixel_variance(
+                &row.sums.x1[r.clone()],
+                &row.sums.x2[r],
+                n as u32,
+                self.measure,
+            ) / n;
+        }
+        self.rows
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner)[row.y] = sum;
+        self.inner.put_row(row)
+    }
+}
+
+/// What the pilot predicts for a mean of `o.spp`: the volume's expected error with
+/// the counts of [`allocate`] (for independent samples: `sqrt(sum_i V_i / n_i /
+/// voxels)` for MSE, the RMSE; `sum_i V_i / n_i / voxels` for relMSE, which is not a
+/// square), and the rays those counts trace (`sum_i c_i n_i`). `voxels` = H W T C.
+pub fn predict(m: &PilotMeasure, w: &[f64], o: &AdaptiveOptions, voxels: f64) -> (f64, f64) {
+    let n = allocate(w, o);
+    let (mut err, mut rays) = (0.0, 0.0);
+    for ((&v, &c), &k) in m.variance.iter().zip(&m.cost).zip(&n) {
+        err += v / f64::from(k);
+        rays += c * f64::from(k);
+    }
+    let err = match o.measure {
+        ErrorMeasure::Mse => (err / voxels).sqrt(),
+        ErrorMeasure::RelMse => err / voxels,
+    };
+    (err, rays)
+}
+
+/// What decides the mean spp when the user asks for a time or an error instead.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Goal {
+    /// Rays the render may trace (the time left after the pilot times the pilot's
+    /// rays per second).
+    Rays(f64),
+    /// The predicted error to reach (RMSE for MSE, relMSE for relMSE).
+    Error(f64),
+}
+
+/// The smallest mean spp (a multiple of the granule, from `2 granule` to `max_spp`)
+/// whose prediction meets `goal`: for `Rays`, the largest that stays within it. The
+/// options' floor and cap follow the spp as [`AdaptiveOptions::new`] makes them.
+pub fn choose_spp(
+    m: &PilotMeasure,
+    w: &[f64],
+    template: &AdaptiveOptions,
+    voxels: f64,
+    goal: Goal,
+    max_spp: u32,
+    min_floor: u32,
+) -> u32 {
+    let g = template.granule.max(1);
+    let at = |units: u32| -> (f64, f64) {
+        let spp = units * g;
+        let o = AdaptiveOptions {
+            pilot_spp: template.pilot_spp,
+            ..AdaptiveOptions::new(spp, template.measure, g, min_floor)
+        };
+        predict(m, w, &o, voxels)
+    };
+    let ok = |units: u32| -> bool {
+        let (err, rays) = at(units);
+        match goal {
+            Goal::Rays(r) => rays <= r,
+            Goal::Error(e) => err <= e,
+        }
+    };
+    let (lo_units, hi_units) = (2u32, (max_spp / g).max(2));
+    match goal {
+        // Rays grow with spp: the largest within the budget.
+        Goal::Rays(_) => {
+            if !ok(lo_units) {
+                return lo_units * g;
+            }
+            let (mut a, mut b) = (lo_units, hi_units);
+            if ok(b) {
+                return b * g;
+            }
+            while b - a > 1 {
+                let mid = a + (b - a) / 2;
+                if ok(mid) {
+                    a = mid;
+                } else {
+                    b = mid;
+                }
+            }
+            a * g
+        }
+        // The error falls with spp: the smallest that reaches it.
+        Goal::Error(_) => {
+            if ok(lo_units) {
+                return lo_units * g;
+            }
+            let (mut a, mut b) = (lo_units, hi_units);
+            if !ok(b) {
+                return b * g;
+            }
+            while b - a > 1 {
+                let mid = a + (b - a) / 2;
+                if ok(mid) {
+                    b = mid;
+                } else {
+                    a = mid;
+                }
+            }
+            b * g
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -478,6 +645,55 @@ mod tests {
         assert!((pixel_variance(&x1, &x2, 3, ErrorMeasure::Mse) - 16.0).abs() < 1e-12);
         let rel = 4.0 / (9.0 + RELMSE_EPS) + 12.0 / (4.0 + RELMSE_EPS);
         assert!((pixel_variance(&x1, &x2, 3, ErrorMeasure::RelMse) - rel).abs() < 1e-12);
+    }
+
+    /// The prediction against its closed form, and the spp chosen for a goal is the
+    /// edge where the goal starts (or stops) being met.
+    #[test]
+    fn predictions_and_the_spp_chosen_for_a_goal() {
+        let m = PilotMeasure {
+            variance: vec![4.0, 1.0, 0.0, 9.0],
+            cost: vec![2.0, 1.0, 1.0, 3.0],
+        };
+        let w = weights(&m, 4);
+        let o = opts(8, 1);
+        let n = allocate(&w, &o);
+        let (err, rays) = predict(&m, &w, &o, 40.0);
+        let want: f64 = m.variance.iter().zip(&n).map(|(v, &k)| v / k as f64).sum();
+        assert!((err - (want / 40.0).sqrt()).abs() < 1e-12);
+        let want_rays: f64 = m.cost.iter().zip(&n).map(|(c, &k)| c * k as f64).sum();
+        assert!((rays - want_rays).abs() < 1e-9);
+        let template = opts(8, 2);
+        for target in [0.05, 0.1, 0.2] {
+            let spp = choose_spp(&m, &w, &template, 40.0, Goal::Error(target), 4096, 2);
+            let e = |s: u32| {
+                predict(
+                    &m,
+                    &w,
+                    &AdaptiveOptions::new(s, ErrorMeasure::Mse, 2, 2),
+                    40.0,
+                )
+                .0
+            };
+            assert!(spp.is_multiple_of(2) && e(spp) <= target, "{target}: {spp}");
+            assert!(
+                spp == 4 || e(spp - 2) > target,
+                "{target}: {spp} is not the smallest"
+            );
+        }
+        for budget in [100.0, 1000.0, 10000.0] {
+            let spp = choose_spp(&m, &w, &template, 40.0, Goal::Rays(budget), 4096, 2);
+            let r = |s: u32| {
+                predict(
+                    &m,
+                    &w,
+                    &AdaptiveOptions::new(s, ErrorMeasure::Mse, 2, 2),
+                    40.0,
+                )
+                .1
+            };
+            assert!(r(spp) <= budget && r(spp + 2) > budget, "{budget}: {spp}");
+        }
     }
 
     #[test]
