@@ -563,3 +563,70 @@ fn goals_choose_the_spp_and_the_reached_error_is_the_bundles_own() {
         "clap refuses a goal without --adaptive"
     );
 }
+
+/// The variance each voxel claims (from its own X1, X2 and its pixel's count) is the
+/// variance its mean shows over seeds, under adaptive counts: summed over the pixels
+/// that got more samples than the mean and over those that got fewer, over 1024
+/// seeds of a 6 x 6 box. Claiming with the mean spp instead of the pixel's own count
+/// (the mutation) misses in both regions.
+#[test]
+fn the_claimed_variance_is_the_observed_one_under_adaptive_counts() {
+    let scene = small_cbox(6, 4, 8);
+    let (pixels, bins) = (scene.film.pixels(), scene.film.bins);
+    let voxels = pixels * bins * 3;
+    let seeds = 1024u64;
+    // Per voxel-channel: sum of means, of squared means, of claimed variances (own
+    // count, and the mutation's mean spp); and per pixel the counts seen.
+    let (mut m1, mut m2) = (vec![0.0f64; voxels], vec![0.0f64; voxels]);
+    let (mut claimed, mut claimed_mean_spp) = (vec![0.0f64; voxels], vec![0.0f64; voxels]);
+    let mut seen = vec![0.0f64; pixels];
+    for seed in 0..seeds {
+        let base = settings(8, 7000 + seed, PixelSampling::Independent);
+        let n = counts(&scene, 8, AdaptiveOptions::pilot_seed(7000 + seed), &base);
+        let out = render(
+            &scene,
+            &RenderSettings {
+                pixel_spp: Some(n.clone()),
+                ..base.clone()
+            },
+            &|_| {},
+        );
+        for v in 0..voxels {
+            let p = v / (bins * 3);
+            let k = f64::from(n[p]);
+            let (x1, x2) = (out.accum.x1[v], out.accum.x2[v]);
+            let mean = x1 / k;
+            m1[v] += mean;
+            m2[v] += mean * mean;
+            let var = |k: f64| ((x2 - x1 * x1 / k) / (k - 1.0)).max(0.0) / k;
+            claimed[v] += var(k);
+            claimed_mean_spp[v] += var(8.0);
+        }
+        for (c, &k) in seen.iter_mut().zip(n.iter()) {
+            *c += f64::from(k);
+        }
+    }
+    let s = seeds as f64;
+    // Regions: pixels that got more than the mean on average, and the rest.
+    let (mut obs, mut own, mut wrong) = ([0.0f64; 2], [0.0f64; 2], [0.0f64; 2]);
+    for v in 0..voxels {
+        let region = usize::from(seen[v / (bins * 3)] / s > 8.0);
+        let mean = m1[v] / s;
+        obs[region] += (m2[v] / s - mean * mean) * s / (s - 1.0);
+        own[region] += claimed[v] / s;
+        wrong[region] += claimed_mean_spp[v] / s;
+    }
+    for r in 0..2 {
+        assert!(obs[r] > 0.0, "region {r} is empty");
+        let (ratio, mutated) = (own[r] / obs[r], wrong[r] / obs[r]);
+        eprintln!("region {r}: claimed / observed {ratio:.3}, with the mean spp {mutated:.3}");
+        assert!(
+            (ratio - 1.0).abs() < 0.1,
+            "region {r}: claimed / observed {ratio}"
+        );
+        assert!(
+            (mutated - 1.0).abs() > 0.2,
+            "region {r}: the mutation passes ({mutated})"
+        );
+    }
+}
