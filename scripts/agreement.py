@@ -70,7 +70,8 @@ EXPLAINED = [
      "light sampled through a rough refraction: tstat times the last segment with the "
      "IOR of the light's side, mitransient 1.3.1 with the IOR before the crossing "
      "(arrivals shift in time; the steady images agree)",
-     "tests/render_physics.rs::light_sampled_through_rough_glass_arrives_with_the_air_segment_at_speed_c"),
+     "tests/render_physics.rs::light_sampled_through_rough_glass_arrives_with_the_air_segment_at_speed_c; "
+     "scripts/agree_rough_eta.py: with mitransient's line corrected the curves agree"),
     (r'type="heterogeneous"', {"steady ratio", "block max", "space-time p95", "transient share"},
      "mitransient 1.3.1 weights the channels of a chromatic heterogeneous medium wrongly: "
      "on a chromatic absorber box seen directly (closed form Le exp(-sigma_t d)) its red "
