@@ -414,6 +414,27 @@ impl<S: RowSink> RowSink for ErrorTally<'_, S> {
     }
 }
 
+/// The largest `u` in `lo..=hi` with `keep(u)`, for a `keep` that holds up to some
+/// point and not after it (`lo` when it never holds), by bisection.
+fn last_true(lo: u32, hi: u32, keep: impl Fn(u32) -> bool) -> u32 {
+    if !keep(lo) {
+        return lo;
+    }
+    if keep(hi) {
+        return hi;
+    }
+    let (mut a, mut b) = (lo, hi);
+    while b - a > 1 {
+        let mid = a + (b - a) / 2;
+        if keep(mid) {
+            a = mid;
+        } else {
+            b = mid;
+        }
+    }
+    a
+}
+
 /// What the pilot predicts for a mean of `o.spp`: the volume's expected error with
 /// the counts of [`allocate`] (for independent samples: `sqrt(sum_i V_i / n_i /
 /// voxels)` for MSE, the RMSE; `sum_i V_i / n_i / voxels` for relMSE, which is not a
@@ -470,47 +491,15 @@ pub fn choose_spp(
             Goal::Error(e) => err <= e,
         }
     };
-    let (lo_units, hi_units) = (2u32, (max_spp / g).max(2));
-    match goal {
+    let (lo, hi) = (2u32, (max_spp / g).max(2));
+    let units = match goal {
         // Rays grow with spp: the largest within the budget.
-        Goal::Rays(_) => {
-            if !ok(lo_units) {
-                return lo_units * g;
-            }
-            let (mut a, mut b) = (lo_units, hi_units);
-            if ok(b) {
-                return b * g;
-            }
-            while b - a > 1 {
-                let mid = a + (b - a) / 2;
-                if ok(mid) {
-                    a = mid;
-                } else {
-                    b = mid;
-                }
-            }
-            a * g
-        }
+        Goal::Rays(_) => last_true(lo, hi, ok),
         // The error falls with spp: the smallest that reaches it.
-        Goal::Error(_) => {
-            if ok(lo_units) {
-                return lo_units * g;
-            }
-            let (mut a, mut b) = (lo_units, hi_units);
-            if !ok(b) {
-                return b * g;
-            }
-            while b - a > 1 {
-                let mid = a + (b - a) / 2;
-                if ok(mid) {
-                    b = mid;
-                } else {
-                    a = mid;
-                }
-            }
-            b * g
-        }
-    }
+        Goal::Error(_) if ok(lo) => lo,
+        Goal::Error(_) => (last_true(lo, hi, |u| !ok(u)) + 1).min(hi),
+    };
+    units * g
 }
 
 #[cfg(test)]
