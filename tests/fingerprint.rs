@@ -152,6 +152,7 @@ fn a_changed_volume_or_camera_invalidates_the_cached_reference() {
         method_radii: true,
         radius_chosen: false,
         depth_align_asked: false,
+        adaptive: false,
         nlos: None,
         base_by_scene: false,
         reference: ReferenceSource::Render { spp: 4 },

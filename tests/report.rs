@@ -46,6 +46,7 @@ fn tstat_denoising_beats_the_noisy_render_in_every_region_at_every_spp_and_conve
         method_radii: true,
         radius_chosen: false,
         depth_align_asked: false,
+        adaptive: false,
         nlos: None,
         base_by_scene: false,
         reference: ReferenceSource::Render { spp: 4096 },
@@ -539,6 +540,7 @@ fn the_reference_cache_key_follows_scene_defaults() {
         method_radii: true,
         radius_chosen: false,
         depth_align_asked: false,
+        adaptive: false,
         nlos: None,
         base_by_scene: false,
         reference: ReferenceSource::Render { spp: 8 },
@@ -616,6 +618,7 @@ fn stratified_convergence_adds_the_independent_baseline() {
         method_radii: true,
         radius_chosen: false,
         depth_align_asked: false,
+        adaptive: false,
         nlos: None,
         base_by_scene: false,
         reference: ReferenceSource::Render { spp: 2048 },
@@ -668,5 +671,62 @@ fn stratified_convergence_adds_the_independent_baseline() {
             );
             assert!(v.value() > 0.0);
         }
+    }
+}
+
+/// The convergence report's adaptive pipeline: its rows come after the uniform ones,
+/// timed pilot + render, and on the box they beat the uniform pipeline's all-voxel
+/// RMSE at every spp, noisy and denoised (almost all of the error sits on the light's
+/// pixels, where adaptive sampling puts its samples).
+#[test]
+fn the_adaptive_rows_beat_the_uniform_pipeline_on_the_box() {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = ConvergenceConfig {
+        scene: cbox(),
+        overrides: Overrides {
+            width: Some(32),
+            bins: Some(40),
+            bin_width_opl: Some(0.15),
+            ..Default::default()
+        },
+        spp_list: vec![16, 64],
+        seed: 5,
+        transform: Transform::Identity,
+        pixel_sampling: PixelSampling::Sobol,
+        replicates: 0,
+        denoise: DenoiseParams::default(),
+        method_radii: true,
+        radius_chosen: false,
+        depth_align_asked: false,
+        adaptive: true,
+        nlos: None,
+        base_by_scene: false,
+        reference: ReferenceSource::Render { spp: 2048 },
+    };
+    let r = run_convergence(&cfg, dir.path(), &|m| eprintln!("{m}")).unwrap();
+    assert_eq!(
+        r.methods,
+        [
+            "noisy",
+            "noisy-independent",
+            "base-only",
+            "published",
+            "tstat",
+            "adaptive",
+            "adaptive tstat"
+        ]
+    );
+    let rmse = |method: &str, spp: u32| {
+        r.rows
+            .iter()
+            .find(|x| x.method == method && x.spp == spp)
+            .map(|x| x.error.all.rmse)
+            .unwrap()
+    };
+    for spp in [16, 64] {
+        let (noisy, tstat) = (rmse("noisy", spp), rmse("tstat", spp));
+        let (a, at) = (rmse("adaptive", spp), rmse("adaptive tstat", spp));
+        eprintln!("spp {spp}: noisy {noisy:.3e} tstat {tstat:.3e} adaptive {a:.3e} adaptive tstat {at:.3e}");
+        assert!(a < noisy && at < tstat && at < a, "spp {spp}");
     }
 }

@@ -79,6 +79,10 @@ pub struct CompareArgs {
 pub struct ConvergenceArgs {
     /// Mitsuba 3 XML scene.
     pub scene: PathBuf,
+    /// Leave out the adaptive pipeline's rows (`adaptive`, `adaptive tstat`: the same
+    /// spp as a mean, spent where the error is; timed pilot + render).
+    #[arg(long)]
+    pub no_adaptive: bool,
     /// Comma-separated spp list, e.g. 16,32,64,128.
     #[arg(long, allow_hyphen_values = true)]
     pub spp: String,
@@ -456,6 +460,7 @@ fn run_conv(a: ConvergenceArgs) -> anyhow::Result<()> {
         method_radii: a.filter.radius.is_none(),
         radius_chosen: a.filter.radius.is_some(),
         depth_align_asked: a.filter.depth_align,
+        adaptive: !a.no_adaptive,
         base_by_scene: a.filter.base.base.is_none(),
         nlos,
         reference: match (&a.reference, a.reference_spp) {

@@ -16,6 +16,7 @@ use crate::denoise::tstat::TstatParams;
 use crate::denoise::{denoise_sums, estimates::SumsView, DenoiseParams, Method};
 use crate::nlos::bp::VoxelGrid;
 use crate::nlos::reconstruct::Reconstruction;
+use crate::render::adaptive::{AdaptiveOptions, ErrorMeasure};
 use crate::render::{render, PixelSampling, RenderOutput, RenderSettings};
 use crate::scene::{Overrides, Scene};
 use crate::stats::accumulators::CHANNELS;
@@ -58,7 +59,15 @@ pub struct ConvergenceConfig {
     /// or `depth_align_asked` (camera-depth alignment) says otherwise.
     pub radius_chosen: bool,
     pub depth_align_asked: bool,
+    /// Add the adaptive pipeline's rows (`render/adaptive.rs`, minimising MSE): at each
+    /// spp as the mean, `adaptive` (its noisy mean) and `adaptive tstat` (denoised with
+    /// the `tstat` row's settings), timed pilot + render (+ denoise).
+    pub adaptive: bool,
 }
+
+/// The adaptive pipeline's rows' names.
+pub const ADAPTIVE: &str = "adaptive";
+pub const ADAPTIVE_DENOISED: &str = "adaptive tstat";
 
 /// The methods compared, in table order, each with its denoiser settings (`None`: the
 /// noisy mean). `published` and `tstat` take the configured settings when the
@@ -165,6 +174,28 @@ pub fn noisy_mean(out: &RenderOutput, spp: u32) -> Result<Array4<f32>, ReportErr
             let mean = s[((y * a.width + x) * a.bins + t) * CHANNELS + c] / n;
             Err(ReportError::MeanBeyondF32 { mean, y, x, t, c })
         }
+        None => Ok(v),
+    }
+}
+
+/// [`noisy_mean`] of a render with per-pixel counts `n` (row-major).
+pub fn noisy_mean_counts(out: &RenderOutput, n: &[u32]) -> Result<Array4<f32>, ReportError> {
+    let a = &out.accum;
+    let s = a.sum.as_ref().unwrap_or(&a.x1);
+    let at = |y: usize, x: usize, t: usize, c: usize| {
+        s[((y * a.width + x) * a.bins + t) * CHANNELS + c] / f64::from(n[y * a.width + x])
+    };
+    let v = Array4::from_shape_fn((a.height, a.width, a.bins, CHANNELS), |(y, x, t, c)| {
+        at(y, x, t, c) as f32
+    });
+    match v.indexed_iter().find(|(_, m)| !m.is_finite()) {
+        Some(((y, x, t, c), _)) => Err(ReportError::MeanBeyondF32 {
+            mean: at(y, x, t, c),
+            y,
+            x,
+            t,
+            c,
+        }),
         None => Ok(v),
     }
 }
@@ -456,6 +487,72 @@ pub fn run_convergence(
                 per_bin.push((method, bins));
             }
         }
+        if cfg.adaptive {
+            let tstat = list.iter().find(|m| m.0 == "tstat").and_then(|m| m.1);
+            let g = cfg.replicates.max(1);
+            let o = AdaptiveOptions::new(spp, ErrorMeasure::Mse, g, 2);
+            if o.validate().is_ok() {
+                let pilot_settings = RenderSettings {
+                    seed: AdaptiveOptions::pilot_seed(settings.seed),
+                    ..settings.clone()
+                };
+                let (m, pilot) =
+                    crate::render::adaptive::pilot(&scene, &pilot_settings, &o, &|_| {});
+                let w = crate::render::adaptive::weights(&m, scene.film.width);
+                let n: std::sync::Arc<[u32]> = crate::render::adaptive::allocate(&w, &o).into();
+                let a_settings = RenderSettings {
+                    pixel_spp: Some(n.clone()),
+                    ..settings.clone()
+                };
+                let aout = render(&scene, &a_settings, &|_| {});
+                let render_s = pilot.seconds + aout.seconds;
+                let noisy = noisy_mean_counts(&aout, &n)?;
+                let mut outputs = vec![(ADAPTIVE, noisy, 0.0, 0.0)];
+                if let Some(p) = tstat {
+                    let view = SumsView {
+                        pixel_spp: Some(&n),
+                        ..sums_view(
+                            &aout,
+                            spp,
+                            &cfg.transform,
+                            scene.film.bin_width_opl,
+                            cfg.pixel_sampling,
+                            cfg.replicates,
+                            scene.image_rows(),
+                        )
+                    };
+                    let d = denoise_sums(&view, &gbuffers(&aout).features(), &p, &|_| {});
+                    let rate = d.evaluations as f64 / d.filter_seconds.max(1e-9);
+                    outputs.push((ADAPTIVE_DENOISED, d.volume, d.seconds, rate));
+                }
+                for (method, vol, den_s, evals) in outputs {
+                    let (error, bins) = compare_regions(vol.view(), reference.view(), Some(&mask));
+                    line += &format!("; {method} {:.4e} ({den_s:.2} s)", error.all.rmse);
+                    let reconstructions = match &reconstructor {
+                        Some(r) => r.measure(&vol)?.0,
+                        None => Vec::new(),
+                    };
+                    rows.push(Row {
+                        reconstruction_speedup: vec![None; reconstructions.len()],
+                        reconstructions,
+                        spp,
+                        method,
+                        render_s,
+                        denoise_s: den_s,
+                        total_s: render_s + den_s,
+                        error,
+                        speedup: [None; 3],
+                        speedup_independent: [None; 3],
+                        evaluations_per_s: evals,
+                    });
+                    if spp == max_spp {
+                        per_bin.push((method, bins));
+                    }
+                }
+            } else {
+                line += "; adaptive: skipped (spp not a multiple of the replicates)";
+            }
+        }
         log(&line);
     }
     fill_speedups(&mut rows);
@@ -463,6 +560,12 @@ pub fn run_convergence(
     let mut methods: Vec<&'static str> = list.iter().map(|m| m.0).collect();
     if cfg.pixel_sampling != PixelSampling::Independent {
         methods.insert(1, BASELINE);
+    }
+    if cfg.adaptive {
+        methods.push(ADAPTIVE);
+        if list.iter().any(|m| m.0 == "tstat") {
+            methods.push(ADAPTIVE_DENOISED);
+        }
     }
     Ok(ConvergenceResult {
         rows,
