@@ -630,3 +630,102 @@ fn the_claimed_variance_is_the_observed_one_under_adaptive_counts() {
         );
     }
 }
+
+/// Hostile adaptive bundles: each is one clear error, never a panic.
+#[test]
+fn damaged_adaptive_bundles_are_one_clear_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let cbox = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cbox.xml");
+    let good = d.join("good.tstats");
+    let r = tstat(&[
+        "render",
+        cbox.to_str().unwrap(),
+        "--out",
+        good.to_str().unwrap(),
+        "--width",
+        "8",
+        "--bins",
+        "6",
+        "--spp",
+        "8",
+        "--adaptive",
+    ]);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let manifest = std::fs::read_to_string(good.join("manifest.json")).unwrap();
+    let copy = |name: &str| {
+        let to = d.join(name);
+        std::fs::create_dir(&to).unwrap();
+        for e in std::fs::read_dir(&good).unwrap() {
+            let e = e.unwrap();
+            std::fs::copy(e.path(), to.join(e.file_name())).unwrap();
+        }
+        to
+    };
+    let counts = npy_u32(&good.join("pixel_spp.npy"));
+    let cases: Vec<(&str, Box<dyn Fn(&Path)>, &str)> = vec![
+        (
+            "a pixel of 0 samples",
+            Box::new(|b: &Path| {
+                let mut n = counts.clone();
+                n[[0, 0]] = 0;
+                ndarray_npy::write_npy(b.join("pixel_spp.npy"), &n).unwrap();
+            }),
+            "a pixel has at least 2 samples",
+        ),
+        (
+            "a count beyond u32's sum",
+            Box::new(|b: &Path| {
+                let mut n = counts.clone();
+                n[[0, 0]] = u32::MAX;
+                ndarray_npy::write_npy(b.join("pixel_spp.npy"), &n).unwrap();
+            }),
+            "does not match the manifest",
+        ),
+        (
+            "no pixel_spp.npy",
+            Box::new(|b: &Path| std::fs::remove_file(b.join("pixel_spp.npy")).unwrap()),
+            "pixel_spp",
+        ),
+        (
+            "version 1 with an adaptive record",
+            Box::new(|b: &Path| {
+                let m = manifest.replacen("\"version\": 2", "\"version\": 1", 1);
+                std::fs::write(b.join("manifest.json"), m).unwrap();
+            }),
+            "format version",
+        ),
+        (
+            "a pilot of 1 sample",
+            Box::new(|b: &Path| {
+                let m = manifest.replacen("\"pilot_spp\": 4", "\"pilot_spp\": 1", 1);
+                std::fs::write(b.join("manifest.json"), m).unwrap();
+            }),
+            "adaptive record",
+        ),
+    ];
+    assert!(manifest.contains("\"version\": 2") && manifest.contains("\"pilot_spp\": 4"));
+    for (k, (what, damage, want)) in cases.iter().enumerate() {
+        let b = copy(&format!("bad{k}.tstats"));
+        damage(&b);
+        let out = d.join(format!("out{k}.npy"));
+        for cmd in [
+            vec!["info", b.to_str().unwrap()],
+            vec![
+                "export",
+                b.to_str().unwrap(),
+                "--out",
+                out.to_str().unwrap(),
+            ],
+        ] {
+            let r = tstat(&cmd);
+            assert_eq!(r.status.code(), Some(1), "{what}: {cmd:?}");
+            let err = String::from_utf8_lossy(&r.stderr);
+            assert!(
+                err.contains(want) && err.lines().count() == 1 && !err.contains("panicked"),
+                "{what}: {err}"
+            );
+        }
+        assert!(!out.exists(), "{what}: export left an output");
+    }
+}
