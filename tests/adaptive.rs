@@ -631,6 +631,9 @@ fn the_claimed_variance_is_the_observed_one_under_adaptive_counts() {
     }
 }
 
+/// A way to damage a bundle: what it does, the damage, a word of the error it must give.
+type Damage<'a> = (&'a str, Box<dyn Fn(&Path) + 'a>, &'a str);
+
 /// Hostile adaptive bundles: each is one clear error, never a panic.
 #[test]
 fn damaged_adaptive_bundles_are_one_clear_error() {
@@ -663,7 +666,7 @@ fn damaged_adaptive_bundles_are_one_clear_error() {
         to
     };
     let counts = npy_u32(&good.join("pixel_spp.npy"));
-    let cases: Vec<(&str, Box<dyn Fn(&Path)>, &str)> = vec![
+    let cases: Vec<Damage> = vec![
         (
             "a pixel of 0 samples",
             Box::new(|b: &Path| {
