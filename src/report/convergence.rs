@@ -135,6 +135,32 @@ pub struct Row {
 }
 
 impl Row {
+    /// A measured row (its speed-ups are filled in later, from all rows).
+    #[allow(clippy::too_many_arguments)]
+    fn measured(
+        spp: u32,
+        method: &'static str,
+        render_s: f64,
+        denoise_s: f64,
+        error: RegionMetrics,
+        evaluations_per_s: f64,
+        reconstructions: Vec<ReconstructionError>,
+    ) -> Row {
+        Row {
+            reconstruction_speedup: vec![None; reconstructions.len()],
+            reconstructions,
+            spp,
+            method,
+            render_s,
+            denoise_s,
+            total_s: render_s + denoise_s,
+            error,
+            speedup: [None; 3],
+            speedup_independent: [None; 3],
+            evaluations_per_s,
+        }
+    }
+
     /// Speed-up over one region.
     pub fn speedup(&self, r: Region) -> Option<Speedup> {
         self.speedup[r as usize]
@@ -163,19 +189,7 @@ pub struct ConvergenceResult {
 /// The noisy mean S / n of a render as an (H, W, T, C) f32 volume; an error names
 /// the first voxel whose mean f32 cannot hold (as a bundle's checks do).
 pub fn noisy_mean(out: &RenderOutput, spp: u32) -> Result<Array4<f32>, ReportError> {
-    let a = &out.accum;
-    let s = a.sum.as_ref().unwrap_or(&a.x1);
-    let n = spp as f64;
-    let v = Array4::from_shape_fn((a.height, a.width, a.bins, CHANNELS), |(y, x, t, c)| {
-        (s[((y * a.width + x) * a.bins + t) * CHANNELS + c] / n) as f32
-    });
-    match v.indexed_iter().find(|(_, m)| !m.is_finite()) {
-        Some(((y, x, t, c), _)) => {
-            let mean = s[((y * a.width + x) * a.bins + t) * CHANNELS + c] / n;
-            Err(ReportError::MeanBeyondF32 { mean, y, x, t, c })
-        }
-        None => Ok(v),
-    }
+    noisy_mean_counts(out, &vec![spp; out.accum.height * out.accum.width])
 }
 
 /// [`noisy_mean`] of a render with per-pixel counts `n` (row-major).
@@ -429,19 +443,15 @@ pub fn run_convergence(
                 Some(r) => r.measure(&noisy_mean(&base, spp)?)?.0,
                 None => Vec::new(),
             };
-            rows.push(Row {
+            rows.push(Row::measured(
                 spp,
-                method: BASELINE,
-                render_s: base.seconds,
-                denoise_s: 0.0,
-                total_s: base.seconds,
+                BASELINE,
+                base.seconds,
+                0.0,
                 error,
-                speedup: [None; 3],
-                speedup_independent: [None; 3],
-                evaluations_per_s: 0.0,
-                reconstruction_speedup: vec![None; reconstructions.len()],
+                0.0,
                 reconstructions,
-            });
+            ));
             if spp == max_spp {
                 per_bin.push((BASELINE, bins));
             }
@@ -470,19 +480,15 @@ pub fn run_convergence(
                 }
                 None => Vec::new(),
             };
-            rows.push(Row {
-                reconstruction_speedup: vec![None; reconstructions.len()],
-                reconstructions,
+            rows.push(Row::measured(
                 spp,
                 method,
-                render_s: out.seconds,
-                denoise_s: den_s,
-                total_s: out.seconds + den_s,
+                out.seconds,
+                den_s,
                 error,
-                speedup: [None; 3],
-                speedup_independent: [None; 3],
-                evaluations_per_s: evals,
-            });
+                evals,
+                reconstructions,
+            ));
             if spp == max_spp {
                 per_bin.push((method, bins));
             }
@@ -532,19 +538,15 @@ pub fn run_convergence(
                         Some(r) => r.measure(&vol)?.0,
                         None => Vec::new(),
                     };
-                    rows.push(Row {
-                        reconstruction_speedup: vec![None; reconstructions.len()],
-                        reconstructions,
+                    rows.push(Row::measured(
                         spp,
                         method,
                         render_s,
-                        denoise_s: den_s,
-                        total_s: render_s + den_s,
+                        den_s,
                         error,
-                        speedup: [None; 3],
-                        speedup_independent: [None; 3],
-                        evaluations_per_s: evals,
-                    });
+                        evals,
+                        reconstructions,
+                    ));
                     if spp == max_spp {
                         per_bin.push((method, bins));
                     }
