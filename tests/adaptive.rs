@@ -557,11 +557,72 @@ fn goals_choose_the_spp_and_the_reached_error_is_the_bundles_own() {
         "--target-error",
         "0.01",
     ]);
+    assert_eq!(r.status.code(), Some(1), "a goal without --adaptive");
+    let err = String::from_utf8_lossy(&r.stderr);
     assert_eq!(
-        r.status.code(),
-        Some(2),
-        "clap refuses a goal without --adaptive"
+        err.trim(),
+        "error: --target-error is an adaptive sampling option: not without --adaptive"
     );
+    assert!(!d.join("y.tstats").exists());
+}
+
+/// `run` samples adaptively by default (the manifest says how) and `--no-adaptive`
+/// gives the uniform render `render` gives, bit for bit; adaptive options are refused
+/// with `--no-adaptive`, and leave no output.
+#[test]
+fn run_is_adaptive_unless_asked_not_to_be() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let p = |n: &str| d.join(n).display().to_string();
+    let small = ["--width", "16", "--bins", "24", "--spp", "8", "--seed", "3"];
+    let run = |out: &str, extra: &[&str]| {
+        let mut args = vec!["run", "--out", out];
+        args.extend(small);
+        args.extend(extra);
+        tstat(&args)
+    };
+    let manifest = |dir: &str| -> serde_json::Value {
+        serde_json::from_str(
+            &std::fs::read_to_string(d.join(dir).join("scene.tstats/manifest.json")).unwrap(),
+        )
+        .unwrap()
+    };
+    let r = run(&p("a"), &["--adaptive-measure", "relmse"]);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let m = manifest("a");
+    assert_eq!(m["adaptive"]["measure"], "rel_mse");
+    assert!(m["adaptive"]["estimated_error"].as_f64().unwrap() > 0.0);
+    let n = npy_u32(&d.join("a/scene.tstats/pixel_spp.npy"));
+    assert_eq!(n.iter().map(|&k| u64::from(k)).sum::<u64>(), 8 * 16 * 16);
+    assert!(n.iter().any(|&k| k != 8), "some pixel got more or fewer");
+
+    let r = run(&p("u"), &["--no-adaptive"]);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    assert!(manifest("u").get("adaptive").is_none());
+    assert!(!d.join("u/scene.tstats/pixel_spp.npy").exists());
+    let cbox = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cbox.xml");
+    let mut args = vec!["render", cbox.to_str().unwrap(), "--out"];
+    let plain = p("plain.tstats");
+    args.push(&plain);
+    args.extend(small);
+    let r = tstat(&args);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    for f in ["x1", "x2", "x3", "nonzero", "steady"] {
+        let name = format!("{f}.npy");
+        assert_eq!(
+            std::fs::read(d.join("u/scene.tstats").join(&name)).unwrap(),
+            std::fs::read(d.join("plain.tstats").join(&name)).unwrap(),
+            "{f}"
+        );
+    }
+
+    let r = run(&p("x"), &["--no-adaptive", "--pilot-spp", "4"]);
+    assert_eq!(r.status.code(), Some(1));
+    assert_eq!(
+        String::from_utf8_lossy(&r.stderr).trim(),
+        "error: --pilot-spp is an adaptive sampling option: not with --no-adaptive"
+    );
+    assert!(!d.join("x").exists());
 }
 
 /// The variance each voxel claims (from its own X1, X2 and its pixel's count) is the

@@ -194,7 +194,7 @@ fn run_gives_a_new_user_everything_in_one_command() {
         "--width",
         "16",
         "--spp",
-        "4",
+        "8",
         "--bins",
         "24",
         "--every",

@@ -992,12 +992,22 @@ impl RowReader<'_> {
             Some(r) => arrays.push((r, r2)),
             None => r2.clear(),
         }
-        for (a, out) in arrays {
-            let (_, check) = b.sum_check(a.which, nonzero);
-            a.file
-                .read_rows(rows.clone(), out, check, &AXES4)
-                .map_err(|e| npy_error(&a.path, e))?;
-        }
+        // The sums are read side by side (each its own file); the first error in
+        // the arrays' order is the one reported, whichever thread meets it first.
+        let nonzero: &[u32] = nonzero;
+        let results: Vec<Result<(), BundleError>> = {
+            use rayon::prelude::*;
+            arrays
+                .into_par_iter()
+                .map(|(a, out)| {
+                    let (_, check) = b.sum_check(a.which, nonzero);
+                    a.file
+                        .read_rows(rows.clone(), out, check, &AXES4)
+                        .map_err(|e| npy_error(&a.path, e))
+                })
+                .collect()
+        };
+        results.into_iter().collect::<Result<(), _>>()?;
         *held = rows;
         Ok(())
     }

@@ -8,6 +8,7 @@ macro_rules! say {
     };
 }
 
+mod adaptive;
 mod check;
 mod cluster;
 mod denoise;

@@ -1,20 +1,18 @@
 //! `tstat render SCENE.xml --out NAME.tstats`: render and write a statistics bundle.
 
+use super::adaptive::{self, AdaptiveArgs};
 use super::util::{
     arg, check_outputs, disk_size, finite, human_bytes, opt_int, physical_memory, positive, seed,
-    size_flag, threads, with_threads, Kind, MAX_FILM_SIDE,
+    size_flag, threads, Kind, MAX_FILM_SIDE,
 };
-use crate::bundle::manifest::AdaptiveRecord;
 use crate::bundle::shard::{shard_seed, Shard, PLACEHOLDER};
 use crate::bundle::write::{bundle_bytes_with, check_render, BundleMeta, BundleWriter, JobShard};
-use crate::render::adaptive::{self, AdaptiveOptions, ErrorMeasure};
-use crate::render::{render_into, PixelSampling, RenderSettings, StreamingMemory};
+use crate::render::{PixelSampling, RenderSettings, StreamingMemory};
 use crate::scene::{Overrides, Scene};
 use crate::sensors::time_origin::TimeOrigin;
 use crate::stats::Transform;
 use anyhow::{anyhow, bail, Context};
 use clap::Args;
-use indicatif::{ProgressBar, ProgressStyle};
 use std::path::{Path, PathBuf};
 
 /// The scene's film, time axis, path depth, `<default>`s and sub-pixel sampling (the
@@ -155,68 +153,11 @@ pub struct RenderArgs {
     /// sums; between spp / 2 and 16 spp a pixel). Adds `pixel_spp.npy` (4 bytes a pixel).
     #[arg(long)]
     pub adaptive: bool,
-    /// What adaptive sampling minimises: mse (all-voxel squared error, RMSE) or relmse
-    /// ((x - ref)^2 / (ref^2 + 0.01), which weights dark voxels up).
-    #[arg(long, value_parser = ["mse", "relmse"], default_value = "mse", requires = "adaptive")]
-    pub adaptive_measure: String,
-    /// Samples per pixel of the adaptive pilot (default max(4, spp / 16)).
-    #[arg(long, allow_negative_numbers = true, requires = "adaptive")]
-    pub pilot_spp: Option<i64>,
-    /// Adaptive sampling with a time instead of an spp: the mean spp is the most the
-    /// pilot predicts to fit in this time, pilot included (90s, 5m, 1.5h; --spp, if
-    /// given, is the most it may choose; not with --shard).
-    #[arg(
-        long,
-        requires = "adaptive",
-        conflicts_with = "target_error",
-        allow_hyphen_values = true
-    )]
-    pub time_budget: Option<String>,
-    /// Adaptive sampling to an error: the mean spp is the least the pilot predicts to
-    /// reach this RMSE of the noisy volume (--adaptive-measure mse) or relMSE (relmse),
-    /// for independent samples (Sobol' usually does better); --spp, if given, is the
-    /// most it may choose; not with --shard.
-    #[arg(long, requires = "adaptive", allow_negative_numbers = true)]
-    pub target_error: Option<f64>,
+    #[command(flatten)]
+    pub adaptive_args: AdaptiveArgs,
     /// Replace an existing output.
     #[arg(long)]
     pub force: bool,
-}
-
-/// Adaptive sampling's options for a job of `spp` (the whole job's, sharded or not).
-pub(super) fn adaptive_options(
-    a: &RenderArgs,
-    spp: u32,
-    replicates: u32,
-    shards: u32,
-) -> anyhow::Result<Option<AdaptiveOptions>> {
-    if !a.adaptive {
-        return Ok(None);
-    }
-    let measure = match a.adaptive_measure.as_str() {
-        "relmse" => ErrorMeasure::RelMse,
-        _ => ErrorMeasure::Mse,
-    };
-    let granule = replicates.max(1).saturating_mul(shards.max(1));
-    // Every shard needs at least 2 samples of each pixel.
-    let mut o = AdaptiveOptions::new(spp, measure, granule, 2 * shards.max(1));
-    if let Some(p) = a.pilot_spp {
-        o.pilot_spp =
-            opt_int("--pilot-spp", Some(p), 2, i64::from(u32::MAX))?.unwrap_or(o.pilot_spp);
-    }
-    o.validate().map_err(|e| {
-        anyhow!(
-            "--adaptive with --spp {spp}{}: {e} (floor {}, cap {}, multiples of {granule})",
-            if granule > 1 {
-                format!(", {replicates} replicates, {shards} shards")
-            } else {
-                String::new()
-            },
-            o.floor,
-            o.cap
-        )
-    })?;
-    Ok(Some(o))
 }
 
 /// The shard of `--shard` and the output path with `{shard}` filled in.
@@ -274,21 +215,10 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
         None => None,
     };
     let started = std::time::Instant::now();
-    let goal = match (&a.time_budget, a.target_error) {
-        (Some(t), _) => Some((
-            "time_budget_seconds",
-            super::util::duration_flag("--time-budget", t)?,
-        )),
-        (None, Some(e)) => {
-            positive("--target-error", e)?;
-            Some(("target_error", e))
-        }
-        (None, None) => None,
-    };
-    anyhow::ensure!(
-        goal.is_none() || a.shard.is_none(),
-        "--time-budget and --target-error choose the spp from the pilot's time or samples: not with --shard (give the job an --spp)"
-    );
+    if !a.adaptive {
+        a.adaptive_args.refuse_when_off("without --adaptive")?;
+    }
+    let goal = a.adaptive_args.goal(a.shard.is_some())?;
     let (shard, out) = shard_and_out(a.shard.as_deref(), &a.out)?;
     check_outputs(
         &[arg("scene", &a.scene)],
@@ -318,7 +248,13 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
     RenderSettings::check_replicates(scene.spp, replicate_count)?;
     let shards = shard.map_or(1, |s| s.count as u32);
     let job_spp = job.map_or(scene.spp, |j| j.spp as u32);
-    let adaptive = adaptive_options(&a, job_spp, a.scene_args.replicates, shards)?;
+    let adaptive = a
+        .adaptive
+        .then(|| {
+            a.adaptive_args
+                .options(job_spp, a.scene_args.replicates, shards)
+        })
+        .transpose()?;
     let replicates = replicate_count >= 2;
     let memory = StreamingMemory::new(film, &transform, pool_size(threads))
         .with_replicates(replicates, film)
@@ -345,18 +281,7 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
         job,
         // Checked before rendering with the counts' place-holder (the mean); the pilot
         // fills them in.
-        adaptive: adaptive.map(|o| {
-            let record = AdaptiveRecord {
-                measure: o.measure,
-                pilot_spp: u64::from(o.pilot_spp),
-                pilot_seconds: 0.0,
-                min_spp: u64::from(scene.spp),
-                max_spp: u64::from(scene.spp),
-                goal: None,
-                estimated_error: None,
-            };
-            (std::sync::Arc::from(vec![scene.spp; film.pixels()]), record)
-        }),
+        adaptive: adaptive.map(|o| adaptive::placeholder(&o, scene.spp, film.pixels())),
     };
     // Before any rendering work: the manifest this render will write must read back
     // (the same check as reading it).
@@ -396,103 +321,32 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
     let mut meta = meta;
     let mut adaptive = adaptive;
     if let Some(o) = adaptive.as_mut() {
-        // The pilot is the job's (its seed from the job's), so every shard allocates alike.
-        let job_settings = RenderSettings {
-            seed: AdaptiveOptions::pilot_seed(job_seed),
-            ..settings.clone()
-        };
-        let pilot_paths = film.pixels() as u64 * u64::from(o.pilot_spp);
-        let bar = ProgressBar::new(pilot_paths).with_style(
-            ProgressStyle::with_template(
-                "pilot {bar:34} {percent:>3}% {human_pos}/{human_len} paths, ETA {eta}",
-            )
-            .expect("valid template"),
-        );
-        let (measure, pilot) = with_threads(threads, || {
-            adaptive::pilot(&scene, &job_settings, o, &|n| bar.inc(n))
-        })?;
-        bar.finish_and_clear();
-        let weights = adaptive::weights(&measure, film.width);
-        let voxels = (film.pixels() * film.bins * crate::stats::accumulators::CHANNELS) as f64;
-        if let Some((kind, value)) = goal {
-            let target = if kind == "target_error" {
-                adaptive::Goal::Error(value)
-            } else {
-                let rays_per_second = pilot.rays as f64 / pilot.seconds.max(1e-9);
-                let left = (value - started.elapsed().as_secs_f64()).max(0.0);
-                adaptive::Goal::Rays(left * rays_per_second)
-            };
-            let most = if a.spp.is_some() { scene.spp } else { 1 << 16 };
-            let spp = adaptive::choose_spp(&measure, &weights, o, voxels, target, most, 2);
-            *o = AdaptiveOptions {
-                pilot_spp: o.pilot_spp,
-                ..AdaptiveOptions::new(spp, o.measure, o.granule, 2)
-            };
-            let (predicted, _) = adaptive::predict(&measure, &weights, o, voxels);
-            scene.spp = spp;
-            settings.spp = spp;
+        let check_cap = |cap: u32| {
             check_memory(
                 &StreamingMemory::new(film, &transform, pool_size(threads))
                     .with_replicates(replicates, film)
                     .with_sampler(
                         a.scene_args.pixel_sampling,
-                        o.cap,
+                        cap,
                         replicate_count,
                         scene.integrator.volumetric,
                     )
                     .with_adaptive(true, film),
                 limit,
-            )?;
-            eprintln!(
-                "adaptive: {} {value} -> {spp} spp on average (predicted {} {predicted:.4e})",
-                kind.replace('_', " "),
-                if o.measure == ErrorMeasure::Mse {
-                    "RMSE"
-                } else {
-                    "relMSE"
-                }
-            );
-            if let Some((_, r)) = meta.adaptive.as_mut() {
-                r.goal = Some(crate::bundle::manifest::GoalRecord {
-                    kind: kind.into(),
-                    value,
-                    predicted_error: predicted,
-                });
-            }
-        }
-        let counts: Vec<u32> = adaptive::allocate(&weights, o)
-            .into_iter()
-            .map(|n| n / shards)
-            .collect();
-        let (lo, hi) = counts
-            .iter()
-            .fold((u32::MAX, 0), |(lo, hi), &n| (lo.min(n), hi.max(n)));
-        eprintln!(
-            "adaptive: {}-spp pilot in {:.2} s; {} to {} samples a pixel (mean {}), minimising {}",
-            o.pilot_spp,
-            pilot.seconds,
-            lo,
-            hi,
-            scene.spp,
-            o.measure.name()
-        );
-        let counts: std::sync::Arc<[u32]> = counts.into();
-        settings.pixel_spp = Some(counts.clone());
-        if let Some((n, r)) = meta.adaptive.as_mut() {
-            *n = counts;
-            r.pilot_seconds = pilot.seconds;
-            (r.min_spp, r.max_spp) = (u64::from(lo), u64::from(hi));
-        }
+            )
+        };
+        let inputs = adaptive::PlanInputs {
+            goal,
+            most: if a.spp.is_some() { scene.spp } else { 1 << 16 },
+            job_seed,
+            shards,
+            threads,
+            started,
+            check_cap: &check_cap,
+        };
+        adaptive::plan(&scene, &mut settings, &mut meta, o, &inputs)?;
+        scene.spp = settings.spp;
     }
-    let total = (0..film.height)
-        .map(|y| settings.row_paths(y, film.width))
-        .sum::<u64>();
-    let bar = ProgressBar::new(total).with_style(
-        ProgressStyle::with_template(
-            "{bar:40} {percent:>3}% {human_pos}/{human_len} paths, {per_sec}, ETA {eta}",
-        )
-        .expect("valid template"),
-    );
     // Rows go straight into the bundle's files in a temporary directory; an error (or
     // an interrupted render) leaves nothing that looks like a bundle.
     let writer = BundleWriter::create_with(&out, a.force, film, &transform, replicates)
@@ -500,26 +354,17 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
     // Adaptive renders of radiance sums also estimate the error they reached.
     let tally = adaptive
         .filter(|_| transform.is_identity())
-        .map(|o| adaptive::ErrorTally::new(&writer, &settings, o.measure, film.height, film.width));
-    let summary = with_threads(threads, || match &tally {
-        Some(t) => render_into(&scene, &settings, t, &|n| bar.inc(n)),
-        None => render_into(&scene, &settings, &writer, &|n| bar.inc(n)),
-    })?
-    .context("writing the bundle")?;
-    bar.finish_and_clear();
+        .map(|o| o.measure);
+    let (summary, estimated) =
+        adaptive::render_rows(&scene, &settings, &writer, tally, threads, false)?
+            .context("writing the bundle")?;
     warn_if_empty(summary.voxel_samples, film);
-    if let (Some(t), Some((_, r))) = (&tally, meta.adaptive.as_mut()) {
-        let voxels = (film.pixels() * film.bins * crate::stats::accumulators::CHANNELS) as f64;
-        let e = t.error(voxels);
+    if let (Some(e), Some((_, r))) = (estimated, meta.adaptive.as_mut()) {
         eprintln!(
             "adaptive: estimated {} of the noisy volume {e:.4e}",
-            if r.measure == ErrorMeasure::Mse {
-                "RMSE"
-            } else {
-                "relMSE"
-            }
+            adaptive::error_name(r.measure)
         );
-        r.estimated_error = e.is_finite().then_some(e);
+        r.estimated_error = Some(e);
     }
     writer
         .finish(&scene, &meta, &summary)

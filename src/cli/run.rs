@@ -1,8 +1,10 @@
 //! `tstat run [SCENE.xml] --out DIR`: the whole job in one command. Renders with
-//! statistics, denoises, and writes the noisy and denoised volumes, side-by-side frames
+//! statistics (adaptive sampling unless `--no-adaptive`: `cli::adaptive`), denoises, and
+//! writes the noisy and denoised volumes, side-by-side frames
 //! (noisy | denoised, one exposure), an animated GIF and a streak image. Without a
 //! scene it renders the bundled Cornell box.
 
+use super::adaptive::{error_name, placeholder, plan, render_rows, AdaptiveArgs, Goal, PlanInputs};
 use super::denoise::FilterArgs;
 use super::frames::axis_of;
 use super::render::SceneArgs;
@@ -10,7 +12,7 @@ use super::util::{arg, check_outputs, human_bytes, int_flag, seed, threads, with
 use crate::bundle::write::{write_atomically, BundleMeta, BundleWriter};
 use crate::bundle::{Bundle, BundleError};
 use crate::denoise::denoise_bundle;
-use crate::render::{render_into, RenderSettings, StreamingMemory};
+use crate::render::{RenderSettings, StreamingMemory};
 use crate::scene::Scene;
 use crate::stats::accumulators::CHANNELS;
 use crate::stats::Transform;
@@ -35,6 +37,13 @@ pub struct RunArgs {
     pub spp: Option<i64>,
     #[command(flatten)]
     pub scene_args: SceneArgs,
+    /// Uniform sampling: every pixel gets --spp samples (by default each pixel gets
+    /// samples where they lower the volume's error most, --spp on average; see
+    /// `tstat render --adaptive`).
+    #[arg(long)]
+    pub no_adaptive: bool,
+    #[command(flatten)]
+    pub adaptive_args: AdaptiveArgs,
     /// Random seed.
     #[arg(long, allow_negative_numbers = true)]
     pub seed: Option<i128>,
@@ -66,12 +75,18 @@ pub fn run(a: RunArgs) -> anyhow::Result<()> {
     let overrides = a.scene_args.overrides(a.spp)?;
     let inputs: Vec<_> = a.scene.iter().map(|p| arg("scene", p)).collect();
     check_outputs(&inputs, &[(arg("--out", &a.out), Kind::Dir)], a.force)?;
+    if a.no_adaptive {
+        a.adaptive_args.refuse_when_off("with --no-adaptive")?;
+    }
+    let goal = a.adaptive_args.goal(false)?;
+    let started = std::time::Instant::now();
     let opts = Opts {
         every,
         threads,
         seed,
+        goal,
+        started,
     };
-    let started = std::time::Instant::now();
     // Everything goes to a temporary directory that is renamed when complete. The job's
     // own error is returned as it is (not prefixed with the output directory).
     write_atomically(&a.out, a.force, |tmp| -> anyhow::Result<()> {
@@ -103,6 +118,8 @@ struct Opts {
     every: usize,
     threads: Option<usize>,
     seed: Option<u64>,
+    goal: Option<Goal>,
+    started: std::time::Instant,
 }
 
 fn job(
@@ -114,7 +131,7 @@ fn job(
     params: &crate::denoise::DenoiseParams,
     overrides: &crate::scene::Overrides,
 ) -> anyhow::Result<()> {
-    let scene = Scene::load(scene_path, overrides)?;
+    let mut scene = Scene::load(scene_path, overrides)?;
     let params = &crate::denoise::DenoiseParams {
         base: a.filter.base.kind(!scene.media.is_empty()),
         ..*params
@@ -124,14 +141,24 @@ fn job(
     let film = &scene.film;
     RenderSettings::check_replicates(scene.spp, a.scene_args.replicates)?;
     let replicates = a.scene_args.replicates >= 2;
-    let memory = StreamingMemory::new(film, &transform, super::render::pool_size(o.threads))
-        .with_replicates(replicates, film)
-        .with_sampler(
-            a.scene_args.pixel_sampling,
-            scene.spp,
-            a.scene_args.replicates,
-            scene.integrator.volumetric,
-        );
+    let adaptive = (!a.no_adaptive)
+        .then(|| {
+            a.adaptive_args
+                .options(scene.spp, a.scene_args.replicates, 1)
+        })
+        .transpose()?;
+    let memory_for = |cap: u32| {
+        StreamingMemory::new(film, &transform, super::render::pool_size(o.threads))
+            .with_replicates(replicates, film)
+            .with_sampler(
+                a.scene_args.pixel_sampling,
+                cap,
+                a.scene_args.replicates,
+                scene.integrator.volumetric,
+            )
+            .with_adaptive(adaptive.is_some(), film)
+    };
+    let memory = memory_for(adaptive.map_or(scene.spp, |o| o.cap));
     super::render::check_memory(&memory, None)?;
     // The bundle, then the noisy and the denoised f32 volumes (the frames are small).
     let volume = (film.pixels() as u64)
@@ -154,7 +181,7 @@ fn job(
         pixel_sampling: a.scene_args.pixel_sampling,
         replicates: a.scene_args.replicates,
         job: None,
-        adaptive: None,
+        adaptive: adaptive.map(|o| placeholder(&o, scene.spp, film.pixels())),
     };
     // Before any rendering work: the manifest must read back (with the scene's
     // final path, as written).
@@ -170,7 +197,7 @@ fn job(
         super::render::describe_memory(&memory),
         human_bytes(disk)
     );
-    let settings = RenderSettings {
+    let mut settings = RenderSettings {
         spp: scene.spp,
         seed: o.seed.unwrap_or(scene.seed),
         transform,
@@ -178,18 +205,42 @@ fn job(
         replicates: a.scene_args.replicates,
         pixel_spp: None,
     };
+    let mut meta = meta;
+    let mut adaptive = adaptive;
+    if let Some(opts) = adaptive.as_mut() {
+        let check_cap = |cap: u32| super::render::check_memory(&memory_for(cap), None);
+        let inputs = PlanInputs {
+            goal: o.goal,
+            most: if a.spp.is_some() { scene.spp } else { 1 << 16 },
+            job_seed: settings.seed,
+            shards: 1,
+            threads: o.threads,
+            started: o.started,
+            check_cap: &check_cap,
+        };
+        plan(&scene, &mut settings, &mut meta, opts, &inputs)?;
+        scene.spp = settings.spp;
+    }
     let writer = BundleWriter::create_with(&bundle_path, false, film, &transform, replicates)
         .context("writing the bundle")?;
-    let summary = with_threads(o.threads, || {
-        render_into(&scene, &settings, &writer, &|_| {})
-    })?
-    .context("writing the bundle")?;
+    let tally = adaptive
+        .filter(|_| transform.is_identity())
+        .map(|o| o.measure);
+    let (summary, estimated) = render_rows(&scene, &settings, &writer, tally, o.threads, false)?
+        .context("writing the bundle")?;
     super::render::warn_if_empty(summary.voxel_samples, film);
     eprintln!(
         "rendered in {:.2} s ({:.2} M paths/s)",
         summary.seconds,
         summary.paths as f64 / summary.seconds / 1e6
     );
+    if let (Some(e), Some((_, r))) = (estimated, meta.adaptive.as_mut()) {
+        eprintln!(
+            "adaptive: estimated {} of the noisy volume {e:.4e}",
+            error_name(r.measure)
+        );
+        r.estimated_error = Some(e);
+    }
     // The bundled scene sits in the temporary directory until that is renamed: the
     // manifest records where it will be.
     let scene = Scene {

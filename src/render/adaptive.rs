@@ -51,6 +51,15 @@ impl ErrorMeasure {
             ErrorMeasure::RelMse => "relmse",
         }
     }
+
+    /// The error reported for a mean squared (or relative squared) error per voxel:
+    /// its root (RMSE) for MSE, itself for relMSE.
+    pub fn of(self, mean_squared: f64) -> f64 {
+        match self {
+            ErrorMeasure::Mse => mean_squared.sqrt(),
+            ErrorMeasure::RelMse => mean_squared,
+        }
+    }
 }
 
 /// What the user asks of adaptive sampling.
@@ -356,7 +365,8 @@ pub struct ErrorTally<'a, S> {
     settings: &'a RenderSettings,
     measure: ErrorMeasure,
     width: usize,
-    rows: Mutex<Vec<f64>>,
+    /// Each row's summed error (0 until it arrives) and how many rows arrived.
+    rows: Mutex<(Vec<f64>, usize)>,
 }
 
 impl<'a, S: RowSink> ErrorTally<'a, S> {
@@ -372,8 +382,23 @@ impl<'a, S: RowSink> ErrorTally<'a, S> {
             settings,
             measure,
             width,
-            rows: Mutex::new(vec![0.0; height]),
+            rows: Mutex::new((vec![0.0; height], 0)),
         }
+    }
+
+    /// The error estimated from the rows arrived so far (`voxels_per_row`: W T C), as
+    /// if the rest of the volume were like them; `None` before the first row. For a
+    /// progress display: rows arrive in no fixed order.
+    pub fn so_far(&self, voxels_per_row: f64) -> Option<f64> {
+        let rows = self
+            .rows
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        let (sums, done) = &*rows;
+        (*done > 0).then(|| {
+            self.measure
+                .of(sums.iter().sum::<f64>() / (voxels_per_row * *done as f64))
+        })
     }
 
     /// The estimated error of the whole volume of `voxels` (H W T C): the RMSE for
@@ -383,11 +408,7 @@ impl<'a, S: RowSink> ErrorTally<'a, S> {
             .rows
             .lock()
             .unwrap_or_else(std::sync::PoisonError::into_inner);
-        let sum: f64 = rows.iter().sum();
-        match self.measure {
-            ErrorMeasure::Mse => (sum / voxels).sqrt(),
-            ErrorMeasure::RelMse => sum / voxels,
-        }
+        self.measure.of(rows.0.iter().sum::<f64>() / voxels)
     }
 }
 
@@ -407,9 +428,13 @@ impl<S: RowSink> RowSink for ErrorTally<'_, S> {
                 self.measure,
             ) / n;
         }
-        self.rows
+        let mut rows = self
+            .rows
             .lock()
-            .unwrap_or_else(std::sync::PoisonError::into_inner)[row.y] = sum;
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        rows.0[row.y] = sum;
+        rows.1 += 1;
+        drop(rows);
         self.inner.put_row(row)
     }
 }
@@ -446,11 +471,7 @@ pub fn predict(m: &PilotMeasure, w: &[f64], o: &AdaptiveOptions, voxels: f64) ->
         err += v / f64::from(k);
         rays += c * f64::from(k);
     }
-    let err = match o.measure {
-        ErrorMeasure::Mse => (err / voxels).sqrt(),
-        ErrorMeasure::RelMse => err / voxels,
-    };
-    (err, rays)
+    (o.measure.of(err / voxels), rays)
 }
 
 /// What decides the mean spp when the user asks for a time or an error instead.
