@@ -86,6 +86,8 @@ const CASES: &[Case] = &[
     (&[S, "n\nl.xml", "--shards", "2", "--out", "o", "--", "--spp", "8"], Ours, "(no control characters or line breaks)"),
     (&[S, "s\r.xml", "--shards", "2", "--out", "o", "--", "--spp", "8"], Ours, "the character '\\r'"),
     (slurm!("--out", "o", "--", "--spp", "8", "-D", "a=b\nc"), Ours, "the render option"),
+    (slurm!("--out", "o", "--", "--spp", "8", "--target-error", "0.01"), Ours, "--target-error is an adaptive sampling option: not without --adaptive"),
+    (slurm!("--out", "o", "--", "--spp", "8", "--adaptive", "--time-budget", "5m"), Ours, "not with --shard"),
     (slurm!("--out", "o", "--", "--spp", "8", "-a", "t\nx"), Ours, "the character '\\n'"),
     (k8s!("--out=a\nb", "--", "--spp", "8"), Ours, "the character '\\n' cannot go into the recipes"),
     (k8s!("--out", "o", "--binary", "ts tat", "--", "--spp", "8"), Ours, "--binary ts tat: empty, or holds whitespace"),

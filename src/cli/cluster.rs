@@ -188,6 +188,10 @@ fn plan(c: &Common, binary: String, max_shards: u64, directive: bool) -> anyhow:
     if let Some(s) = &r.max_memory {
         size_flag("--max-memory", s)?;
     }
+    if !r.adaptive {
+        r.adaptive_args.refuse_when_off("without --adaptive")?;
+    }
+    r.adaptive_args.goal(true)?;
     // The paths: absolute (the tasks run elsewhere) and fit for the recipes.
     let absolute = |p: &Path, what: &str| {
         std::path::absolute(p)

@@ -152,16 +152,22 @@ fn voxel_estimate(s: &SumsView, voxel: usize, c: usize) -> (f64, f64, f64) {
         let e = estimate_replicates(s.x1[k], r2[k], s.nonzero[voxel], spp, b, s.z0);
         return (s.sum[k] / spp as f64, e.theta - s.z0, e.v);
     }
-    let e = estimate(
-        Sums {
-            x1: s.x1[k],
-            x2: s.x2[k],
-            x3: s.x3[k],
-        },
-        s.nonzero[voxel],
-        spp,
-        s.z0,
-    );
+    let sums = Sums {
+        x1: s.x1[k],
+        x2: s.x2[k],
+        x3: s.x3[k],
+    };
+    // A voxel no sample reached (most of them at low spp) is the estimate of zero
+    // sums: mean 0, theta - z0 = 0, V = 0; the same bits `estimate` gives.
+    if s.nonzero[voxel] == 0
+        && sums.x1 == 0.0
+        && sums.x2 == 0.0
+        && sums.x3 == 0.0
+        && s.sum[k] == 0.0
+    {
+        return (0.0, 0.0, 0.0);
+    }
+    let e = estimate(sums, s.nonzero[voxel], spp, s.z0);
     (s.sum[k] / spp as f64, e.theta - s.z0, e.v)
 }
 
@@ -300,17 +306,20 @@ impl Estimates {
     pub fn push_rows(&mut self, s: &SumsView) {
         let t_bins = s.bins;
         let per_pixel = CHANNELS * t_bins;
-        let start = self.mean.len();
         let len = s.height * s.width * per_pixel;
         for a in [&mut self.mean, &mut self.theta, &mut self.v] {
-            a.resize(start + len, 0.0);
+            a.reserve(len);
         }
         let (to_mean, to_theta) = (pow2(-self.scale.mean), pow2(-self.scale.theta));
         let to_v = to_theta * to_theta;
-        self.mean[start..]
-            .par_chunks_mut(per_pixel)
-            .zip(self.theta[start..].par_chunks_mut(per_pixel))
-            .zip(self.v[start..].par_chunks_mut(per_pixel))
+        // Written straight into the spare capacity by the workers (no serial zero-fill:
+        // the first touch of the new pages is spread over the threads).
+        let mean = &mut self.mean.spare_capacity_mut()[..len];
+        let theta = &mut self.theta.spare_capacity_mut()[..len];
+        let v = &mut self.v.spare_capacity_mut()[..len];
+        mean.par_chunks_mut(per_pixel)
+            .zip(theta.par_chunks_mut(per_pixel))
+            .zip(v.par_chunks_mut(per_pixel))
             .enumerate()
             .for_each(|(p, ((mean, theta), v))| {
                 for t in 0..t_bins {
@@ -318,12 +327,67 @@ impl Estimates {
                     for c in 0..CHANNELS {
                         let (m, th, var) = voxel_estimate(s, voxel, c);
                         let o = c * t_bins + t;
-                        mean[o] = (m * to_mean) as f32;
-                        theta[o] = (th * to_theta) as f32;
-                        v[o] = (var * to_v) as f32;
+                        mean[o].write((m * to_mean) as f32);
+                        theta[o].write((th * to_theta) as f32);
+                        v[o].write((var * to_v) as f32);
                     }
                 }
             });
+        for a in [&mut self.mean, &mut self.theta, &mut self.v] {
+            // SAFETY: the loop above wrote every one of the `len` slots: `per_pixel`
+            // values (each (t, c) once) for each of the `len / per_pixel` pixels.
+            unsafe { a.set_len(a.len() + len) };
+        }
         self.rows.end += s.height;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The shortcut for voxels no sample reached gives the bits `estimate` gives for
+    /// zero sums, under the identity and under transforms with z(0) of either sign.
+    #[test]
+    fn an_empty_voxel_is_the_estimate_of_zero_sums() {
+        let zeros = [0.0f64; CHANNELS];
+        for z0 in [0.0, -0.0, 0.75, -1.25] {
+            for n in [2u64, 3, 64, 1 << 20] {
+                let view = SumsView {
+                    height: 1,
+                    width: 1,
+                    bins: 1,
+                    bin_width: 1.0,
+                    spp: n,
+                    stratified: false,
+                    image_rows: 1,
+                    z0,
+                    x1: &zeros,
+                    x2: &zeros,
+                    x3: &zeros,
+                    sum: &zeros,
+                    nonzero: &[0],
+                    replicates: None,
+                    pixel_spp: None,
+                };
+                let e = estimate(
+                    Sums {
+                        x1: 0.0,
+                        x2: 0.0,
+                        x3: 0.0,
+                    },
+                    0,
+                    n,
+                    z0,
+                );
+                let want = (0.0 / n as f64, e.theta - z0, e.v);
+                let got = voxel_estimate(&view, 0, 0);
+                assert_eq!(
+                    [got.0.to_bits(), got.1.to_bits(), got.2.to_bits()],
+                    [want.0.to_bits(), want.1.to_bits(), want.2.to_bits()],
+                    "z0 {z0}, n {n}"
+                );
+            }
+        }
     }
 }
