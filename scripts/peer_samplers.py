@@ -12,9 +12,12 @@ samplers, on one scene, against one reference bundle.
   about 0.15 s to the first timed render of each spp before 2026-12-07, so the speed-ups
   published before then flatter tstat), then each render is timed from
   `integrator.render` until its images are evaluated.
-- tstat renders the same scene file with `--sampler sobol` and `stratified`, each noisy
-  (`tstat export`) and denoised (`tstat denoise`, its default method); its time is the
-  manifest's render_seconds plus the denoiser's own seconds.
+- tstat renders the same scene file in each of `--modes`: `sobol`, `stratified`,
+  `adaptive` (`--sampler sobol --adaptive`, minimising the all-voxel MSE) and
+  `adaptive_rel` (the same minimising relMSE), each noisy (`tstat export`) and denoised
+  (`tstat denoise`, its default method); its time is the manifest's render_seconds (plus
+  the pilot's seconds for adaptive renders) plus the denoiser's own seconds (reading the
+  bundle and writing the volume included).
 - Errors: RMSE over all voxels, the pixels that see the light (the reference's emitter
   G-buffer > 0) and the rest, against the reference's mean, with the reference's own
   variance of the mean (from its X1, X2: use an independent-sampling reference)
@@ -90,7 +93,8 @@ def main():
     ap.add_argument("--tstat-extra", default="4,8",
                     help="extra (lower) spp for tstat's curves, so that equal errors are interpolated")
     ap.add_argument("--modes", default="sobol,stratified",
-                    help="tstat pipelines: sobol, stratified, adaptive (sobol with --adaptive)")
+                    help="tstat pipelines: sobol, stratified, adaptive (sobol with --adaptive), "
+                         "adaptive_rel (the same minimising relMSE)")
     ap.add_argument("--mi-samplers", default=",".join(MI_SAMPLERS),
                     help="mitransient samplers to time (default: all five)")
     ap.add_argument("--out")
@@ -136,7 +140,10 @@ def main():
     film = ["-D", f"res={res}", "-D", f"temporal_bins={bins}", "-D", f"bin_width_opl={width}"]
     tstat_spps = sorted(set(spps) | {int(x) for x in a.tstat_extra.split(",") if x})
     for mode in a.modes.split(","):
-        flags = ["--sampler", "sobol", "--adaptive"] if mode == "adaptive" else ["--sampler", mode]
+        # adaptive: allocation for the all-voxel MSE (the default); adaptive_rel: for relMSE.
+        flags = {"adaptive": ["--sampler", "sobol", "--adaptive"],
+                 "adaptive_rel": ["--sampler", "sobol", "--adaptive", "--adaptive-measure", "relmse"]
+                 }.get(mode, ["--sampler", mode])
         for spp in tstat_spps:
             for seed in range(1, a.seeds + 1):
                 b = os.path.join(tmp, "t.tstats")
@@ -187,8 +194,8 @@ def main():
             return f">{t_mi / pts[0][0]:.2f}x"
         return f"<{t_mi / pts[-1][0]:.2f}x"
 
-    for tst in ["tstat adaptive denoised", "tstat adaptive noisy", "tstat sobol denoised", "tstat sobol noisy",
-                "tstat stratified denoised"]:
+    for tst in ["tstat adaptive denoised", "tstat adaptive_rel denoised", "tstat adaptive noisy",
+                "tstat sobol denoised", "tstat sobol noisy", "tstat stratified denoised"]:
         if tst not in curves:
             continue
         # "best": the lower of the speed-ups over ldsampler and multijitter (mitransient at

@@ -347,7 +347,7 @@ pub fn run(a: DenoiseArgs) -> anyhow::Result<()> {
     }
     let result = stats.expect("denoised");
     say!(
-        "denoised {} -> {} in {:.2} s (filter {:.2} s: {:.0} M voxel-neighbour evaluations/s){}",
+        "denoised {} -> {} in {:.3} s (filter {:.3} s: {:.0} M voxel-neighbour evaluations/s){}",
         a.bundle.display(),
         a.out.display(),
         result.seconds,
