@@ -319,6 +319,29 @@ fn the_bundle_holds_the_counts_and_every_reader_divides_by_them() {
     assert!(tstat(&["view", &p("a.tstats"), "--out", &p("a.html")])
         .status
         .success());
+    // The page's band takes each pixel's own degrees of freedom, n_i - 1.
+    let page = std::fs::read_to_string(d.join("a.html")).unwrap();
+    let start = page
+        .find(r#"<script id="data" type="application/json">"#)
+        .expect("data block");
+    let body = &page[start..];
+    let body = &body[body.find('>').unwrap() + 1..body.find("</script>").unwrap()];
+    let data: serde_json::Value = serde_json::from_str(body).unwrap();
+    let tq: Vec<f64> = data["t_quantiles"]
+        .as_array()
+        .expect("an adaptive page has t_quantiles")
+        .iter()
+        .map(|v| v.as_f64().unwrap())
+        .collect();
+    assert_eq!(tq.len(), 144);
+    for (&t, &k) in tq.iter().zip(n.iter()) {
+        let want = tstat::denoise::critical::student_t_quantile(0.975, f64::from(k) - 1.0);
+        assert!(
+            (t - want).abs() <= 5e-5,
+            "{t} against {want} at {k} samples"
+        );
+    }
+    assert_eq!(data["dof"], *n.iter().min().unwrap() - 1);
     // merge with a uniform render: the counts add, the steady image is weighted by them.
     render(&p("u.tstats"), &["--seed", "2"]);
     let r = tstat(&[

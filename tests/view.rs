@@ -92,6 +92,10 @@ fn the_page_is_self_contained_and_fits_its_budget() {
     );
     // The band's quantile: t_{0.975} at spp - 1 = 3 degrees of freedom is 3.182.
     assert!((d["t_quantile"].as_f64().unwrap() - 3.182).abs() < 1e-3);
+    assert!(
+        d["t_quantiles"].is_null(),
+        "a uniform render has one quantile"
+    );
     // Each volume: H W T C f16 values in base64.
     for v in d["volumes"].as_array().unwrap() {
         assert_eq!(

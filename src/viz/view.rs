@@ -160,6 +160,28 @@ impl MeanRows {
     }
 }
 
+/// Per shown pixel (a k x k block of the film, row-major), Student's t 0.975 quantile
+/// at the fewest samples `n` of the block's pixels, `n - 1` degrees of freedom (4
+/// decimals, as the page shows them).
+fn block_quantiles(counts: &[u32], h: usize, w: usize, k: usize) -> Vec<f64> {
+    let (ph, pw) = (h.div_ceil(k), w.div_ceil(k));
+    let mut fewest = vec![u32::MAX; ph * pw];
+    for (p, &n) in counts.iter().enumerate() {
+        let b = (p / w / k) * pw + (p % w) / k;
+        fewest[b] = fewest[b].min(n);
+    }
+    let mut known = std::collections::HashMap::new();
+    fewest
+        .iter()
+        .map(|&n| {
+            *known.entry(n).or_insert_with(|| {
+                let t = student_t_quantile(0.975, f64::from(n) - 1.0);
+                (t * 1e4).round() / 1e4
+            })
+        })
+        .collect()
+}
+
 /// Block averages of a volume (H, W, T, C) built row by row: k x k pixel blocks (the
 /// last ones may be smaller). For standard deviations of pixel means (`sd`), the
 /// block mean's is sqrt(sum sd^2) / count.
@@ -381,13 +403,19 @@ pub fn build_page(
     };
     let depth = flat2(bundle.depth()?);
     let emitter = flat2(bundle.emitter()?);
-    // The band's quantile: Student's t at the statistics' degrees of freedom (of the
-    // pixel with the fewest samples, for an adaptive render: the widest band).
+    // The band's quantile: Student's t at the statistics' degrees of freedom. An
+    // adaptive render without replicates has a count per pixel: each shown pixel (a
+    // block of k x k) gets the quantile of its fewest samples (`t_quantiles`), and
+    // `dof` is the smallest.
     let dof = match m.replicates {
         Some(b) => b - 1,
         None => bundle.min_samples() - 1,
     };
     let tq = student_t_quantile(0.975, dof as f64);
+    let t_quantiles = match (&bundle.pixel_spp, m.replicates) {
+        (Some(counts), None) => Some(block_quantiles(counts, h, w, k)),
+        _ => None,
+    };
     let correlated = m.replicates.is_none()
         && m.pixel_sampling != crate::bundle::manifest::SamplingRecord::Independent;
     let data = json!({
@@ -400,6 +428,7 @@ pub fn build_page(
         "time_zero": m.time_zero(),
         "start_ps": m.start_seconds * 1e12, "bin_ps": m.bin_width_seconds * 1e12,
         "t_quantile": tq, "dof": dof, "correlated": correlated,
+        "t_quantiles": t_quantiles,
         "membership": {"radius": shown.radius, "t2_max": shown.t2_max, "depth_align": shown.depth_align},
         "volumes": vols,
         "albedo": encode_f32(albedo.iter().copied()),
