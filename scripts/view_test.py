@@ -9,8 +9,10 @@ package only: the test uses the system's /usr/bin/chromium, so no browser downlo
 
 It renders cbox (64x64, 150 bins of 0.08 OPL, 16 spp), denoises it, and writes a page
 with the denoised volume and a reference (a 1024-spp render); a second page from a
-bundle rendered with `--transform box-cox:0.5` (no band) and a third with a tiny
-`--max-bytes` (block-averaged). For each page it checks, in the browser:
+bundle rendered with `--transform box-cox:0.5` (no band), a third with a tiny
+`--max-bytes` (block-averaged), and two of an adaptive render (whole and
+block-averaged; the notes must say the band uses each pixel's own count). For each
+page it checks, in the browser:
 
 - no console errors or page errors while loading and interacting;
 - the page opens still (the play button says "play", the slider at bin 0);
@@ -124,6 +126,15 @@ def check_page(browser, path, expect_band, shots=None):
     return failures
 
 
+def check_notes(browser, path, want):
+    page = browser.new_page()
+    page.goto("file://" + path)
+    page.wait_for_load_state("load")
+    text = page.inner_text("#notes")
+    page.close()
+    return [] if want in text else [f"{os.path.basename(path)}: the notes lack {want!r}: {text}"]
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--out", default=os.path.join(ROOT, "docs", "view"))
@@ -142,12 +153,20 @@ def main():
         run("render", SCENE, *FILM, "--spp", "16", "--transform", "box-cox:0.5", "--out", p("bc.tstats"))
         print(run("view", p("bc.tstats"), "--out", p("boxcox.html")).strip())
         print(run("view", p("b.tstats"), "--max-bytes", "2M", "--out", p("small.html")).strip())
+        # An adaptive bundle: the band takes each pixel's own degrees of freedom, whole
+        # and block-averaged.
+        run("render", SCENE, *FILM, "--spp", "16", "--adaptive", "--seed", "3", "--out", p("ad.tstats"))
+        print(run("view", p("ad.tstats"), "--out", p("adaptive.html")).strip())
+        print(run("view", p("ad.tstats"), "--max-bytes", "2M", "--out", p("adaptive_small.html")).strip())
         failures = []
         with sync_playwright() as pw:
             browser = pw.chromium.launch(executable_path=a.chromium, args=["--no-sandbox"])
             failures += check_page(browser, p("full.html"), True, shots=a.out)
             failures += check_page(browser, p("boxcox.html"), False)
             failures += check_page(browser, p("small.html"), True)
+            for name in ("adaptive.html", "adaptive_small.html"):
+                failures += check_page(browser, p(name), True)
+                failures += check_notes(browser, p(name), "each pixel's own n samples")
             browser.close()
     for f in failures:
         print("FAIL:", f)
