@@ -103,6 +103,7 @@ fn bench_denoise(c: &mut Criterion) {
             temporal_radius: 1,
             base,
             membership,
+            zero_border: false,
         };
         group.bench_function(name, |b| {
             b.iter(|| filter(&est, &features, &params, Tiling::default(), &|_| {}))

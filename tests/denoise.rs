@@ -27,7 +27,7 @@ use tstat::denoise::gbuffers::GBuffers;
 use tstat::denoise::membership::passes;
 use tstat::denoise::pair_dof::{welch_satterthwaite, PairDof};
 use tstat::denoise::slab::{self, denoise_bundle_to_npy, denoise_slabs, Dims, SlabPlan};
-use tstat::denoise::{denoise_sums, DenoiseParams, LoadedSums, Method};
+use tstat::denoise::{denoise_sums, Border, DenoiseParams, LoadedSums, Method, Variance};
 use tstat::math::rng::Pcg32;
 use tstat::stats::Transform;
 
@@ -630,6 +630,7 @@ fn fast_filter_matches_reference_on_random_bundles() {
                         sigmas: case.sigmas,
                     },
                     membership: welch(g2),
+                    zero_border: false,
                 };
                 let what = format!(
                     "case {n} ({}x{}x{}, spp {}, r {}, r_t {}), {kind:?}, g2 {g2:?}",
@@ -701,6 +702,7 @@ fn published_test_takes_each_pairs_degrees_of_freedom_on_replicates() {
             g2: Threshold::Alpha(0.05).g2(b_reps),
             alpha,
         }),
+        zero_border: false,
     };
     let per_pair = reference_filter(&est, &features, &params(Some(alpha)));
     let fixed = reference_filter(&est, &features, &params(None));
@@ -768,6 +770,7 @@ fn single_voxel_in_one_channel_matches_reference() {
                             sigmas: Sigmas::default(),
                         },
                         membership: welch(g2),
+                        zero_border: false,
                     };
                     let what = format!("({y},{x},{k}) c {c} certain {certain} {g2:?}");
                     let reference = reference_filter(&est, &b.features(), &p);
@@ -804,6 +807,7 @@ fn all_zero_volume_stays_zero() {
                 sigmas: Sigmas::default(),
             },
             membership: welch(g2),
+            zero_border: false,
         };
         let out = run_filter(&est, &b.features(), &p, Tiling::default());
         assert!(out.iter().all(|&v| v.to_bits() == 0), "{g2:?}");
@@ -920,6 +924,8 @@ fn denoise_sums_is_the_filter_in_hwtc_layout() {
                 cols: 4,
                 bins: 5,
             },
+            variance: Variance::Unbiased,
+            border: Border::Clip,
         };
         let done = AtomicU64::new(0);
         let d = denoise_sums(&b.view(), &b.features(), &params, &|k| {
@@ -934,6 +940,7 @@ fn denoise_sums_is_the_filter_in_hwtc_layout() {
                 sigmas: Sigmas::default(),
             },
             membership: welch(g2),
+            zero_border: false,
         };
         let planar = run_filter(&est, &b.features(), &fp, Tiling::default());
         assert_eq!(d.volume.shape(), &[b.h, b.w, b.t, C]);
@@ -959,6 +966,7 @@ fn filter_averages_radiance_whatever_the_transform() {
             sigmas: Sigmas::default(),
         },
         membership: Membership::BaseOnly,
+        zero_border: false,
     };
     let oa = run_filter(&a.estimates(), &a.features(), &p, Tiling::default());
     let ob = run_filter(&b.estimates(), &b.features(), &p, Tiling::default());
@@ -1077,6 +1085,7 @@ fn noise_free_volume_comes_back_unchanged() {
                         sigmas: Sigmas::default(),
                     },
                     membership: Membership::Published(Welch { g2, alpha: None }),
+                    zero_border: false,
                 };
                 for tiling in [TILINGS[0], TILINGS[3]] {
                     let out = run_filter(&est, &b.features(), &p, tiling);
@@ -1165,6 +1174,7 @@ fn step_edge_does_not_leak() {
                 g2: Threshold::Gamma(0.1).g2(spp),
                 alpha: None,
             }),
+            zero_border: false,
         };
         let out = run_filter(&est, &b.features(), &p, Tiling::default());
         let e = edge_error(&out);
@@ -1277,6 +1287,7 @@ fn isolated_outlier_is_kept() {
                 g2: 4.0,
                 alpha: None,
             }),
+            zero_border: false,
         };
         let out = run_filter(&est, &b.features(), &p, Tiling::default());
         // Every neighbour fails the test, so only the centre counts: out = mean exactly.
@@ -1344,6 +1355,7 @@ fn mirrored_inputs_give_mirrored_outputs() {
                 g2: 4.0,
                 alpha: None,
             }),
+            zero_border: false,
         };
         let out = run_filter(&est, &b.features(), &p, TILINGS[1]);
         for (name, map, flip) in &maps {
@@ -2071,5 +2083,91 @@ fn slabs_give_the_whole_volume_output_on_real_renders() {
                 );
             }
         }
+    }
+}
+
+/// `--method published` with the official call's flags (docs/denoiser.md, "The
+/// published code's call") reproduces the published method's own code (`StatDenoiser`,
+/// run with torch on the same bundle's statistics by
+/// `scripts/make_published_fixture.py`) to f32 rounding, for the example notebook's
+/// call (r 10, r_t 1, alpha 0.1: a window wider than the 12 x 12 film, so the zero
+/// borders weigh in everywhere) and for r 2, r_t 2, alpha 0.05. Either convention left
+/// at tstat's default misses by at least 10x the tolerance: the unbiased variance in both
+/// calls (2.6e-2 at r 10, 5.4e-2 at r 2), clipped borders at r 10 (3.5e-4; at r 2 the
+/// padded neighbours' weight is negligible, 1.4e-5).
+#[test]
+fn the_published_call_reproduces_the_official_code() {
+    let data =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/published_official");
+    let bundle = data.join("bundle.tstats");
+    let dir = tempfile::tempdir().unwrap();
+    let (h, w, t) = (12.0f64, 12.0f64, 16.0f64);
+    for (r, rt, alpha) in [(10u32, 1u32, "0.1"), (2, 2, "0.05")] {
+        let want: ndarray::Array4<f32> =
+            ndarray_npy::read_npy(data.join(format!("official_r{r}_rt{rt}_a{alpha}.npy"))).unwrap();
+        let (rf, rtf) = (f64::from(r), f64::from(rt));
+        // The code's guidance: positions spaced size / (r (size - 1)) apart, weighted
+        // by 0.3; albedo by 50, normals by 10 (exp(-0.5 sum sigma_inv d^2)).
+        let sigma_xy = rf * (w - 1.0) / (w * 0.3f64.sqrt());
+        assert_eq!(h, w, "square film: x and y spaced alike");
+        let sigma_t = rtf * (t - 1.0) / (t * 0.3f64.sqrt());
+        let run = |extra: &[&str]| -> f64 {
+            let out = dir.path().join("d.npy");
+            let mut args: Vec<String> = [
+                "denoise",
+                bundle.to_str().unwrap(),
+                "--out",
+                out.to_str().unwrap(),
+                "--force",
+                "--method",
+                "published",
+                "--alpha",
+                alpha,
+            ]
+            .iter()
+            .map(|s| s.to_string())
+            .collect();
+            args.extend([
+                "--radius".into(),
+                r.to_string(),
+                "--temporal-radius".into(),
+                rt.to_string(),
+                "--sigma-xy".into(),
+                format!("{sigma_xy:e}"),
+                "--sigma-t".into(),
+                format!("{sigma_t:e}"),
+                "--sigma-albedo".into(),
+                format!("{:e}", 1.0 / 50f64.sqrt()),
+                "--sigma-normal".into(),
+                format!("{:e}", 1.0 / 10f64.sqrt()),
+            ]);
+            args.extend(extra.iter().map(|s| s.to_string()));
+            let o = std::process::Command::new(env!("CARGO_BIN_EXE_tstat"))
+                .args(&args)
+                .output()
+                .unwrap();
+            assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+            let got: ndarray::Array4<f32> = ndarray_npy::read_npy(&out).unwrap();
+            assert_eq!(got.shape(), want.shape());
+            let (mut d2, mut n2) = (0.0f64, 0.0f64);
+            for (&g, &e) in got.iter().zip(want.iter()) {
+                d2 += (f64::from(g) - f64::from(e)).powi(2);
+                n2 += f64::from(e).powi(2);
+            }
+            (d2 / n2).sqrt()
+        };
+        let official = run(&["--variance", "biased", "--border", "zero"]);
+        assert!(official < 1e-5, "r {r}: relative L2 {official:e}");
+        let unbiased = run(&["--border", "zero"]);
+        let clipped = run(&["--variance", "biased"]);
+        assert!(
+            unbiased > 1e-4,
+            "r {r}: the variance matters ({unbiased:e})"
+        );
+        // The padded neighbours weigh in where the window passes the border by far.
+        assert!(
+            r < 10 || clipped > 1e-4,
+            "r {r}: the borders matter ({clipped:e})"
+        );
     }
 }

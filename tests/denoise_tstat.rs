@@ -9,6 +9,7 @@ use tstat::denoise::estimates::{Estimates, Scale};
 use tstat::denoise::filter::{filter, FilterParams, Membership, Tiling, Welch};
 use tstat::denoise::pair_dof::PairDof;
 use tstat::denoise::tstat::TstatParams;
+use tstat::denoise::Variance;
 use tstat::math::rng::Pcg32;
 
 const C: usize = 3;
@@ -52,6 +53,8 @@ impl Volume {
                 image_rows: h,
                 rows: 0..h,
                 scale: Scale::UNIT,
+                z0: 0.0,
+                variance: Variance::Unbiased,
                 mean: vec![0.0; n],
                 theta: vec![0.0; n],
                 v: vec![0.0; n],
@@ -305,6 +308,7 @@ fn params(r: usize, rt: usize, kind: BaseKind, tp: TstatParams) -> FilterParams 
             },
         },
         membership: Membership::Tstat(tp),
+        zero_border: false,
     }
 }
 

@@ -122,6 +122,9 @@ const CASES: &[Case] = &[
     (&["denoise", "b.tstats", "--out", "b.tstats/x.npy"], Ours, "is inside the input bundle b.tstats"),
     // The denoiser's memory budget: a size, and at least one row and its halo.
     (&["denoise", "b.tstats", "--out", "d.npy", "--max-memory", "-1G"], Ours, "--max-memory -1G: not a size"),
+    (&["denoise", "b.tstats", "--out", "d.npy", "--variance", "biased"], Ours, "--variance biased is the published code's convention: only with --method published"),
+    (&["denoise", "b.tstats", "--out", "d.npy", "--border", "zero", "--no-membership"], Ours, "--border zero is the published code's convention: only with --method published"),
+    (&["denoise", "b.tstats", "--out", "d.npy", "--border", "mirror"], Usage, "--border"),
     (&["denoise", "b.tstats", "--out", "d.npy", "--max-memory", "1k"], Ours, "--max-memory 1k: denoising"),
     // The denoiser's membership settings.
     (&["denoise", "b.tstats", "--out", "d.npy", "--t2-max", "-1"], Ours, "--t2-max -1: must be a positive number"),

@@ -8,7 +8,7 @@ use crate::denoise::base_filter::{BaseKind, Sigmas};
 use crate::denoise::critical::Threshold;
 use crate::denoise::slab::{denoise_bundle_to_npy, halo, Dims, SlabPlan, DEFAULT_BUDGET};
 use crate::denoise::tstat::TstatParams;
-use crate::denoise::{memory_bytes, DenoiseParams, Method};
+use crate::denoise::{memory_bytes, Border, DenoiseParams, Method, Variance};
 use crate::stats::accumulators::CHANNELS;
 use anyhow::{bail, ensure};
 use clap::{Args, ValueEnum};
@@ -22,6 +22,18 @@ pub enum BaseArg {
     Jbf,
     /// Pixel and bin offsets only.
     Gaussian,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum VarianceArg {
+    Unbiased,
+    Biased,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum BorderArg {
+    Clip,
+    Zero,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -70,6 +82,14 @@ pub struct FilterArgs {
     /// Run the base filter alone (no membership test).
     #[arg(long, conflicts_with_all = ["gamma", "alpha", "t2_max", "t2_patch", "emitter_radius", "no_depth_align", "depth_align"])]
     pub no_membership: bool,
+    /// Published: the estimates' variance. unbiased (SPEC 5, the default) or biased, the
+    /// published code's (X2 / n - mu^2 in the skewness term and in V; docs/denoiser.md).
+    #[arg(long, value_enum, default_value = "unbiased")]
+    pub variance: VarianceArg,
+    /// Published: beyond the volume's borders. clip (SPEC 8, the default) or zero, the
+    /// published code's zero padding of radiance, estimands, variances and guidance.
+    #[arg(long, value_enum, default_value = "clip")]
+    pub border: BorderArg,
     #[command(flatten)]
     pub base: BaseFilterArgs,
 }
@@ -132,6 +152,17 @@ impl FilterArgs {
         }
     }
 
+    /// Refuses what the bundle cannot give: the published code's biased variance is
+    /// of i.i.d. sums, not of replicates.
+    pub fn check_bundle(&self, m: &crate::bundle::Manifest) -> anyhow::Result<()> {
+        ensure!(
+            self.variance == VarianceArg::Unbiased || m.replicates.is_none(),
+            "--variance biased: the published code's convention for i.i.d. samples; this bundle's V comes from its {} replicates",
+            m.replicates.unwrap_or(0)
+        );
+        Ok(())
+    }
+
     pub fn params(&self) -> anyhow::Result<DenoiseParams> {
         if let Some(r) = self.radius {
             ensure!(r >= 0, "--radius {r}: must be >= 0");
@@ -190,6 +221,14 @@ impl FilterArgs {
             radius: self.radius.map_or(method.default_radius(), |r| r as usize),
             temporal_radius: self.temporal_radius as usize,
             method,
+            variance: match self.variance {
+                VarianceArg::Unbiased => Variance::Unbiased,
+                VarianceArg::Biased => Variance::Biased,
+            },
+            border: match self.border {
+                BorderArg::Clip => Border::Clip,
+                BorderArg::Zero => Border::Zero,
+            },
             ..self.base.params()?
         };
         p.validate()?;
@@ -284,6 +323,7 @@ pub fn run(a: DenoiseArgs) -> anyhow::Result<()> {
     let m = &bundle.manifest;
     params.base = a.filter.base.kind(m.media);
     a.filter.adapt(&mut params, m);
+    a.filter.check_bundle(m)?;
     if m.nlos.is_some() {
         eprintln!(
             "an NLOS capture: spatial radius {}, bins {}aligned by camera depth (docs/nlos.md)",

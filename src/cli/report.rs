@@ -448,6 +448,10 @@ fn run_conv(a: ConvergenceArgs) -> anyhow::Result<()> {
         .parse()
         .map_err(|e| anyhow!("--transform: {e}"))?;
     let overrides = a.scene_args.overrides(None)?;
+    anyhow::ensure!(
+        a.scene_args.replicates < 2 || a.filter.variance == super::denoise::VarianceArg::Unbiased,
+        "--variance biased: the published code's convention for i.i.d. samples; with --replicates V comes from the replicates"
+    );
     let cfg = ConvergenceConfig {
         scene: a.scene.clone(),
         overrides,

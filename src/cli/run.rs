@@ -254,6 +254,7 @@ fn job(
     let noisy = bundle.noisy_mean()?;
     let mut params = *params;
     a.filter.adapt(&mut params, &bundle.manifest);
+    a.filter.check_bundle(&bundle.manifest)?;
     let den = with_threads(o.threads, || denoise_bundle(&bundle, &params, &|_| {}))??;
     eprintln!("denoised in {:.2} s", den.seconds);
     ndarray_npy::write_npy(dir.join("noisy.npy"), &noisy)?;

@@ -23,8 +23,9 @@
 //! 300). A slab of the image holds only its rows (see `slab.rs`): [`Estimates::rows`]
 //! says which, and pixel indices stay those of the whole image.
 
+use super::conventions::Variance;
 use crate::stats::accumulators::CHANNELS;
-use crate::stats::estimators::{estimate, estimate_replicates, Sums};
+use crate::stats::estimators::{estimate, estimate_biased, estimate_replicates, Sums};
 use rayon::prelude::*;
 use std::ops::Range;
 
@@ -50,6 +51,10 @@ pub struct Estimates {
     pub rows: Range<usize>,
     /// The powers of two `mean`, `theta` and `v` are stored in.
     pub scale: Scale,
+    /// z(0) of the transform (`theta` is stored as `theta - z(0)`).
+    pub z0: f64,
+    /// Which variance the estimates use (set before rows are pushed).
+    pub variance: Variance,
     pub mean: Vec<f32>,
     pub theta: Vec<f32>,
     pub v: Vec<f32>,
@@ -145,7 +150,7 @@ fn pow2(e: i32) -> f64 {
 
 /// One voxel-channel's `(S / n, theta - z(0), v)` in f64.
 #[inline]
-fn voxel_estimate(s: &SumsView, voxel: usize, c: usize) -> (f64, f64, f64) {
+fn voxel_estimate(s: &SumsView, voxel: usize, c: usize, biased: bool) -> (f64, f64, f64) {
     let k = voxel * CHANNELS + c;
     let spp = s.samples(voxel / s.bins);
     if let Some((b, r2)) = s.replicates {
@@ -167,7 +172,11 @@ fn voxel_estimate(s: &SumsView, voxel: usize, c: usize) -> (f64, f64, f64) {
     {
         return (0.0, 0.0, 0.0);
     }
-    let e = estimate(sums, s.nonzero[voxel], spp, s.z0);
+    let e = if biased {
+        estimate_biased(sums, s.nonzero[voxel], spp, s.z0)
+    } else {
+        estimate(sums, s.nonzero[voxel], spp, s.z0)
+    };
     (s.sum[k] / spp as f64, e.theta - s.z0, e.v)
 }
 
@@ -242,8 +251,14 @@ impl Estimates {
 
     /// The estimates of a whole volume.
     pub fn from_sums(s: &SumsView) -> Estimates {
+        Estimates::from_sums_as(s, Variance::Unbiased)
+    }
+
+    /// The estimates of a whole volume with the variance convention `variance`.
+    pub fn from_sums_as(s: &SumsView, variance: Variance) -> Estimates {
         let mut e = Estimates::empty(s.height, s, Scale::of(Magnitudes::scan(s)));
         e.pixel_spp = s.pixel_spp.map(Into::into);
+        e.variance = variance;
         e.push_rows(s);
         e
     }
@@ -271,6 +286,8 @@ impl Estimates {
             image_rows: s.image_rows,
             rows: 0..0,
             scale,
+            z0: s.z0,
+            variance: Variance::Unbiased,
             mean: Vec::new(),
             theta: Vec::new(),
             v: Vec::new(),
@@ -312,6 +329,7 @@ impl Estimates {
         }
         let (to_mean, to_theta) = (pow2(-self.scale.mean), pow2(-self.scale.theta));
         let to_v = to_theta * to_theta;
+        let biased = self.variance == Variance::Biased;
         // Written straight into the spare capacity by the workers (no serial zero-fill:
         // the first touch of the new pages is spread over the threads).
         let mean = &mut self.mean.spare_capacity_mut()[..len];
@@ -325,7 +343,7 @@ impl Estimates {
                 for t in 0..t_bins {
                     let voxel = p * t_bins + t;
                     for c in 0..CHANNELS {
-                        let (m, th, var) = voxel_estimate(s, voxel, c);
+                        let (m, th, var) = voxel_estimate(s, voxel, c, biased);
                         let o = c * t_bins + t;
                         mean[o].write((m * to_mean) as f32);
                         theta[o].write((th * to_theta) as f32);
@@ -381,7 +399,8 @@ mod tests {
                     z0,
                 );
                 let want = (0.0 / n as f64, e.theta - z0, e.v);
-                let got = voxel_estimate(&view, 0, 0);
+                let got = voxel_estimate(&view, 0, 0, false);
+                assert_eq!(got, voxel_estimate(&view, 0, 0, true));
                 assert_eq!(
                     [got.0.to_bits(), got.1.to_bits(), got.2.to_bits()],
                     [want.0.to_bits(), want.1.to_bits(), want.2.to_bits()],

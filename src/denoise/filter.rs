@@ -16,7 +16,7 @@
 //! from the volume, not the tile). Voxels whose whole neighbourhood is zero are
 //! skipped (they are zero).
 
-use super::base_filter::{BaseFilter, Features};
+use super::base_filter::{BaseFilter, BaseKind, Features};
 use super::estimates::Estimates;
 use super::membership::passes;
 use super::pair_dof::PairDof;
@@ -40,6 +40,8 @@ pub struct FilterParams {
     pub temporal_radius: usize,
     pub base: BaseFilter,
     pub membership: Membership,
+    /// Zeros beyond the borders (`conventions::Border::Zero`; published only).
+    pub zero_border: bool,
 }
 
 /// Tile shape: rows per band (the parallel unit), pixels per block, bins per range.
@@ -485,6 +487,9 @@ fn filter_pixel(
             evals += m as u64;
         }
     }
+    if s.params.zero_border {
+        zero_border(s, yj, xj, rt, a, &mut den[..n]);
+    }
     // The means were stored in units of 2^scale.mean (see `estimates.rs`).
     let unscale = e.scale.unscale_mean();
     for (c, num_c) in num.iter().enumerate() {
@@ -494,6 +499,58 @@ fn filter_pixel(
         }
     }
     evals
+}
+
+/// The published code's zero padding (`conventions::Border::Zero`) for output pixel
+/// (yj, xj) over bins `a..a + den.len()`: each of the window's voxels beyond the volume
+/// (space or time) has radiance 0, estimand z = 0, variance 0 and guidance 0, so it
+/// adds nothing to the numerator and, when the centre passes the test against it on
+/// every channel, the base weight between the centre and a voxel at the volume's
+/// centre with black albedo and no normal to the denominator.
+fn zero_border(s: &Shared, yj: usize, xj: usize, rt: i64, a: i64, den: &mut [f32]) {
+    let e = s.e;
+    let (r, t_bins) = (s.params.radius as i64, e.bins as i64);
+    let inside = |c: i64, len: i64| (c - r).max(0).min(len)..(c + r + 1).min(len);
+    let ys = inside(yj as i64, e.height as i64);
+    let xs = inside(xj as i64, e.width as i64);
+    let in_image = ys.end.saturating_sub(ys.start) * xs.end.saturating_sub(xs.start);
+    let window = (2 * r + 1) * (2 * r + 1) * (2 * rt + 1);
+    let g2 = match s.params.membership {
+        Membership::Published(w) => w.g2 as f32,
+        _ => unreachable!("zero borders are the published method's (validated)"),
+    };
+    // The padded voxel's guidance and estimand.
+    let sig = &s.params.base.sigmas;
+    let (cy, cx) = ((e.height as f64 - 1.0) / 2.0, (e.width as f64 - 1.0) / 2.0);
+    let (dy, dx) = (yj as f64 - cy, xj as f64 - cx);
+    let mut pixel = (dx * dx + dy * dy) / (sig.xy * sig.xy);
+    if s.params.base.kind == BaseKind::Jbf {
+        let j = yj * e.width + xj;
+        let f = s.features;
+        let sq = |v: &[f32]| (0..3).map(|c| f64::from(v[j * 3 + c]).powi(2)).sum::<f64>();
+        pixel +=
+            sq(f.albedo) / (sig.albedo * sig.albedo) + sq(f.normal) / (sig.normal * sig.normal);
+    }
+    let theta_pad = (-e.z0 * 2f64.powi(-e.scale.theta)) as f32;
+    let ct = (t_bins as f64 - 1.0) / 2.0;
+    let j = yj * e.width + xj;
+    for (k, d) in den.iter_mut().enumerate() {
+        let t = a + k as i64;
+        let in_time = (t + rt + 1).min(t_bins) - (t - rt).max(0);
+        let padded = window - in_image * in_time;
+        if padded <= 0 {
+            continue;
+        }
+        let pass = (0..CHANNELS).all(|c| {
+            let q = e.idx(j, c, t as usize);
+            passes(e.theta[q], theta_pad, e.v[q], 0.0, g2)
+        });
+        if pass {
+            let dt = t as f64 - ct;
+            let w = (-0.5 * (pixel + dt * dt / (sig.t * sig.t))).exp();
+            *d += padded as f32 * w as f32;
+        }
+    }
 }
 
 /// Filters `e`, which must hold the whole image; returns the output in the planar

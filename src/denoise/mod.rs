@@ -3,6 +3,7 @@
 //! `tstat.rs`) or the published per-voxel Welch test (`membership.rs`).
 
 pub mod base_filter;
+pub mod conventions;
 pub mod critical;
 pub mod estimates;
 pub mod filter;
@@ -15,6 +16,7 @@ pub mod tstat;
 use crate::bundle::{Bundle, BundleError, SumArray};
 use crate::stats::accumulators::CHANNELS;
 use base_filter::{BaseFilter, BaseKind, Features, Sigmas};
+pub use conventions::{Border, Variance};
 use critical::Threshold;
 use estimates::{Estimates, SumsView};
 use filter::{filter, FilterParams, Membership, Tiling};
@@ -34,6 +36,9 @@ pub enum DenoiseError {
     Gamma(f64),
     #[error("--alpha {0}: must be in (0, 1)")]
     Alpha(f64),
+    /// The published code's conventions asked of another method.
+    #[error("{0} is the published code's convention: only with --method published")]
+    PublishedOnly(&'static str),
 }
 
 /// The denoiser's method: which membership test the filter applies, with its settings.
@@ -126,6 +131,11 @@ pub struct DenoiseParams {
     pub base: BaseKind,
     pub sigmas: Sigmas,
     pub tiling: Tiling,
+    /// The estimates' variance convention (`conventions.rs`; the published code's
+    /// biased one only with `--method published`).
+    pub variance: Variance,
+    /// What lies beyond the borders (zeros only with `--method published`).
+    pub border: Border,
 }
 
 impl Default for DenoiseParams {
@@ -138,6 +148,8 @@ impl Default for DenoiseParams {
             base: BaseKind::Jbf,
             sigmas: Sigmas::default(),
             tiling: Tiling::default(),
+            variance: Variance::default(),
+            border: Border::default(),
         }
     }
 }
@@ -145,6 +157,14 @@ impl Default for DenoiseParams {
 impl DenoiseParams {
     pub fn validate(&self) -> Result<(), DenoiseError> {
         self.method.validate()?;
+        if !matches!(self.method, Method::Published(_)) {
+            if self.variance == Variance::Biased {
+                return Err(DenoiseError::PublishedOnly("--variance biased"));
+            }
+            if self.border == Border::Zero {
+                return Err(DenoiseError::PublishedOnly("--border zero"));
+            }
+        }
         self.sigmas.validate()
     }
 
@@ -179,6 +199,7 @@ impl DenoiseParams {
                 sigmas: self.sigmas,
             },
             membership: self.method.resolve(spp),
+            zero_border: self.border == Border::Zero,
         }
     }
 }
@@ -208,7 +229,7 @@ pub fn denoise_sums(
     progress: &(dyn Fn(u64) + Sync),
 ) -> Denoised {
     let start = std::time::Instant::now();
-    let est = Estimates::from_sums(sums);
+    let est = Estimates::from_sums_as(sums, params.variance);
     let mut d = denoise_estimates(est, sums.spp, features, params, progress);
     d.seconds = start.elapsed().as_secs_f64();
     d

@@ -248,6 +248,7 @@ pub fn denoise_slabs(
     }
     let mut est = Estimates::empty(h, &sums_view(m, &sums, counts), Scale::of(magnitudes));
     est.pixel_spp = counts.map(Into::into);
+    est.variance = params.variance;
     est.reserve_rows((rows + 2 * halo).min(h));
     let mut out = vec![0.0f32; rows.min(h) * est.row_len()];
     // Enough bands for every thread: the output does not depend on the tiling.

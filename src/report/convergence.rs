@@ -78,12 +78,22 @@ pub fn methods(
     denoise: &DenoiseParams,
     method_radii: bool,
 ) -> Vec<(&'static str, Option<DenoiseParams>)> {
+    // The published code's conventions (`--variance biased`, `--border zero`) are the
+    // published method's alone.
     let with = |method: Method| DenoiseParams {
         method,
         radius: if method_radii {
             method.default_radius()
         } else {
             denoise.radius
+        },
+        variance: match method {
+            Method::Published(_) => denoise.variance,
+            _ => Default::default(),
+        },
+        border: match method {
+            Method::Published(_) => denoise.border,
+            _ => Default::default(),
         },
         ..*denoise
     };

@@ -229,6 +229,36 @@ pub fn estimate(sums: Sums, nonzero: u32, n: u64, z0: f64) -> Estimate {
     }
 }
 
+/// The estimators as the published method's own code computes them (its renderer's
+/// `develop_stats`): the biased variance `s2` where SPEC 5 has `sigma2`, in the
+/// skewness term and in V: `theta = mu + m3 / (6 s2 n)` (`mu` when `s2 == 0`) and
+/// `V = s2 / n`. `sigma2` stays the unbiased variance. `--variance biased` asks for it
+/// (`--method published` only); it accepts slightly fewer neighbours than SPEC 5's
+/// unbiased V, which is the better estimate of the mean's variance, so it is the
+/// default.
+#[inline]
+pub fn estimate_biased(sums: Sums, nonzero: u32, n: u64, z0: f64) -> Estimate {
+    let e = estimate(sums, nonzero, n, z0);
+    let nf = n as f64;
+    // s2 as `estimate` had it: sigma2 = s2 n / (n - 1) undone (exactly 0 stays 0).
+    let s2 = e.sigma2 * ((nf - 1.0) / nf);
+    let theta = if s2 == 0.0 {
+        e.mu
+    } else {
+        let t = e.mu + e.m3 / (6.0 * s2 * nf);
+        if t.is_nan() {
+            e.mu
+        } else {
+            t
+        }
+    };
+    Estimate {
+        theta,
+        v: s2 / nf,
+        ..e
+    }
+}
+
 /// Replicate statistics (SPEC 5): the voxel's n samples form `b` replicates of
 /// `k = n / b`, and `r2 = sum_b m_b^2` over the replicates' means of z (zero samples
 /// included). Then `mu = (X1 + (n - nonzero) z0) / n` (the mean of the replicate
@@ -1154,5 +1184,58 @@ mod tests {
     #[should_panic(expected = "need 2 <= b <= n")]
     fn one_replicate_is_refused() {
         estimate_replicates(1.0, 1.0, 1, 4, 1, 0.0);
+    }
+}
+
+#[cfg(test)]
+mod published_convention_tests {
+    use super::*;
+
+    /// `estimate_biased` against the published code's formulas written out (its
+    /// `develop_stats`: zero-fill, `mu = S1 / n`, `var = S2 / n - mu^2` clamped at 0,
+    /// `m3 = S3 / n - 3 mu var - mu^3`, estimand `mu + m3 / (6 var n)`, variance
+    /// `var / n`), on samples given one by one, zeros included, for the identity and
+    /// Yeo-Johnson (z0 = 0) and Box-Cox (z0 = -2).
+    #[test]
+    fn the_biased_convention_is_the_published_codes() {
+        let cases: [(&[f64], usize, f64); 4] = [
+            (&[0.5, 2.0, 7.0], 8, 0.0),
+            (&[1.0, 1.0, 1.0, 1.0], 4, 0.0),
+            (&[0.3, 0.9], 64, 0.0),
+            (&[0.25, 4.0, 1.0], 5, -2.0),
+        ];
+        for (nonzero_values, n, z0) in cases {
+            let mut all = nonzero_values.to_vec();
+            all.resize(n, z0);
+            let nf = n as f64;
+            let (s1, s2s, s3): (f64, f64, f64) = (
+                all.iter().sum(),
+                all.iter().map(|z| z * z).sum(),
+                all.iter().map(|z| z * z * z).sum(),
+            );
+            let mu = s1 / nf;
+            let var = (s2s / nf - mu * mu).max(0.0);
+            let m3 = s3 / nf - 3.0 * mu * var - mu.powi(3);
+            let want_theta = if var == 0.0 {
+                mu
+            } else {
+                mu + m3 / (6.0 * var * nf)
+            };
+            let sums = Sums {
+                x1: nonzero_values.iter().sum(),
+                x2: nonzero_values.iter().map(|z| z * z).sum(),
+                x3: nonzero_values.iter().map(|z| z * z * z).sum(),
+            };
+            let e = estimate_biased(sums, nonzero_values.len() as u32, n as u64, z0);
+            let close = |a: f64, b: f64| (a - b).abs() <= 1e-12 * (1.0 + b.abs());
+            assert!(close(e.theta, want_theta), "{e:?} {want_theta}");
+            assert!(close(e.v, var / nf), "{e:?} {}", var / nf);
+            // The unbiased convention differs wherever there is spread.
+            let u = estimate(sums, nonzero_values.len() as u32, n as u64, z0);
+            assert!(close(u.v, var / (nf - 1.0)));
+            if var > 0.0 {
+                assert!(e.v < u.v);
+            }
+        }
     }
 }
