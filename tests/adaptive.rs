@@ -320,13 +320,7 @@ fn the_bundle_holds_the_counts_and_every_reader_divides_by_them() {
         .status
         .success());
     // The page's band takes each pixel's own degrees of freedom, n_i - 1.
-    let page = std::fs::read_to_string(d.join("a.html")).unwrap();
-    let start = page
-        .find(r#"<script id="data" type="application/json">"#)
-        .expect("data block");
-    let body = &page[start..];
-    let body = &body[body.find('>').unwrap() + 1..body.find("</script>").unwrap()];
-    let data: serde_json::Value = serde_json::from_str(body).unwrap();
+    let data = common::page_data(&std::fs::read_to_string(d.join("a.html")).unwrap());
     let tq: Vec<f64> = data["t_quantiles"]
         .as_array()
         .expect("an adaptive page has t_quantiles")

@@ -2,6 +2,9 @@
 //! (block-averaged beyond it, and saying so), and one clear error for bad inputs. The
 //! page's behaviour in a browser is tested by scripts/view_test.py (headless Chromium).
 
+mod common;
+
+use common::page_data as data;
 use std::path::Path;
 use std::process::{Command, Output};
 
@@ -27,15 +30,6 @@ fn fails(r: &Output, needle: &str) {
 }
 
 /// The JSON data block of a page.
-fn data(page: &str) -> serde_json::Value {
-    let start = page
-        .find(r#"<script id="data" type="application/json">"#)
-        .unwrap();
-    let rest = &page[start..];
-    let body = &rest[rest.find('>').unwrap() + 1..rest.find("</script>").unwrap()];
-    assert!(!body.contains('<'), "a < inside the data block");
-    serde_json::from_str(body).unwrap()
-}
 
 #[test]
 fn the_page_is_self_contained_and_fits_its_budget() {

@@ -259,6 +259,17 @@ pub fn plan(
     Ok(predicted)
 }
 
+/// Says and records in the manifest the error an adaptive render estimates it reached.
+pub fn record_estimate(meta: &mut BundleMeta, estimated: Option<f64>) {
+    if let (Some(e), Some((_, r))) = (estimated, meta.adaptive.as_mut()) {
+        eprintln!(
+            "adaptive: estimated {} of the noisy volume {e:.4e}",
+            error_name(r.measure)
+        );
+        r.estimated_error = Some(e);
+    }
+}
+
 /// A render's summary and, for an adaptive render of radiance sums, the error it
 /// estimates it reached.
 pub type Rendered = (RenderSummary, Option<f64>);

@@ -256,15 +256,20 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
         })
         .transpose()?;
     let replicates = replicate_count >= 2;
-    let memory = StreamingMemory::new(film, &transform, pool_size(threads))
-        .with_replicates(replicates, film)
-        .with_sampler(
-            a.scene_args.pixel_sampling,
-            adaptive.map_or(scene.spp, |o| o.cap / shards),
-            replicate_count,
-            scene.integrator.volumetric,
-        )
-        .with_adaptive(adaptive.is_some(), film);
+    // The memory of a render whose pixels take up to `cap` samples each.
+    let adaptive_on = adaptive.is_some();
+    let memory_for = |cap: u32| {
+        StreamingMemory::new(film, &transform, pool_size(threads))
+            .with_replicates(replicates, film)
+            .with_sampler(
+                a.scene_args.pixel_sampling,
+                cap,
+                replicate_count,
+                scene.integrator.volumetric,
+            )
+            .with_adaptive(adaptive_on, film)
+    };
+    let memory = memory_for(adaptive.map_or(scene.spp, |o| o.cap / shards));
     check_memory(&memory, limit)?;
     let disk = bundle_bytes_with(film, &transform, !scene.media.is_empty(), replicates);
     check_disk(&out, disk, "the bundle")?;
@@ -321,20 +326,7 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
     let mut meta = meta;
     let mut adaptive = adaptive;
     if let Some(o) = adaptive.as_mut() {
-        let check_cap = |cap: u32| {
-            check_memory(
-                &StreamingMemory::new(film, &transform, pool_size(threads))
-                    .with_replicates(replicates, film)
-                    .with_sampler(
-                        a.scene_args.pixel_sampling,
-                        cap,
-                        replicate_count,
-                        scene.integrator.volumetric,
-                    )
-                    .with_adaptive(true, film),
-                limit,
-            )
-        };
+        let check_cap = |cap: u32| check_memory(&memory_for(cap), limit);
         let inputs = adaptive::PlanInputs {
             goal,
             most: if a.spp.is_some() { scene.spp } else { 1 << 16 },
@@ -359,13 +351,7 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
         adaptive::render_rows(&scene, &settings, &writer, tally, threads, false)?
             .context("writing the bundle")?;
     warn_if_empty(summary.voxel_samples, film);
-    if let (Some(e), Some((_, r))) = (estimated, meta.adaptive.as_mut()) {
-        eprintln!(
-            "adaptive: estimated {} of the noisy volume {e:.4e}",
-            adaptive::error_name(r.measure)
-        );
-        r.estimated_error = Some(e);
-    }
+    adaptive::record_estimate(&mut meta, estimated);
     writer
         .finish(&scene, &meta, &summary)
         .context("writing the bundle")?;

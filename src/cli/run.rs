@@ -4,7 +4,9 @@
 //! (noisy | denoised, one exposure), an animated GIF and a streak image. Without a
 //! scene it renders the bundled Cornell box.
 
-use super::adaptive::{error_name, placeholder, plan, render_rows, AdaptiveArgs, Goal, PlanInputs};
+use super::adaptive::{
+    placeholder, plan, record_estimate, render_rows, AdaptiveArgs, Goal, PlanInputs,
+};
 use super::denoise::FilterArgs;
 use super::frames::axis_of;
 use super::render::SceneArgs;
@@ -234,13 +236,7 @@ fn job(
         summary.seconds,
         summary.paths as f64 / summary.seconds / 1e6
     );
-    if let (Some(e), Some((_, r))) = (estimated, meta.adaptive.as_mut()) {
-        eprintln!(
-            "adaptive: estimated {} of the noisy volume {e:.4e}",
-            error_name(r.measure)
-        );
-        r.estimated_error = Some(e);
-    }
+    record_estimate(&mut meta, estimated);
     // The bundled scene sits in the temporary directory until that is renamed: the
     // manifest records where it will be.
     let scene = Scene {

@@ -523,9 +523,9 @@ fn zero_border(s: &Shared, yj: usize, xj: usize, rt: i64, a: i64, den: &mut [f32
     let sig = &s.params.base.sigmas;
     let (cy, cx) = ((e.height as f64 - 1.0) / 2.0, (e.width as f64 - 1.0) / 2.0);
     let (dy, dx) = (yj as f64 - cy, xj as f64 - cx);
+    let j = yj * e.width + xj;
     let mut pixel = (dx * dx + dy * dy) / (sig.xy * sig.xy);
     if s.params.base.kind == BaseKind::Jbf {
-        let j = yj * e.width + xj;
         let f = s.features;
         let sq = |v: &[f32]| (0..3).map(|c| f64::from(v[j * 3 + c]).powi(2)).sum::<f64>();
         pixel +=
@@ -533,7 +533,6 @@ fn zero_border(s: &Shared, yj: usize, xj: usize, rt: i64, a: i64, den: &mut [f32
     }
     let theta_pad = (-e.z0 * 2f64.powi(-e.scale.theta)) as f32;
     let ct = (t_bins as f64 - 1.0) / 2.0;
-    let j = yj * e.width + xj;
     for (k, d) in den.iter_mut().enumerate() {
         let t = a + k as i64;
         let in_time = (t + rt + 1).min(t_bins) - (t - rt).max(0);

@@ -48,3 +48,14 @@ pub fn run(scene: &Scene, seed: u64) -> RenderOutput {
     };
     render(scene, &settings, &|_| {})
 }
+
+/// The JSON data block of a `tstat view` page.
+pub fn page_data(page: &str) -> serde_json::Value {
+    let start = page
+        .find(r#"<script id="data" type="application/json">"#)
+        .unwrap();
+    let rest = &page[start..];
+    let body = &rest[rest.find('>').unwrap() + 1..rest.find("</script>").unwrap()];
+    assert!(!body.contains('<'), "a < inside the data block");
+    serde_json::from_str(body).unwrap()
+}
