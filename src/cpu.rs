@@ -84,10 +84,113 @@ impl Isa {
     }
 }
 
-/// [`Isa`] as const-generic codes, for kernels specialised per level.
-pub const ISA_BASELINE: u8 = 1;
-pub const ISA_AVX2: u8 = 2;
-pub const ISA_AVX512: u8 = 3;
+/// A level the kernels are specialised for, as a value that proves the CPU has it:
+/// [`Avx2`] and [`Avx512`] values exist only once detection found the instruction set
+/// ([`detected`], or their own `detect`), so a kernel that takes one needs no
+/// `unsafe` contract. Generic code asks the value which proofs it carries; the answer
+/// is a constant of the type, so every branch folds away in each specialisation.
+pub trait Level: Copy {
+    /// The level's name.
+    const ISA: Isa;
+    /// The AVX2 + FMA + BMI1/2 proof this level carries, if it carries one.
+    fn avx2(self) -> Option<Avx2>;
+    /// The AVX-512 proof this level carries, if it carries one.
+    fn avx512(self) -> Option<Avx512>;
+}
+
+/// The x86-64 baseline (or any other architecture): runs everywhere.
+#[derive(Clone, Copy, Debug)]
+pub struct Baseline;
+
+/// Proof that this CPU runs AVX2, FMA, BMI1/2, LZCNT and POPCNT (x86-64-v3).
+#[derive(Clone, Copy, Debug)]
+pub struct Avx2(());
+
+/// Proof that this CPU runs AVX-512 F/VL/DQ/BW/CD on top of [`Avx2`] (x86-64-v4).
+#[derive(Clone, Copy, Debug)]
+pub struct Avx512(());
+
+impl Avx2 {
+    /// The proof, when this CPU has the level.
+    pub fn detect() -> Option<Avx2> {
+        Isa::Avx2.supported().then_some(Avx2(()))
+    }
+}
+
+impl Avx512 {
+    /// The proof, when this CPU has the level.
+    pub fn detect() -> Option<Avx512> {
+        Isa::Avx512.supported().then_some(Avx512(()))
+    }
+}
+
+impl Level for Baseline {
+    const ISA: Isa = Isa::Baseline;
+    #[inline(always)]
+    fn avx2(self) -> Option<Avx2> {
+        None
+    }
+    #[inline(always)]
+    fn avx512(self) -> Option<Avx512> {
+        None
+    }
+}
+
+impl Level for Avx2 {
+    const ISA: Isa = Isa::Avx2;
+    #[inline(always)]
+    fn avx2(self) -> Option<Avx2> {
+        Some(self)
+    }
+    #[inline(always)]
+    fn avx512(self) -> Option<Avx512> {
+        None
+    }
+}
+
+impl Level for Avx512 {
+    const ISA: Isa = Isa::Avx512;
+    #[inline(always)]
+    fn avx2(self) -> Option<Avx2> {
+        Some(Avx2(()))
+    }
+    #[inline(always)]
+    fn avx512(self) -> Option<Avx512> {
+        Some(self)
+    }
+}
+
+/// The level [`current`] chose, with its proof.
+#[derive(Clone, Copy, Debug)]
+pub enum Detected {
+    Baseline(Baseline),
+    Avx2(Avx2),
+    Avx512(Avx512),
+}
+
+impl Detected {
+    /// The AVX2 proof this level carries, if it carries one.
+    #[inline]
+    pub fn avx2(self) -> Option<Avx2> {
+        match self {
+            Detected::Baseline(l) => l.avx2(),
+            Detected::Avx2(l) => l.avx2(),
+            Detected::Avx512(l) => l.avx2(),
+        }
+    }
+}
+
+/// [`current`] as a proof: the kernels' dispatch starts here.
+#[inline]
+pub fn detected() -> Detected {
+    match current() {
+        // `current` returns only levels this CPU supports (it checks the environment's
+        // and `force`'s choices), so the proofs are sound.
+        Isa::Avx512 => Detected::Avx512(Avx512(())),
+        Isa::Avx2 => Detected::Avx2(Avx2(())),
+        Isa::Baseline => Detected::Baseline(Baseline),
+    }
+}
 
 /// 0: not chosen yet.
 static LEVEL: AtomicU8 = AtomicU8::new(0);

@@ -89,3 +89,143 @@ fn every_instruction_set_traces_the_same_bits() {
     cpu::force(Isa::best()).unwrap();
     assert_eq!(cpu::current(), Isa::best());
 }
+
+/// Runs the binary with `TSTAT_ISA=isa`; panics with its stderr when it fails.
+fn tstat_at(isa: &str, args: &[&str]) {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_tstat"))
+        .env("TSTAT_ISA", isa)
+        .args(args)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "TSTAT_ISA={isa} tstat {args:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+fn floats(path: &std::path::Path) -> Vec<f32> {
+    let a: ndarray::ArrayD<f32> = ndarray_npy::read_npy(path).unwrap();
+    a.iter().copied().collect()
+}
+
+/// The whole pipeline through the binary at the baseline and at the widest level this
+/// CPU has (`TSTAT_ISA`, which every kernel's dispatch obeys): a render, both denoisers
+/// and backprojection give the same bits; the FFT-based reconstructions (fbp, pf, fk,
+/// lct) round differently (rustfft's AVX kernels against its scalar ones, and pf's
+/// single-precision sums eight lanes wide with fused multiply-adds) and agree to 1e-6. `scripts/isa_qemu.sh` runs the same on an emulated CPU without
+/// AVX2.
+#[test]
+fn every_instruction_set_gives_the_pipeline_the_same_bits() {
+    let best = Isa::best();
+    assert!(
+        !cfg!(target_arch = "x86_64") || best != Isa::Baseline,
+        "no wider level to compare with on this CPU (run scripts/isa_qemu.sh instead)"
+    );
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+    let dir = tempfile::tempdir().unwrap();
+    let volume = "--volume=-1,1,-1,1,0.5,1.5";
+    let methods = ["bp", "fbp", "pf", "fk", "lct"];
+    for isa in ["baseline", best.name()] {
+        let d = dir.path().join(isa);
+        std::fs::create_dir(&d).unwrap();
+        let p = |name: &str| d.join(name).display().to_string();
+        let scene = |name: &str| root.join(name).display().to_string();
+        tstat_at(
+            isa,
+            &["render", &scene("cbox_spheres.xml"), "--spp", "8"]
+                .into_iter()
+                .chain(["--width", "24", "--bins", "40", "--out", &p("r.tstats")])
+                .collect::<Vec<_>>(),
+        );
+        tstat_at(isa, &["denoise", &p("r.tstats"), "--out", &p("tstat.npy")]);
+        tstat_at(
+            isa,
+            &[
+                "denoise",
+                &p("r.tstats"),
+                "--method",
+                "published",
+                "--out",
+                &p("published.npy"),
+            ],
+        );
+        tstat_at(
+            isa,
+            &[
+                "render",
+                &scene("nlos_T.xml"),
+                "--spp",
+                "4",
+                "--out",
+                &p("T.tstats"),
+            ],
+        );
+        for m in methods {
+            let out = p(&format!("{m}.npy"));
+            let args = [
+                "nlos",
+                "reconstruct",
+                &p("T.tstats"),
+                "--method",
+                m,
+                "--wl-mean",
+                "0.2",
+                volume,
+                "--voxels",
+                "15,15,9",
+                "--out",
+                &out,
+            ];
+            // Only fbp and pf take a wavelength.
+            let args: Vec<&str> = if m == "fbp" || m == "pf" {
+                args.to_vec()
+            } else {
+                args.iter()
+                    .copied()
+                    .filter(|a| *a != "--wl-mean" && *a != "0.2")
+                    .collect()
+            };
+            tstat_at(isa, &args);
+        }
+    }
+    let at = |isa: &str, file: &str| dir.path().join(isa).join(file);
+    for file in [
+        "r.tstats/x1.npy",
+        "r.tstats/x2.npy",
+        "r.tstats/x3.npy",
+        "T.tstats/x1.npy",
+    ] {
+        let (a, b) = (
+            std::fs::read(at("baseline", file)).unwrap(),
+            std::fs::read(at(best.name(), file)).unwrap(),
+        );
+        assert!(a == b, "{file} differs at {}", best.name());
+    }
+    for file in ["tstat.npy", "published.npy", "bp.npy"] {
+        let (a, b) = (
+            floats(&at("baseline", file)),
+            floats(&at(best.name(), file)),
+        );
+        assert!(a.iter().any(|&v| v != 0.0), "{file} is all zero");
+        let same = a.iter().zip(&b).all(|(x, y)| x.to_bits() == y.to_bits());
+        assert!(
+            same && a.len() == b.len(),
+            "{file} differs at {}",
+            best.name()
+        );
+    }
+    let norm = |v: &[f32]| v.iter().map(|&x| (x as f64).powi(2)).sum::<f64>().sqrt();
+    for file in ["fbp.npy", "pf.npy", "fk.npy", "lct.npy"] {
+        let (a, b) = (
+            floats(&at("baseline", file)),
+            floats(&at(best.name(), file)),
+        );
+        let diff: Vec<f32> = a.iter().zip(&b).map(|(x, y)| x - y).collect();
+        let rel = norm(&diff) / norm(&a);
+        assert!(
+            a.len() == b.len() && norm(&a) > 0.0 && rel <= 1e-6,
+            "{file}: {rel:e}"
+        );
+    }
+}

@@ -250,19 +250,6 @@ fn accumulate_patch(
     }
 }
 
-type Kernel = fn(
-    usize,
-    f32,
-    &f32,
-    [&[f32]; 3],
-    [&[f32]; 3],
-    [&[f32]; 3],
-    [&[f32]; 3],
-    [&[f32]; 3],
-    [&mut [f32]; 3],
-    &mut [f32],
-);
-
 /// What every pixel's filtering shares.
 struct Shared<'a> {
     e: &'a Estimates,
@@ -278,7 +265,8 @@ struct Shared<'a> {
     /// The bin-offset part of p, index dt + r_t.
     pt: Vec<f64>,
     g2: f32,
-    kernel: Kernel,
+    /// The published test (else every neighbour passes, without replicates).
+    published: bool,
     /// Per-pair critical values, for estimates from replicates (see [`Membership`]).
     pair: Option<PairDof>,
 }
@@ -364,6 +352,7 @@ impl Shared<'_> {
 
 /// Filters pixel (yj, xj) over bins [b0, b1) into `out_j`, its (C, T) planar block;
 /// returns the voxel-neighbour evaluations made.
+#[inline(always)]
 fn filter_pixel(
     s: &Shared,
     yj: usize,
@@ -432,7 +421,19 @@ fn filter_pixel(
                     acc,
                     &mut den[off..],
                 ),
-                None => (s.kernel)(
+                None if s.published => accumulate::<true, f32>(
+                    m,
+                    wt,
+                    &s.g2,
+                    oi.map(|q| &e.theta[q..q + m]),
+                    oj.map(|q| &e.theta[q..q + m]),
+                    oi.map(|q| &e.v[q..q + m]),
+                    oj.map(|q| &e.v[q..q + m]),
+                    oi.map(|q| &e.mean[q..q + m]),
+                    acc,
+                    &mut den[off..],
+                ),
+                None => accumulate::<false, f32>(
                     m,
                     wt,
                     &s.g2,
@@ -622,45 +623,87 @@ pub fn filter_rows(
             }
             _ => None,
         },
-        kernel: match params.membership {
-            Membership::Published(_) => accumulate::<true, f32>,
-            _ => accumulate::<false, f32>,
-        },
+        published: matches!(params.membership, Membership::Published(_)),
     };
     let (band_rows, cols, bins) = (tiling.rows.max(1), tiling.cols.max(1), tiling.bins.max(1));
+    let band = Band {
+        rows: rows.clone(),
+        band_rows,
+        cols,
+        bins,
+    };
     out.par_chunks_mut(band_rows * w * per_pixel)
         .enumerate()
-        .map(|(band, out_band)| {
-            let y0 = rows.start + band * band_rows;
-            let y1 = (y0 + band_rows).min(rows.end);
-            let mut scratch = Scratch {
-                num: std::array::from_fn(|_| vec![0.0; bins]),
-                den: vec![0.0; bins],
-                stat: vec![0.0; bins + 2],
-                neighbours: Vec::new(),
+        .map(|(k, out_band)| {
+            let evals = match crate::cpu::detected().avx2() {
+                #[cfg(target_arch = "x86_64")]
+                // SAFETY: the proof says this CPU runs the wrapper's instruction set.
+                Some(isa) => unsafe { filter_band_avx2(isa, &shared, &band, k, out_band) },
+                _ => filter_band(&shared, &band, k, out_band),
             };
-            let mut evals = 0u64;
-            for b0 in (0..t_bins).step_by(bins) {
-                let b1 = (b0 + bins).min(t_bins);
-                for x0 in (0..w).step_by(cols) {
-                    for yj in y0..y1 {
-                        for xj in x0..(x0 + cols).min(w) {
-                            let o = ((yj - y0) * w + xj) * per_pixel;
-                            evals += filter_pixel(
-                                &shared,
-                                yj,
-                                xj,
-                                b0,
-                                b1,
-                                &mut scratch,
-                                &mut out_band[o..o + per_pixel],
-                            );
-                        }
-                    }
-                }
-            }
-            progress(((y1 - y0) * w) as u64);
+            let y0 = rows.start + k * band_rows;
+            progress(((rows.end.min(y0 + band_rows) - y0) * w) as u64);
             evals
         })
         .sum()
+}
+
+/// How [`filter_rows`] cuts its rows: bands of `band_rows` rows (one task each), each
+/// filtered in blocks of `cols` columns by `bins` bins.
+struct Band {
+    rows: std::ops::Range<usize>,
+    band_rows: usize,
+    cols: usize,
+    bins: usize,
+}
+
+/// Filters band `k` into `out_band`; returns the voxel-neighbour evaluations.
+#[inline(always)]
+fn filter_band(s: &Shared, band: &Band, k: usize, out_band: &mut [f32]) -> u64 {
+    let (w, t_bins) = (s.e.width, s.e.bins);
+    let per_pixel = CHANNELS * t_bins;
+    let (cols, bins) = (band.cols, band.bins);
+    let y0 = band.rows.start + k * band.band_rows;
+    let y1 = (y0 + band.band_rows).min(band.rows.end);
+    let mut scratch = Scratch {
+        num: std::array::from_fn(|_| vec![0.0; bins]),
+        den: vec![0.0; bins],
+        stat: vec![0.0; bins + 2],
+        neighbours: Vec::new(),
+    };
+    let mut evals = 0u64;
+    for b0 in (0..t_bins).step_by(bins) {
+        let b1 = (b0 + bins).min(t_bins);
+        for x0 in (0..w).step_by(cols) {
+            for yj in y0..y1 {
+                for xj in x0..(x0 + cols).min(w) {
+                    let o = ((yj - y0) * w + xj) * per_pixel;
+                    evals += filter_pixel(
+                        s,
+                        yj,
+                        xj,
+                        b0,
+                        b1,
+                        &mut scratch,
+                        &mut out_band[o..o + per_pixel],
+                    );
+                }
+            }
+        }
+    }
+    evals
+}
+
+/// [`filter_band`] compiled for AVX2 + FMA (the same bits: Rust neither fuses nor
+/// reorders float operations; `tests/isa.rs`).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
+fn filter_band_avx2(
+    _isa: crate::cpu::Avx2,
+    s: &Shared,
+    band: &Band,
+    k: usize,
+    out_band: &mut [f32],
+) -> u64 {
+    filter_band(s, band, k, out_band)
 }

@@ -15,7 +15,7 @@ use super::sdfgrid::SdfGeom;
 use super::shape::{Shape, ShapeGeom, SurfacePoint};
 use super::sphere::SphereGeom;
 use super::triangle::TriangleGeom;
-use crate::cpu::ISA_BASELINE;
+use crate::cpu::{Baseline, Level};
 use glam::{UVec2, Vec3, Vec3A};
 use obvhs::aabb::Aabb;
 use obvhs::cwbvh::node::CwBvhNode;
@@ -387,33 +387,27 @@ impl Accel {
     /// The closest surface along the ray (unit direction `d`) with t in (0, tmax).
     #[inline(always)]
     pub fn intersect(&self, shapes: &[Shape], o: Vec3, d: Vec3, tmax: f32) -> Option<Hit> {
-        // SAFETY: the baseline runs everywhere.
-        unsafe { self.intersect_with::<ISA_BASELINE>(shapes, o, d, tmax) }
+        self.intersect_with(Baseline, shapes, o, d, tmax)
     }
 
-    /// [`Self::intersect`] with the kernels for `ISA` (`cpu` codes).
-    ///
-    /// # Safety
-    /// The CPU must support `ISA`.
+    /// [`Self::intersect`] with the kernels of the level `isa` proves.
     #[inline(always)]
-    pub unsafe fn intersect_with<const ISA: u8>(
+    pub fn intersect_with<L: Level>(
         &self,
+        isa: L,
         shapes: &[Shape],
         o: Vec3,
         d: Vec3,
         tmax: f32,
     ) -> Option<Hit> {
         if let Some(flat) = &self.flat {
-            // SAFETY: passed on from the caller.
-            return unsafe { self.intersect_flat::<ISA>(flat, shapes, o, d, tmax) };
+            return self.intersect_flat(isa, flat, shapes, o, d, tmax);
         }
         let bvh = self.bvh.as_ref()?;
         #[cfg(target_arch = "x86_64")]
-        if ISA >= crate::cpu::ISA_AVX2 {
-            if let Some(leaf) = &self.leaf_tris {
-                // SAFETY: the caller guarantees ISA, which includes AVX2.
-                return unsafe { self.intersect_triangles_avx2(bvh, leaf, shapes, o, d, tmax) };
-            }
+        if let (Some(_avx2), Some(leaf)) = (isa.avx2(), &self.leaf_tris) {
+            // SAFETY: `_avx2` proves this CPU runs AVX2.
+            return unsafe { self.intersect_triangles_avx2(bvh, leaf, shapes, o, d, tmax) };
         }
         // obvhs's `ray_traverse`, written out with its `traverse!` macro so that the
         // walk is inlined into (and compiled for the instruction set of) the tracer.
@@ -429,8 +423,7 @@ impl Accel {
             bvh,
             node,
             state,
-            // SAFETY: passed on from the caller.
-            unsafe { node_test::<ISA>(node, &traverse_ray, state.oct_inv4) },
+            node_test(isa, node, &traverse_ray, state.oct_inv4),
             {
                 let id = state.primitive_id as usize;
                 let prim = &self.prims[id];
@@ -490,20 +483,15 @@ impl Accel {
     /// True when something blocks the segment from `o` along unit `d` before `tmax`.
     #[inline(always)]
     pub fn occluded(&self, o: Vec3, d: Vec3, tmax: f32) -> bool {
-        // SAFETY: the baseline runs everywhere.
-        unsafe { self.occluded_with::<ISA_BASELINE>(o, d, tmax) }
+        self.occluded_with(Baseline, o, d, tmax)
     }
 
-    /// [`Self::occluded`] with the kernels for `ISA` (`cpu` codes).
-    ///
-    /// # Safety
-    /// The CPU must support `ISA`.
+    /// [`Self::occluded`] with the kernels of the level `isa` proves.
     #[inline(always)]
-    pub unsafe fn occluded_with<const ISA: u8>(&self, o: Vec3, d: Vec3, tmax: f32) -> bool {
+    pub fn occluded_with<L: Level>(&self, isa: L, o: Vec3, d: Vec3, tmax: f32) -> bool {
         if let Some(flat) = &self.flat {
-            // SAFETY: passed on from the caller.
             // (The emptiness test keeps the call to `any` out of triangle-only scenes.)
-            return unsafe { flat_occluded_with::<ISA>(&flat.tris, o, d, tmax) }
+            return flat_occluded_with(isa, &flat.tris, o, d, tmax)
                 || (!flat.sphere_prims.is_empty()
                     && flat
                         .sphere_prims
@@ -514,11 +502,9 @@ impl Accel {
             return false;
         };
         #[cfg(target_arch = "x86_64")]
-        if ISA >= crate::cpu::ISA_AVX2 {
-            if let Some(leaf) = &self.leaf_tris {
-                // SAFETY: the caller guarantees ISA, which includes AVX2.
-                return unsafe { occluded_triangles_avx2(bvh, leaf, o, d, tmax) };
-            }
+        if let (Some(_avx2), Some(leaf)) = (isa.avx2(), &self.leaf_tris) {
+            // SAFETY: `_avx2` proves this CPU runs AVX2.
+            return unsafe { occluded_triangles_avx2(bvh, leaf, o, d, tmax) };
         }
         let ray = Ray::new(Vec3A::from(o), Vec3A::from(d), 0.0, tmax);
         let mut state = bvh.new_traversal(ray.direction);
@@ -529,8 +515,7 @@ impl Accel {
                 bvh,
                 node,
                 state,
-                // SAFETY: passed on from the caller.
-                unsafe { node_test::<ISA>(node, &ray, state.oct_inv4) },
+                node_test(isa, node, &ray, state.oct_inv4),
                 {
                     if self.prim_t(state.primitive_id as usize, o, d, 0.0) < tmax {
                         blocked = true;
@@ -590,19 +575,17 @@ impl Accel {
         })
     }
 
-    /// # Safety
-    /// The CPU must support `ISA`.
     #[inline(always)]
-    unsafe fn intersect_flat<const ISA: u8>(
+    fn intersect_flat<L: Level>(
         &self,
+        isa: L,
         flat: &Flat,
         shapes: &[Shape],
         o: Vec3,
         d: Vec3,
         tmax: f32,
     ) -> Option<Hit> {
-        // SAFETY: passed on from the caller.
-        let mut best = unsafe { flat_intersect_with::<ISA>(&flat.tris, o, d, tmax) }
+        let mut best = flat_intersect_with(isa, &flat.tris, o, d, tmax)
             .map(|(k, t, b1, b2)| (flat.tri_prims[k], t, b1, b2));
         for &i in &flat.sphere_prims {
             let (t, v) = self.prim_tv(i, o, d, 0.0);
@@ -650,16 +633,13 @@ pub fn ray_epsilon(p: Vec3) -> f32 {
     1e-4 * (1.0 + p.abs().max_element())
 }
 
-/// The children of a BVH node the ray enters, with the kernel for `ISA` (the same
+/// The children of a BVH node the ray enters, with the kernel of the level `isa` proves (the same
 /// bits at every level).
-///
-/// # Safety
-/// The CPU must support `ISA`.
 #[inline(always)]
-unsafe fn node_test<const ISA: u8>(node: &CwBvhNode, ray: &Ray, oct_inv4: u32) -> u32 {
+fn node_test<L: Level>(isa: L, node: &CwBvhNode, ray: &Ray, oct_inv4: u32) -> u32 {
     #[cfg(target_arch = "x86_64")]
-    if ISA >= crate::cpu::ISA_AVX2 {
-        // SAFETY: the caller guarantees ISA, which includes AVX2.
+    if let Some(_avx2) = isa.avx2() {
+        // SAFETY: `_avx2` proves this CPU runs AVX2.
         return unsafe { node_hits_avx2(node, ray, oct_inv4) };
     }
     node.intersect_ray(ray, oct_inv4)
@@ -708,13 +688,11 @@ fn occluded_triangles_avx2(bvh: &CwBvh, leaf: &LeafTriangles, o: Vec3, d: Vec3, 
 // The flat packets' kernel for an instruction set (`flat_simd.rs`, else the portable
 // one in `flat.rs`).
 
-/// [`FlatTriangles::intersect`] with the kernel for `ISA` (`cpu` codes); the same
+/// [`FlatTriangles::intersect`] with the kernel of the level `isa` proves; the same
 /// answer, bit for bit, at every level.
-///
-/// # Safety
-/// The CPU must support `ISA`.
 #[inline(always)]
-pub(super) unsafe fn flat_intersect_with<const ISA: u8>(
+pub(super) fn flat_intersect_with<L: Level>(
+    isa: L,
     flat: &FlatTriangles,
     o: Vec3,
     d: Vec3,
@@ -722,25 +700,22 @@ pub(super) unsafe fn flat_intersect_with<const ISA: u8>(
 ) -> Option<(usize, f32, f32, f32)> {
     #[cfg(target_arch = "x86_64")]
     {
-        use crate::cpu::{ISA_AVX2, ISA_AVX512};
-        if ISA == ISA_AVX512 {
-            // SAFETY: the caller guarantees AVX-512.
+        if let Some(_avx512) = isa.avx512() {
+            // SAFETY: `_avx512` proves this CPU runs AVX-512.
             return unsafe { flat_simd::intersect_avx512(flat, o, d, tmax) };
         }
-        if ISA == ISA_AVX2 {
-            // SAFETY: the caller guarantees AVX2.
+        if let Some(_avx2) = isa.avx2() {
+            // SAFETY: `_avx2` proves this CPU runs AVX2.
             return unsafe { flat_simd::intersect_avx2(flat, o, d, tmax) };
         }
     }
     flat.intersect(o, d, tmax)
 }
 
-/// [`FlatTriangles::occluded`] with the kernel for `ISA`.
-///
-/// # Safety
-/// The CPU must support `ISA`.
+/// [`FlatTriangles::occluded`] with the kernel of the level `isa` proves.
 #[inline(always)]
-pub(super) unsafe fn flat_occluded_with<const ISA: u8>(
+pub(super) fn flat_occluded_with<L: Level>(
+    isa: L,
     flat: &FlatTriangles,
     o: Vec3,
     d: Vec3,
@@ -748,13 +723,12 @@ pub(super) unsafe fn flat_occluded_with<const ISA: u8>(
 ) -> bool {
     #[cfg(target_arch = "x86_64")]
     {
-        use crate::cpu::{ISA_AVX2, ISA_AVX512};
-        if ISA == ISA_AVX512 {
-            // SAFETY: the caller guarantees AVX-512.
+        if let Some(_avx512) = isa.avx512() {
+            // SAFETY: `_avx512` proves this CPU runs AVX-512.
             return unsafe { flat_simd::occluded_avx512(flat, o, d, tmax) };
         }
-        if ISA == ISA_AVX2 {
-            // SAFETY: the caller guarantees AVX2.
+        if let Some(_avx2) = isa.avx2() {
+            // SAFETY: `_avx2` proves this CPU runs AVX2.
             return unsafe { flat_simd::occluded_avx2(flat, o, d, tmax) };
         }
     }

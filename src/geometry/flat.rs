@@ -318,7 +318,7 @@ impl FlatTriangles {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::cpu::{Isa, ISA_AVX2, ISA_AVX512};
+    use crate::cpu::{Avx2, Avx512, Isa};
     use crate::geometry::accel::{flat_intersect_with, flat_occluded_with};
     use crate::math::rng::Pcg32;
 
@@ -378,22 +378,18 @@ mod tests {
             assert_eq!(got.map(|g| g.0), scalar.map(|s| s.0));
             // The SIMD kernels give the same bits (where this CPU has them).
             for isa in [Isa::Avx2, Isa::Avx512] {
-                if !isa.supported() {
-                    continue;
-                }
                 for tmax in [f32::INFINITY, got.map_or(1.0, |g| g.1 * 1.5)] {
-                    // SAFETY: checked just above.
-                    let (simd, blocked) = unsafe {
-                        match isa {
-                            Isa::Avx2 => (
-                                flat_intersect_with::<ISA_AVX2>(flat, o, d, tmax),
-                                flat_occluded_with::<ISA_AVX2>(flat, o, d, tmax),
-                            ),
-                            _ => (
-                                flat_intersect_with::<ISA_AVX512>(flat, o, d, tmax),
-                                flat_occluded_with::<ISA_AVX512>(flat, o, d, tmax),
-                            ),
-                        }
+                    let (simd, blocked) = match (isa, Avx2::detect(), Avx512::detect()) {
+                        (Isa::Avx2, Some(l), _) => (
+                            flat_intersect_with(l, flat, o, d, tmax),
+                            flat_occluded_with(l, flat, o, d, tmax),
+                        ),
+                        (Isa::Avx512, _, Some(l)) => (
+                            flat_intersect_with(l, flat, o, d, tmax),
+                            flat_occluded_with(l, flat, o, d, tmax),
+                        ),
+                        // This CPU lacks the level.
+                        _ => continue,
                     };
                     let portable = flat.intersect(o, d, tmax);
                     let bits = |h: Option<Nearest>| {

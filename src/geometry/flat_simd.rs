@@ -20,8 +20,10 @@ use std::arch::x86_64::*;
 #[target_feature(enable = "avx512f")]
 #[inline]
 fn packet_512(p: &Packet, o: [__m512; 3], d: [__m512; 3]) -> (__m512, __m512, __m512) {
-    // SAFETY (loads): each array has LANES = 16 f32.
-    let ld = |a: &[f32; LANES]| unsafe { _mm512_loadu_ps(a.as_ptr()) };
+    let ld = |a: &[f32; LANES]| {
+        // SAFETY: each array has LANES = 16 f32.
+        unsafe { _mm512_loadu_ps(a.as_ptr()) }
+    };
     let (e1x, e1y, e1z) = (ld(&p.e1[0]), ld(&p.e1[1]), ld(&p.e1[2]));
     let (e2x, e2y, e2z) = (ld(&p.e2[0]), ld(&p.e2[1]), ld(&p.e2[2]));
     let mul = |a, b| _mm512_mul_ps(a, b);
@@ -141,8 +143,10 @@ const HALF: usize = LANES / 2;
 #[target_feature(enable = "avx2")]
 #[inline]
 fn packet_256(p: &Packet, h: usize, o: [__m256; 3], d: [__m256; 3]) -> (__m256, __m256, __m256) {
-    // SAFETY (loads): each array has 16 f32; h is 0 or 1.
-    let ld = |a: &[f32; LANES]| unsafe { _mm256_loadu_ps(a.as_ptr().add(h * HALF)) };
+    let ld = |a: &[f32; LANES]| {
+        // SAFETY: each array has 16 f32; h is 0 or 1.
+        unsafe { _mm256_loadu_ps(a.as_ptr().add(h * HALF)) }
+    };
     let v0 = [ld(&p.v0[0]), ld(&p.v0[1]), ld(&p.v0[2])];
     let e1 = [ld(&p.e1[0]), ld(&p.e1[1]), ld(&p.e1[2])];
     let e2 = [ld(&p.e2[0]), ld(&p.e2[1]), ld(&p.e2[2])];
@@ -238,8 +242,9 @@ fn box_entries(b: &BoxBlock, o: [__m256; 3], inv: [__m256; 3], tmax: f32) -> (__
     let mut enter = _mm256_setzero_ps();
     let mut exit = _mm256_set1_ps(tmax);
     for a in 0..3 {
-        // SAFETY (loads): each row has BOX_LANES = 8 f32.
+        // SAFETY: each row has BOX_LANES = 8 f32.
         let lo = unsafe { _mm256_loadu_ps(b.lo[a].as_ptr()) };
+        // SAFETY: as above.
         let hi = unsafe { _mm256_loadu_ps(b.hi[a].as_ptr()) };
         let t0 = _mm256_mul_ps(_mm256_sub_ps(lo, o[a]), inv[a]);
         let t1 = _mm256_mul_ps(_mm256_sub_ps(hi, o[a]), inv[a]);

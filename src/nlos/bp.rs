@@ -368,11 +368,12 @@ fn transpose(
 /// as `acc` has voxels), `d4` the sensor segment.
 #[inline]
 fn pair(bins: &Bins, acc: &mut [f64], a: &[f32], b: &[f32], d4: f32, h: &[f32], np: usize) {
-    #[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
-    if np <= 2 && bins.bins < (i32::MAX - 2) as usize {
-        // SAFETY: the build enables AVX2 (cfg above); `simd::pair` checks the slices'
-        // lengths, and gathers only indices clamped into `h`.
-        unsafe { simd::pair(bins, acc, a, b, d4, h, np) };
+    #[cfg(target_arch = "x86_64")]
+    if let (Some(avx2), true) = (
+        crate::cpu::detected().avx2(),
+        np <= 2 && bins.bins < (i32::MAX - 2) as usize,
+    ) {
+        simd::pair(avx2, bins, acc, a, b, d4, h, np);
         return;
     }
     pair_scalar(bins, acc, a, b, d4, h, np);
@@ -388,14 +389,16 @@ fn pair_scalar(bins: &Bins, acc: &mut [f64], a: &[f32], b: &[f32], d4: f32, h: &
     }
 }
 
-#[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+#[cfg(target_arch = "x86_64")]
 mod simd {
     use super::Bins;
+    use crate::cpu::Avx2;
     use std::arch::x86_64::*;
 
     /// [`super::pair`], 8 voxels at a time; `np` is 1 or 2.
-    #[target_feature(enable = "avx2")]
-    pub unsafe fn pair(
+    #[allow(clippy::too_many_arguments)]
+    pub fn pair(
+        _avx2: Avx2,
         bins: &Bins,
         acc: &mut [f64],
         a: &[f32],
@@ -407,35 +410,63 @@ mod simd {
         let n = a.len();
         assert!(n.is_multiple_of(8) && b.len() == n && acc.len() == n * np && (np == 1 || np == 2));
         assert!(h.len() == (bins.bins + 2) * np && bins.bins < (i32::MAX - 2) as usize);
-        let (a, b, h, acc) = (a.as_ptr(), b.as_ptr(), h.as_ptr(), acc.as_mut_ptr());
-        // Slot = clamp(bin, -1, T) + 1: a bin past either end reads a padding zero
-        // (a conversion out of i32's range gives i32::MIN, clamped to -1).
-        let (lo, hi) = (_mm256_set1_epi32(-1), _mm256_set1_epi32(bins.bins as i32));
-        let slot = |i: __m256i| {
-            _mm256_add_epi32(
-                _mm256_min_epi32(_mm256_max_epi32(i, lo), hi),
-                _mm256_set1_epi32(1),
-            )
-        };
-        if bins.single {
-            let t0 = _mm256_set1_ps(bins.t_start as f32);
-            let dt = _mm256_set1_ps(bins.delta_t as f32);
-            let d4 = _mm256_set1_ps(d4);
-            for v in (0..n).step_by(8) {
-                let ab = _mm256_add_ps(_mm256_loadu_ps(a.add(v)), _mm256_loadu_ps(b.add(v)));
-                let q = _mm256_div_ps(_mm256_sub_ps(_mm256_add_ps(ab, d4), t0), dt);
-                add(np, h, slot(_mm256_cvttps_epi32(q)), acc.add(v * np));
-            }
-        } else {
-            let (t0, dt) = (_mm256_set1_pd(bins.t_start), _mm256_set1_pd(bins.delta_t));
-            for v in (0..n).step_by(8) {
-                let bin = |v: usize| {
-                    let x = _mm256_cvtps_pd(_mm_loadu_ps(a.add(v)));
-                    let y = _mm256_cvtps_pd(_mm_loadu_ps(b.add(v)));
-                    _mm256_cvttpd_epi32(_mm256_div_pd(_mm256_sub_pd(_mm256_add_pd(x, y), t0), dt))
-                };
-                let i = _mm256_set_m128i(bin(v + 4), bin(v));
-                add(np, h, slot(i), acc.add(v * np));
+        // SAFETY: `_avx2` proves this CPU runs AVX2; the lengths are as asserted.
+        unsafe { pair_avx2(bins, acc, a, b, d4, h, np) }
+    }
+
+    /// [`pair`]'s kernel.
+    ///
+    /// # Safety
+    /// The CPU runs AVX2, and the slices' lengths are as [`pair`] asserts (the gathers
+    /// read only indices clamped into `h`).
+    #[target_feature(enable = "avx2")]
+    unsafe fn pair_avx2(
+        bins: &Bins,
+        acc: &mut [f64],
+        a: &[f32],
+        b: &[f32],
+        d4: f32,
+        h: &[f32],
+        np: usize,
+    ) {
+        // SAFETY: the caller runs AVX2 and passes slices of the asserted lengths; every load and
+        // store stays within them (8 voxels from v < n, n a multiple of 8), and the gathers
+        // read `h` only at clamped slots.
+        unsafe {
+            let n = a.len();
+            let (a, b, h, acc) = (a.as_ptr(), b.as_ptr(), h.as_ptr(), acc.as_mut_ptr());
+            // Slot = clamp(bin, -1, T) + 1: a bin past either end reads a padding zero
+            // (a conversion out of i32's range gives i32::MIN, clamped to -1).
+            let (lo, hi) = (_mm256_set1_epi32(-1), _mm256_set1_epi32(bins.bins as i32));
+            let slot = |i: __m256i| {
+                _mm256_add_epi32(
+                    _mm256_min_epi32(_mm256_max_epi32(i, lo), hi),
+                    _mm256_set1_epi32(1),
+                )
+            };
+            if bins.single {
+                let t0 = _mm256_set1_ps(bins.t_start as f32);
+                let dt = _mm256_set1_ps(bins.delta_t as f32);
+                let d4 = _mm256_set1_ps(d4);
+                for v in (0..n).step_by(8) {
+                    let ab = _mm256_add_ps(_mm256_loadu_ps(a.add(v)), _mm256_loadu_ps(b.add(v)));
+                    let q = _mm256_div_ps(_mm256_sub_ps(_mm256_add_ps(ab, d4), t0), dt);
+                    add(np, h, slot(_mm256_cvttps_epi32(q)), acc.add(v * np));
+                }
+            } else {
+                let (t0, dt) = (_mm256_set1_pd(bins.t_start), _mm256_set1_pd(bins.delta_t));
+                for v in (0..n).step_by(8) {
+                    let bin = |v: usize| {
+                        let x = _mm256_cvtps_pd(_mm_loadu_ps(a.add(v)));
+                        let y = _mm256_cvtps_pd(_mm_loadu_ps(b.add(v)));
+                        _mm256_cvttpd_epi32(_mm256_div_pd(
+                            _mm256_sub_pd(_mm256_add_pd(x, y), t0),
+                            dt,
+                        ))
+                    };
+                    let i = _mm256_set_m128i(bin(v + 4), bin(v));
+                    add(np, h, slot(i), acc.add(v * np));
+                }
             }
         }
     }
@@ -445,23 +476,27 @@ mod simd {
     #[inline]
     #[target_feature(enable = "avx2")]
     unsafe fn add(np: usize, h: *const f32, i: __m256i, acc: *mut f64) {
-        let upd = |p: *mut f64, x: __m128| {
-            _mm256_storeu_pd(p, _mm256_add_pd(_mm256_loadu_pd(p), _mm256_cvtps_pd(x)))
-        };
-        if np == 1 {
-            let x = _mm256_i32gather_ps::<4>(h, i);
-            upd(acc, _mm256_castps256_ps128(x));
-            upd(acc.add(4), _mm256_extractf128_ps::<1>(x));
-        } else {
-            // A slot's (re, im) as one 8-byte element: 4 voxels' (re, im) per gather,
-            // in the accumulators' order.
-            for (k, i) in [_mm256_castsi256_si128(i), _mm256_extracti128_si256::<1>(i)]
-                .into_iter()
-                .enumerate()
-            {
-                let x = _mm256_castpd_ps(_mm256_i32gather_pd::<8>(h as *const f64, i));
-                upd(acc.add(8 * k), _mm256_castps256_ps128(x));
-                upd(acc.add(8 * k + 4), _mm256_extractf128_ps::<1>(x));
+        // SAFETY: the caller runs AVX2, `i` holds slots within `h`, and `acc` has the 8 voxels'
+        // `np` sums each.
+        unsafe {
+            let upd = |p: *mut f64, x: __m128| {
+                _mm256_storeu_pd(p, _mm256_add_pd(_mm256_loadu_pd(p), _mm256_cvtps_pd(x)))
+            };
+            if np == 1 {
+                let x = _mm256_i32gather_ps::<4>(h, i);
+                upd(acc, _mm256_castps256_ps128(x));
+                upd(acc.add(4), _mm256_extractf128_ps::<1>(x));
+            } else {
+                // A slot's (re, im) as one 8-byte element: 4 voxels' (re, im) per gather,
+                // in the accumulators' order.
+                for (k, i) in [_mm256_castsi256_si128(i), _mm256_extracti128_si256::<1>(i)]
+                    .into_iter()
+                    .enumerate()
+                {
+                    let x = _mm256_castpd_ps(_mm256_i32gather_pd::<8>(h as *const f64, i));
+                    upd(acc.add(8 * k), _mm256_castps256_ps128(x));
+                    upd(acc.add(8 * k + 4), _mm256_extractf128_ps::<1>(x));
+                }
             }
         }
     }

@@ -15,9 +15,9 @@
 //! Memory: the filtered capture, complex f32, twice the capture's H.
 
 use super::capture::Capture;
+use super::fft::Planner;
 use rayon::prelude::*;
 use rustfft::num_complex::Complex;
-use rustfft::FftPlanner;
 
 /// The capture's H filtered, complex: `re` and `im` as (T, L, S) like `Capture::h`.
 pub struct Filtered {
@@ -103,7 +103,7 @@ pub fn kernel(
 pub fn pf_filter(c: &Capture, wl_mean: f64, wl_sigma: f64) -> Filtered {
     let nt = c.bins;
     let (n, pad) = padding(nt, wl_sigma, c.delta_t);
-    let mut planner = FftPlanner::<f64>::new();
+    let mut planner = Planner::new();
     let fft = planner.plan_fft_forward(n);
     let ifft = planner.plan_fft_inverse(n);
     let mut kf = kernel(n, c.delta_t, wl_mean, wl_sigma, Shift::Ifft);

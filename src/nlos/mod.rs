@@ -2,13 +2,15 @@
 //! format (`tal.rs`), the capture in memory in y-tal's terms (`capture.rs`, from a
 //! bundle or a y-tal file) and reconstructions of the hidden scene (`bp.rs`, with the phasor-field filter of the
 //! filtered backprojection in `filter.rs`; the wave-based confocal ones, f-k migration
-//! in `fk.rs` and the light-cone transform in `lct.rs`, on the native grid of `wave.rs`).
+//! in `fk.rs` and the light-cone transform in `lct.rs`, on the native grid of `wave.rs`;
+//! their FFTs planned by `fft.rs`).
 //! Rendering the capture is `scene/nlos.rs` and `render/nlos.rs`; the bundle records its
 //! geometry (`bundle/capture.rs`).
 
 pub mod bp;
 pub mod capture;
 pub mod denoised;
+pub mod fft;
 pub mod filter;
 pub mod fk;
 pub mod lct;

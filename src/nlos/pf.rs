@@ -32,11 +32,12 @@
 
 use super::bp::VoxelGrid;
 use super::capture::Capture;
+use super::fft::Planner;
 use super::filter::{kernel, Shift};
 use super::NlosError;
 use rayon::prelude::*;
 use rustfft::num_complex::Complex;
-use rustfft::{Fft, FftPlanner};
+use rustfft::Fft;
 use std::f64::consts::TAU;
 use std::sync::Arc;
 
@@ -61,7 +62,7 @@ pub fn pulse(nt: usize, delta_t: f64, wl_mean: f64, wl_sigma: f64) -> Result<Pul
     let padding = 2 * (6.0 * wl_sigma / delta_t).ceil() as usize;
     let nf = nt + 2 * padding;
     let mut k = kernel(nf, delta_t, wl_mean, wl_sigma, Shift::Fft);
-    FftPlanner::new().plan_fft_forward(nf).process(&mut k);
+    Planner::new().plan_fft_forward(nf).process(&mut k);
     let (m, s) = (
         nf as f64 * delta_t / wl_mean,
         nf as f64 * delta_t / (wl_sigma * 6.0),
@@ -223,7 +224,7 @@ pub fn spectrum_by(c: &Capture, p: &Pulse, how: Dft) -> Vec<C64> {
         Dft::Direct => true,
     };
     // The FFT is planned only when used (a Bluestein plan is not free).
-    let fft = (!direct).then(|| FftPlanner::new().plan_fft_forward(p.nf));
+    let fft = (!direct).then(|| Planner::new().plan_fft_forward(p.nf));
     // twiddle[t nw + w] = exp(-2 pi i k n / nf) for DFT index k = first + w and padded
     // sample n = padding + t, its phase reduced modulo nf in integers.
     let twiddle: Vec<C64> = if direct {
@@ -307,8 +308,8 @@ struct Fft2 {
 }
 
 impl Fft2 {
-    fn new(planner: &mut FftPlanner<f64>, nx: usize, ny: usize, inverse: bool) -> Fft2 {
-        let plan = |p: &mut FftPlanner<f64>, n| {
+    fn new(planner: &mut Planner, nx: usize, ny: usize, inverse: bool) -> Fft2 {
+        let plan = |p: &mut Planner, n| {
             if inverse {
                 p.plan_fft_inverse(n)
             } else {
@@ -394,7 +395,7 @@ pub fn phasor_field_by(
     };
     // Confocal: the light goes to v and back, the same distance twice.
     let twice = if c.paired { 2.0 } else { 1.0 };
-    let mut planner = FftPlanner::new();
+    let mut planner = Planner::new();
     let (rx, ry) = (nx + lat.dims[0] - 1, ny + lat.dims[1] - 1);
     let fwd = Fft2::new(&mut planner, rx, ry, false);
     let inv = Fft2::new(&mut planner, rx, ry, true);
@@ -497,20 +498,53 @@ pub fn dot_reference(hr: &[f32], hi: &[f32], er: &[f32], ei: &[f32]) -> C64 {
     C64::new(re as f64, im as f64)
 }
 
-/// [`dot_reference`] eight terms at a time (AVX2 + FMA, which the build targets).
-#[cfg(all(
-    target_arch = "x86_64",
-    target_feature = "avx2",
-    target_feature = "fma"
-))]
+/// [`dot_reference`], eight terms at a time where this CPU runs AVX2 + FMA (its sums
+/// round differently: lanes of eight, fused multiply-adds; `dot_matches_the_reference`
+/// bounds the difference).
 pub fn dot(hr: &[f32], hi: &[f32], er: &[f32], ei: &[f32]) -> C64 {
-    use std::arch::x86_64::*;
+    match crate::cpu::detected().avx2() {
+        Some(isa) => dot_with(isa, hr, hi, er, ei),
+        None => dot_with(crate::cpu::Baseline, hr, hi, er, ei),
+    }
+}
+
+/// [`dot`] at the level `isa` proves.
+#[inline(always)]
+fn dot_with<L: crate::cpu::Level>(isa: L, hr: &[f32], hi: &[f32], er: &[f32], ei: &[f32]) -> C64 {
+    #[cfg(target_arch = "x86_64")]
+    if let Some(avx2) = isa.avx2() {
+        return dot_avx2(avx2, hr, hi, er, ei);
+    }
+    dot_reference(hr, hi, er, ei)
+}
+
+/// [`dot`] with AVX2 + FMA.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn dot_avx2(_avx2: crate::cpu::Avx2, hr: &[f32], hi: &[f32], er: &[f32], ei: &[f32]) -> C64 {
     let n = hr.len();
     assert!(hi.len() == n && er.len() == n && ei.len() == n);
     let m = n / 8 * 8;
-    // SAFETY: the build enables AVX2 and FMA (cfg above); every load reads 8 floats
-    // from index q < m <= n - 8 + 1 of slices of length n (asserted).
-    let (mut re, mut im) = unsafe {
+    // SAFETY: `_avx2` proves this CPU runs AVX2 and FMA (`cpu::Avx2`); the lengths are
+    // as asserted.
+    let (mut re, mut im) = unsafe { lanes_avx2(hr, hi, er, ei, m) };
+    let tail = dot_reference(&hr[m..], &hi[m..], &er[m..], &ei[m..]);
+    re += tail.re;
+    im += tail.im;
+    C64::new(re, im)
+}
+
+/// The first `m` (a multiple of 8) terms of [`dot_avx2`], as (re, im).
+///
+/// # Safety
+/// The CPU runs AVX2 and FMA; every slice holds at least `m` values.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn lanes_avx2(hr: &[f32], hi: &[f32], er: &[f32], ei: &[f32], m: usize) -> (f64, f64) {
+    use std::arch::x86_64::*;
+    // SAFETY: every load reads 8 floats from index q <= m - 8 of slices of at least m
+    // values (the caller's contract).
+    unsafe {
         let (mut ar, mut ai) = (_mm256_setzero_ps(), _mm256_setzero_ps());
         for q in (0..m).step_by(8) {
             let a = _mm256_loadu_ps(hr.as_ptr().add(q));
@@ -527,21 +561,7 @@ pub fn dot(hr: &[f32], hi: &[f32], er: &[f32], ei: &[f32]) -> C64 {
             r.iter().map(|&v| v as f64).sum::<f64>(),
             i.iter().map(|&v| v as f64).sum::<f64>(),
         )
-    };
-    let tail = dot_reference(&hr[m..], &hi[m..], &er[m..], &ei[m..]);
-    re += tail.re;
-    im += tail.im;
-    C64::new(re, im)
-}
-
-/// Without AVX2: the reference.
-#[cfg(not(all(
-    target_arch = "x86_64",
-    target_feature = "avx2",
-    target_feature = "fma"
-)))]
-pub fn dot(hr: &[f32], hi: &[f32], er: &[f32], ei: &[f32]) -> C64 {
-    dot_reference(hr, hi, er, ei)
+    }
 }
 
 /// Phasors `e^{2 pi i f_w g d}` over the kept frequencies, advanced from one frequency
@@ -574,86 +594,145 @@ impl Phasors {
 /// single precision (y-tal's complex64), the rest in double.
 fn direct_sum(c: &Capture, grid: &VoxelGrid, p: &Pulse, hw: &[C64]) -> Vec<f32> {
     let nw = p.freqs.len();
-    let (nl, ns) = (c.lasers, c.sensors);
-    let hr: Vec<f32> = hw.iter().map(|z| z.re as f32).collect();
-    let hi: Vec<f32> = hw.iter().map(|z| z.im as f32).collect();
-    let factors: Vec<C64> = (0..nw).map(|w| back(p, w)).collect();
-    let df = if nw > 1 { p.freqs[1] - p.freqs[0] } else { 0.0 };
-    let even = |w: usize| (p.freqs[w] - p.freqs[w - 1] - df).abs() <= 1e-9 * df.abs();
-    let twice = if c.paired { 2.0 } else { 1.0 };
-    let [_, ny, nz] = grid.n;
+    let sum = DirectSum {
+        c,
+        grid,
+        p,
+        hr: hw.iter().map(|z| z.re as f32).collect(),
+        hi: hw.iter().map(|z| z.im as f32).collect(),
+        factors: (0..nw).map(|w| back(p, w)).collect(),
+        df: if nw > 1 { p.freqs[1] - p.freqs[0] } else { 0.0 },
+        twice: if c.paired { 2.0 } else { 1.0 },
+    };
     let mut out = vec![0f32; grid.voxels()];
+    // Voxels go in blocks that share each row of H's spectrum while it is in cache
+    // (the spectrum is read once per block, not once per voxel).
+    out.par_chunks_mut(DirectSum::BLOCK).enumerate().for_each(
+        |(b, o)| match crate::cpu::detected().avx2() {
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: the proof says this CPU runs the wrapper's instruction set.
+            Some(isa) => unsafe { direct_sum_block_avx2(isa, &sum, b, o) },
+            _ => direct_sum_block(crate::cpu::Baseline, &sum, b, o),
+        },
+    );
+    out
+}
+
+/// What [`direct_sum`]'s blocks share.
+struct DirectSum<'a> {
+    c: &'a Capture,
+    grid: &'a VoxelGrid,
+    p: &'a Pulse,
+    /// H's spectrum in single precision, split into real and imaginary parts.
+    hr: Vec<f32>,
+    hi: Vec<f32>,
+    /// [`back`] per kept frequency.
+    factors: Vec<C64>,
+    /// The step between the first two kept frequencies.
+    df: f64,
+    /// 2 for confocal captures (there and back), else 1.
+    twice: f64,
+}
+
+impl DirectSum<'_> {
+    /// Voxels per block.
+    const BLOCK: usize = 32;
+
+    /// Whether kept frequency `w` is one step `df` after `w - 1`.
+    fn even(&self, w: usize) -> bool {
+        let f = &self.p.freqs;
+        (f[w] - f[w - 1] - self.df).abs() <= 1e-9 * self.df.abs()
+    }
+}
+
+/// [`direct_sum_block`] compiled for AVX2 + FMA (the same bits but for [`dot`]'s,
+/// which are [`dot`]'s at this level wherever it runs).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
+fn direct_sum_block_avx2(isa: crate::cpu::Avx2, sum: &DirectSum, b: usize, o: &mut [f32]) {
+    direct_sum_block(isa, sum, b, o)
+}
+
+/// Block `b` of [`direct_sum`]'s voxels, into `o`.
+#[inline(always)]
+fn direct_sum_block<L: crate::cpu::Level>(isa: L, sum: &DirectSum, b: usize, o: &mut [f32]) {
+    let DirectSum {
+        c,
+        grid,
+        p,
+        hr,
+        hi,
+        factors,
+        df,
+        twice,
+    } = sum;
+    let (nl, ns) = (c.lasers, c.sensors);
+    let [_, ny, nz] = grid.n;
     let empty = || Phasors {
         e: Vec::new(),
         r: Vec::new(),
         d: Vec::new(),
     };
-    // Voxels go in blocks that share each row of H's spectrum while it is in cache
-    // (the spectrum is read once per block, not once per voxel).
-    const BLOCK: usize = 32;
-    out.par_chunks_mut(BLOCK).enumerate().for_each(|(b, o)| {
-        let mut cams: Vec<Phasors> = (0..o.len()).map(|_| empty()).collect();
-        let mut projs: Vec<Phasors> = (0..o.len()).map(|_| empty()).collect();
-        for (q, (cam, proj)) in cams.iter_mut().zip(projs.iter_mut()).enumerate() {
-            let idx = b * BLOCK + q;
-            let (i, j, k) = (idx / (ny * nz), idx / nz % ny, idx % nz);
-            let v = [0, 1, 2].map(|a| grid.coordinate(a, [i, j, k][a]) as f64);
-            cam.d = c
-                .sensor_grid
+    let mut cams: Vec<Phasors> = (0..o.len()).map(|_| empty()).collect();
+    let mut projs: Vec<Phasors> = (0..o.len()).map(|_| empty()).collect();
+    for (q, (cam, proj)) in cams.iter_mut().zip(projs.iter_mut()).enumerate() {
+        let idx = b * DirectSum::BLOCK + q;
+        let (i, j, k) = (idx / (ny * nz), idx / nz % ny, idx % nz);
+        let v = [0, 1, 2].map(|a| grid.coordinate(a, [i, j, k][a]) as f64);
+        cam.d = c
+            .sensor_grid
+            .iter()
+            .map(|&s| twice * norm(sub(v, f64x3(s))))
+            .collect();
+        if !c.paired {
+            proj.d = c
+                .laser_grid
                 .iter()
-                .map(|&s| twice * norm(sub(v, f64x3(s))))
+                .map(|&l| norm(sub(v, f64x3(l))))
                 .collect();
-            if !c.paired {
-                proj.d = c
-                    .laser_grid
-                    .iter()
-                    .map(|&l| norm(sub(v, f64x3(l))))
-                    .collect();
+        }
+    }
+    let mut er = vec![0f32; o.len() * ns];
+    let mut ei = vec![0f32; o.len() * ns];
+    let mut field = vec![ZERO; o.len()];
+    let mut acc = vec![ZERO; o.len()];
+    for (w, factor) in factors.iter().enumerate() {
+        for (cam, proj) in cams.iter_mut().zip(projs.iter_mut()) {
+            if w == 0 || !sum.even(w) {
+                cam.seed(p.freqs[w], *df);
+                proj.seed(p.freqs[w], *df);
+            } else {
+                cam.advance();
+                proj.advance();
             }
         }
-        let mut er = vec![0f32; o.len() * ns];
-        let mut ei = vec![0f32; o.len() * ns];
-        let mut field = vec![ZERO; o.len()];
-        let mut acc = vec![ZERO; o.len()];
-        for (w, factor) in factors.iter().enumerate() {
-            for (cam, proj) in cams.iter_mut().zip(projs.iter_mut()) {
-                if w == 0 || !even(w) {
-                    cam.seed(p.freqs[w], df);
-                    proj.seed(p.freqs[w], df);
-                } else {
-                    cam.advance();
-                    proj.advance();
-                }
-            }
-            if p.weights[w].norm() <= 1e-8 {
-                continue;
-            }
-            for (q, cam) in cams.iter().enumerate() {
-                for (s, z) in cam.e.iter().enumerate() {
-                    er[q * ns + s] = z.re as f32;
-                    ei[q * ns + s] = z.im as f32;
-                }
-            }
-            field.iter_mut().for_each(|f| *f = ZERO);
-            let h = w * nl * ns;
-            for l in 0..nl {
-                let (hrl, hil) = (
-                    &hr[h + l * ns..h + (l + 1) * ns],
-                    &hi[h + l * ns..h + (l + 1) * ns],
-                );
-                for (q, f) in field.iter_mut().enumerate() {
-                    let e = q * ns..(q + 1) * ns;
-                    let s = dot(hrl, hil, &er[e.clone()], &ei[e]);
-                    *f += if c.paired { s } else { s * projs[q].e[l] };
-                }
-            }
-            for (a, f) in acc.iter_mut().zip(&field) {
-                *a += f * factor;
+        if p.weights[w].norm() <= 1e-8 {
+            continue;
+        }
+        for (q, cam) in cams.iter().enumerate() {
+            for (s, z) in cam.e.iter().enumerate() {
+                er[q * ns + s] = z.re as f32;
+                ei[q * ns + s] = z.im as f32;
             }
         }
-        for (o, a) in o.iter_mut().zip(&acc) {
-            *o = a.norm() as f32;
+        field.iter_mut().for_each(|f| *f = ZERO);
+        let h = w * nl * ns;
+        for l in 0..nl {
+            let (hrl, hil) = (
+                &hr[h + l * ns..h + (l + 1) * ns],
+                &hi[h + l * ns..h + (l + 1) * ns],
+            );
+            for (q, f) in field.iter_mut().enumerate() {
+                let e = q * ns..(q + 1) * ns;
+                let s = dot_with(isa, hrl, hil, &er[e.clone()], &ei[e]);
+                *f += if c.paired { s } else { s * projs[q].e[l] };
+            }
         }
-    });
-    out
+        for (a, f) in acc.iter_mut().zip(&field) {
+            *a += f * factor;
+        }
+    }
+    for (o, a) in o.iter_mut().zip(&acc) {
+        *o = a.norm() as f32;
+    }
 }

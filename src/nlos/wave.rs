@@ -27,10 +27,11 @@
 
 use super::bp::VoxelGrid;
 use super::capture::Capture;
+use super::fft::Planner;
 use super::NlosError;
 use rayon::prelude::*;
 use rustfft::num_complex::Complex;
-use rustfft::{Fft, FftDirection, FftPlanner};
+use rustfft::{Fft, FftDirection};
 use std::sync::Arc;
 
 pub type C64 = Complex<f64>;
@@ -419,7 +420,7 @@ pub fn fft3(data: &mut [C64], dims: [usize; 3], direction: FftDirection) {
     if data.is_empty() {
         return;
     }
-    let mut planner = FftPlanner::<f64>::new();
+    let mut planner = Planner::new();
     let plans: [Arc<dyn Fft<f64>>; 3] = dims.map(|d| planner.plan_fft(d, direction));
     // Axis 2: contiguous lines, several per task.
     let f2 = &plans[2];

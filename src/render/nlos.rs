@@ -35,7 +35,7 @@ use super::deposits::PathDeposits;
 use super::gbuffer::GSample;
 use super::integrator::{contribute, perturbed_at, PathTally};
 use super::sampler::{slot, PathSampler};
-use crate::cpu::{Isa, ISA_AVX2, ISA_AVX512, ISA_BASELINE};
+use crate::cpu::{Avx2, Avx512, Baseline, Detected, Level};
 use crate::geometry::accel::{offset_origin, Hit};
 use crate::materials::{Bsdf, BsdfModel};
 use crate::math::frame::Frame;
@@ -74,21 +74,25 @@ pub fn trace_nlos<S: PathSampler>(
     deposits: &mut PathDeposits,
     tally: &mut PathTally,
 ) -> GSample {
-    match crate::cpu::current() {
-        // SAFETY: `cpu::current` returns a level only when the CPU supports it.
+    match crate::cpu::detected() {
         #[cfg(target_arch = "x86_64")]
-        Isa::Avx512 => unsafe { nlos_avx512(scene, o, d, ends, rng, deposits, tally) },
+        // SAFETY: the proof says this CPU runs the wrapper's instruction set.
+        Detected::Avx512(isa) => unsafe {
+            nlos_avx512(isa, scene, o, d, ends, rng, deposits, tally)
+        },
         #[cfg(target_arch = "x86_64")]
-        Isa::Avx2 => unsafe { nlos_avx2(scene, o, d, ends, rng, deposits, tally) },
-        // SAFETY: the baseline runs on every CPU.
-        _ => unsafe { body::<ISA_BASELINE, S>(scene, o, d, ends, rng, deposits, tally) },
+        // SAFETY: as above.
+        Detected::Avx2(isa) => unsafe { nlos_avx2(isa, scene, o, d, ends, rng, deposits, tally) },
+        _ => body::<Baseline, S>(Baseline, scene, o, d, ends, rng, deposits, tally),
     }
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx512cd")]
 #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
+#[allow(clippy::too_many_arguments)]
 fn nlos_avx512<S: PathSampler>(
+    isa: Avx512,
     scene: &Scene,
     o: Vec3,
     d: Vec3,
@@ -97,13 +101,14 @@ fn nlos_avx512<S: PathSampler>(
     deposits: &mut PathDeposits,
     tally: &mut PathTally,
 ) -> GSample {
-    // SAFETY: compiled for (and only called on CPUs with) ISA_AVX512.
-    unsafe { body::<ISA_AVX512, S>(scene, o, d, ends, rng, deposits, tally) }
+    body::<Avx512, S>(isa, scene, o, d, ends, rng, deposits, tally)
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
+#[allow(clippy::too_many_arguments)]
 fn nlos_avx2<S: PathSampler>(
+    isa: Avx2,
     scene: &Scene,
     o: Vec3,
     d: Vec3,
@@ -112,8 +117,7 @@ fn nlos_avx2<S: PathSampler>(
     deposits: &mut PathDeposits,
     tally: &mut PathTally,
 ) -> GSample {
-    // SAFETY: compiled for (and only called on CPUs with) ISA_AVX2.
-    unsafe { body::<ISA_AVX2, S>(scene, o, d, ends, rng, deposits, tally) }
+    body::<Avx2, S>(isa, scene, o, d, ends, rng, deposits, tally)
 }
 
 /// A surface vertex: where it is and what scatters there.
@@ -170,29 +174,23 @@ struct Ctx<'a> {
 impl Ctx<'_> {
     /// Whether something lies between `from` and `to` (the segment's last 1e-4 left
     /// out, as Mitsuba's shadow rays).
-    ///
-    /// # Safety
-    /// The CPU must support `ISA`.
     #[inline(always)]
-    unsafe fn blocked<const ISA: u8>(&self, from: Vec3, to: Vec3) -> bool {
+    fn blocked<L: Level>(&self, isa: L, from: Vec3, to: Vec3) -> bool {
         let Some((o, d, tmax)) = shadow_segment(from, to) else {
             return false;
         };
-        // SAFETY: the caller guarantees ISA.
-        unsafe { self.scene.accel.occluded_with::<ISA>(o, d, tmax) }
+        self.scene.accel.occluded_with(isa, o, d, tmax)
     }
 
     /// Light-sample contribution from vertex `v` to the laser (mitransient's
     /// `emitter_nee_sample`), of depth `depth`, the path having OPL `opl` at `v`;
     /// `light` is the laser's light at `v` when it is known (a lit point), else it is
     /// found here with a shadow ray.
-    ///
-    /// # Safety
-    /// The CPU must support `ISA`.
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
-    unsafe fn laser_nee<const ISA: u8>(
+    fn laser_nee<L: Level>(
         &self,
+        isa: L,
         v: &Vertex,
         light: Option<Option<LaserLight>>,
         depth: u32,
@@ -220,8 +218,7 @@ impl Ctx<'_> {
                 self.focus,
                 |o, d, tmax| {
                     tally.rays += 1;
-                    // SAFETY: the caller guarantees ISA.
-                    unsafe { scene.accel.occluded_with::<ISA>(o, d, tmax) }
+                    scene.accel.occluded_with(isa, o, d, tmax)
                 },
             )
         });
@@ -244,13 +241,11 @@ impl Ctx<'_> {
     /// (mitransient's `emitter_laser_targets_sample`: it tests visibility to the lit
     /// point, then finds the surface there by a second ray; the surface is known, so a
     /// shadow ray does both).
-    ///
-    /// # Safety
-    /// The CPU must support `ISA`.
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
-    unsafe fn laser_sample<const ISA: u8>(
+    fn laser_sample<L: Level>(
         &self,
+        isa: L,
         v: &Vertex,
         lit: &Hit,
         lit_light: Option<LaserLight>,
@@ -279,8 +274,7 @@ impl Ctx<'_> {
         // and meet the lit point's own surface short of it at grazing angles.
         let end = offset_origin(target, lit.surface.ng, -dir);
         tally.rays += 1;
-        // SAFETY: the caller guarantees ISA.
-        if unsafe { self.blocked::<ISA>(offset_origin(v.p, v.ng, dir), end) } {
+        if self.blocked(isa, offset_origin(v.p, v.ng, dir), end) {
             return;
         }
         let lit = Vertex::at(scene, lit, dir);
@@ -289,28 +283,25 @@ impl Ctx<'_> {
             return;
         }
         let beta = beta * f * (cos_l / (dist * dist));
-        // SAFETY: the caller guarantees ISA.
-        unsafe {
-            self.laser_nee::<ISA>(
-                &lit,
-                Some(lit_light),
-                depth + 2,
-                beta,
-                opl + eta as f64 * dist as f64,
-                eta,
-                deposits,
-                tally,
-            )
-        };
+        (self.laser_nee(
+            isa,
+            &lit,
+            Some(lit_light),
+            depth + 2,
+            beta,
+            opl + eta as f64 * dist as f64,
+            eta,
+            deposits,
+            tally,
+        ));
     }
 }
 
 /// The tracer, inlined into one wrapper per instruction set.
-///
-/// # Safety
-/// The CPU must support `ISA`.
 #[inline(always)]
-unsafe fn body<const ISA: u8, S: PathSampler>(
+#[allow(clippy::too_many_arguments)]
+fn body<L: Level, S: PathSampler>(
+    isa: L,
     scene: &Scene,
     o: Vec3,
     d: Vec3,
@@ -349,12 +340,9 @@ unsafe fn body<const ISA: u8, S: PathSampler>(
         let known = next.take();
         let hit = known.unwrap_or_else(|| {
             tally.rays += 1;
-            // SAFETY: the caller guarantees ISA.
-            unsafe {
-                scene
-                    .accel
-                    .intersect_with::<ISA>(&scene.shapes, o, d, f32::INFINITY)
-            }
+            scene
+                .accel
+                .intersect_with(isa, &scene.shapes, o, d, f32::INFINITY)
         });
         let Some(hit) = hit else {
             break;
@@ -379,25 +367,23 @@ unsafe fn body<const ISA: u8, S: PathSampler>(
             break;
         }
         if v.bsdf.flags(v.wo).has_non_delta() {
-            // SAFETY: the caller guarantees ISA.
-            unsafe {
-                if n.laser_sampling {
-                    if let (Some(lit), Some(light)) = (&ends.lit, ends.lit_light) {
-                        ctx.laser_sample::<ISA>(
-                            &v,
-                            lit,
-                            Some(light),
-                            depth,
-                            beta,
-                            opl,
-                            eta,
-                            deposits,
-                            tally,
-                        );
-                    }
-                } else {
-                    ctx.laser_nee::<ISA>(&v, None, depth, beta, opl, eta, deposits, tally);
+            if n.laser_sampling {
+                if let (Some(lit), Some(light)) = (&ends.lit, ends.lit_light) {
+                    ctx.laser_sample(
+                        isa,
+                        &v,
+                        lit,
+                        Some(light),
+                        depth,
+                        beta,
+                        opl,
+                        eta,
+                        deposits,
+                        tally,
+                    );
                 }
+            } else {
+                ctx.laser_nee(isa, &v, None, depth, beta, opl, eta, deposits, tally);
             }
         }
 
@@ -449,15 +435,13 @@ unsafe fn body<const ISA: u8, S: PathSampler>(
                 // meets the hidden geometry, traced now and kept for the next vertex.
                 Some(hidden) if c > 0.0 && !bs.lobe.is_delta() => {
                     tally.rays += 1;
-                    // SAFETY: the caller guarantees ISA.
-                    let h = unsafe {
-                        scene.accel.intersect_with::<ISA>(
-                            &scene.shapes,
-                            offset_origin(v.p, v.ng, dir),
-                            dir,
-                            f32::INFINITY,
-                        )
-                    };
+                    let h = scene.accel.intersect_with(
+                        isa,
+                        &scene.shapes,
+                        offset_origin(v.p, v.ng, dir),
+                        dir,
+                        f32::INFINITY,
+                    );
                     let pdf_hg = h.as_ref().map_or(0.0, |h| hidden.pdf(v.p, v.ng, h, dir));
                     next = Some(h);
                     let density = c * pdf_hg + (1.0 - c) * bs.pdf;

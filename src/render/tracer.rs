@@ -41,7 +41,7 @@ use super::volpath::{
     first_surface, free_flight, medium_shadow_ray, null_event, transmittance, Flight, Spectral,
     MAX_NULL_CROSSINGS,
 };
-use crate::cpu::{Isa, ISA_AVX2, ISA_AVX512, ISA_BASELINE};
+use crate::cpu::{Avx2, Avx512, Baseline, Detected, Level};
 use crate::geometry::accel::{offset_origin, Hit};
 use crate::materials::{Bsdf, BsdfModel};
 use crate::math::frame::Frame;
@@ -132,14 +132,18 @@ fn trace_with<const MEDIA: bool, S: PathSampler>(
     deposits: &mut PathDeposits,
     tally: &mut PathTally,
 ) -> GSample {
-    match crate::cpu::current() {
-        // SAFETY: `cpu::current` returns a level only when the CPU supports it.
+    match crate::cpu::detected() {
         #[cfg(target_arch = "x86_64")]
-        Isa::Avx512 => unsafe { path_avx512::<MEDIA, S>(scene, o, d, rng, deposits, tally) },
+        // SAFETY: the proof says this CPU runs the wrapper's instruction set.
+        Detected::Avx512(isa) => unsafe {
+            path_avx512::<MEDIA, S>(isa, scene, o, d, rng, deposits, tally)
+        },
         #[cfg(target_arch = "x86_64")]
-        Isa::Avx2 => unsafe { path_avx2::<MEDIA, S>(scene, o, d, rng, deposits, tally) },
-        // SAFETY: the baseline runs on every CPU.
-        _ => unsafe { path_body::<ISA_BASELINE, MEDIA, S>(scene, o, d, rng, deposits, tally) },
+        // SAFETY: as above.
+        Detected::Avx2(isa) => unsafe {
+            path_avx2::<MEDIA, S>(isa, scene, o, d, rng, deposits, tally)
+        },
+        _ => path_body::<Baseline, MEDIA, S>(Baseline, scene, o, d, rng, deposits, tally),
     }
 }
 
@@ -161,6 +165,7 @@ pub fn trace_path<S: PathSampler>(
 #[target_feature(enable = "avx512f,avx512vl,avx512dq,avx512bw,avx512cd")]
 #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
 fn path_avx512<const MEDIA: bool, S: PathSampler>(
+    isa: Avx512,
     scene: &Scene,
     o: Vec3,
     d: Vec3,
@@ -168,13 +173,13 @@ fn path_avx512<const MEDIA: bool, S: PathSampler>(
     deposits: &mut PathDeposits,
     tally: &mut PathTally,
 ) -> GSample {
-    // SAFETY: this wrapper is compiled for (and only called on CPUs with) ISA_AVX512.
-    unsafe { path_body::<ISA_AVX512, MEDIA, S>(scene, o, d, rng, deposits, tally) }
+    path_body::<Avx512, MEDIA, S>(isa, scene, o, d, rng, deposits, tally)
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
 fn path_avx2<const MEDIA: bool, S: PathSampler>(
+    isa: Avx2,
     scene: &Scene,
     o: Vec3,
     d: Vec3,
@@ -182,16 +187,13 @@ fn path_avx2<const MEDIA: bool, S: PathSampler>(
     deposits: &mut PathDeposits,
     tally: &mut PathTally,
 ) -> GSample {
-    // SAFETY: this wrapper is compiled for (and only called on CPUs with) ISA_AVX2.
-    unsafe { path_body::<ISA_AVX2, MEDIA, S>(scene, o, d, rng, deposits, tally) }
+    path_body::<Avx2, MEDIA, S>(isa, scene, o, d, rng, deposits, tally)
 }
 
 /// The loop (module docs), inlined into one wrapper per instruction set.
-///
-/// # Safety
-/// The CPU must support `ISA`.
 #[inline(always)]
-unsafe fn path_body<const ISA: u8, const MEDIA: bool, S: PathSampler>(
+fn path_body<L: Level, const MEDIA: bool, S: PathSampler>(
+    isa: L,
     scene: &Scene,
     o: Vec3,
     d: Vec3,
@@ -200,8 +202,7 @@ unsafe fn path_body<const ISA: u8, const MEDIA: bool, S: PathSampler>(
     tally: &mut PathTally,
 ) -> GSample {
     let settings = &scene.integrator;
-    // SAFETY: the caller guarantees ISA.
-    let mut path = unsafe { PathState::start::<ISA, MEDIA, S>(scene, o, d, rng) };
+    let mut path = PathState::start::<L, MEDIA, S>(isa, scene, o, d, rng);
     // Mitsuba's `path`: max_depth = 0 renders nothing, not even directly visible
     // emitters (`volpath` stops at its first top).
     if !MEDIA && settings.max_depth == 0 {
@@ -232,16 +233,12 @@ unsafe fn path_body<const ISA: u8, const MEDIA: bool, S: PathSampler>(
         }
         // 2. The closest hit.
         tally.rays += 1;
-        // SAFETY: the caller guarantees ISA.
-        let hit = unsafe {
-            scene
-                .accel
-                .intersect_with::<ISA>(&scene.shapes, path.o, path.d, f32::INFINITY)
-        };
+        let hit = scene
+            .accel
+            .intersect_with(isa, &scene.shapes, path.o, path.d, f32::INFINITY);
         // 3. Shade.
-        // SAFETY: the caller guarantees ISA.
         let goes_on =
-            unsafe { shade::<ISA, MEDIA, S>(scene, &mut path, hit.as_ref(), rng, deposits, tally) };
+            shade::<L, MEDIA, S>(isa, scene, &mut path, hit.as_ref(), rng, deposits, tally);
         if !goes_on {
             break;
         }
@@ -252,11 +249,9 @@ unsafe fn path_body<const ISA: u8, const MEDIA: bool, S: PathSampler>(
 impl PathState {
     /// A camera path from `o` along unit `d` (the media rules draw the hero channel and,
     /// under `camera_unwarp`, find the first surface).
-    ///
-    /// # Safety
-    /// The CPU must support `ISA`.
     #[inline(always)]
-    unsafe fn start<const ISA: u8, const MEDIA: bool, S: PathSampler>(
+    fn start<L: Level, const MEDIA: bool, S: PathSampler>(
+        isa: L,
         scene: &Scene,
         o: Vec3,
         d: Vec3,
@@ -265,8 +260,7 @@ impl PathState {
         let settings = &scene.integrator;
         let (opl, spec) = if MEDIA {
             let opl = if settings.camera_unwarp {
-                // SAFETY: the caller guarantees ISA.
-                -unsafe { first_surface::<ISA>(scene, o, d) }
+                -(first_surface(isa, scene, o, d))
             } else {
                 0.0f64
             };
@@ -299,12 +293,10 @@ impl PathState {
 
 /// Step 3 of the loop: `hit` is the closest hit of the path's ray. Returns whether
 /// the path goes on.
-///
-/// # Safety
-/// The CPU must support `ISA`.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
-unsafe fn shade<const ISA: u8, const MEDIA: bool, S: PathSampler>(
+fn shade<L: Level, const MEDIA: bool, S: PathSampler>(
+    isa: L,
     scene: &Scene,
     path: &mut PathState,
     hit: Option<&Hit>,
@@ -325,10 +317,7 @@ unsafe fn shade<const ISA: u8, const MEDIA: bool, S: PathSampler>(
             let flight = free_flight(m, path.o, path.d, s_surf, rng, &mut path.spec);
             path.beta = path.common * path.spec.weight();
             if let Flight::Scatter { t } = flight {
-                // SAFETY: the caller guarantees ISA.
-                return unsafe {
-                    scatter_in_medium::<ISA, S>(scene, path, mi, t, rng, deposits, tally)
-                };
+                return scatter_in_medium::<L, S>(isa, scene, path, mi, t, rng, deposits, tally);
             }
         }
     }
@@ -514,24 +503,20 @@ unsafe fn shade<const ISA: u8, const MEDIA: bool, S: PathSampler>(
                     } else {
                         path.medium
                     };
-                    // SAFETY: the caller guarantees ISA.
-                    unsafe {
-                        transmittance::<ISA>(
-                            scene,
-                            origin,
-                            dir,
-                            target,
-                            0.0,
-                            shadow_medium,
-                            rng.stream(),
-                            tally,
-                        )
-                    }
+                    transmittance(
+                        isa,
+                        scene,
+                        origin,
+                        dir,
+                        target,
+                        0.0,
+                        shadow_medium,
+                        rng.stream(),
+                        tally,
+                    )
                 } else {
                     tally.rays += 1;
-                    // SAFETY: the caller guarantees ISA.
-                    let blocked = tmax > 0.0
-                        && unsafe { scene.accel.occluded_with::<ISA>(origin, dir, tmax) };
+                    let blocked = tmax > 0.0 && (scene.accel.occluded_with(isa, origin, dir, tmax));
                     if tmax > 0.0 && !blocked {
                         Rgb::ONE
                     } else {
@@ -610,11 +595,10 @@ unsafe fn shade<const ISA: u8, const MEDIA: bool, S: PathSampler>(
 /// A real scattering in the medium `mi` at distance `t` along the path's ray:
 /// next-event estimation with the phase function (unless the medium says not to) and
 /// a new direction from it (weight 1). Returns whether the path goes on.
-///
-/// # Safety
-/// The CPU must support `ISA`.
 #[inline(always)]
-unsafe fn scatter_in_medium<const ISA: u8, S: PathSampler>(
+#[allow(clippy::too_many_arguments)]
+fn scatter_in_medium<L: Level, S: PathSampler>(
+    isa: L,
     scene: &Scene,
     path: &mut PathState,
     mi: u32,
@@ -655,19 +639,17 @@ unsafe fn scatter_in_medium<const ISA: u8, S: PathSampler>(
             let f = m.phase().eval(wi, ls.wi);
             if f > 0.0 && ls.pdf > 0.0 {
                 let (dir, target) = medium_shadow_ray(p, &ls);
-                // SAFETY: the caller guarantees ISA.
-                let tr = unsafe {
-                    transmittance::<ISA>(
-                        scene,
-                        p,
-                        dir,
-                        target,
-                        0.0,
-                        path.medium,
-                        rng.stream(),
-                        tally,
-                    )
-                };
+                let tr = transmittance(
+                    isa,
+                    scene,
+                    p,
+                    dir,
+                    target,
+                    0.0,
+                    path.medium,
+                    rng.stream(),
+                    tally,
+                );
                 if tr != Rgb::ZERO {
                     let w = if ls.delta {
                         1.0

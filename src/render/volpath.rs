@@ -53,6 +53,7 @@
 
 use super::integrator::{light_target, PathTally};
 use super::sampler::PathSampler;
+use crate::cpu::Level;
 use crate::geometry::accel::offset_origin;
 use crate::geometry::shape::Shape;
 use crate::materials::Bsdf;
@@ -203,12 +204,10 @@ pub(super) fn free_flight<S: PathSampler>(
 /// Transmittance from `o` along unit `d` to `target` (stopping `target_eps` short),
 /// starting in `medium`: through `null` interfaces (switching media there), zero at
 /// any other surface.
-///
-/// # Safety
-/// The CPU must support `ISA`.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
-pub(super) unsafe fn transmittance<const ISA: u8>(
+pub(super) fn transmittance<L: Level>(
+    isa: L,
     scene: &Scene,
     mut o: Vec3,
     d: Vec3,
@@ -225,8 +224,7 @@ pub(super) unsafe fn transmittance<const ISA: u8>(
             return tr;
         }
         tally.rays += 1;
-        // SAFETY: the caller guarantees ISA.
-        let hit = unsafe { scene.accel.intersect_with::<ISA>(&scene.shapes, o, d, tmax) };
+        let hit = scene.accel.intersect_with(isa, &scene.shapes, o, d, tmax);
         let seg = hit.as_ref().map_or(tmax, |h| h.t);
         if let Some(m) = medium {
             tr *= scene.media[m as usize].transmittance(o, d, seg, rng);
@@ -252,19 +250,14 @@ pub(super) unsafe fn transmittance<const ISA: u8>(
 
 /// Distance along the camera ray to the first surface that is not `null` (0 if none):
 /// mitransient's `first_surface`, for `camera_unwarp`.
-///
-/// # Safety
-/// The CPU must support `ISA`.
 #[inline(always)]
-pub(super) unsafe fn first_surface<const ISA: u8>(scene: &Scene, mut o: Vec3, d: Vec3) -> f64 {
+pub(super) fn first_surface<L: Level>(isa: L, scene: &Scene, mut o: Vec3, d: Vec3) -> f64 {
     let mut dist = 0.0f64;
     for _ in 0..MAX_NULL_CROSSINGS {
-        // SAFETY: the caller guarantees ISA.
-        let Some(h) = (unsafe {
-            scene
-                .accel
-                .intersect_with::<ISA>(&scene.shapes, o, d, f32::INFINITY)
-        }) else {
+        let Some(h) = scene
+            .accel
+            .intersect_with(isa, &scene.shapes, o, d, f32::INFINITY)
+        else {
             return 0.0;
         };
         dist += h.t as f64;
