@@ -349,7 +349,39 @@ struct RowTally {
     voxel_samples: u64,
 }
 
+/// Renders row `y` into `row`, compiled for the instruction set `cpu` chose (the
+/// sampler, the camera and the sums, around the tracer's own dispatch; the same bits at
+/// every level).
 fn render_row(
+    scene: &Scene,
+    settings: &RenderSettings,
+    y: usize,
+    row: &mut RowScratch,
+    z: &(impl Fn(f64) -> f64 + Sync),
+) -> RowTally {
+    match crate::cpu::detected().avx2() {
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: the proof says this CPU runs the wrapper's instruction set.
+        Some(isa) => unsafe { render_row_avx2(isa, scene, settings, y, row, z) },
+        _ => render_row_body(scene, settings, y, row, z),
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
+fn render_row_avx2(
+    _isa: crate::cpu::Avx2,
+    scene: &Scene,
+    settings: &RenderSettings,
+    y: usize,
+    row: &mut RowScratch,
+    z: &(impl Fn(f64) -> f64 + Sync),
+) -> RowTally {
+    render_row_body(scene, settings, y, row, z)
+}
+
+#[inline(always)]
+fn render_row_body(
     scene: &Scene,
     settings: &RenderSettings,
     y: usize,

@@ -103,9 +103,26 @@ impl SobolTable {
         number(permute(index, self.count, p), coord, s)
     }
 
-    /// Appends the column of one dimension; returns 1 + its offset.
+    /// Appends the column of one dimension; returns 1 + its offset. Compiled for the
+    /// instruction set `cpu` chose (its loops vectorise; the same bits at every level).
     #[inline(never)]
     fn fill(&mut self, vertex: u64, slot: u32, coord: usize) -> u32 {
+        match crate::cpu::detected().avx2() {
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: the proof says this CPU runs the wrapper's instruction set.
+            Some(isa) => unsafe { self.fill_avx2(isa, vertex, slot, coord) },
+            _ => self.fill_body(vertex, slot, coord),
+        }
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
+    fn fill_avx2(&mut self, _isa: crate::cpu::Avx2, vertex: u64, slot: u32, coord: usize) -> u32 {
+        self.fill_body(vertex, slot, coord)
+    }
+
+    #[inline(always)]
+    fn fill_body(&mut self, vertex: u64, slot: u32, coord: usize) -> u32 {
         let (p, s) = self.hashes(vertex, slot, coord);
         let n = self.count;
         let start = self.values.len();
