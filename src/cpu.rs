@@ -1,12 +1,16 @@
-//! Instruction sets: one portable binary, the tracer compiled once per instruction set
-//! and chosen at run time.
+//! Instruction sets: one portable binary (built for the x86-64 baseline), its kernels
+//! compiled once per instruction set and chosen at run time.
 //!
-//! `integrator::trace_path` is an `#[inline(always)]` body wrapped by one function per
-//! instruction set (`#[target_feature]`), so everything it inlines (intersection, the
-//! flat triangle packets, shading, sampling) is compiled for AVX-512, AVX2 + FMA or the
-//! x86-64 baseline. Rust never contracts `a * b + c` into an FMA nor reorders float
-//! sums, so every level computes the same bits; `tests/isa.rs` checks it by
-//! forcing each level the CPU has.
+//! Each entry point (`render::tracer::trace`, `render::nlos::trace_nlos`, the render's
+//! row loop, the Sobol' table's fill, the denoiser's filter bands, NLOS backprojection's
+//! pair sums, phasor fields' direct sums) matches on [`detected`] and calls a
+//! `#[target_feature]` wrapper of an `#[inline(always)]` body generic over [`Level`],
+//! so everything the body inlines (intersection, the flat triangle packets, shading,
+//! sampling) is compiled for AVX-512, AVX2 + FMA or the baseline; `nlos::fft` picks
+//! rustfft's kernels by the same level. Rust never contracts `a * b + c` into an FMA
+//! nor reorders float sums, so every level computes the same bits (but for the FFT
+//! methods' rounding); `tests/isa.rs` checks it by forcing each level the CPU has, and
+//! `scripts/isa_qemu.sh` on an emulated CPU without AVX2.
 //!
 //! The level is detected once; [`force`] overrides it (tests, benchmarks), and so does
 //! the environment variable `TSTAT_ISA` = `baseline` | `avx2` | `avx512` (any other

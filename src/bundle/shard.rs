@@ -13,6 +13,7 @@
 //! - `--shard auto/N` takes I from the scheduler: `SLURM_ARRAY_TASK_ID` (Slurm job
 //!   arrays, `--array=0-(N-1)`), else `JOB_COMPLETION_INDEX` (Kubernetes indexed Jobs).
 
+use crate::math::rng::mix64;
 use serde::{Deserialize, Serialize};
 use sha2::{Digest, Sha256};
 
@@ -165,17 +166,10 @@ impl Shard {
     }
 }
 
-/// SplitMix64's finaliser: a bijection of u64 that mixes every bit.
-fn mix(mut z: u64) -> u64 {
-    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-    z ^ (z >> 31)
-}
-
 /// Shard `index`'s seed in a job of seed `seed`: different for every index of one job.
 pub fn shard_seed(seed: u64, index: u64) -> u64 {
-    // For a fixed seed, index -> mix(...) is a bijection, so no two shards share a seed.
-    mix(mix(seed) ^ index.wrapping_mul(0x9e37_79b9_7f4a_7c15))
+    // For a fixed seed, index -> mix64(...) is a bijection, so no two shards share a seed.
+    mix64(mix64(seed) ^ index.wrapping_mul(0x9e37_79b9_7f4a_7c15))
 }
 
 /// The job's identity: a hex hash of `key` (a canonical description of what it
