@@ -11,6 +11,7 @@ use tstat::nlos::capture::Capture;
 use tstat::nlos::fk::{fk_migration, fk_native, stolt};
 use tstat::nlos::lct::{lct, lct_native, resampling_rows, DEFAULT_SNR};
 use tstat::nlos::wave::{fft3, Native, C64};
+use tstat::nlos::NlosError;
 
 /// A confocal capture of an `n` x `n` grid of cell centres of the wall [-1, 1]^2 in the
 /// plane z = 0 (normal +z), `bins` bins of `delta_t` from `t_start`, H (bin, point)
@@ -298,63 +299,101 @@ fn unsuitable_captures_are_refused() {
         last: [1.0; 3],
         n: [4, 4, 4],
     };
-    let mut cases: Vec<(&str, Capture)> = Vec::new();
+    // (what, the capture, words of the reason each method gives after its name)
+    let mut cases: Vec<(&str, Capture, &str)> = Vec::new();
     let mut c = good();
     c.paired = false;
-    cases.push(("not confocal", c));
+    cases.push(("not confocal", c, "reconstructs confocal captures only"));
     let mut c = good();
     c.sensor_dims = [4, 16];
-    cases.push(("not square", c));
+    cases.push((
+        "not square",
+        c,
+        "needs a square sensor grid of at least 2 x 2 points, got 4 x 16",
+    ));
     let mut c = good();
     c.sensor_grid[9][0] += 0.01;
-    cases.push(("irregular", c));
+    cases.push((
+        "irregular",
+        c,
+        "needs a regular planar grid; point (1, 1) lies",
+    ));
     let mut c = good();
     for p in c.sensor_grid.iter_mut() {
         p[0] *= 2.0;
     }
-    cases.push(("rectangular cells", c));
+    cases.push((
+        "rectangular cells",
+        c,
+        "needs a square grid of square cells",
+    ));
     let mut c = good();
     for p in c.sensor_grid.iter_mut() {
         p[0] += 0.1 * p[1];
     }
-    cases.push(("sheared", c));
+    cases.push(("sheared", c, "needs a square grid of square cells"));
     let mut c = good();
     c.normal = [0.0, 1.0, 0.0];
-    cases.push(("normal in the wall", c));
+    cases.push((
+        "normal in the wall",
+        c,
+        "is not perpendicular to the sensor grid",
+    ));
     let mut c = good();
     c.accounts_first_and_last_bounces = true;
-    cases.push(("first and last bounces", c));
+    cases.push((
+        "first and last bounces",
+        c,
+        "this capture's times include the first and last bounces",
+    ));
     let mut c = good();
     c.h.truncate(64);
     c.bins = 1;
-    cases.push(("one bin", c));
+    cases.push(("one bin", c, "needs at least 2 time bins, got 1"));
     let mut c = good();
     c.h.pop();
-    cases.push(("short H", c));
+    cases.push(("short H", c, "H holds 4095 values for 64 bins of 64 points"));
     let mut c = good();
     c.h[5] = f32::NAN;
-    cases.push(("NaN", c));
+    cases.push(("NaN", c, "H holds a non-finite value (bin 0, point 5)"));
     let mut c = good();
     c.t_start = 1e30;
-    cases.push(("far start", c));
+    cases.push(("far start", c, "bins can be put in front"));
     let mut c = good();
     c.t_start = -10.0;
-    cases.push(("all bins before OPL 0", c));
+    cases.push((
+        "all bins before OPL 0",
+        c,
+        "keeps 0 bins from OPL 0 on; at least 2 are needed",
+    ));
     let mut c = good();
     c.delta_t = 0.0;
-    cases.push(("zero bin width", c));
+    cases.push((
+        "zero bin width",
+        c,
+        "is not finite with a positive bin width",
+    ));
     let mut c = capture(1, 64, 0.0, 0.05, vec![0.0; 64]);
     c.sensor_dims = [1, 1];
-    cases.push(("one point", c));
-    for (what, c) in &cases {
-        assert!(
-            fk_migration(c, &grid).is_err(),
-            "fk takes a capture: {what}"
-        );
-        assert!(
-            lct(c, &grid, DEFAULT_SNR).is_err(),
-            "lct takes a capture: {what}"
-        );
+    cases.push((
+        "one point",
+        c,
+        "needs a square sensor grid of at least 2 x 2 points, got 1 x 1",
+    ));
+    for (what, c, why) in &cases {
+        for (method, r) in [
+            ("fk", fk_migration(c, &grid)),
+            ("lct", lct(c, &grid, DEFAULT_SNR)),
+        ] {
+            let Err(e) = r else {
+                panic!("{method} takes a capture: {what}")
+            };
+            let e = e.to_string();
+            assert!(
+                e.starts_with(method) && e.contains(why),
+                "{method}, {what}: {e}"
+            );
+        }
         // Estimates never panic either.
         let _ = (
             tstat::nlos::fk::memory_bytes(c),
@@ -362,7 +401,12 @@ fn unsuitable_captures_are_refused() {
         );
     }
     for snr in [0.0, -1.0, f64::NAN, f64::INFINITY] {
-        assert!(lct(&good(), &grid, snr).is_err(), "snr {snr}");
+        let r = lct(&good(), &grid, snr);
+        assert!(
+            matches!(r, Err(NlosError::LctSnr(s)) if s.to_bits() == snr.to_bits()),
+            "snr {snr}: {:?}",
+            r.err()
+        );
     }
     // Memory: (2M' 2N 2N) complex volumes (one for fk, two for lct) + the native f32.
     let mut c = good();

@@ -117,7 +117,13 @@ fn a_later_path_wins_and_the_scene_folder_comes_last() {
     );
     assert!(load(d, "s.xml").is_ok());
     write(d, "t.xml", &scene(FOV, SHAPES));
-    assert!(load(d, "t.xml").is_err());
+    // Without the <path>, the broken tri.ply beside the scene is the one read.
+    let e = error(d, "t.xml");
+    let want = format!(
+        "invalid PLY file {}: not a PLY file",
+        d.join("tri.ply").display()
+    );
+    assert!(e.contains(&want), "{e}");
 }
 
 #[test]
@@ -819,7 +825,15 @@ fn search_folders_from_the_command_line_come_after_the_scene_folder() {
     // A mesh beside the scene wins over the -a folder's (Mitsuba prepends the scene's
     // folder): an empty file there is found first and fails.
     write(d, "scenes/tri.ply", "");
-    assert!(Scene::load(&d.join("scenes/s.xml"), &o).is_err());
+    let Err(e) = Scene::load(&d.join("scenes/s.xml"), &o) else {
+        panic!("the empty scenes/tri.ply was not read")
+    };
+    let e = e.to_string();
+    let want = format!(
+        "invalid PLY file {}: not a PLY file",
+        d.join("scenes/tri.ply").display()
+    );
+    assert!(e.contains(&want), "{e}");
     assert_eq!(with_a.shapes.len(), 2);
 }
 

@@ -666,9 +666,9 @@ mod tests {
         assert_eq!(parse_bytes("2ki"), Ok(2048));
         assert_eq!(parse_bytes(" 3 K "), Ok(3000));
         assert_eq!(parse_bytes("7b"), Ok(7));
-        assert!(parse_bytes("4i").is_err());
-        assert!(parse_bytes("-1G").is_err());
-        assert!(parse_bytes("lots").is_err());
+        assert_eq!(parse_bytes("4i"), Err(SizeError::Syntax));
+        assert_eq!(parse_bytes("-1G"), Err(SizeError::Syntax));
+        assert_eq!(parse_bytes("lots"), Err(SizeError::Syntax));
     }
 
     #[test]

@@ -246,7 +246,14 @@ mod tests {
             "{script}"
         );
         assert!(check_under(&job.scene, "/data", "the scene").is_ok());
-        assert!(check_under(Path::new("/home/x.xml"), "/data", "the scene").is_err());
+        assert_eq!(
+            check_under(Path::new("/home/x.xml"), "/data", "the scene"),
+            Err(ClusterError::NotUnderMount {
+                what: "the scene".into(),
+                path: "/home/x.xml".into(),
+                mount: "/data".into(),
+            })
+        );
         assert_eq!(job_name("---"), "tstat");
     }
 }

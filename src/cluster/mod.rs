@@ -245,10 +245,22 @@ mod tests {
             Path::new("/scratch/x")
         );
         assert_eq!(normalize(Path::new("/a/b/../../..")), Path::new("/"));
-        assert!(check_path(Path::new("/scratch/run 1"), "--out", true).is_err());
-        assert!(check_path(Path::new("/scratch/run%j"), "--out", true).is_err());
+        let refused = |path: &str, what: &str, c: char, directive: bool| {
+            assert_eq!(
+                check_path(Path::new(path), what, directive),
+                Err(ClusterError::Character {
+                    what: what.to_string(),
+                    path: path.to_string(),
+                    c,
+                    directive,
+                }),
+                "{path:?}"
+            );
+        };
+        refused("/scratch/run 1", "--out", ' ', true);
+        refused("/scratch/run%j", "--out", '%', true);
         assert!(check_path(Path::new("/scratch/run 1"), "the scene", false).is_ok());
-        assert!(check_path(Path::new("/scratch/a\nb"), "the scene", false).is_err());
+        refused("/scratch/a\nb", "the scene", '\n', false);
     }
 
     /// The shells to check against: POSIX sh (dash here) and bash, where present.

@@ -236,8 +236,20 @@ mod tests {
         for t in ["30", "02:00:00", "1-00:00:00"] {
             assert!(check_time(t).is_ok(), "{t}");
         }
+        // The reasons parse_time gives, by their first words.
+        const FORMAT: &str = "expected a Slurm time limit";
+        const RANGE: &str = "hours run from 0 to 23";
+        const ZERO: &str = "give a time limit above 0";
+        const YEAR: &str = "at most 365 days";
+        fn reason<T: std::fmt::Debug>(r: Result<T, ClusterError>, t: &str) -> &'static str {
+            match r {
+                Err(ClusterError::Time { value, reason }) if value == t => reason,
+                other => panic!("{t:?}: {other:?}"),
+            }
+        }
         for t in ["", "2h", "1:", "$(rm)"] {
-            assert!(check_time(t).is_err(), "{t}");
+            let r = reason(check_time(t), t);
+            assert!(r.starts_with(FORMAT), "{t}: {r}");
         }
         for (t, s) in [
             ("30", 1800),
@@ -251,27 +263,28 @@ mod tests {
         ] {
             assert_eq!(parse_time(t), Ok(s), "{t}");
         }
-        for t in [
-            "0",
-            "00:00:00",
-            "0-0",
-            "525601",
-            "366-0",
-            "1:60",
-            "1:60:00",
-            "1-24",
-            "1-1-1",
-            "1:2:3:4",
-            "1-",
-            "-1",
-            ":5",
-            "9999999999",
-            "99999999999999999999",
-            "1 ",
-            "+5",
-            "１",
+        for (t, want) in [
+            ("0", ZERO),
+            ("00:00:00", ZERO),
+            ("0-0", ZERO),
+            ("525601", YEAR),
+            ("366-0", YEAR),
+            ("1:60", RANGE),
+            ("1:60:00", RANGE),
+            ("1-24", RANGE),
+            ("1-1-1", FORMAT),
+            ("1:2:3:4", FORMAT),
+            ("1-", FORMAT),
+            ("-1", FORMAT),
+            (":5", FORMAT),
+            ("9999999999", FORMAT),
+            ("99999999999999999999", FORMAT),
+            ("1 ", FORMAT),
+            ("+5", FORMAT),
+            ("１", FORMAT),
         ] {
-            assert!(parse_time(t).is_err(), "{t:?}");
+            let r = reason(parse_time(t), t);
+            assert!(r.starts_with(want), "{t:?}: {r}");
         }
         let e = parse_time("99999999999999999999").unwrap_err().to_string();
         assert!(
@@ -279,6 +292,9 @@ mod tests {
             "{e}"
         );
         assert!(check_partition("normal").is_ok());
-        assert!(check_partition("a b").is_err());
+        assert_eq!(
+            check_partition("a b"),
+            Err(ClusterError::Partition("a b".into()))
+        );
     }
 }

@@ -164,7 +164,18 @@ mod tests {
             Threshold::Alpha(1.0),
             Threshold::Gamma(f64::NAN),
         ] {
-            assert!(bad.validate().is_err(), "{bad:?}");
+            let e = bad.validate();
+            // The error names the flag and carries the value refused.
+            let named = match (bad, &e) {
+                (Threshold::Gamma(g), Err(crate::denoise::DenoiseError::Gamma(v))) => {
+                    v.to_bits() == g.to_bits()
+                }
+                (Threshold::Alpha(a), Err(crate::denoise::DenoiseError::Alpha(v))) => {
+                    v.to_bits() == a.to_bits()
+                }
+                _ => false,
+            };
+            assert!(named, "{bad:?}: {e:?}");
         }
         assert!(Threshold::Gamma(0.1).validate().is_ok());
     }

@@ -171,7 +171,17 @@ mod tests {
                 t2_patch: bad,
                 ..Default::default()
             };
-            assert!(p.validate().is_err());
+            let e = p.validate();
+            assert!(
+                matches!(
+                    e,
+                    Err(crate::denoise::DenoiseError::NotPositive {
+                        flag: "--t2-patch",
+                        value,
+                    }) if value.to_bits() == bad.to_bits()
+                ),
+                "{bad}: {e:?}"
+            );
         }
         assert_eq!(TstatParams::default().emitter_radius(5, false), 20);
         assert_eq!(TstatParams::default().emitter_radius(5, true), 0);

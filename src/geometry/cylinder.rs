@@ -252,6 +252,9 @@ mod tests {
             DVec3::Z,
             1.0,
         );
-        assert!(CylinderGeom::new(&m).is_err());
+        assert!(matches!(
+            CylinderGeom::new(&m),
+            Err(GeometryError::CylinderShear)
+        ));
     }
 }

@@ -537,14 +537,33 @@ mod tests {
 
     #[test]
     fn empty_and_degenerate_grids_are_refused() {
-        assert!(SdfGrid::new([2, 2, 2], vec![1.0; 8]).is_err());
-        assert!(SdfGrid::new([1, 2, 2], vec![1.0; 4]).is_err());
-        assert!(SdfGrid::new([2, 2, 2], vec![1.0; 7]).is_err());
+        assert!(matches!(
+            SdfGrid::new([2, 2, 2], vec![1.0; 8]),
+            Err(GeometryError::SdfGridEmpty)
+        ));
+        assert!(matches!(
+            SdfGrid::new([1, 2, 2], vec![1.0; 4]),
+            Err(GeometryError::SdfGridTooSmall { res: [1, 2, 2] })
+        ));
+        assert!(matches!(
+            SdfGrid::new([2, 2, 2], vec![1.0; 7]),
+            Err(GeometryError::SdfGridValueCount {
+                values: 7,
+                res: [2, 2, 2]
+            })
+        ));
         let mut v = vec![1.0; 8];
         v[0] = -1.0;
         assert!(SdfGrid::new([2, 2, 2], v.clone()).is_ok());
         v[3] = f32::NAN;
-        assert!(SdfGrid::new([2, 2, 2], v).is_err());
+        assert!(matches!(
+            SdfGrid::new([2, 2, 2], v),
+            Err(GeometryError::SdfGridNonFinite {
+                index: 3,
+                at: [1, 1, 0],
+                value,
+            }) if value.is_nan()
+        ));
     }
 
     #[test]

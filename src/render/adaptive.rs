@@ -709,15 +709,26 @@ mod tests {
     #[test]
     fn options_are_checked() {
         assert!(opts(64, 4).validate().is_ok());
-        assert!(opts(64, 48).validate().is_err());
+        let why = |o: &AdaptiveOptions| o.validate().unwrap_err().to_string();
+        let e = why(&opts(64, 48));
+        assert!(
+            e.contains("the mean spp must be a multiple of replicates x shards"),
+            "{e}"
+        );
         let mut o = opts(64, 1);
         o.floor = 1;
-        assert!(o.validate().is_err());
+        let e = why(&o);
+        assert!(e.contains("the floor at least 2"), "{e}");
         o = opts(64, 1);
         o.cap = 32;
-        assert!(o.validate().is_err());
+        let e = why(&o);
+        assert!(e.contains("the cap at least it"), "{e}");
         o = opts(64, 1);
         o.pilot_spp = 1;
-        assert!(o.validate().is_err());
+        let e = why(&o);
+        assert!(
+            e.contains("the pilot needs at least 2 samples per pixel"),
+            "{e}"
+        );
     }
 }

@@ -275,8 +275,10 @@ mod tests {
         // A unit axis is a rotation; no angle or a zero axis is an error, as in Mitsuba.
         let u = parse(r#"<transform name="t"><rotate z="1" angle="90"/></transform>"#).unwrap();
         assert!((u.transform_point3(DVec3::X) - DVec3::Y).length() < 1e-12);
-        assert!(parse(r#"<transform name="t"><rotate z="1"/></transform>"#).is_err());
-        assert!(parse(r#"<transform name="t"><rotate x="0" angle="3"/></transform>"#).is_err());
+        let e = message(r#"<transform name="t"><rotate z="1"/></transform>"#);
+        assert!(e.contains("<rotate> needs an angle"), "{e}");
+        let e = message(r#"<transform name="t"><rotate x="0" angle="3"/></transform>"#);
+        assert!(e.contains("rotation axis is zero"), "{e}");
     }
 
     #[test]
@@ -299,11 +301,22 @@ mod tests {
 
     #[test]
     fn bad_transforms_are_errors() {
-        assert!(parse(r#"<transform name="t"><shear x="1"/></transform>"#).is_err());
-        assert!(parse(r#"<transform name="t"><rotate angle="3"/></transform>"#).is_err());
-        assert!(parse(r#"<transform name="t"><scale x="0"/></transform>"#).is_err());
-        assert!(parse(r#"<transform name="t"><translate x="abc"/></transform>"#).is_err());
-        assert!(parse(r#"<transform name="t"><matrix value="1 2 3"/></transform>"#).is_err());
+        let e = message(r#"<transform name="t"><shear x="1"/></transform>"#);
+        assert!(e.contains("unknown transform 'shear'"), "{e}");
+        let e = message(r#"<transform name="t"><rotate angle="3"/></transform>"#);
+        assert!(e.contains("rotation axis is zero"), "{e}");
+        let e = message(r#"<transform name="t"><scale x="0"/></transform>"#);
+        assert!(
+            e.contains("a zero scale makes the transform singular"),
+            "{e}"
+        );
+        let e = message(r#"<transform name="t"><translate x="abc"/></transform>"#);
+        assert!(
+            e.contains("attribute 'x'") && e.contains("'abc' is not a finite number"),
+            "{e}"
+        );
+        let e = message(r#"<transform name="t"><matrix value="1 2 3"/></transform>"#);
+        assert!(e.contains("'1 2 3' is not 16 (or 9) numbers"), "{e}");
     }
 
     fn message(xml: &str) -> String {
@@ -340,7 +353,15 @@ mod tests {
         assert!(e.contains("singular"), "{e}");
         // A tiny uniform scale is not singular.
         assert!(parse(r#"<transform name="t"><scale value="1e-30"/></transform>"#).is_ok());
-        assert!(parse(r#"<transform name="t"><translate x="nan"/></transform>"#).is_err());
-        assert!(parse(r#"<transform name="t"><rotate x="1" angle="inf"/></transform>"#).is_err());
+        let e = message(r#"<transform name="t"><translate x="nan"/></transform>"#);
+        assert!(
+            e.contains("attribute 'x'") && e.contains("'nan' is not a finite number"),
+            "{e}"
+        );
+        let e = message(r#"<transform name="t"><rotate x="1" angle="inf"/></transform>"#);
+        assert!(
+            e.contains("attribute 'angle'") && e.contains("'inf' is not a finite number"),
+            "{e}"
+        );
     }
 }

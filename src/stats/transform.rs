@@ -403,13 +403,28 @@ mod tests {
     fn validate_rejects_bad_lambdas() {
         assert!(Transform::Identity.validate().is_ok());
         assert!(bc(0.5).validate().is_ok());
-        assert!(bc(0.0).validate().is_err());
-        assert!(bc(-1.0).validate().is_err());
-        assert!(bc(f64::NAN).validate().is_err());
-        assert!(bc(f64::INFINITY).validate().is_err());
+        assert!(matches!(
+            bc(0.0).validate(),
+            Err(StatsError::BoxCoxNotPositive(l)) if l == 0.0
+        ));
+        assert!(matches!(
+            bc(-1.0).validate(),
+            Err(StatsError::BoxCoxNotPositive(l)) if l == -1.0
+        ));
+        assert!(matches!(
+            bc(f64::NAN).validate(),
+            Err(StatsError::BoxCoxNotFinite(l)) if l.is_nan()
+        ));
+        assert!(matches!(
+            bc(f64::INFINITY).validate(),
+            Err(StatsError::BoxCoxNotFinite(l)) if l == f64::INFINITY
+        ));
         assert!(yj(0.0).validate().is_ok());
         assert!(yj(-3.0).validate().is_ok());
-        assert!(yj(f64::NAN).validate().is_err());
+        assert!(matches!(
+            yj(f64::NAN).validate(),
+            Err(StatsError::YeoJohnsonNotFinite(l)) if l.is_nan()
+        ));
     }
 
     #[test]
@@ -426,8 +441,14 @@ mod tests {
         for t in [Transform::Identity, bc(1.0 / 3.0), yj(-0.7)] {
             assert_eq!(p(&j(t)), t);
         }
-        assert!(serde_json::from_str::<Transform>(r#"{"kind":"box-cox"}"#).is_err());
-        assert!(serde_json::from_str::<Transform>(r#"{"kind":"log"}"#).is_err());
+        let e = serde_json::from_str::<Transform>(r#"{"kind":"box-cox"}"#)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("missing field `lambda`"), "{e}");
+        let e = serde_json::from_str::<Transform>(r#"{"kind":"log"}"#)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("unknown variant `log`"), "{e}");
     }
 
     #[test]
