@@ -110,8 +110,17 @@ pub struct ReconstructArgs {
     pub wl_sigma: Option<f64>,
     /// Reconstruct from this denoised volume of the capture (`tstat denoise`'s (rows,
     /// Sx, T, C) .npy of the bundle CAPTURE) instead of the bundle's noisy means.
-    #[arg(long)]
+    #[arg(long, conflicts_with = "denoise")]
     pub denoised: Option<PathBuf>,
+    /// Denoise the bundle CAPTURE first (tstat's filter with its NLOS defaults) and
+    /// reconstruct the denoised capture shrunk toward the noisy one by the amount that
+    /// minimises this reconstruction's expected error (docs/nlos.md): never worse than
+    /// the noisy capture's reconstruction, up to the estimate's own error.
+    #[arg(long)]
+    pub denoise: bool,
+    /// With --denoise: also write the capture reconstructed, f32 (rows, Sx, T, C) .npy.
+    #[arg(long, requires = "denoise")]
+    pub save_capture: Option<PathBuf>,
     /// lct: the Wiener filter's signal-to-noise ratio (default 0.8, O'Toole's).
     #[arg(long)]
     pub snr: Option<f64>,
@@ -398,6 +407,55 @@ fn read_denoised(capture: &mut Capture, dir: &Path, d: &Path) -> anyhow::Result<
     Ok(())
 }
 
+/// The bundle's capture denoised with tstat's NLOS defaults and shrunk for `method`
+/// on `grid` (`nlos/shrink.rs`), its sums held in memory within `budget`.
+fn denoise_for(
+    bundle: &Bundle,
+    method: &Reconstruction,
+    grid: &VoxelGrid,
+    budget: u64,
+) -> anyhow::Result<crate::nlos::shrink::Shrunk> {
+    use crate::denoise::{DenoiseParams, LoadedSums};
+    use crate::nlos::shrink::CaptureFrame;
+    let m = &bundle.manifest;
+    let rec = m.nlos.as_ref().expect("a capture");
+    // The sums (4 or 5 f64 volumes), the estimates (3 f32), the denoised, noisy and
+    // two payload volumes (f32).
+    let voxels = (m.height * m.width * m.bins * crate::stats::accumulators::CHANNELS) as u64;
+    let need = voxels * (8 * 5 + 4 * 7);
+    if need > budget {
+        bail!(
+            "--denoise: the capture's sums and the filter's volumes need {} of memory, over --max-memory {}",
+            human_bytes(need),
+            human_bytes(budget)
+        );
+    }
+    let mut params = DenoiseParams {
+        base: crate::denoise::base_filter::BaseKind::Jbf,
+        ..Default::default()
+    };
+    if m.media {
+        params.base = crate::denoise::base_filter::BaseKind::Gaussian;
+    }
+    params.adapt_to_nlos(false, false);
+    let sums = LoadedSums::read(bundle)?;
+    let frame = CaptureFrame {
+        record: rec,
+        t_start: m.start_opl,
+        delta_t: m.bin_width_opl,
+    };
+    Ok(crate::nlos::shrink::denoise_for(
+        &sums.view(),
+        &sums.gbuffers.features(),
+        &params,
+        m.transform,
+        &frame,
+        method,
+        grid,
+        &|_| {},
+    )?)
+}
+
 fn reconstruct(r: ReconstructArgs) -> anyhow::Result<()> {
     let grid = voxel_grid(&r.volume, &r.voxels)?;
     let method = reconstruction(r.method, r.wl_mean, r.wl_sigma, r.snr)?;
@@ -409,7 +467,17 @@ fn reconstruct(r: ReconstructArgs) -> anyhow::Result<()> {
     }
     let mut inputs = vec![arg("capture", &r.capture)];
     inputs.extend(r.denoised.iter().map(|d| arg("--denoised", d)));
-    check_outputs(&inputs, &[(arg("--out", &r.out), Kind::File)], r.force)?;
+    let mut outputs = vec![(arg("--out", &r.out), Kind::File)];
+    if let Some(s) = &r.save_capture {
+        if s.extension().is_none_or(|e| e != "npy") {
+            bail!(
+                "--save-capture {}: the capture is written as .npy",
+                s.display()
+            );
+        }
+        outputs.push((arg("--save-capture", s), Kind::File));
+    }
+    check_outputs(&inputs, &outputs, r.force)?;
     if let Some(d) = &r.denoised {
         if !r.capture.is_dir() {
             bail!(
@@ -418,12 +486,42 @@ fn reconstruct(r: ReconstructArgs) -> anyhow::Result<()> {
             );
         }
     }
+    if r.denoise && !r.capture.is_dir() {
+        bail!(
+            "--denoise: {} is not a tstat bundle (a y-tal file has no sample statistics to denoise with)",
+            r.capture.display()
+        );
+    }
     let budget = memory_budget(r.max_memory.as_deref())?;
     let mut capture = load(&r.capture, budget)?;
     if let Some(d) = &r.denoised {
         read_denoised(&mut capture, &r.capture, d)?;
     }
     check_reconstruction(&method, &capture, &grid, budget)?;
+    if r.denoise {
+        let bundle = Bundle::open(&r.capture)?;
+        let shrunk = denoise_for(&bundle, &method, &grid, budget)?;
+        let s = shrunk.shrink;
+        let v = &shrunk.volume;
+        let rec = bundle.manifest.nlos.as_ref().expect("a capture");
+        let values: Vec<f32> = v.iter().copied().collect();
+        let sh = v.shape();
+        crate::nlos::denoised::replace_h(&mut capture, rec, &values, [sh[0], sh[1], sh[2], sh[3]])?;
+        eprintln!(
+            "denoised and shrunk toward the noisy capture: beta {:.3} (noise energy {:.4e}, shared {:.4e}, difference {:.4e}; predicted error {:.2}x the noisy capture's)",
+            s.beta,
+            s.noise,
+            s.shared,
+            s.difference,
+            s.predicted_ratio().sqrt()
+        );
+        if let Some(p) = &r.save_capture {
+            stage(p, r.force, |tmp| {
+                ndarray_npy::write_npy(tmp, v).map_err(|e| BundleError::io(p, e))
+            })?
+            .commit()?;
+        }
+    }
     let start = std::time::Instant::now();
     let volume = method.run(&capture, &grid)?;
     let seconds = start.elapsed().as_secs_f64();

@@ -103,6 +103,20 @@ pub fn stolt(f: &mut [C64], n: usize, m: usize, s: f64) {
 
 /// The native f-k volume of `c` (laid out (i, j, m), `N N M'` values) and its grid.
 pub fn fk_native(c: &Capture) -> Result<(Native, Vec<f32>), NlosError> {
+    fk_native_with(c, true)
+}
+
+/// The energy of f-k's linear field (the volume before its squared magnitude, on the
+/// native grid), of a capture that may be signed: step 1 without its absolute value
+/// (`nlos/shrink.rs`).
+pub fn fk_linear_energy(c: &Capture) -> Result<f64, NlosError> {
+    let (_, vol) = fk_native_with(c, false)?;
+    Ok(vol.iter().map(|&v| f64::from(v)).sum())
+}
+
+/// [`fk_native`]; `abs`: step 1's absolute value (y-tal's), the identity on captures,
+/// which are never negative.
+fn fk_native_with(c: &Capture, abs: bool) -> Result<(Native, Vec<f32>), NlosError> {
     let g = Native::of(c, "fk")?;
     let (n, m) = (g.n, g.depths);
     let (n2, m2) = (2 * n, 2 * m);
@@ -117,7 +131,8 @@ pub fn fk_native(c: &Capture) -> Result<(Native, Vec<f32>), NlosError> {
         let (i, j) = (ab / n2, ab % n2);
         if i < n && j < n {
             for (k, v) in col[..m].iter_mut().enumerate() {
-                *v = C64::new((g.h(c, k, i * n + j) as f64 * z[k]).abs(), 0.0);
+                let x = g.h(c, k, i * n + j) as f64 * z[k];
+                *v = C64::new(if abs { x.abs() } else { x }, 0.0);
             }
         }
     });

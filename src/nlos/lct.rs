@@ -150,6 +150,18 @@ fn define_psf(psf: &mut [C64], n: usize, m: usize, slope: f64) {
 
 /// The native LCT volume of `c` (laid out (i, j, m), `N N M'` values) and its grid.
 pub fn lct_native(c: &Capture, snr: f64) -> Result<(Native, Vec<f32>), NlosError> {
+    lct_native_with(c, snr, true)
+}
+
+/// The energy of the LCT's linear field (the native volume before its clamp at 0),
+/// for `nlos/shrink.rs`.
+pub fn lct_linear_energy(c: &Capture, snr: f64) -> Result<f64, NlosError> {
+    let (_, vol) = lct_native_with(c, snr, false)?;
+    Ok(vol.iter().map(|&v| f64::from(v).powi(2)).sum())
+}
+
+/// [`lct_native`]; `clamp`: step 4's `max(Re, 0)`.
+fn lct_native_with(c: &Capture, snr: f64, clamp: bool) -> Result<(Native, Vec<f32>), NlosError> {
     if !(snr.is_finite() && snr > 0.0) {
         return Err(NlosError::LctSnr(snr));
     }
@@ -210,7 +222,7 @@ pub fn lct_native(c: &Capture, snr: f64) -> Result<(Native, Vec<f32>), NlosError
                 }
             }
             for (o, &v) in out.iter_mut().zip(acc.iter()) {
-                *o = v.max(0.0) as f32;
+                *o = if clamp { v.max(0.0) } else { v } as f32;
             }
         },
     );

@@ -16,6 +16,7 @@ pub mod fk;
 pub mod lct;
 pub mod pf;
 pub mod reconstruct;
+pub mod shrink;
 pub mod tal;
 mod tal_read;
 pub mod wave;

@@ -90,6 +90,22 @@ impl Reconstruction {
         })
     }
 
+    /// The energy `||L(c)||^2` of the reconstruction's linear field `L` (a linear map
+    /// of the capture; `c` may be signed): bp's volume; fbp's and pf's complex field,
+    /// from their magnitudes; fk's field before its squared magnitude and LCT's before
+    /// its clamp, on their native grids (`shrink.rs`).
+    pub fn linear_energy(&self, c: &Capture, grid: &VoxelGrid) -> Result<f64, NlosError> {
+        self.check(c)?;
+        let squares = |v: Vec<f32>| v.iter().map(|&x| f64::from(x).powi(2)).sum();
+        Ok(match *self {
+            Reconstruction::Bp | Reconstruction::Fbp { .. } | Reconstruction::Pf { .. } => {
+                squares(self.run(c, grid)?)
+            }
+            Reconstruction::Fk => fk::fk_linear_energy(c)?,
+            Reconstruction::Lct { snr } => lct::lct_linear_energy(c, snr)?,
+        })
+    }
+
     /// The reconstruction of `c` on `grid`: NX NY NZ values, row-major.
     pub fn run(&self, c: &Capture, grid: &VoxelGrid) -> Result<Vec<f32>, NlosError> {
         self.check(c)?;
