@@ -299,3 +299,45 @@ mod tests {
         assert!((m4 / n - 3.0).abs() < 0.05, "fourth moment {}", m4 / n);
     }
 }
+
+/// `b` chosen by cross-validation between two independent half captures (docs/nlos.md,
+/// `scripts/nlos_shrink_study.py`): for each half `x` and the other `y`, the `b` in
+/// [0, 1] minimising `||L(D_x + b (N_x - D_x)) - L N_y||^2` (`N_y` is independent of
+/// half x, so this is x's error up to a constant), averaged over the two orders.
+/// `noisy` and `denoised` are the halves' captures (H as `Capture::h`, on one grid).
+/// WIP (branch only): not yet wired to a command.
+pub fn cross_validated_beta(
+    method: &Reconstruction,
+    grid: &VoxelGrid,
+    noisy: [&Capture; 2],
+    denoised: [&Capture; 2],
+) -> Result<f64, NlosError> {
+    let mut scratch = Capture {
+        h: vec![0.0; noisy[0].h.len()],
+        laser_grid: noisy[0].laser_grid.clone(),
+        sensor_grid: noisy[0].sensor_grid.clone(),
+        ..*noisy[0]
+    };
+    let mut energy = |f: &dyn Fn(usize) -> f64| -> Result<f64, NlosError> {
+        for (i, v) in scratch.h.iter_mut().enumerate() {
+            *v = f(i) as f32;
+        }
+        method.linear_energy(&scratch, grid)
+    };
+    let mut betas = [0.0; 2];
+    for (x, beta) in betas.iter_mut().enumerate() {
+        let y = 1 - x;
+        let (nx, dx, ny) = (&noisy[x].h, &denoised[x].h, &noisy[y].h);
+        // u = D_x - N_y, v = N_x - D_x: the error b -> ||L u + b L v||^2.
+        let u = |i: usize| f64::from(dx[i]) - f64::from(ny[i]);
+        let v = |i: usize| f64::from(nx[i]) - f64::from(dx[i]);
+        let vv = energy(&v)?;
+        let uv = (energy(&|i| u(i) + v(i))? - energy(&|i| u(i) - v(i))?) / 4.0;
+        *beta = if vv > 0.0 {
+            (-uv / vv).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+    }
+    Ok((betas[0] + betas[1]) / 2.0)
+}
