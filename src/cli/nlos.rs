@@ -110,17 +110,15 @@ pub struct ReconstructArgs {
     pub wl_sigma: Option<f64>,
     /// Reconstruct from this denoised volume of the capture (`tstat denoise`'s (rows,
     /// Sx, T, C) .npy of the bundle CAPTURE) instead of the bundle's noisy means.
-    #[arg(long, conflicts_with = "denoise")]
+    #[arg(long, conflicts_with = "denoise_with")]
     pub denoised: Option<PathBuf>,
-    /// Denoise the bundle CAPTURE first (tstat's filter with its NLOS defaults) and
-    /// reconstruct the denoised capture shrunk toward the noisy one by the amount that
-    /// minimises this reconstruction's expected error (docs/nlos.md): never worse than
-    /// the noisy capture's reconstruction, up to the estimate's own error.
+    /// Denoise and reconstruct the merge of the bundle CAPTURE and this bundle, an
+    /// independent capture of the same scene (another seed, or another shard of the
+    /// job): tstat's filter with its NLOS defaults, then the denoised capture shrunk
+    /// toward the noisy one by the amount that minimises this reconstruction's error,
+    /// chosen by cross-validation between the two (docs/nlos.md).
     #[arg(long)]
-    pub denoise: bool,
-    /// With --denoise: also write the capture reconstructed, f32 (rows, Sx, T, C) .npy.
-    #[arg(long, requires = "denoise")]
-    pub save_capture: Option<PathBuf>,
+    pub denoise_with: Option<PathBuf>,
     /// lct: the Wiener filter's signal-to-noise ratio (default 0.8, O'Toole's).
     #[arg(long)]
     pub snr: Option<f64>,
@@ -407,53 +405,94 @@ fn read_denoised(capture: &mut Capture, dir: &Path, d: &Path) -> anyhow::Result<
     Ok(())
 }
 
-/// The bundle's capture denoised with tstat's NLOS defaults and shrunk for `method`
-/// on `grid` (`nlos/shrink.rs`), its sums held in memory within `budget`.
-fn denoise_for(
-    bundle: &Bundle,
+/// Removes a directory when dropped (the merge of `--denoise-with`'s captures).
+struct TempDir(PathBuf);
+
+impl Drop for TempDir {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
+/// Bytes `--denoise-with` holds at its peak beyond the denoiser's own (which keeps
+/// within its default budget): the denoised volume of one bundle (H W T C f32) and
+/// six captures (noisy and denoised of each half and of the merge, T L S f32) plus the
+/// reconstructions' scratch capture.
+fn denoise_with_memory(m: &crate::bundle::Manifest, h_len: usize) -> u64 {
+    let film = (m.height * m.width * m.bins * crate::stats::accumulators::CHANNELS) as u64;
+    film * 4 + 7 * h_len as u64 * 4
+}
+
+/// The merge of the captures `a` and `b` (independent captures of one scene),
+/// denoised and shrunk toward its noisy capture for `method` on `grid` by
+/// cross-validation between `a` and `b` (`nlos/shrink.rs`); and the `b` chosen. The
+/// merge is written beside `out` for the time it takes and removed after.
+fn denoise_with(
+    a: &Path,
+    b: &Path,
     method: &Reconstruction,
     grid: &VoxelGrid,
     budget: u64,
-) -> anyhow::Result<crate::nlos::shrink::Shrunk> {
-    use crate::denoise::{DenoiseParams, LoadedSums};
-    use crate::nlos::shrink::CaptureFrame;
-    let m = &bundle.manifest;
-    let rec = m.nlos.as_ref().expect("a capture");
-    // The sums (4 or 5 f64 volumes), the estimates (3 f32), the denoised, noisy and
-    // two payload volumes (f32).
-    let voxels = (m.height * m.width * m.bins * crate::stats::accumulators::CHANNELS) as u64;
-    let need = voxels * (8 * 5 + 4 * 7);
-    if need > budget {
-        bail!(
-            "--denoise: the capture's sums and the filter's volumes need {} of memory, over --max-memory {}",
-            human_bytes(need),
-            human_bytes(budget)
-        );
-    }
-    let mut params = DenoiseParams {
-        base: crate::denoise::base_filter::BaseKind::Jbf,
+    out: &Path,
+) -> anyhow::Result<(Capture, f64)> {
+    use crate::bundle::merge::{merge_bundles, MergeOptions};
+    use crate::denoise::{denoise_bundle, DenoiseParams};
+    use crate::nlos::shrink::{blend, cross_validated_beta};
+    let name = out
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let merged = TempDir(out.with_file_name(format!(
+        ".{name}.merge-{}",
+        std::process::id()
+    )));
+    let options = MergeOptions {
+        partial: true,
         ..Default::default()
     };
-    if m.media {
-        params.base = crate::denoise::base_filter::BaseKind::Gaussian;
-    }
-    params.adapt_to_nlos(false, false);
-    let sums = LoadedSums::read(bundle)?;
-    let frame = CaptureFrame {
-        record: rec,
-        t_start: m.start_opl,
-        delta_t: m.bin_width_opl,
+    merge_bundles(&[a.to_path_buf(), b.to_path_buf()], &merged.0, options)
+        .map_err(|e| anyhow!("--denoise-with {}: {e}", b.display()))?;
+    let params_of = |m: &crate::bundle::Manifest| {
+        let mut p = DenoiseParams::default();
+        if m.media {
+            p.base = crate::denoise::base_filter::BaseKind::Gaussian;
+        }
+        p.adapt_to_nlos(false, false);
+        p
     };
-    Ok(crate::nlos::shrink::denoise_for(
-        &sums.view(),
-        &sums.gbuffers.features(),
-        &params,
-        m.transform,
-        &frame,
+    // The noisy and the denoised capture of each of a, b and their merge.
+    let mut pairs = Vec::new();
+    for dir in [a, b, merged.0.as_path()] {
+        let bundle = Bundle::open(dir)?;
+        let m = &bundle.manifest;
+        let noisy = Capture::from_bundle(&bundle)?;
+        let need = denoise_with_memory(m, noisy.h.len());
+        if need > budget {
+            bail!(
+                "--denoise-with: the denoised volume and the six captures need {}, over --max-memory {}",
+                human_bytes(need),
+                human_bytes(budget)
+            );
+        }
+        let rec = m.nlos.as_ref().expect("a capture");
+        let d = denoise_bundle(&bundle, &params_of(m), &|_| {})?;
+        let mut denoised = Capture::from_bundle(&bundle)?;
+        let v = d.volume;
+        let s = v.shape();
+        let shape = [s[0], s[1], s[2], s[3]];
+        let values: Vec<f32> = v.into_iter().collect();
+        crate::nlos::denoised::replace_h(&mut denoised, rec, &values, shape)?;
+        pairs.push((noisy, denoised));
+    }
+    let (merged_noisy, mut merged_denoised) = pairs.pop().expect("three captures");
+    let beta = cross_validated_beta(
         method,
         grid,
-        &|_| {},
-    )?)
+        [&pairs[0].0, &pairs[1].0],
+        [&pairs[0].1, &pairs[1].1],
+    )?;
+    blend(&mut merged_denoised, &merged_noisy, beta);
+    Ok((merged_denoised, beta))
 }
 
 fn reconstruct(r: ReconstructArgs) -> anyhow::Result<()> {
@@ -467,17 +506,8 @@ fn reconstruct(r: ReconstructArgs) -> anyhow::Result<()> {
     }
     let mut inputs = vec![arg("capture", &r.capture)];
     inputs.extend(r.denoised.iter().map(|d| arg("--denoised", d)));
-    let mut outputs = vec![(arg("--out", &r.out), Kind::File)];
-    if let Some(s) = &r.save_capture {
-        if s.extension().is_none_or(|e| e != "npy") {
-            bail!(
-                "--save-capture {}: the capture is written as .npy",
-                s.display()
-            );
-        }
-        outputs.push((arg("--save-capture", s), Kind::File));
-    }
-    check_outputs(&inputs, &outputs, r.force)?;
+    inputs.extend(r.denoise_with.iter().map(|d| arg("--denoise-with", d)));
+    check_outputs(&inputs, &[(arg("--out", &r.out), Kind::File)], r.force)?;
     if let Some(d) = &r.denoised {
         if !r.capture.is_dir() {
             bail!(
@@ -486,11 +516,15 @@ fn reconstruct(r: ReconstructArgs) -> anyhow::Result<()> {
             );
         }
     }
-    if r.denoise && !r.capture.is_dir() {
-        bail!(
-            "--denoise: {} is not a tstat bundle (a y-tal file has no sample statistics to denoise with)",
-            r.capture.display()
-        );
+    if let Some(b) = &r.denoise_with {
+        for p in [&r.capture, b] {
+            if !p.is_dir() {
+                bail!(
+                    "--denoise-with: {} is not a tstat bundle (a y-tal file has no sample statistics to denoise with)",
+                    p.display()
+                );
+            }
+        }
     }
     let budget = memory_budget(r.max_memory.as_deref())?;
     let mut capture = load(&r.capture, budget)?;
@@ -498,29 +532,14 @@ fn reconstruct(r: ReconstructArgs) -> anyhow::Result<()> {
         read_denoised(&mut capture, &r.capture, d)?;
     }
     check_reconstruction(&method, &capture, &grid, budget)?;
-    if r.denoise {
-        let bundle = Bundle::open(&r.capture)?;
-        let shrunk = denoise_for(&bundle, &method, &grid, budget)?;
-        let s = shrunk.shrink;
-        let v = &shrunk.volume;
-        let rec = bundle.manifest.nlos.as_ref().expect("a capture");
-        let values: Vec<f32> = v.iter().copied().collect();
-        let sh = v.shape();
-        crate::nlos::denoised::replace_h(&mut capture, rec, &values, [sh[0], sh[1], sh[2], sh[3]])?;
+    if let Some(b) = &r.denoise_with {
+        let (c, beta) = denoise_with(&r.capture, b, &method, &grid, budget, &r.out)?;
+        capture = c;
         eprintln!(
-            "denoised and shrunk toward the noisy capture: beta {:.3} (noise energy {:.4e}, shared {:.4e}, difference {:.4e}; predicted error {:.2}x the noisy capture's)",
-            s.beta,
-            s.noise,
-            s.shared,
-            s.difference,
-            s.predicted_ratio().sqrt()
+            "reconstructing the merge of {} and {}, denoised and shrunk toward its noisy capture by b = {beta:.3} (cross-validated; 0: the denoised capture, 1: the noisy one)",
+            r.capture.display(),
+            b.display()
         );
-        if let Some(p) = &r.save_capture {
-            stage(p, r.force, |tmp| {
-                ndarray_npy::write_npy(tmp, v).map_err(|e| BundleError::io(p, e))
-            })?
-            .commit()?;
-        }
     }
     let start = std::time::Instant::now();
     let volume = method.run(&capture, &grid)?;

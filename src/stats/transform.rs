@@ -72,16 +72,6 @@ impl Transform {
         }
     }
 
-    /// `z'(x)`, the slope of the transform at `x >= 0` (infinite at 0 for Box-Cox
-    /// with `lambda < 1`).
-    pub fn derivative(&self, x: f64) -> f64 {
-        match *self {
-            Transform::Identity => 1.0,
-            Transform::BoxCox { lambda } => x.powf(lambda - 1.0),
-            Transform::YeoJohnson { lambda } => (x + 1.0).powf(lambda - 1.0),
-        }
-    }
-
     /// `z(0)`: 0 for identity and Yeo-Johnson, `-1/lambda` for Box-Cox.
     /// This is the value zero-filled for samples that deposited nothing.
     #[inline]
