@@ -223,3 +223,226 @@ fn convergence_refuses_bad_reconstruction_requests_before_rendering() {
         assert_eq!(cached, 0, "{args:?}");
     }
 }
+
+/// Relative L2 distance of two .npy reconstructions.
+fn rel_l2(path: &Path, reference: &[f32]) -> f64 {
+    let v: ndarray::Array3<f32> = ndarray_npy::read_npy(path).unwrap();
+    let (mut d, mut n) = (0f64, 0f64);
+    for (&a, &b) in v.iter().zip(reference) {
+        d += (a as f64 - b as f64).powi(2);
+        n += (b as f64).powi(2);
+    }
+    (d / n).sqrt()
+}
+
+/// `nlos reconstruct A --denoise-with B` (the merge of two independent half captures,
+/// denoised and shrunk toward its noisy capture by the cross-validated b): for every
+/// method, at least twice as close to a high-spp reference as the noisy merge at 4
+/// spp, and never farther at 256 spp, where the filter alone (`--denoised`) is farther
+/// for fbp. Forcing b = 0 (the filter alone) fails the second check; b = 1 (no
+/// denoising) the first.
+#[test]
+fn denoise_with_never_reconstructs_worse_than_the_noisy_capture() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
+    let xml = scene("nlos_T.xml");
+    let xml = xml.to_str().unwrap();
+    let render = |out: &str, spp: u32, seed: u32| {
+        let r = tstat(&[
+            "render",
+            xml,
+            "-D",
+            "res=16",
+            "-D",
+            "bins=256",
+            "--spp",
+            &spp.to_string(),
+            "--seed",
+            &seed.to_string(),
+            "--out",
+            out,
+        ]);
+        assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    };
+    render(&d("ref.tstats"), 2048, 1);
+    let vol = ["--volume=-1,1,-1,1,0.5,1.5", "--voxels", "21,21,11"];
+    let recon = |capture: &str, method: &str, out: &str, extra: &[&str]| -> String {
+        let mut args = vec!["nlos", "reconstruct", capture, "--method", method];
+        if method == "fbp" || method == "pf" {
+            args.extend(["--wl-mean", "0.25"]);
+        }
+        args.extend(vol);
+        args.extend(["--out", out]);
+        args.extend(extra);
+        let r = tstat(&args);
+        assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+        String::from_utf8_lossy(&r.stderr).into_owned()
+    };
+    let methods = ["bp", "fbp", "pf", "fk", "lct"];
+    let mut reference = Vec::new();
+    for m in methods {
+        let out = d(&format!("ref_{m}.npy"));
+        recon(&d("ref.tstats"), m, &out, &[]);
+        let v: ndarray::Array3<f32> = ndarray_npy::read_npy(&out).unwrap();
+        reference.push(v.into_raw_vec_and_offset().0);
+    }
+    for (spp, seed) in [(4u32, 10u32), (256, 20)] {
+        let (a, b, f) = (
+            d(&format!("a{spp}")),
+            d(&format!("b{spp}")),
+            d(&format!("f{spp}")),
+        );
+        render(&a, spp / 2, seed);
+        render(&b, spp / 2, seed + 1);
+        let r = tstat(&["merge", &a, &b, "--out", &f]);
+        assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+        let den = d(&format!("den{spp}.npy"));
+        let r = tstat(&["denoise", &f, "--out", &den]);
+        assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+        for (m, reference) in methods.iter().zip(&reference) {
+            let out = d("v.npy");
+            recon(&f, m, &out, &["--force"]);
+            let noisy = rel_l2(Path::new(&out), reference);
+            recon(&f, m, &out, &["--force", "--denoised", &den]);
+            let plain = rel_l2(Path::new(&out), reference);
+            let said = recon(&a, m, &out, &["--force", "--denoise-with", &b]);
+            let cv = rel_l2(Path::new(&out), reference);
+            assert!(said.contains("b = "), "{said}");
+            eprintln!("{spp} spp {m}: noisy {noisy:.4} denoised {plain:.4} cv {cv:.4}");
+            if spp == 4 {
+                assert!(cv * 2.0 < noisy, "{m} at 4 spp: {cv} against noisy {noisy}");
+            } else {
+                assert!(cv <= noisy, "{m} at 256 spp: {cv} against noisy {noisy}");
+                if *m == "fbp" {
+                    assert!(
+                        plain > noisy,
+                        "fbp at 256 spp: the filter alone {plain}, noisy {noisy}"
+                    );
+                }
+            }
+        }
+    }
+    // The merge is removed; nothing else is left beside the output.
+    let left: Vec<_> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.starts_with('.'))
+        .collect();
+    assert!(left.is_empty(), "{left:?}");
+}
+
+/// `--denoise-with` refuses, with one message and nothing written, a second capture
+/// of another scene or settings, a y-tal file, and the flag beside `--denoised`.
+#[test]
+fn denoise_with_refuses_what_it_cannot_cross_validate() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
+    let xml = scene("nlos_T.xml");
+    let xml = xml.to_str().unwrap();
+    for (out, bins, seed) in [
+        ("a", "64", "1"),
+        ("b", "64", "1"),
+        ("c", "32", "2"),
+        ("e", "64", "3"),
+    ] {
+        let r = tstat(&[
+            "render",
+            xml,
+            "-D",
+            "res=4",
+            "-D",
+            &format!("bins={bins}"),
+            "--spp",
+            "4",
+            "--seed",
+            seed,
+            "--out",
+            &d(out),
+        ]);
+        assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    }
+    let base = |b: &str| {
+        tstat(&[
+            "nlos",
+            "reconstruct",
+            &d("a"),
+            "--method",
+            "bp",
+            "--volume=-1,1,-1,1,0.5,1.5",
+            "--voxels",
+            "3,3,3",
+            "--out",
+            &d("v.npy"),
+            "--denoise-with",
+            b,
+        ])
+    };
+    let cases = [
+        (base(&d("c")), "bins"),
+        (base(&d("b")), "seed"),
+        (base(&d("missing")), "missing"),
+    ];
+    for (r, why) in cases {
+        let err = String::from_utf8_lossy(&r.stderr);
+        assert!(!r.status.success(), "{why}");
+        assert!(err.contains("--denoise-with"), "{why}: {err}");
+        assert!(
+            !r.stderr.is_empty() && !err.contains("panicked"),
+            "{why}: {err}"
+        );
+        assert!(!Path::new(&d("v.npy")).exists(), "{why}");
+    }
+    std::fs::write(d("x.hdf5"), b"not hdf5").unwrap();
+    let r = tstat(&[
+        "nlos",
+        "reconstruct",
+        &d("a"),
+        "--method",
+        "bp",
+        "--volume=-1,1,-1,1,0.5,1.5",
+        "--voxels",
+        "3,3,3",
+        "--out",
+        &d("v.npy"),
+        "--denoise-with",
+        &d("x.hdf5"),
+    ]);
+    let err = String::from_utf8_lossy(&r.stderr);
+    assert!(
+        !r.status.success() && err.contains("not a tstat bundle"),
+        "{err}"
+    );
+    let r = tstat(&[
+        "nlos",
+        "reconstruct",
+        &d("a"),
+        "--method",
+        "bp",
+        "--volume=-1,1,-1,1,0.5,1.5",
+        "--voxels",
+        "3,3,3",
+        "--out",
+        &d("v.npy"),
+        "--denoise-with",
+        &d("e"),
+        "--denoised",
+        &d("v0.npy"),
+    ]);
+    assert!(!r.status.success());
+    assert!(!Path::new(&d("v.npy")).exists());
+    // The two that merge give a volume, and no merge is left behind.
+    let r = base(&d("e"));
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    assert!(Path::new(&d("v.npy")).is_file());
+    let hidden = std::fs::read_dir(dir.path())
+        .unwrap()
+        .filter(|e| {
+            e.as_ref()
+                .unwrap()
+                .file_name()
+                .to_string_lossy()
+                .starts_with('.')
+        })
+        .count();
+    assert_eq!(hidden, 0);
+}

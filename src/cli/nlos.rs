@@ -437,15 +437,12 @@ fn denoise_with(
 ) -> anyhow::Result<(Capture, f64)> {
     use crate::bundle::merge::{merge_bundles, MergeOptions};
     use crate::denoise::{denoise_bundle, DenoiseParams};
-    use crate::nlos::shrink::{blend, cross_validated_beta};
+    use crate::nlos::shrink::{blend, cross_validated_beta, for_merge};
     let name = out
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_default();
-    let merged = TempDir(out.with_file_name(format!(
-        ".{name}.merge-{}",
-        std::process::id()
-    )));
+    let merged = TempDir(out.with_file_name(format!(".{name}.merge-{}", std::process::id())));
     let options = MergeOptions {
         partial: true,
         ..Default::default()
@@ -485,12 +482,12 @@ fn denoise_with(
         pairs.push((noisy, denoised));
     }
     let (merged_noisy, mut merged_denoised) = pairs.pop().expect("three captures");
-    let beta = cross_validated_beta(
+    let beta = for_merge(cross_validated_beta(
         method,
         grid,
         [&pairs[0].0, &pairs[1].0],
         [&pairs[0].1, &pairs[1].1],
-    )?;
+    )?);
     blend(&mut merged_denoised, &merged_noisy, beta);
     Ok((merged_denoised, beta))
 }
