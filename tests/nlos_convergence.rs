@@ -157,6 +157,25 @@ fn convergence_reconstructs_every_capture_and_denoised_captures_reconstruct_bett
     }
     let md = std::fs::read_to_string(out.join("results.md")).unwrap();
     assert!(md.contains("## Reconstructions") && md.contains("fbp: wl_mean 0.2"));
+    // `--denoise-with`'s rows: at 8 spp only (halves of 1 sample are not rendered),
+    // closer than the noisy capture for both methods, b in [0, 1].
+    let section = md
+        .split("### Denoised for the reconstruction")
+        .nth(1)
+        .expect("the --denoise-with section");
+    let rows: Vec<Vec<&str>> = section
+        .lines()
+        .filter(|l| l.starts_with("| ") && !l.starts_with("| spp"))
+        .map(|l| l.trim_matches('|').split('|').map(str::trim).collect())
+        .collect();
+    assert_eq!(rows.len(), 1, "{section}");
+    assert_eq!(rows[0][0], "8");
+    for k in 0..2 {
+        let gain: f64 = rows[0][4 + 3 * k].parse().unwrap();
+        let b: f64 = rows[0][5 + 3 * k].parse().unwrap();
+        assert!(gain > 1.0, "method {k}: gain {gain}");
+        assert!((0.0..=1.0).contains(&b), "method {k}: b {b}");
+    }
     assert!(md.contains("tstat: r = 1"), "the NLOS defaults: {md}");
 }
 

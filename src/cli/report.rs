@@ -743,10 +743,51 @@ fn reconstruction_markdown(r: &ConvergenceResult) -> String {
         t.push(cells);
     }
     md += &t.markdown();
+    md += &cross_validated_markdown(r);
     let min_spp = r.rows.iter().map(|x| x.spp).min().unwrap_or(0);
     md += &format!(
         "\nPictures: `reconstruction_{{method}}_mip.png`, the maximum along depth of the reconstruction of, left to right, the reference, the noisy capture and the tstat-denoised capture at {min_spp} spp (each scaled by its own maximum); plots `reconstruction_{{method}}_error_vs_seconds.png` and `_error_vs_spp.png`.\n"
     );
+    md
+}
+
+/// `nlos reconstruct --denoise-with`'s rows of the reconstructions' section.
+fn cross_validated_markdown(r: &ConvergenceResult) -> String {
+    if r.cross_validated.is_empty() {
+        return String::new();
+    }
+    let methods = &r.reconstruction_methods;
+    let mut md = "\n### Denoised for the reconstruction (`nlos reconstruct --denoise-with`)\n\nEach spp's tstat-denoised capture shrunk toward its noisy capture by the weight b (0: the denoised capture, 1: the noisy one) cross-validated, per method, between two more independent captures of spp / 2, rendered and denoised for it (docs/nlos.md). Gain: the noisy capture's error at the same spp over this one's; never below 1 but for the estimate's own error.\n\n".to_string();
+    let mut header = vec![
+        "spp".to_string(),
+        "halves: render s".into(),
+        "halves: denoise s".into(),
+    ];
+    for m in methods {
+        let n = m.name();
+        header.extend([format!("{n} error"), format!("{n} gain"), format!("{n} b")]);
+    }
+    let header: Vec<&str> = header.iter().map(String::as_str).collect();
+    let mut t = Table::new(&header);
+    for cv in &r.cross_validated {
+        let noisy = r
+            .rows
+            .iter()
+            .find(|x| x.method == "noisy" && x.spp == cv.spp)
+            .expect("every spp has a noisy row");
+        let mut cells = vec![
+            cv.spp.to_string(),
+            format!("{:.2}", cv.render_s),
+            format!("{:.2}", cv.denoise_s),
+        ];
+        for (k, (e, b)) in cv.reconstructions.iter().enumerate() {
+            cells.push(format!("{:.4}", e.error));
+            cells.push(format!("{:.2}", noisy.reconstructions[k].error / e.error));
+            cells.push(format!("{b:.3}"));
+        }
+        t.push(cells);
+    }
+    md += &t.markdown();
     md
 }
 

@@ -194,6 +194,21 @@ pub struct ConvergenceResult {
     pub reconstruction_volumes: Vec<(&'static str, Vec<Vec<f32>>)>,
     /// NLOS: the voxel grid of the reconstructions.
     pub reconstruction_grid: Option<VoxelGrid>,
+    /// NLOS with tstat among the methods: `nlos reconstruct --denoise-with`'s
+    /// reconstructions at each spp of at least 4 ([`CrossValidated`]).
+    pub cross_validated: Vec<CrossValidated>,
+}
+
+/// `nlos reconstruct --denoise-with` at one spp: the spp's tstat-denoised capture
+/// shrunk toward its noisy capture by the weight b cross-validated between two more
+/// independent captures of spp / 2 (rendered and denoised for it: `render_s`,
+/// `denoise_s`); per reconstruction method, its error, time and b.
+#[derive(Clone, Debug)]
+pub struct CrossValidated {
+    pub spp: u32,
+    pub render_s: f64,
+    pub denoise_s: f64,
+    pub reconstructions: Vec<(ReconstructionError, f64)>,
 }
 
 /// The noisy mean S / n of a render as an (H, W, T, C) f32 volume; an error names
@@ -395,6 +410,7 @@ pub fn run_convergence(
         r.set_reference(&reference)?;
     }
     let mut reconstruction_volumes = Vec::new();
+    let mut cross_validated = Vec::new();
     if let Some(r) = &reconstructor {
         let refs = (0..r.methods().len()).map(|k| r.reference(k).to_vec());
         reconstruction_volumes.push(("reference", refs.collect()));
@@ -466,6 +482,8 @@ pub fn run_convergence(
                 per_bin.push((BASELINE, bins));
             }
         }
+        // The noisy and the tstat-denoised capture, for `--denoise-with`'s rows.
+        let mut kept: (Option<Array4<f32>>, Option<Array4<f32>>) = (None, None);
         for &(method, params) in &list {
             let (vol, den_s, evals) = match params {
                 None => (noisy_mean(&out, spp)?, 0.0, 0.0),
@@ -477,6 +495,15 @@ pub fn run_convergence(
             };
             let (error, bins) = compare_regions(vol.view(), reference.view(), Some(&mask));
             line += &format!("; {method} {:.4e} ({den_s:.2} s)", error.all.rmse);
+            // Halves of spp / 2 samples: at least 2, a multiple of the replicates.
+            let halves_ok = spp >= 4 && (spp / 2) % cfg.replicates.max(1) == 0;
+            if reconstructor.is_some() && halves_ok {
+                match method {
+                    "noisy" => kept.0 = Some(vol.clone()),
+                    "tstat" => kept.1 = Some(vol.clone()),
+                    _ => {}
+                }
+            }
             let reconstructions = match &reconstructor {
                 Some(r) => {
                     let (errors, volumes) = r.measure(&vol)?;
@@ -502,6 +529,52 @@ pub fn run_convergence(
             if spp == max_spp {
                 per_bin.push((method, bins));
             }
+        }
+        if let (Some(r), (Some(noisy), Some(denoised))) = (&reconstructor, &kept) {
+            let p = list
+                .iter()
+                .find(|m| m.0 == "tstat")
+                .and_then(|m| m.1)
+                .expect("a tstat row was kept");
+            let half_scene = load_scene(cfg, spp / 2)?;
+            let mut halves = Vec::new();
+            let (mut render_s, mut denoise_s) = (0.0, 0.0);
+            for j in 0..2u64 {
+                let settings = RenderSettings {
+                    spp: spp / 2,
+                    seed: cfg.seed.wrapping_add(900_001 + 2 * k as u64 + j),
+                    pixel_spp: None,
+                    ..settings.clone()
+                };
+                let h = render(&half_scene, &settings, &|_| {});
+                render_s += h.seconds;
+                let view = sums_view(
+                    &h,
+                    spp / 2,
+                    &cfg.transform,
+                    half_scene.film.bin_width_opl,
+                    cfg.pixel_sampling,
+                    cfg.replicates,
+                    half_scene.image_rows(),
+                );
+                let d = denoise_sums(&view, &gbuffers(&h).features(), &p, &|_| {});
+                denoise_s += d.seconds;
+                halves.push((noisy_mean(&h, spp / 2)?, d.volume));
+            }
+            let reconstructions = r.measure_cross_validated(
+                noisy,
+                denoised,
+                [(&halves[0].0, &halves[0].1), (&halves[1].0, &halves[1].1)],
+            )?;
+            for (m, (e, b)) in r.methods().iter().zip(&reconstructions) {
+                line += &format!(" [{} cv {:.4}, b {b:.3}]", m.name(), e.error);
+            }
+            cross_validated.push(CrossValidated {
+                spp,
+                render_s,
+                denoise_s,
+                reconstructions,
+            });
         }
         if cfg.adaptive {
             let tstat = list.iter().find(|m| m.0 == "tstat").and_then(|m| m.1);
@@ -588,6 +661,7 @@ pub fn run_convergence(
         reconstruction_methods: cfg.nlos.as_ref().map_or(Vec::new(), |p| p.methods.clone()),
         reconstruction_volumes,
         reconstruction_grid: cfg.nlos.as_ref().map(|p| p.grid),
+        cross_validated,
     })
 }
 

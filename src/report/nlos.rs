@@ -158,6 +158,52 @@ impl Reconstructor {
     }
 }
 
+impl Reconstructor {
+    /// `nlos reconstruct --denoise-with`'s reconstructions (`nlos/shrink.rs`): the
+    /// denoised capture `denoised` of the noisy film `noisy` shrunk toward it, per
+    /// method, by the weight cross-validated between two independent half captures
+    /// (`halves`: each one's noisy and denoised film, of half the samples); each
+    /// method's error against the reference, time, and weight b.
+    pub fn measure_cross_validated(
+        &self,
+        noisy: &Array4<f32>,
+        denoised: &Array4<f32>,
+        halves: [(&Array4<f32>, &Array4<f32>); 2],
+    ) -> Result<Vec<(ReconstructionError, f64)>, ReportError> {
+        use crate::nlos::shrink::{blend, cross_validated_beta, for_merge};
+        assert_eq!(
+            self.reference.len(),
+            self.plan.methods.len(),
+            "reference set"
+        );
+        let n = self.capture(noisy)?;
+        let (na, da) = (self.capture(halves[0].0)?, self.capture(halves[0].1)?);
+        let (nb, db) = (self.capture(halves[1].0)?, self.capture(halves[1].1)?);
+        let mut out = Vec::new();
+        for (m, r) in self.plan.methods.iter().zip(&self.reference) {
+            let start = std::time::Instant::now();
+            let b = for_merge(cross_validated_beta(
+                m,
+                &self.plan.grid,
+                [&na, &nb],
+                [&da, &db],
+            )?);
+            let mut c = self.capture(denoised)?;
+            blend(&mut c, &n, b);
+            let x = m.run(&c, &self.plan.grid)?;
+            let seconds = start.elapsed().as_secs_f64();
+            out.push((
+                ReconstructionError {
+                    error: relative_l2(&x, r),
+                    seconds,
+                },
+                b,
+            ));
+        }
+        Ok(out)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::relative_l2;
