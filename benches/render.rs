@@ -109,7 +109,7 @@ fn bench_scenes(c: &mut Criterion) {
 }
 
 /// The same render at each instruction-set level this CPU has (`cpu`): what the
-/// run-time dispatch buys. Every level computes the same bits (tests/isa.rs).
+/// run-time dispatch buys. Every level computes the same bits (tests/it/isa.rs).
 fn bench_isa(c: &mut Criterion) {
     let overrides = Overrides {
         width: Some(32),

@@ -6,7 +6,7 @@ mitransient's transient_prbvolpath times a light sample taken at a surface as
 `distance + ds.dist * η`, with η the IOR product *before* the surface: when the light
 lies across a rough refraction (wo and wi on opposite sides), the light segment is
 timed with the IOR of the side the path came from. tstat times it with the IOR of the
-light's side (tests/render_physics.rs::light_sampled_through_rough_glass_arrives_with_
+light's side (tests/it/render_physics.rs::light_sampled_through_rough_glass_arrives_with_
 the_air_segment_at_speed_c). This script patches that one line in a temporary copy
 (η divided or multiplied by the surface's relative IOR ETA on a transmission; ETA is
 given, the scene's one rough dielectric) and compares the transients with tstat's, as

@@ -60,30 +60,30 @@ EXPLAINED = [
      "mitransient 1.3.1 does not time light samples of infinitely distant emitters "
      "(`constant`, `envmap`): its transient holds only part of its steady energy, "
      "tstat's all of it; the steady images agree",
-     "tests/infinite_emitters.rs (the bins sum to the steady image with an environment; "
+     "tests/it/infinite_emitters.rs (the bins sum to the steady image with an environment; "
      "a directional light's arrival at camera distance + 2R)"),
     (r'type="angulararea"', {"steady ratio", "block max", "space-time p95", "transient share"},
      "mitransient 1.3.1's `angulararea` divides its light samples by an extra dist^2",
-     "tests/sensors.rs (a 90-degree `angulararea` renders the `area` light's bits) and "
+     "tests/it/sensors.rs (a 90-degree `angulararea` renders the `area` light's bits) and "
      "tests/sampling/angular.rs (angular lights' samples against their MIS pdf and power)"),
     (r'type="roughdielectric"', {"space-time p95"},
      "light sampled through a rough refraction: tstat times the last segment with the "
      "IOR of the light's side, mitransient 1.3.1 with the IOR before the crossing "
      "(arrivals shift in time; the steady images agree)",
-     "tests/render_physics.rs::light_sampled_through_rough_glass_arrives_with_the_air_segment_at_speed_c; "
+     "tests/it/render_physics.rs::light_sampled_through_rough_glass_arrives_with_the_air_segment_at_speed_c; "
      "scripts/agree_rough_eta.py: with mitransient's line corrected the curves agree"),
     (r'type="heterogeneous"', {"steady ratio", "block max", "space-time p95", "transient share"},
      "mitransient 1.3.1 weights the channels of a chromatic heterogeneous medium wrongly: "
      "on a chromatic absorber box seen directly (closed form Le exp(-sigma_t d)) its red "
      "and green are 28% and 23% dark in the middle, tstat within 0.5%",
-     "tests/media_boundaries.rs::a_heterogeneous_medium_fills_only_its_volumes_box and "
+     "tests/it/media_boundaries.rs::a_heterogeneous_medium_fills_only_its_volumes_box and "
      "a_light_seen_through_a_heterogeneous_absorber"),
     (r'<sensor[^>]*>(?:(?!</sensor>).)*<ref name="medium"', {"steady ratio", "block max", "space-time p95"},
      "the camera sits in a medium: mitransient 1.3.1 ignores the sensor's medium "
      "(`# TODO: support sensors inside media`), tstat attenuates and scatters along the "
      "camera rays",
-     "tests/media.rs (single scattering around a camera in an infinite medium) and "
-     "tests/media_boundaries.rs (camera in one medium, light in another)"),
+     "tests/it/media.rs (single scattering around a camera in an infinite medium) and "
+     "tests/it/media_boundaries.rs (camera in one medium, light in another)"),
 ]
 
 
@@ -298,7 +298,7 @@ def verdict(name, row, path):
             "mitransient 1.3.1 drops light samples whose shadow ray restarts past a null "
             "boundary near the light; against mitransient with that line fixed "
             "(TSTAT_MIT_NEE_FIX, 8x spp) the row is within its seed spread (test: "
-            "tests/media_boundaries.rs)")
+            "tests/it/media_boundaries.rs)")
     for holds, columns, why, test in EXPLAINED:
         if cols <= columns and re.search(holds, text, re.S):
             return "explained", f"{why} (test: {test})"
@@ -412,7 +412,7 @@ def main():
                             again["first"] = row
                             results[name] = again
                     # Still outside with media: mitransient 1.3.1's shadow rays past
-                    # null boundaries (tests/media_boundaries.rs) are the first suspect;
+                    # null boundaries (tests/it/media_boundaries.rs) are the first suspect;
                     # measure once more against mitransient with that line fixed.
                     row = results[name]
                     if ("skip" not in row and verdict(name, row, f)[0] == "OPEN"

@@ -11,7 +11,7 @@
 # Compares, file by file, what `qemu-x86_64 -cpu Nehalem tstat ...` writes with what the
 # same binary writes natively under TSTAT_ISA=baseline: renders (surfaces, a BVH, a
 # medium, an NLOS capture), both denoisers and the five NLOS reconstructions. Not part of
-# `cargo test` (qemu is an apt package, not a crate); tests/isa.rs checks the levels this
+# `cargo test` (qemu is an apt package, not a crate); tests/it/isa.rs checks the levels this
 # CPU has. Exit status 1 on any difference.
 set -euo pipefail
 cd "$(dirname "$0")/.."

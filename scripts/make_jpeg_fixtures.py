@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Makes the JPEG fixtures of tests/jpeg.rs: small JPEGs in each mode tstat reads,
+"""Makes the JPEG fixtures of tests/it/jpeg.rs: small JPEGs in each mode tstat reads,
 and beside each the samples libjpeg decodes for it (raw 8-bit, rows from the top,
 3 bytes a pixel for colour, 1 for grey), as `NAME.jpg` + `NAME.raw`.
 

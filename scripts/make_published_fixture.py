@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Writes the fixture of `tests/denoise.rs::the_published_call_reproduces_the_official_code`:
+"""Writes the fixture of `tests/it/denoise.rs::the_published_call_reproduces_the_official_code`:
 the published method's own code (`StatDenoiser`, see scripts/published_official.py)
 run on a small tstat bundle, for two calls.
 

@@ -2,8 +2,8 @@
 """Writes the small y-tal HDF5 captures under tests/data/tal/ with real h5py, the way
 y-tal's `tal.io.write_capture` lays them out (H T_Sx_Sy, grids X_Y_3, scalars), in
 the storage layouts h5py offers: contiguous, chunked, gzip, gzip + shuffle,
-gzip + shuffle + fletcher32. Every file holds the same values; tests/hostile_tal.rs
-and tests/fuzz_tal.rs read them.
+gzip + shuffle + fletcher32. Every file holds the same values; tests/it/hostile_tal.rs
+and tests/it/fuzz_tal.rs read them.
 
     python3 -m venv /tmp/h5 && /tmp/h5/bin/pip install h5py numpy
     /tmp/h5/bin/python scripts/make_tal_fixtures.py

@@ -9,7 +9,7 @@
 //! sampling) is compiled for AVX-512, AVX2 + FMA or the baseline; `nlos::fft` picks
 //! rustfft's kernels by the same level. Rust never contracts `a * b + c` into an FMA
 //! nor reorders float sums, so every level computes the same bits (but for the FFT
-//! methods' rounding); `tests/isa.rs` checks it by forcing each level the CPU has, and
+//! methods' rounding); `tests/it/isa.rs` checks it by forcing each level the CPU has, and
 //! `scripts/isa_qemu.sh` on an emulated CPU without AVX2.
 //!
 //! The level is detected once; [`force`] overrides it (tests, benchmarks), and so does

@@ -695,7 +695,7 @@ fn filter_band(s: &Shared, band: &Band, k: usize, out_band: &mut [f32]) -> u64 {
 }
 
 /// [`filter_band`] compiled for AVX2 + FMA (the same bits: Rust neither fuses nor
-/// reorders float operations; `tests/isa.rs`).
+/// reorders float operations; `tests/it/isa.rs`).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
 fn filter_band_avx2(

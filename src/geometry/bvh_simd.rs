@@ -15,7 +15,7 @@
 //!   bit first, strict `<`) gives one by one.
 //!
 //! So the walk visits the same nodes and returns the same hit, bit for bit, as the
-//! baseline walk (`tests/isa.rs`, and the tests below against obvhs's own test).
+//! baseline walk (`tests/it/isa.rs`, and the tests below against obvhs's own test).
 //!
 //! Callers must have checked that the CPU supports AVX2 (`cpu::Isa::supported`).
 

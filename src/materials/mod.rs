@@ -98,7 +98,7 @@ pub trait BsdfModel {
     /// which need both for the same pair. Models whose two methods share work (the
     /// half vector, D, G1, Fresnel) override it to compute it once; an override must
     /// return exactly the bits of the two calls (the same floating-point operations
-    /// in the same order; `tests/eval_pdf.rs` checks every model).
+    /// in the same order; `tests/it/eval_pdf.rs` checks every model).
     #[inline(always)]
     fn eval_pdf(&self, wo: Vec3, wi: Vec3) -> (Rgb, f32) {
         (self.eval(wo, wi), self.pdf(wo, wi))

@@ -22,7 +22,7 @@
 //! `hdf5-pure` itself bounds its parsing (object header continuations, B-tree depths,
 //! decompression bombs against a chunk's size, `try_reserve` for outputs); a panic in
 //! it would still be caught ([`std::panic::catch_unwind`], the last resort) and
-//! reported as an error. The fuzz test `tests/fuzz_tal.rs` looks for both.
+//! reported as an error. The fuzz test `tests/it/fuzz_tal.rs` looks for both.
 
 use super::capture::Capture;
 use super::{NlosError, TalProblem};

@@ -23,7 +23,7 @@
 //! pdf_bsdf / 2)`, the hidden-geometry density of a BSDF-sampled direction taken where
 //! its ray first meets the hidden geometry. mitransient 1.3.1 divides each technique's
 //! own estimate by 1/2 instead, which counts every path both can reach twice (twice the
-//! energy, measured: `tests/nlos.rs`); tstat does not copy that. Then
+//! energy, measured: `tests/it/nlos.rs`); tstat does not copy that. Then
 //! Russian roulette from `rr_depth` on (at the vertex's depth, as mitransient).
 //! Segments are timed between the vertices themselves (not from the offset origins of
 //! the rays, which would shorten each by up to 1e-4 of the scene's scale). The

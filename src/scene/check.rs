@@ -4,7 +4,7 @@
 //! loaded for real (tiny film), which catches parameter-level problems (the first
 //! error), or says it would render.
 //!
-//! The lists below name what the loaders accept; `tests/scene_compat.rs` checks that
+//! The lists below name what the loaders accept; `tests/it/scene_compat.rs` checks that
 //! every scene in `scenes/` scans clean and that each listed plugin kind loads.
 
 use super::ctx::Ctx;

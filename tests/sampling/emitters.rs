@@ -107,7 +107,7 @@ fn light_sample_pdf_matches_the_pdf_mis_uses_on_a_hit() {
                     | Emitter::Constant { .. }
                     | Emitter::Directional { .. }
                     | Emitter::TexturedArea(_) => {
-                        unreachable!("the light scene has no infinitely distant or textured lights (see tests/textured.rs)")
+                        unreachable!("the light scene has no infinitely distant or textured lights (see tests/it/textured.rs)")
                     }
                     Emitter::Area { shape, .. } | Emitter::AngularArea { shape, .. } => {
                         assert!(!ls.delta);

@@ -2,7 +2,7 @@
 //! (block-averaged beyond it, and saying so), and one clear error for bad inputs. The
 //! page's behaviour in a browser is tested by scripts/view_test.py (headless Chromium).
 
-mod common;
+use crate::common;
 
 use common::page_data as data;
 use std::path::Path;

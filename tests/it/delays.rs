@@ -9,7 +9,7 @@ use tstat::math::rng::Pcg32;
 use tstat::render::RenderOutput;
 use tstat::scene::{Overrides, Scene};
 
-mod common;
+use crate::common;
 use common::{load, run};
 
 const ALPHA: f64 = 0.01;

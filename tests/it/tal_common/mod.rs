@@ -1,5 +1,5 @@
 //! Small y-tal HDF5 captures for the hostile-input and fuzz tests of the capture
-//! reader (`tests/hostile_tal.rs`, `tests/fuzz_tal.rs`): a capture as a list of
+//! reader (`tests/it/hostile_tal.rs`, `tests/it/fuzz_tal.rs`): a capture as a list of
 //! datasets that a test edits (values, shapes, storage) before writing it with
 //! hdf5-pure's `FileBuilder`, and byte patches for what the builder refuses to write
 //! (declared shapes that do not match the data).

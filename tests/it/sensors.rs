@@ -6,7 +6,7 @@
 use tstat::render::RenderOutput;
 use tstat::scene::Overrides;
 
-mod common;
+use crate::common;
 use common::{load, run, PINHOLE};
 
 /// A scene with `sensor` (its inner XML given, film and sampler added) and `shapes`.

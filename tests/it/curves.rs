@@ -2,7 +2,7 @@
 //! the straight constant-radius B-spline against the analytic cylinder, normals against
 //! the surface, and a rendered silhouette against its closed-form area.
 
-mod common;
+use crate::common;
 
 use glam::{DVec3, DVec4, Vec3, Vec4};
 use tstat::geometry::curve::{CurveGeom, CurveKind, Segment};

@@ -4,7 +4,7 @@
 
 use tstat::scene::Overrides;
 
-mod common;
+use crate::common;
 use common::{load, run};
 
 fn scene(body: &str) -> String {

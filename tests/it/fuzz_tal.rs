@@ -11,7 +11,7 @@
 //! CI runs 400 cases per base, 2000 in all (a few seconds); a longer campaign:
 //! `TSTAT_FUZZ_CASES=50000 TSTAT_FUZZ_SEED=$RANDOM cargo test --release --test fuzz_tal`.
 
-mod tal_common;
+use crate::tal_common;
 
 #[path = "common/fuzz_runner.rs"]
 mod fuzz_runner;

@@ -7,7 +7,7 @@ use tstat::render::tracer::trace_path;
 use tstat::render::RenderOutput;
 use tstat::scene::{Overrides, Scene};
 
-mod common;
+use crate::common;
 use common::{load, run};
 
 fn cbox(overrides: &Overrides) -> Scene {

@@ -16,7 +16,7 @@ use tstat::render::{render, PixelSampling, RenderOutput, RenderSettings};
 use tstat::scene::{Overrides, Scene};
 use tstat::stats::Transform;
 
-mod common;
+use crate::common;
 use common::bundled;
 
 fn settings(spp: u32, seed: u64, sampling: PixelSampling) -> RenderSettings {

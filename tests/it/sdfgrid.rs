@@ -11,7 +11,7 @@ use tstat::geometry::shape::ShapeGeom;
 use tstat::math::rng::Pcg32;
 use tstat::scene::{Overrides, Scene};
 
-mod common;
+use crate::common;
 use common::run;
 
 /// The sphere in object space ([0, 1]^3).

@@ -1,4 +1,4 @@
-//! Fuzzing of manifests and shard records (issue 41), in the style of `tests/fuzz.rs`:
+//! Fuzzing of manifests and shard records (issue 41), in the style of `tests/it/fuzz.rs`:
 //! property tests that mutate the manifests of small valid NLOS capture bundles (a
 //! capture, a shard of a job, a merge of two renders) -- JSON-aware mutations that put
 //! NaN, infinities, 1e300, -0, long lists and control characters where numbers, lists
@@ -151,7 +151,7 @@ fn edit() -> impl Strategy<Value = Edit> {
             .prop_map(|(at, bytes)| ByteEdit::Insert { at, bytes }),
         (0.0..1.0f64, 0..8u8).prop_map(|(at, bit)| ByteEdit::Flip { at, bit }),
     ];
-    // Lists of a million entries are the corpus's (tests/hostile_manifest.rs) and the
+    // Lists of a million entries are the corpus's (tests/it/hostile_manifest.rs) and the
     // unit tests'; here 200 000, rarely, to keep the default run short.
     let len = prop_oneof![
         8 => 0..4usize,

@@ -15,7 +15,7 @@
 //! mean above 1 says the expectations differ.) The same comparison must reject one
 //! render scaled by 1.05, so it can fail.
 
-mod common;
+use crate::common;
 
 use tstat::render::RenderOutput;
 use tstat::scene::{Overrides, Scene};

@@ -10,7 +10,7 @@
 //!   surface integrator), bin by bin;
 //! - scenes naming `transient_path` but holding media are refused.
 
-mod common;
+use crate::common;
 
 use common::{load, run};
 use std::f64::consts::PI;

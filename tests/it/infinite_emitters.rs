@@ -2,14 +2,14 @@
 //! renderer: closed forms, Mitsuba's orientation of the environment image, the time of
 //! arrival (2 R after the last vertex), and what camera rays that leave the scene see.
 //! The sampling itself is in `tests/sampling/environment.rs`; agreement with
-//! mitransient in `tests/render_physics.rs`.
+//! mitransient in `tests/it/render_physics.rs`.
 
 use std::f64::consts::PI;
 use std::path::Path;
 use tstat::render::RenderOutput;
 use tstat::scene::{Overrides, Scene};
 
-mod common;
+use crate::common;
 use common::run;
 
 /// Loads scene text from `dir` (where its image files are).

@@ -6,7 +6,7 @@
 //! `null` and `thindielectric` surfaces.
 //! A separate test binary, since it switches the process-wide level.
 
-mod common;
+use crate::common;
 
 use tstat::cpu::{self, Isa};
 use tstat::math::rng::Pcg32;

@@ -361,7 +361,7 @@ fn reference_filter(e: &Estimates, f: &Features, p: &FilterParams) -> Reference 
                                     )
                                 }),
                                 Membership::Tstat(_) => {
-                                    unreachable!("tests/denoise_tstat.rs has tstat's reference")
+                                    unreachable!("tests/it/denoise_tstat.rs has tstat's reference")
                                 }
                             };
                             if !centre

@@ -2,7 +2,7 @@
 //! and textured lights (`area` with a texture as radiance, `spot` with a `texture`),
 //! against hand-computed values and closed forms.
 
-mod common;
+use crate::common;
 
 use glam::{Vec2, Vec3};
 use tstat::lights::Emitter;

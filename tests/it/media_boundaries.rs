@@ -20,7 +20,7 @@
 //!   (quadrature over the sphere of directions).
 //!
 //! Only `transient_prbvolpath` traces media (`transient_path` refuses them,
-//! tests/media.rs), so this set runs on the volumetric tracer.
+//! tests/it/media.rs), so this set runs on the volumetric tracer.
 //!
 //! Monte Carlo error: each scene is rendered with `REPS` seeds; a group of pixels'
 //! mean over seeds is compared with the reference using the spread of the seeds'
@@ -32,7 +32,7 @@
 //! choosing a rectangle's triangle with the 2D number (same distribution of points,
 //! other random numbers).
 
-mod common;
+use crate::common;
 
 use common::load;
 use glam::DVec3;

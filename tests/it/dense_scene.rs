@@ -2,7 +2,7 @@
 //! mesh: the triangle count it promises, a closed and consistently outward mesh with
 //! shared vertices, and a scene that loads and renders.
 
-#[path = "../benches/common/dense_scene.rs"]
+#[path = "../../benches/common/dense_scene.rs"]
 mod dense_scene;
 
 use std::collections::HashSet;

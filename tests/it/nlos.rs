@@ -12,7 +12,7 @@
 //!   bundle;
 //! - bad scenes and commands: one clear error.
 
-mod common;
+use crate::common;
 
 use std::path::Path;
 use std::process::Command;
@@ -1092,7 +1092,7 @@ fn mip_projects_where_each_view_puts_a_voxel() {
     assert_eq!(&px[0..3], &ramp(0.0));
 
     let dir = tempfile::tempdir().unwrap();
-    // The command refuses a volume with a NaN (tests/hostile_volumes.rs); this one has 0.
+    // The command refuses a volume with a NaN (tests/it/hostile_volumes.rs); this one has 0.
     v[at(0, 2, 0)] = 0.0;
     let npy = dir.path().join("v.npy");
     let arr = ndarray::Array3::from_shape_vec((4, 3, 5), v).unwrap();

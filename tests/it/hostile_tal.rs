@@ -11,7 +11,7 @@
 
 #[path = "common/hostile.rs"]
 mod hostile;
-mod tal_common;
+use crate::tal_common;
 
 use hostile::{bin, limited, run, snapshot, TIME_LIMIT};
 use std::process::Command;
