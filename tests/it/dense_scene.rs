@@ -3,7 +3,7 @@
 //! shared vertices, and a scene that loads and renders.
 
 #[path = "../../benches/common/dense_scene.rs"]
-mod dense_scene;
+mod generator;
 
 use std::collections::HashSet;
 use tstat::render::{render, PixelSampling, RenderSettings};
@@ -15,7 +15,7 @@ use tstat::stats::Transform;
 fn dense_scene_is_a_closed_outward_mesh_that_renders() {
     let dir = tempfile::tempdir().unwrap();
     // 20 n^2 >= 1000: n = 8, 1280 triangles, 10 n^2 + 2 vertices.
-    let scene = dense_scene::write_dense_scene(dir.path(), 1000).unwrap();
+    let scene = generator::write_dense_scene(dir.path(), 1000).unwrap();
     assert_eq!(scene.triangles, 1280);
     let mesh = load_ply(&dir.path().join("dense_sphere.ply")).unwrap();
     assert_eq!(mesh.triangles.len(), 1280);

@@ -8,8 +8,7 @@
 //! with `TSTAT_FUZZ_CASES=20000 TSTAT_FUZZ_SEED=$RANDOM cargo test --release --test fuzz`
 //! (docs/hostile-input.md, "Fuzzing"); CI's seed is fixed so its runs are reproducible.
 
-#[path = "common/fuzz_runner.rs"]
-mod fuzz_runner;
+use crate::common::fuzz_runner;
 
 use proptest::prelude::*;
 use proptest::test_runner::TestCaseError;

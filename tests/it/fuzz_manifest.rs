@@ -15,8 +15,7 @@
 //! CI runs 1500 + 1500 + 3000 cases (a few seconds); a longer campaign:
 //! `TSTAT_FUZZ_CASES=50000 TSTAT_FUZZ_SEED=$RANDOM cargo test --release --test fuzz_manifest`.
 
-#[path = "common/fuzz_runner.rs"]
-mod fuzz_runner;
+use crate::common::fuzz_runner;
 
 use proptest::prelude::*;
 use proptest::test_runner::TestCaseError;

@@ -13,8 +13,7 @@
 
 use crate::tal_common;
 
-#[path = "common/fuzz_runner.rs"]
-mod fuzz_runner;
+use crate::common::fuzz_runner;
 
 use proptest::prelude::*;
 use proptest::test_runner::TestCaseError;

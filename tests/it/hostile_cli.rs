@@ -4,8 +4,7 @@
 //! leaving anything behind: the whole working directory (inputs, pre-existing files,
 //! hidden temporary names) is compared before and after every case.
 
-#[path = "common/hostile.rs"]
-mod hostile;
+use crate::common::hostile;
 
 use hostile::{bin, check_failure};
 use std::path::Path;

@@ -11,8 +11,7 @@
 //!   as meant and no injected command may run. The Kubernetes manifests are parsed and
 //!   their commands compared (the merge pod's `sh -c` script is run the same way).
 
-#[path = "common/hostile.rs"]
-mod hostile;
+use crate::common::hostile;
 use hostile::{bin, limited, run, snapshot, TIME_LIMIT};
 use std::path::{Path, PathBuf};
 use std::process::Command;

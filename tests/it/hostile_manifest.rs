@@ -10,8 +10,7 @@
 //! would refuse, and the reader refuses non-finite or absurd values (a relay wall of
 //! 1e300, a bin width of 0) and answers quickly on lists of a million entries.
 
-#[path = "common/hostile.rs"]
-mod hostile;
+use crate::common::hostile;
 use hostile::{bin, limited, run, snapshot, Run, TIME_LIMIT};
 use serde_json::{json, Value};
 use std::path::Path;

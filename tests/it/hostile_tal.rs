@@ -9,8 +9,7 @@
 //! gzip + shuffle, + fletcher32) read to the values h5py wrote and reconstruct to the
 //! same volume.
 
-#[path = "common/hostile.rs"]
-mod hostile;
+use crate::common::hostile;
 use crate::tal_common;
 
 use hostile::{bin, limited, run, snapshot, TIME_LIMIT};

@@ -7,8 +7,7 @@
 //! no panic, nothing left behind, within 20 s and 2 GB of address space; and a valid
 //! volume larger than the address space is projected, not refused.
 
-#[path = "common/hostile.rs"]
-mod hostile;
+use crate::common::hostile;
 
 use hostile::{bin, check_failure, run};
 use std::path::Path;

@@ -1,5 +1,9 @@
-//! Helpers shared by the render tests (each test file includes this module).
+//! Helpers shared by the integration tests (`crate::common`), with the hostile-input
+//! and fuzz runners.
 #![allow(dead_code)]
+
+pub mod fuzz_runner;
+pub mod hostile;
 
 use tstat::render::{render, PixelSampling, RenderOutput, RenderSettings};
 use tstat::scene::{Overrides, Scene};
