@@ -43,7 +43,7 @@ use std::path::Path;
 use flate2::read::ZlibDecoder;
 use glam::{Vec2, Vec3};
 
-use super::mesh::{MeshData, MeshError, SerializedError, SerializedPayload};
+use super::mesh::{MeshData, MeshError};
 
 /// The file format identifier.
 pub const MAGIC: u16 = 0x041C;
@@ -632,4 +632,134 @@ fn read_string<R: Read>(z: &mut Stream<R>, what: &'static str) -> Result<String,
     }
     let bytes = z.array(n as usize, |b: [u8; 1]| b[0])?;
     Ok(String::from_utf8_lossy(&bytes).into_owned())
+}
+
+/// What was too large for the compressed data of a `.serialized` mesh.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum SerializedPayload {
+    Mesh { vertices: u64, triangles: u64 },
+    Attribute { name: String },
+}
+
+impl std::fmt::Display for SerializedPayload {
+    fn fmt(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+        match self {
+            SerializedPayload::Mesh {
+                vertices,
+                triangles,
+            } => write!(f, "{vertices} vertices and {triangles} triangles"),
+            SerializedPayload::Attribute { name } => write!(f, "attribute '{name}'"),
+        }
+    }
+}
+
+/// What makes a Mitsuba `.serialized` file's contents unusable (read by
+/// `super::serialized`; [`MeshError::Serialized`] adds the path). Limits the file
+/// broke are given with the value. Vertex and triangle numbers count from 0.
+#[derive(Debug, thiserror::Error)]
+pub enum SerializedError {
+    #[error("truncated header ({len} bytes)")]
+    TruncatedHeader { len: u64 },
+    #[error("not a serialized mesh (it starts with 0x{found:04X}, not 0x{expected:04X})")]
+    Magic { found: u16, expected: u16 },
+    #[error("unsupported version {version} (versions 3, 4 and 5 are read)")]
+    Version { version: u16 },
+    /// Mesh `index` starts too close to the end for its header.
+    #[error("mesh {index} starts at byte {offset}, too close to the end of the file")]
+    MeshAtEnd { index: u64, offset: u64 },
+    #[error(
+        "mesh {index} does not start with a header at byte {offset} (a bad offset dictionary)"
+    )]
+    MeshHeader { index: u64, offset: u64 },
+    #[error("the mesh's compressed stream holds more data than its counts describe")]
+    TrailingData,
+    #[error(
+        "shape_index {index} needs the offset dictionary at the end of the file, which is missing or damaged"
+    )]
+    NoDictionary { index: u64 },
+    #[error(
+        "shape_index {index} is out of range: the file holds {count} mesh{}",
+        if *.count == 1 { "" } else { "es" }
+    )]
+    IndexRange { index: u64, count: u64 },
+    #[error(
+        "the dictionary puts mesh {index} at byte {offset}, beyond the end of the file ({len} bytes)"
+    )]
+    OffsetBeyondEnd { index: u64, offset: u64, len: u64 },
+    #[error("the compressed data end early (a truncated file, or counts larger than the data)")]
+    Truncated,
+    #[error("corrupt compressed data ({0})")]
+    Corrupt(#[source] io::Error),
+    /// Counts needing more bytes than the `compressed` bytes left can expand to.
+    #[error(
+        "{payload} need {bytes} bytes, more than the {compressed} compressed bytes left in the file can hold"
+    )]
+    TooLarge {
+        payload: SerializedPayload,
+        bytes: u128,
+        compressed: u64,
+    },
+    /// A vertex `position` or `normal` (`what`) that is not finite.
+    #[error("vertex {vertex}: {what} {value:?} is not finite")]
+    VertexNotFinite {
+        vertex: usize,
+        what: &'static str,
+        value: [f32; 3],
+    },
+    #[error("vertex {vertex}: texture coordinates {uv:?} are not finite")]
+    UvNotFinite { vertex: usize, uv: [f32; 2] },
+    /// A count of `vertices` or `triangles` (`what`) above `limit`.
+    #[error("the mesh claims {count} {what}, more than {limit}")]
+    Count {
+        count: u64,
+        what: &'static str,
+        limit: u64,
+    },
+    #[error(
+        "triangle {triangle} refers to vertex {index}, but there are only {vertices} vertices"
+    )]
+    TriangleIndex {
+        triangle: usize,
+        index: u32,
+        vertices: usize,
+    },
+    #[error("the mesh name is longer than {limit} bytes")]
+    NameTooLong { limit: u64 },
+    #[error("version 5 meshes must be single precision (flag 0x1000 is not set)")]
+    NotSinglePrecision,
+    #[error(
+        "the flags store tangents without normals and texture coordinates (Mitsuba requires both)"
+    )]
+    TangentsAlone,
+    #[error(
+        "{points} surface points and {groups} normal groups for {vertices} vertices (at most one each per vertex)"
+    )]
+    PointMaps {
+        points: u64,
+        groups: u64,
+        vertices: u64,
+    },
+    #[error("vertex {vertex} maps to surface point {point} of {points}")]
+    PointIndex {
+        vertex: usize,
+        point: u32,
+        points: u64,
+    },
+    #[error("vertex {vertex} maps to normal group {group} of {groups}")]
+    GroupIndex {
+        vertex: usize,
+        group: u32,
+        groups: u64,
+    },
+    #[error("{count} custom attributes (at most {limit})")]
+    Attributes { count: u32, limit: u32 },
+    #[error("attribute '{name}' has {channels} channels (1 to 4 are allowed)")]
+    AttributeChannels { name: String, channels: u32 },
+    /// A length-prefixed string (`what`: the mesh or an attribute name) above `limit`.
+    #[error("the {what} is {bytes} bytes long (at most {limit})")]
+    StringTooLong {
+        what: &'static str,
+        bytes: u64,
+        limit: u64,
+    },
 }
