@@ -22,6 +22,7 @@ use crate::materials::{Bsdf, Material};
 use crate::media::Medium;
 use crate::scene::textures::{parse_texture, NamedTextures};
 use crate::sensors::camera::Camera;
+use crate::sensors::film::Film;
 use crate::sensors::time_origin::TimeOrigin;
 use glam::{DMat4, Vec3};
 use roxmltree::Node;
@@ -29,112 +30,25 @@ use sha2::{Digest, Sha256};
 use std::collections::HashMap;
 use std::path::Path;
 
+/// Loads the scene file at `path` with the command line's `overrides`, in named steps:
+/// read and parse ([`read_text`], [`parse`]), the parameters ([`scene_defaults`],
+/// [`check_overrides_are_used`]), the walk over the document (`walk`), the checks of
+/// what it built, the film ([`resized_film`]), the camera ([`camera_of`]), the BVH
+/// and the NLOS set-up.
 pub fn load(path: &Path, overrides: &Overrides) -> Result<Scene, SceneError> {
     let whole = |msg: String| SceneError::new(path, 0, "scene", msg);
-    let bytes = crate::io::read_regular(path, crate::io::MAX_SCENE_BYTES)
-        .map_err(|e| whole(format!("cannot read the scene file: {e}")))?;
-    let sha256 = format!("{:x}", Sha256::digest(&bytes));
-    let text = String::from_utf8(bytes).map_err(|e| {
-        let valid = &e.as_bytes()[..e.utf8_error().valid_up_to()];
-        let line = valid.iter().filter(|&&b| b == b'\n').count() + 1;
-        SceneError::new(
-            path,
-            line as u32,
-            "scene",
-            format!(
-                "the scene file is not UTF-8 (byte {} is invalid)",
-                valid.len()
-            ),
-        )
-    })?;
-    limits::prescan(&text).map_err(|r| {
-        let line = text[..r.offset].bytes().filter(|&b| b == b'\n').count() + 1;
-        SceneError::new(path, line as u32, "xml", r.message)
-    })?;
-    let options = roxmltree::ParsingOptions {
-        nodes_limit: limits::MAX_NODES,
-        ..Default::default()
-    };
-    let doc = roxmltree::Document::parse_with_options(&text, options).map_err(|e| match e {
-        roxmltree::Error::NodesLimitReached => whole(format!(
-            "more than {} XML nodes (elements, text, comments): far beyond any real scene",
-            limits::MAX_NODES
-        )),
-        e => SceneError::new(path, e.pos().row, "xml", malformed(&e)),
-    })?;
-    if let Some(node) = limits::too_deep(&doc) {
-        let empty = HashMap::new();
-        return Err(Ctx::new(path, &text, &empty).err(
-            node,
-            format!(
-                "elements are nested more than {} deep (no scene needs that)",
-                limits::MAX_DEPTH
-            ),
-        ));
-    }
+    let (text, sha256) = read_text(path)?;
+    let doc = parse(path, &text)?;
     let root = doc.root_element();
 
-    // Defaults: the command line wins over the file.
-    let mut defaults: HashMap<String, String> = overrides.defaults.iter().cloned().collect();
-    let cli_keys: Vec<String> = defaults.keys().cloned().collect();
-    // Nodes, not line numbers: finding a line scans the text, so only errors do it.
-    let mut in_file: HashMap<String, Node> = HashMap::new();
-    for node in root.children().filter(|n| n.has_tag_name("default")) {
-        let empty = HashMap::new();
-        let ctx = Ctx::new(path, &text, &empty).with_plugin_names(canonical_plugin_name);
-        let name = ctx.required_attr(node, "name")?;
-        let raw = node.attribute("value").unwrap_or_default();
-        if raw.contains('$') {
-            return Err(ctx.err(
-                node,
-                format!("the value '{raw}' refers to a default; a <default> value must be literal"),
-            ));
-        }
-        let value = ctx.required_attr(node, "value")?;
-        if let Some(first) = in_file.insert(name.clone(), node) {
-            let first = ctx.line(first);
-            return Err(ctx.err(
-                node,
-                format!("<default name=\"{name}\"> is given twice (first on line {first})"),
-            ));
-        }
-        if !cli_keys.contains(&name) {
-            defaults.insert(name, value);
-        }
-    }
-    // Mitsuba adds an included file's <default>s to the scene's parameters, so they
-    // hold after the <include> too (mitsuba-data's media tests declare `res` and
-    // `spp` in include/preamble.xml): the command line and the file's own win.
-    let mut from_includes = Vec::new();
-    {
-        let ctx = Ctx::new(path, &text, &defaults)
-            .with_plugin_names(canonical_plugin_name)
-            .with_search_paths(&overrides.search_paths);
-        included_defaults(&ctx, root, 0, &mut 0, &mut from_includes);
-    }
-    for (name, value) in from_includes {
-        defaults.entry(name).or_insert(value);
-    }
+    let (defaults, in_file) = scene_defaults(path, &text, root, overrides)?;
     let ctx = Ctx::new(path, &text, &defaults)
         .with_plugin_names(canonical_plugin_name)
         .with_search_paths(&overrides.search_paths);
     if root.tag_name().name() != "scene" {
         return Err(ctx.err(root, "the root element must be <scene>"));
     }
-    // As Mitsuba's scene parameters: -D sets a <default>, or any `$name` the file uses
-    // without one (public scenes leave e.g. `$spp` to the caller). A name the file never
-    // mentions (and has no include that could) is a typo.
-    for (key, _) in &overrides.defaults {
-        let may_include = root.children().any(|n| n.has_tag_name("include"));
-        if !in_file.contains_key(key) && !mentions(&text, key) && !may_include {
-            return Err(ctx.err(
-                root,
-                format!(
-                    "-D {key}=...: the scene has no <default name=\"{key}\"> and never uses ${key}"
-                ),
-            ));
-        }
-    }
+    check_overrides_are_used(&ctx, root, &text, overrides, &in_file)?;
     check_elements(&ctx, root)?;
 
     let mut objects = Objects::default();
@@ -200,30 +114,7 @@ pub fn load(path: &Path, overrides: &Overrides) -> Result<Scene, SceneError> {
     if integrator.volumetric {
         check_volumetric_materials(&ctx, root, &bsdfs)?;
     }
-    let mut film = s.film.clone();
-    match (overrides.width, overrides.height) {
-        (Some(w), Some(h)) => (film.width, film.height) = (w, h),
-        (Some(w), None) => {
-            film.height =
-                ((w as f64 * film.height as f64 / film.width as f64).round() as usize).max(1);
-            film.width = w;
-        }
-        (None, Some(h)) => {
-            film.width =
-                ((h as f64 * film.width as f64 / film.height as f64).round() as usize).max(1);
-            film.height = h;
-        }
-        (None, None) => {}
-    }
-    if let Some(b) = overrides.bins {
-        film.bins = b;
-    }
-    if let Some(t0) = overrides.start_opl {
-        film.start_opl = t0;
-    }
-    if let Some(h) = overrides.bin_width_opl {
-        film.bin_width_opl = h;
-    }
+    let mut film = resized_film(&s.film, overrides);
     film.validate().map_err(|e| whole(e.to_string()))?;
     let end = film.start_opl + film.bins as f64 * film.bin_width_opl;
     if end <= 0.0 {
@@ -274,6 +165,232 @@ pub fn load(path: &Path, overrides: &Overrides) -> Result<Scene, SceneError> {
             film.validate().map_err(|e| whole(e.to_string()))?;
         }
     }
+    let camera = camera_of(path, &s, &film, grid, overrides)?;
+    let accel = Accel::build(&shapes);
+    let nlos = match &integrator.nlos {
+        Some(settings) => {
+            let mut warnings = Vec::new();
+            let setup = super::nlos::prepare(
+                settings,
+                meter,
+                grid,
+                &shapes,
+                &emitters,
+                &accel,
+                &mut |w| warnings.push(w),
+            )
+            .map_err(|e| e.to_string())
+            .map_err(|e| SceneError::new(path, s.line, format!("sensor type=\"{}\"", s.kind), e))?;
+            for w in warnings {
+                ctx.warn(root, w);
+            }
+            Some(setup)
+        }
+        None => None,
+    };
+    let mesh_files = ctx.take_mesh_files();
+    Ok(Scene {
+        file: path.to_path_buf(),
+        sha256,
+        camera,
+        film,
+        spp,
+        seed: s.seed,
+        integrator,
+        bsdfs,
+        shapes,
+        emitters,
+        environment,
+        media,
+        camera_medium: s.medium,
+        nlos,
+        accel,
+        warnings: ctx.take_warnings(),
+        identity: identity(&mesh_files, overrides).map_err(|(f, e)| {
+            SceneError::new(
+                path,
+                0,
+                "scene",
+                format!("cannot read '{}' again to fingerprint it: {e}", f.display()),
+            )
+        })?,
+        mesh_files,
+    })
+}
+
+/// The scene file's text (UTF-8, within the size limit) and its SHA-256.
+fn read_text(path: &Path) -> Result<(String, String), SceneError> {
+    let whole = |msg: String| SceneError::new(path, 0, "scene", msg);
+    let bytes = crate::io::read_regular(path, crate::io::MAX_SCENE_BYTES)
+        .map_err(|e| whole(format!("cannot read the scene file: {e}")))?;
+    let sha256 = format!("{:x}", Sha256::digest(&bytes));
+    let text = String::from_utf8(bytes).map_err(|e| {
+        let valid = &e.as_bytes()[..e.utf8_error().valid_up_to()];
+        let line = valid.iter().filter(|&&b| b == b'\n').count() + 1;
+        SceneError::new(
+            path,
+            line as u32,
+            "scene",
+            format!(
+                "the scene file is not UTF-8 (byte {} is invalid)",
+                valid.len()
+            ),
+        )
+    })?;
+    Ok((text, sha256))
+}
+
+/// The parsed document, after the pre-scan's limits and within the node and depth
+/// limits (`limits.rs`).
+fn parse<'t>(path: &Path, text: &'t str) -> Result<roxmltree::Document<'t>, SceneError> {
+    let whole = |msg: String| SceneError::new(path, 0, "scene", msg);
+    limits::prescan(text).map_err(|r| {
+        let line = text[..r.offset].bytes().filter(|&b| b == b'\n').count() + 1;
+        SceneError::new(path, line as u32, "xml", r.message)
+    })?;
+    let options = roxmltree::ParsingOptions {
+        nodes_limit: limits::MAX_NODES,
+        ..Default::default()
+    };
+    let doc = roxmltree::Document::parse_with_options(text, options).map_err(|e| match e {
+        roxmltree::Error::NodesLimitReached => whole(format!(
+            "more than {} XML nodes (elements, text, comments): far beyond any real scene",
+            limits::MAX_NODES
+        )),
+        e => SceneError::new(path, e.pos().row, "xml", malformed(&e)),
+    })?;
+    if let Some(node) = limits::too_deep(&doc) {
+        let empty = HashMap::new();
+        return Err(Ctx::new(path, text, &empty).err(
+            node,
+            format!(
+                "elements are nested more than {} deep (no scene needs that)",
+                limits::MAX_DEPTH
+            ),
+        ));
+    }
+    Ok(doc)
+}
+
+/// The scene's parameters: the command line's `-D`, the file's `<default>`s (each
+/// literal, given once) and its included files' (which never override either); and
+/// the file's own `<default>` nodes by name.
+#[allow(clippy::type_complexity)]
+fn scene_defaults<'a, 'i>(
+    path: &Path,
+    text: &str,
+    root: Node<'a, 'i>,
+    overrides: &Overrides,
+) -> Result<(HashMap<String, String>, HashMap<String, Node<'a, 'i>>), SceneError> {
+    // Defaults: the command line wins over the file.
+    let mut defaults: HashMap<String, String> = overrides.defaults.iter().cloned().collect();
+    let cli_keys: Vec<String> = defaults.keys().cloned().collect();
+    // Nodes, not line numbers: finding a line scans the text, so only errors do it.
+    let mut in_file: HashMap<String, Node> = HashMap::new();
+    for node in root.children().filter(|n| n.has_tag_name("default")) {
+        let empty = HashMap::new();
+        let ctx = Ctx::new(path, text, &empty).with_plugin_names(canonical_plugin_name);
+        let name = ctx.required_attr(node, "name")?;
+        let raw = node.attribute("value").unwrap_or_default();
+        if raw.contains('$') {
+            return Err(ctx.err(
+                node,
+                format!("the value '{raw}' refers to a default; a <default> value must be literal"),
+            ));
+        }
+        let value = ctx.required_attr(node, "value")?;
+        if let Some(first) = in_file.insert(name.clone(), node) {
+            let first = ctx.line(first);
+            return Err(ctx.err(
+                node,
+                format!("<default name=\"{name}\"> is given twice (first on line {first})"),
+            ));
+        }
+        if !cli_keys.contains(&name) {
+            defaults.insert(name, value);
+        }
+    }
+    // Mitsuba adds an included file's <default>s to the scene's parameters, so they
+    // hold after the <include> too (mitsuba-data's media tests declare `res` and
+    // `spp` in include/preamble.xml): the command line and the file's own win.
+    let mut from_includes = Vec::new();
+    {
+        let ctx = Ctx::new(path, text, &defaults)
+            .with_plugin_names(canonical_plugin_name)
+            .with_search_paths(&overrides.search_paths);
+        included_defaults(&ctx, root, 0, &mut 0, &mut from_includes);
+    }
+    for (name, value) in from_includes {
+        defaults.entry(name).or_insert(value);
+    }
+    Ok((defaults, in_file))
+}
+
+/// Refuses a `-D` name the scene never mentions (a typo), unless an include could.
+fn check_overrides_are_used(
+    ctx: &Ctx,
+    root: Node,
+    text: &str,
+    overrides: &Overrides,
+    in_file: &HashMap<String, Node>,
+) -> Result<(), SceneError> {
+    // As Mitsuba's scene parameters: -D sets a <default>, or any `$name` the file uses
+    // without one (public scenes leave e.g. `$spp` to the caller). A name the file never
+    // mentions (and has no include that could) is a typo.
+    for (key, _) in &overrides.defaults {
+        let may_include = root.children().any(|n| n.has_tag_name("include"));
+        if !in_file.contains_key(key) && !mentions(text, key) && !may_include {
+            return Err(ctx.err(
+                root,
+                format!(
+                    "-D {key}=...: the scene has no <default name=\"{key}\"> and never uses ${key}"
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// The sensor's film with the command line's size and time axis (`-W`/`-H` keep the
+/// aspect ratio when only one is given); validated by the caller.
+fn resized_film(film: &Film, overrides: &Overrides) -> Film {
+    let mut film = film.clone();
+    match (overrides.width, overrides.height) {
+        (Some(w), Some(h)) => (film.width, film.height) = (w, h),
+        (Some(w), None) => {
+            film.height =
+                ((w as f64 * film.height as f64 / film.width as f64).round() as usize).max(1);
+            film.width = w;
+        }
+        (None, Some(h)) => {
+            film.width =
+                ((h as f64 * film.width as f64 / film.height as f64).round() as usize).max(1);
+            film.height = h;
+        }
+        (None, None) => {}
+    }
+    if let Some(b) = overrides.bins {
+        film.bins = b;
+    }
+    if let Some(t0) = overrides.start_opl {
+        film.start_opl = t0;
+    }
+    if let Some(h) = overrides.bin_width_opl {
+        film.bin_width_opl = h;
+    }
+    film
+}
+
+/// The camera of the sensor `s` on `film` (a capture meter's over the wall grid
+/// `grid`), with the time origin asked for; refuses a field of view or aspect ratio
+/// that is zero or infinite in single precision.
+fn camera_of(
+    path: &Path,
+    s: &Sensor,
+    film: &Film,
+    grid: [usize; 2],
+    overrides: &Overrides,
+) -> Result<Camera, SceneError> {
     let (w, h) = (film.width, film.height);
     let (camera, fov) = match s.projection {
         SensorProjection::Meter(ref m) => (Camera::meter(m.origin, m.wall, w, h, grid[1]), None),
@@ -328,56 +445,7 @@ pub fn load(path: &Path, overrides: &Overrides) -> Result<Scene, SceneError> {
             what,
         ));
     }
-    let accel = Accel::build(&shapes);
-    let nlos = match &integrator.nlos {
-        Some(settings) => {
-            let mut warnings = Vec::new();
-            let setup = super::nlos::prepare(
-                settings,
-                meter,
-                grid,
-                &shapes,
-                &emitters,
-                &accel,
-                &mut |w| warnings.push(w),
-            )
-            .map_err(|e| e.to_string())
-            .map_err(|e| SceneError::new(path, s.line, format!("sensor type=\"{}\"", s.kind), e))?;
-            for w in warnings {
-                ctx.warn(root, w);
-            }
-            Some(setup)
-        }
-        None => None,
-    };
-    let mesh_files = ctx.take_mesh_files();
-    Ok(Scene {
-        file: path.to_path_buf(),
-        sha256,
-        camera,
-        film,
-        spp,
-        seed: s.seed,
-        integrator,
-        bsdfs,
-        shapes,
-        emitters,
-        environment,
-        media,
-        camera_medium: s.medium,
-        nlos,
-        accel,
-        warnings: ctx.take_warnings(),
-        identity: identity(&mesh_files, overrides).map_err(|(f, e)| {
-            SceneError::new(
-                path,
-                0,
-                "scene",
-                format!("cannot read '{}' again to fingerprint it: {e}", f.display()),
-            )
-        })?,
-        mesh_files,
-    })
+    Ok(camera)
 }
 
 /// The scene's identity beyond its own bytes (`Scene::identity`).
