@@ -473,7 +473,8 @@ fn denoise_with(
         }
         let rec = m.nlos.as_ref().expect("a capture");
         let d = denoise_bundle(&bundle, &params_of(m), &|_| {})?;
-        let mut denoised = Capture::from_bundle(&bundle)?;
+        // The denoised capture: the noisy one's grids and times, H replaced.
+        let mut denoised = noisy.clone();
         let v = d.volume;
         let s = v.shape();
         let shape = [s[0], s[1], s[2], s[3]];

@@ -11,6 +11,7 @@ use crate::bundle::capture::CaptureRecord;
 use crate::bundle::Bundle;
 use crate::scene::nlos::CaptureType;
 
+#[derive(Clone)]
 pub struct Capture {
     pub bins: usize,
     /// Laser points of H's laser axis (1 for single and confocal captures).

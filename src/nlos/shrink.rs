@@ -60,12 +60,7 @@ pub fn cross_validated_beta(
         noisy.iter().chain(&denoised).all(|c| c.h.len() == len),
         "captures of one grid"
     );
-    let mut scratch = Capture {
-        h: vec![0.0; len],
-        laser_grid: noisy[0].laser_grid.clone(),
-        sensor_grid: noisy[0].sensor_grid.clone(),
-        ..*noisy[0]
-    };
+    let mut scratch = noisy[0].clone();
     let mut energy = |f: &dyn Fn(usize) -> f64| -> Result<f64, NlosError> {
         for (i, v) in scratch.h.iter_mut().enumerate() {
             *v = f(i) as f32;

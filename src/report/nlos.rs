@@ -177,6 +177,7 @@ impl Reconstructor {
             "reference set"
         );
         let n = self.capture(noisy)?;
+        let d = self.capture(denoised)?;
         let (na, da) = (self.capture(halves[0].0)?, self.capture(halves[0].1)?);
         let (nb, db) = (self.capture(halves[1].0)?, self.capture(halves[1].1)?);
         let mut out = Vec::new();
@@ -188,7 +189,7 @@ impl Reconstructor {
                 [&na, &nb],
                 [&da, &db],
             )?);
-            let mut c = self.capture(denoised)?;
+            let mut c = d.clone();
             blend(&mut c, &n, b);
             let x = m.run(&c, &self.plan.grid)?;
             let seconds = start.elapsed().as_secs_f64();
