@@ -11,6 +11,7 @@ pub mod cpu;
 pub mod denoise;
 pub mod geometry;
 pub mod io;
+pub mod job;
 pub mod lights;
 pub mod materials;
 pub mod math;

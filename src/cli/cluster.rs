@@ -232,7 +232,8 @@ fn plan(c: &Common, binary: String, max_shards: u64, directive: bool) -> anyhow:
         count: shards,
     };
     // The same split and checks as each task's `tstat render --shard`.
-    let (spp, shard_reps) = super::render::shard_share(&shard, scene.spp, r.scene_args.replicates)?;
+    let (spp, shard_reps) =
+        crate::job::render::shard_share(&shard, scene.spp, r.scene_args.replicates)?;
     RenderSettings::check_replicates(spp, shard_reps)?;
     let film = &scene.film;
     let memory = StreamingMemory::new(film, &transform, cpus as usize)

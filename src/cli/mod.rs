@@ -17,6 +17,7 @@ mod frames;
 mod info;
 mod merge;
 mod nlos;
+mod progress;
 mod render;
 mod report;
 mod run;

@@ -1,17 +1,18 @@
 //! `tstat render SCENE.xml --out NAME.tstats`: render and write a statistics bundle.
 
-use super::adaptive::{self, AdaptiveArgs};
+use super::adaptive::AdaptiveArgs;
+use super::progress::Bars;
 use super::util::{
-    arg, check_outputs, disk_size, finite, human_bytes, opt_int, physical_memory, positive, seed,
-    size_flag, threads, Kind, MAX_FILM_SIDE,
+    arg, check_outputs, disk_size, finite, human_bytes, opt_int, positive, seed, size_flag,
+    threads, Kind, MAX_FILM_SIDE,
 };
-use crate::bundle::shard::{shard_seed, Shard, PLACEHOLDER};
-use crate::bundle::write::{bundle_bytes_with, check_render, BundleMeta, BundleWriter, JobShard};
-use crate::render::{PixelSampling, RenderSettings, StreamingMemory};
+use crate::bundle::shard::{Shard, PLACEHOLDER};
+use crate::job::RenderJob;
+use crate::render::PixelSampling;
 use crate::scene::{Overrides, Scene};
 use crate::sensors::time_origin::TimeOrigin;
 use crate::stats::Transform;
-use anyhow::{anyhow, bail, Context};
+use anyhow::{anyhow, bail};
 use clap::Args;
 use std::path::{Path, PathBuf};
 
@@ -179,29 +180,8 @@ fn shard_and_out(spec: Option<&str>, out: &Path) -> anyhow::Result<(Option<Shard
     Ok((Some(shard), PathBuf::from(shard.out_path(text))))
 }
 
-/// A shard's share of the job's spp and replicates, checked.
-pub(super) fn shard_share(shard: &Shard, spp: u32, replicates: u32) -> anyhow::Result<(u32, u32)> {
-    let spp_share = shard.share(u64::from(spp), "the job's spp")?;
-    anyhow::ensure!(
-        spp_share >= 2,
-        "the job's spp {spp} over {} shards leaves {spp_share} per shard; each needs at least 2",
-        shard.count
-    );
-    let reps = if replicates >= 2 {
-        let r = shard.share(u64::from(replicates), "--replicates")?;
-        anyhow::ensure!(
-            r >= 2,
-            "--replicates {replicates} over {} shards leaves {r} per shard; each needs at least 2",
-            shard.count
-        );
-        r as u32
-    } else {
-        replicates
-    };
-    Ok((spp_share as u32, reps))
-}
-
 pub fn run(a: RenderArgs) -> anyhow::Result<()> {
+    let started = std::time::Instant::now();
     let transform: Transform = a
         .transform
         .parse()
@@ -210,151 +190,40 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
     let overrides = a.scene_args.overrides(a.spp)?;
     let threads = threads(a.threads)?;
     let seed = seed(a.seed)?;
-    let limit = match &a.max_memory {
+    let max_memory = match &a.max_memory {
         Some(s) => Some(size_flag("--max-memory", s)?),
         None => None,
     };
-    let started = std::time::Instant::now();
     if !a.adaptive {
         a.adaptive_args.refuse_when_off("without --adaptive")?;
     }
-    let goal = a.adaptive_args.goal(a.shard.is_some())?;
+    let adaptive = a.adaptive_args.request(a.shard.is_some())?;
     let (shard, out) = shard_and_out(a.shard.as_deref(), &a.out)?;
     check_outputs(
         &[arg("scene", &a.scene)],
         &[(arg("--out", &out), Kind::Dir)],
         a.force,
     )?;
-    let mut scene = Scene::load(&a.scene, &overrides)?;
+    let scene = Scene::load(&a.scene, &overrides)?;
     super::util::check_mesh_inputs(&scene, &[arg("--out", &out)])?;
     super::util::print_scene_warnings(&scene);
-    let job_seed = seed.unwrap_or(scene.seed);
-    let (job, replicate_count) = match &shard {
-        None => (None, a.scene_args.replicates),
-        Some(s) => {
-            let (spp, reps) = shard_share(s, scene.spp, a.scene_args.replicates)?;
-            let job = JobShard {
-                shard: *s,
-                seed: job_seed,
-                spp: u64::from(scene.spp),
-                replicates: a.scene_args.replicates,
-            };
-            scene.spp = spp;
-            (Some(job), reps)
-        }
-    };
-    let film = &scene.film;
-
-    RenderSettings::check_replicates(scene.spp, replicate_count)?;
-    let shards = shard.map_or(1, |s| s.count as u32);
-    let job_spp = job.map_or(scene.spp, |j| j.spp as u32);
-    let adaptive = a
-        .adaptive
-        .then(|| {
-            a.adaptive_args
-                .options(job_spp, a.scene_args.replicates, shards)
-        })
-        .transpose()?;
-    let replicates = replicate_count >= 2;
-    // The memory of a render whose pixels take up to `cap` samples each.
-    let adaptive_on = adaptive.is_some();
-    let memory_for = |cap: u32| {
-        StreamingMemory::new(film, &transform, pool_size(threads))
-            .with_replicates(replicates, film)
-            .with_sampler(
-                a.scene_args.pixel_sampling,
-                cap,
-                replicate_count,
-                scene.integrator.volumetric,
-            )
-            .with_adaptive(adaptive_on, film)
-    };
-    let memory = memory_for(adaptive.map_or(scene.spp, |o| o.cap / shards));
-    check_memory(&memory, limit)?;
-    let disk = bundle_bytes_with(film, &transform, !scene.media.is_empty(), replicates);
-    check_disk(&out, disk, "the bundle")?;
-    let render_seed = match &job {
-        Some(j) => shard_seed(job_seed, j.shard.index),
-        None => job_seed,
-    };
-    let meta = BundleMeta {
-        seed: render_seed,
+    let job = RenderJob {
+        force: a.force,
+        seed,
         transform,
         unit_m: a.unit_m,
         pixel_sampling: a.scene_args.pixel_sampling,
-        replicates: replicate_count,
-        job,
-        // Checked before rendering with the counts' place-holder (the mean); the pilot
-        // fills them in.
-        adaptive: adaptive.map(|o| adaptive::placeholder(&o, scene.spp, film.pixels())),
+        replicates: a.scene_args.replicates,
+        threads,
+        max_memory,
+        shard,
+        adaptive: a.adaptive.then_some(adaptive),
+        spp_given: a.spp.is_some(),
+        started,
+        ..RenderJob::new(&out)
     };
-    // Before any rendering work: the manifest this render will write must read back
-    // (the same check as reading it).
-    check_render(&out, &scene, &scene.file, &meta)?;
-    if let Some(j) = &meta.job {
-        eprintln!(
-            "shard {} of {} (indices 0-{}): {} of the job's {} spp, seed {}",
-            j.shard.index,
-            j.shard.count,
-            j.shard.count - 1,
-            scene.spp,
-            j.spp,
-            shard_seed(j.seed, j.shard.index)
-        );
-    }
-    eprintln!(
-        "{}: {}x{} px, {} bins, {} spp ({}), {} primitives; memory {}, bundle {} on disk",
-        a.scene.display(),
-        film.width,
-        film.height,
-        film.bins,
-        scene.spp,
-        a.scene_args.pixel_sampling,
-        scene.accel.primitive_count(),
-        describe_memory(&memory),
-        human_bytes(disk)
-    );
-
-    let mut settings = RenderSettings {
-        spp: scene.spp,
-        seed: render_seed,
-        transform,
-        pixel_sampling: a.scene_args.pixel_sampling,
-        replicates: replicate_count,
-        pixel_spp: None,
-    };
-    let mut meta = meta;
-    let mut adaptive = adaptive;
-    if let Some(o) = adaptive.as_mut() {
-        let check_cap = |cap: u32| check_memory(&memory_for(cap), limit);
-        let inputs = adaptive::PlanInputs {
-            goal,
-            most: if a.spp.is_some() { scene.spp } else { 1 << 16 },
-            job_seed,
-            shards,
-            threads,
-            started,
-            check_cap: &check_cap,
-        };
-        adaptive::plan(&scene, &mut settings, &mut meta, o, &inputs)?;
-        scene.spp = settings.spp;
-    }
-    // Rows go straight into the bundle's files in a temporary directory; an error (or
-    // an interrupted render) leaves nothing that looks like a bundle.
-    let writer = BundleWriter::create_with(&out, a.force, film, &transform, replicates)
-        .context("writing the bundle")?;
-    // Adaptive renders of radiance sums also estimate the error they reached.
-    let tally = adaptive
-        .filter(|_| transform.is_identity())
-        .map(|o| o.measure);
-    let (summary, estimated) =
-        adaptive::render_rows(&scene, &settings, &writer, tally, threads, false)?
-            .context("writing the bundle")?;
-    warn_if_empty(summary.voxel_samples, film);
-    adaptive::record_estimate(&mut meta, estimated);
-    writer
-        .finish(&scene, &meta, &summary)
-        .context("writing the bundle")?;
+    let report = crate::job::render(scene, &job, &Bars::new(false))?;
+    let summary = &report.summary;
     let seconds = summary.seconds;
     say!(
         "rendered {} in {:.2} s: {:.2} M paths/s, {:.2} M rays/s ({} paths, {} rays); bundle {} ({}){}",
@@ -376,77 +245,4 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
         }
     );
     Ok(())
-}
-
-/// The number of worker threads [`with_threads`] will start for `threads`: rayon's
-/// default (`RAYON_NUM_THREADS`, else the available cores) when `None`. Asking rayon
-/// itself would start its global pool just to count it.
-pub fn pool_size(threads: Option<usize>) -> usize {
-    threads.unwrap_or_else(|| {
-        std::env::var("RAYON_NUM_THREADS")
-            .ok()
-            .and_then(|v| v.parse::<usize>().ok())
-            .filter(|&n| n > 0)
-            .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
-    })
-}
-
-/// "1.2 GB (2 threads x 600 MB per row + 5 MB of per-pixel images)".
-pub fn describe_memory(m: &StreamingMemory) -> String {
-    format!(
-        "{} ({} thread{} x {} per row + {} of per-pixel images)",
-        human_bytes(m.bytes()),
-        m.threads,
-        if m.threads == 1 { "" } else { "s" },
-        human_bytes(m.per_row),
-        human_bytes(m.images)
-    )
-}
-
-/// Refuses a render that needs more than `limit` bytes of memory (default: 75% of
-/// physical RAM; a saturated need is always refused). Checked before any allocation.
-pub fn check_memory(m: &StreamingMemory, limit: Option<u64>) -> anyhow::Result<()> {
-    let limit = limit.unwrap_or_else(|| physical_memory().map_or(u64::MAX, |m| m / 4 * 3));
-    let need = m.bytes();
-    anyhow::ensure!(
-        need <= limit && need != u64::MAX,
-        "the render needs {} of memory but the limit is {} (--max-memory, default 75% of RAM); lower --width, --bins or --threads",
-        describe_memory(m),
-        human_bytes(limit)
-    );
-    Ok(())
-}
-
-/// Refuses an output `out` when `what` (`need` bytes) would not fit in the free space of
-/// its filesystem (as an unprivileged user sees it). Where the free space cannot be
-/// known (`statvfs` fails), it is not checked.
-pub fn check_disk(out: &Path, need: u64, what: &str) -> anyhow::Result<()> {
-    let parent = out
-        .parent()
-        .filter(|p| !p.as_os_str().is_empty())
-        .unwrap_or(Path::new("."));
-    if let Ok(fs) = rustix::fs::statvfs(parent) {
-        let free = fs.f_bavail.saturating_mul(fs.f_frsize);
-        anyhow::ensure!(
-            need <= free && need != u64::MAX,
-            "--out {}: {what} needs {} on disk but only {} are free there; lower --width, --height or --bins, or write elsewhere",
-            out.display(),
-            human_bytes(need),
-            human_bytes(free)
-        );
-    }
-    Ok(())
-}
-
-/// Warns when no path deposited anything in the time window: legal (e.g. --max-depth 0,
-/// or a window placed before or after the light arrives) but an all-zero bundle.
-pub fn warn_if_empty(voxel_samples: u64, film: &crate::sensors::film::Film) {
-    if voxel_samples == 0 {
-        eprintln!(
-            "warning: nothing landed in the time window (OPL {} to {}, {} bins): the transient volume is all zero; check --start-opl, --bin-width-opl, --bins and max_depth",
-            film.start_opl,
-            film.start_opl + film.bins as f64 * film.bin_width_opl,
-            film.bins
-        );
-    }
 }

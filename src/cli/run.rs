@@ -4,23 +4,22 @@
 //! (noisy | denoised, one exposure), an animated GIF and a streak image. Without a
 //! scene it renders the bundled Cornell box.
 
-use super::adaptive::{
-    placeholder, plan, record_estimate, render_rows, AdaptiveArgs, Goal, PlanInputs,
-};
+use super::adaptive::AdaptiveArgs;
 use super::denoise::FilterArgs;
 use super::frames::axis_of;
+use super::progress::Bars;
 use super::render::SceneArgs;
-use super::util::{arg, check_outputs, human_bytes, int_flag, seed, threads, with_threads, Kind};
-use crate::bundle::write::{write_atomically, BundleMeta, BundleWriter};
+use super::util::{arg, check_outputs, int_flag, seed, threads, with_threads, Kind};
+use crate::bundle::write::write_atomically;
 use crate::bundle::{Bundle, BundleError};
 use crate::denoise::denoise_bundle;
-use crate::render::{RenderSettings, StreamingMemory};
+use crate::job::{AdaptiveRequest, RenderJob};
 use crate::scene::Scene;
 use crate::stats::accumulators::CHANNELS;
 use crate::stats::Transform;
 use crate::viz::frames::{side_by_side, write_all, FramesRequest};
 use crate::viz::tonemap::global_exposure;
-use anyhow::{anyhow, Context};
+use anyhow::anyhow;
 use clap::Args;
 use std::path::PathBuf;
 
@@ -80,13 +79,13 @@ pub fn run(a: RunArgs) -> anyhow::Result<()> {
     if a.no_adaptive {
         a.adaptive_args.refuse_when_off("with --no-adaptive")?;
     }
-    let goal = a.adaptive_args.goal(false)?;
+    let adaptive = a.adaptive_args.request(false)?;
     let started = std::time::Instant::now();
     let opts = Opts {
         every,
         threads,
         seed,
-        goal,
+        adaptive,
         started,
     };
     // Everything goes to a temporary directory that is renamed when complete. The job's
@@ -120,7 +119,7 @@ struct Opts {
     every: usize,
     threads: Option<usize>,
     seed: Option<u64>,
-    goal: Option<Goal>,
+    adaptive: AdaptiveRequest,
     started: std::time::Instant,
 }
 
@@ -133,7 +132,7 @@ fn job(
     params: &crate::denoise::DenoiseParams,
     overrides: &crate::scene::Overrides,
 ) -> anyhow::Result<()> {
-    let mut scene = Scene::load(scene_path, overrides)?;
+    let scene = Scene::load(scene_path, overrides)?;
     let params = &crate::denoise::DenoiseParams {
         base: a.filter.base.kind(!scene.media.is_empty()),
         ..*params
@@ -141,111 +140,33 @@ fn job(
     super::util::check_mesh_inputs(&scene, &[arg("--out", &a.out)])?;
     super::util::print_scene_warnings(&scene);
     let film = &scene.film;
-    RenderSettings::check_replicates(scene.spp, a.scene_args.replicates)?;
-    let replicates = a.scene_args.replicates >= 2;
-    let adaptive = (!a.no_adaptive)
-        .then(|| {
-            a.adaptive_args
-                .options(scene.spp, a.scene_args.replicates, 1)
-        })
-        .transpose()?;
-    let memory_for = |cap: u32| {
-        StreamingMemory::new(film, &transform, super::render::pool_size(o.threads))
-            .with_replicates(replicates, film)
-            .with_sampler(
-                a.scene_args.pixel_sampling,
-                cap,
-                a.scene_args.replicates,
-                scene.integrator.volumetric,
-            )
-            .with_adaptive(adaptive.is_some(), film)
-    };
-    let memory = memory_for(adaptive.map_or(scene.spp, |o| o.cap));
-    super::render::check_memory(&memory, None)?;
-    // The bundle, then the noisy and the denoised f32 volumes (the frames are small).
+    // Beside the bundle: the noisy and the denoised f32 volumes (the frames are small).
     let volume = (film.pixels() as u64)
         .saturating_mul(film.bins as u64)
         .saturating_mul(CHANNELS as u64 * 4)
         .saturating_add(4096);
-    let disk = crate::bundle::write::bundle_bytes_with(
-        film,
-        &transform,
-        !scene.media.is_empty(),
-        replicates,
-    )
-    .saturating_add(volume.saturating_mul(2));
-    super::render::check_disk(&a.out, disk, "the run's output")?;
     let bundle_path = dir.join("scene.tstats");
-    let meta = BundleMeta {
-        seed: o.seed.unwrap_or(scene.seed),
-        transform,
-        unit_m: 1.0,
-        pixel_sampling: a.scene_args.pixel_sampling,
-        replicates: a.scene_args.replicates,
-        job: None,
-        adaptive: adaptive.map(|o| placeholder(&o, scene.spp, film.pixels())),
-    };
-    // Before any rendering work: the manifest must read back (with the scene's
-    // final path, as written).
-    crate::bundle::write::check_render(&bundle_path, &scene, &scene_record(a), &meta)?;
-    eprintln!(
-        "{}: {}x{} px, {} bins, {} spp ({}); memory {}, {} on disk",
-        scene_record(a).display(),
-        film.width,
-        film.height,
-        film.bins,
-        scene.spp,
-        a.scene_args.pixel_sampling,
-        super::render::describe_memory(&memory),
-        human_bytes(disk)
-    );
-    let mut settings = RenderSettings {
-        spp: scene.spp,
-        seed: o.seed.unwrap_or(scene.seed),
+    let render_job = RenderJob {
+        // The bundled scene sits in the temporary directory until that is renamed: the
+        // manifest records where it will be.
+        scene_record: Some(scene_record(a)),
+        seed: o.seed,
         transform,
         pixel_sampling: a.scene_args.pixel_sampling,
         replicates: a.scene_args.replicates,
-        pixel_spp: None,
+        threads: o.threads,
+        adaptive: (!a.no_adaptive).then_some(o.adaptive),
+        spp_given: a.spp.is_some(),
+        extra_disk: volume.saturating_mul(2),
+        started: o.started,
+        ..RenderJob::new(&bundle_path)
     };
-    let mut meta = meta;
-    let mut adaptive = adaptive;
-    if let Some(opts) = adaptive.as_mut() {
-        let check_cap = |cap: u32| super::render::check_memory(&memory_for(cap), None);
-        let inputs = PlanInputs {
-            goal: o.goal,
-            most: if a.spp.is_some() { scene.spp } else { 1 << 16 },
-            job_seed: settings.seed,
-            shards: 1,
-            threads: o.threads,
-            started: o.started,
-            check_cap: &check_cap,
-        };
-        plan(&scene, &mut settings, &mut meta, opts, &inputs)?;
-        scene.spp = settings.spp;
-    }
-    let writer = BundleWriter::create_with(&bundle_path, false, film, &transform, replicates)
-        .context("writing the bundle")?;
-    let tally = adaptive
-        .filter(|_| transform.is_identity())
-        .map(|o| o.measure);
-    let (summary, estimated) = render_rows(&scene, &settings, &writer, tally, o.threads, false)?
-        .context("writing the bundle")?;
-    super::render::warn_if_empty(summary.voxel_samples, film);
+    let report = crate::job::render(scene, &render_job, &Bars::new(false))?;
     eprintln!(
         "rendered in {:.2} s ({:.2} M paths/s)",
-        summary.seconds,
-        summary.paths as f64 / summary.seconds / 1e6
+        report.summary.seconds,
+        report.summary.paths as f64 / report.summary.seconds / 1e6
     );
-    record_estimate(&mut meta, estimated);
-    // The bundled scene sits in the temporary directory until that is renamed: the
-    // manifest records where it will be.
-    let scene = Scene {
-        file: scene_record(a),
-        ..scene
-    };
-    writer
-        .finish(&scene, &meta, &summary)
-        .context("writing the bundle")?;
     let bundle = Bundle::open(&bundle_path)?;
     let noisy = bundle.noisy_mean()?;
     let mut params = *params;

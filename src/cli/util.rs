@@ -2,24 +2,11 @@
 //! output paths (checked against each other and the inputs before anything is
 //! written), report directories, and printing to stdout.
 
+pub use crate::job::system::{disk_size, human_bytes, physical_memory, with_threads};
 use anyhow::{anyhow, bail, ensure};
 use std::collections::HashSet;
 use std::ffi::OsString;
 use std::path::{Component, Path, PathBuf};
-
-/// "354.0 MB" style sizes (decimal units).
-pub fn human_bytes(b: u64) -> String {
-    let b = b as f64;
-    if b >= 1e9 {
-        format!("{:.2} GB", b / 1e9)
-    } else if b >= 1e6 {
-        format!("{:.1} MB", b / 1e6)
-    } else if b >= 1e3 {
-        format!("{:.1} kB", b / 1e3)
-    } else {
-        format!("{b} B")
-    }
-}
 
 /// A size that does not parse or does not fit; shown after the flag and what the user
 /// typed (see [`size_flag`]).
@@ -113,32 +100,6 @@ pub fn size_flag_in(
 pub fn cli_name<T: clap::ValueEnum>(v: &T) -> String {
     v.to_possible_value()
         .map_or_else(String::new, |p| p.get_name().to_string())
-}
-
-/// Physical memory in bytes (from /proc/meminfo), if known.
-pub fn physical_memory() -> Option<u64> {
-    let text = std::fs::read_to_string("/proc/meminfo").ok()?;
-    let line = text.lines().find(|l| l.starts_with("MemTotal:"))?;
-    let kb: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
-    Some(kb * 1024)
-}
-
-/// Runs `f` on a rayon pool of `threads` threads (all cores when `None`); check the
-/// flag first with [`threads`].
-pub fn with_threads<T: Send>(
-    threads: Option<usize>,
-    f: impl FnOnce() -> T + Send,
-) -> anyhow::Result<T> {
-    let mut b = rayon::ThreadPoolBuilder::new();
-    if let Some(n) = threads {
-        ensure!(n >= 1, "--threads must be at least 1");
-        b = b.num_threads(n);
-    }
-    // The build error already names its cause: no context chain (it would repeat it).
-    let pool = b
-        .build()
-        .map_err(|e| anyhow!("cannot start the worker threads: {e}"))?;
-    Ok(pool.install(f))
 }
 
 // ---------------------------------------------------------------------------------
@@ -590,17 +551,6 @@ pub fn say(args: std::fmt::Arguments) -> anyhow::Result<()> {
         Ok(()) => Ok(()),
         Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Ok(()),
         Err(e) => Err(anyhow!("writing to standard output: {e}")),
-    }
-}
-
-/// Total size of a file or of the files in a directory.
-pub fn disk_size(path: &std::path::Path) -> u64 {
-    if path.is_dir() {
-        std::fs::read_dir(path)
-            .map(|it| it.flatten().map(|e| disk_size(&e.path())).sum())
-            .unwrap_or(0)
-    } else {
-        std::fs::metadata(path).map(|m| m.len()).unwrap_or(0)
     }
 }
 

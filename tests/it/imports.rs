@@ -20,6 +20,7 @@ const LAYERS: &[&[&str]] = &[
     &["denoise", "nlos"],
     &["report"],
     &["viz", "cluster"],
+    &["job"],
     &["cli"],
 ];
 
