@@ -3,6 +3,7 @@
 
 pub mod bounds;
 pub mod capture;
+pub mod estimates;
 pub mod float_rows;
 pub mod manifest;
 pub mod merge;

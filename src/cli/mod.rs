@@ -9,6 +9,7 @@ macro_rules! say {
 }
 
 mod adaptive;
+pub mod api;
 mod check;
 mod cluster;
 mod denoise;

@@ -180,7 +180,9 @@ fn shard_and_out(spec: Option<&str>, out: &Path) -> anyhow::Result<(Option<Shard
     Ok((Some(shard), PathBuf::from(shard.out_path(text))))
 }
 
-pub fn run(a: RenderArgs) -> anyhow::Result<()> {
+/// The checked flags, the output checked against the inputs, and the scene loaded:
+/// the job `tstat render` (and the Python package's `render`) runs.
+pub fn prepare(a: &RenderArgs) -> anyhow::Result<(Scene, RenderJob)> {
     let started = std::time::Instant::now();
     let transform: Transform = a
         .transform
@@ -222,6 +224,13 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
         started,
         ..RenderJob::new(&out)
     };
+    Ok((scene, job))
+}
+
+pub fn run(a: RenderArgs) -> anyhow::Result<()> {
+    let (scene, job) = prepare(&a)?;
+    let transform = job.transform;
+    let out = job.out.clone();
     let report = crate::job::render(scene, &job, &Bars::new(false))?;
     let summary = &report.summary;
     let seconds = summary.seconds;

@@ -28,6 +28,7 @@ mod imports;
 mod infinite_emitters;
 mod instancing;
 mod isa;
+mod job;
 mod jpeg;
 mod media;
 mod media_boundaries;
