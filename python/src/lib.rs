@@ -16,7 +16,7 @@ use std::time::Duration;
 use tstat::job::{Progress, Stage};
 
 pyo3::create_exception!(
-    _tstat,
+    tstat,
     TstatError,
     PyValueError,
     "Bad input or a failed job; the message is the command line's."
@@ -42,6 +42,9 @@ struct Shared {
     stage: Mutex<Option<(Stage, u64)>>,
     done: AtomicU64,
     status: Mutex<String>,
+    /// Stages over but not yet handed to the callback (a short pilot can start and
+    /// end between two polls): stage, total, last status.
+    ended: Mutex<Vec<(Stage, u64, String)>>,
     notes: Mutex<Vec<String>>,
 }
 
@@ -60,6 +63,24 @@ impl Progress for Shared {
     fn status(&self, text: &str) {
         *self.status.lock().unwrap_or_else(PoisonError::into_inner) = text.to_string();
     }
+    fn finish(&self) {
+        let stage = self
+            .stage
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .take();
+        if let Some((stage, total)) = stage {
+            let status = self
+                .status
+                .lock()
+                .unwrap_or_else(PoisonError::into_inner)
+                .clone();
+            self.ended
+                .lock()
+                .unwrap_or_else(PoisonError::into_inner)
+                .push((stage, total, status));
+        }
+    }
     fn note(&self, line: &str) {
         self.notes
             .lock()
@@ -72,8 +93,13 @@ impl Progress for Shared {
 }
 
 impl Shared {
-    /// Hands the current stage, its paths done and total, and the status to `callback`.
+    /// Hands the stages that ended since the last call (done = total), then the
+    /// current stage, its paths done and total, and the status to `callback`.
     fn report(&self, py: Python<'_>, callback: &Py<PyAny>) -> PyResult<()> {
+        let ended = std::mem::take(&mut *self.ended.lock().unwrap_or_else(PoisonError::into_inner));
+        for (stage, total, status) in ended {
+            callback.call1(py, (stage.name(), total, total, status))?;
+        }
         let stage = *self.stage.lock().unwrap_or_else(PoisonError::into_inner);
         if let Some((stage, total)) = stage {
             let done = self.done.load(Ordering::Relaxed).min(total);
@@ -139,7 +165,9 @@ fn render(py: Python<'_>, argv: Vec<String>, progress: Option<Py<PyAny>>) -> PyR
             ))
         }
         Ok(Err(e)) => Err(to_py(e)),
-        Err(_) => Err(TstatError::new_err("the render stopped on an internal error")),
+        Err(_) => Err(TstatError::new_err(
+            "the render stopped on an internal error",
+        )),
     }
 }
 
@@ -160,6 +188,9 @@ impl Drop for Bundle {
         }
     }
 }
+
+/// An f32 (H, W, T, C) volume handed to Python.
+type Volume<'py> = Bound<'py, PyArray4<f32>>;
 
 fn bundle_error(e: tstat::bundle::BundleError) -> PyErr {
     to_py(e.into())
@@ -211,13 +242,8 @@ impl Bundle {
 
     /// SPEC 5's skewness-corrected mean theta and the variance of the estimate
     /// V = sigma2 / n, each f32 (H, W, T, C), in the transform's domain.
-    fn estimates<'py>(
-        &self,
-        py: Python<'py>,
-    ) -> PyResult<(Bound<'py, PyArray4<f32>>, Bound<'py, PyArray4<f32>>)> {
-        let e = py
-            .detach(|| self.inner.estimates())
-            .map_err(bundle_error)?;
+    fn estimates<'py>(&self, py: Python<'py>) -> PyResult<(Volume<'py>, Volume<'py>)> {
+        let e = py.detach(|| self.inner.estimates()).map_err(bundle_error)?;
         Ok((e.theta.into_pyarray(py), e.variance.into_pyarray(py)))
     }
 
@@ -244,7 +270,13 @@ impl Bundle {
         let b = &self.inner;
         let (albedo, normal, depth, emitter, medium) = py
             .detach(|| -> Result<_, tstat::bundle::BundleError> {
-                Ok((b.albedo()?, b.normal()?, b.depth()?, b.emitter()?, b.medium()?))
+                Ok((
+                    b.albedo()?,
+                    b.normal()?,
+                    b.depth()?,
+                    b.emitter()?,
+                    b.medium()?,
+                ))
             })
             .map_err(bundle_error)?;
         let d = PyDict::new(py);

@@ -15,7 +15,7 @@ pub fn parse(argv: &[String]) -> anyhow::Result<Cli> {
     Cli::try_parse_from(args).map_err(|e| {
         let text = usage_error(&e);
         let first = text.lines().next().unwrap_or_default();
-        anyhow::anyhow!("{}", first.trim_start_matches("error: ").to_string())
+        anyhow::anyhow!("{}", first.trim_start_matches("error: "))
     })
 }
 
