@@ -231,3 +231,51 @@ def test_a_render_streams_its_volume_instead_of_holding_it(scene):
     # The sums alone are 128 x 128 x 600 x 3 x 8 bytes x 3 arrays = 708 MB; a row
     # scratch is 128 x 600 x 3 x 8 x 4 = 7.4 MB.
     assert grown_kb * 1024 < 100e6, f"peak memory grew by {grown_kb / 1024:.0f} MiB"
+
+
+def test_arrays_out_are_export_published_and_arrays_in_denoise_as_the_bundle(cli, scene, tmp_path):
+    b = tstat.render(scene("cbox.xml"), 16, seed=5, transform="yeo-johnson:0.5", pixel_sampling="independent",
+                     progress=False, **SMALL)
+    cli("export", b.path, "--published", tmp_path / "arr")
+    arrays = b.published_arrays()
+    for name, a in arrays.items():
+        assert a.dtype == np.float32
+        assert np.array_equal(a, np.load(tmp_path / "arr" / f"{name}.npy")), name
+    g = b.gbuffers()
+    cli("denoise", b.path, "--out", tmp_path / "tstat.npy")
+    cli("denoise", b.path, "--method", "published", "--out", tmp_path / "published.npy")
+    args = (arrays["noisy"], arrays["estimands"], arrays["estimands_variance"], 16, arrays["albedo"],
+            arrays["normals"])
+    # With tstat's extras the filter has all a bundle gives it.
+    full = tstat.denoise_arrays(*args, depth=g["depth"], emitter=g["emitter"], bin_width_opl=0.25)
+    assert np.array_equal(full, np.load(tmp_path / "tstat.npy"))
+    # The published pipeline's five arrays: its filter needs nothing more.
+    published = tstat.denoise_arrays(*args, method="published")
+    assert np.array_equal(published, np.load(tmp_path / "published.npy"))
+    # f64 inputs are read as f32.
+    as64 = tstat.denoise_arrays(*[a.astype(np.float64) if isinstance(a, np.ndarray) else a for a in args],
+                                method="published")
+    assert np.array_equal(as64, published)
+
+
+def test_bad_arrays_raise_the_command_lines_message(scene):
+    b = tstat.render(scene("cbox.xml"), 8, transform="yeo-johnson:0.5", progress=False, **SMALL)
+    a = b.published_arrays()
+    args = lambda **kw: {**dict(noisy=a["noisy"], mean=a["estimands"], variance=a["estimands_variance"], spp=8,
+                                albedo=a["albedo"], normal=a["normals"]), **kw}
+    bad = a["estimands"].copy()
+    bad[1, 2, 3, 0] = np.nan
+    with pytest.raises(tstat.TstatError, match=r"estimands.npy.*NaN"):
+        tstat.denoise_arrays(**args(mean=bad))
+    neg = a["estimands_variance"].copy()
+    neg[0, 0, 0, 0] = -1.0
+    with pytest.raises(tstat.TstatError, match="at least 0"):
+        tstat.denoise_arrays(**args(variance=neg))
+    with pytest.raises(tstat.TstatError, match=r"albedo.npy: shape \[16, 15, 3\]"):
+        tstat.denoise_arrays(**args(albedo=a["albedo"][:, :15]))
+    with pytest.raises(tstat.TstatError, match="normals.npy"):
+        tstat.denoise_arrays(**args(normal=np.zeros((16, 16, 3), dtype=np.int64)))
+    with pytest.raises(tstat.TstatError, match="--spp 1"):
+        tstat.denoise_arrays(**args(spp=1))
+    with pytest.raises(TypeError):
+        tstat.denoise_arrays(**args(spp="8"))

@@ -37,6 +37,7 @@ __all__ = [
     "Bundle",
     "TstatError",
     "denoise",
+    "denoise_arrays",
     "load",
     "merge",
     "nlos",
@@ -116,6 +117,22 @@ class Bundle:
     def steady(self) -> np.ndarray:
         """The steady-state (time-integrated) mean image, float64 (H, W, C)."""
         return self._native.steady()
+
+    def published_arrays(self) -> Dict[str, np.ndarray]:
+        """The published pipeline's arrays of this bundle, as its denoiser takes them:
+        ``noisy`` (the linear video), ``estimands`` and ``estimands_variance`` (theta and
+        V in the bundle's transform; render with ``transform="yeo-johnson:0.5"`` for
+        the published pipeline's), ``albedo`` and ``normals``; float32. ``tstat export
+        --published DIR`` writes them as files."""
+        theta, variance = self._native.estimates()
+        g = self._native.gbuffers()
+        return {
+            "noisy": self._native.mean(),
+            "estimands": theta,
+            "estimands_variance": variance,
+            "albedo": g["albedo"],
+            "normals": g["normal"],
+        }
 
     def save(self, path: PathLike, force: bool = False) -> "Bundle":
         """Copies the bundle to ``path`` (refused if it exists, unless ``force``) and
@@ -248,6 +265,67 @@ def denoise(
     with tempfile.TemporaryDirectory(prefix="tstat-") as scratch:
         target = os.fspath(out) if out is not None else os.path.join(scratch, "denoised.npy")
         run("denoise", _path_of(bundle), "--out", target, "--method", method, *flags(options))
+        return np.load(target)
+
+
+def denoise_arrays(
+    noisy: Any,
+    mean: Any,
+    variance: Any,
+    spp: int,
+    albedo: Any,
+    normal: Any,
+    depth: Any = None,
+    transform: str = "yeo-johnson",
+    lam: float = 0.5,
+    *,
+    emitter: Any = None,
+    pixel_spp: Any = None,
+    bin_width_opl: Optional[float] = None,
+    stratified: bool = False,
+    method: str = "tstat",
+    **options: Any,
+) -> np.ndarray:
+    """Denoises per-voxel estimates from another renderer: the published pipeline's
+    arrays as its renderer returns them. ``noisy`` is the linear video (H, W, T, 3),
+    ``mean`` the estimand theta (skewness-corrected mean of the transformed samples)
+    and ``variance`` its variance V, both in ``transform`` with ``lam``
+    (``"yeo-johnson"``, ``"box-cox"`` or ``"identity"``); ``albedo`` and ``normal``
+    (H, W, 3); ``spp`` the samples per pixel behind them. f32 or f64, finite, V >= 0.
+
+    Returns float32 (H, W, T, 3): bit for bit ``tstat denoise --from-arrays`` (and, on
+    arrays exported from a tstat bundle with their ``depth``, ``emitter`` and
+    ``bin_width_opl``, bit for bit ``tstat denoise`` of the bundle). Without ``emitter``
+    and ``depth`` tstat's filter loses its emitter class and camera-depth alignment
+    (docs/python.md measures the cost); ``method="published"`` uses neither.
+    ``options`` are ``tstat denoise``'s filter flags (``radius``, ``alpha``, ...).
+    """
+    spp = whole("spp", spp)
+    kind = "identity" if transform == "identity" else f"{transform}:{lam!r}"
+    arrays = {
+        "noisy.npy": noisy,
+        "estimands.npy": mean,
+        "estimands_variance.npy": variance,
+        "albedo.npy": albedo,
+        "normals.npy": normal,
+        "depth.npy": depth,
+        "emitter.npy": emitter,
+        "pixel_spp.npy": pixel_spp,
+    }
+    with tempfile.TemporaryDirectory(prefix="tstat-") as scratch:
+        folder = os.path.join(scratch, "arrays")
+        os.mkdir(folder)
+        for name, value in arrays.items():
+            if value is not None:
+                np.save(os.path.join(folder, name), np.ascontiguousarray(value), allow_pickle=False)
+        meta = {"spp": spp, "transform": kind, "stratified": bool(stratified)}
+        if bin_width_opl is not None:
+            meta["bin_width_opl"] = float(bin_width_opl)
+        with open(os.path.join(folder, "meta.json"), "w") as f:
+            json.dump(meta, f)
+        target = os.path.join(scratch, "denoised.npy")
+        run("denoise", "--from-arrays", folder, "--spp", str(spp), "--transform", kind,
+            "--out", target, "--method", method, *flags(options))
         return np.load(target)
 
 

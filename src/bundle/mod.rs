@@ -8,6 +8,7 @@ pub mod float_rows;
 pub mod manifest;
 pub mod merge;
 pub mod npy;
+pub mod published;
 pub mod read;
 pub mod shard;
 pub mod write;

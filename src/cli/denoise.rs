@@ -239,7 +239,24 @@ impl FilterArgs {
 #[derive(Args, Debug)]
 pub struct DenoiseArgs {
     /// A statistics bundle directory.
-    pub bundle: PathBuf,
+    #[arg(
+        required_unless_present = "from_arrays",
+        conflicts_with = "from_arrays"
+    )]
+    pub bundle: Option<PathBuf>,
+    /// Denoise per-voxel estimates instead of a bundle: a folder with the published
+    /// pipeline's arrays (noisy.npy, estimands.npy, estimands_variance.npy, albedo.npy,
+    /// normals.npy; tstat's depth.npy, emitter.npy, pixel_spp.npy and meta.json if
+    /// there), as `tstat export --published` writes them (docs/python.md).
+    #[arg(long, value_name = "DIR")]
+    pub from_arrays: Option<PathBuf>,
+    /// With --from-arrays: the samples per pixel behind the estimates (else meta.json's).
+    #[arg(long, allow_negative_numbers = true)]
+    pub spp: Option<i64>,
+    /// With --from-arrays: the transform theta and V are in (else meta.json's, else
+    /// yeo-johnson:0.5, the published pipeline's).
+    #[arg(long)]
+    pub transform: Option<String>,
     /// Output volume, f32 (H, W, T, C) .npy.
     #[arg(long)]
     pub out: PathBuf,
@@ -306,6 +323,13 @@ pub fn stage_exr_bins(
 
 pub fn run(a: DenoiseArgs) -> anyhow::Result<()> {
     let mut params = a.filter.params()?;
+    let Some(bundle_path) = a.bundle.clone() else {
+        return from_arrays(&a, params);
+    };
+    ensure!(
+        a.spp.is_none() && a.transform.is_none(),
+        "--spp and --transform describe --from-arrays' estimates: a bundle records its own"
+    );
     if a.out.extension().and_then(|e| e.to_str()) != Some("npy") {
         bail!("--out {}: the volume is written as .npy", a.out.display());
     }
@@ -318,8 +342,8 @@ pub fn run(a: DenoiseArgs) -> anyhow::Result<()> {
     if let Some(d) = &a.exr {
         outputs.push((arg("--exr", d), Kind::Dir));
     }
-    check_outputs(&[arg("bundle", &a.bundle)], &outputs, a.force)?;
-    let bundle = Bundle::open(&a.bundle)?;
+    check_outputs(&[arg("bundle", &bundle_path)], &outputs, a.force)?;
+    let bundle = Bundle::open(&bundle_path)?;
     let m = &bundle.manifest;
     params.base = a.filter.base.kind(m.media);
     a.filter.adapt(&mut params, m);
@@ -349,7 +373,7 @@ pub fn run(a: DenoiseArgs) -> anyhow::Result<()> {
     );
     eprintln!(
         "{}: {}x{} px, {} bins, {} spp; denoiser memory ~{} ({} of {} rows, halo {halo})",
-        a.bundle.display(),
+        bundle_path.display(),
         m.width,
         m.height,
         m.bins,
@@ -388,7 +412,7 @@ pub fn run(a: DenoiseArgs) -> anyhow::Result<()> {
     let result = stats.expect("denoised");
     say!(
         "denoised {} -> {} in {:.3} s (filter {:.3} s: {:.0} M voxel-neighbour evaluations/s){}",
-        a.bundle.display(),
+        bundle_path.display(),
         a.out.display(),
         result.seconds,
         result.filter_seconds,
@@ -397,6 +421,104 @@ pub fn run(a: DenoiseArgs) -> anyhow::Result<()> {
             .as_ref()
             .map(|d| format!("; EXR bins in {}", d.display()))
             .unwrap_or_default()
+    );
+    Ok(())
+}
+
+/// `--from-arrays DIR`: the filter on the published pipeline's arrays
+/// (`denoise::arrays`), in memory.
+fn from_arrays(a: &DenoiseArgs, mut params: DenoiseParams) -> anyhow::Result<()> {
+    use crate::bundle::published::{transform_of, PublishedArrays};
+    use crate::denoise::arrays::{denoise_arrays, memory_bytes, ArraysSettings};
+    let dir = a
+        .from_arrays
+        .as_ref()
+        .expect("clap: a bundle or --from-arrays");
+    if a.out.extension().and_then(|e| e.to_str()) != Some("npy") {
+        bail!("--out {}: the volume is written as .npy", a.out.display());
+    }
+    ensure!(
+        a.filter.variance == VarianceArg::Unbiased,
+        "--variance: the arrays' V is given, made with whatever convention made it; only a bundle's sums can be estimated again"
+    );
+    let threads = threads(a.threads)?;
+    let budget = match &a.max_memory {
+        Some(s) => size_flag("--max-memory", s)?,
+        None => DEFAULT_BUDGET,
+    };
+    let mut outputs = vec![(arg("--out", &a.out), Kind::File)];
+    if let Some(d) = &a.exr {
+        outputs.push((arg("--exr", d), Kind::Dir));
+    }
+    check_outputs(&[arg("--from-arrays", dir)], &outputs, a.force)?;
+    ensure!(
+        dir.is_dir(),
+        "--from-arrays {}: not a folder",
+        dir.display()
+    );
+    let arrays = PublishedArrays::read(dir)?;
+    let meta = arrays.meta.as_ref();
+    let spp = match (a.spp, meta) {
+        (Some(n), _) => super::util::int_flag("--spp", n, 2, i64::from(u32::MAX))? as u64,
+        (None, Some(m)) => {
+            ensure!(
+                m.spp >= 2,
+                "{}: spp {} (at least 2 samples per pixel give a variance)",
+                dir.join("meta.json").display(),
+                m.spp
+            );
+            m.spp
+        }
+        (None, None) => bail!(
+            "--from-arrays {}: give --spp (the samples per pixel behind the estimates; the folder has no meta.json)",
+            dir.display()
+        ),
+    };
+    let transform = transform_of(a.transform.as_deref(), meta).map_err(anyhow::Error::msg)?;
+    let settings = ArraysSettings {
+        spp,
+        transform,
+        stratified: meta.is_some_and(|m| m.stratified),
+        bin_width_opl: meta.and_then(|m| m.bin_width_opl),
+    };
+    params.base = a.filter.base.kind(false);
+    let (h, w, t, _) = arrays.noisy.dim();
+    let need = memory_bytes((h * w * t * CHANNELS) as u64);
+    ensure!(
+        need <= budget,
+        "--max-memory {}: denoising {w}x{h} px x {t} bins from arrays needs {} (the arrays are held whole)",
+        a.max_memory.clone().unwrap_or_else(|| human_bytes(budget)),
+        human_bytes(need)
+    );
+    let bar = ProgressBar::new((w * h) as u64).with_style(
+        ProgressStyle::with_template("{bar:40} {percent:>3}% pixels, ETA {eta}")
+            .expect("valid template"),
+    );
+    let den = with_threads(threads, || {
+        denoise_arrays(&arrays, &settings, &params, &|n| bar.inc(n))
+    })?;
+    bar.finish_and_clear();
+    drop(arrays);
+    let mut exr = None;
+    stage(&a.out, a.force, |tmp| -> Result<(), BundleError> {
+        ndarray_npy::write_npy(tmp, &den.volume)
+            .map_err(|e| BundleError::io(&a.out, std::io::Error::other(e)))?;
+        if let Some(d) = &a.exr {
+            exr = Some(stage_exr_bins(d, tmp, (h, w, t), budget, a.force)?);
+        }
+        Ok(())
+    })?
+    .commit()?;
+    if let Some(e) = exr {
+        e.commit()?;
+    }
+    say!(
+        "denoised {} -> {} in {:.3} s ({}, {spp} spp, {})",
+        dir.display(),
+        a.out.display(),
+        den.seconds,
+        params.method.describe(),
+        transform
     );
     Ok(())
 }

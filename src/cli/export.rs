@@ -28,6 +28,13 @@ pub struct ExportArgs {
     /// block.
     #[arg(long, value_name = "BYTES")]
     pub max_memory: Option<String>,
+    /// The published pipeline's arrays, as its denoiser takes them: noisy.npy,
+    /// estimands.npy and estimands_variance.npy (theta and V in the bundle's transform;
+    /// render with --transform yeo-johnson:0.5 for the published pipeline's), albedo.npy,
+    /// normals.npy; and tstat's depth.npy, emitter.npy, pixel_spp.npy (adaptive) and
+    /// meta.json, which `tstat denoise --from-arrays` reads.
+    #[arg(long, value_name = "DIR")]
+    pub published: Option<PathBuf>,
     /// Replace existing outputs.
     #[arg(long)]
     pub force: bool,
@@ -52,8 +59,8 @@ pub fn write_exr_rgb(path: &Path, img: &Array3<f32>) -> Result<(), BundleError> 
 }
 
 pub fn run(a: ExportArgs) -> anyhow::Result<()> {
-    if a.out.is_none() && a.steady.is_none() && a.tal.is_none() {
-        bail!("nothing to export: give --out VOLUME.npy, --steady IMAGE.exr|.npy and/or --tal CAPTURE.hdf5");
+    if a.out.is_none() && a.steady.is_none() && a.tal.is_none() && a.published.is_none() {
+        bail!("nothing to export: give --out VOLUME.npy, --steady IMAGE.exr|.npy, --tal CAPTURE.hdf5 and/or --published DIR");
     }
     if let Some(t) = &a.tal {
         if !matches!(extension(t).as_str(), "hdf5" | "h5") {
@@ -87,6 +94,9 @@ pub fn run(a: ExportArgs) -> anyhow::Result<()> {
     }
     if let Some(t) = &a.tal {
         outputs.push((arg("--tal", t), Kind::File));
+    }
+    if let Some(d) = &a.published {
+        outputs.push((arg("--published", d), Kind::Dir));
     }
     check_outputs(&[arg("bundle", &a.bundle)], &outputs, a.force)?;
     let bundle = Bundle::open(&a.bundle)?;
@@ -150,6 +160,18 @@ pub fn run(a: ExportArgs) -> anyhow::Result<()> {
                 } else {
                     String::new()
                 }
+            ),
+        ));
+    }
+    if let Some(d) = &a.published {
+        staged.push((
+            stage(d, a.force, |tmp| {
+                crate::bundle::published::write_into(&bundle, tmp, d)
+            })?,
+            format!(
+                "wrote {} (the published pipeline's arrays; theta and V in {})",
+                d.display(),
+                bundle.manifest.transform
             ),
         ));
     }

@@ -2,6 +2,7 @@
 //! spatio-temporal filter (base filter x membership): tstat's membership (default,
 //! `tstat.rs`) or the published per-voxel Welch test (`membership.rs`).
 
+pub mod arrays;
 pub mod base_filter;
 pub mod conventions;
 pub mod critical;

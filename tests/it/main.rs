@@ -10,6 +10,7 @@ mod cli;
 mod curves;
 mod delays;
 mod denoise;
+mod denoise_arrays;
 mod denoise_tstat;
 mod dense_scene;
 mod eval_pdf;
