@@ -87,10 +87,7 @@ impl SceneArgs {
             );
         }
         if let Some(h) = self.bin_width_opl {
-            anyhow::ensure!(
-                h > 0.0 && h.is_finite(),
-                "--bin-width-opl must be positive, got {h}"
-            );
+            crate::sensors::film::check_bin_width("--bin-width-opl", h)?;
         }
         if let Some(t0) = self.start_opl {
             finite("--start-opl", t0)?;

@@ -14,7 +14,7 @@
 use super::ctx::Ctx;
 use super::error::SceneError;
 use super::props::Props;
-use crate::sensors::film::Film;
+use crate::sensors::film::{check_bin_width, Film};
 use roxmltree::Node;
 
 /// The film plugins (the plugin table's `film` family).
@@ -69,12 +69,8 @@ fn parse_with_scan(
     let bin_width_opl = p
         .float("bin_width_opl")?
         .ok_or_else(|| p.err("missing parameter 'bin_width_opl'"))?;
-    if bin_width_opl <= 0.0 {
-        return Err(p.err_at(
-            "bin_width_opl",
-            format!("bin_width_opl must be positive, got {bin_width_opl}"),
-        ));
-    }
+    check_bin_width("bin_width_opl", bin_width_opl)
+        .map_err(|e| p.err_at("bin_width_opl", e.to_string()))?;
     // mitransient film flags that do not change what is computed here.
     p.ignore("auto_detect_bins");
     let mut scan = None;

@@ -5,6 +5,7 @@ use super::ctx::Ctx;
 use super::error::SceneError;
 use super::props::Props;
 use super::IntegratorSettings;
+use crate::sensors::film::check_bin_width;
 use crate::sensors::time_filter::{TimeFilter, DEFAULT_STDDEV_BINS};
 use roxmltree::Node;
 
@@ -128,14 +129,8 @@ pub(super) fn legacy_time_window(p: &mut Props) -> Result<(), SceneError> {
         }
     }
     if let Some(e) = exposure {
-        if !(e > 0.0 && e.is_finite()) {
-            return Err(p.err_at(
-                "exposure",
-                format!(
-                    "exposure (the bin width of mitransient before 1.0) must be positive, got {e}"
-                ),
-            ));
-        }
+        check_bin_width("exposure (the bin width of mitransient before 1.0)", e)
+            .map_err(|e| p.err_at("exposure", e.to_string()))?;
     }
     if let Some(t) = initial {
         if !t.is_finite() {

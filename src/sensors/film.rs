@@ -55,9 +55,7 @@ impl Film {
         if bins > u32::MAX as usize {
             return Err(FilmError::TooManyBins { bins });
         }
-        if !(bin_width_opl > 0.0 && bin_width_opl.is_finite()) {
-            return Err(FilmError::BinWidth { bin_width_opl });
-        }
+        check_bin_width("bin_width_opl", bin_width_opl)?;
         if !start_opl.is_finite() {
             return Err(FilmError::Start { start_opl });
         }
@@ -82,6 +80,29 @@ impl Film {
     }
 }
 
+/// A bin width given anywhere (the scene's `bin_width_opl` or legacy `exposure`,
+/// `--bin-width-opl`) that is not positive and finite; `name` is what the user wrote.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[error("{name} must be positive, got {value}")]
+pub struct BinWidthError {
+    pub name: String,
+    pub value: f64,
+}
+
+/// The one rule for a bin width h (SPEC 3): positive and finite. The manifest's reader
+/// adds a magnitude bound of the file format (`bundle::read`), and [`Film::validate`]
+/// checks h against the window's span.
+pub fn check_bin_width(name: &str, h: f64) -> Result<f64, BinWidthError> {
+    if h > 0.0 && h.is_finite() {
+        Ok(h)
+    } else {
+        Err(BinWidthError {
+            name: name.to_string(),
+            value: h,
+        })
+    }
+}
+
 /// Why film settings cannot make a film ([`Film::validate`]).
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum FilmError {
@@ -102,8 +123,8 @@ pub enum FilmError {
     #[error("temporal_bins {bins} is above the largest supported count {max}", max = u32::MAX)]
     TooManyBins { bins: usize },
     /// A bin width that is not positive and finite.
-    #[error("bin_width_opl must be positive, got {bin_width_opl}")]
-    BinWidth { bin_width_opl: f64 },
+    #[error(transparent)]
+    BinWidth(#[from] BinWidthError),
     /// A start that is not finite.
     #[error("start_opl must be finite, got {start_opl}")]
     Start { start_opl: f64 },

@@ -390,6 +390,17 @@ fn cases() -> Vec<Case> {
             sphere(r#"<bsdf type="conductor"><rgb name="eta" value="1"/><rgb name="k" value="1e30"/></bsdf>"#),
             "conductor k",
         ),
+        // The one bin-width rule (`sensors::film::check_bin_width`), at the element.
+        scene_case(
+            "bin_width_negative",
+            base_replace(r#"name="bin_width_opl" value="1""#, r#"name="bin_width_opl" value="-0.5""#),
+            "<float name=\"bin_width_opl\">: bin_width_opl must be positive, got -0.5",
+        ),
+        scene_case(
+            "bin_width_zero",
+            base_replace(r#"name="bin_width_opl" value="1""#, r#"name="bin_width_opl" value="0""#),
+            "bin_width_opl must be positive, got 0",
+        ),
         scene_case(
             "fov_1e39",
             base_replace(r#"value="40""#, r#"value="1e39""#),
