@@ -9,34 +9,18 @@ use crate::denoise::tstat::TstatParams;
 use crate::denoise::Method;
 use crate::nlos::reconstruct::Reconstruction;
 use crate::report::convergence::{
-    self, run_convergence, ConvergenceConfig, ConvergenceResult, ReferenceSource, Row, BASELINE,
+    self, run_convergence, ConvergenceConfig, ConvergenceResult, ReferenceSource, Row,
 };
 use crate::report::metrics::{Metrics, REL_EPS};
 use crate::report::nlos::NlosPlan;
-use crate::report::plot::{line_chart, Scale, Series};
-use crate::report::region::{compare_regions, rmse_ratio, Region, RegionMetrics};
-use crate::report::speedup::Speedup;
+use crate::report::plot::{Scale, Series};
+use crate::report::region::{compare_regions, Region};
 
-/// Draws a chart, noting on stderr when there is nothing to draw (all errors 0).
-fn chart(
-    path: &Path,
-    title: &str,
-    x: &str,
-    y: &str,
-    series: &[Series],
-    xs: Scale,
-    ys: Scale,
-) -> anyhow::Result<()> {
-    if !line_chart(path, title, x, y, series, xs, ys)? {
-        eprintln!(
-            "note: {} not written: no positive finite values to plot",
-            path.display()
-        );
-    }
-    Ok(())
-}
 use crate::report::sweep::{run_sweep, SweepConfig};
 use crate::report::table::{num, write_text, Table};
+use crate::report::text::{
+    chart, convergence_markdown, metrics_cells, metrics_header, ratio, write_per_bin,
+};
 use crate::report::volume::load_volume;
 use crate::stats::Transform;
 use anyhow::{anyhow, bail, ensure};
@@ -262,29 +246,6 @@ fn wrote(dir: &Path, files: &[&str]) -> String {
     format!("wrote {}/{{{}}}", dir.display(), written.join(", "))
 }
 
-/// Column names `{rmse,relmse,psnr_db}_{region}` for every region.
-fn metrics_header() -> Vec<String> {
-    Region::ALL
-        .iter()
-        .flat_map(|r| {
-            ["rmse", "relmse", "psnr_db"]
-                .into_iter()
-                .map(move |m| format!("{m}_{}", r.name()))
-        })
-        .collect()
-}
-
-/// The cells of [`metrics_header`]; "-" where a region is unknown or empty.
-fn metrics_cells(m: &RegionMetrics) -> Vec<String> {
-    Region::ALL
-        .iter()
-        .flat_map(|&r| match m.get(r) {
-            Some(m) => [num(m.rmse), num(m.relmse), num(m.psnr)],
-            None => ["-".to_string(), "-".into(), "-".into()],
-        })
-        .collect()
-}
-
 fn run_compare(a: CompareArgs) -> anyhow::Result<()> {
     let files = ["metrics.csv", "metrics.md", "per_bin.csv", "per_bin.png"];
     let mut inputs = Vec::new();
@@ -368,51 +329,6 @@ fn run_compare(a: CompareArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-fn write_per_bin(
-    dir: &Path,
-    stem: &str,
-    per_bin: &[(String, Vec<Metrics>)],
-    title: &str,
-) -> anyhow::Result<()> {
-    let mut header = vec!["bin".to_string()];
-    for (l, _) in per_bin {
-        header.extend([format!("{l}_rmse"), format!("{l}_relmse")]);
-    }
-    let mut t = Table {
-        header,
-        rows: Vec::new(),
-    };
-    let bins = per_bin.first().map_or(0, |p| p.1.len());
-    for k in 0..bins {
-        let mut row = vec![k.to_string()];
-        for (_, m) in per_bin {
-            row.extend([num(m[k].rmse), num(m[k].relmse)]);
-        }
-        t.push(row);
-    }
-    write_text(&dir.join(format!("{stem}.csv")), &t.csv())?;
-    let series: Vec<Series> = per_bin
-        .iter()
-        .map(|(l, m)| Series {
-            label: l.clone(),
-            points: m
-                .iter()
-                .enumerate()
-                .map(|(k, m)| (k as f64, m.rmse))
-                .collect(),
-        })
-        .collect();
-    chart(
-        &dir.join(format!("{stem}.png")),
-        title,
-        "time bin",
-        "RMSE",
-        &series,
-        Scale::Linear,
-        Scale::Log,
-    )
-}
-
 fn run_conv(a: ConvergenceArgs) -> anyhow::Result<()> {
     let nlos = a.nlos.plan()?;
     let mut files: Vec<String> = [
@@ -484,7 +400,7 @@ fn run_conv(a: ConvergenceArgs) -> anyhow::Result<()> {
     let mut out = ReportDir::prepare("--out", &a.out, &files, is_cache, &args, a.force)?;
     out.create()?;
     let result = run_convergence(&cfg, &a.out, &|m| eprintln!("{m}"))?;
-    let md = convergence_markdown(&a, &cfg, &result);
+    let md = convergence_markdown(&a.scene, &cfg, &result);
     let mut header: Vec<String> = ["spp", "method", "render_s", "denoise_s", "total_s"]
         .map(String::from)
         .to_vec();
@@ -583,273 +499,6 @@ fn run_conv(a: ConvergenceArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-fn convergence_markdown(
-    a: &ConvergenceArgs,
-    cfg: &ConvergenceConfig,
-    r: &ConvergenceResult,
-) -> String {
-    let base = r
-        .settings
-        .iter()
-        .find_map(|s| s.1)
-        .map_or(cfg.denoise.base, |p| p.base);
-    let mut md = format!(
-        "# Convergence: {}\n\nReference: {}. Denoisers: r_t = {}, base {:?}; {}. Transform: {}. Pixel sampling: {}. Every spp is a separate render with its own seed.\n\n",
-        a.scene.display(),
-        r.reference_note,
-        cfg.denoise.temporal_radius,
-        base,
-        r.settings
-            .iter()
-            .filter_map(|(name, p)| {
-                p.map(|p| format!("{name}: r = {}, {}", p.radius, p.method.describe()))
-            })
-            .collect::<Vec<_>>()
-            .join("; "),
-        cfg.transform,
-        cfg.pixel_sampling
-    );
-    md += "Regions: all voxels; light = pixels that see a light directly (emitter G-buffer > 0); rest = the other pixels.\n\n";
-    let mut t = Table::new(&[
-        "spp",
-        "method",
-        "render s",
-        "denoise s",
-        "total s",
-        "RMSE all",
-        "RMSE light",
-        "RMSE rest",
-        "PSNR dB",
-        "G eval/s",
-    ]);
-    let rmse = |m: Option<Metrics>| m.map_or("-".into(), |m| num(m.rmse));
-    for row in &r.rows {
-        t.push(vec![
-            row.spp.to_string(),
-            row.method.into(),
-            format!("{:.2}", row.render_s),
-            format!("{:.2}", row.denoise_s),
-            format!("{:.2}", row.total_s),
-            num(row.error.all.rmse),
-            rmse(row.error.light),
-            rmse(row.error.rest),
-            format!("{:.2}", row.error.all.psnr),
-            if row.evaluations_per_s == 0.0 {
-                "-".into()
-            } else {
-                format!("{:.2}", row.evaluations_per_s / 1e9)
-            },
-        ]);
-    }
-    md += &t.markdown();
-    md += "\n## Against the noisy render\n\nRMSE / noisy RMSE at the same spp (same render), and the equal-error speed-up: how many times less time (render + denoise) the result needs than the noisy render to reach the same RMSE over the same region (noisy curve interpolated in log-log; outside its measured range, a bound: `>Ax` when the result beats the noisy render's best point, A = that point's time over the result's, `<Ax` when it is worse than its first point).";
-    let baseline = r.methods.contains(&BASELINE);
-    let mut header = vec![
-        "spp",
-        "method",
-        "ratio all",
-        "ratio light",
-        "ratio rest",
-        "speed-up all",
-        "speed-up light",
-        "speed-up rest",
-    ];
-    if baseline {
-        md += " The last three columns: the speed-up against the noisy render with independent sub-pixel positions (`noisy-independent`, separate seeds), i.e. stratified sampling and denoising together against a renderer without either.";
-        header.extend([
-            "vs independent all",
-            "vs independent light",
-            "vs independent rest",
-        ]);
-    }
-    md += "\n\n";
-    let mut s = Table::new(&header);
-    let x_fmt = |v: Option<Speedup>| v.map_or("-".into(), |v| format!("{v}x"));
-    for row in r
-        .rows
-        .iter()
-        .filter(|x| x.method != "noisy" && x.method != BASELINE)
-    {
-        let noisy = r
-            .rows
-            .iter()
-            .find(|x| x.method == "noisy" && x.spp == row.spp)
-            .expect("every spp has a noisy row");
-        let ratio = |g: Region| {
-            rmse_ratio(row.error.get(g), noisy.error.get(g))
-                .map_or("-".into(), |v| format!("{v:.3}"))
-        };
-        let mut cells = vec![row.spp.to_string(), row.method.into()];
-        cells.extend(Region::ALL.map(ratio));
-        cells.extend(Region::ALL.map(|g| x_fmt(row.speedup(g))));
-        if baseline {
-            cells.extend(row.speedup_independent.map(x_fmt));
-        }
-        s.push(cells);
-    }
-    md += &s.markdown();
-    md += &format!(
-        "\nrelMSE = mean (x - ref)^2 / (ref^2 + {REL_EPS}); PSNR peak = max of the reference.\n"
-    );
-    md += &reconstruction_markdown(r);
-    md
-}
-
-/// The reconstructions' section of the convergence report (empty without them).
-fn reconstruction_markdown(r: &ConvergenceResult) -> String {
-    let Some(g) = r.reconstruction_grid else {
-        return String::new();
-    };
-    let methods = &r.reconstruction_methods;
-    let mut md = format!(
-        "\n## Reconstructions\n\nEvery capture above (and the reference) reconstructed with {} on {} x {} x {} voxels from ({}, {}, {}) to ({}, {}, {}). Error: relative L2, ||V - V_ref|| / ||V_ref||, against the reconstruction of the reference capture. Time: the reconstruction's alone (s); the speed-up compares render + denoise + reconstruction with the noisy curve's render + reconstruction at the same error (the reconstruction's time taken as its median over all rows: it does not depend on the capture's values) (interpolated in log-log; `>Ax` / `<Ax` bounds outside its range). Gain at equal spp: the noisy capture's error at the same spp (the same render) over this one's.\n\n",
-        methods.iter().map(|m| m.describe()).collect::<Vec<_>>().join("; "),
-        g.n[0], g.n[1], g.n[2], g.first[0], g.first[1], g.first[2], g.last[0], g.last[1], g.last[2]
-    );
-    let mut header = vec!["spp".to_string(), "capture".to_string()];
-    for m in methods {
-        let n = m.name();
-        header.extend([
-            format!("{n} error"),
-            format!("{n} s"),
-            format!("{n} gain, equal spp"),
-            format!("{n} speed-up"),
-        ]);
-    }
-    let header: Vec<&str> = header.iter().map(String::as_str).collect();
-    let mut t = Table::new(&header);
-    for row in &r.rows {
-        let noisy = r
-            .rows
-            .iter()
-            .find(|x| x.method == "noisy" && x.spp == row.spp)
-            .expect("every spp has a noisy row");
-        let mut cells = vec![row.spp.to_string(), row.method.to_string()];
-        for (k, e) in row.reconstructions.iter().enumerate() {
-            let denoised = row.method != "noisy" && row.method != BASELINE;
-            cells.push(format!("{:.4}", e.error));
-            cells.push(format!("{:.2}", e.seconds));
-            cells.push(if denoised {
-                format!("{:.2}", noisy.reconstructions[k].error / e.error)
-            } else {
-                String::new()
-            });
-            cells.push(match row.reconstruction_speedup[k] {
-                Some(v) => format!("{v}x"),
-                None if denoised => "-".into(),
-                None => String::new(),
-            });
-        }
-        t.push(cells);
-    }
-    md += &t.markdown();
-    md += &cross_validated_markdown(r);
-    let min_spp = r.rows.iter().map(|x| x.spp).min().unwrap_or(0);
-    md += &format!(
-        "\nPictures: `reconstruction_{{method}}_mip.png`, the maximum along depth of the reconstruction of, left to right, the reference, the noisy capture and the tstat-denoised capture at {min_spp} spp (each scaled by its own maximum); plots `reconstruction_{{method}}_error_vs_seconds.png` and `_error_vs_spp.png`.\n"
-    );
-    md
-}
-
-/// `nlos reconstruct --denoise-with`'s rows of the reconstructions' section.
-fn cross_validated_markdown(r: &ConvergenceResult) -> String {
-    if r.cross_validated.is_empty() {
-        return String::new();
-    }
-    let methods = &r.reconstruction_methods;
-    let mut md = "\n### Denoised for the reconstruction (`nlos reconstruct --denoise-with`)\n\nEach spp's tstat-denoised capture shrunk toward its noisy capture by the weight b (0: the denoised capture, 1: the noisy one) cross-validated, per method, between two more independent captures of spp / 2, rendered and denoised for it (docs/nlos.md). Gain: the noisy capture's error at the same spp over this one's; never below 1 but for the estimate's own error.\n\n".to_string();
-    let mut header = vec![
-        "spp".to_string(),
-        "halves: render s".into(),
-        "halves: denoise s".into(),
-    ];
-    for m in methods {
-        let n = m.name();
-        header.extend([format!("{n} error"), format!("{n} gain"), format!("{n} b")]);
-    }
-    let header: Vec<&str> = header.iter().map(String::as_str).collect();
-    let mut t = Table::new(&header);
-    for cv in &r.cross_validated {
-        let noisy = r
-            .rows
-            .iter()
-            .find(|x| x.method == "noisy" && x.spp == cv.spp)
-            .expect("every spp has a noisy row");
-        let mut cells = vec![
-            cv.spp.to_string(),
-            format!("{:.2}", cv.render_s),
-            format!("{:.2}", cv.denoise_s),
-        ];
-        for (k, (e, b)) in cv.reconstructions.iter().enumerate() {
-            cells.push(format!("{:.4}", e.error));
-            cells.push(format!("{:.2}", noisy.reconstructions[k].error / e.error));
-            cells.push(format!("{b:.3}"));
-        }
-        t.push(cells);
-    }
-    md += &t.markdown();
-    md
-}
-
-/// Per reconstruction method: its error against time (render + denoise +
-/// reconstruction) and against spp, one curve per capture method, and the
-/// maximum-intensity projections (along depth) of the reference's, the noisy capture's
-/// and the tstat-denoised capture's reconstructions at the lowest spp, side by side.
-fn reconstruction_plots(dir: &Path, r: &ConvergenceResult) -> anyhow::Result<()> {
-    use crate::viz::mip::{picture, project, side_by_side, Axis};
-    let Some(grid) = r.reconstruction_grid else {
-        return Ok(());
-    };
-    for (k, m) in r.reconstruction_methods.iter().enumerate() {
-        let name = m.name();
-        let median = convergence::reconstruction_seconds(&r.rows, k);
-        let series = |x: &dyn Fn(&Row, f64) -> f64| -> Vec<Series> {
-            r.methods
-                .iter()
-                .map(|c| Series {
-                    label: c.to_string(),
-                    points: r
-                        .rows
-                        .iter()
-                        .filter(|row| row.method == *c)
-                        .map(|row| (x(row, median), row.reconstructions[k].error))
-                        .collect(),
-                })
-                .collect()
-        };
-        chart(
-            &dir.join(format!("reconstruction_{name}_error_vs_seconds.png")),
-            &format!("{name} reconstruction: error against time (render + denoise + {name}, its median {median:.2} s)"),
-            "seconds",
-            "relative L2 error",
-            &series(&|row, s| row.total_s + s),
-            Scale::Log,
-            Scale::Log,
-        )?;
-        chart(
-            &dir.join(format!("reconstruction_{name}_error_vs_spp.png")),
-            &format!("{name} reconstruction: error against samples per pixel"),
-            "spp",
-            "relative L2 error",
-            &series(&|row, _| row.spp as f64),
-            Scale::Log,
-            Scale::Log,
-        )?;
-        let n = grid.n;
-        let scale = (256 / n[0].max(n[1])).clamp(1, 32);
-        let panels: Vec<_> = ["reference", "noisy", "tstat"]
-            .iter()
-            .filter_map(|label| r.reconstruction_volumes.iter().find(|v| v.0 == *label))
-            .map(|(_, v)| picture(&project(&v[k], n, Axis::Z), scale))
-            .collect();
-        let (w, h, px) = side_by_side(&panels, 4);
-        let path = dir.join(format!("reconstruction_{name}_mip.png"));
-        crate::report::plot::save_png_rgb(&path, &px, w, h)
-            .map_err(|e| anyhow!("{}: {e}", path.display()))?;
-    }
-    Ok(())
-}
-
 /// The membership settings a sweep tries, and for each the value plotted on x.
 fn sweep_methods(a: &SweepArgs) -> anyhow::Result<(Vec<(Method, f64)>, &'static str)> {
     let mut out = Vec::new();
@@ -912,10 +561,6 @@ fn sweep_methods(a: &SweepArgs) -> anyhow::Result<(Vec<(Method, f64)>, &'static 
             Ok((out, "t2_patch"))
         }
     }
-}
-
-fn ratio(m: Option<Metrics>, noisy: Option<Metrics>) -> String {
-    rmse_ratio(m, noisy).map_or("n/a".into(), |v| format!("{v:.3}"))
 }
 
 fn run_sweep_cmd(a: SweepArgs) -> anyhow::Result<()> {
@@ -1037,5 +682,64 @@ fn run_sweep_cmd(a: SweepArgs) -> anyhow::Result<()> {
     out.finish();
     super::util::say(format_args!("{md}"))?;
     say!("{}", wrote(&a.out, &files));
+    Ok(())
+}
+
+/// Per reconstruction method: its error against time (render + denoise +
+/// reconstruction) and against spp, one curve per capture method, and the
+/// maximum-intensity projections (along depth) of the reference's, the noisy capture's
+/// and the tstat-denoised capture's reconstructions at the lowest spp, side by side.
+fn reconstruction_plots(dir: &Path, r: &ConvergenceResult) -> anyhow::Result<()> {
+    use crate::viz::mip::{picture, project, side_by_side, Axis};
+    let Some(grid) = r.reconstruction_grid else {
+        return Ok(());
+    };
+    for (k, m) in r.reconstruction_methods.iter().enumerate() {
+        let name = m.name();
+        let median = convergence::reconstruction_seconds(&r.rows, k);
+        let series = |x: &dyn Fn(&Row, f64) -> f64| -> Vec<Series> {
+            r.methods
+                .iter()
+                .map(|c| Series {
+                    label: c.to_string(),
+                    points: r
+                        .rows
+                        .iter()
+                        .filter(|row| row.method == *c)
+                        .map(|row| (x(row, median), row.reconstructions[k].error))
+                        .collect(),
+                })
+                .collect()
+        };
+        chart(
+            &dir.join(format!("reconstruction_{name}_error_vs_seconds.png")),
+            &format!("{name} reconstruction: error against time (render + denoise + {name}, its median {median:.2} s)"),
+            "seconds",
+            "relative L2 error",
+            &series(&|row, s| row.total_s + s),
+            Scale::Log,
+            Scale::Log,
+        )?;
+        chart(
+            &dir.join(format!("reconstruction_{name}_error_vs_spp.png")),
+            &format!("{name} reconstruction: error against samples per pixel"),
+            "spp",
+            "relative L2 error",
+            &series(&|row, _| row.spp as f64),
+            Scale::Log,
+            Scale::Log,
+        )?;
+        let n = grid.n;
+        let scale = (256 / n[0].max(n[1])).clamp(1, 32);
+        let panels: Vec<_> = ["reference", "noisy", "tstat"]
+            .iter()
+            .filter_map(|label| r.reconstruction_volumes.iter().find(|v| v.0 == *label))
+            .map(|(_, v)| picture(&project(&v[k], n, Axis::Z), scale))
+            .collect();
+        let (w, h, px) = side_by_side(&panels, 4);
+        let path = dir.join(format!("reconstruction_{name}_mip.png"));
+        crate::report::plot::save_png_rgb(&path, &px, w, h)
+            .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+    }
     Ok(())
 }

@@ -10,6 +10,7 @@ pub mod region;
 pub mod speedup;
 pub mod sweep;
 pub mod table;
+pub mod text;
 pub mod volume;
 
 use crate::bundle::npy::NpyError;
