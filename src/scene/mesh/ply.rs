@@ -4,9 +4,11 @@
 use super::{finite_vec3, read_file, MeshData, MeshError, Problem};
 use crate::geometry::mesh_attributes::{MeshAttribute, MeshAttributes};
 use crate::scene::ply_attributes;
-use glam::Vec2;
+use glam::{Vec2, Vec3};
 use ply_rs::parser::Parser;
-use ply_rs::ply::{ElementDef, Encoding, Property, PropertyAccess, PropertyType, ScalarType};
+use ply_rs::ply::{
+    ElementDef, Encoding, Header, Property, PropertyAccess, PropertyType, ScalarType,
+};
 use std::borrow::Cow;
 use std::io;
 use std::path::Path;
@@ -146,56 +148,100 @@ fn parse_ply(bytes: &[u8]) -> Result<(MeshData, Option<MeshAttributes>), Problem
         .iter()
         .filter(|&&b| b == b'\n')
         .count();
+    // The header must describe a mesh before any payload is read.
+    let layout = Layout::of(&header)?;
+    let (vertices, faces) = read_mesh_elements(&header, &mut data, &mut line_no)?;
+    let (positions, normals, uvs) = vertex_arrays(&vertices, &layout)?;
+    let names = AttributeNames::of(&layout);
+    let (triangles, face_data) = triangulate(&faces, positions.len(), &names)?;
+    let attributes = attributes(&vertices, &names, face_data)?;
+    Ok((
+        MeshData {
+            positions,
+            normals,
+            triangles,
+            uvs,
+        },
+        attributes,
+    ))
+}
 
-    // Check the header describes a mesh before reading any payload.
-    let vertex_def = header
-        .elements
-        .get("vertex")
-        .ok_or(PlyError::NoVertexElement)?;
-    for name in ["x", "y", "z"] {
-        match vertex_def.properties.get(name).map(|p| &p.data_type) {
-            Some(PropertyType::Scalar(_)) => {}
-            Some(PropertyType::List(..)) => {
-                return Err(PlyError::VertexPropertyList { name }.into())
+/// What the header says of the mesh: its vertex and face elements, whether vertices
+/// carry normals, and under which of Mitsuba's names their texture coordinates are.
+struct Layout<'h> {
+    vertex_def: &'h ElementDef,
+    face_def: &'h ElementDef,
+    has_normals: bool,
+    /// The index in `UV_NAMES` of the first pair the file has both of.
+    uv_rank: Option<usize>,
+}
+
+impl<'h> Layout<'h> {
+    /// Checks that the header describes a mesh: scalar x, y, z, a non-empty face
+    /// element with an integer list of indices.
+    fn of(header: &'h Header) -> Result<Layout<'h>, Problem<PlyError>> {
+        let vertex_def = header
+            .elements
+            .get("vertex")
+            .ok_or(PlyError::NoVertexElement)?;
+        for name in ["x", "y", "z"] {
+            match vertex_def.properties.get(name).map(|p| &p.data_type) {
+                Some(PropertyType::Scalar(_)) => {}
+                Some(PropertyType::List(..)) => {
+                    return Err(PlyError::VertexPropertyList { name }.into())
+                }
+                None => return Err(PlyError::MissingVertexProperty { name }.into()),
             }
-            None => return Err(PlyError::MissingVertexProperty { name }.into()),
         }
-    }
-    let has_normals = ["nx", "ny", "nz"].iter().all(|name| {
-        matches!(
-            vertex_def.properties.get(*name).map(|p| &p.data_type),
-            Some(PropertyType::Scalar(_))
-        )
-    });
-    // Texture coordinates, under the first of Mitsuba's names the file has both of.
-    let uv_rank = UV_NAMES.iter().position(|pair| {
-        pair.iter().all(|name| {
+        let has_normals = ["nx", "ny", "nz"].iter().all(|name| {
             matches!(
                 vertex_def.properties.get(*name).map(|p| &p.data_type),
                 Some(PropertyType::Scalar(_))
             )
-        })
-    });
-    let face_def = match header.elements.get("face") {
-        Some(def) if def.count > 0 => def,
-        _ => return Err(Problem::NoFaces),
-    };
-    let list_name = FACE_LIST_NAMES
-        .into_iter()
-        .find(|name| face_def.properties.contains_key(*name))
-        .ok_or(PlyError::NoFaceList)?;
-    match &face_def.properties[list_name].data_type {
-        PropertyType::List(_, item) if is_integer(item) => {}
-        other => {
-            return Err(PlyError::FaceListType {
-                name: list_name,
-                found: other.clone(),
+        });
+        // Texture coordinates, under the first of Mitsuba's names the file has both of.
+        let uv_rank = UV_NAMES.iter().position(|pair| {
+            pair.iter().all(|name| {
+                matches!(
+                    vertex_def.properties.get(*name).map(|p| &p.data_type),
+                    Some(PropertyType::Scalar(_))
+                )
+            })
+        });
+        let face_def = match header.elements.get("face") {
+            Some(def) if def.count > 0 => def,
+            _ => return Err(Problem::NoFaces),
+        };
+        let list_name = FACE_LIST_NAMES
+            .into_iter()
+            .find(|name| face_def.properties.contains_key(*name))
+            .ok_or(PlyError::NoFaceList)?;
+        match &face_def.properties[list_name].data_type {
+            PropertyType::List(_, item) if is_integer(item) => {}
+            other => {
+                return Err(PlyError::FaceListType {
+                    name: list_name,
+                    found: other.clone(),
+                }
+                .into())
             }
-            .into())
         }
+        Ok(Layout {
+            vertex_def,
+            face_def,
+            has_normals,
+            uv_rank,
+        })
     }
+}
 
-    // Read the elements in file order, stopping once we have what we need.
+/// Reads the elements in file order (skipping the others), stopping once the vertices
+/// and faces are read.
+fn read_mesh_elements(
+    header: &Header,
+    data: &mut &[u8],
+    line_no: &mut usize,
+) -> Result<(Vec<PlyVertex>, Vec<PlyFace>), Problem<PlyError>> {
     let mut vertices: Option<Vec<PlyVertex>> = None;
     let mut faces: Option<Vec<PlyFace>> = None;
     for def in header.elements.values() {
@@ -203,20 +249,23 @@ fn parse_ply(bytes: &[u8]) -> Result<(MeshData, Option<MeshAttributes>), Problem
             break;
         }
         match def.name.as_str() {
-            "vertex" => {
-                vertices = Some(read_entries(&mut data, header.encoding, def, &mut line_no)?)
-            }
-            "face" => faces = Some(read_entries(&mut data, header.encoding, def, &mut line_no)?),
+            "vertex" => vertices = Some(read_entries(data, header.encoding, def, line_no)?),
+            "face" => faces = Some(read_entries(data, header.encoding, def, line_no)?),
             _ => {
-                read_entries::<Skip>(&mut data, header.encoding, def, &mut line_no)?;
+                read_entries::<Skip>(data, header.encoding, def, line_no)?;
             }
         }
     }
-    let (vertices, faces) = match (vertices, faces) {
-        (Some(v), Some(f)) => (v, f),
-        _ => return Err(PlyError::ElementsNotRead.into()),
-    };
+    match (vertices, faces) {
+        (Some(v), Some(f)) => Ok((v, f)),
+        _ => Err(PlyError::ElementsNotRead.into()),
+    }
+}
 
+/// Positions, normals and texture coordinates, each checked finite.
+type VertexArrays = (Vec<Vec3>, Option<Vec<Vec3>>, Option<Vec<Vec2>>);
+
+fn vertex_arrays(vertices: &[PlyVertex], layout: &Layout) -> Result<VertexArrays, PlyError> {
     let positions = vertices
         .iter()
         .enumerate()
@@ -228,7 +277,7 @@ fn parse_ply(bytes: &[u8]) -> Result<(MeshData, Option<MeshAttributes>), Problem
             })
         })
         .collect::<Result<Vec<_>, _>>()?;
-    let normals = if has_normals {
+    let normals = if layout.has_normals {
         let normals = vertices
             .iter()
             .enumerate()
@@ -245,7 +294,7 @@ fn parse_ply(bytes: &[u8]) -> Result<(MeshData, Option<MeshAttributes>), Problem
         None
     };
 
-    let uvs = match uv_rank {
+    let uvs = match layout.uv_rank {
         Some(rank) => Some(
             vertices
                 .iter()
@@ -261,39 +310,116 @@ fn parse_ply(bytes: &[u8]) -> Result<(MeshData, Option<MeshAttributes>), Problem
         ),
         None => None,
     };
+    Ok((positions, normals, uvs))
+}
 
-    let vertex_count = positions.len();
+/// Mesh attributes: Mitsuba's names for the scalar properties it does not use itself,
+/// grouped (`vertex_color` from r, g, b, ...).
+struct AttributeNames {
+    /// The vertex properties' names in the file.
+    vertex_originals: Vec<String>,
+    vertex_groups: Vec<ply_attributes::Descriptor>,
+    face_names: Vec<String>,
+    face_groups: Vec<ply_attributes::Descriptor>,
+}
+
+impl AttributeNames {
+    fn of(layout: &Layout) -> AttributeNames {
+        let scalar_names = |def: &ElementDef| -> Vec<String> {
+            def.properties
+                .values()
+                .filter(|p| matches!(p.data_type, PropertyType::Scalar(_)))
+                .map(|p| p.name.clone())
+                .collect()
+        };
+        let vertex_originals = scalar_names(layout.vertex_def);
+        let mut vertex_names = vertex_originals.clone();
+        if let Some(rank) = layout.uv_rank {
+            for (k, to) in ["u", "v"].into_iter().enumerate() {
+                if let Some(n) = vertex_names.iter_mut().find(|n| **n == UV_NAMES[rank][k]) {
+                    *n = to.into();
+                }
+            }
+        }
+        let vertex_groups = ply_attributes::group(
+            "vertex_",
+            &vertex_names,
+            &["x", "y", "z", "nx", "ny", "nz", "u", "v"],
+        );
+        let face_names = scalar_names(layout.face_def);
+        let face_groups = ply_attributes::group("face_", &face_names, &[]);
+        AttributeNames {
+            vertex_originals,
+            vertex_groups,
+            face_names,
+            face_groups,
+        }
+    }
+}
+
+/// Triangles, and each face attribute group's values per triangle.
+type Triangulated = (Vec<[u32; 3]>, Vec<Vec<f32>>);
+
+/// The faces as a fan of triangles each (indices checked against `vertex_count`), and
+/// each face attribute group's values repeated for every triangle of its face.
+fn triangulate(
+    faces: &[PlyFace],
+    vertex_count: usize,
+    names: &AttributeNames,
+) -> Result<Triangulated, PlyError> {
     let mut triangles = Vec::with_capacity(faces.len());
     let mut polygon = Vec::new();
-    // Mesh attributes: Mitsuba's names for the properties it does not use itself.
-    let scalar_names = |def: &ElementDef| -> Vec<String> {
-        def.properties
-            .values()
-            .filter(|p| matches!(p.data_type, PropertyType::Scalar(_)))
-            .map(|p| p.name.clone())
-            .collect()
-    };
-    let vertex_originals = scalar_names(vertex_def);
-    let mut vertex_names = vertex_originals.clone();
-    if let Some(rank) = uv_rank {
-        for (k, to) in ["u", "v"].into_iter().enumerate() {
-            if let Some(n) = vertex_names.iter_mut().find(|n| **n == UV_NAMES[rank][k]) {
-                *n = to.into();
+    let mut face_data: Vec<Vec<f32>> = vec![Vec::new(); names.face_groups.len()];
+    for (f, face) in faces.iter().enumerate() {
+        if face.indices.len() < 3 {
+            return Err(PlyError::FaceTooSmall {
+                face: f,
+                vertices: face.indices.len(),
+            });
+        }
+        polygon.clear();
+        for &index in &face.indices {
+            match u32::try_from(index) {
+                Ok(i) if (i as usize) < vertex_count => polygon.push(i),
+                _ => {
+                    return Err(PlyError::FaceIndex {
+                        face: f,
+                        index,
+                        vertices: vertex_count,
+                    })
+                }
+            }
+        }
+        let before = triangles.len();
+        push_fan(&polygon, &mut triangles);
+        for (d, data) in names.face_groups.iter().zip(face_data.iter_mut()) {
+            for _ in before..triangles.len() {
+                for &f in &d.fields {
+                    data.push(extra_value(&face.extra, &names.face_names[f]));
+                }
             }
         }
     }
-    let vertex_groups = ply_attributes::group(
-        "vertex_",
-        &vertex_names,
-        &["x", "y", "z", "nx", "ny", "nz", "u", "v"],
-    );
-    let face_names = scalar_names(face_def);
-    let face_groups = ply_attributes::group("face_", &face_names, &[]);
+    Ok((triangles, face_data))
+}
+
+/// The vertex attributes, then the face attributes (`face_data` from [`triangulate`]);
+/// `None` when there are none. Mitsuba's add_attribute refuses a name twice (e.g. r g
+/// b and color_0..2).
+fn attributes(
+    vertices: &[PlyVertex],
+    names: &AttributeNames,
+    face_data: Vec<Vec<f32>>,
+) -> Result<Option<MeshAttributes>, PlyError> {
     let mut attributes: Vec<MeshAttribute> = Vec::new();
-    for d in &vertex_groups {
-        let originals: Vec<&String> = d.fields.iter().map(|&f| &vertex_originals[f]).collect();
+    for d in &names.vertex_groups {
+        let originals: Vec<&String> = d
+            .fields
+            .iter()
+            .map(|&f| &names.vertex_originals[f])
+            .collect();
         let mut data = Vec::with_capacity(vertices.len() * d.fields.len());
-        for v in &vertices {
+        for v in vertices {
             for n in &originals {
                 data.push(extra_value(&v.extra, n));
             }
@@ -305,40 +431,7 @@ fn parse_ply(bytes: &[u8]) -> Result<(MeshData, Option<MeshAttributes>), Problem
             data,
         });
     }
-    let mut face_data: Vec<Vec<f32>> = vec![Vec::new(); face_groups.len()];
-    for (f, face) in faces.iter().enumerate() {
-        if face.indices.len() < 3 {
-            return Err(PlyError::FaceTooSmall {
-                face: f,
-                vertices: face.indices.len(),
-            }
-            .into());
-        }
-        polygon.clear();
-        for &index in &face.indices {
-            match u32::try_from(index) {
-                Ok(i) if (i as usize) < vertex_count => polygon.push(i),
-                _ => {
-                    return Err(PlyError::FaceIndex {
-                        face: f,
-                        index,
-                        vertices: vertex_count,
-                    }
-                    .into())
-                }
-            }
-        }
-        let before = triangles.len();
-        push_fan(&polygon, &mut triangles);
-        for (d, data) in face_groups.iter().zip(face_data.iter_mut()) {
-            for _ in before..triangles.len() {
-                for &f in &d.fields {
-                    data.push(extra_value(&face.extra, &face_names[f]));
-                }
-            }
-        }
-    }
-    for (d, data) in face_groups.iter().zip(face_data) {
+    for (d, data) in names.face_groups.iter().zip(face_data) {
         attributes.push(MeshAttribute {
             name: d.name.clone(),
             per_vertex: false,
@@ -346,26 +439,14 @@ fn parse_ply(bytes: &[u8]) -> Result<(MeshData, Option<MeshAttributes>), Problem
             data,
         });
     }
-    // Mitsuba's add_attribute refuses a name twice (e.g. r g b and color_0..2).
     for (i, a) in attributes.iter().enumerate() {
         if attributes[..i].iter().any(|b| b.name == a.name) {
             return Err(PlyError::DuplicateAttribute {
                 name: a.name.clone(),
-            }
-            .into());
+            });
         }
     }
-    let attributes = (!attributes.is_empty()).then_some(MeshAttributes { list: attributes });
-
-    Ok((
-        MeshData {
-            positions,
-            normals,
-            triangles,
-            uvs,
-        },
-        attributes,
-    ))
+    Ok((!attributes.is_empty()).then_some(MeshAttributes { list: attributes }))
 }
 
 /// The value of property `name` among an entry's extra properties (0 when absent:
