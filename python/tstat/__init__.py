@@ -211,7 +211,8 @@ def render(
     it exists unless ``force=True``), else to a temporary folder removed with the
     returned object.
 
-    ``params`` sets the scene's ``<default>`` values (``-D name=value``).
+    ``params`` sets the scene's ``<default>`` values (``-D name=value``). ``seed`` is
+    the job's seed (``--seed``): it replaces the scene's sampler seed, 0 included.
     ``render_options`` are ``tstat render``'s flags: ``width``, ``height``, ``bins``,
     ``start_opl``, ``bin_width_opl``, ``max_depth``, ``pixel_sampling``,
     ``replicates``, ``transform`` (``"yeo-johnson:0.5"``), ``adaptive``,
