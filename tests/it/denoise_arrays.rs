@@ -282,5 +282,12 @@ fn bad_arrays_are_one_clear_error() {
         ],
     );
     assert!(e.contains("--variance"), "{e}");
+    // --spp and --transform belong to --from-arrays; --published never replaces a folder.
+    let e = err(d, &["denoise", "b.tstats", "--spp", "8", "--out", "x.npy"]);
+    assert!(e.contains("--from-arrays"), "{e}");
+    let before = bytes(&d.join("good/noisy.npy"));
+    let e = err(d, &["export", "b.tstats", "--published", "good"]);
+    assert!(e.contains("good") && e.contains("--force"), "{e}");
+    assert!(bytes(&d.join("good/noisy.npy")) == before);
     assert!(!d.join("x.npy").exists());
 }
