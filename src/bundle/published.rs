@@ -230,29 +230,18 @@ pub fn write_into(bundle: &Bundle, tmp: &Path, dir: &Path) -> Result<(), BundleE
     let m = &bundle.manifest;
     let io = |e: std::io::Error| BundleError::io(dir, e);
     std::fs::create_dir(tmp).map_err(io)?;
-    let npy = |name: &str, e: ndarray_npy::WriteNpyError| {
-        BundleError::io(dir.join(name), std::io::Error::other(e))
-    };
-    let save4 = |name: &str, a: &Array4<f32>| {
-        ndarray_npy::write_npy(tmp.join(name), a).map_err(|e| npy(name, e))
-    };
-    save4("noisy.npy", &bundle.noisy_mean()?)?;
+    save(tmp, dir, "noisy.npy", &bundle.noisy_mean()?)?;
     let e = bundle.estimates()?;
-    save4("estimands.npy", &e.theta)?;
-    save4("estimands_variance.npy", &e.variance)?;
+    save(tmp, dir, "estimands.npy", &e.theta)?;
+    save(tmp, dir, "estimands_variance.npy", &e.variance)?;
     drop(e);
-    ndarray_npy::write_npy(tmp.join("albedo.npy"), &bundle.albedo()?)
-        .map_err(|e| npy("albedo.npy", e))?;
-    ndarray_npy::write_npy(tmp.join("normals.npy"), &bundle.normal()?)
-        .map_err(|e| npy("normals.npy", e))?;
-    ndarray_npy::write_npy(tmp.join("depth.npy"), &bundle.depth()?)
-        .map_err(|e| npy("depth.npy", e))?;
-    ndarray_npy::write_npy(tmp.join("emitter.npy"), &bundle.emitter()?)
-        .map_err(|e| npy("emitter.npy", e))?;
+    save(tmp, dir, "albedo.npy", &bundle.albedo()?)?;
+    save(tmp, dir, "normals.npy", &bundle.normal()?)?;
+    save(tmp, dir, "depth.npy", &bundle.depth()?)?;
+    save(tmp, dir, "emitter.npy", &bundle.emitter()?)?;
     if let Some(n) = &bundle.pixel_spp {
         let a = Array2::from_shape_vec((m.height, m.width), n.clone()).expect("checked on open");
-        ndarray_npy::write_npy(tmp.join("pixel_spp.npy"), &a)
-            .map_err(|e| npy("pixel_spp.npy", e))?;
+        save(tmp, dir, "pixel_spp.npy", &a)?;
     }
     let meta = PublishedMeta {
         spp: m.spp,
@@ -264,6 +253,17 @@ pub fn write_into(bundle: &Bundle, tmp: &Path, dir: &Path) -> Result<(), BundleE
     };
     let text = serde_json::to_string_pretty(&meta).expect("plain fields");
     std::fs::write(tmp.join("meta.json"), text + "\n").map_err(io)
+}
+
+/// Writes `a` as `tmp/name` (errors name `dir/name`).
+fn save<T: ndarray_npy::WritableElement, D: ndarray::Dimension>(
+    tmp: &Path,
+    dir: &Path,
+    name: &str,
+    a: &ndarray::Array<T, D>,
+) -> Result<(), BundleError> {
+    ndarray_npy::write_npy(tmp.join(name), a)
+        .map_err(|e| BundleError::io(dir.join(name), std::io::Error::other(e)))
 }
 
 /// The transform of `meta` (or `given`, which wins), checked.
