@@ -25,7 +25,11 @@ fn capture(lasers: usize, sensors: usize, paired: bool) -> Capture {
         .map(|_| rng.next_f32())
         .collect();
     Capture {
-        bins,
+        time: tstat::sensors::time_axis::TimeAxis {
+            start_opl: 1.902,
+            bin_width_opl: 0.004,
+            bins,
+        },
         lasers: nl,
         sensors: sensor_grid.len(),
         sensor_dims: [sensors, sensors],
@@ -41,8 +45,6 @@ fn capture(lasers: usize, sensors: usize, paired: bool) -> Capture {
         paired,
         laser_xyz: None,
         sensor_xyz: None,
-        t_start: 1.902,
-        delta_t: 0.004,
         accounts_first_and_last_bounces: false,
     }
 }

@@ -1,6 +1,7 @@
 //! `manifest.json`: what a statistics bundle holds and how it was made (SPEC 9).
 
 use crate::render::PixelSampling;
+use crate::sensors::time_axis::TimeAxis;
 pub use crate::sensors::time_origin::TimeOrigin;
 use crate::stats::Transform;
 use serde::{Deserialize, Serialize};
@@ -206,6 +207,16 @@ fn legacy_time_origin() -> TimeOrigin {
 }
 
 impl Manifest {
+    /// The volume's time axis (`sensors/time_axis.rs`); the file keeps its three
+    /// numbers as SPEC 9's flat fields.
+    pub fn time(&self) -> TimeAxis {
+        TimeAxis {
+            start_opl: self.start_opl,
+            bin_width_opl: self.bin_width_opl,
+            bins: self.bins,
+        }
+    }
+
     /// Where OPL 0 is, for labels ("OPL from ..."): the recorded time origin of a
     /// camera render; for an NLOS capture the relay wall (the sensor and laser
     /// segments dropped) or the sensor.

@@ -230,14 +230,14 @@ fn manifest(scene: &Scene, meta: &BundleMeta, seconds: f64, dropped_nonfinite: u
         },
         width: film.width,
         height: film.height,
-        bins: film.bins,
+        bins: film.time.bins,
         channels: vec!["R".into(), "G".into(), "B".into()],
         spp: scene.spp as u64,
-        start_opl: film.start_opl,
-        bin_width_opl: film.bin_width_opl,
+        start_opl: film.time.start_opl,
+        bin_width_opl: film.time.bin_width_opl,
         unit_m: meta.unit_m,
-        start_seconds: film.start_opl * meta.unit_m / super::manifest::C_M_PER_S,
-        bin_width_seconds: film.bin_width_opl * meta.unit_m / super::manifest::C_M_PER_S,
+        start_seconds: film.time.start_opl * meta.unit_m / super::manifest::C_M_PER_S,
+        bin_width_seconds: film.time.bin_width_opl * meta.unit_m / super::manifest::C_M_PER_S,
         transform: meta.transform,
         time_origin: scene.camera.time_origin(),
         // The f32's shortest decimal (0.001, not 0.0010000000474974513).
@@ -421,7 +421,7 @@ pub fn write_bundle(
     output: RenderOutput,
 ) -> Result<Manifest, BundleError> {
     let film = &scene.film;
-    let (h, w, t) = (film.height, film.width, film.bins);
+    let (h, w, t) = (film.height, film.width, film.time.bins);
     let shape4 = (h, w, t, CHANNELS);
     let mut manifest = manifest(scene, meta, output.seconds, output.dropped_nonfinite);
     let shape_err = |e: ndarray::ShapeError| BundleError::io(out, e);
@@ -524,7 +524,7 @@ pub fn bundle_bytes(film: &Film, transform: &Transform, media: bool) -> u64 {
 
 /// [`bundle_bytes`] with or without the replicates' `r2.npy`.
 pub fn bundle_bytes_with(film: &Film, transform: &Transform, media: bool, replicates: bool) -> u64 {
-    let (h, w, t) = (film.height, film.width, film.bins);
+    let (h, w, t) = (film.height, film.width, film.time.bins);
     let mut files: Vec<(Vec<usize>, usize)> = volume_arrays(transform, replicates)
         .into_iter()
         .map(|(_, _, rgb, size)| {
@@ -720,7 +720,7 @@ impl BundleWriter {
         })?;
         let volumes = VolumeArrays::create(
             staged.path(),
-            (film.height, film.width, film.bins),
+            (film.height, film.width, film.time.bins),
             transform,
             replicates,
         )?;

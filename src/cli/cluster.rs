@@ -270,7 +270,7 @@ fn plan(c: &Common, binary: String, max_shards: u64, directive: bool) -> anyhow:
         quote_path(&r.scene),
         film.width,
         film.height,
-        film.bins,
+        film.time.bins,
         shards,
         spp,
         cpus,

@@ -5,7 +5,8 @@ use super::util::{arg, check_outputs, finite, int_flag, positive, Kind};
 use crate::bundle::write::write_atomically;
 use crate::bundle::{Bundle, BundleError};
 use crate::report::volume::load_volume;
-use crate::viz::frames::{write_all, FramesRequest, TimeAxis};
+use crate::sensors::time_axis::TimeAxis;
+use crate::viz::frames::{write_all, FramesRequest, TimeLabels};
 use crate::viz::tonemap::global_exposure;
 use anyhow::ensure;
 use clap::Args;
@@ -47,11 +48,10 @@ pub struct FramesArgs {
     pub force: bool,
 }
 
-pub fn axis_of(bundle: &Bundle) -> TimeAxis {
+pub fn axis_of(bundle: &Bundle) -> TimeLabels {
     let m = &bundle.manifest;
-    TimeAxis {
-        start_opl: m.start_opl,
-        bin_width_opl: m.bin_width_opl,
+    TimeLabels {
+        time: m.time(),
         unit_m: m.unit_m,
         origin: Some(m.time_zero()),
     }
@@ -97,9 +97,12 @@ pub fn run(a: FramesArgs) -> anyhow::Result<()> {
         );
         Some(axis_of(&b))
     } else {
-        a.start_opl.zip(a.bin_width_opl).map(|(s, h)| TimeAxis {
-            start_opl: s,
-            bin_width_opl: h,
+        a.start_opl.zip(a.bin_width_opl).map(|(s, h)| TimeLabels {
+            time: TimeAxis {
+                start_opl: s,
+                bin_width_opl: h,
+                bins: v.shape()[2],
+            },
             unit_m: a.unit_m,
             origin: None,
         })

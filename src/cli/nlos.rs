@@ -555,7 +555,7 @@ fn reconstruct(r: ReconstructArgs) -> anyhow::Result<()> {
         super::util::cli_name(&r.method),
         capture.lasers,
         capture.sensors,
-        capture.bins
+        capture.time.bins
     );
     Ok(())
 }

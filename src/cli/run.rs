@@ -142,7 +142,7 @@ fn job(
     let film = &scene.film;
     // Beside the bundle: the noisy and the denoised f32 volumes (the frames are small).
     let volume = (film.pixels() as u64)
-        .saturating_mul(film.bins as u64)
+        .saturating_mul(film.time.bins as u64)
         .saturating_mul(CHANNELS as u64 * 4)
         .saturating_add(4096);
     let bundle_path = dir.join("scene.tstats");

@@ -10,6 +10,7 @@ pub mod flat;
 mod flat_simd;
 pub mod mesh_attributes;
 pub mod sdfgrid;
+pub mod shadow;
 pub mod shape;
 pub mod sphere;
 pub mod triangle;

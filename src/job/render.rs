@@ -203,7 +203,7 @@ pub fn render(
         record.display(),
         film.width,
         film.height,
-        film.bins,
+        film.time.bins,
         scene.spp,
         job.pixel_sampling,
         scene.accel.primitive_count(),
@@ -281,8 +281,8 @@ pub fn render(
 pub fn empty_window_warning(film: &crate::sensors::film::Film) -> String {
     format!(
         "warning: nothing landed in the time window (OPL {} to {}, {} bins): the transient volume is all zero; check --start-opl, --bin-width-opl, --bins and max_depth",
-        film.start_opl,
-        film.start_opl + film.bins as f64 * film.bin_width_opl,
-        film.bins
+        film.time.start_opl,
+        film.time.start_opl + film.time.bins as f64 * film.time.bin_width_opl,
+        film.time.bins
     )
 }

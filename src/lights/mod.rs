@@ -46,6 +46,7 @@ pub use textured_spot::TexturedSpot;
 
 pub mod distribution;
 pub mod envmap;
+pub mod laser;
 pub mod scene_sphere;
 
 use crate::geometry::shape::{AreaSampler, Shape};

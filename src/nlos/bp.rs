@@ -139,9 +139,9 @@ impl Bins {
             .collect();
         Bins {
             single,
-            t_start: c.t_start,
-            delta_t: c.delta_t,
-            bins: c.bins,
+            t_start: c.time.start_opl,
+            delta_t: c.time.bin_width_opl,
+            bins: c.time.bins,
             d1,
             d4,
         }
@@ -211,7 +211,7 @@ fn backproject_with(
         return vec![vec![0.0; nv]; np];
     }
     let bins = Bins::of(c);
-    let len = (c.bins + 2) * np;
+    let len = (c.time.bins + 2) * np;
     // The voxels' centres, row-major (NX, NY, NZ), padded to whole blocks with copies
     // of the first one (their sums are dropped).
     let blocks = nv.div_ceil(block);
@@ -233,7 +233,7 @@ fn backproject_with(
     for p0 in (0..pairs).step_by(chunk) {
         let p1 = (p0 + chunk).min(pairs);
         let series = &mut series[..(p1 - p0) * len];
-        transpose(planes, pairs, c.bins, p0..p1, series);
+        transpose(planes, pairs, c.time.bins, p0..p1, series);
         let series = &*series;
         // The laser-grid and sensor points these pairs use.
         let (l0, l1) = (p0 / ns, (p1 - 1) / ns + 1);
@@ -506,6 +506,7 @@ mod simd {
 mod tests {
     use super::*;
     use crate::math::rng::Pcg32;
+    use crate::sensors::time_axis::TimeAxis;
 
     /// The backprojection as plainly as it can be written: per voxel, per laser and
     /// sensor point, the bin in y-tal's precision, the sum in f64.
@@ -530,12 +531,12 @@ mod tests {
                                 let d1 = dist(c.laser_xyz.unwrap(), lp);
                                 let d4 = dist(sp, c.sensor_xyz.unwrap());
                                 let d = d1 + dist(lp, v) + dist(v, sp) + d4;
-                                ((d - c.t_start as f32) / c.delta_t as f32) as i64
+                                ((d - c.time.start_opl as f32) / c.time.bin_width_opl as f32) as i64
                             } else {
                                 let d = dist(lp, v) as f64 + dist(v, sp) as f64;
-                                ((d - c.t_start) / c.delta_t) as i64
+                                ((d - c.time.start_opl) / c.time.bin_width_opl) as i64
                             };
-                            if bin >= 0 && (bin as usize) < c.bins {
+                            if bin >= 0 && (bin as usize) < c.time.bins {
                                 let at = (bin as usize * c.lasers + l) * c.sensors + s;
                                 for (a, p) in acc.iter_mut().zip(planes) {
                                     *a += p[at] as f64;
@@ -581,7 +582,11 @@ mod tests {
             (1.5, 0.0213)
         };
         Capture {
-            bins,
+            time: TimeAxis {
+                start_opl: t_start,
+                bin_width_opl: delta_t,
+                bins,
+            },
             lasers: nl,
             sensors: 20,
             sensor_dims: [4, 5],
@@ -593,8 +598,6 @@ mod tests {
             paired,
             laser_xyz: Some(laser_xyz),
             sensor_xyz: Some(sensor_xyz),
-            t_start,
-            delta_t,
             accounts_first_and_last_bounces: accounts,
         }
     }
@@ -647,7 +650,7 @@ mod tests {
                     for planes in [vec![&c.h[..]], vec![&c.h[..], &im[..]]] {
                         let want = bits(&reference(&c, grid, &planes));
                         assert!(want[0].iter().any(|&x| f32::from_bits(x) != 0.0));
-                        let pair_bytes = (c.bins + 2) * planes.len() * 4;
+                        let pair_bytes = (c.time.bins + 2) * planes.len() * 4;
                         for (chunk, block) in [
                             (CHUNK_BYTES, BLOCK),
                             (pair_bytes, 64),

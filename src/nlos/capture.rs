@@ -10,10 +10,13 @@ use super::NlosError;
 use crate::bundle::capture::CaptureRecord;
 use crate::bundle::Bundle;
 use crate::scene::nlos::CaptureType;
+use crate::sensors::time_axis::TimeAxis;
 
 #[derive(Clone)]
 pub struct Capture {
-    pub bins: usize,
+    /// The time axis: T bins of width h from t0 (OPL; a y-tal file's `t_start` and
+    /// `delta_t`).
+    pub time: TimeAxis,
     /// Laser points of H's laser axis (1 for single and confocal captures).
     pub lasers: usize,
     pub sensors: usize,
@@ -33,9 +36,6 @@ pub struct Capture {
     pub paired: bool,
     pub laser_xyz: Option<[f32; 3]>,
     pub sensor_xyz: Option<[f32; 3]>,
-    /// OPL of the start of bin 0 and the bin width (y-tal's `t_start`, `delta_t`).
-    pub t_start: f64,
-    pub delta_t: f64,
     pub accounts_first_and_last_bounces: bool,
 }
 
@@ -64,28 +64,20 @@ impl Capture {
             .map_err(|_| NlosError::HMemory(len))?;
         h.resize(len, 0.0);
         super::tal::h_radiance(bundle, rec, &mut h)?;
-        Ok(Capture::from_record(
-            rec,
-            m.start_opl,
-            m.bin_width_opl,
-            m.bins,
-            h,
-        ))
+        Ok(Capture::from_record(rec, m.time(), h))
     }
 
     /// The capture of a tstat render (its scene's `CaptureRecord`, the film's time
     /// axis) holding `h`, (T, L, S) as [`Capture::h`] (e.g. zeros, to be replaced by a
     /// volume with `denoised::replace_h`).
-    pub fn from_record(
-        rec: &CaptureRecord,
-        t_start: f64,
-        delta_t: f64,
-        bins: usize,
-        h: Vec<f32>,
-    ) -> Capture {
+    pub fn from_record(rec: &CaptureRecord, time: TimeAxis, h: Vec<f32>) -> Capture {
         let [sx, sy] = rec.sensor_grid;
         let [lx, ly] = rec.laser_grid;
-        assert_eq!(h.len(), bins * super::tal::h_per_bin(rec), "H's length");
+        assert_eq!(
+            h.len(),
+            time.bins * super::tal::h_per_bin(rec),
+            "H's length"
+        );
         let sensor_grid = (0..sx)
             .flat_map(|i| (0..sy).map(move |j| (i, j)))
             .map(|(i, j)| f32x3(rec.sensor_point(i, j)))
@@ -101,7 +93,7 @@ impl Capture {
         };
         let finite = |p: [f64; 3]| p.iter().all(|v| v.is_finite()).then(|| f32x3(p));
         Capture {
-            bins,
+            time,
             lasers: lx * ly,
             sensors: sx * sy,
             sensor_dims: [sx, sy],
@@ -113,8 +105,6 @@ impl Capture {
             paired,
             laser_xyz: rec.laser_origin.map(f32x3),
             sensor_xyz: finite(rec.sensor_origin),
-            t_start,
-            delta_t,
             accounts_first_and_last_bounces: rec.account_first_and_last_bounces,
         }
     }
@@ -123,11 +113,11 @@ impl Capture {
     /// each. H is time-major, so a block of neighbouring series reads H a row at a time.
     pub fn series(&self, qs: std::ops::Range<usize>) -> Vec<f32> {
         let (n, stride) = (qs.len(), self.lasers * self.sensors);
-        let mut out = vec![0f32; n * self.bins];
-        for t in 0..self.bins {
+        let mut out = vec![0f32; n * self.time.bins];
+        for t in 0..self.time.bins {
             let row = &self.h[t * stride + qs.start..t * stride + qs.end];
             for (k, &v) in row.iter().enumerate() {
-                out[k * self.bins + t] = v;
+                out[k * self.time.bins + t] = v;
             }
         }
         out

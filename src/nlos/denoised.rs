@@ -15,12 +15,12 @@ pub fn check_shape(c: &Capture, rec: &CaptureRecord, shape: &[usize]) -> Result<
     let [lx_n, ly_n] = rec.laser_grid;
     let rows = sy_n * lx_n * ly_n;
     match *shape {
-        [h, w, t, ch] if h == rows && w == sx_n && t == c.bins && ch > 0 => Ok(()),
+        [h, w, t, ch] if h == rows && w == sx_n && t == c.time.bins && ch > 0 => Ok(()),
         _ => Err(NlosError::DenoisedShape {
             shape: shape.to_vec(),
             rows,
             sx: sx_n,
-            bins: c.bins,
+            bins: c.time.bins,
         }),
     }
 }
@@ -51,7 +51,7 @@ pub fn replace_rows(
 ) {
     let [sx_n, sy_n] = rec.sensor_grid;
     let [lx_n, ly_n] = rec.laser_grid;
-    let t = c.bins;
+    let t = c.time.bins;
     assert_eq!(band.len(), rows.len() * sx_n * t * ch, "whole film rows");
     let sensors = sx_n * sy_n;
     let lasers = lx_n * ly_n;

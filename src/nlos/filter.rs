@@ -101,12 +101,12 @@ pub fn kernel(
 
 /// The filtered capture (see the module notes).
 pub fn pf_filter(c: &Capture, wl_mean: f64, wl_sigma: f64) -> Filtered {
-    let nt = c.bins;
-    let (n, pad) = padding(nt, wl_sigma, c.delta_t);
+    let nt = c.time.bins;
+    let (n, pad) = padding(nt, wl_sigma, c.time.bin_width_opl);
     let mut planner = Planner::new();
     let fft = planner.plan_fft_forward(n);
     let ifft = planner.plan_fft_inverse(n);
-    let mut kf = kernel(n, c.delta_t, wl_mean, wl_sigma, Shift::Ifft);
+    let mut kf = kernel(n, c.time.bin_width_opl, wl_mean, wl_sigma, Shift::Ifft);
     fft.process(&mut kf);
     let series = c.lasers * c.sensors;
     let mut re = vec![0f32; nt * series];

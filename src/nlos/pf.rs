@@ -217,7 +217,7 @@ fn spectrum(c: &Capture, p: &Pulse) -> Vec<C64> {
 
 /// [`spectrum`] computed as `how` says.
 pub fn spectrum_by(c: &Capture, p: &Pulse, how: Dft) -> Vec<C64> {
-    let (nt, nw, series) = (c.bins, p.freqs.len(), c.lasers * c.sensors);
+    let (nt, nw, series) = (c.time.bins, p.freqs.len(), c.lasers * c.sensors);
     let direct = match how {
         Dft::Cheapest => (nw * nt) as f64 <= 4.0 * p.nf as f64 * (p.nf as f64).log2(),
         Dft::Fft => false,
@@ -281,7 +281,7 @@ pub fn spectrum_by(c: &Capture, p: &Pulse, how: Dft) -> Vec<C64> {
                         }
                     };
                     let li = if c.paired { s } else { l };
-                    let d014 = -c.t_start + d1(li) + d4(s);
+                    let d014 = -c.time.start_opl + d1(li) + d4(s);
                     kept.iter()
                         .zip(&p.freqs)
                         .map(|(&z, &f)| z * C64::from_polar(1.0, TAU * f * d014))
@@ -381,7 +381,7 @@ pub fn phasor_field_by(
     wl_sigma: f64,
     how: Propagation,
 ) -> Result<Vec<f32>, NlosError> {
-    let p = pulse(c.bins, c.delta_t, wl_mean, wl_sigma)?;
+    let p = pulse(c.time.bins, c.time.bin_width_opl, wl_mean, wl_sigma)?;
     let hw = spectrum(c, &p);
     let [nx, ny, nz] = grid.n;
     let slice = nx * ny;

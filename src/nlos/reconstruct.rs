@@ -57,11 +57,11 @@ impl Reconstruction {
                 {
                     return Err(NlosError::Wavelengths { wl_mean, wl_sigma });
                 }
-                let (n, _) = filter::padding(c.bins, wl_sigma, c.delta_t);
-                if wl_sigma / c.delta_t > 1e6 || n > 1 << 26 {
+                let (n, _) = filter::padding(c.time.bins, wl_sigma, c.time.bin_width_opl);
+                if wl_sigma / c.time.bin_width_opl > 1e6 || n > 1 << 26 {
                     return Err(NlosError::Envelope {
                         wl_sigma,
-                        bins: wl_sigma / c.delta_t,
+                        bins: wl_sigma / c.time.bin_width_opl,
                         padded: n,
                     });
                 }
@@ -79,7 +79,7 @@ impl Reconstruction {
         let out = grid.voxels() as u64 * 8;
         Ok(match *self {
             Reconstruction::Pf { wl_mean, wl_sigma } => {
-                let p = pf::pulse(c.bins, c.delta_t, wl_mean, wl_sigma)?;
+                let p = pf::pulse(c.time.bins, c.time.bin_width_opl, wl_mean, wl_sigma)?;
                 pf::memory_bytes(c, grid, &p) as u64
             }
             // The complex filtered capture and the two backprojected planes.

@@ -117,7 +117,11 @@ mod tests {
             .map(|k| [(k / 4) as f32 * 0.4 - 0.6, (k % 4) as f32 * 0.4 - 0.6, 0.0])
             .collect();
         Capture {
-            bins,
+            time: crate::sensors::time_axis::TimeAxis {
+                start_opl: 1.5,
+                bin_width_opl: 0.02,
+                bins,
+            },
             lasers: 1,
             sensors: 16,
             sensor_dims: [4, 4],
@@ -129,8 +133,6 @@ mod tests {
             paired: true,
             laser_xyz: None,
             sensor_xyz: None,
-            t_start: 1.5,
-            delta_t: 0.02,
             accounts_first_and_last_bounces: false,
         }
     }

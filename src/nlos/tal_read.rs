@@ -26,6 +26,7 @@
 
 use super::capture::Capture;
 use super::{NlosError, TalProblem};
+use crate::sensors::time_axis::TimeAxis;
 use hdf5_pure::{DType, Dataset, Layout};
 use std::io::Read;
 use std::path::Path;
@@ -692,7 +693,11 @@ fn capture(r: &mut Reader) -> Problem<Capture> {
     let h = r.read_f32(&h_ds, "H", &h_decl)?;
     check_values("H", &h_decl.shape, &h, MAX_H)?;
     Ok(Capture {
-        bins,
+        time: TimeAxis {
+            start_opl: t_start,
+            bin_width_opl: delta_t,
+            bins,
+        },
         lasers,
         sensors,
         sensor_dims,
@@ -704,8 +709,6 @@ fn capture(r: &mut Reader) -> Problem<Capture> {
         paired,
         laser_xyz,
         sensor_xyz,
-        t_start,
-        delta_t,
         accounts_first_and_last_bounces: accounts,
     })
 }

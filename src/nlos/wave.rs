@@ -87,15 +87,19 @@ fn f64x3(p: [f32; 3]) -> [f64; 3] {
 /// that may yet be refused. M' saturates.
 pub fn native_shape(c: &Capture) -> (usize, usize) {
     let n = c.sensor_dims[0].max(c.sensor_dims[1]);
-    let p = if c.delta_t > 0.0 && c.t_start.is_finite() {
-        (c.t_start / c.delta_t).round()
+    let p = if c.time.bin_width_opl > 0.0 && c.time.start_opl.is_finite() {
+        (c.time.start_opl / c.time.bin_width_opl).round()
     } else {
         0.0
     };
     let m = if p >= 0.0 {
-        c.bins.saturating_add(p.min(usize::MAX as f64) as usize)
+        c.time
+            .bins
+            .saturating_add(p.min(usize::MAX as f64) as usize)
     } else {
-        c.bins.saturating_sub((-p).min(usize::MAX as f64) as usize)
+        c.time
+            .bins
+            .saturating_sub((-p).min(usize::MAX as f64) as usize)
     };
     (n, m)
 }
@@ -137,25 +141,28 @@ impl Native {
                 points: c.sensor_grid.len(),
             });
         }
-        if c.bins.checked_mul(c.sensors) != Some(c.h.len()) {
+        if c.time.bins.checked_mul(c.sensors) != Some(c.h.len()) {
             return Err(NlosError::HLength {
                 method,
                 values: c.h.len(),
-                bins: c.bins,
+                bins: c.time.bins,
                 points: c.sensors,
             });
         }
-        if c.bins < 2 {
+        if c.time.bins < 2 {
             return Err(NlosError::TooFewBins {
                 method,
-                bins: c.bins,
+                bins: c.time.bins,
             });
         }
-        if !(c.delta_t.is_finite() && c.delta_t > 0.0 && c.t_start.is_finite()) {
+        if !(c.time.bin_width_opl.is_finite()
+            && c.time.bin_width_opl > 0.0
+            && c.time.start_opl.is_finite())
+        {
             return Err(NlosError::TimeAxis {
                 method,
-                t_start: c.t_start,
-                delta_t: c.delta_t,
+                t_start: c.time.start_opl,
+                delta_t: c.time.bin_width_opl,
             });
         }
         if let Some(k) = c.h.iter().position(|v| !v.is_finite()) {
@@ -205,7 +212,7 @@ impl Native {
             return Err(NlosError::NormalNotPerpendicular { method, normal });
         }
         // Bin 0 at OPL 0: pad or skip whole bins.
-        let p = (c.t_start / c.delta_t).round();
+        let p = (c.time.start_opl / c.time.bin_width_opl).round();
         if p.abs() > MAX_DEPTHS as f64 {
             return Err(NlosError::StartTooEarly { method, bins: p });
         }
@@ -214,11 +221,11 @@ impl Native {
         } else {
             (0, (-p) as usize)
         };
-        let depths = (c.bins + pad).saturating_sub(skip);
+        let depths = (c.time.bins + pad).saturating_sub(skip);
         if depths < 2 {
             return Err(NlosError::TooFewDepths {
                 method,
-                t_start: c.t_start,
+                t_start: c.time.start_opl,
                 depths,
             });
         }
@@ -226,11 +233,11 @@ impl Native {
             return Err(NlosError::TooManyDepths {
                 method,
                 depths,
-                t_start: c.t_start,
+                t_start: c.time.start_opl,
                 pad,
             });
         }
-        let t0 = c.t_start - p * c.delta_t;
+        let t0 = c.time.start_opl - p * c.time.bin_width_opl;
         Ok(Native {
             n,
             depths,
@@ -241,7 +248,7 @@ impl Native {
             dv,
             normal,
             t0,
-            delta_t: c.delta_t,
+            delta_t: c.time.bin_width_opl,
         })
     }
 
@@ -249,7 +256,7 @@ impl Native {
     #[inline]
     pub fn h(&self, c: &Capture, m: usize, s: usize) -> f32 {
         let b = m + self.skip;
-        if b < self.pad || b - self.pad >= c.bins {
+        if b < self.pad || b - self.pad >= c.time.bins {
             0.0
         } else {
             c.h[(b - self.pad) * c.sensors + s]

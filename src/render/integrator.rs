@@ -8,13 +8,11 @@
 use super::deposits::PathDeposits;
 use super::gbuffer::GSample;
 use crate::geometry::accel::offset_origin;
-use crate::materials::{Bsdf, HitGeometry};
-use crate::math::frame::Frame;
+use crate::geometry::shadow::shadow_segment;
 use crate::math::sampling::power_heuristic;
 use crate::math::Rgb;
 use crate::scene::Scene;
 use crate::sensors::time_filter::{gaussian_shares, TimeFilter};
-use crate::textures::TexPoint;
 use glam::Vec3;
 
 /// What one path leaves behind besides its deposits.
@@ -77,45 +75,14 @@ pub fn light_target(ls: &crate::lights::LightSample) -> Vec3 {
 /// The shadow ray of a light sample from the surface point `p` (geometric normal
 /// `ng`): both ends are moved off their surfaces, the origin along `ng` and a point on
 /// an area light along its normal, each to the side the other end lies on, and the ray
-/// runs between the moved ends, stopping a relative 1e-4 short. Aiming the moved
-/// origin along the unmoved direction instead met the light's own plane before the
-/// end of the ray whenever the light lay more than about 50 degrees from `ng`.
+/// runs between the moved ends under the shadow-segment rule (`geometry/shadow.rs`).
+/// Aiming the moved origin along the unmoved direction instead met the light's own
+/// plane before the end of the ray whenever the light lay more than about 50 degrees
+/// from `ng`. Length 0 when the ends coincide.
 #[inline(always)]
 pub fn shadow_ray(p: Vec3, ng: Vec3, ls: &crate::lights::LightSample) -> (Vec3, Vec3, f32) {
     let origin = offset_origin(p, ng, ls.wi);
-    let d = light_target(ls) - origin;
-    let dist = d.length();
-    if dist.is_nan() || dist <= 0.0 {
-        return (origin, ls.wi, 0.0);
-    }
-    (origin, d / dist, dist * (1.0 - 1e-4))
-}
-
-/// The material at a hit of a `normalmap`/`bumpmap` material: textures resolved at the
-/// hit's uv and every perturbed frame set from the hit's geometry (`frame` is
-/// Mitsuba's dp/du shading frame, `wo` the direction back along the ray in it). Out of
-/// line: only such materials come here.
-#[inline(never)]
-pub(super) fn perturbed_at(
-    material: &crate::materials::Material,
-    shape: &crate::geometry::shape::Shape,
-    hit: &crate::geometry::accel::Hit,
-    sp: &crate::geometry::shape::SurfacePoint,
-    frame: &Frame,
-    wo: Vec3,
-) -> Bsdf {
-    let point = TexPoint::on(shape, hit.face, hit.b1, hit.b2, sp.p);
-    let uv = point.uv;
-    let mut b = material.at_point(&point);
-    b.resolve_frames(&HitGeometry {
-        uv,
-        shading: *frame,
-        dpdu: shape.dpdu(hit.face, hit.b1, hit.b2, sp.p),
-        dpdv: shape.dpdv(hit.face, hit.b1, sp.p),
-        ng: sp.ng,
-        wo,
-    });
-    b
+    shadow_segment(origin, light_target(ls)).unwrap_or((origin, ls.wi, 0.0))
 }
 
 /// A ray from `o` along unit `d` that left the scene: the environment emitter `env`

@@ -23,10 +23,12 @@ pub mod gbuffer;
 pub mod integrator;
 pub mod nlos;
 pub mod pixel_sampling;
+pub mod roulette;
 pub mod sampler;
 pub mod sink;
 pub mod sobol_table;
 pub mod tracer;
+pub mod vertex;
 pub mod volpath;
 
 use crate::math::rng::{mix64, Pcg32};
@@ -249,8 +251,8 @@ struct RowScratch {
 impl RowScratch {
     fn new(film: &Film, transform: &Transform, replicates: bool) -> Self {
         let (mut sums, mut pixel) = (
-            Accumulators::new(1, film.width, film.bins, transform),
-            PixelSums::new(film.bins, transform),
+            Accumulators::new(1, film.width, film.time.bins, transform),
+            PixelSums::new(film.time.bins, transform),
         );
         if replicates {
             (sums, pixel) = (sums.with_r2(), pixel.with_replicates());
@@ -267,8 +269,8 @@ impl RowScratch {
     /// Bytes of one scratch (saturating).
     fn bytes(film: &Film, transform: &Transform) -> u64 {
         let per_pixel = (std::mem::size_of::<GPixel>() + CHANNELS * 8 + 8) as u64;
-        Accumulators::bytes(1, film.width, film.bins, transform)
-            .saturating_add(PixelSums::bytes(film.bins, transform))
+        Accumulators::bytes(1, film.width, film.time.bins, transform)
+            .saturating_add(PixelSums::bytes(film.time.bins, transform))
             .saturating_add((film.width as u64).saturating_mul(per_pixel))
     }
 }
@@ -298,8 +300,8 @@ impl StreamingMemory {
     /// pixel's replicate sums).
     pub fn with_replicates(mut self, replicates: bool, film: &Film) -> Self {
         if replicates {
-            let extra = Accumulators::r2_bytes(1, film.width, film.bins)
-                .saturating_add((film.bins as u64).saturating_mul(7 * 8));
+            let extra = Accumulators::r2_bytes(1, film.width, film.time.bins)
+                .saturating_add((film.time.bins as u64).saturating_mul(7 * 8));
             self.per_row = self.per_row.saturating_add(extra);
         }
         self
@@ -396,10 +398,10 @@ fn render_row_body(
     let mut result = RowTally::default();
     // NLOS captures: the laser point and sensor row of this film row.
     let nlos = scene.nlos.as_ref().zip(scene.integrator.nlos.as_ref());
-    let (laser, sensor_row) = nlos.map_or((0, y), |(s, _)| s.row(y));
+    let (laser, sensor_row) = nlos.map_or((0, y), |(s, _)| nlos::ends::film_row(s, y));
     for x in 0..width {
         let ends = nlos.map_or_else(Default::default, |(s, n)| {
-            s.ends(n.capture, x, sensor_row, laser)
+            nlos::ends::path_ends(s, n.capture, x, sensor_row, laser)
         });
         let pixel = (y * width + x) as u64;
         let mut g = GAccum::default();
@@ -452,7 +454,7 @@ fn trace<S: PathSampler>(
     scene: &Scene,
     o: glam::Vec3,
     d: glam::Vec3,
-    ends: crate::scene::nlos::PathEnds,
+    ends: nlos::ends::PathEnds,
     sampler: &mut S,
     deposits: &mut PathDeposits,
     tally: &mut PathTally,
@@ -577,7 +579,7 @@ pub fn render(
     progress: &(dyn Fn(u64) + Sync),
 ) -> RenderOutput {
     let film = &scene.film;
-    let mut sink = MemorySink::new(film.height, film.width, film.bins, &settings.transform);
+    let mut sink = MemorySink::new(film.height, film.width, film.time.bins, &settings.transform);
     if settings.replicates >= 2 {
         sink = sink.with_r2();
     }

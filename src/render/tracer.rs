@@ -35,20 +35,20 @@
 
 use super::deposits::PathDeposits;
 use super::gbuffer::GSample;
-use super::integrator::{contribute, escape, perturbed_at, shadow_ray, PathTally};
+use super::integrator::{contribute, escape, shadow_ray, PathTally};
+use super::roulette::roulette;
 use super::sampler::{pick_scattering, slot, PathSampler};
+use super::vertex::SurfaceVertex;
 use super::volpath::{
     first_surface, free_flight, medium_shadow_ray, null_event, transmittance, Flight, Spectral,
     MAX_NULL_CROSSINGS,
 };
 use crate::cpu::{Avx2, Avx512, Baseline, Detected, Level};
 use crate::geometry::accel::{offset_origin, Hit};
-use crate::materials::{Bsdf, BsdfModel};
-use crate::math::frame::Frame;
+use crate::materials::{Bsdf, BsdfModel, Separable};
 use crate::math::sampling::power_heuristic;
 use crate::math::Rgb;
 use crate::scene::Scene;
-use crate::textures::TexPoint;
 use glam::Vec3;
 
 /// A path's state between vertices.
@@ -217,10 +217,9 @@ fn path_body<L: Level, const MEDIA: bool, S: PathSampler>(
         if MEDIA {
             let u_rr = rng.get1(slot::RR);
             if path.depth > rr_depth {
-                let q = (path.beta.max_element() * path.eta * path.eta).min(0.95);
-                if u_rr >= q {
+                let Some(q) = roulette(path.beta.max_element(), path.eta, u_rr) else {
                     break;
-                }
+                };
                 path.common /= q;
                 path.beta /= q;
             }
@@ -292,7 +291,11 @@ impl PathState {
 }
 
 /// Step 3 of the loop: `hit` is the closest hit of the path's ray. Returns whether
-/// the path goes on.
+/// the path goes on. In a medium the free flight may end in a real scattering first
+/// ([`scatter_in_medium`]); a ray that meets nothing sees the environment; at a
+/// surface the steps are [`to_surface`], the vertex (`vertex.rs`) and the lobe that
+/// scatters ([`Scattering::at`]), [`emission`], the G-buffer ([`guide`]), then, unless
+/// the depth ends the path, [`next_event`] and [`continue_by_bsdf`].
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 fn shade<L: Level, const MEDIA: bool, S: PathSampler>(
@@ -304,11 +307,6 @@ fn shade<L: Level, const MEDIA: bool, S: PathSampler>(
     deposits: &mut PathDeposits,
     tally: &mut PathTally,
 ) -> bool {
-    let settings = &scene.integrator;
-    let n_emitters = scene.emitters.len();
-    let select_pdf = 1.0 / n_emitters as f32;
-    let max_depth = max_depth(scene);
-
     // ---- Medium: free flight, and a real scattering before the surface. ----
     if MEDIA {
         if let Some(mi) = path.medium {
@@ -347,10 +345,44 @@ fn shade<L: Level, const MEDIA: bool, S: PathSampler>(
         return false;
     };
     let depth = path.depth;
+    to_surface::<MEDIA>(scene, path, hit);
+    let mut textured = None;
+    let at = Scattering::at(scene, hit, path.d, &mut textured, rng);
+    if MEDIA && depth == 0 && path.g.depth.is_none() {
+        if matches!(at.bsdf, Bsdf::Null(_)) {
+            path.camera_dist += hit.t;
+        } else {
+            path.g.depth = Some(path.camera_dist + hit.t);
+        }
+    }
+    let seen_emitter = emission::<MEDIA>(scene, path, hit, &at.v, deposits, tally);
+    // Next-event estimation and MIS need a lobe with a density; the flags say so.
+    let delta = !at.bsdf.flags(at.v.wo).has_non_delta();
+    guide(path, &at, delta, seen_emitter);
+
+    // Mitsuba's `path`: the next segment exists only if depth + 1 < max_depth.
+    let max_depth = max_depth(scene);
+    if !MEDIA && depth as u64 + 1 >= max_depth {
+        return false;
+    }
+    // Under `volpath` the last vertex takes no light sample.
+    if !delta && (!MEDIA || (depth as u64) + 1 < max_depth) {
+        next_event::<L, MEDIA, S>(isa, scene, path, &at, rng, deposits, tally);
+    }
+    continue_by_bsdf::<MEDIA, S>(scene, path, &at, rng)
+}
+
+/// The segment to the surface hit `hit` joins the path's OPL (under `path` with
+/// `camera_unwarp`, the camera's segment counts nothing); under `path` the G-buffer's
+/// depth is the first hit's distance (`volpath` finds it past `null` surfaces, in
+/// [`shade`]).
+#[inline(always)]
+fn to_surface<const MEDIA: bool>(scene: &Scene, path: &mut PathState, hit: &Hit) {
     if MEDIA {
         path.opl += path.eta as f64 * hit.t as f64;
     } else {
-        let segment = if depth == 0 && settings.camera_unwarp {
+        let depth = path.depth;
+        let segment = if depth == 0 && scene.integrator.camera_unwarp {
             0.0
         } else {
             path.eta as f64 * hit.t as f64
@@ -360,193 +392,229 @@ fn shade<L: Level, const MEDIA: bool, S: PathSampler>(
             path.g.depth = Some(hit.t);
         }
     }
-    let shape = &scene.shapes[hit.shape as usize];
-    let sp = hit.surface;
-    let wo_world = -path.d;
-    let material = &scene.bsdfs[shape.bsdf as usize];
-    // Anisotropic roughness follows the surface's dp/du (Mitsuba's shading frame);
-    // every other material keeps the normal's own frame (no uv work).
-    let frame = if material.is_anisotropic() {
-        Frame::from_normal_tangent(sp.ns, shape.dpdu(hit.face, hit.b1, hit.b2, sp.p))
-    } else {
-        Frame::from_normal(sp.ns)
-    };
-    let wo = frame.to_local(wo_world);
-    // The material at this hit: `whole` (textures resolved) for the G-buffer, `bsdf`
-    // the model that scatters (a `Composed` vertex scatters as one child, the first
-    // with probability w, so each child's delay stays with its own light), `delaying`
-    // its profile when it delays (`materials/composed.rs`). A textured material
-    // becomes a plain BSDF at this hit's uv (computed only then).
-    let textured;
-    let (whole, bsdf, delaying) = if material.is_plain() {
-        (&material.bsdf, &material.bsdf, None)
-    } else {
-        let whole = if material.perturbs() {
-            textured = perturbed_at(material, shape, hit, &sp, &frame, wo);
-            &textured
-        } else if material.is_textured() {
-            textured = material.at_point(&TexPoint::on(shape, hit.face, hit.b1, hit.b2, sp.p));
-            &textured
-        } else {
-            &material.bsdf
-        };
-        let bsdf = pick_scattering(whole, rng);
-        let delaying = match bsdf {
-            Bsdf::Separable(s) => Some(s),
-            _ => None,
-        };
-        (whole, bsdf, delaying)
-    };
-    if MEDIA && depth == 0 && path.g.depth.is_none() {
-        if matches!(bsdf, Bsdf::Null(_)) {
-            path.camera_dist += hit.t;
-        } else {
-            path.g.depth = Some(path.camera_dist + hit.t);
-        }
-    }
+}
 
-    // Emission (front side only; an angular light only within its cone), MIS-weighted
-    // against light sampling from the last real vertex. Under `path` a front-side hit
-    // counts as seeing the emitter when it emits (evaluated even when hidden); under
-    // `volpath` any front-side hit does.
-    let mut seen_emitter = false;
-    if let Some(ei) = shape.emitter {
-        let cos_l = wo.z;
-        let emitter = &scene.emitters[ei as usize];
-        let hidden = depth == 0 && settings.hide_emitters;
-        if cos_l > 0.0 {
-            seen_emitter = MEDIA;
-            let radiance = if MEDIA && hidden {
-                None
-            } else {
-                emitter.emitted(cos_l, || shape.uv(hit.face, hit.b1, hit.b2, sp.p))
+/// A surface vertex and the lobe that scatters there.
+struct Scattering<'a> {
+    /// The vertex; `v.bsdf` is the whole material (textures resolved), which the
+    /// G-buffer sees.
+    v: SurfaceVertex<'a>,
+    /// The model that scatters: a `Composed` vertex scatters as one child, the first
+    /// with probability w, so each child's delay stays with its own light.
+    bsdf: &'a Bsdf,
+    /// Its delay profile when it delays (`materials/composed.rs`, `separable.rs`).
+    delaying: Option<&'a Separable>,
+}
+
+impl<'a> Scattering<'a> {
+    /// The vertex at `hit` of the ray along `d` (`SurfaceVertex::at`, a textured
+    /// material resolved into `textured`), and its scattering child (a plain material
+    /// draws no number).
+    #[inline(always)]
+    fn at<S: PathSampler>(
+        scene: &'a Scene,
+        hit: &Hit,
+        d: Vec3,
+        textured: &'a mut Option<Bsdf>,
+        rng: &mut S,
+    ) -> Self {
+        let v = SurfaceVertex::at(scene, hit, d, textured);
+        let whole = v.bsdf;
+        let (bsdf, delaying) = if v.material.is_plain() {
+            (whole, None)
+        } else {
+            let bsdf = pick_scattering(whole, rng);
+            let delaying = match bsdf {
+                Bsdf::Separable(s) => Some(s),
+                _ => None,
             };
-            if let Some(radiance) = radiance {
-                seen_emitter = true;
-                if !hidden {
-                    let w = if depth == 0 || path.specular {
-                        1.0
-                    } else {
-                        let dist = if MEDIA {
-                            (sp.p - path.last_scatter).length()
-                        } else {
-                            hit.t
-                        };
-                        power_heuristic(
-                            path.last_pdf,
-                            emitter.pdf_area_hit(select_pdf, dist, cos_l),
-                        )
-                    };
-                    contribute(scene, deposits, tally, path.opl, path.beta * radiance * w);
-                }
-            }
-        }
-    }
-
-    // Next-event estimation and MIS need a lobe with a density; the flags say so.
-    let delta = !bsdf.flags(wo).has_non_delta();
-    // The G-buffer sees the whole material (a Composed one as its mixture).
-    let guide_delta = if std::ptr::eq(whole, bsdf) {
-        delta
-    } else {
-        !whole.flags(wo).has_non_delta()
-    };
-    if path.g_pending && ((!guide_delta && !whole.guide_looks_through()) || seen_emitter) {
-        path.g_pending = false;
-        path.g.albedo = whole.albedo(wo);
-        path.g.normal = if sp.ns.dot(wo_world) >= 0.0 {
-            sp.ns
-        } else {
-            -sp.ns
+            (bsdf, delaying)
         };
-        path.g.emitter = seen_emitter;
+        Scattering { v, bsdf, delaying }
     }
+}
 
-    // Mitsuba's `path`: the next segment exists only if depth + 1 < max_depth.
-    if !MEDIA && depth as u64 + 1 >= max_depth {
+/// Emission at the surface vertex `v` of `hit` (front side only; an angular light only
+/// within its cone), MIS-weighted against light sampling from the last real vertex.
+/// Returns whether the path sees an emitter there: under `path` a front-side hit
+/// counts when it emits (evaluated even when hidden); under `volpath` any front-side
+/// hit does.
+#[inline(always)]
+fn emission<const MEDIA: bool>(
+    scene: &Scene,
+    path: &PathState,
+    hit: &Hit,
+    v: &SurfaceVertex,
+    deposits: &mut PathDeposits,
+    tally: &mut PathTally,
+) -> bool {
+    let Some(ei) = v.shape.emitter else {
+        return false;
+    };
+    let cos_l = v.wo.z;
+    if cos_l <= 0.0 || cos_l.is_nan() {
         return false;
     }
-
-    // Next-event estimation (under the media rules through null interfaces and media).
-    if !delta && (!MEDIA || (depth as u64) + 1 < max_depth) {
-        let u_sel = rng.get1(slot::LIGHT_SELECT);
-        let u1 = rng.get1(slot::LIGHT_1);
-        let u2 = rng.get2(slot::LIGHT_2);
-        let idx = pick_emitter(u_sel, n_emitters);
-        let emitter = &scene.emitters[idx];
-        if let Some(ls) = emitter.sample(&scene.shapes, sp.p, select_pdf, u1, u2) {
-            let wi = frame.to_local(ls.wi);
-            // The BSDF's density is needed only to weigh a light that has one: then
-            // value and density come from one evaluation of the lobes.
-            let (f, bsdf_pdf) = if ls.delta {
-                (bsdf.eval(wo, wi), 0.0)
+    let depth = path.depth;
+    let emitter = &scene.emitters[ei as usize];
+    let hidden = depth == 0 && scene.integrator.hide_emitters;
+    let radiance = if MEDIA && hidden {
+        None
+    } else {
+        let (shape, sp) = (v.shape, v.sp);
+        emitter.emitted(cos_l, || shape.uv(hit.face, hit.b1, hit.b2, sp.p))
+    };
+    let Some(radiance) = radiance else {
+        return MEDIA;
+    };
+    if !hidden {
+        let w = if depth == 0 || path.specular {
+            1.0
+        } else {
+            let dist = if MEDIA {
+                (v.sp.p - path.last_scatter).length()
             } else {
-                bsdf.eval_pdf(wo, wi)
+                hit.t
             };
-            if f != Rgb::ZERO && ls.pdf > 0.0 {
-                let (origin, dir, tmax) = shadow_ray(sp.p, sp.ng, &ls);
-                let w = if ls.delta {
-                    1.0
-                } else {
-                    power_heuristic(ls.pdf, bsdf_pdf)
-                };
-                // The segment lies in the medium on the light's side: through rough
-                // glass that is the current IOR times the one crossed (the same f32
-                // product a BSDF-sampled path would carry).
-                let eta_light = path.eta * bsdf.eta(wo, wi);
-                // What reaches the point from the light: through media and null
-                // interfaces under the media rules, else one occlusion test.
-                let tr = if MEDIA {
-                    let target = origin + dir * tmax;
-                    let shadow_medium = if shape.is_medium_transition() {
-                        shape.target_medium(ls.wi, sp.ng)
-                    } else {
-                        path.medium
-                    };
-                    transmittance(
-                        isa,
-                        scene,
-                        origin,
-                        dir,
-                        target,
-                        0.0,
-                        shadow_medium,
-                        rng.stream(),
-                        tally,
-                    )
-                } else {
-                    tally.rays += 1;
-                    let blocked = tmax > 0.0 && (scene.accel.occluded_with(isa, origin, dir, tmax));
-                    if tmax > 0.0 && !blocked {
-                        Rgb::ONE
-                    } else {
-                        Rgb::ZERO
-                    }
-                };
-                if tr != Rgb::ZERO {
-                    // A delaying material draws its delay only when the light is seen.
-                    let delay = delaying.map_or(0.0, |s| s.sample_delay(rng.get1(slot::NEE_DELAY)));
-                    let arrival = path.opl + delay as f64 + eta_light as f64 * ls.dist as f64;
-                    contribute(
-                        scene,
-                        deposits,
-                        tally,
-                        arrival,
-                        path.beta * f * tr * ls.li * (w / ls.pdf),
-                    );
-                }
-            }
-        }
+            let select_pdf = 1.0 / scene.emitters.len() as f32;
+            power_heuristic(path.last_pdf, emitter.pdf_area_hit(select_pdf, dist, cos_l))
+        };
+        contribute(scene, deposits, tally, path.opl, path.beta * radiance * w);
     }
+    true
+}
 
-    // BSDF sampling.
+/// The G-buffer records a camera path's first vertex that is not a delta lobe (nor a
+/// material the guide looks through), or that sees an emitter. It sees the whole
+/// material (a `Composed` one as its mixture); `delta` says whether the scattering
+/// lobe is.
+#[inline(always)]
+fn guide(path: &mut PathState, at: &Scattering, delta: bool, seen_emitter: bool) {
+    if !path.g_pending {
+        return;
+    }
+    let whole = at.v.bsdf;
+    let guide_delta = if std::ptr::eq(whole, at.bsdf) {
+        delta
+    } else {
+        !whole.flags(at.v.wo).has_non_delta()
+    };
+    if (!guide_delta && !whole.guide_looks_through()) || seen_emitter {
+        path.g_pending = false;
+        at.v.record(&mut path.g);
+        path.g.emitter = seen_emitter;
+    }
+}
+
+/// Next-event estimation from the surface vertex: a light chosen uniformly, a point
+/// on it, the BSDF there, MIS against BSDF sampling, and what reaches the point (under
+/// the media rules through null interfaces and media, else one occlusion test).
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn next_event<L: Level, const MEDIA: bool, S: PathSampler>(
+    isa: L,
+    scene: &Scene,
+    path: &PathState,
+    at: &Scattering,
+    rng: &mut S,
+    deposits: &mut PathDeposits,
+    tally: &mut PathTally,
+) {
+    let (shape, sp, frame, wo, bsdf) = (at.v.shape, at.v.sp, at.v.frame, at.v.wo, at.bsdf);
+    let n_emitters = scene.emitters.len();
+    let select_pdf = 1.0 / n_emitters as f32;
+    let u_sel = rng.get1(slot::LIGHT_SELECT);
+    let u1 = rng.get1(slot::LIGHT_1);
+    let u2 = rng.get2(slot::LIGHT_2);
+    let idx = pick_emitter(u_sel, n_emitters);
+    let emitter = &scene.emitters[idx];
+    let Some(ls) = emitter.sample(&scene.shapes, sp.p, select_pdf, u1, u2) else {
+        return;
+    };
+    let wi = frame.to_local(ls.wi);
+    // The BSDF's density is needed only to weigh a light that has one: then value and
+    // density come from one evaluation of the lobes.
+    let (f, bsdf_pdf) = if ls.delta {
+        (bsdf.eval(wo, wi), 0.0)
+    } else {
+        bsdf.eval_pdf(wo, wi)
+    };
+    if !(f != Rgb::ZERO && ls.pdf > 0.0) {
+        return;
+    }
+    let (origin, dir, tmax) = shadow_ray(sp.p, sp.ng, &ls);
+    let w = if ls.delta {
+        1.0
+    } else {
+        power_heuristic(ls.pdf, bsdf_pdf)
+    };
+    // The segment lies in the medium on the light's side: through rough glass that is
+    // the current IOR times the one crossed (the same f32 product a BSDF-sampled path
+    // would carry).
+    let eta_light = path.eta * bsdf.eta(wo, wi);
+    let tr = if MEDIA {
+        let target = origin + dir * tmax;
+        let shadow_medium = if shape.is_medium_transition() {
+            shape.target_medium(ls.wi, sp.ng)
+        } else {
+            path.medium
+        };
+        transmittance(
+            isa,
+            scene,
+            origin,
+            dir,
+            target,
+            0.0,
+            shadow_medium,
+            rng.stream(),
+            tally,
+        )
+    } else {
+        tally.rays += 1;
+        let blocked = tmax > 0.0 && (scene.accel.occluded_with(isa, origin, dir, tmax));
+        if tmax > 0.0 && !blocked {
+            Rgb::ONE
+        } else {
+            Rgb::ZERO
+        }
+    };
+    if tr != Rgb::ZERO {
+        // A delaying material draws its delay only when the light is seen.
+        let delay = at
+            .delaying
+            .map_or(0.0, |s| s.sample_delay(rng.get1(slot::NEE_DELAY)));
+        let arrival = path.opl + delay as f64 + eta_light as f64 * ls.dist as f64;
+        contribute(
+            scene,
+            deposits,
+            tally,
+            arrival,
+            path.beta * f * tr * ls.li * (w / ls.pdf),
+        );
+    }
+}
+
+/// BSDF sampling: the path's next direction, throughput and OPL (a delaying material
+/// adds its delay), then under `path` Russian roulette (`roulette.rs`) from
+/// `rr_depth` on (`volpath` takes it at the next top). Under the media rules a `null`
+/// event is no vertex, and a medium transition changes the path's medium. Returns
+/// whether the path goes on.
+#[inline(always)]
+fn continue_by_bsdf<const MEDIA: bool, S: PathSampler>(
+    scene: &Scene,
+    path: &mut PathState,
+    at: &Scattering,
+    rng: &mut S,
+) -> bool {
+    let (shape, sp, frame, wo, bsdf) = (at.v.shape, at.v.sp, at.v.frame, at.v.wo, at.bsdf);
     let u1 = rng.get1(slot::BSDF_1);
     let u2 = rng.get2(slot::BSDF_2);
     let Some(bs) = bsdf.sample(wo, u1, u2) else {
         return false;
     };
     let wi_world = frame.to_world(bs.wi);
-    if let Some(s) = delaying {
+    if let Some(s) = at.delaying {
         path.opl += s.sample_delay(rng.get1(slot::BSDF_DELAY)) as f64;
     }
     path.eta *= bs.eta;
@@ -579,14 +647,12 @@ fn shade<L: Level, const MEDIA: bool, S: PathSampler>(
     path.d = wi_world.normalize();
     path.depth += 1;
 
-    // Russian roulette (Mitsuba: from rr_depth on, survival min(max(beta) eta^2, 0.95)).
     let beta_max = path.beta.max_element();
     let u_rr = rng.get1(slot::RR);
-    if path.depth >= settings.rr_depth {
-        let q = (beta_max * path.eta * path.eta).min(0.95);
-        if u_rr >= q {
+    if path.depth >= scene.integrator.rr_depth {
+        let Some(q) = roulette(beta_max, path.eta, u_rr) else {
             return false;
-        }
+        };
         path.beta /= q;
     }
     !(beta_max.is_nan() || beta_max <= 0.0)

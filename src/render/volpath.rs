@@ -55,6 +55,7 @@ use super::integrator::{light_target, PathTally};
 use super::sampler::PathSampler;
 use crate::cpu::Level;
 use crate::geometry::accel::offset_origin;
+use crate::geometry::shadow::shadow_segment;
 use crate::geometry::shape::Shape;
 use crate::materials::Bsdf;
 use crate::math::Rgb;
@@ -69,16 +70,14 @@ pub(super) const MAX_NULL_CROSSINGS: u32 = 256;
 
 /// The shadow ray of a light sample from a point `p` inside a medium (no surface to
 /// leave): towards the light's point moved off its surface along its normal (as
-/// `integrator::shadow_ray`), ending a relative 1e-4 short. Direction and end point.
+/// `integrator::shadow_ray`), under the shadow-segment rule (`geometry/shadow.rs`).
+/// Direction and end point.
 #[inline(always)]
 pub(super) fn medium_shadow_ray(p: Vec3, ls: &crate::lights::LightSample) -> (Vec3, Vec3) {
-    let d = light_target(ls) - p;
-    let dist = d.length();
-    if dist.is_nan() || dist <= 0.0 {
-        return (ls.wi, p);
+    match shadow_segment(p, light_target(ls)) {
+        Some((_, dir, len)) => (dir, p + dir * len),
+        None => (ls.wi, p),
     }
-    let dir = d / dist;
-    (dir, p + dir * (dist * (1.0 - 1e-4)))
 }
 
 /// Whether the shape's material is Mitsuba's `null` (an interface, not a vertex).

@@ -396,7 +396,7 @@ pub fn run_convergence(
     let shape = [
         scene2.film.height,
         scene2.film.width,
-        scene2.film.bins,
+        scene2.film.time.bins,
         CHANNELS,
     ];
     if reference.shape() != shape {
@@ -444,7 +444,7 @@ pub fn run_convergence(
             &out,
             spp,
             &cfg.transform,
-            scene.film.bin_width_opl,
+            scene.film.time.bin_width_opl,
             cfg.pixel_sampling,
             cfg.replicates,
             scene.image_rows(),
@@ -552,7 +552,7 @@ pub fn run_convergence(
                     &h,
                     spp / 2,
                     &cfg.transform,
-                    half_scene.film.bin_width_opl,
+                    half_scene.film.time.bin_width_opl,
                     cfg.pixel_sampling,
                     cfg.replicates,
                     half_scene.image_rows(),
@@ -604,7 +604,7 @@ pub fn run_convergence(
                             &aout,
                             spp,
                             &cfg.transform,
-                            scene.film.bin_width_opl,
+                            scene.film.time.bin_width_opl,
                             cfg.pixel_sampling,
                             cfg.replicates,
                             scene.image_rows(),

@@ -16,6 +16,7 @@ use crate::nlos::denoised::replace_h;
 use crate::nlos::reconstruct::Reconstruction;
 use crate::nlos::tal::h_per_bin;
 use crate::scene::Scene;
+use crate::sensors::time_axis::TimeAxis;
 use ndarray::Array4;
 
 /// What to reconstruct: the methods, the grid, and the working memory allowed.
@@ -40,9 +41,7 @@ pub struct ReconstructionError {
 pub struct Reconstructor {
     plan: NlosPlan,
     record: CaptureRecord,
-    t_start: f64,
-    delta_t: f64,
-    bins: usize,
+    time: TimeAxis,
     reference: Vec<Vec<f32>>,
 }
 
@@ -65,13 +64,11 @@ impl Reconstructor {
         let r = Reconstructor {
             plan,
             record,
-            t_start: scene.film.start_opl,
-            delta_t: scene.film.bin_width_opl,
-            bins: scene.film.bins,
+            time: scene.film.time,
             reference: Vec::new(),
         };
-        let h = vec![0f32; r.bins * h_per_bin(&r.record)];
-        let c = Capture::from_record(&r.record, r.t_start, r.delta_t, r.bins, h);
+        let h = vec![0f32; r.time.bins * h_per_bin(&r.record)];
+        let c = Capture::from_record(&r.record, r.time, h);
         for m in &r.plan.methods {
             m.check(&c).map_err(|error| ReportError::Method {
                 method: m.name(),
@@ -122,8 +119,8 @@ impl Reconstructor {
 
     /// The capture of a film volume (rows, Sx, T, C).
     fn capture(&self, v: &Array4<f32>) -> Result<Capture, ReportError> {
-        let h = vec![0f32; self.bins * h_per_bin(&self.record)];
-        let mut c = Capture::from_record(&self.record, self.t_start, self.delta_t, self.bins, h);
+        let h = vec![0f32; self.time.bins * h_per_bin(&self.record)];
+        let mut c = Capture::from_record(&self.record, self.time, h);
         let s = v.shape();
         let values: Vec<f32> = v.iter().copied().collect();
         replace_h(&mut c, &self.record, &values, [s[0], s[1], s[2], s[3]])?;

@@ -78,7 +78,7 @@ pub fn check(path: &Path, defaults: &[(String, String)], search: &[PathBuf]) -> 
 /// pinhole origin when that is more than a tenth of a bin.
 fn time_origin_note(scene: &Scene) -> Option<String> {
     let [lo, hi] = scene.camera.near_offsets()?;
-    let h = scene.film.bin_width_opl;
+    let h = scene.film.time.bin_width_opl;
     (hi > 0.1 * h).then(|| {
         let span = if hi - lo > 1e-9 * hi {
             format!("{lo:.4}..{hi:.4} OPL ({:.2}..{:.2} bins)", lo / h, hi / h)

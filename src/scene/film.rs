@@ -15,6 +15,7 @@ use super::ctx::Ctx;
 use super::error::SceneError;
 use super::props::Props;
 use crate::sensors::film::{check_bin_width, Film};
+use crate::sensors::time_axis::TimeAxis;
 use roxmltree::Node;
 
 /// The film plugins (the plugin table's `film` family).
@@ -106,9 +107,11 @@ fn parse_with_scan(
     let film = Film {
         width,
         height,
-        bins,
-        start_opl,
-        bin_width_opl,
+        time: TimeAxis {
+            bins,
+            start_opl,
+            bin_width_opl,
+        },
     };
     Ok((film, scan))
 }

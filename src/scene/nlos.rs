@@ -1,7 +1,9 @@
 //! Non-line-of-sight captures (SPEC 11): mitransient 1.3.1's `transient_nlos_path`
 //! integrator and `nlos_capture_meter` sensor, read from the scene and prepared at load
 //! (the relay wall's grid, the laser and the points it lights, the hidden geometry's
-//! area distribution). The path tracer is `render/nlos.rs`.
+//! area distribution). What the tracer does with it while rendering (the ends of a grid
+//! point's paths, hidden-geometry sampling, the NLOS path loop) is `render/nlos/`; the
+//! laser's light at a point is `lights/laser.rs`.
 //!
 //! `transient_nlos_path` takes `transient_path`'s parameters (max_depth, rr_depth,
 //! temporal_filter, gaussian_stddev, hide_emitters) and these:
@@ -51,6 +53,7 @@ use super::error::SceneError;
 use super::props::Props;
 use crate::geometry::accel::{Accel, Hit};
 use crate::geometry::shape::{AreaSampler, Shape, ShapeGeom};
+use crate::lights::laser::{laser_light, LaserLight};
 use crate::lights::Emitter;
 use crate::sensors::relay_wall::Wall;
 use glam::Vec3;
@@ -298,49 +301,6 @@ pub struct HiddenGeometry {
     pub total_area: f32,
 }
 
-impl HiddenGeometry {
-    /// The solid-angle density with which [`HiddenGeometry::sample`] picks direction
-    /// `dir` from point `p` (geometric normal `ng`), taken at `hit`, where the ray
-    /// first meets the scene: 0 unless that is hidden geometry facing `p` and `p`'s
-    /// normal faces it (mitransient's validity test of a sample).
-    #[inline]
-    pub fn pdf(&self, p: Vec3, ng: Vec3, hit: &Hit, dir: Vec3) -> f32 {
-        if !self.member[hit.shape as usize] {
-            return 0.0;
-        }
-        let cos_i = ng.dot(dir);
-        let cos_g = hit.surface.ng.dot(-dir);
-        let eps = f32::EPSILON / 2.0;
-        if !(cos_i > eps && cos_g > eps) {
-            return 0.0;
-        }
-        let d2 = (hit.surface.p - p).length_squared();
-        d2 / (self.total_area * cos_g)
-    }
-
-    /// A uniform point of the hidden geometry: (point, geometric normal); density
-    /// `1 / total_area`. `u1` picks the shape, `u2` the point.
-    #[inline]
-    pub fn sample(&self, shapes: &[Shape], u1: f32, u2: [f32; 2]) -> (Vec3, Vec3) {
-        let i = self
-            .cdf
-            .partition_point(|&c| c <= u1)
-            .min(self.cdf.len() - 1);
-        let shape = &shapes[self.shapes[i] as usize];
-        // A second uniform for the triangle of a large mesh: the shape choice's own
-        // number, rescaled within its share.
-        let lo = if i == 0 { 0.0 } else { self.cdf[i - 1] };
-        let share = self.cdf[i] - lo;
-        let u_tri = if share > 0.0 {
-            ((u1 - lo) / share).clamp(0.0, 1.0 - f32::EPSILON / 2.0)
-        } else {
-            0.0
-        };
-        let s = self.samplers[i].sample(shape, u_tri, u2);
-        (s.p, s.ng)
-    }
-}
-
 /// What a scene with `transient_nlos_path` renders with, prepared at load.
 #[derive(Clone, Debug)]
 pub struct NlosSetup {
@@ -366,100 +326,6 @@ pub struct NlosSetup {
     /// sample).
     pub sensor_hits: Vec<Option<Hit>>,
     pub hidden: Option<HiddenGeometry>,
-}
-
-impl NlosSetup {
-    /// Laser point and sensor row of film row `row`.
-    #[inline]
-    pub fn row(&self, row: usize) -> (usize, usize) {
-        let h = self.sensor_grid[1];
-        (row / h, row % h)
-    }
-
-    /// The ends of the paths of sensor point (x, y) under laser point `l`: the
-    /// surface laser sampling aims at (when it runs) and the first hit, when the
-    /// sensor is a capture meter (`Some(None)`: its ray meets nothing).
-    #[inline]
-    pub fn ends(&self, capture: CaptureType, x: usize, y: usize, l: usize) -> PathEnds {
-        let pixel = y * self.sensor_grid[0] + x;
-        let i = match capture {
-            CaptureType::Single => 0,
-            CaptureType::Confocal => pixel,
-            CaptureType::Exhaustive => l,
-        };
-        PathEnds {
-            lit: self.laser_hits.get(i).copied().flatten(),
-            lit_light: self.lit_light.get(i).copied().flatten(),
-            first: self.sensor_hits.get(pixel).copied(),
-        }
-    }
-}
-
-/// See [`NlosSetup::ends`].
-#[derive(Clone, Copy, Debug, Default)]
-pub struct PathEnds {
-    pub lit: Option<Hit>,
-    /// The laser's light at the lit point (the same for every path; `None`: blocked
-    /// or dark, the lit point contributes nothing).
-    pub lit_light: Option<LaserLight>,
-    pub first: Option<Option<Hit>>,
-}
-
-/// The laser's light at a surface point: the unit direction and distance to the
-/// laser, and the radiance arriving (`LightSample::li`).
-#[derive(Clone, Copy, Debug)]
-pub struct LaserLight {
-    pub dir: Vec3,
-    pub dist: f32,
-    pub li: crate::math::Rgb,
-}
-
-/// The shadow ray between `from` and `to` (from moved off its surface, the last 1e-4
-/// left out, as Mitsuba's): origin, unit direction, length; `None` when they coincide.
-#[inline(always)]
-pub fn shadow_segment(from: Vec3, to: Vec3) -> Option<(Vec3, Vec3, f32)> {
-    let seg = to - from;
-    let len = seg.length();
-    (len > 0.0).then(|| (from, seg / len, len * (1.0 - 1e-4)))
-}
-
-/// The laser's light at point `p` (geometric normal `ng`), `None` where the laser is
-/// hidden (`occluded(origin, dir, tmax)`) or dark. `focus`: the laser is re-aimed at
-/// `p` (it sends its on-axis intensity, mitransient's `focus_laser`).
-#[inline(always)]
-pub fn laser_light(
-    setup: &NlosSetup,
-    emitters: &[Emitter],
-    shapes: &[Shape],
-    p: Vec3,
-    ng: Vec3,
-    focus: bool,
-    occluded: impl FnOnce(Vec3, Vec3, f32) -> bool,
-) -> Option<LaserLight> {
-    let pos = setup.laser_origin;
-    let to_laser = pos - p;
-    let dist = to_laser.length();
-    if dist.is_nan() || dist <= 0.0 {
-        return None;
-    }
-    let dir = to_laser / dist;
-    // At a point on the laser's axis at the same distance when it is re-aimed, else
-    // at p itself (delta lights draw no numbers).
-    let at = if focus {
-        pos + setup.laser_axis * dist
-    } else {
-        p
-    };
-    let ls = emitters[0].sample(shapes, at, 1.0, 0.0, [0.0; 2])?;
-    let (o, d, tmax) = shadow_segment(crate::geometry::accel::offset_origin(p, ng, dir), pos)?;
-    if occluded(o, d, tmax) {
-        return None;
-    }
-    Some(LaserLight {
-        dir,
-        dist,
-        li: ls.li,
-    })
 }
 
 /// Where the ray (o, d) first meets the scene. The relay wall (`wall`: the meter's
@@ -751,9 +617,16 @@ pub fn prepare(
         .iter()
         .map(|h| {
             let s = h.as_ref()?.surface;
-            laser_light(&setup, emitters, shapes, s.p, s.ng, focus, |o, d, t| {
-                accel.occluded(o, d, t)
-            })
+            laser_light(
+                &emitters[0],
+                setup.laser_origin,
+                setup.laser_axis,
+                shapes,
+                s.p,
+                s.ng,
+                focus,
+                |o, d, t| accel.occluded(o, d, t),
+            )
         })
         .collect();
     Ok(setup)

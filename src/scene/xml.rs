@@ -116,7 +116,7 @@ pub fn load(path: &Path, overrides: &Overrides) -> Result<Scene, SceneError> {
     }
     let mut film = resized_film(&s.film, overrides);
     film.validate().map_err(|e| whole(e.to_string()))?;
-    let end = film.start_opl + film.bins as f64 * film.bin_width_opl;
+    let end = film.time.start_opl + film.time.bins as f64 * film.time.bin_width_opl;
     if end <= 0.0 {
         ctx.warn(
             root,
@@ -370,13 +370,13 @@ fn resized_film(film: &Film, overrides: &Overrides) -> Film {
         (None, None) => {}
     }
     if let Some(b) = overrides.bins {
-        film.bins = b;
+        film.time.bins = b;
     }
     if let Some(t0) = overrides.start_opl {
-        film.start_opl = t0;
+        film.time.start_opl = t0;
     }
     if let Some(h) = overrides.bin_width_opl {
-        film.bin_width_opl = h;
+        film.time.bin_width_opl = h;
     }
     film
 }

@@ -1,30 +1,23 @@
-//! The film: image size and the time axis (SPEC 3). `scene/film.rs` reads
-//! `transient_hdr_film`.
+//! The film: image size and the time axis (SPEC 3; `time_axis.rs`). `scene/film.rs`
+//! reads `transient_hdr_film`.
 //!
 //! A contribution with path OPL `o` lands in bin `k = floor((o - t0) / h)` when
 //! `0 <= k < T` and in no bin otherwise (it still counts in the steady image).
+
+use super::time_axis::TimeAxis;
 
 #[derive(Clone, Debug, PartialEq)]
 pub struct Film {
     pub width: usize,
     pub height: usize,
-    pub bins: usize,
-    /// t0, OPL in scene units.
-    pub start_opl: f64,
-    /// h, OPL in scene units.
-    pub bin_width_opl: f64,
+    pub time: TimeAxis,
 }
 
 impl Film {
     /// Time bin of a contribution arriving at optical path length `opl`.
     #[inline]
     pub fn bin(&self, opl: f64) -> Option<u32> {
-        let k = ((opl - self.start_opl) / self.bin_width_opl).floor();
-        if k >= 0.0 && k < self.bins as f64 {
-            Some(k as u32)
-        } else {
-            None
-        }
+        self.time.bin(opl)
     }
 
     pub fn pixels(&self) -> usize {
@@ -33,8 +26,8 @@ impl Film {
 
     /// Checks the settings after overrides were applied.
     pub fn validate(&self) -> Result<(), FilmError> {
-        let (width, height, bins) = (self.width, self.height, self.bins);
-        let (start_opl, bin_width_opl) = (self.start_opl, self.bin_width_opl);
+        let (width, height, bins) = (self.width, self.height, self.time.bins);
+        let (start_opl, bin_width_opl) = (self.time.start_opl, self.time.bin_width_opl);
         if width == 0 || height == 0 {
             return Err(FilmError::Empty { width, height });
         }
@@ -154,9 +147,11 @@ mod tests {
         let f = Film {
             width: 1,
             height: 1,
-            bins: 10,
-            start_opl: 2.0,
-            bin_width_opl: 0.5,
+            time: TimeAxis {
+                bins: 10,
+                start_opl: 2.0,
+                bin_width_opl: 0.5,
+            },
         };
         assert_eq!(f.bin(1.999), None);
         assert_eq!(f.bin(2.0), Some(0));
@@ -172,9 +167,11 @@ mod tests {
         let film = |start_opl: f64, bin_width_opl: f64| Film {
             width: 2,
             height: 2,
-            bins: 10,
-            start_opl,
-            bin_width_opl,
+            time: TimeAxis {
+                bins: 10,
+                start_opl,
+                bin_width_opl,
+            },
         };
         assert!(film(3.5, 0.04).validate().is_ok());
         assert!(film(-1e6, 1e-3).validate().is_ok());

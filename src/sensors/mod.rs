@@ -6,5 +6,6 @@
 pub mod camera;
 pub mod film;
 pub mod relay_wall;
+pub mod time_axis;
 pub mod time_filter;
 pub mod time_origin;

@@ -51,7 +51,7 @@ impl TimeFilter {
 /// of the whole support sum to 1.
 #[inline(never)]
 pub fn gaussian_shares(film: &Film, stddev: f64, opl: f64, mut put: impl FnMut(u32, f64)) {
-    let tau = (opl - film.start_opl) / film.bin_width_opl;
+    let tau = (opl - film.time.start_opl) / film.time.bin_width_opl;
     if !tau.is_finite() {
         return;
     }
@@ -59,7 +59,7 @@ pub fn gaussian_shares(film: &Film, stddev: f64, opl: f64, mut put: impl FnMut(u
     // Bins whose centre k + 1/2 lies within the radius of tau.
     let first = (tau - radius - 0.5).ceil();
     let last = (tau + radius - 0.5).floor();
-    if last < 0.0 || first >= film.bins as f64 {
+    if last < 0.0 || first >= film.time.bins as f64 {
         return;
     }
     let alpha = -1.0 / (2.0 * stddev * stddev);
@@ -79,7 +79,7 @@ pub fn gaussian_shares(film: &Film, stddev: f64, opl: f64, mut put: impl FnMut(u
         return;
     }
     let mut k = first.max(0.0);
-    let end = last.min(film.bins as f64 - 1.0);
+    let end = last.min(film.time.bins as f64 - 1.0);
     while k <= end {
         let share = w(k) / total;
         if share > 0.0 {
@@ -97,15 +97,17 @@ mod tests {
         Film {
             width: 1,
             height: 1,
-            bins,
-            start_opl: 10.0,
-            bin_width_opl: 0.5,
+            time: crate::sensors::time_axis::TimeAxis {
+                bins,
+                start_opl: 10.0,
+                bin_width_opl: 0.5,
+            },
         }
     }
 
     /// The shares as a plain vector over all bins, by the definition.
     fn reference(film: &Film, stddev: f64, opl: f64) -> Vec<f64> {
-        let tau = (opl - film.start_opl) / film.bin_width_opl;
+        let tau = (opl - film.time.start_opl) / film.time.bin_width_opl;
         let r = 4.0 * stddev;
         let g = |x: f64| {
             if x.abs() >= r {
@@ -116,13 +118,13 @@ mod tests {
         };
         // The support's total over a range wide enough to hold it all.
         let total: f64 = (-1000..1000).map(|k| g(k as f64 + 0.5 - tau)).sum();
-        (0..film.bins)
+        (0..film.time.bins)
             .map(|k| g(k as f64 + 0.5 - tau) / total)
             .collect()
     }
 
     fn shares(film: &Film, stddev: f64, opl: f64) -> Vec<f64> {
-        let mut v = vec![0.0; film.bins];
+        let mut v = vec![0.0; film.time.bins];
         gaussian_shares(film, stddev, opl, |k, s| v[k as usize] += s);
         v
     }
@@ -141,8 +143,8 @@ mod tests {
                     );
                 }
                 let sum: f64 = got.iter().sum();
-                let tau = (opl - f.start_opl) / f.bin_width_opl;
-                let inside = tau - 4.0 * sd >= 0.0 && tau + 4.0 * sd <= f.bins as f64;
+                let tau = (opl - f.time.start_opl) / f.time.bin_width_opl;
+                let inside = tau - 4.0 * sd >= 0.0 && tau + 4.0 * sd <= f.time.bins as f64;
                 if inside {
                     assert!((sum - 1.0).abs() < 1e-12, "sd {sd} opl {opl}: sum {sum}");
                 } else {
@@ -159,7 +161,7 @@ mod tests {
         // at stddev 2; a filter off by a bin fails by 4 orders of magnitude).
         let f = film(60);
         let opl = 25.37;
-        let tau = (opl - f.start_opl) / f.bin_width_opl;
+        let tau = (opl - f.time.start_opl) / f.time.bin_width_opl;
         let v = shares(&f, 2.0, opl);
         let mean: f64 = v
             .iter()

@@ -4,16 +4,17 @@
 use super::tonemap::srgb8;
 use super::VizError;
 use crate::report::plot::save_png_rgb;
+use crate::sensors::time_axis::TimeAxis;
 use image::{Delay, Frame, RgbaImage};
 use ndarray::ArrayView4;
 use plotters::prelude::*;
 use std::path::Path;
 
-/// The time axis of a volume, when known.
+/// How to label the time axis of a volume, when it is known: the axis itself, the
+/// length unit for picoseconds, and where OPL 0 is.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct TimeAxis {
-    pub start_opl: f64,
-    pub bin_width_opl: f64,
+pub struct TimeLabels {
+    pub time: TimeAxis,
     /// Metres per scene unit.
     pub unit_m: f64,
     /// Where OPL 0 is (`Manifest::time_zero`: "the near-clip plane", ...); `None`
@@ -21,9 +22,9 @@ pub struct TimeAxis {
     pub origin: Option<&'static str>,
 }
 
-impl TimeAxis {
+impl TimeLabels {
     pub fn opl(&self, bin: f64) -> f64 {
-        self.start_opl + bin * self.bin_width_opl
+        self.time.opl(bin)
     }
     /// The axis's title: "time (OPL from the near-clip plane, scene units)".
     pub fn label(&self) -> String {
@@ -123,7 +124,7 @@ pub fn write_streak(
     v: ArrayView4<f32>,
     row: usize,
     exposure: f32,
-    axis: Option<TimeAxis>,
+    axis: Option<TimeLabels>,
     caption: &str,
 ) -> Result<(), VizError> {
     let (h, w, t) = (v.shape()[0], v.shape()[1], v.shape()[2]);
@@ -211,7 +212,7 @@ pub struct FramesRequest {
     pub gif: bool,
     pub streak_row: usize,
     pub exposure: f32,
-    pub axis: Option<TimeAxis>,
+    pub axis: Option<TimeLabels>,
     /// Title of the streak image.
     pub caption: String,
 }

@@ -84,7 +84,7 @@ fn per_pixel_counts_trace_what_a_plain_loop_traces() {
     assert_eq!(n.iter().map(|&k| k as u64).sum::<u64>(), 8 * 100);
     s.pixel_spp = Some(n.clone());
     let out = render(&scene, &s, &|_| {});
-    let (w, bins) = (scene.film.width, scene.film.bins);
+    let (w, bins) = (scene.film.width, scene.film.time.bins);
     let mut deposits = PathDeposits::default();
     for p in 0..scene.film.pixels() {
         let mut x1 = vec![0.0f64; bins * 3];
@@ -650,7 +650,7 @@ fn run_is_adaptive_unless_asked_not_to_be() {
 #[test]
 fn the_claimed_variance_is_the_observed_one_under_adaptive_counts() {
     let scene = small_cbox(6, 4, 8);
-    let (pixels, bins) = (scene.film.pixels(), scene.film.bins);
+    let (pixels, bins) = (scene.film.pixels(), scene.film.time.bins);
     let voxels = pixels * bins * 3;
     let seeds = 1024u64;
     // Per voxel-channel: sum of means, of squared means, of claimed variances (own

@@ -334,8 +334,8 @@ fn check_text(text: &str, bundle: &Path, work: &Path) -> Result<(), TestCaseErro
                         prop_assert!(c.sensor_grid.iter().all(finite), "sensor grid");
                         prop_assert!(c.laser_grid.iter().all(finite), "laser grid");
                         prop_assert!(c.h.iter().all(|v| v.is_finite()), "H");
-                        let end = c.t_start + c.bins as f64 * c.delta_t;
-                        prop_assert!(c.delta_t > 0.0 && end.is_finite(), "time axis");
+                        let end = c.time.start_opl + c.time.bins as f64 * c.time.bin_width_opl;
+                        prop_assert!(c.time.bin_width_opl > 0.0 && end.is_finite(), "time axis");
                     }
                 }
             }

@@ -184,9 +184,9 @@ fn read(path: &Path) -> Result<(), TestCaseError> {
     let r = r.map_err(|_| TestCaseError::fail("the reader panicked"))?;
     match r {
         Ok(c) => {
-            prop_assert_eq!(c.h.len(), c.bins * c.lasers * c.sensors);
+            prop_assert_eq!(c.h.len(), c.time.bins * c.lasers * c.sensors);
             prop_assert!(c.h.iter().all(|v| v.is_finite()), "non-finite H");
-            prop_assert!(c.t_start.is_finite() && c.delta_t > 0.0);
+            prop_assert!(c.time.start_opl.is_finite() && c.time.bin_width_opl > 0.0);
             prop_assert_eq!(c.sensor_grid.len(), c.sensors);
         }
         Err(e) => {

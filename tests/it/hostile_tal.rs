@@ -612,10 +612,14 @@ fn h5py_fixtures_read_to_their_values() {
         "gzip_shuffle_fletcher32.hdf5",
     ] {
         let c = Capture::from_tal(&fixture(name)).unwrap_or_else(|e| panic!("{name}: {e}"));
-        assert_eq!((c.bins, c.lasers, c.sensors), (16, 1, 16), "{name}");
+        assert_eq!((c.time.bins, c.lasers, c.sensors), (16, 1, 16), "{name}");
         assert!(c.paired, "{name}: confocal");
         assert_eq!(c.h, want, "{name}: H");
-        assert_eq!((c.t_start, c.delta_t), (0.6, 0.1), "{name}");
+        assert_eq!(
+            (c.time.start_opl, c.time.bin_width_opl),
+            (0.6, 0.1),
+            "{name}"
+        );
         // numpy.linspace(-0.25, 0.25, 4)[1], stored as f32.
         let x = (-0.25f64 + 0.5 / 3.0) as f32;
         let p = c.sensor_grid[5];

@@ -82,7 +82,7 @@ fn white_furnace_a_diffuse_sphere_under_constant_radiance_is_albedo_times_radian
         }
     }
     // Every arrival is inside the window: the bins sum to the steady image.
-    let t = scene.film.bins;
+    let t = scene.film.time.bins;
     let n = scene.spp as f64;
     for p in 0..px {
         for c in 0..3 {
@@ -242,7 +242,7 @@ fn a_directional_light_arrives_2r_after_the_surface_it_lights() {
     // Camera distances 4 .. 4 / cos(1.42 deg) = 4.0012: OPL 12.4853 .. 12.4865, bin 4.
     let bin = ((4.0 + 2.0 * r - 12.0) / 0.1) as usize;
     assert_eq!(bin, 4);
-    let (t, n) = (scene.film.bins, scene.spp);
+    let (t, n) = (scene.film.time.bins, scene.spp);
     for p in 0..scene.film.pixels() {
         assert_eq!(out.accum.nonzero[p * t + bin], n, "pixel {p}");
         for c in 0..3 {
@@ -298,7 +298,7 @@ fn with_an_environment_the_bins_sum_to_the_steady_image() {
         },
     );
     let out = run(&scene, 9);
-    let (t, n) = (scene.film.bins, scene.spp as f64);
+    let (t, n) = (scene.film.time.bins, scene.spp as f64);
     for p in 0..scene.film.pixels() {
         for c in 0..3 {
             let sum: f64 = (0..t).map(|k| out.accum.x1[(p * t + k) * 3 + c] / n).sum();

@@ -97,13 +97,13 @@ fn single_scattering_in_an_infinite_medium_matches_its_arrival_time_density() {
             &common::PINHOLE,
         );
         let out = run(&scene, seed);
-        let (t_bins, pixels) = (scene.film.bins, scene.film.pixels());
+        let (t_bins, pixels) = (scene.film.time.bins, scene.film.pixels());
         // Every pixel estimates the same value: pool them (independent samples).
         let n = (pixels as u64 * scene.spp as u64) as f64;
         let mut worst = 0.0f64;
         for k in 0..t_bins {
-            let tau_a = scene.film.start_opl + k as f64 * scene.film.bin_width_opl;
-            let tau_b = tau_a + scene.film.bin_width_opl;
+            let tau_a = scene.film.time.start_opl + k as f64 * scene.film.time.bin_width_opl;
+            let tau_b = tau_a + scene.film.time.bin_width_opl;
             for c in 0..3 {
                 let (mut s1, mut s2) = (0.0, 0.0);
                 for p in 0..pixels {
@@ -218,7 +218,7 @@ fn scene_file(name: &str) -> std::path::PathBuf {
 /// Per-bin image totals of a render and their variances (pixels are independent).
 fn bin_totals(scene: &Scene, seed: u64) -> Vec<([f64; 3], [f64; 3])> {
     let out = run(scene, seed);
-    let (t_bins, n) = (scene.film.bins, scene.spp as f64);
+    let (t_bins, n) = (scene.film.time.bins, scene.spp as f64);
     (0..t_bins)
         .map(|k| {
             let mut tot = ([0.0; 3], [0.0; 3]);
@@ -752,7 +752,7 @@ fn single_scattering_in_a_grid_medium_matches_its_arrival_time_density() {
         &Overrides::default(),
     );
     let out = run(&scene, 5);
-    let (t_bins, pixels) = (scene.film.bins, scene.film.pixels());
+    let (t_bins, pixels) = (scene.film.time.bins, scene.film.pixels());
     let samples = (pixels as u64 * scene.spp as u64) as f64;
     // Reference, per channel: sigma_t and albedo as functions of the distance s (depth
     // z = -s, local w = (z + 4) / 4.5 = (4 - s) / 4.5, grid index from the deep end).
@@ -770,8 +770,8 @@ fn single_scattering_in_a_grid_medium_matches_its_arrival_time_density() {
             alb(s) * ramp_reference(&v, w_of(s)) * (-2.0 * tau).exp() / (s * s)
         };
         for k in 0..t_bins {
-            let tau_a = scene.film.start_opl + k as f64 * scene.film.bin_width_opl;
-            let tau_b = tau_a + scene.film.bin_width_opl;
+            let tau_a = scene.film.time.start_opl + k as f64 * scene.film.time.bin_width_opl;
+            let tau_b = tau_a + scene.film.time.bin_width_opl;
             // The albedo jumps at cell edges (every 0.5 in depth): Simpson on fine steps.
             let want = simpson(integrand, tau_a / 2.0, tau_b / 2.0, 4000) / (4.0 * PI);
             let (mut s1, mut s2) = (0.0, 0.0);

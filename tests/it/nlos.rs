@@ -681,7 +681,11 @@ fn point_capture_on(
         }
     }
     tstat::nlos::capture::Capture {
-        bins,
+        time: tstat::sensors::time_axis::TimeAxis {
+            start_opl: t_start,
+            bin_width_opl: delta_t,
+            bins,
+        },
         lasers: nl,
         sensors: sensors.len(),
         sensor_dims: [9, 9],
@@ -693,8 +697,6 @@ fn point_capture_on(
         paired,
         laser_xyz: None,
         sensor_xyz: None,
-        t_start,
-        delta_t,
         accounts_first_and_last_bounces: false,
     }
 }
@@ -766,7 +768,7 @@ fn filtered_backprojection_of_a_point_scatterer_peaks_at_its_voxel() {
     let one = pf_filter(&c, 0.2, 0.2 / 2f64.sqrt());
     let mag =
         |f: &tstat::nlos::filter::Filtered, t: usize| f.re[t * series].hypot(f.im[t * series]);
-    let peak = (0..c.bins)
+    let peak = (0..c.time.bins)
         .max_by(|&a, &b| mag(&one, a).total_cmp(&mag(&one, b)))
         .unwrap();
     assert_eq!(peak, 140);
@@ -805,7 +807,7 @@ fn phasor_field_spectrum_direct_equals_the_fft() {
         c.accounts_first_and_last_bounces = !paired;
         c.laser_xyz = Some([0.0, 0.0, -1.0]);
         c.sensor_xyz = Some([0.5, 0.0, -1.0]);
-        let p = pulse(c.bins, c.delta_t, wl, wl / 2f64.sqrt()).unwrap();
+        let p = pulse(c.time.bins, c.time.bin_width_opl, wl, wl / 2f64.sqrt()).unwrap();
         let fft = spectrum_by(&c, &p, Dft::Fft);
         let direct = spectrum_by(&c, &p, Dft::Direct);
         let top = fft.iter().fold(0f64, |a, z| a.max(z.norm()));

@@ -22,7 +22,11 @@ fn capture(n: usize, bins: usize, t_start: f64, delta_t: f64, h: Vec<f32>) -> Ca
         .flat_map(|i| (0..n).map(move |j| [c(i), c(j), 0.0]))
         .collect();
     Capture {
-        bins,
+        time: tstat::sensors::time_axis::TimeAxis {
+            start_opl: t_start,
+            bin_width_opl: delta_t,
+            bins,
+        },
         lasers: 1,
         sensors: n * n,
         sensor_dims: [n, n],
@@ -34,8 +38,6 @@ fn capture(n: usize, bins: usize, t_start: f64, delta_t: f64, h: Vec<f32>) -> Ca
         paired: true,
         laser_xyz: None,
         sensor_xyz: None,
-        t_start,
-        delta_t,
         accounts_first_and_last_bounces: false,
     }
 }
@@ -223,7 +225,7 @@ fn reconstructions_are_linear_and_symmetric() {
         *a = 0.7 * *a + b;
     }
     let c = c2;
-    let m = c.bins;
+    let m = c.time.bins;
     let remap = |f: &dyn Fn(usize, usize) -> (usize, usize)| {
         let mut d = c.clone_h();
         for t in 0..m {
@@ -281,9 +283,9 @@ impl CloneH for Capture {
     fn clone_h(&self) -> Capture {
         capture(
             self.sensor_dims[0],
-            self.bins,
-            self.t_start,
-            self.delta_t,
+            self.time.bins,
+            self.time.start_opl,
+            self.time.bin_width_opl,
             self.h.clone(),
         )
     }
@@ -348,7 +350,7 @@ fn unsuitable_captures_are_refused() {
     ));
     let mut c = good();
     c.h.truncate(64);
-    c.bins = 1;
+    c.time.bins = 1;
     cases.push(("one bin", c, "needs at least 2 time bins, got 1"));
     let mut c = good();
     c.h.pop();
@@ -357,17 +359,17 @@ fn unsuitable_captures_are_refused() {
     c.h[5] = f32::NAN;
     cases.push(("NaN", c, "H holds a non-finite value (bin 0, point 5)"));
     let mut c = good();
-    c.t_start = 1e30;
+    c.time.start_opl = 1e30;
     cases.push(("far start", c, "bins can be put in front"));
     let mut c = good();
-    c.t_start = -10.0;
+    c.time.start_opl = -10.0;
     cases.push((
         "all bins before OPL 0",
         c,
         "keeps 0 bins from OPL 0 on; at least 2 are needed",
     ));
     let mut c = good();
-    c.delta_t = 0.0;
+    c.time.bin_width_opl = 0.0;
     cases.push((
         "zero bin width",
         c,
@@ -410,7 +412,7 @@ fn unsuitable_captures_are_refused() {
     }
     // Memory: (2M' 2N 2N) complex volumes (one for fk, two for lct) + the native f32.
     let mut c = good();
-    c.t_start = 0.5; // 10 bins in front: M' = 74
+    c.time.start_opl = 0.5; // 10 bins in front: M' = 74
     let (n, m) = (8usize, 74usize);
     let vol = 2 * m * 2 * n * 2 * n * 16;
     assert_eq!(tstat::nlos::fk::memory_bytes(&c), vol + 4 * m * n * n);

@@ -200,7 +200,7 @@ fn only_the_sub_pixel_position_depends_on_the_mode() {
         ..Overrides::default()
     };
     let scene = Scene::load(&cbox, &overrides).unwrap();
-    let (w, h, bins) = (scene.film.width, scene.film.height, scene.film.bins);
+    let (w, h, bins) = (scene.film.width, scene.film.height, scene.film.time.bins);
     for mode in [PixelSampling::Independent, PixelSampling::Stratified] {
         let set = settings(scene.spp, 42, mode);
         let out = render(&scene, &set, &|_| {});

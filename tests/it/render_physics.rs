@@ -94,7 +94,7 @@ fn bins_sum_to_the_steady_image_when_the_window_covers_all_arrivals() {
         ..Default::default()
     });
     let out = run(&scene, 11);
-    let (t, n) = (scene.film.bins, scene.spp as f64);
+    let (t, n) = (scene.film.time.bins, scene.spp as f64);
     let mut checked = 0;
     for p in 0..scene.film.pixels() {
         for c in 0..3 {
@@ -855,7 +855,7 @@ fn disk_light_irradiance_matches_the_closed_form() {
     assert!((irradiance(0.0) - std::f64::consts::PI * r * r / (h * h + r * r)).abs() < 1e-12);
     // One bin [0, 10) holds every arrival: its per-path sums give the mean and its
     // standard error exactly.
-    let t_bins = scene.film.bins;
+    let t_bins = scene.film.time.bins;
     for c in 0..3 {
         let want = rho[c] / std::f64::consts::PI * l[c] * mean_e;
         let v = c;

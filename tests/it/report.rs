@@ -11,8 +11,9 @@ use tstat::report::convergence::{run_convergence, ConvergenceConfig, ReferenceSo
 use tstat::report::region::Region;
 use tstat::report::speedup::Speedup;
 use tstat::scene::Overrides;
+use tstat::sensors::time_axis::TimeAxis;
 use tstat::stats::Transform;
-use tstat::viz::frames::{write_all, FramesRequest, TimeAxis};
+use tstat::viz::frames::{write_all, FramesRequest, TimeLabels};
 use tstat::viz::tonemap::srgb8;
 
 fn tstat(args: &[&str]) -> Output {
@@ -137,9 +138,12 @@ fn frames_gif_and_streak_share_one_exposure() {
         gif: true,
         streak_row: 3,
         exposure: 1.0,
-        axis: Some(TimeAxis {
-            start_opl: 3.0,
-            bin_width_opl: 0.1,
+        axis: Some(TimeLabels {
+            time: TimeAxis {
+                start_opl: 3.0,
+                bin_width_opl: 0.1,
+                bins: t,
+            },
             unit_m: 1.0,
             origin: Some("the near-clip plane"),
         }),

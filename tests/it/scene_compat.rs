@@ -775,7 +775,11 @@ fn legacy_mitransient_time_window_is_checked_and_named_in_a_warning() {
     );
     // The film's window is the one used.
     assert_eq!(
-        (s.film.bins, s.film.start_opl, s.film.bin_width_opl),
+        (
+            s.film.time.bins,
+            s.film.time.start_opl,
+            s.film.time.bin_width_opl
+        ),
         (10, 3.0, 0.5)
     );
     // progressive and samples_per_pass alone: no warning.

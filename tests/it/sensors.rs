@@ -216,7 +216,7 @@ fn thin_lens_defocuses_an_edge_over_the_circle_of_confusion() {
     // the flat ends of the segment profile.
     assert!(interior >= 2 * w / 2, "{interior}");
     // Every ray travels from the lens to the plane: OPL Z / cos, in bin 2 (Z = 2).
-    let t = scene.film.bins;
+    let t = scene.film.time.bins;
     for p in 0..w * h {
         for k in [0, 1, 3] {
             assert_eq!(out.accum.nonzero[p * t + k], 0);

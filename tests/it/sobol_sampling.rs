@@ -133,7 +133,7 @@ fn sobol_and_independent_renders_agree_in_the_mean() {
         assert!(tested > 200, "{file}: only {tested} cells vary");
         assert!(t2 < bound(tested) && t2 > 0.6, "{file}: mean t^2 {t2:.3}");
         // The late third of the bins: long paths only.
-        let groups = scene.film.bins.div_ceil(group);
+        let groups = scene.film.time.bins.div_ceil(group);
         let late: Vec<usize> = (0..sobol[0].len())
             .filter(|c| c % groups >= groups * 2 / 3)
             .collect();

@@ -1,7 +1,8 @@
 //! `transient_nlos_path`: mitransient 1.3.1's NLOS path tracer (`transientnlospath.py`,
 //! after [Royo2022] "Non-line-of-sight transient rendering"), transcribed for one path
 //! at a time. The scene's setup (lit points, laser, hidden geometry) is
-//! `scene/nlos.rs`.
+//! `scene/nlos.rs`; what a grid point's paths share is `ends.rs`, hidden-geometry
+//! sampling `hidden.rs`.
 //!
 //! A path starts at the sensor (the capture meter's `sensor_origin`, or a camera) and
 //! at each surface vertex x_d (depth d, 0 at the first hit) with a non-delta lobe:
@@ -16,9 +17,9 @@
 //! - otherwise **next-event estimation** to the laser from x_d (depth d);
 //!
 //! then continues by **hidden-geometry sampling** (a uniform point of the hidden
-//! geometry, density converted to solid angle; `nlos_hidden_geometry_sampling`, with its
+//! geometry, density converted to solid angle; `nlos_hg_sampling`, with its
 //! depth limit) or BSDF sampling. With the coin flip between them
-//! (`nlos_hidden_geometry_sampling_do_rroulette`, each with probability 1/2) a sample
+//! (`nlos_hg_sampling_do_rroulette`, each with probability 1/2) a sample
 //! is weighted by the balance heuristic over both densities, `f / (pdf_hg / 2 +
 //! pdf_bsdf / 2)`, the hidden-geometry density of a BSDF-sampled direction taken where
 //! its ray first meets the hidden geometry. mitransient 1.3.1 divides each technique's
@@ -31,25 +32,28 @@
 //! `account_first_and_last_bounces`. `filter_depth` and `discard_direct_paths` act on
 //! the light-sample contributions' depth. The laser, a delta light, is never hit.
 
+pub mod ends;
+pub mod hidden;
+
 use super::deposits::PathDeposits;
 use super::gbuffer::GSample;
-use super::integrator::{contribute, perturbed_at, PathTally};
+use super::integrator::{contribute, PathTally};
+use super::roulette::roulette;
 use super::sampler::{slot, PathSampler};
+use super::vertex::SurfaceVertex;
 use crate::cpu::{Avx2, Avx512, Baseline, Detected, Level};
 use crate::geometry::accel::{offset_origin, Hit};
-use crate::materials::{Bsdf, BsdfModel};
-use crate::math::frame::Frame;
+use crate::geometry::shadow::shadow_segment;
+use crate::lights::laser::{laser_light, LaserLight};
+use crate::materials::BsdfModel;
 use crate::math::Rgb;
-use crate::scene::nlos::{
-    laser_light, shadow_segment, CaptureType, LaserLight, NlosSettings, NlosSetup, PathEnds,
-};
+use crate::scene::nlos::{CaptureType, NlosSettings, NlosSetup};
 use crate::scene::Scene;
-use crate::textures::TexPoint;
+use ends::PathEnds;
 use glam::Vec3;
-use std::borrow::Cow;
 
 /// The probability of hidden-geometry sampling against BSDF sampling with
-/// `nlos_hidden_geometry_sampling_do_rroulette` (mitransient's).
+/// `nlos_hg_sampling_do_rroulette` (mitransient's).
 const HG_SHARE: f32 = 0.5;
 
 /// Dr.Jit's `epsilon(Float)`: mitransient's thresholds on cosines, densities and BSDF
@@ -120,48 +124,6 @@ fn nlos_avx2<S: PathSampler>(
     body::<Avx2, S>(isa, scene, o, d, ends, rng, deposits, tally)
 }
 
-/// A surface vertex: where it is and what scatters there.
-struct Vertex<'a> {
-    p: Vec3,
-    ng: Vec3,
-    frame: Frame,
-    /// The direction back along the arriving ray, in `frame`.
-    wo: Vec3,
-    bsdf: Cow<'a, Bsdf>,
-}
-
-impl<'a> Vertex<'a> {
-    /// The vertex at `hit` of a ray along `d` (textures resolved at the hit).
-    #[inline(always)]
-    fn at(scene: &'a Scene, hit: &Hit, d: Vec3) -> Self {
-        let shape = &scene.shapes[hit.shape as usize];
-        let sp = hit.surface;
-        let material = &scene.bsdfs[shape.bsdf as usize];
-        let frame = if material.is_anisotropic() {
-            Frame::from_normal_tangent(sp.ns, shape.dpdu(hit.face, hit.b1, hit.b2, sp.p))
-        } else {
-            Frame::from_normal(sp.ns)
-        };
-        let wo = frame.to_local(-d);
-        let bsdf = if material.is_plain() {
-            Cow::Borrowed(&material.bsdf)
-        } else if material.perturbs() {
-            Cow::Owned(perturbed_at(material, shape, hit, &sp, &frame, wo))
-        } else if material.is_textured() {
-            Cow::Owned(material.at_point(&TexPoint::on(shape, hit.face, hit.b1, hit.b2, sp.p)))
-        } else {
-            Cow::Borrowed(&material.bsdf)
-        };
-        Vertex {
-            p: sp.p,
-            ng: sp.ng,
-            frame,
-            wo,
-            bsdf,
-        }
-    }
-}
-
 /// The path's fixed context.
 struct Ctx<'a> {
     scene: &'a Scene,
@@ -191,7 +153,7 @@ impl Ctx<'_> {
     fn laser_nee<L: Level>(
         &self,
         isa: L,
-        v: &Vertex,
+        v: &SurfaceVertex,
         light: Option<Option<LaserLight>>,
         depth: u32,
         beta: Rgb,
@@ -210,11 +172,12 @@ impl Ctx<'_> {
         let scene = self.scene;
         let light = light.unwrap_or_else(|| {
             laser_light(
-                self.setup,
-                &scene.emitters,
+                &scene.emitters[0],
+                self.setup.laser_origin,
+                self.setup.laser_axis,
                 &scene.shapes,
-                v.p,
-                v.ng,
+                v.sp.p,
+                v.sp.ng,
                 self.focus,
                 |o, d, tmax| {
                     tally.rays += 1;
@@ -246,7 +209,7 @@ impl Ctx<'_> {
     fn laser_sample<L: Level>(
         &self,
         isa: L,
-        v: &Vertex,
+        v: &SurfaceVertex,
         lit: &Hit,
         lit_light: Option<LaserLight>,
         depth: u32,
@@ -258,7 +221,7 @@ impl Ctx<'_> {
     ) {
         let scene = self.scene;
         let target = lit.surface.p;
-        let to_target = target - v.p;
+        let to_target = target - v.sp.p;
         let dist = to_target.length();
         if !above(dist, 0.0) {
             // Also a NaN target: a lit point that does not exist.
@@ -274,10 +237,11 @@ impl Ctx<'_> {
         // and meet the lit point's own surface short of it at grazing angles.
         let end = offset_origin(target, lit.surface.ng, -dir);
         tally.rays += 1;
-        if self.blocked(isa, offset_origin(v.p, v.ng, dir), end) {
+        if self.blocked(isa, offset_origin(v.sp.p, v.sp.ng, dir), end) {
             return;
         }
-        let lit = Vertex::at(scene, lit, dir);
+        let mut textured = None;
+        let lit = SurfaceVertex::at(scene, lit, dir, &mut textured);
         let cos_l = lit.wo.z;
         if !above(cos_l, 0.0) {
             return;
@@ -356,12 +320,11 @@ fn body<L: Level, S: PathSampler>(
         } else {
             opl += eta as f64 * (hit.surface.p - prev).length() as f64;
         }
-        let v = Vertex::at(scene, &hit, d);
+        let mut textured = None;
+        let v = SurfaceVertex::at(scene, &hit, d, &mut textured);
         if depth == 0 {
             g.depth = Some(hit.t);
-            g.albedo = v.bsdf.albedo(v.wo);
-            let ns = hit.surface.ns;
-            g.normal = if ns.dot(d) <= 0.0 { ns } else { -ns };
+            v.record(&mut g);
         }
         if max_depth >= 0 && depth as i64 + 1 >= max_depth as i64 {
             break;
@@ -390,11 +353,11 @@ fn body<L: Level, S: PathSampler>(
         // The continuation: hidden-geometry sampling, BSDF sampling, or (with the coin
         // flip) one of them, each with probability 1/2, weighted by the balance
         // heuristic over both densities (one-sample MIS; see the module notes).
-        let hidden = setup
+        let hg = setup
             .hidden
             .as_ref()
             .filter(|_| n.hg_max_depth == -1 || (depth as i64) < n.hg_max_depth);
-        let c = match hidden {
+        let c = match hg {
             None => 0.0,
             Some(_) if n.hg_rroulette => HG_SHARE,
             Some(_) => 1.0,
@@ -403,17 +366,17 @@ fn body<L: Level, S: PathSampler>(
         let u1 = rng.get1(slot::BSDF_1);
         let u2 = rng.get2(slot::BSDF_2);
         let (wi_world, weight, bs_eta) = if use_hg {
-            let hidden = hidden.expect("c > 0");
-            let (p, nh) = hidden.sample(&scene.shapes, u1, u2);
-            let to_p = p - v.p;
+            let hg = hg.expect("c > 0");
+            let (p, nh) = hidden::sample(hg, &scene.shapes, u1, u2);
+            let to_p = p - v.sp.p;
             let dist = to_p.length();
             let dir = to_p / dist;
-            let cos_i = v.ng.dot(dir);
+            let cos_i = v.sp.ng.dot(dir);
             let cos_g = nh.dot(-dir);
             if !(above(cos_i, EPS) && above(cos_g, EPS)) {
                 break;
             }
-            let pdf = dist * dist / (hidden.total_area * cos_g);
+            let pdf = dist * dist / (hg.total_area * cos_g);
             if !above(pdf, EPS) || !pdf.is_finite() {
                 break;
             }
@@ -430,19 +393,21 @@ fn body<L: Level, S: PathSampler>(
                 break;
             };
             let dir = v.frame.to_world(bs.wi).normalize();
-            match hidden {
+            match hg {
                 // The hidden-geometry density of this direction: where its ray first
                 // meets the hidden geometry, traced now and kept for the next vertex.
-                Some(hidden) if c > 0.0 && !bs.lobe.is_delta() => {
+                Some(hg) if c > 0.0 && !bs.lobe.is_delta() => {
                     tally.rays += 1;
                     let h = scene.accel.intersect_with(
                         isa,
                         &scene.shapes,
-                        offset_origin(v.p, v.ng, dir),
+                        offset_origin(v.sp.p, v.sp.ng, dir),
                         dir,
                         f32::INFINITY,
                     );
-                    let pdf_hg = h.as_ref().map_or(0.0, |h| hidden.pdf(v.p, v.ng, h, dir));
+                    let pdf_hg = h
+                        .as_ref()
+                        .map_or(0.0, |h| hidden::pdf(hg, v.sp.p, v.sp.ng, h, dir));
                     next = Some(h);
                     let density = c * pdf_hg + (1.0 - c) * bs.pdf;
                     (dir, bs.weight * (bs.pdf / density), bs.eta)
@@ -452,21 +417,20 @@ fn body<L: Level, S: PathSampler>(
         };
         beta *= weight;
         eta *= bs_eta;
-        o = offset_origin(v.p, v.ng, wi_world);
+        o = offset_origin(v.sp.p, v.sp.ng, wi_world);
         d = wi_world;
-        prev = v.p;
+        prev = v.sp.p;
 
-        // Russian roulette at this vertex's depth (mitransient: min(max(beta) eta^2, 0.95)).
+        // Russian roulette (`roulette.rs`) at this vertex's depth, as mitransient.
         let beta_max = beta.max_element();
         if !above(beta_max, 0.0) {
             break;
         }
-        let q = (beta_max * eta * eta).min(0.95);
         let u_rr = rng.get1(slot::RR);
         if depth >= settings.rr_depth {
-            if u_rr >= q {
+            let Some(q) = roulette(beta_max, eta, u_rr) else {
                 break;
-            }
+            };
             beta /= q;
         }
         depth += 1;
