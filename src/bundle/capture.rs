@@ -6,7 +6,7 @@
 //! is sensor row `sy` lit by laser point `l = ly Lx + lx`. Positions are in scene
 //! units.
 
-use crate::scene::nlos::CaptureType;
+use crate::scene::nlos_setup::CaptureType;
 use crate::scene::Scene;
 use crate::sensors::camera::Projection;
 use crate::sensors::relay_wall::Wall;

@@ -1214,7 +1214,7 @@ mod tests {
         // An unknown laser is representable: null, read back as None.
         let mut m = manifest();
         let n = m.nlos.as_mut().unwrap();
-        n.capture = crate::scene::nlos::CaptureType::Single;
+        n.capture = crate::scene::nlos_setup::CaptureType::Single;
         n.laser_origin = None;
         n.laser_points = vec![None];
         let json = manifest_json(&m).unwrap();

@@ -61,7 +61,7 @@ pub struct MipArgs {
 }
 
 #[derive(Clone, Copy, Debug, ValueEnum)]
-pub enum Method {
+pub enum NlosMethod {
     /// Backprojection (y-tal's `tal.reconstruct.bp`, camera system DIRECT_LIGHT).
     Bp,
     /// Filtered backprojection (y-tal's `tal.reconstruct.fbp`, border 'zero'): the
@@ -83,9 +83,9 @@ pub enum Method {
     Lct,
 }
 
-impl Method {
+impl NlosMethod {
     pub fn wavelength(self) -> bool {
-        matches!(self, Method::Fbp | Method::Pf)
+        matches!(self, NlosMethod::Fbp | NlosMethod::Pf)
     }
 }
 
@@ -94,7 +94,7 @@ pub struct ReconstructArgs {
     /// A capture: a tstat bundle of an NLOS scene, or a y-tal HDF5 capture (.hdf5, .h5).
     pub capture: PathBuf,
     #[arg(long, value_enum)]
-    pub method: Method,
+    pub method: NlosMethod,
     /// The volume: X0,X1,Y0,Y1,Z0,Z1, the first and last voxel centres on each axis
     /// (world coordinates, scene units; for y-tal files, its units).
     #[arg(long, allow_hyphen_values = true)]
@@ -187,7 +187,7 @@ const DEFAULT_MAX_MEMORY: u64 = 8 << 30;
 /// The reconstruction `--method` and its flags ask for (`--wl-mean` and `--wl-sigma`
 /// for fbp and pf, `--snr` for lct), each flag refused where it does not belong.
 pub fn reconstruction(
-    method: Method,
+    method: NlosMethod,
     wl_mean: Option<f64>,
     wl_sigma: Option<f64>,
     snr: Option<f64>,
@@ -208,17 +208,17 @@ pub fn reconstruction(
         }
     };
     match (method, snr) {
-        (Method::Lct, Some(v)) if !(v > 0.0 && v.is_finite()) => {
+        (NlosMethod::Lct, Some(v)) if !(v > 0.0 && v.is_finite()) => {
             bail!("--snr {v}: the signal-to-noise ratio must be positive and finite")
         }
-        (Method::Lct, _) | (_, None) => {}
+        (NlosMethod::Lct, _) | (_, None) => {}
         (_, Some(_)) => bail!("--snr belongs to --method lct"),
     }
     Ok(match (method, wavelengths) {
-        (Method::Fbp, Some((wl_mean, wl_sigma))) => Reconstruction::Fbp { wl_mean, wl_sigma },
-        (Method::Pf, Some((wl_mean, wl_sigma))) => Reconstruction::Pf { wl_mean, wl_sigma },
-        (Method::Fk, _) => Reconstruction::Fk,
-        (Method::Lct, _) => Reconstruction::Lct {
+        (NlosMethod::Fbp, Some((wl_mean, wl_sigma))) => Reconstruction::Fbp { wl_mean, wl_sigma },
+        (NlosMethod::Pf, Some((wl_mean, wl_sigma))) => Reconstruction::Pf { wl_mean, wl_sigma },
+        (NlosMethod::Fk, _) => Reconstruction::Fk,
+        (NlosMethod::Lct, _) => Reconstruction::Lct {
             snr: snr.unwrap_or(lct::DEFAULT_SNR),
         },
         _ => Reconstruction::Bp,

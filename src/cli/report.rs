@@ -9,11 +9,11 @@ use crate::denoise::tstat::TstatParams;
 use crate::denoise::Method;
 use crate::nlos::reconstruct::Reconstruction;
 use crate::report::convergence::{
-    self, run_convergence, ConvergenceConfig, ConvergenceResult, ReferenceSource, Row,
+    self, run_convergence, ConvergenceConfig, ConvergenceResult, ReferenceSource, ResultRow,
 };
 use crate::report::metrics::{Metrics, REL_EPS};
-use crate::report::nlos::NlosPlan;
-use crate::report::plot::{Scale, Series};
+use crate::report::plot::{AxisScale, Series};
+use crate::report::reconstruction::NlosPlan;
 use crate::report::region::{compare_regions, Region};
 
 use crate::report::sweep::{run_sweep, SweepConfig};
@@ -127,7 +127,7 @@ pub struct NlosConvergenceArgs {
 impl NlosConvergenceArgs {
     /// The reconstructions asked for, or `None`.
     fn plan(&self) -> anyhow::Result<Option<NlosPlan>> {
-        use super::nlos::{memory_budget, reconstruction, voxel_grid, Method as Nlos};
+        use super::nlos::{memory_budget, reconstruction, voxel_grid, NlosMethod as Nlos};
         use clap::ValueEnum;
         let Some(list) = &self.reconstruct else {
             return Ok(None);
@@ -441,7 +441,7 @@ fn run_conv(a: ConvergenceArgs) -> anyhow::Result<()> {
     }
     write_text(&a.out.join("results.csv"), &t.csv())?;
     write_text(&a.out.join("results.md"), &md)?;
-    let curve = |m: &str, region: Region, x: fn(&Row) -> f64| Series {
+    let curve = |m: &str, region: Region, x: fn(&ResultRow) -> f64| Series {
         label: m.to_string(),
         points: result
             .rows
@@ -450,7 +450,7 @@ fn run_conv(a: ConvergenceArgs) -> anyhow::Result<()> {
             .filter_map(|r| r.error.get(region).map(|e| (x(r), e.rmse)))
             .collect(),
     };
-    let series = |region: Region, x: fn(&Row) -> f64| -> Vec<Series> {
+    let series = |region: Region, x: fn(&ResultRow) -> f64| -> Vec<Series> {
         result.methods.iter().map(|m| curve(m, region, x)).collect()
     };
     chart(
@@ -459,8 +459,8 @@ fn run_conv(a: ConvergenceArgs) -> anyhow::Result<()> {
         "spp",
         "RMSE",
         &series(Region::All, |r| r.spp as f64),
-        Scale::Log,
-        Scale::Log,
+        AxisScale::Log,
+        AxisScale::Log,
     )?;
     for region in Region::ALL {
         let stem = match region {
@@ -476,8 +476,8 @@ fn run_conv(a: ConvergenceArgs) -> anyhow::Result<()> {
             "seconds",
             "RMSE",
             &series(region, |r| r.total_s),
-            Scale::Log,
-            Scale::Log,
+            AxisScale::Log,
+            AxisScale::Log,
         )?;
     }
     let per_bin: Vec<(String, Vec<Metrics>)> = result
@@ -673,11 +673,11 @@ fn run_sweep_cmd(a: SweepArgs) -> anyhow::Result<()> {
         "RMSE ratio",
         &series,
         if x_name == "gamma" {
-            Scale::Log
+            AxisScale::Log
         } else {
-            Scale::Linear
+            AxisScale::Linear
         },
-        Scale::Linear,
+        AxisScale::Linear,
     )?;
     out.finish();
     super::util::say(format_args!("{md}"))?;
@@ -697,7 +697,7 @@ fn reconstruction_plots(dir: &Path, r: &ConvergenceResult) -> anyhow::Result<()>
     for (k, m) in r.reconstruction_methods.iter().enumerate() {
         let name = m.name();
         let median = convergence::reconstruction_seconds(&r.rows, k);
-        let series = |x: &dyn Fn(&Row, f64) -> f64| -> Vec<Series> {
+        let series = |x: &dyn Fn(&ResultRow, f64) -> f64| -> Vec<Series> {
             r.methods
                 .iter()
                 .map(|c| Series {
@@ -717,8 +717,8 @@ fn reconstruction_plots(dir: &Path, r: &ConvergenceResult) -> anyhow::Result<()>
             "seconds",
             "relative L2 error",
             &series(&|row, s| row.total_s + s),
-            Scale::Log,
-            Scale::Log,
+            AxisScale::Log,
+            AxisScale::Log,
         )?;
         chart(
             &dir.join(format!("reconstruction_{name}_error_vs_spp.png")),
@@ -726,8 +726,8 @@ fn reconstruction_plots(dir: &Path, r: &ConvergenceResult) -> anyhow::Result<()>
             "spp",
             "relative L2 error",
             &series(&|row, _| row.spp as f64),
-            Scale::Log,
-            Scale::Log,
+            AxisScale::Log,
+            AxisScale::Log,
         )?;
         let n = grid.n;
         let scale = (256 / n[0].max(n[1])).clamp(1, 32);

@@ -725,8 +725,8 @@ mod tests {
     #[test]
     fn value_enums_are_named_as_typed() {
         assert_eq!(cli_name(&crate::render::PixelSampling::Sobol), "sobol");
-        use crate::cli::nlos::{reconstruction, Method};
-        for (m, name) in [(Method::Fbp, "fbp"), (Method::Pf, "pf")] {
+        use crate::cli::nlos::{reconstruction, NlosMethod};
+        for (m, name) in [(NlosMethod::Fbp, "fbp"), (NlosMethod::Pf, "pf")] {
             let e = reconstruction(m, None, None, None)
                 .err()
                 .unwrap()

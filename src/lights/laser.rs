@@ -1,6 +1,6 @@
 //! The laser of an NLOS capture (SPEC 11): what it sends a surface point. The scene's
 //! only emitter, a `projector` or a `spot` (`Emitter::laser_frame`), is the laser; the
-//! scene works out where it points at load (`scene/nlos.rs`), the NLOS tracer asks it
+//! scene works out where it points at load (`scene/nlos_setup.rs`), the NLOS tracer asks it
 //! for light at every vertex (`render/nlos/`). Both go through [`laser_light`].
 
 use super::Emitter;

@@ -138,7 +138,7 @@ impl Projector {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::transform::look_at;
+    use crate::scene::to_world::look_at;
     use crate::sensors::camera::FovAxis;
     use glam::DVec3;
 

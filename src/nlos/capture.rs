@@ -9,7 +9,7 @@
 use super::NlosError;
 use crate::bundle::capture::CaptureRecord;
 use crate::bundle::Bundle;
-use crate::scene::nlos::CaptureType;
+use crate::scene::nlos_setup::CaptureType;
 use crate::sensors::time_axis::TimeAxis;
 
 #[derive(Clone)]

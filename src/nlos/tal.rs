@@ -29,7 +29,7 @@ use super::NlosError;
 use crate::bundle::capture::CaptureRecord;
 use crate::bundle::read::RowSums;
 use crate::bundle::{Bundle, BundleError, Problem};
-use crate::scene::nlos::CaptureType;
+use crate::scene::nlos_setup::CaptureType;
 use hdf5_pure::{
     make_f32_type, make_i8_type, Datatype, EnumTypeBuilder, File, FileBuilder, Layout,
 };

@@ -20,8 +20,8 @@
 pub mod adaptive;
 pub mod deposits;
 pub mod gbuffer;
-pub mod integrator;
 pub mod nlos;
+pub mod path_common;
 pub mod pixel_sampling;
 pub mod roulette;
 pub mod sampler;
@@ -39,7 +39,7 @@ use crate::stats::accumulators::{Accumulators, PixelSums, CHANNELS};
 use crate::stats::Transform;
 use deposits::PathDeposits;
 use gbuffer::{GAccum, GPixel};
-use integrator::PathTally;
+use path_common::PathTally;
 pub use pixel_sampling::{PixelPattern, PixelSampling};
 /// `(B, spp / B)` for `replicates` B >= 2, else `(1, spp)` (see
 /// [`RenderSettings::replicate_split`]).

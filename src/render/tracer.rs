@@ -35,7 +35,7 @@
 
 use super::deposits::PathDeposits;
 use super::gbuffer::GSample;
-use super::integrator::{contribute, escape, shadow_ray, PathTally};
+use super::path_common::{contribute, escape, shadow_ray, PathTally};
 use super::roulette::roulette;
 use super::sampler::{pick_scattering, slot, PathSampler};
 use super::vertex::SurfaceVertex;

@@ -51,7 +51,7 @@
 //! first real interaction is a medium scattering records the medium's albedo there, a zero
 //! normal and `medium = true`; depth is the distance to that first interaction.
 
-use super::integrator::{light_target, PathTally};
+use super::path_common::{light_target, PathTally};
 use super::sampler::PathSampler;
 use crate::cpu::Level;
 use crate::geometry::accel::offset_origin;
@@ -70,7 +70,7 @@ pub(super) const MAX_NULL_CROSSINGS: u32 = 256;
 
 /// The shadow ray of a light sample from a point `p` inside a medium (no surface to
 /// leave): towards the light's point moved off its surface along its normal (as
-/// `integrator::shadow_ray`), under the shadow-segment rule (`geometry/shadow.rs`).
+/// `path_common::shadow_ray`), under the shadow-segment rule (`geometry/shadow.rs`).
 /// Direction and end point.
 #[inline(always)]
 pub(super) fn medium_shadow_ray(p: Vec3, ls: &crate::lights::LightSample) -> (Vec3, Vec3) {

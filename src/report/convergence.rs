@@ -5,7 +5,7 @@
 //! speed-up of each denoised result against the noisy curve of the same region.
 
 use super::metrics::Metrics;
-use super::nlos::{NlosPlan, ReconstructionError, Reconstructor};
+use super::reconstruction::{NlosPlan, ReconstructionError, Reconstructor};
 use super::region::{compare_regions, Region, RegionMetrics};
 use super::speedup::{speedup_or_bound, Speedup};
 use super::volume::no_light_mask;
@@ -52,7 +52,7 @@ pub struct ConvergenceConfig {
     /// `denoise.base`.
     pub base_by_scene: bool,
     pub reference: ReferenceSource,
-    /// NLOS scenes: the reconstructions of every capture (`super::nlos`).
+    /// NLOS scenes: the reconstructions of every capture (`super::reconstruction`).
     pub nlos: Option<NlosPlan>,
     /// NLOS scenes take the denoiser's NLOS defaults
     /// ([`DenoiseParams::adapt_to_nlos`]) unless `radius_chosen` (the spatial radius)
@@ -119,7 +119,7 @@ pub fn methods(
 pub const BASELINE: &str = "noisy-independent";
 
 #[derive(Clone, Debug)]
-pub struct Row {
+pub struct ResultRow {
     pub spp: u32,
     pub method: &'static str,
     pub render_s: f64,
@@ -144,7 +144,7 @@ pub struct Row {
     pub reconstruction_speedup: Vec<Option<Speedup>>,
 }
 
-impl Row {
+impl ResultRow {
     /// A measured row (its speed-ups are filled in later, from all rows).
     #[allow(clippy::too_many_arguments)]
     fn measured(
@@ -155,8 +155,8 @@ impl Row {
         error: RegionMetrics,
         evaluations_per_s: f64,
         reconstructions: Vec<ReconstructionError>,
-    ) -> Row {
-        Row {
+    ) -> ResultRow {
+        ResultRow {
             reconstruction_speedup: vec![None; reconstructions.len()],
             reconstructions,
             spp,
@@ -178,7 +178,7 @@ impl Row {
 }
 
 pub struct ConvergenceResult {
-    pub rows: Vec<Row>,
+    pub rows: Vec<ResultRow>,
     /// Method names in table order.
     pub methods: Vec<&'static str>,
     /// Per-bin metrics of each method at the highest spp.
@@ -469,7 +469,7 @@ pub fn run_convergence(
                 Some(r) => r.measure(&noisy_mean(&base, spp)?)?.0,
                 None => Vec::new(),
             };
-            rows.push(Row::measured(
+            rows.push(ResultRow::measured(
                 spp,
                 BASELINE,
                 base.seconds,
@@ -517,7 +517,7 @@ pub fn run_convergence(
                 }
                 None => Vec::new(),
             };
-            rows.push(Row::measured(
+            rows.push(ResultRow::measured(
                 spp,
                 method,
                 out.seconds,
@@ -621,7 +621,7 @@ pub fn run_convergence(
                         Some(r) => r.measure(&vol)?.0,
                         None => Vec::new(),
                     };
-                    rows.push(Row::measured(
+                    rows.push(ResultRow::measured(
                         spp,
                         method,
                         render_s,
@@ -667,7 +667,7 @@ pub fn run_convergence(
 
 /// The equal-error speed-up of every denoised row, per region, against the noisy rows'
 /// (seconds, RMSE) curve over the same region, and against the independent baseline's.
-fn fill_speedups(rows: &mut [Row]) {
+fn fill_speedups(rows: &mut [ResultRow]) {
     let is_noisy = |m: &str| m == "noisy" || m == BASELINE;
     for region in Region::ALL {
         let curve = |name: &str| -> Vec<(f64, f64)> {
@@ -694,7 +694,7 @@ fn fill_speedups(rows: &mut [Row]) {
 /// denoise + reconstruction. A method's reconstruction time does not depend on the
 /// capture's values, so every row counts the median of its measured times (one slow
 /// run would otherwise move a point of the curve).
-fn fill_reconstruction_speedups(rows: &mut [Row]) {
+fn fill_reconstruction_speedups(rows: &mut [ResultRow]) {
     let n = rows.first().map_or(0, |r| r.reconstructions.len());
     for k in 0..n {
         let tr = reconstruction_seconds(rows, k);
@@ -714,7 +714,7 @@ fn fill_reconstruction_speedups(rows: &mut [Row]) {
 }
 
 /// The median over `rows` of reconstruction `k`'s time (0 without rows).
-pub fn reconstruction_seconds(rows: &[Row], k: usize) -> f64 {
+pub fn reconstruction_seconds(rows: &[ResultRow], k: usize) -> f64 {
     let mut times: Vec<f64> = rows.iter().map(|r| r.reconstructions[k].seconds).collect();
     times.sort_by(f64::total_cmp);
     times.get(times.len() / 2).copied().unwrap_or(0.0)

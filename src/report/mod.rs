@@ -4,8 +4,8 @@
 
 pub mod convergence;
 pub mod metrics;
-pub mod nlos;
 pub mod plot;
+pub mod reconstruction;
 pub mod region;
 pub mod speedup;
 pub mod sweep;

@@ -36,14 +36,14 @@ pub const PALETTE: [RGBColor; 6] = [
 
 /// Axis scale.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Scale {
+pub enum AxisScale {
     Linear,
     Log,
 }
 
-fn bounds(values: impl Iterator<Item = f64>, scale: Scale) -> Option<(f64, f64)> {
+fn bounds(values: impl Iterator<Item = f64>, scale: AxisScale) -> Option<(f64, f64)> {
     let v: Vec<f64> = values
-        .filter(|v| v.is_finite() && (scale == Scale::Linear || *v > 0.0))
+        .filter(|v| v.is_finite() && (scale == AxisScale::Linear || *v > 0.0))
         .collect();
     let (lo, hi) = v
         .iter()
@@ -54,10 +54,10 @@ fn bounds(values: impl Iterator<Item = f64>, scale: Scale) -> Option<(f64, f64)>
         return None;
     }
     Some(match scale {
-        Scale::Log if lo == hi => (lo / 2.0, hi * 2.0),
-        Scale::Log => (lo / 1.15, hi * 1.15),
-        Scale::Linear if lo == hi => (lo - 1.0, hi + 1.0),
-        Scale::Linear => (lo, hi),
+        AxisScale::Log if lo == hi => (lo / 2.0, hi * 2.0),
+        AxisScale::Log => (lo / 1.15, hi * 1.15),
+        AxisScale::Linear if lo == hi => (lo - 1.0, hi + 1.0),
+        AxisScale::Linear => (lo, hi),
     })
 }
 
@@ -70,8 +70,8 @@ pub fn line_chart(
     x_label: &str,
     y_label: &str,
     series: &[Series],
-    x_scale: Scale,
-    y_scale: Scale,
+    x_scale: AxisScale,
+    y_scale: AxisScale,
 ) -> Result<bool, ReportError> {
     register_font();
     let all = || series.iter().flat_map(|s| s.points.iter());
@@ -92,10 +92,10 @@ pub fn line_chart(
             (yb.0..yb.1).log_scale().base(base(yb)),
         );
         let r = match (x_scale, y_scale) {
-            (Scale::Log, Scale::Log) => draw(
+            (AxisScale::Log, AxisScale::Log) => draw(
                 &root, title, x_label, y_label, series, xl, yl, x_scale, y_scale,
             ),
-            (Scale::Linear, Scale::Log) => draw(
+            (AxisScale::Linear, AxisScale::Log) => draw(
                 &root,
                 title,
                 x_label,
@@ -106,7 +106,7 @@ pub fn line_chart(
                 x_scale,
                 y_scale,
             ),
-            (Scale::Log, Scale::Linear) => draw(
+            (AxisScale::Log, AxisScale::Linear) => draw(
                 &root,
                 title,
                 x_label,
@@ -117,7 +117,7 @@ pub fn line_chart(
                 x_scale,
                 y_scale,
             ),
-            (Scale::Linear, Scale::Linear) => draw(
+            (AxisScale::Linear, AxisScale::Linear) => draw(
                 &root,
                 title,
                 x_label,
@@ -149,8 +149,8 @@ fn draw<DB: DrawingBackend, X, Y>(
     series: &[Series],
     x: X,
     y: Y,
-    x_scale: Scale,
-    y_scale: Scale,
+    x_scale: AxisScale,
+    y_scale: AxisScale,
 ) -> Result<(), Box<dyn std::error::Error + 'static>>
 where
     DB::ErrorType: 'static,
@@ -178,7 +178,7 @@ where
         .light_line_style(WHITE)
         .label_style(("sans-serif", 15))
         .draw()?;
-    let ok = |v: f64, s: Scale| v.is_finite() && (s == Scale::Linear || v > 0.0);
+    let ok = |v: f64, s: AxisScale| v.is_finite() && (s == AxisScale::Linear || v > 0.0);
     for (k, s) in series.iter().enumerate() {
         let color = PALETTE[k % PALETTE.len()];
         let pts: Vec<(f64, f64)> = s

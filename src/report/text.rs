@@ -6,7 +6,7 @@
 
 use super::convergence::{ConvergenceConfig, ConvergenceResult, BASELINE};
 use super::metrics::{Metrics, REL_EPS};
-use super::plot::{line_chart, Scale, Series};
+use super::plot::{line_chart, AxisScale, Series};
 use super::region::{rmse_ratio, Region, RegionMetrics};
 use super::speedup::Speedup;
 use super::table::{num, write_text, Table};
@@ -19,8 +19,8 @@ pub fn chart(
     x: &str,
     y: &str,
     series: &[Series],
-    xs: Scale,
-    ys: Scale,
+    xs: AxisScale,
+    ys: AxisScale,
 ) -> anyhow::Result<()> {
     if !line_chart(path, title, x, y, series, xs, ys)? {
         eprintln!(
@@ -94,8 +94,8 @@ pub fn write_per_bin(
         "time bin",
         "RMSE",
         &series,
-        Scale::Linear,
-        Scale::Log,
+        AxisScale::Linear,
+        AxisScale::Log,
     )
 }
 

@@ -84,7 +84,7 @@ pub(super) fn parse_integrator(ctx: &Ctx, node: Node) -> Result<IntegratorSettin
         if p.peek("camera_unwarp").is_some() && p.boolean_or("camera_unwarp", false)? {
             return Err(p.err_at("camera_unwarp", "transient_nlos_path does not take camera_unwarp (as mitransient 1.3.1): use account_first_and_last_bounces"));
         }
-        Some(super::nlos::parse_settings(&mut p, max_depth)?)
+        Some(super::nlos_setup::parse_settings(&mut p, max_depth)?)
     } else {
         None
     };

@@ -18,7 +18,7 @@ mod integrator;
 pub mod limits;
 pub mod media;
 pub mod mesh;
-pub mod nlos;
+pub mod nlos_setup;
 pub mod plugins;
 pub mod ply_attributes;
 pub mod projector;
@@ -32,7 +32,7 @@ pub mod shapes;
 pub mod spectrum;
 pub mod table;
 pub mod textures;
-pub mod transform;
+pub mod to_world;
 mod xml;
 
 use crate::geometry::accel::Accel;
@@ -71,7 +71,7 @@ pub struct IntegratorSettings {
     /// mitransient's `temporal_filter`: how a contribution reaches the time bins.
     pub time_filter: crate::sensors::time_filter::TimeFilter,
     /// `transient_nlos_path`: the NLOS tracer (`render/nlos.rs`) and its settings.
-    pub nlos: Option<nlos::NlosSettings>,
+    pub nlos: Option<nlos_setup::NlosSettings>,
 }
 
 impl Default for IntegratorSettings {
@@ -130,7 +130,7 @@ pub struct Scene {
     /// The medium the camera sits in.
     pub camera_medium: Option<u32>,
     /// An NLOS capture's geometry (`transient_nlos_path`), prepared at load.
-    pub nlos: Option<nlos::NlosSetup>,
+    pub nlos: Option<nlos_setup::NlosSetup>,
     pub accel: Accel,
     /// Legal but suspicious input (an emitter that contributes nothing, a shape with no
     /// area), one line each as `file:line: <element>: message`. The caller prints them

@@ -4,7 +4,7 @@
 
 use super::ctx::{scene_number, scene_numbers, Ctx};
 use super::error::SceneError;
-use super::transform::parse_transform;
+use super::to_world::parse_transform;
 use crate::scene::spectrum::{list_to_srgb, uniform_to_srgb, SpectrumUse, UNBOUNDED_SPECTRA};
 use glam::{DMat4, Vec3};
 use roxmltree::Node;

@@ -52,7 +52,7 @@ pub(super) enum SensorProjection {
     },
     Orthographic,
     /// `nlos_capture_meter` on a relay wall.
-    Meter(super::nlos::CaptureMeter),
+    Meter(super::nlos_setup::CaptureMeter),
 }
 
 /// Why a sensor's `to_world` is refused.
@@ -109,7 +109,7 @@ pub(super) fn parse_meter(
     shape: &Shape,
 ) -> Result<Sensor, SceneError> {
     let mut p = Props::parse(ctx, node)?;
-    let (origin, legacy_laser) = super::nlos::parse_meter_params(&mut p)?;
+    let (origin, legacy_laser) = super::nlos_setup::parse_meter_params(&mut p)?;
     check_world_point(origin.as_dvec3())
         .map_err(|e| p.err_at("sensor_origin", format!("sensor_origin: {e}")))?;
     let wall = crate::sensors::relay_wall::Wall::of_rectangle(shape)
@@ -169,7 +169,7 @@ pub(super) fn parse_meter(
         line: ctx.line(node),
         kind: "nlos_capture_meter".into(),
         to_world: DMat4::from_translation(origin.as_dvec3()),
-        projection: SensorProjection::Meter(super::nlos::CaptureMeter {
+        projection: SensorProjection::Meter(super::nlos_setup::CaptureMeter {
             origin,
             shape: index,
             wall,

@@ -91,10 +91,10 @@ pub fn load_serialized(path: &Path, shape_index: u64) -> Result<SerializedMesh, 
     let (mut file, len) = crate::io::open_regular(path, crate::io::MAX_MESH_BYTES)
         .map_err(|e| io_err(e.to_string()))?;
     let parsed = read_serialized(&mut file, len, shape_index).map_err(|p| match p {
-        Problem::NoFaces => MeshError::NoFaces {
+        SerializedProblem::NoFaces => MeshError::NoFaces {
             path: path.to_path_buf(),
         },
-        Problem::Invalid(problem) => MeshError::Serialized {
+        SerializedProblem::Invalid(problem) => MeshError::Serialized {
             path: path.to_path_buf(),
             problem,
         },
@@ -104,14 +104,14 @@ pub fn load_serialized(path: &Path, shape_index: u64) -> Result<SerializedMesh, 
 
 /// What went wrong; the caller adds the path.
 #[derive(Debug)]
-pub enum Problem {
+pub enum SerializedProblem {
     NoFaces,
     Invalid(SerializedError),
 }
 
-impl From<SerializedError> for Problem {
+impl From<SerializedError> for SerializedProblem {
     fn from(e: SerializedError) -> Self {
-        Problem::Invalid(e)
+        SerializedProblem::Invalid(e)
     }
 }
 
@@ -120,7 +120,7 @@ pub fn read_serialized<F: Read + Seek>(
     file: &mut F,
     len: u64,
     shape_index: u64,
-) -> Result<SerializedMesh, Problem> {
+) -> Result<SerializedMesh, SerializedProblem> {
     let mut header = [0u8; 4];
     read_raw(file, &mut header).map_err(|_| SerializedError::TruncatedHeader { len })?;
     let (magic, version) = header_of(header);
@@ -171,7 +171,7 @@ pub fn read_serialized<F: Read + Seek>(
         Err(e) => return Err(z.error(e).into()),
     }
     if m.mesh.triangles.is_empty() {
-        return Err(Problem::NoFaces);
+        return Err(SerializedProblem::NoFaces);
     }
     m.version = version;
     Ok(m)
@@ -195,8 +195,8 @@ fn dictionary_offset<F: Read + Seek>(
     len: u64,
     version: u16,
     index: u64,
-) -> Result<u64, Problem> {
-    let no_dict = || Problem::from(SerializedError::NoDictionary { index });
+) -> Result<u64, SerializedProblem> {
+    let no_dict = || SerializedProblem::from(SerializedError::NoDictionary { index });
     if len < 8 {
         return Err(no_dict());
     }
@@ -381,7 +381,10 @@ fn triangles(
 }
 
 /// Versions 3 and 4.
-fn read_legacy<R: Read>(z: &mut Stream<R>, version: u16) -> Result<SerializedMesh, Problem> {
+fn read_legacy<R: Read>(
+    z: &mut Stream<R>,
+    version: u16,
+) -> Result<SerializedMesh, SerializedProblem> {
     let flags = z.u32()?;
     let mut name = Vec::new();
     if version == 4 {
@@ -458,7 +461,7 @@ fn frame_normal(p: Vec3) -> Vec3 {
 }
 
 /// Version 5.
-fn read_v5<R: Read>(z: &mut Stream<R>) -> Result<SerializedMesh, Problem> {
+fn read_v5<R: Read>(z: &mut Stream<R>) -> Result<SerializedMesh, SerializedProblem> {
     let flags = z.u32()?;
     if flags & V5_SINGLE == 0 {
         return Err(SerializedError::NotSinglePrecision.into());

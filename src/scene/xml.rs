@@ -154,7 +154,8 @@ pub fn load(path: &Path, overrides: &Overrides) -> Result<Scene, SceneError> {
         }
     }
     if let Some([lw, lh]) = meter.as_ref().and_then(|m| m.laser_scan) {
-        if integrator.nlos.as_ref().map(|n| n.capture) == Some(super::nlos::CaptureType::Exhaustive)
+        if integrator.nlos.as_ref().map(|n| n.capture)
+            == Some(super::nlos_setup::CaptureType::Exhaustive)
         {
             film.height = lh
                 .checked_mul(lw)
@@ -170,7 +171,7 @@ pub fn load(path: &Path, overrides: &Overrides) -> Result<Scene, SceneError> {
     let nlos = match &integrator.nlos {
         Some(settings) => {
             let mut warnings = Vec::new();
-            let setup = super::nlos::prepare(
+            let setup = super::nlos_setup::prepare(
                 settings,
                 meter,
                 grid,

@@ -77,7 +77,7 @@ pub enum Projection {
     /// its scale): the near plane is `near_clip` of it away.
     Orthographic { extent: [Vec3; 2], depth: Vec3 },
     /// `nlos_capture_meter`: from `Camera::origin` (`sensor_origin`) towards the centre
-    /// of the relay wall's grid cell of the film position (`scene/nlos.rs`); film row
+    /// of the relay wall's grid cell of the film position (`scene/nlos_setup.rs`); film row
     /// `r` is sensor row `r % grid_height` (exhaustive scans stack one image per laser
     /// point).
     Meter {
@@ -296,7 +296,7 @@ impl Camera {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::transform::look_at;
+    use crate::scene::to_world::look_at;
     use glam::DVec3;
 
     #[test]

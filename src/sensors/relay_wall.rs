@@ -1,5 +1,5 @@
 //! The relay wall of an NLOS capture (SPEC 11): the rectangle an `nlos_capture_meter`
-//! measures, its grid of points and where rays meet it. `scene/nlos.rs` finds it in the
+//! measures, its grid of points and where rays meet it. `scene/nlos_setup.rs` finds it in the
 //! scene; `camera.rs` aims the meter's rays at its grid.
 
 use crate::geometry::accel::Hit;

@@ -20,14 +20,14 @@ pub enum Axis {
 }
 
 /// A projection: `width x height` values, row 0 at the top.
-pub struct Projection {
+pub struct MipImage {
     pub width: usize,
     pub height: usize,
     pub values: Vec<f32>,
 }
 
 /// The projection of `v` ((NX, NY, NZ) row-major) along `axis`; NaN cells count as 0.
-pub fn project(v: &[f32], n: [usize; 3], axis: Axis) -> Projection {
+pub fn project(v: &[f32], n: [usize; 3], axis: Axis) -> MipImage {
     assert_eq!(v.len(), n[0] * n[1] * n[2], "volume of {n:?} voxels");
     let mut p = Projector::new(n, axis);
     p.add(0, v);
@@ -39,7 +39,7 @@ pub fn project(v: &[f32], n: [usize; 3], axis: Axis) -> Projection {
 pub struct Projector {
     n: [usize; 3],
     axis: Axis,
-    p: Projection,
+    p: MipImage,
 }
 
 impl Projector {
@@ -53,7 +53,7 @@ impl Projector {
         Projector {
             n,
             axis,
-            p: Projection {
+            p: MipImage {
                 width,
                 height,
                 values: vec![f32::NEG_INFINITY; width * height],
@@ -107,7 +107,7 @@ impl Projector {
         }
     }
 
-    pub fn finish(self) -> Projection {
+    pub fn finish(self) -> MipImage {
         self.p
     }
 }
@@ -134,7 +134,7 @@ pub fn ramp(t: f32) -> [u8; 3] {
 
 /// The projection as RGB8 pixels, `scale` pixels per cell, scaled by its maximum (an
 /// all-zero projection is black); returns (width, height, pixels).
-pub fn picture(p: &Projection, scale: usize) -> (u32, u32, Vec<u8>) {
+pub fn picture(p: &MipImage, scale: usize) -> (u32, u32, Vec<u8>) {
     let top = p.values.iter().fold(0f32, |a, &b| a.max(b));
     let (w, h) = (p.width * scale, p.height * scale);
     let mut px = Vec::with_capacity(w * h * 3);

@@ -10,7 +10,7 @@ use std::process::Command;
 use std::sync::Arc;
 use tstat::render::adaptive::{allocate, pilot, weights, AdaptiveOptions, ErrorMeasure};
 use tstat::render::deposits::PathDeposits;
-use tstat::render::integrator::PathTally;
+use tstat::render::path_common::PathTally;
 use tstat::render::tracer::trace_path;
 use tstat::render::{render, PixelSampling, RenderOutput, RenderSettings};
 use tstat::scene::{Overrides, Scene};

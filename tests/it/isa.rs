@@ -11,7 +11,7 @@ use crate::common;
 use tstat::cpu::{self, Isa};
 use tstat::math::rng::Pcg32;
 use tstat::render::deposits::PathDeposits;
-use tstat::render::integrator::PathTally;
+use tstat::render::path_common::PathTally;
 use tstat::render::tracer::trace_path;
 use tstat::scene::{Overrides, Scene};
 

@@ -9,7 +9,7 @@ use tstat::nlos::capture::Capture;
 use tstat::nlos::reconstruct::Reconstruction;
 use tstat::render::{render, PixelSampling, RenderSettings};
 use tstat::report::convergence::noisy_mean;
-use tstat::report::nlos::{NlosPlan, Reconstructor};
+use tstat::report::reconstruction::{NlosPlan, Reconstructor};
 use tstat::scene::{Overrides, Scene};
 use tstat::stats::Transform;
 

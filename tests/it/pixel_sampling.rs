@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 use tstat::math::rng::Pcg32;
 use tstat::render::deposits::PathDeposits;
-use tstat::render::integrator::PathTally;
+use tstat::render::path_common::PathTally;
 use tstat::render::tracer::trace_path;
 use tstat::render::{pixel_positions, render, PixelSampling, RenderOutput, RenderSettings};
 use tstat::scene::{Overrides, Scene};

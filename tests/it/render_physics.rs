@@ -2,7 +2,7 @@
 
 use tstat::math::rng::Pcg32;
 use tstat::render::deposits::PathDeposits;
-use tstat::render::integrator::PathTally;
+use tstat::render::path_common::PathTally;
 use tstat::render::tracer::trace_path;
 use tstat::render::RenderOutput;
 use tstat::scene::{Overrides, Scene};

@@ -11,7 +11,7 @@ use flate2::Compression;
 use glam::{Vec2, Vec3};
 use tstat::render::{render, PixelSampling, RenderSettings};
 use tstat::scene::mesh::MeshData;
-use tstat::scene::serialized::{read_serialized, Problem, SerializedMesh};
+use tstat::scene::serialized::{read_serialized, SerializedMesh, SerializedProblem};
 use tstat::scene::{Overrides, Scene};
 use tstat::stats::Transform;
 
@@ -182,8 +182,8 @@ fn v5_body(m: &V5) -> Vec<u8> {
 
 fn read(bytes: &[u8], index: u64) -> Result<SerializedMesh, String> {
     read_serialized(&mut Cursor::new(bytes), bytes.len() as u64, index).map_err(|p| match p {
-        Problem::NoFaces => "no faces".to_string(),
-        Problem::Invalid(m) => m.to_string(),
+        SerializedProblem::NoFaces => "no faces".to_string(),
+        SerializedProblem::Invalid(m) => m.to_string(),
     })
 }
 

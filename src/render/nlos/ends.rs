@@ -1,11 +1,11 @@
 //! What every path of one NLOS grid point shares, looked up per pixel from the setup
-//! the scene prepared at load (`scene/nlos.rs`): which laser point and sensor point a
+//! the scene prepared at load (`scene/nlos_setup.rs`): which laser point and sensor point a
 //! film row holds, the surface laser sampling aims at, the laser's light there, and a
 //! capture meter's first hit.
 
 use crate::geometry::accel::Hit;
 use crate::lights::laser::LaserLight;
-use crate::scene::nlos::{CaptureType, NlosSetup};
+use crate::scene::nlos_setup::{CaptureType, NlosSetup};
 
 /// The ends of the paths of one sensor point under one laser point ([`path_ends`]).
 #[derive(Clone, Copy, Debug, Default)]

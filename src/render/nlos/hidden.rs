@@ -1,11 +1,11 @@
 //! Hidden-geometry sampling (`nlos_hidden_geometry_sampling`): a path continues
 //! towards a uniform point of the hidden geometry the scene listed at load
-//! (`scene::nlos::HiddenGeometry`: shapes chosen by area, then a uniform point on the
+//! (`scene::nlos_setup::HiddenGeometry`: shapes chosen by area, then a uniform point on the
 //! chosen one, so each point has density 1 / area), converted to solid angle.
 
 use crate::geometry::accel::Hit;
 use crate::geometry::shape::Shape;
-use crate::scene::nlos::HiddenGeometry;
+use crate::scene::nlos_setup::HiddenGeometry;
 use glam::Vec3;
 
 /// The solid-angle density with which [`sample`] picks direction `dir` from point `p`

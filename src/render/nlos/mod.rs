@@ -1,7 +1,7 @@
 //! `transient_nlos_path`: mitransient 1.3.1's NLOS path tracer (`transientnlospath.py`,
 //! after [Royo2022] "Non-line-of-sight transient rendering"), transcribed for one path
 //! at a time. The scene's setup (lit points, laser, hidden geometry) is
-//! `scene/nlos.rs`; what a grid point's paths share is `ends.rs`, hidden-geometry
+//! `scene/nlos_setup.rs`; what a grid point's paths share is `ends.rs`, hidden-geometry
 //! sampling `hidden.rs`.
 //!
 //! A path starts at the sensor (the capture meter's `sensor_origin`, or a camera) and
@@ -37,7 +37,7 @@ pub mod hidden;
 
 use super::deposits::PathDeposits;
 use super::gbuffer::GSample;
-use super::integrator::{contribute, PathTally};
+use super::path_common::{contribute, PathTally};
 use super::roulette::roulette;
 use super::sampler::{slot, PathSampler};
 use super::vertex::SurfaceVertex;
@@ -47,7 +47,7 @@ use crate::geometry::shadow::shadow_segment;
 use crate::lights::laser::{laser_light, LaserLight};
 use crate::materials::BsdfModel;
 use crate::math::Rgb;
-use crate::scene::nlos::{CaptureType, NlosSettings, NlosSetup};
+use crate::scene::nlos_setup::{CaptureType, NlosSettings, NlosSetup};
 use crate::scene::Scene;
 use ends::PathEnds;
 use glam::Vec3;
@@ -125,7 +125,7 @@ fn nlos_avx2<S: PathSampler>(
 }
 
 /// The path's fixed context.
-struct Ctx<'a> {
+struct NlosPath<'a> {
     scene: &'a Scene,
     n: &'a NlosSettings,
     setup: &'a NlosSetup,
@@ -133,7 +133,7 @@ struct Ctx<'a> {
     focus: bool,
 }
 
-impl Ctx<'_> {
+impl NlosPath<'_> {
     /// Whether something lies between `from` and `to` (the segment's last 1e-4 left
     /// out, as Mitsuba's shadow rays).
     #[inline(always)]
@@ -278,7 +278,7 @@ fn body<L: Level, S: PathSampler>(
     let (Some(n), Some(setup)) = (settings.nlos.as_ref(), scene.nlos.as_ref()) else {
         unreachable!("the NLOS tracer runs only on scenes loaded with transient_nlos_path");
     };
-    let ctx = Ctx {
+    let ctx = NlosPath {
         scene,
         n,
         setup,

@@ -95,14 +95,14 @@ pub enum MeshError {
 
 /// What went wrong while decoding file contents (a [`PlyError`] or an [`ObjError`]);
 /// the caller adds the path.
-pub(super) enum Problem<E> {
+pub(super) enum MeshProblem<E> {
     NoFaces,
     Invalid(E),
 }
 
-impl<E> From<E> for Problem<E> {
+impl<E> From<E> for MeshProblem<E> {
     fn from(e: E) -> Self {
-        Problem::Invalid(e)
+        MeshProblem::Invalid(e)
     }
 }
 

@@ -1,6 +1,6 @@
 //! Wavefront OBJ meshes through `tobj`, one index per vertex (module docs of `mesh`).
 
-use super::{finite_vec3, read_file, MeshData, MeshError, Problem};
+use super::{finite_vec3, read_file, MeshData, MeshError, MeshProblem};
 use glam::Vec2;
 use std::path::Path;
 
@@ -96,17 +96,17 @@ pub enum ObjError {
 pub fn load_obj(path: &Path) -> Result<MeshData, MeshError> {
     let bytes = read_file(path)?;
     parse_obj(&bytes).map_err(|problem| match problem {
-        Problem::NoFaces => MeshError::NoFaces {
+        MeshProblem::NoFaces => MeshError::NoFaces {
             path: path.to_path_buf(),
         },
-        Problem::Invalid(problem) => MeshError::Obj {
+        MeshProblem::Invalid(problem) => MeshError::Obj {
             path: path.to_path_buf(),
             problem,
         },
     })
 }
 
-fn parse_obj(bytes: &[u8]) -> Result<MeshData, Problem<ObjError>> {
+fn parse_obj(bytes: &[u8]) -> Result<MeshData, MeshProblem<ObjError>> {
     let text = std::str::from_utf8(bytes).map_err(ObjError::NotUtf8)?;
     check_obj_faces(text)?;
 
@@ -190,7 +190,7 @@ fn parse_obj(bytes: &[u8]) -> Result<MeshData, Problem<ObjError>> {
         }
     }
     if triangles.is_empty() {
-        return Err(Problem::NoFaces);
+        return Err(MeshProblem::NoFaces);
     }
     Ok(MeshData {
         positions,

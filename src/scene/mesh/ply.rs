@@ -1,7 +1,7 @@
 //! PLY meshes (ASCII, binary little- and big-endian) through `ply-rs`, with the
 //! checks that keep its panics out of reach (module docs of `mesh`).
 
-use super::{finite_vec3, read_file, MeshData, MeshError, Problem};
+use super::{finite_vec3, read_file, MeshData, MeshError, MeshProblem};
 use crate::geometry::mesh_attributes::{MeshAttribute, MeshAttributes};
 use crate::scene::ply_attributes;
 use glam::{Vec2, Vec3};
@@ -119,10 +119,10 @@ pub fn load_ply_with_attributes(
 ) -> Result<(MeshData, Option<MeshAttributes>), MeshError> {
     let bytes = read_file(path)?;
     parse_ply(&bytes).map_err(|problem| match problem {
-        Problem::NoFaces => MeshError::NoFaces {
+        MeshProblem::NoFaces => MeshError::NoFaces {
             path: path.to_path_buf(),
         },
-        Problem::Invalid(problem) => MeshError::Ply {
+        MeshProblem::Invalid(problem) => MeshError::Ply {
             path: path.to_path_buf(),
             problem,
         },
@@ -133,7 +133,7 @@ pub fn load_ply_with_attributes(
 /// preference.
 const FACE_LIST_NAMES: [&str; 2] = ["vertex_indices", "vertex_index"];
 
-fn parse_ply(bytes: &[u8]) -> Result<(MeshData, Option<MeshAttributes>), Problem<PlyError>> {
+fn parse_ply(bytes: &[u8]) -> Result<(MeshData, Option<MeshAttributes>), MeshProblem<PlyError>> {
     if !bytes.starts_with(b"ply") {
         return Err(PlyError::NotPly.into());
     }
@@ -179,7 +179,7 @@ struct Layout<'h> {
 impl<'h> Layout<'h> {
     /// Checks that the header describes a mesh: scalar x, y, z, a non-empty face
     /// element with an integer list of indices.
-    fn of(header: &'h Header) -> Result<Layout<'h>, Problem<PlyError>> {
+    fn of(header: &'h Header) -> Result<Layout<'h>, MeshProblem<PlyError>> {
         let vertex_def = header
             .elements
             .get("vertex")
@@ -210,7 +210,7 @@ impl<'h> Layout<'h> {
         });
         let face_def = match header.elements.get("face") {
             Some(def) if def.count > 0 => def,
-            _ => return Err(Problem::NoFaces),
+            _ => return Err(MeshProblem::NoFaces),
         };
         let list_name = FACE_LIST_NAMES
             .into_iter()
@@ -241,7 +241,7 @@ fn read_mesh_elements(
     header: &Header,
     data: &mut &[u8],
     line_no: &mut usize,
-) -> Result<(Vec<PlyVertex>, Vec<PlyFace>), Problem<PlyError>> {
+) -> Result<(Vec<PlyVertex>, Vec<PlyFace>), MeshProblem<PlyError>> {
     let mut vertices: Option<Vec<PlyVertex>> = None;
     let mut faces: Option<Vec<PlyFace>> = None;
     for def in header.elements.values() {

@@ -224,7 +224,7 @@ impl LegacyLaser {
             (_, Some(t)) => t,
             _ => return None,
         };
-        super::transform::look_at(self.origin.as_dvec3(), target.as_dvec3(), glam::DVec3::Y)
+        super::to_world::look_at(self.origin.as_dvec3(), target.as_dvec3(), glam::DVec3::Y)
     }
 }
 
@@ -361,7 +361,7 @@ pub const MAX_GRID_POINTS: usize = 1 << 22;
 
 /// Why a `transient_nlos_path` render cannot be prepared from the scene ([`prepare`]).
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
-pub enum NlosError {
+pub enum NlosSetupError {
     /// Not exactly one emitter.
     #[error(
         "transient_nlos_path needs exactly one emitter, the laser (a projector or spot), as mitransient 1.3.1; the scene has {emitters}"
@@ -462,44 +462,44 @@ pub fn prepare(
     emitters: &[Emitter],
     accel: &Accel,
     warn: &mut dyn FnMut(String),
-) -> Result<NlosSetup, NlosError> {
+) -> Result<NlosSetup, NlosSetupError> {
     if emitters.len() != 1 {
-        return Err(NlosError::EmitterCount {
+        return Err(NlosSetupError::EmitterCount {
             emitters: emitters.len(),
         });
     }
-    let (laser_origin, axis) = emitters[0].laser_frame().ok_or(NlosError::LaserKind)?;
+    let (laser_origin, axis) = emitters[0].laser_frame().ok_or(NlosSetupError::LaserKind)?;
     if !laser_origin.is_finite() {
-        return Err(NlosError::LaserOrigin {
+        return Err(NlosSetupError::LaserOrigin {
             origin: laser_origin.to_array(),
         });
     }
     let laser_axis = axis.normalize();
     if !laser_axis.is_finite() {
-        return Err(NlosError::LaserAxis);
+        return Err(NlosSetupError::LaserAxis);
     }
     let capture = settings.capture;
     let points = |[w, h]: [usize; 2]| w.saturating_mul(h);
     if meter.is_some() && points(grid) > MAX_GRID_POINTS {
-        return Err(NlosError::MeterGrid { grid });
+        return Err(NlosSetupError::MeterGrid { grid });
     }
     if capture != CaptureType::Single && meter.is_none() {
-        return Err(NlosError::NoMeter { capture });
+        return Err(NlosSetupError::NoMeter { capture });
     }
     if capture == CaptureType::Exhaustive && !settings.laser_sampling {
-        return Err(NlosError::ExhaustiveWithoutLaserSampling);
+        return Err(NlosSetupError::ExhaustiveWithoutLaserSampling);
     }
     let laser_grid = match (capture, meter.as_ref().and_then(|m| m.laser_scan)) {
-        (CaptureType::Exhaustive, None) => return Err(NlosError::ExhaustiveWithoutScan),
+        (CaptureType::Exhaustive, None) => return Err(NlosSetupError::ExhaustiveWithoutScan),
         (CaptureType::Exhaustive, Some(g)) => g,
-        (_, Some(_)) => return Err(NlosError::ScanWithoutExhaustive { capture }),
+        (_, Some(_)) => return Err(NlosSetupError::ScanWithoutExhaustive { capture }),
         (_, None) => [1, 1],
     };
     if points(laser_grid) > MAX_GRID_POINTS {
-        return Err(NlosError::LaserGrid { grid: laser_grid });
+        return Err(NlosSetupError::LaserGrid { grid: laser_grid });
     }
     if capture == CaptureType::Exhaustive && settings.force_equal_grids && laser_grid != grid {
-        return Err(NlosError::UnequalGrids {
+        return Err(NlosSetupError::UnequalGrids {
             laser: laser_grid,
             film: grid,
         });
@@ -524,7 +524,7 @@ pub fn prepare(
             }
             let missed = out.iter().filter(|h| h.is_none()).count();
             if missed == out.len() {
-                return Err(NlosError::MeterMissesScene);
+                return Err(NlosSetupError::MeterMissesScene);
             }
             if missed > 0 {
                 warn(format!("{missed} of the capture meter's {} rays meet nothing: those points measure nothing and, as lit points, light nothing", out.len()));
@@ -539,7 +539,7 @@ pub fn prepare(
             CaptureType::Single => {
                 let wall = meter.as_ref().map(|m| (&m.wall, m.shape));
                 let hit = first_hit(accel, shapes, wall, laser_origin, laser_axis)
-                    .ok_or(NlosError::LaserMissesScene)?;
+                    .ok_or(NlosSetupError::LaserMissesScene)?;
                 vec![Some(hit)]
             }
             CaptureType::Confocal => sensor_hits.clone(),
@@ -563,7 +563,7 @@ pub fn prepare(
                 continue;
             }
             if matches!(s.geom, ShapeGeom::Curve(_) | ShapeGeom::Sdf(_)) {
-                return Err(NlosError::HiddenShapeWithoutArea {
+                return Err(NlosSetupError::HiddenShapeWithoutArea {
                     shape: s.name.clone(),
                 });
             }
@@ -572,7 +572,7 @@ pub fn prepare(
         }
         let total: f64 = areas.iter().sum();
         if ids.is_empty() || !(total > 0.0 && total.is_finite()) {
-            return Err(NlosError::HiddenGeometryWithoutArea);
+            return Err(NlosSetupError::HiddenGeometryWithoutArea);
         }
         let mut acc = 0.0;
         let cdf = areas
@@ -646,8 +646,10 @@ fn scan_targets(
     grid: [usize; 2],
     shapes: &[Shape],
     accel: &Accel,
-) -> Result<Vec<Option<Hit>>, NlosError> {
-    let (origin, axes) = emitters[0].laser_axes().ok_or(NlosError::ScanLaserKind)?;
+) -> Result<Vec<Option<Hit>>, NlosSetupError> {
+    let (origin, axes) = emitters[0]
+        .laser_axes()
+        .ok_or(NlosSetupError::ScanLaserKind)?;
     let t = (0.5 * fov.to_radians()).tan() as f32;
     let mut out = Vec::with_capacity(grid[0] * grid[1]);
     let mut missed = 0;
@@ -665,10 +667,10 @@ fn scan_targets(
         }
     }
     if missed == out.len() {
-        return Err(NlosError::ScanMissesScene);
+        return Err(NlosSetupError::ScanMissesScene);
     }
     if let Some(i) = out.iter().position(Option::is_none) {
-        return Err(NlosError::ScanMisses {
+        return Err(NlosSetupError::ScanMisses {
             missed,
             total: out.len(),
             first: [i % grid[0], i / grid[0]],
