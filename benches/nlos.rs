@@ -5,8 +5,8 @@
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use tstat::math::rng::Pcg32;
-use tstat::nlos::bp::{backproject, filtered_backproject, VoxelGrid};
 use tstat::nlos::capture::Capture;
+use tstat::nlos::reconstruct::bp::{backproject, filtered_backproject, VoxelGrid};
 
 /// An n x n grid of points on the wall [-1, 1]^2 at z = 0 (cell centres).
 fn wall(n: usize) -> Vec<[f32; 3]> {

@@ -17,7 +17,7 @@
    relative to y-tal's maximum (target <= 1e-3), and both times (y-tal's solve; tstat's
    whole process, and its reconstruction alone when it prints it).
 4. `--method lct` on the same grid against a numpy transcription of what
-   `src/nlos/lct.rs` documents (O'Toole's LCT with the Wiener filter, snr 0.8, the
+   `src/nlos/reconstruct/lct.rs` documents (O'Toole's LCT with the Wiener filter, snr 0.8, the
    cone sampled on the data's grid), as a check of the Rust numerics (y-tal 0.20 has
    no LCT).
 
@@ -49,7 +49,7 @@ def run(cmd):
 
 
 def lct_numpy(H, width, delta_t, snr=0.8):
-    """The LCT of src/nlos/lct.rs in numpy: H (M, N, N) from OPL 0."""
+    """The LCT of src/nlos/reconstruct/lct.rs in numpy: H (M, N, N) from OPL 0."""
     M, N, _ = H.shape
     R = delta_t * M
     # The light cone on the data's grid, apex at sample 0 after the shift.

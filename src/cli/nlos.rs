@@ -5,9 +5,9 @@
 use super::util::{arg, check_outputs, human_bytes, size_flag, Kind};
 use crate::bundle::write::stage;
 use crate::bundle::{Bundle, BundleError};
-use crate::nlos::bp::VoxelGrid;
 use crate::nlos::capture::Capture;
-use crate::nlos::lct;
+use crate::nlos::reconstruct::bp::VoxelGrid;
+use crate::nlos::reconstruct::lct;
 use crate::nlos::reconstruct::Reconstruction;
 use anyhow::{anyhow, bail};
 use clap::{Args, Subcommand, ValueEnum};

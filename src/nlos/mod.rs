@@ -7,19 +7,14 @@
 //! Rendering the capture is `scene/nlos_setup.rs` and `render/nlos.rs`; the bundle records its
 //! geometry (`bundle/capture.rs`).
 
-pub mod bp;
 pub mod capture;
 pub mod denoised;
 pub mod fft;
 pub mod filter;
-pub mod fk;
-pub mod lct;
-pub mod pf;
 pub mod reconstruct;
 pub mod shrink;
 pub mod tal;
 mod tal_read;
-pub mod wave;
 
 use std::path::PathBuf;
 
@@ -166,7 +161,7 @@ pub enum NlosError {
         method: &'static str,
         normal: [f64; 3],
     },
-    #[error("{method}: t_start is {bins} bins from OPL 0; at most {max} bins can be put in front", max = wave::MAX_DEPTHS)]
+    #[error("{method}: t_start is {bins} bins from OPL 0; at most {max} bins can be put in front", max = reconstruct::wave::MAX_DEPTHS)]
     StartTooEarly { method: &'static str, bins: f64 },
     #[error("{method}: the capture starts at OPL {t_start} < 0 and keeps {depths} bins from OPL 0 on; at least 2 are needed")]
     TooFewDepths {
@@ -174,7 +169,7 @@ pub enum NlosError {
         t_start: f64,
         depths: usize,
     },
-    #[error("{method}: {depths} bins from OPL 0 (t_start {t_start} = {pad} bins); at most {max}", max = wave::MAX_DEPTHS)]
+    #[error("{method}: {depths} bins from OPL 0 (t_start {t_start} = {pad} bins); at most {max}", max = reconstruct::wave::MAX_DEPTHS)]
     TooManyDepths {
         method: &'static str,
         depths: usize,

@@ -40,8 +40,8 @@
 //! Inner products come from energies, `<a, b> = (||a + b||^2 - ||a - b||^2) / 4` (fbp
 //! and pf give magnitudes only). Cost: six energies (reconstructions) for `b`.
 
-use super::bp::VoxelGrid;
 use super::capture::Capture;
+use super::reconstruct::bp::VoxelGrid;
 use super::reconstruct::Reconstruction;
 use super::NlosError;
 

@@ -14,7 +14,7 @@ use crate::denoise::critical::Threshold;
 use crate::denoise::gbuffers::GBuffers;
 use crate::denoise::tstat::TstatParams;
 use crate::denoise::{denoise_sums, estimates::SumsView, DenoiseParams, Method};
-use crate::nlos::bp::VoxelGrid;
+use crate::nlos::reconstruct::bp::VoxelGrid;
 use crate::nlos::reconstruct::Reconstruction;
 use crate::render::adaptive::{AdaptiveOptions, ErrorMeasure};
 use crate::render::{render, PixelSampling, RenderOutput, RenderSettings};

@@ -10,9 +10,9 @@
 
 use super::ReportError;
 use crate::bundle::capture::CaptureRecord;
-use crate::nlos::bp::VoxelGrid;
 use crate::nlos::capture::Capture;
 use crate::nlos::denoised::replace_h;
+use crate::nlos::reconstruct::bp::VoxelGrid;
 use crate::nlos::reconstruct::Reconstruction;
 use crate::nlos::tal::h_per_bin;
 use crate::scene::Scene;

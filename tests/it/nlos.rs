@@ -704,10 +704,10 @@ fn point_capture_on(
 /// The scatterer at (0.2, -0.1, 0.8), voxel (14, 8, 6) of the 21 x 21 x 11 grid, with its
 /// confocal capture (81 pairs) and an exhaustive one of 3 laser points (243 pairs).
 fn scatterer_cases() -> (
-    tstat::nlos::bp::VoxelGrid,
+    tstat::nlos::reconstruct::bp::VoxelGrid,
     Vec<(tstat::nlos::capture::Capture, f32)>,
 ) {
-    let grid = tstat::nlos::bp::VoxelGrid {
+    let grid = tstat::nlos::reconstruct::bp::VoxelGrid {
         first: [-0.5, -0.5, 0.5],
         last: [0.5, 0.5, 1.0],
         n: [21, 21, 11],
@@ -725,7 +725,7 @@ fn scatterer_cases() -> (
 /// pair adds its 1 (the maximum, L S), and the peak lies there; confocal and exhaustive.
 #[test]
 fn backprojection_of_a_point_scatterer_peaks_at_its_voxel() {
-    use tstat::nlos::bp::backproject;
+    use tstat::nlos::reconstruct::bp::backproject;
     let (grid, cases) = scatterer_cases();
     for (capture, pairs) in cases {
         let v = backproject(&capture, &grid);
@@ -751,8 +751,8 @@ fn backprojection_of_a_point_scatterer_peaks_at_its_voxel() {
 /// its envelope's peak at the impulse's bin, linear in the input.
 #[test]
 fn filtered_backprojection_of_a_point_scatterer_peaks_at_its_voxel() {
-    use tstat::nlos::bp::filtered_backproject;
     use tstat::nlos::filter::pf_filter;
+    use tstat::nlos::reconstruct::bp::filtered_backproject;
     let (grid, cases) = scatterer_cases();
     for (capture, _) in cases {
         let v = filtered_backproject(&capture, &grid, 0.2, 0.2 / 2f64.sqrt());
@@ -784,7 +784,7 @@ fn filtered_backprojection_of_a_point_scatterer_peaks_at_its_voxel() {
 /// exhaustive (the direct sum: the voxels are finer than the wall's grid).
 #[test]
 fn phasor_field_of_a_point_scatterer_peaks_at_its_voxel() {
-    use tstat::nlos::pf::{convolves, phasor_field};
+    use tstat::nlos::reconstruct::pf::{convolves, phasor_field};
     let (grid, cases) = scatterer_cases();
     for (capture, _) in cases {
         assert!(!convolves(&capture, &grid));
@@ -800,7 +800,7 @@ fn phasor_field_of_a_point_scatterer_peaks_at_its_voxel() {
 /// starting at OPL 0 and one with its first and last bounces timed.
 #[test]
 fn phasor_field_spectrum_direct_equals_the_fft() {
-    use tstat::nlos::pf::{pulse, spectrum_by, Dft};
+    use tstat::nlos::reconstruct::pf::{pulse, spectrum_by, Dft};
     let lasers = vec![[-0.5, 0.5, 0.0], [0.0, -0.5, 0.0]];
     for (paired, wl) in [(true, 0.3), (false, 0.05), (false, 0.8)] {
         let mut c = point_capture_on([0.15, -0.1, 0.7], lasers.clone(), paired, |i, j| [i, j]);
@@ -827,8 +827,10 @@ fn phasor_field_spectrum_direct_equals_the_fft() {
 /// the vectorised complex dot product equals its reference.
 #[test]
 fn phasor_field_convolution_equals_the_direct_sum() {
-    use tstat::nlos::bp::VoxelGrid;
-    use tstat::nlos::pf::{convolves, dot, dot_reference, phasor_field_by, Propagation};
+    use tstat::nlos::reconstruct::bp::VoxelGrid;
+    use tstat::nlos::reconstruct::pf::{
+        convolves, dot, dot_reference, phasor_field_by, Propagation,
+    };
     // Slices of 13 x 13 voxels at the wall's spacing 2/9, wider than the wall.
     let grid = VoxelGrid {
         first: [-4.0 / 3.0, -4.0 / 3.0, 0.6],

@@ -4,8 +4,8 @@
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
-use tstat::nlos::bp::{backproject, VoxelGrid};
 use tstat::nlos::capture::Capture;
+use tstat::nlos::reconstruct::bp::{backproject, VoxelGrid};
 use tstat::nlos::reconstruct::Reconstruction;
 use tstat::render::{render, PixelSampling, RenderSettings};
 use tstat::report::convergence::noisy_mean;

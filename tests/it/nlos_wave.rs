@@ -1,4 +1,4 @@
-//! The wave-based confocal reconstructions (`nlos::fk`, `nlos::lct`, `nlos::wave`):
+//! The wave-based confocal reconstructions (`nlos::reconstruct::fk`, `nlos::reconstruct::lct`, `nlos::reconstruct::wave`):
 //! point scatterers in closed form (centred, off-centre, with bins starting late or
 //! early), the native grid and its resampling, linearity and symmetries, refused
 //! captures, and the kernels (3-D FFT, Stolt step, LCT's resampling operator) against
@@ -6,11 +6,11 @@
 
 use rustfft::num_complex::Complex;
 use rustfft::FftDirection;
-use tstat::nlos::bp::VoxelGrid;
 use tstat::nlos::capture::Capture;
-use tstat::nlos::fk::{fk_migration, fk_native, stolt};
-use tstat::nlos::lct::{lct, lct_native, resampling_rows, DEFAULT_SNR};
-use tstat::nlos::wave::{fft3, Native, C64};
+use tstat::nlos::reconstruct::bp::VoxelGrid;
+use tstat::nlos::reconstruct::fk::{fk_migration, fk_native, stolt};
+use tstat::nlos::reconstruct::lct::{lct, lct_native, resampling_rows, DEFAULT_SNR};
+use tstat::nlos::reconstruct::wave::{fft3, Native, C64};
 use tstat::nlos::NlosError;
 
 /// A confocal capture of an `n` x `n` grid of cell centres of the wall [-1, 1]^2 in the
@@ -398,8 +398,8 @@ fn unsuitable_captures_are_refused() {
         }
         // Estimates never panic either.
         let _ = (
-            tstat::nlos::fk::memory_bytes(c),
-            tstat::nlos::lct::memory_bytes(c),
+            tstat::nlos::reconstruct::fk::memory_bytes(c),
+            tstat::nlos::reconstruct::lct::memory_bytes(c),
         );
     }
     for snr in [0.0, -1.0, f64::NAN, f64::INFINITY] {
@@ -415,9 +415,12 @@ fn unsuitable_captures_are_refused() {
     c.time.start_opl = 0.5; // 10 bins in front: M' = 74
     let (n, m) = (8usize, 74usize);
     let vol = 2 * m * 2 * n * 2 * n * 16;
-    assert_eq!(tstat::nlos::fk::memory_bytes(&c), vol + 4 * m * n * n);
     assert_eq!(
-        tstat::nlos::lct::memory_bytes(&c),
+        tstat::nlos::reconstruct::fk::memory_bytes(&c),
+        vol + 4 * m * n * n
+    );
+    assert_eq!(
+        tstat::nlos::reconstruct::lct::memory_bytes(&c),
         2 * vol + 4 * m * n * n + m * 48
     );
 }

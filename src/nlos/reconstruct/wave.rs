@@ -26,9 +26,9 @@
 //! order, so every time series is contiguous.
 
 use super::bp::VoxelGrid;
-use super::capture::Capture;
-use super::fft::Planner;
-use super::NlosError;
+use crate::nlos::capture::Capture;
+use crate::nlos::fft::Planner;
+use crate::nlos::NlosError;
 use rayon::prelude::*;
 use rustfft::num_complex::Complex;
 use rustfft::{Fft, FftDirection};

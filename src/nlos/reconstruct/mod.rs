@@ -1,10 +1,18 @@
 //! One reconstruction of the hidden scene, with its parameters: the methods of
 //! `tstat nlos reconstruct` and of `report convergence --reconstruct`, their checks
-//! against a capture and their working memory, in one place.
+//! against a capture and their working memory, in one place. Each method is a file of
+//! this folder; a new one is that file, its `pub mod` line and `Reconstruction` variant
+//! here, and its `NlosMethod` value in `cli/nlos.rs`.
 
-use super::bp::{backproject, filtered_backproject, VoxelGrid};
+pub mod bp;
+pub mod fk;
+pub mod lct;
+pub mod pf;
+pub mod wave;
+
 use super::capture::Capture;
-use super::{filter, fk, lct, pf, NlosError};
+use super::{filter, NlosError};
+use bp::{backproject, filtered_backproject, VoxelGrid};
 
 /// A reconstruction method and its parameters.
 #[derive(Clone, Copy, Debug, PartialEq)]

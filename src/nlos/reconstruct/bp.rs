@@ -34,7 +34,7 @@
 //! order); per thread, the block's distance tables, at most [`TABLE_BYTES`] (or 64
 //! voxels' worth).
 
-use super::capture::Capture;
+use crate::nlos::capture::Capture;
 use rayon::prelude::*;
 
 /// Voxel centres: per axis `n` points spaced as `numpy.linspace(first, last, n)`.
@@ -86,7 +86,7 @@ pub fn filtered_backproject(
     wl_mean: f64,
     wl_sigma: f64,
 ) -> Vec<f32> {
-    let f = super::filter::pf_filter(c, wl_mean, wl_sigma);
+    let f = crate::nlos::filter::pf_filter(c, wl_mean, wl_sigma);
     let [re, im] = <[Vec<f32>; 2]>::try_from(backproject_planes(c, grid, &[&f.re, &f.im]))
         .expect("two planes");
     re.iter().zip(&im).map(|(&a, &b)| a.hypot(b)).collect()

@@ -45,9 +45,9 @@
 //! three.
 
 use super::bp::VoxelGrid;
-use super::capture::Capture;
 use super::wave::{self, fft3, linspace, Native, C64};
-use super::NlosError;
+use crate::nlos::capture::Capture;
+use crate::nlos::NlosError;
 use rayon::prelude::*;
 use rustfft::FftDirection;
 

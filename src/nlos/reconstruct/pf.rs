@@ -31,10 +31,10 @@
 //! [`memory_bytes`].
 
 use super::bp::VoxelGrid;
-use super::capture::Capture;
-use super::fft::Planner;
-use super::filter::{kernel, Shift};
-use super::NlosError;
+use crate::nlos::capture::Capture;
+use crate::nlos::fft::Planner;
+use crate::nlos::filter::{kernel, Shift};
+use crate::nlos::NlosError;
 use rayon::prelude::*;
 use rustfft::num_complex::Complex;
 use rustfft::Fft;

@@ -32,9 +32,9 @@
 //! transforms, `O(M' N^2 log(M' N^2))`, and the linear Stolt pass.
 
 use super::bp::VoxelGrid;
-use super::capture::Capture;
 use super::wave::{self, fft3, linspace, Native, C64};
-use super::NlosError;
+use crate::nlos::capture::Capture;
+use crate::nlos::NlosError;
 use rayon::prelude::*;
 use rustfft::FftDirection;
 
