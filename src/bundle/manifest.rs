@@ -142,6 +142,11 @@ pub struct Manifest {
     /// filter. Absent (false) in bundles of surface-only scenes.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub media: bool,
+    /// The seed this bundle's paths were drawn from: the job's seed for an unsharded
+    /// render, `shard_seed(job seed, I)` for shard I (the job's seed is in `shard`),
+    /// and for a merge the smallest of `merged_seeds` (its canonical order's first).
+    /// The adaptive pilot's seed is never recorded here: it is `pilot_seed(job seed)`
+    /// (`job/render.rs`).
     pub seed: u64,
     /// Seeds of every render summed into this bundle by `tstat merge` (empty otherwise).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
