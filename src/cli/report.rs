@@ -628,12 +628,7 @@ fn run_sweep_cmd(a: SweepArgs) -> anyhow::Result<()> {
             .find(|m| m.0 == p.method)
             .map(|m| m.1)
             .unwrap_or(0.0);
-        let mut key = p.method;
-        match &mut key {
-            Method::Tstat(t) => t.t2_patch = 0.0,
-            Method::Published(t) => *t = Threshold::Auto,
-            Method::BaseOnly => {}
-        }
+        let key = p.method.sweep_key();
         let name = Path::new(&p.bundle)
             .file_name()
             .map(|n| n.to_string_lossy().into_owned())

@@ -2,9 +2,11 @@
 //! `out_j = sum_i w_ij mean_i / sum_i w_ij`, `w_ij = p_ij m_ij`, over the neighbours i
 //! with |dy|, |dx| <= r and |dt| <= r_t.
 //!
-//! Two memberships m: the published per-voxel Welch test, and tstat's (see `tstat.rs`:
-//! emitter classes, camera-depth alignment, which moves the neighbour's bins by a
-//! per-pair shift k, and the patch test).
+//! Memberships m: a per-voxel-pair test ([`PairTest`], `membership.rs`: the published
+//! Welch test; the filter is compiled for each, `Membership::with_pair_test`), none
+//! (the base filter alone), and tstat's (see `tstat.rs`: emitter classes, camera-depth
+//! alignment, which moves the neighbour's bins by a per-pair shift k, and the patch
+//! test).
 //!
 //! Work is split into tiles: bands of image rows (run in parallel) cut into blocks of
 //! pixels and ranges of bins; a tile reads its halo (r pixels, r_t + |k| bins) straight
@@ -18,7 +20,7 @@
 
 use super::base_filter::{BaseFilter, BaseKind, Features};
 use super::estimates::Estimates;
-use super::membership::passes;
+use super::membership::{passes, Everyone, PairTest};
 use super::pair_dof::PairDof;
 use super::tstat::{depth_shift, same_coverage, sees_emitter, statistic, TstatParams};
 use super::Method;
@@ -106,10 +108,10 @@ fn active_ranges(e: &Estimates) -> Vec<(usize, usize)> {
 /// The inner loop: one neighbour pixel at one bin offset, over `n` contiguous bins.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
-fn accumulate<const MEMBERSHIP: bool, G: Critical>(
+fn accumulate<const MEMBERSHIP: bool, T: PairTest>(
     n: usize,
     w: f32,
-    g2: &G,
+    test: &T,
     theta_i: [&[f32]; 3],
     theta_j: [&[f32]; 3],
     v_i: [&[f32]; 3],
@@ -127,10 +129,10 @@ fn accumulate<const MEMBERSHIP: bool, G: Critical>(
     let (n0, n1, n2, den) = (&mut n0[..n], &mut n1[..n], &mut n2[..n], &mut den[..n]);
     for k in 0..n {
         let wk = if MEMBERSHIP {
-            // membership::passes on every channel, written out so it vectorises.
-            let m = passes(ti0[k], tj0[k], vi0[k], vj0[k], g2.g2(vi0[k], vj0[k]))
-                & passes(ti1[k], tj1[k], vi1[k], vj1[k], g2.g2(vi1[k], vj1[k]))
-                & passes(ti2[k], tj2[k], vi2[k], vj2[k], g2.g2(vi2[k], vj2[k]));
+            // The test on every channel, written out so it vectorises.
+            let m = test.pass(ti0[k], tj0[k], vi0[k], vj0[k])
+                & test.pass(ti1[k], tj1[k], vi1[k], vj1[k])
+                & test.pass(ti2[k], tj2[k], vi2[k], vj2[k]);
             if m {
                 w
             } else {
@@ -146,24 +148,12 @@ fn accumulate<const MEMBERSHIP: bool, G: Critical>(
     }
 }
 
-/// The critical value g^2 of the published test for a pair of voxels: one value, or
-/// each pair's own on estimates from replicates (`pair_dof.rs`).
-trait Critical {
-    fn g2(&self, v_i: f32, v_j: f32) -> f32;
-}
-
-impl Critical for f32 {
-    #[inline(always)]
-    fn g2(&self, _: f32, _: f32) -> f32 {
-        *self
-    }
-}
-
-impl Critical for PairDof {
-    #[inline(always)]
-    fn g2(&self, v_i: f32, v_j: f32) -> f32 {
-        PairDof::g2(self, v_i, v_j)
-    }
+/// What the filter does with a method's pair test ([`PairTest`], `membership.rs`): the
+/// method hands its test, or `None`, to [`PairTestUser::with`]
+/// (`Membership::with_pair_test`, `mod.rs`), and the filter is compiled for it.
+pub trait PairTestUser {
+    type Out;
+    fn with<T: PairTest>(self, test: Option<T>) -> Self::Out;
 }
 
 /// tstat's statistic over `n` contiguous bins: `out[k] = max_c s_c`.
@@ -251,7 +241,7 @@ fn accumulate_patch(
 }
 
 /// What every pixel's filtering shares.
-struct Shared<'a> {
+struct Shared<'a, T> {
     e: &'a Estimates,
     features: &'a Features<'a>,
     params: &'a FilterParams,
@@ -264,10 +254,11 @@ struct Shared<'a> {
     active: Vec<(usize, usize)>,
     /// The bin-offset part of p, index dt + r_t.
     pt: Vec<f64>,
-    g2: f32,
-    /// The published test (else every neighbour passes, without replicates).
-    published: bool,
-    /// Per-pair critical values, for estimates from replicates (see [`Membership`]).
+    /// The method's pair test ([`PairTest`]); `None`: every neighbour passes (the base
+    /// filter alone), or tstat's own test.
+    test: Option<T>,
+    /// tstat on estimates from replicates: per-pair critical values at the tail level
+    /// of t2_max.
     pair: Option<PairDof>,
 }
 
@@ -291,7 +282,7 @@ struct Scratch {
     neighbours: Vec<Neighbour>,
 }
 
-impl Shared<'_> {
+impl<T> Shared<'_, T> {
     /// The neighbours of pixel (yj, xj) in accumulation order, and its temporal radius.
     fn neighbours(&self, yj: usize, xj: usize, out: &mut Vec<Neighbour>) -> i64 {
         let (h, w) = (self.e.height as i64, self.e.width as i64);
@@ -353,8 +344,8 @@ impl Shared<'_> {
 /// Filters pixel (yj, xj) over bins [b0, b1) into `out_j`, its (C, T) planar block;
 /// returns the voxel-neighbour evaluations made.
 #[inline(always)]
-fn filter_pixel(
-    s: &Shared,
+fn filter_pixel<T: PairTest>(
+    s: &Shared<T>,
     yj: usize,
     xj: usize,
     b0: usize,
@@ -408,11 +399,11 @@ fn filter_pixel(
             let off = (ts - a) as usize;
             let [n0, n1, n2] = &mut *num;
             let acc = [&mut n0[off..], &mut n1[off..], &mut n2[off..]];
-            match &s.tstat {
-                None if s.pair.is_some() => accumulate::<true, PairDof>(
+            match (&s.tstat, &s.test) {
+                (None, Some(test)) => accumulate::<true, T>(
                     m,
                     wt,
-                    s.pair.as_ref().unwrap(),
+                    test,
                     oi.map(|q| &e.theta[q..q + m]),
                     oj.map(|q| &e.theta[q..q + m]),
                     oi.map(|q| &e.v[q..q + m]),
@@ -421,10 +412,10 @@ fn filter_pixel(
                     acc,
                     &mut den[off..],
                 ),
-                None if s.published => accumulate::<true, f32>(
+                (None, None) => accumulate::<false, Everyone>(
                     m,
                     wt,
-                    &s.g2,
+                    &Everyone,
                     oi.map(|q| &e.theta[q..q + m]),
                     oj.map(|q| &e.theta[q..q + m]),
                     oi.map(|q| &e.v[q..q + m]),
@@ -433,19 +424,7 @@ fn filter_pixel(
                     acc,
                     &mut den[off..],
                 ),
-                None => accumulate::<false, f32>(
-                    m,
-                    wt,
-                    &s.g2,
-                    oi.map(|q| &e.theta[q..q + m]),
-                    oj.map(|q| &e.theta[q..q + m]),
-                    oi.map(|q| &e.v[q..q + m]),
-                    oj.map(|q| &e.v[q..q + m]),
-                    oi.map(|q| &e.mean[q..q + m]),
-                    acc,
-                    &mut den[off..],
-                ),
-                Some(tp) => {
+                (Some(tp), _) => {
                     // s over [lo, hi): one more bin on each side where both voxels exist.
                     let lo = if ts > (-o).max(0) { ts - 1 } else { ts };
                     let hi = if te < t_bins.min(t_bins - o) {
@@ -508,7 +487,7 @@ fn filter_pixel(
 /// adds nothing to the numerator and, when the centre passes the test against it on
 /// every channel, the base weight between the centre and a voxel at the volume's
 /// centre with black albedo and no normal to the denominator.
-fn zero_border(s: &Shared, yj: usize, xj: usize, rt: i64, a: i64, den: &mut [f32]) {
+fn zero_border<T>(s: &Shared<T>, yj: usize, xj: usize, rt: i64, a: i64, den: &mut [f32]) {
     let e = s.e;
     let (r, t_bins) = (s.params.radius as i64, e.bins as i64);
     let inside = |c: i64, len: i64| (c - r).max(0).min(len)..(c + r + 1).min(len);
@@ -602,50 +581,93 @@ pub fn filter_rows(
         base_emitter.sigmas.xy *= tp.emitter_radius(params.radius, e.stratified).max(1) as f64
             / params.radius.max(1) as f64;
     }
-    let shared = Shared {
-        e,
-        features,
-        params,
-        tstat,
-        base_emitter,
-        active: active_ranges(e),
-        pt: params.base.time_weights(params.temporal_radius),
-        g2: match params.membership {
-            Membership::Published(Welch { g2, .. }) => g2 as f32,
-            _ => 0.0,
+    params.membership.with_pair_test(
+        e.replicates,
+        Rows {
+            e,
+            features,
+            params,
+            tstat,
+            base_emitter,
+            pair: match (params.membership, e.replicates) {
+                (Membership::Tstat(tp), Some(b)) if b >= 2 => {
+                    Some(PairDof::new(b, erfc((tp.t2_max / 2.0).sqrt())))
+                }
+                _ => None,
+            },
+            tiling,
+            rows,
+            out,
+            progress,
         },
-        pair: match (params.membership, e.replicates) {
-            (Membership::Published(Welch { alpha: Some(a), .. }), Some(b)) if b >= 2 => {
-                Some(PairDof::new(b, a))
-            }
-            (Membership::Tstat(tp), Some(b)) if b >= 2 => {
-                Some(PairDof::new(b, erfc((tp.t2_max / 2.0).sqrt())))
-            }
-            _ => None,
-        },
-        published: matches!(params.membership, Membership::Published(_)),
-    };
-    let (band_rows, cols, bins) = (tiling.rows.max(1), tiling.cols.max(1), tiling.bins.max(1));
-    let band = Band {
-        rows: rows.clone(),
-        band_rows,
-        cols,
-        bins,
-    };
-    out.par_chunks_mut(band_rows * w * per_pixel)
-        .enumerate()
-        .map(|(k, out_band)| {
-            let evals = match crate::cpu::detected().avx2() {
-                #[cfg(target_arch = "x86_64")]
-                // SAFETY: the proof says this CPU runs the wrapper's instruction set.
-                Some(isa) => unsafe { filter_band_avx2(isa, &shared, &band, k, out_band) },
-                _ => filter_band(&shared, &band, k, out_band),
-            };
-            let y0 = rows.start + k * band_rows;
-            progress(((rows.end.min(y0 + band_rows) - y0) * w) as u64);
-            evals
-        })
-        .sum()
+    )
+}
+
+/// [`filter_rows`] once the method's pair test is known ([`PairTestUser`]).
+struct Rows<'a, 'p> {
+    e: &'a Estimates,
+    features: &'a Features<'a>,
+    params: &'a FilterParams,
+    tstat: Option<TstatParams>,
+    base_emitter: BaseFilter,
+    pair: Option<PairDof>,
+    tiling: Tiling,
+    rows: std::ops::Range<usize>,
+    out: &'a mut [f32],
+    progress: &'p (dyn Fn(u64) + Sync),
+}
+
+impl PairTestUser for Rows<'_, '_> {
+    type Out = u64;
+
+    fn with<T: PairTest>(self, test: Option<T>) -> u64 {
+        let Rows {
+            e,
+            features,
+            params,
+            tstat,
+            base_emitter,
+            pair,
+            tiling,
+            rows,
+            out,
+            progress,
+        } = self;
+        let w = e.width;
+        let per_pixel = CHANNELS * e.bins;
+        let shared = Shared {
+            e,
+            features,
+            params,
+            tstat,
+            base_emitter,
+            active: active_ranges(e),
+            pt: params.base.time_weights(params.temporal_radius),
+            test,
+            pair,
+        };
+        let (band_rows, cols, bins) = (tiling.rows.max(1), tiling.cols.max(1), tiling.bins.max(1));
+        let band = Band {
+            rows: rows.clone(),
+            band_rows,
+            cols,
+            bins,
+        };
+        out.par_chunks_mut(band_rows * w * per_pixel)
+            .enumerate()
+            .map(|(k, out_band)| {
+                let evals = match crate::cpu::detected().avx2() {
+                    #[cfg(target_arch = "x86_64")]
+                    // SAFETY: the proof says this CPU runs the wrapper's instruction set.
+                    Some(isa) => unsafe { filter_band_avx2(isa, &shared, &band, k, out_band) },
+                    _ => filter_band(&shared, &band, k, out_band),
+                };
+                let y0 = rows.start + k * band_rows;
+                progress(((rows.end.min(y0 + band_rows) - y0) * w) as u64);
+                evals
+            })
+            .sum()
+    }
 }
 
 /// How [`filter_rows`] cuts its rows: bands of `band_rows` rows (one task each), each
@@ -659,7 +681,7 @@ struct Band {
 
 /// Filters band `k` into `out_band`; returns the voxel-neighbour evaluations.
 #[inline(always)]
-fn filter_band(s: &Shared, band: &Band, k: usize, out_band: &mut [f32]) -> u64 {
+fn filter_band<T: PairTest>(s: &Shared<T>, band: &Band, k: usize, out_band: &mut [f32]) -> u64 {
     let (w, t_bins) = (s.e.width, s.e.bins);
     let per_pixel = CHANNELS * t_bins;
     let (cols, bins) = (band.cols, band.bins);
@@ -698,9 +720,9 @@ fn filter_band(s: &Shared, band: &Band, k: usize, out_band: &mut [f32]) -> u64 {
 /// reorders float operations; `tests/it/isa.rs`).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
-fn filter_band_avx2(
+fn filter_band_avx2<T: PairTest>(
     _isa: crate::cpu::Avx2,
-    s: &Shared,
+    s: &Shared<T>,
     band: &Band,
     k: usize,
     out_band: &mut [f32],

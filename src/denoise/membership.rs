@@ -10,6 +10,38 @@ pub fn passes(theta_i: f32, theta_j: f32, v_i: f32, v_j: f32, g2: f32) -> bool {
     (d * d <= g2 * v) & ((v > 0.0) | (d == 0.0))
 }
 
+/// A per-voxel-pair membership test: neighbour voxel i counts for voxel j where
+/// `pass` holds on every channel (estimands theta and variances V of both). The
+/// published Welch test is one ([`WelchG2`]: one critical value; `pair_dof.rs`: each
+/// pair's own, on estimates from replicates). A method of this kind implements it in
+/// its own file and hands it to the filter in `Membership::with_pair_test` (`mod.rs`);
+/// the filter (`filter.rs`) needs no change. tstat's test is not of this kind: it is
+/// the filter's own patch test over neighbouring bins, with its neighbour classes.
+pub trait PairTest: Sync {
+    fn pass(&self, theta_i: f32, theta_j: f32, v_i: f32, v_j: f32) -> bool;
+}
+
+/// The published test with one critical value g^2 ([`passes`]).
+pub struct WelchG2(pub f32);
+
+impl PairTest for WelchG2 {
+    #[inline(always)]
+    fn pass(&self, theta_i: f32, theta_j: f32, v_i: f32, v_j: f32) -> bool {
+        passes(theta_i, theta_j, v_i, v_j, self.0)
+    }
+}
+
+/// Every neighbour passes: the base filter alone (and tstat, whose test is the
+/// filter's own).
+pub struct Everyone;
+
+impl PairTest for Everyone {
+    #[inline(always)]
+    fn pass(&self, _: f32, _: f32, _: f32, _: f32) -> bool {
+        true
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -18,11 +18,12 @@ use crate::bundle::{Bundle, BundleError, SumArray};
 use crate::stats::accumulators::CHANNELS;
 use base_filter::{BaseFilter, BaseKind, Features, Sigmas};
 pub use conventions::{Border, Variance};
-use critical::Threshold;
+use critical::{Threshold, Welch};
 use estimates::{Estimates, SumsView};
 use filter::{filter, FilterParams, Membership, Tiling};
 use gbuffers::GBuffers;
 use ndarray::Array4;
+use pair_dof::PairDof;
 use tstat::TstatParams;
 
 /// Errors of the denoiser's parameters, named by their flags.
@@ -85,7 +86,39 @@ impl<T> Method<T> {
     }
 }
 
+impl Membership {
+    /// Hands the method's per-voxel-pair test ([`membership::PairTest`]) to `user`
+    /// (the filter, `filter.rs`), which is compiled for it: the published test with its
+    /// g^2, or with each pair's own on estimates from `replicates` (when it has a
+    /// level); `None` for the base filter alone and for tstat, whose test is the
+    /// filter's own. A new method of the pair-test kind adds its arm here.
+    pub fn with_pair_test<U: filter::PairTestUser>(
+        &self,
+        replicates: Option<u64>,
+        user: U,
+    ) -> U::Out {
+        match (*self, replicates) {
+            (Method::Published(Welch { alpha: Some(a), .. }), Some(b)) if b >= 2 => {
+                user.with(Some(PairDof::new(b, a)))
+            }
+            (Method::Published(w), _) => user.with(Some(membership::WelchG2(w.g2 as f32))),
+            (Method::Tstat(_) | Method::BaseOnly, _) => user.with(None::<membership::Everyone>),
+        }
+    }
+}
+
 impl Method {
+    /// The method with the threshold `report sweep` varies set aside (t2_patch, the
+    /// published threshold): the key of a sweep's curves.
+    pub fn sweep_key(mut self) -> Self {
+        match &mut self {
+            Method::Tstat(t) => t.t2_patch = 0.0,
+            Method::Published(t) => *t = Threshold::Auto,
+            Method::BaseOnly => {}
+        }
+        self
+    }
+
     /// Refuses settings out of range.
     pub fn validate(&self) -> Result<(), DenoiseError> {
         match self {

@@ -13,6 +13,7 @@
 //! relative error below 1e-4 even at B = 2 (tested against the exact quantile).
 
 use super::critical::student_t_quantile;
+use super::membership::{passes, PairTest};
 
 /// Grid intervals over r in [1/2, 1].
 const INTERVALS: usize = 512;
@@ -76,6 +77,14 @@ impl PairDof {
         let k = x as usize;
         let f = x - k as f32;
         self.g2[k] + f * (self.g2[k + 1] - self.g2[k])
+    }
+}
+
+/// The published test with each pair's own critical value ([`PairDof::g2`]).
+impl PairTest for PairDof {
+    #[inline(always)]
+    fn pass(&self, theta_i: f32, theta_j: f32, v_i: f32, v_j: f32) -> bool {
+        passes(theta_i, theta_j, v_i, v_j, self.g2(v_i, v_j))
     }
 }
 
