@@ -520,7 +520,7 @@ fn next_event<L: Level, const MEDIA: bool, S: PathSampler>(
     deposits: &mut PathDeposits,
     tally: &mut PathTally,
 ) {
-    let (shape, sp, frame, wo, bsdf) = (at.v.shape, at.v.sp, at.v.frame, at.v.wo, at.bsdf);
+    let (shape, sp, frame, wo, bsdf) = (at.v.shape, &at.v.sp, &at.v.frame, at.v.wo, at.bsdf);
     let n_emitters = scene.emitters.len();
     let select_pdf = 1.0 / n_emitters as f32;
     let u_sel = rng.get1(slot::LIGHT_SELECT);
@@ -607,7 +607,7 @@ fn continue_by_bsdf<const MEDIA: bool, S: PathSampler>(
     at: &Scattering,
     rng: &mut S,
 ) -> bool {
-    let (shape, sp, frame, wo, bsdf) = (at.v.shape, at.v.sp, at.v.frame, at.v.wo, at.bsdf);
+    let (shape, sp, frame, wo, bsdf) = (at.v.shape, &at.v.sp, &at.v.frame, at.v.wo, at.bsdf);
     let u1 = rng.get1(slot::BSDF_1);
     let u2 = rng.get2(slot::BSDF_2);
     let Some(bs) = bsdf.sample(wo, u1, u2) else {
