@@ -4,7 +4,7 @@
 //! filtered backprojection in `filter.rs`; the wave-based confocal ones, f-k migration
 //! in `fk.rs` and the light-cone transform in `lct.rs`, on the native grid of `wave.rs`;
 //! their FFTs planned by `fft.rs`).
-//! Rendering the capture is `scene/nlos_setup.rs` and `render/nlos.rs`; the bundle records its
+//! Rendering the capture is `scene/nlos_setup.rs` and `render/nlos/`; the bundle records its
 //! geometry (`bundle/capture.rs`).
 
 pub mod capture;

@@ -70,7 +70,7 @@ pub struct IntegratorSettings {
     pub volumetric: bool,
     /// mitransient's `temporal_filter`: how a contribution reaches the time bins.
     pub time_filter: crate::sensors::time_filter::TimeFilter,
-    /// `transient_nlos_path`: the NLOS tracer (`render/nlos.rs`) and its settings.
+    /// `transient_nlos_path`: the NLOS tracer (`render/nlos/`) and its settings.
     pub nlos: Option<nlos_setup::NlosSettings>,
 }
 
