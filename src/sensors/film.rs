@@ -143,26 +143,6 @@ mod tests {
     use super::*;
 
     #[test]
-    fn bins_are_half_open_boxes() {
-        let f = Film {
-            width: 1,
-            height: 1,
-            time: TimeAxis {
-                bins: 10,
-                start_opl: 2.0,
-                bin_width_opl: 0.5,
-            },
-        };
-        assert_eq!(f.bin(1.999), None);
-        assert_eq!(f.bin(2.0), Some(0));
-        assert_eq!(f.bin(2.49), Some(0));
-        assert_eq!(f.bin(2.5), Some(1));
-        assert_eq!(f.bin(6.99), Some(9));
-        assert_eq!(f.bin(7.0), None);
-        assert_eq!(f.bin(f64::NAN), None);
-    }
-
-    #[test]
     fn time_windows_beyond_double_precision_are_errors() {
         let film = |start_opl: f64, bin_width_opl: f64| Film {
             width: 2,
