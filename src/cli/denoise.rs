@@ -202,6 +202,7 @@ impl FilterArgs {
                         t2_patch: self.t2_patch.unwrap_or(d.t2_patch),
                         emitter_radius: self.emitter_radius.map(|r| r as usize),
                         depth_align: !self.no_depth_align,
+                        ..d
                     })
                 }
                 MethodArg::Published => {

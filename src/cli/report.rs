@@ -551,6 +551,7 @@ fn sweep_methods(a: &SweepArgs) -> anyhow::Result<(Vec<(Method, f64)>, &'static 
                                 t2_patch,
                                 emitter_radius,
                                 depth_align,
+                                ..TstatParams::default()
                             };
                             t.validate()?;
                             out.push((Method::Tstat(t), t2_patch));

@@ -22,7 +22,9 @@ use super::base_filter::{BaseFilter, BaseKind, Features};
 use super::estimates::Estimates;
 use super::membership::{passes, Everyone, PairTest};
 use super::pair_dof::PairDof;
-use super::tstat::{depth_shift, same_coverage, sees_emitter, statistic, TstatParams};
+use super::tstat::{
+    depth_shift, patch_member, same_coverage, sees_emitter, statistic, TstatParams, UNINFORMATIVE,
+};
 use super::Method;
 use crate::stats::accumulators::CHANNELS;
 use rayon::prelude::*;
@@ -198,22 +200,25 @@ fn statistics_pair(
         *o = (0..3)
             .map(|c| {
                 let (vi, vj) = (v_i[c][k], v_j[c][k]);
-                let s =
-                    statistic(theta_i[c][k], theta_j[c][k], vi, vj) * (t2_max / pair.g2(vi, vj));
-                // inf * 0 (V = 0 with d != 0 at an infinite critical value) fails.
-                if s.is_nan() {
+                let raw = statistic(theta_i[c][k], theta_j[c][k], vi, vj);
+                let s = raw * (t2_max / pair.g2(vi, vj));
+                if raw < 0.0 {
+                    raw // uninformative stays so at any scale
+                } else if s.is_nan() {
+                    // inf * 0 (V = 0 with d != 0 at an infinite critical value) fails.
                     f32::INFINITY
                 } else {
                     s
                 }
             })
-            .fold(0.0f32, f32::max);
+            .fold(UNINFORMATIVE, f32::max);
     }
 }
 
 /// tstat's inner loop: `s` holds the statistic at bins t - 1 .. t + n (n + 2 values,
 /// the ends already repeated where the volume ends); a neighbour voxel counts with
-/// weight `w` where `s(t) <= t2_max` and `s(t-1) + s(t) + s(t+1) <= 3 t2_patch`.
+/// weight `w` where [`patch_member`]: `s(t) <= t2_max` and `s(t-1) + s(t) + s(t+1) <=
+/// 3 t2_patch`, uninformative values read as that function says.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 fn accumulate_patch(
@@ -221,6 +226,7 @@ fn accumulate_patch(
     w: f32,
     t2_max: f32,
     t2_patch3: f32,
+    alone: bool,
     s: &[f32],
     mean_i: [&[f32]; 3],
     num: [&mut [f32]; 3],
@@ -231,7 +237,7 @@ fn accumulate_patch(
     let [n0, n1, n2] = num;
     let (n0, n1, n2, den) = (&mut n0[..n], &mut n1[..n], &mut n2[..n], &mut den[..n]);
     for k in 0..n {
-        let pass = (sc[k] <= t2_max) & (sp[k] + sc[k] + sn[k] <= t2_patch3);
+        let pass = patch_member(sp[k], sc[k], sn[k], t2_max, t2_patch3, alone);
         let wk = if pass { w } else { 0.0 };
         n0[k] += wk * mi0[k];
         n1[k] += wk * mi1[k];
@@ -363,6 +369,10 @@ fn filter_pixel<T: PairTest>(
         neighbours,
     } = scratch;
     let rt = s.neighbours(yj, xj, neighbours);
+    // Emitter pixels are guarded by the coverage test; their pulse's first bin is not
+    // judged alone (`patch_member`).
+    let alone =
+        s.tstat.is_some_and(|tp| tp.isolated_bins_alone) && !sees_emitter(s.features.emitter[j]);
     // Bins of j whose neighbourhood holds anything non-zero; the rest stay zero.
     let (mut a, mut b) = (i64::MAX, i64::MIN);
     for nb in neighbours.iter() {
@@ -457,6 +467,7 @@ fn filter_pixel<T: PairTest>(
                         wt,
                         tp.t2_max as f32,
                         (3.0 * tp.t2_patch) as f32,
+                        alone,
                         &stat[..m + 2],
                         oi.map(|q| &e.mean[q..q + m]),
                         acc,

@@ -35,6 +35,12 @@ pub struct TstatParams {
     pub emitter_radius: Option<usize>,
     /// Camera-depth time alignment.
     pub depth_align: bool,
+    /// Judge a bin whose sides hold nothing (both voxels empty) on s(t) alone instead of
+    /// letting the empty sides' zeros dilute the patch mean ([`patch_member`]). On for
+    /// images; off on NLOS captures (`adapt_to_nlos`), where at low counts nearly every
+    /// occupied bin is isolated and judging it alone costs the reconstructions their
+    /// gain (docs/denoiser.md).
+    pub isolated_bins_alone: bool,
 }
 
 impl Default for TstatParams {
@@ -44,6 +50,7 @@ impl Default for TstatParams {
             t2_patch: 2.0,
             emitter_radius: None,
             depth_align: true,
+            isolated_bins_alone: true,
         }
     }
 }
@@ -76,8 +83,15 @@ impl TstatParams {
     }
 }
 
+/// What [`statistic`] returns for a pair that holds no information (d = 0 and V = 0:
+/// in practice two empty voxels). Every other value is >= 0. The per-voxel bound reads
+/// it as 0 (agreement); the patch mean reads it as s(t), so empty bins beside a
+/// one-bin signal (a light seen directly, a highlight) do not dilute the patch mean.
+pub const UNINFORMATIVE: f32 = -1.0;
+
 /// One channel's Welch statistic `d^2 / V` with `d = theta_i - theta_j`,
-/// `V = v_i + v_j`: 0 when d = 0 and V = 0, infinite when V = 0 and d != 0.
+/// `V = v_i + v_j`: [`UNINFORMATIVE`] when d = 0 and V = 0, infinite when V = 0 and
+/// d != 0. The maximum over channels is uninformative only when every channel is.
 #[inline(always)]
 pub fn statistic(theta_i: f32, theta_j: f32, v_i: f32, v_j: f32) -> f32 {
     let d = theta_i - theta_j;
@@ -86,10 +100,31 @@ pub fn statistic(theta_i: f32, theta_j: f32, v_i: f32, v_j: f32) -> f32 {
     if v > 0.0 {
         q
     } else if d == 0.0 {
-        0.0
+        UNINFORMATIVE
     } else {
         f32::INFINITY
     }
+}
+
+/// tstat's membership at bin t from the statistic at t - 1, t, t + 1: `s(t) <= t2_max`
+/// and `(s(t-1) + s(t) + s(t+1)) / 3 <= t2_patch`, where an uninformative s(t) counts
+/// as 0 and an uninformative side as s(t) when `alone`, else as 0. The filter passes
+/// `alone` = [`TstatParams::isolated_bins_alone`] and not an emitter pixel.
+///
+/// Why the two: a one-bin signal beside empty bins (a highlight of a small bright
+/// source) would otherwise pass at `s(t) <= 3 t2_patch`, looser than the patch bound
+/// meant, and there the neighbours' bias shows (envmap_spheres at 512 spp: denoised
+/// worse than noisy). Emitter pixels are guarded by the coverage test instead, their
+/// direct emission is a pulse a bin or two long by construction, and judging its
+/// first bin on s(t) alone cost them a fifth of their gain on the box
+/// (docs/results/published_official.md).
+#[inline(always)]
+pub fn patch_member(sp: f32, sc: f32, sn: f32, t2_max: f32, t2_patch3: f32, alone: bool) -> bool {
+    let c = sc.max(0.0);
+    let side = if alone { c } else { 0.0 };
+    let p = if sp < 0.0 { side } else { sp };
+    let n = if sn < 0.0 { side } else { sn };
+    (c <= t2_max) & (p + c + n <= t2_patch3)
 }
 
 /// The bin shift k of neighbour q for pixel p: camera depths (0 = saw nothing) over
@@ -114,8 +149,20 @@ pub fn depth_shift(depth_p: f32, depth_q: f32, h: f64) -> i64 {
 pub fn same_coverage(f_i: f32, f_j: f32, n_i: u64, n_j: u64, t2_max: f64) -> bool {
     let (f_i, f_j) = (f_i as f64, f_j as f64);
     let d = f_i - f_j;
-    let v = f_i * (1.0 - f_i) / n_i.max(1) as f64 + f_j * (1.0 - f_j) / n_j.max(1) as f64;
+    let v = adjusted_variance(f_i, n_i) + adjusted_variance(f_j, n_j);
     d == 0.0 || d * d <= t2_max * v
+}
+
+/// Agresti-Coull: the variance of a fraction `f` of `n` samples, from the
+/// estimate with two successes and two failures added, `p = (f n + 2) / (n + 4)`,
+/// `p (1 - p) / (n + 4)`. Unlike `f (1 - f) / n` it is not 0 at f = 1, where a pixel
+/// fully inside the light would otherwise differ "significantly" from one that
+/// missed it once in 512 samples.
+#[inline]
+fn adjusted_variance(f: f64, n: u64) -> f64 {
+    let n = n.max(1) as f64;
+    let p = (f * n + 2.0) / (n + 4.0);
+    p * (1.0 - p) / (n + 4.0)
 }
 
 /// Whether a pixel belongs to the emitter class.
@@ -130,12 +177,34 @@ mod tests {
 
     #[test]
     fn statistic_edge_cases_and_symmetry() {
-        assert_eq!(statistic(1.0, 1.0, 0.0, 0.0), 0.0);
+        assert_eq!(statistic(1.0, 1.0, 0.0, 0.0), UNINFORMATIVE);
+        assert_eq!(statistic(0.0, 0.0, 0.0, 0.0), UNINFORMATIVE);
+        assert_eq!(statistic(0.0, 0.0, 0.0, 1.0), 0.0);
         assert_eq!(statistic(1.0, 1.5, 0.0, 0.0), f32::INFINITY);
         // d * d underflows but d != 0 with V = 0 still fails every bound.
         assert_eq!(statistic(1e-23, 2e-23, 0.0, 0.0), f32::INFINITY);
         assert_eq!(statistic(3.0, 1.0, 0.5, 1.5), 2.0);
         assert_eq!(statistic(3.0, 1.0, 0.5, 1.5), statistic(1.0, 3.0, 1.5, 0.5));
+    }
+
+    #[test]
+    fn empty_sides_do_not_dilute_the_patch_mean() {
+        let u = UNINFORMATIVE;
+        // A one-bin signal: s(t) = 1.9 beside two empty bins is judged on 1.9 alone.
+        assert!(!patch_member(u, 1.9, u, 4.0, 3.0 * 1.5, true));
+        assert!(patch_member(u, 1.4, u, 4.0, 3.0 * 1.5, true));
+        // Informative sides count as they are; an empty centre counts as 0.
+        assert!(patch_member(0.0, 1.9, 0.0, 4.0, 3.0 * 1.5, true));
+        assert!(patch_member(3.0, u, 3.0, 4.0, 3.0 * 2.0, true));
+        assert!(!patch_member(3.5, u, 3.5, 4.0, 3.0 * 2.0, true));
+        assert!(!patch_member(0.0, 4.5, 0.0, 4.0, 3.0 * 2.0, true));
+        // One empty side repeats s(t).
+        assert!(!patch_member(u, 2.5, 0.5, 4.0, 3.0 * 1.8, true));
+        assert!(patch_member(0.5, 2.5, 0.5, 4.0, 3.0 * 1.8, true));
+        // Not alone (emitter pixels, NLOS captures): empty sides count as 0.
+        assert!(patch_member(u, 1.9, u, 4.0, 3.0 * 1.5, false));
+        assert!(patch_member(u, 2.5, 0.5, 4.0, 3.0 * 1.8, false));
+        assert!(!patch_member(u, 4.5, u, 4.0, 3.0 * 2.0, false));
     }
 
     #[test]
@@ -153,9 +222,16 @@ mod tests {
     fn coverage_test() {
         assert!(same_coverage(1.0, 1.0, 16, 16, 4.0));
         assert!(!same_coverage(1.0, 0.9375, 1_000_000, 1_000_000, 4.0));
-        // d = 1/16, v = 0.0586 / 16: d^2 / v = 1.07.
+        // Agresti-Coull: p = 18/20 and 17/20, v = 0.0045 + 0.006375: d^2 / v = 0.359.
         assert!(same_coverage(1.0, 0.9375, 16, 16, 4.0));
-        assert!(!same_coverage(1.0, 0.9375, 16, 16, 1.0));
+        assert!(same_coverage(1.0, 0.9375, 16, 16, 0.36));
+        assert!(!same_coverage(1.0, 0.9375, 16, 16, 0.35));
+        // A pixel wholly inside the light and one that missed it 5 times in 512: d^2 / v
+        // = 2.95 (the plain binomial variance, 0 at f = 1, gave 5.2 and split them).
+        assert!(same_coverage(1.0, 0.99, 512, 512, 4.0));
+        assert!(!same_coverage(1.0, 0.99, 512, 512, 2.9));
+        assert!(!same_coverage(1.0, 0.97, 512, 512, 4.0));
+        assert!(!same_coverage(1.0, 0.999, 1_000_000, 1_000_000, 4.0));
         assert!(!same_coverage(0.5, 0.125, 16, 16, 4.0));
         assert_eq!(
             same_coverage(0.3, 0.6, 8, 8, 4.0),

@@ -152,9 +152,11 @@ impl Volume {
 /// pixel class c_p = [emitter_p > 0]; for class 1, radius r_e, no bin offsets and
 /// sigma_xy * r_e / r; neighbour q of p at bin offset dt with k = round((depth_q -
 /// depth_p) / h) (0 if either depth is 0) compares bin t of p with t + dt + k of q;
-/// s(t) = max_c (theta_q - theta_p)^2 / (V_q + V_p) (0 if both are 0, inf if only V is);
-/// member iff s(t) <= t2_max and s(t-1) + s(t) + s(t+1) <= 3 t2_patch, where a side
-/// whose voxels do not both exist repeats s(t). On estimates from B replicates each
+/// s(t) = max_c (theta_q - theta_p)^2 / (V_q + V_p) (inf if only V is 0; a pair with
+/// d = 0 and V = 0 in every channel is empty); member iff s(t) <= t2_max and
+/// s(t-1) + s(t) + s(t+1) <= 3 t2_patch, where a side whose voxels do not both exist
+/// repeats s(t), an empty centre is 0 and an empty side repeats s(t) when isolated bins
+/// are judged alone (not for emitter pixels) and is 0 otherwise. On estimates from B replicates each
 /// channel's s is first multiplied by t2_max / g^2(nu), g^2(nu) the pair's critical value
 /// at its Welch-Satterthwaite degrees of freedom and the tail level of t2_max
 /// (`PairDof`, whose table tests/unit tests check against the exact quantile).
@@ -221,9 +223,15 @@ fn reference(vol: &Volume, p: &FilterParams, tp: &TstatParams) -> (Vec<f64>, u64
                             continue;
                         }
                         if class_j {
-                            // Binomial Welch test on the covered fractions.
+                            // Welch test on the covered fractions, each with its
+                            // Agresti-Coull variance (two hits and two misses added).
+                            let n = e.spp as f64;
+                            let ac = |f: f64| {
+                                let p = (f * n + 2.0) / (n + 4.0);
+                                p * (1.0 - p) / (n + 4.0)
+                            };
                             let (fi, fj) = (vol.emitter[i] as f64, vol.emitter[j] as f64);
-                            let v = (fi * (1.0 - fi) + fj * (1.0 - fj)) / e.spp as f64;
+                            let v = ac(fi) + ac(fj);
                             if fi != fj && (fi - fj).powi(2) > tp.t2_max * v {
                                 continue;
                             }
@@ -241,17 +249,36 @@ fn reference(vol: &Volume, p: &FilterParams, tp: &TstatParams) -> (Vec<f64>, u64
                                 continue;
                             }
                             let both = |tt: i64| tt >= 0 && tt < t && tt + o >= 0 && tt + o < t;
-                            let sc = stat(i, j, ti, tj);
-                            let sp = if both(tj - 1) {
-                                stat(i, j, ti - 1, tj - 1)
-                            } else {
-                                sc
+                            // Empty voxel pairs (d = 0 and V = 0 in every channel)
+                            // carry no information: an empty centre counts as 0, an
+                            // empty side as the centre when isolated bins are judged
+                            // alone (not for emitter pixels), else as 0.
+                            let alone = tp.isolated_bins_alone && !class_j;
+                            let empty = |ti: i64, tj: i64| {
+                                (0..C).all(|c| {
+                                    e.theta[at(i, c, ti)] == e.theta[at(j, c, tj)]
+                                        && e.v[at(i, c, ti)] + e.v[at(j, c, tj)] == 0.0
+                                })
                             };
-                            let sn = if both(tj + 1) {
-                                stat(i, j, ti + 1, tj + 1)
+                            let sc = if empty(ti, tj) {
+                                0.0
                             } else {
-                                sc
+                                stat(i, j, ti, tj)
                             };
+                            let side = |tt: i64| {
+                                if !both(tt) {
+                                    sc
+                                } else if empty(tt + o, tt) {
+                                    if alone {
+                                        sc
+                                    } else {
+                                        0.0
+                                    }
+                                } else {
+                                    stat(i, j, tt + o, tt)
+                                }
+                            };
+                            let (sp, sn) = (side(tj - 1), side(tj + 1));
                             let member = sc <= tp.t2_max as f32
                                 && sp + sc + sn <= (3.0 * tp.t2_patch) as f32;
                             let centre = i == j && o == 0;
@@ -416,6 +443,8 @@ fn fast_filter_matches_the_definition() {
             t2_patch,
             emitter_radius: re,
             depth_align,
+            // Both rules for empty sides (the NLOS default is the odd cases').
+            isolated_bins_alone: n % 2 == 0,
         };
         let p = params(r, rt, kind, tp);
         let (expected, members, pairs) = reference(&vol, &p, &tp);
@@ -555,6 +584,7 @@ fn patch_mean_rejects_what_a_single_voxel_lets_through() {
         t2_patch: 1.5,
         emitter_radius: None,
         depth_align: false,
+        isolated_bins_alone: true,
     };
     let p = params(1, 0, BaseKind::Gaussian, tp);
     let out = run(&vol, &p, Tiling::default());
@@ -579,6 +609,55 @@ fn patch_mean_rejects_what_a_single_voxel_lets_through() {
     // (3.125 + 3.125 + 0) / 3 = 2.08.
     let out = run(&vol, &p, Tiling::default());
     assert_eq!(out[vol.e.idx(0, 0, 0)], 10.0);
+}
+
+/// A one-bin signal between empty bins (a highlight of a small bright source): judged
+/// alone, a neighbour that passes the per-voxel bound but not the patch bound is
+/// rejected; with the empty sides counted as 0 (NLOS captures, emitter pixels) the
+/// patch mean is diluted to a third and it passes.
+#[test]
+fn isolated_bins_are_judged_alone() {
+    let (h, w, t) = (1, 2, 5);
+    let mut vol = Volume::zeros(h, w, t, 0.1);
+    // V = 2 per pair, d = 1.95 at bin 2: s = 1.90, under t2_max = 4, over t2_patch = 1.5.
+    vol.set(0, 0, 2, 10.0, 1.0);
+    vol.set(0, 1, 2, 11.95, 1.0);
+    let tp = TstatParams {
+        t2_max: 4.0,
+        t2_patch: 1.5,
+        emitter_radius: None,
+        depth_align: false,
+        isolated_bins_alone: true,
+    };
+    let alone = run(
+        &vol,
+        &params(1, 0, BaseKind::Gaussian, tp),
+        Tiling::default(),
+    );
+    assert_eq!(alone[vol.e.idx(0, 0, 2)], 10.0);
+    assert_eq!(alone[vol.e.idx(1, 0, 2)], 11.95);
+    let diluted = TstatParams {
+        isolated_bins_alone: false,
+        ..tp
+    };
+    let out = run(
+        &vol,
+        &params(1, 0, BaseKind::Gaussian, diluted),
+        Tiling::default(),
+    );
+    let w1 = (-0.5f64 / 10.0).exp();
+    let want = ((10.0 + w1 * 11.95) / (1.0 + w1)) as f32;
+    assert!((out[vol.e.idx(0, 0, 2)] - want).abs() < 1e-5);
+    // An emitter pixel's sides count as 0 even when isolated bins are judged alone.
+    // (Their spatial sigma is scaled by r_e / r, so only the membership is checked.)
+    vol.emitter = vec![1.0; 2];
+    let out = run(
+        &vol,
+        &params(1, 0, BaseKind::Gaussian, tp),
+        Tiling::default(),
+    );
+    let o = out[vol.e.idx(0, 0, 2)];
+    assert!(o > 10.5 && o < 11.95, "{o}");
 }
 
 /// Consistency: pixels with different true values and variances ~ 1/n; as n grows, the
