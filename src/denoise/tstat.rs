@@ -5,8 +5,10 @@
 //!    (no bin offsets) over a wider radius `r_e`, with the spatial sigma scaled by
 //!    `r_e / r`: their signal is one bin of direct emission whose value only coverage
 //!    at the light's edge changes. Two emitter pixels are neighbours only when their
-//!    covered fractions agree ([`same_coverage`]). With stratified sub-pixel positions
-//!    the default `r_e` is 0 (see [`TstatParams::emitter_radius`]).
+//!    covered fractions agree ([`same_coverage`], with Agresti-Coull variances so that a
+//!    pixel wholly inside the light is not set apart from one that missed it a few
+//!    times). With stratified sub-pixel positions the default `r_e` is 0 (see
+//!    [`TstatParams::emitter_radius`]).
 //! 2. **Camera-depth alignment.** Voxel (p, t) is compared with (q, t + dt + k),
 //!    `k = round((depth_q - depth_p) / h)` (h the bin width in OPL; k = 0 when either
 //!    pixel saw nothing): the same light reaches a farther surface later, so the
@@ -18,7 +20,10 @@
 //!    `s(t) <= t2_max` and `(s(t-1) + s(t) + s(t+1)) / 3 <= t2_patch`; at the ends of the
 //!    range where both voxels exist, the missing side repeats s(t). The patch mean
 //!    rejects neighbours that pass a single voxel's test by chance but differ over
-//!    their bins (the blotches of the per-voxel test at low spp).
+//!    their bins (the blotches of the per-voxel test at low spp). A side where both
+//!    voxels are empty also repeats s(t) on images ([`patch_member`],
+//!    [`TstatParams::isolated_bins_alone`]): a one-bin signal such as a small bright
+//!    source's highlight is judged on its own bin, not on a mean diluted by zeros.
 //!
 //! As spp grows V shrinks like 1/n, so any fixed difference in expectation eventually
 //! fails the test: the filter is consistent. The centre voxel always passes (s = 0).
