@@ -17,6 +17,7 @@ pub mod materials;
 pub mod math;
 pub mod media;
 pub mod nlos;
+pub mod polarization;
 pub mod render;
 pub mod report;
 pub mod scene;

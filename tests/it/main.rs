@@ -38,6 +38,7 @@ mod nlos_convergence;
 mod nlos_wave;
 mod path_loop;
 mod pixel_sampling;
+mod polarization;
 mod render_physics;
 mod report;
 mod scene_compat;
