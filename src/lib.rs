@@ -22,6 +22,7 @@ pub mod render;
 pub mod report;
 pub mod scene;
 pub mod sensors;
+pub mod spectral;
 pub mod stats;
 pub mod textures;
 pub mod viz;

@@ -10,7 +10,7 @@ use std::path::{Path, PathBuf};
 /// of one layer do not import each other.
 const LAYERS: &[&[&str]] = &[
     &["math", "cpu", "io"],
-    &["stats", "geometry", "polarization"],
+    &["stats", "geometry", "polarization", "spectral"],
     &["textures", "sensors"],
     &["materials", "media"],
     &["lights"],

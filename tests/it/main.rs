@@ -47,6 +47,7 @@ mod sensors;
 mod serialized;
 mod shard;
 mod sobol_sampling;
+mod spectral;
 mod stream_render;
 mod textured;
 mod view;
