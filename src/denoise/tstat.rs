@@ -90,8 +90,8 @@ impl TstatParams {
 
 /// What [`statistic`] returns for a pair that holds no information (d = 0 and V = 0:
 /// in practice two empty voxels). Every other value is >= 0. The per-voxel bound reads
-/// it as 0 (agreement); the patch mean reads it as s(t), so empty bins beside a
-/// one-bin signal (a light seen directly, a highlight) do not dilute the patch mean.
+/// it as 0 (agreement); the patch mean reads it as [`patch_member`] says, so that on
+/// images empty bins beside a one-bin signal (a highlight) do not dilute the mean.
 pub const UNINFORMATIVE: f32 = -1.0;
 
 /// One channel's Welch statistic `d^2 / V` with `d = theta_i - theta_j`,
@@ -122,7 +122,7 @@ pub fn statistic(theta_i: f32, theta_j: f32, v_i: f32, v_j: f32) -> f32 {
 /// worse than noisy). Emitter pixels are guarded by the coverage test instead, their
 /// direct emission is a pulse a bin or two long by construction, and judging its
 /// first bin on s(t) alone cost them a fifth of their gain on the box
-/// (docs/results/published_official.md).
+/// (docs/denoiser.md).
 #[inline(always)]
 pub fn patch_member(sp: f32, sc: f32, sn: f32, t2_max: f32, t2_patch3: f32, alone: bool) -> bool {
     let c = sc.max(0.0);
