@@ -29,6 +29,8 @@ interrupted run resumes; --fresh starts over.
     python3 scripts/agreement.py                      # everything, about an hour on 2 cores
     python3 scripts/agreement.py scenes/cbox.xml      # some scenes (cache kept)
     python3 scripts/agreement.py --report-only        # rewrite the Markdown from the cache
+    python3 scripts/agreement.py --mode spectral S    # tstat --mode spectral against
+                                                      # mitransient's llvm_ad_spectral
 
 Needs mitransient 1.3.1 (pip install mitsuba==3.9.1 mitransient==1.3.1; apt-get install
 libllvm19). Not part of CI (a clone has no ../shared, and CI has no mitransient).
@@ -221,7 +223,8 @@ def measure(path, args, tmp):
     t0 = time.time()
     for seed in (1, 2):
         try:
-            r = subprocess.run([sys.executable, "-c", agree_wild.MIT, copy, str(args.spp), str(seed),
+            mit = agree_wild.MIT.replace("'llvm_ad_rgb'", f"'llvm_ad_{args.mode}'")
+            r = subprocess.run([sys.executable, "-c", mit, copy, str(args.spp), str(seed),
                                 json.dumps(needed), os.path.join(tmp, f"m{seed}"), json.dumps(search)],
                                capture_output=True, text=True, timeout=args.timeout,
                                env=dict(os.environ, **getattr(args, "mit_env", {})))
@@ -234,7 +237,8 @@ def measure(path, args, tmp):
                    np.load(os.path.join(tmp, f"m{seed}_transient.npy"))[..., :3]))
     t_mit = time.time() - t0
     out = os.path.join(tmp, "t.tstats")
-    cmd = [args.tstat, "render", copy, "--spp", str(args.spp), "--seed", "1", "--out", out, "--force"]
+    cmd = [args.tstat, "render", copy, "--spp", str(args.spp), "--seed", "1", "--out", out, "--force",
+           "--mode", args.mode]
     for k, v in needed.items():
         cmd += ["-D", f"{k}={v}"]
     for f in search:
@@ -373,12 +377,18 @@ def main():
     ap.add_argument("-a", dest="search", action="append", default=[])
     ap.add_argument("--wild", default=os.path.join(ROOT, "..", "shared", "wild-scenes"))
     ap.add_argument("--tstat", default=os.path.join(ROOT, "target", "release", "tstat"))
-    ap.add_argument("--out", default=os.path.join(ROOT, "docs", "results", "agreement.md"))
+    ap.add_argument("--mode", choices=["rgb", "spectral"], default="rgb",
+                    help="tstat's --mode, against mitransient's llvm_ad_<mode> variant")
+    ap.add_argument("--out", help="default docs/results/agreement.md "
+                    "(agreement_spectral.md for --mode spectral)")
     ap.add_argument("--cache")
     ap.add_argument("--fresh", action="store_true")
     ap.add_argument("--report-only", action="store_true")
     ap.add_argument("--retry-skipped", action="store_true", help="measure again the scenes skipped before")
     args = ap.parse_args()
+    if args.out is None:
+        name = "agreement.md" if args.mode == "rgb" else f"agreement_{args.mode}.md"
+        args.out = os.path.join(ROOT, "docs", "results", name)
     args.wild = os.path.abspath(args.wild)
     cache = args.cache or os.path.splitext(args.out)[0] + ".json"
     results = {} if args.fresh or not os.path.exists(cache) else json.load(open(cache))

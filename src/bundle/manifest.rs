@@ -108,6 +108,10 @@ pub struct Manifest {
     pub height: usize,
     pub bins: usize,
     pub channels: Vec<String>,
+    /// What the paths carried (`scene::mode`): `rgb` or `spectral` (whose channels are
+    /// the paths' linear sRGB). Absent in bundles written before the field: `rgb`.
+    #[serde(default)]
+    pub mode: crate::scene::mode::RenderMode,
     pub spp: u64,
     /// t0 and h in OPL (scene units).
     pub start_opl: f64,
@@ -231,6 +235,13 @@ impl Manifest {
             Some(_) => "the relay wall",
             None => self.time_origin.describe(),
         }
+    }
+
+    /// Whether a sample may be negative: a spectral path's linear sRGB is (the sRGB
+    /// matching curves are negative at some wavelengths), though each voxel's mean
+    /// converges to the scene's colour.
+    pub fn signed_samples(&self) -> bool {
+        self.mode != crate::scene::mode::RenderMode::Rgb
     }
 
     pub fn array(&self, name: &str) -> Option<&ArrayInfo> {

@@ -22,8 +22,9 @@ use ndarray::{Array2, Array3};
 use std::path::{Path, PathBuf};
 
 fn same_settings(a: &Manifest, b: &Manifest) -> Result<(), Problem> {
-    let checks: [(&str, bool); 15] = [
+    let checks: [(&str, bool); 16] = [
         ("channels", a.channels == b.channels),
+        ("mode", a.mode == b.mode),
         ("scene (SHA-256)", a.scene.sha256 == b.scene.sha256),
         ("width", a.width == b.width),
         ("height", a.height == b.height),

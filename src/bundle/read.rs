@@ -30,6 +30,8 @@
 //!   the scene loader refuses negative ones);
 //! - a negative `X1` or `X3` when `z(0) = 0` (identity, Yeo-Johnson: `z(x) >= 0` for
 //!   `x >= 0`); under Box-Cox `z` ranges down to `-1/lambda`, so they may be negative;
+//!   in a spectral bundle (`Manifest::signed_samples`) samples, sums and the steady
+//!   image may be negative (a path's sRGB is signed);
 //! - a radiance sum S (X1 under the identity) whose mean S / spp overflows f32, the
 //!   type of every volume the bundle becomes (the filter turned it into infinities);
 //! - a count above spp (a path adds at most one sample to a voxel, SPEC 4);
@@ -727,6 +729,9 @@ impl Bundle {
         let name = self.sum_name(which);
         let rule = match which {
             SumArray::X2 | SumArray::R2 => Some("a sum of squares cannot be negative".into()),
+            // A spectral path's sRGB sample may be negative (the sRGB matching curves
+            // are), so its sums may be too.
+            SumArray::X1 | SumArray::X3 | SumArray::Radiance if m.signed_samples() => None,
             SumArray::X1 | SumArray::X3 if m.transform.at_zero() == 0.0 => {
                 Some(if m.transform.is_identity() {
                     radiance
@@ -886,11 +891,12 @@ impl Bundle {
     }
     pub fn steady(&self) -> Result<Array3<f64>, BundleError> {
         let m = &self.manifest;
+        let lo = if m.signed_samples() { f64::MIN } else { 0.0 };
         self.read_ranged(
             "steady",
             [m.height, m.width, CHANNELS].into_dimension(),
             &AXES3C,
-            (0.0, f64::MAX),
+            (lo, f64::MAX),
         )
     }
 

@@ -232,6 +232,7 @@ fn manifest(scene: &Scene, meta: &BundleMeta, seconds: f64, dropped_nonfinite: u
         height: film.height,
         bins: film.time.bins,
         channels: vec!["R".into(), "G".into(), "B".into()],
+        mode: scene.mode,
         spp: scene.spp as u64,
         start_opl: film.time.start_opl,
         bin_width_opl: film.time.bin_width_opl,

@@ -15,7 +15,6 @@ use crate::bundle::write::bundle_bytes_with;
 use crate::cluster::{check_path, check_text, k8s, normalize, quote_path, slurm, Job};
 use crate::render::{RenderSettings, StreamingMemory};
 use crate::scene::Scene;
-use crate::stats::Transform;
 use anyhow::{anyhow, bail, Context};
 use clap::{Args, Parser, Subcommand};
 use std::path::{Path, PathBuf};
@@ -179,10 +178,7 @@ fn plan(c: &Common, binary: String, max_shards: u64, directive: bool) -> anyhow:
     let merge_mem = size_flag_in("--merge-mem", &c.merge_mem, (1, "1"), MAX_TASK_MEMORY)?;
     let r = render_args(c, shards)?;
     // Everything `tstat render` checks before loading, so no task fails on it.
-    let transform: Transform = r
-        .transform
-        .parse()
-        .map_err(|e| anyhow!("--transform: {e}"))?;
+    let transform = r.scene_args.transform(&r.transform)?;
     super::util::positive("--unit-m", r.unit_m)?;
     super::util::seed(r.seed)?;
     if let Some(s) = &r.max_memory {

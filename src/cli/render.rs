@@ -67,9 +67,50 @@ pub struct SceneArgs {
     /// than a tenth of a bin.
     #[arg(long, value_parser = ["near_clip", "near-clip", "pinhole"])]
     pub time_origin: Option<String>,
+    /// What a path carries: rgb (default: the three channels) or spectral (three
+    /// wavelengths per path, sampled as Mitsuba's spectral variants do; RGB in the
+    /// scene lifted to smooth spectra; each path's linear sRGB recorded, so the
+    /// bundle keeps three channels). Spectral refuses NLOS captures, media and the
+    /// principled BSDFs. docs/spectral.md.
+    #[arg(long, value_enum, default_value_t = ModeArg::Rgb)]
+    pub mode: ModeArg,
+}
+
+/// `--mode`'s values.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum ModeArg {
+    Rgb,
+    Spectral,
+}
+
+impl ModeArg {
+    pub fn name(self) -> &'static str {
+        crate::scene::mode::RenderMode::from(self).name()
+    }
+}
+
+impl From<ModeArg> for crate::scene::mode::RenderMode {
+    fn from(m: ModeArg) -> Self {
+        match m {
+            ModeArg::Rgb => Self::Rgb,
+            ModeArg::Spectral => Self::Spectral,
+        }
+    }
 }
 
 impl SceneArgs {
+    /// `--transform`, checked against `--mode`: Box-Cox is undefined below zero, and a
+    /// spectral path's sRGB samples may be negative.
+    pub fn transform(&self, text: &str) -> anyhow::Result<Transform> {
+        let t: Transform = text
+            .parse()
+            .map_err(|e| anyhow::anyhow!("--transform: {e}"))?;
+        if self.mode != ModeArg::Rgb && matches!(t, Transform::BoxCox { .. }) {
+            bail!("--transform {text} with --mode {}: Box-Cox is undefined below zero, and a spectral path's sRGB samples can be negative; use yeo-johnson (which is) or identity", self.mode.name());
+        }
+        Ok(t)
+    }
+
     /// The checked overrides, with `--spp` if given.
     pub fn overrides(&self, spp: Option<i64>) -> anyhow::Result<Overrides> {
         let mut defaults = Vec::new();
@@ -106,6 +147,7 @@ impl SceneArgs {
                 _ => TimeOrigin::NearClip,
             }),
             search_paths: super::util::search_folders(&self.search_paths)?,
+            mode: self.mode.into(),
         })
     }
 }
@@ -181,10 +223,7 @@ fn shard_and_out(spec: Option<&str>, out: &Path) -> anyhow::Result<(Option<Shard
 /// the job `tstat render` (and the Python package's `render`) runs.
 pub fn prepare(a: &RenderArgs) -> anyhow::Result<(Scene, RenderJob)> {
     let started = std::time::Instant::now();
-    let transform: Transform = a
-        .transform
-        .parse()
-        .map_err(|e| anyhow::anyhow!("--transform: {e}"))?;
+    let transform = a.scene_args.transform(&a.transform)?;
     positive("--unit-m", a.unit_m)?;
     let overrides = a.scene_args.overrides(a.spp)?;
     let threads = threads(a.threads)?;

@@ -22,7 +22,6 @@ use crate::report::text::{
     chart, convergence_markdown, metrics_cells, metrics_header, ratio, write_per_bin,
 };
 use crate::report::volume::load_volume;
-use crate::stats::Transform;
 use anyhow::{anyhow, bail, ensure};
 use clap::{Args, Subcommand};
 use std::path::{Path, PathBuf};
@@ -359,10 +358,7 @@ fn run_conv(a: ConvergenceArgs) -> anyhow::Result<()> {
             .map_err(|e| anyhow!("{e} (in --spp)"))?;
     }
     let base_seed = seed(Some(a.seed))?.unwrap_or(0);
-    let transform: Transform = a
-        .transform
-        .parse()
-        .map_err(|e| anyhow!("--transform: {e}"))?;
+    let transform = a.scene_args.transform(&a.transform)?;
     let overrides = a.scene_args.overrides(None)?;
     anyhow::ensure!(
         a.scene_args.replicates < 2 || a.filter.variance == super::denoise::VarianceArg::Unbiased,

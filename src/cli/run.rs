@@ -19,7 +19,6 @@ use crate::stats::accumulators::CHANNELS;
 use crate::stats::Transform;
 use crate::viz::frames::{side_by_side, write_all, FramesRequest};
 use crate::viz::tonemap::global_exposure;
-use anyhow::anyhow;
 use clap::Args;
 use std::path::PathBuf;
 
@@ -68,10 +67,7 @@ pub fn run(a: RunArgs) -> anyhow::Result<()> {
     let every = int_flag("--every", a.every, 1, i64::MAX)? as usize;
     let threads = threads(a.threads)?;
     let seed = seed(a.seed)?;
-    let transform: Transform = a
-        .transform
-        .parse()
-        .map_err(|e| anyhow!("--transform: {e}"))?;
+    let transform = a.scene_args.transform(&a.transform)?;
     let params = a.filter.params()?;
     let overrides = a.scene_args.overrides(a.spp)?;
     let inputs: Vec<_> = a.scene.iter().map(|p| arg("scene", p)).collect();

@@ -21,6 +21,7 @@ mod dielectric;
 mod diffuse;
 mod flags;
 pub mod fresnel;
+pub mod lift;
 mod mask;
 pub mod material;
 pub mod microfacet;

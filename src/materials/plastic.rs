@@ -68,6 +68,12 @@ impl Plastic {
         }
     }
 
+    /// The diffuse and specular reflectances as given (before the coating's internal
+    /// reflections).
+    pub fn reflectances(&self) -> (Rgb, Rgb) {
+        (self.diffuse_reflectance, self.specular_reflectance)
+    }
+
     /// The same coating over another base (a texture's value at a hit).
     pub fn with_diffuse_reflectance(&self, d: Rgb) -> Self {
         Self::new(self.eta, d, self.specular_reflectance, self.nonlinear)

@@ -124,6 +124,12 @@ impl RoughPlastic {
         )
     }
 
+    /// The diffuse and specular reflectances as given (before the coating's internal
+    /// reflections).
+    pub fn reflectances(&self) -> (Rgb, Rgb) {
+        (self.diffuse_reflectance, self.specular_reflectance)
+    }
+
     /// The same coating over another base (a texture's value at a hit); the tables,
     /// which depend only on the distribution, alpha and eta, are shared.
     pub fn with_diffuse_reflectance(&self, d: Rgb) -> Self {

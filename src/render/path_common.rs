@@ -13,6 +13,7 @@ use crate::math::sampling::power_heuristic;
 use crate::math::Rgb;
 use crate::scene::Scene;
 use crate::sensors::time_filter::{gaussian_shares, TimeFilter};
+use crate::spectral::lift::Wavelengths;
 use glam::Vec3;
 
 /// What one path leaves behind besides its deposits.
@@ -60,6 +61,17 @@ pub(super) fn contribute(
     }
 }
 
+/// The spectrum at a spectral path's wavelengths `wl` of the colour `rgb` that emitter
+/// `e` emits: the scene's spectrum when it gave one (`Scene::emitter_spectra`), else
+/// the colour lifted as an illuminant (`spectral::lift`).
+#[inline(never)]
+pub(super) fn emitted_spectrum(scene: &Scene, e: usize, rgb: Rgb, wl: &Wavelengths) -> Rgb {
+    match scene.emitter_spectra.get(e) {
+        Some(Some(s)) => s.at(rgb, wl.lambda),
+        _ => wl.illuminant(rgb),
+    }
+}
+
 /// The end of a shadow ray to a light sample: a point light's position, or a point on
 /// an area (or distant) light moved off its surface along its normal, towards the
 /// reference point.
@@ -91,6 +103,7 @@ pub fn shadow_ray(p: Vec3, ng: Vec3, ls: &crate::lights::LightSample) -> (Vec3, 
 /// `eta * 2 max(R, |o - c|)` of OPL, the distance of a light sample of that emitter
 /// (`lights::scene_sphere`); a camera segment under `camera_unwarp` counts nothing. A
 /// camera path whose first non-delta vertex would be here sees an emitter (G-buffer).
+/// A spectral path (`wl`) sees the radiance's spectrum and contributes its sRGB.
 #[inline(never)]
 #[allow(clippy::too_many_arguments)]
 pub(super) fn escape(
@@ -108,6 +121,7 @@ pub(super) fn escape(
     tally: &mut PathTally,
     g: &mut GSample,
     g_pending: bool,
+    wl: Option<&Wavelengths>,
 ) {
     let settings = &scene.integrator;
     if depth == 0 && settings.hide_emitters {
@@ -128,5 +142,9 @@ pub(super) fn escape(
     } else {
         eta as f64 * dist as f64
     };
-    contribute(scene, deposits, tally, opl + segment, beta * radiance * w);
+    let c = match wl {
+        None => beta * radiance * w,
+        Some(wl) => wl.to_srgb(beta * emitted_spectrum(scene, env as usize, radiance, wl) * w),
+    };
+    contribute(scene, deposits, tally, opl + segment, c);
 }

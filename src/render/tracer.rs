@@ -35,7 +35,7 @@
 
 use super::deposits::PathDeposits;
 use super::gbuffer::GSample;
-use super::path_common::{contribute, escape, shadow_ray, PathTally};
+use super::path_common::{contribute, emitted_spectrum, escape, shadow_ray, PathTally};
 use super::roulette::roulette;
 use super::sampler::{pick_scattering, slot, PathSampler};
 use super::vertex::SurfaceVertex;
@@ -48,7 +48,9 @@ use crate::geometry::accel::{offset_origin, Hit};
 use crate::materials::{Bsdf, BsdfModel, Separable};
 use crate::math::sampling::power_heuristic;
 use crate::math::Rgb;
+use crate::scene::mode::RenderMode;
 use crate::scene::Scene;
+use crate::spectral::lift::Wavelengths;
 use glam::Vec3;
 
 /// A path's state between vertices.
@@ -79,6 +81,10 @@ struct PathState {
     camera_dist: f32,
     last_scatter: Vec3,
     nulls_in_a_row: u32,
+    /// The path's wavelengths in the spectral mode (`scene::mode`): `beta` and every
+    /// colour it meets are then values at them, and contributions become sRGB at
+    /// [`PathState::sample`]. `None` in RGB.
+    wl: Option<Wavelengths>,
 }
 
 /// The emitter that `u_sel` in [0, 1) selects among `n` (uniformly); one emitter needs
@@ -286,6 +292,32 @@ impl PathState {
             camera_dist: 0.0,
             last_scatter: o,
             nulls_in_a_row: 0,
+            // The spectral mode refuses media, so the media's hero channel and the
+            // wavelengths never share the slot.
+            wl: match scene.mode {
+                RenderMode::Rgb => None,
+                RenderMode::Spectral => Some(Wavelengths::sample(rng.get1(slot::CHANNEL))),
+            },
+        }
+    }
+
+    /// A colour `rgb` emitted by emitter `e` as the path sees it: itself in RGB, its
+    /// spectrum at the path's wavelengths in the spectral mode.
+    #[inline(always)]
+    fn emitted(&self, scene: &Scene, e: usize, rgb: Rgb) -> Rgb {
+        match &self.wl {
+            None => rgb,
+            Some(wl) => emitted_spectrum(scene, e, rgb, wl),
+        }
+    }
+
+    /// A contribution as the sample the film records: itself in RGB, its linear sRGB
+    /// in the spectral mode.
+    #[inline(always)]
+    fn sample(&self, c: Rgb) -> Rgb {
+        match &self.wl {
+            None => c,
+            Some(wl) => wl.to_srgb(c),
         }
     }
 }
@@ -340,14 +372,23 @@ fn shade<L: Level, const MEDIA: bool, S: PathSampler>(
                 tally,
                 &mut path.g,
                 path.g_pending,
+                path.wl.as_ref(),
             );
         }
         return false;
     };
     let depth = path.depth;
     to_surface::<MEDIA>(scene, path, hit);
-    let mut textured = None;
-    let at = Scattering::at(scene, hit, path.d, &mut textured, rng);
+    let (mut textured, mut lifted) = (None, None);
+    let at = Scattering::at(
+        scene,
+        hit,
+        path.d,
+        &mut textured,
+        &mut lifted,
+        path.wl.as_ref(),
+        rng,
+    );
     if MEDIA && depth == 0 && path.g.depth.is_none() {
         if matches!(at.bsdf, Bsdf::Null(_)) {
             path.camera_dist += hit.t;
@@ -408,17 +449,24 @@ struct Scattering<'a> {
 
 impl<'a> Scattering<'a> {
     /// The vertex at `hit` of the ray along `d` (`SurfaceVertex::at`, a textured
-    /// material resolved into `textured`), and its scattering child (a plain material
-    /// draws no number).
+    /// material resolved into `textured`; for a spectral path with wavelengths `wl`,
+    /// its colours as spectra into `lifted`), and its scattering child (a plain
+    /// material draws no number).
     #[inline(always)]
     fn at<S: PathSampler>(
         scene: &'a Scene,
         hit: &Hit,
         d: Vec3,
         textured: &'a mut Option<Bsdf>,
+        lifted: &'a mut Option<Bsdf>,
+        wl: Option<&Wavelengths>,
         rng: &mut S,
     ) -> Self {
         let v = SurfaceVertex::at(scene, hit, d, textured);
+        let v = match wl {
+            None => v,
+            Some(wl) => v.lifted(wl, lifted),
+        };
         let whole = v.bsdf;
         let (bsdf, delaying) = if v.material.is_plain() {
             (whole, None)
@@ -479,7 +527,8 @@ fn emission<const MEDIA: bool>(
             let select_pdf = 1.0 / scene.emitters.len() as f32;
             power_heuristic(path.last_pdf, emitter.pdf_area_hit(select_pdf, dist, cos_l))
         };
-        contribute(scene, deposits, tally, path.opl, path.beta * radiance * w);
+        let c = path.beta * path.emitted(scene, ei as usize, radiance) * w;
+        contribute(scene, deposits, tally, path.opl, path.sample(c));
     }
     true
 }
@@ -590,7 +639,7 @@ fn next_event<L: Level, const MEDIA: bool, S: PathSampler>(
             deposits,
             tally,
             arrival,
-            path.beta * f * tr * ls.li * (w / ls.pdf),
+            path.sample(path.beta * f * tr * path.emitted(scene, idx, ls.li) * (w / ls.pdf)),
         );
     }
 }

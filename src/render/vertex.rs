@@ -7,9 +7,11 @@
 use super::gbuffer::GSample;
 use crate::geometry::accel::Hit;
 use crate::geometry::shape::{Shape, SurfacePoint};
+use crate::materials::lift::ColourKind;
 use crate::materials::{Bsdf, BsdfModel, HitGeometry, Material};
 use crate::math::frame::Frame;
 use crate::scene::Scene;
+use crate::spectral::lift::Wavelengths;
 use crate::textures::TexPoint;
 use glam::Vec3;
 
@@ -26,8 +28,12 @@ pub struct SurfaceVertex<'a> {
     /// The scene's material at the shape.
     pub material: &'a Material,
     /// The material at this hit: `material.bsdf` itself, or with its textures (and
-    /// perturbed frames) resolved at the hit's uv.
+    /// perturbed frames) resolved at the hit's uv; for a spectral path, with its
+    /// colours at the path's wavelengths ([`Self::lifted`]).
     pub bsdf: &'a Bsdf,
+    /// The material at this hit in RGB, which the G-buffer records (`bsdf` but for a
+    /// spectral path).
+    pub rgb_bsdf: &'a Bsdf,
 }
 
 impl<'a> SurfaceVertex<'a> {
@@ -64,7 +70,20 @@ impl<'a> SurfaceVertex<'a> {
             wo_world,
             material,
             bsdf,
+            rgb_bsdf: bsdf,
         }
+    }
+
+    /// The vertex of a spectral path: every colour of the material at the hit as its
+    /// spectrum at the wavelengths `wl` (`materials::lift`, `spectral::lift`), kept in
+    /// `lifted`; the G-buffer still sees the RGB material.
+    #[inline(always)]
+    pub fn lifted(self, wl: &Wavelengths, lifted: &'a mut Option<Bsdf>) -> Self {
+        let bsdf = lifted.insert(self.bsdf.map_colours(&|kind, c| match kind {
+            ColourKind::Bounded => wl.reflectance(c),
+            ColourKind::Unbounded => wl.unbounded(c),
+        }));
+        SurfaceVertex { bsdf, ..self }
     }
 
     /// The shading normal faced to the side the ray came from.
@@ -82,7 +101,7 @@ impl<'a> SurfaceVertex<'a> {
     /// material's albedo and the faced shading normal.
     #[inline(always)]
     pub fn record(&self, g: &mut GSample) {
-        g.albedo = self.bsdf.albedo(self.wo);
+        g.albedo = self.rgb_bsdf.albedo(self.wo);
         g.normal = self.faced_normal();
     }
 }

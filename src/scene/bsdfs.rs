@@ -1,5 +1,6 @@
 //! Reading `<bsdf>` elements (and `<ref>`s to them) into [`Bsdf`] values.
 
+use super::mode::RenderMode;
 use super::ctx::Ctx;
 use super::error::SceneError;
 use super::props::{Props, Value};
@@ -128,6 +129,30 @@ fn conductor_preset(props: &Props, name: &str) -> Result<(Rgb, Rgb), SceneError>
 /// material when neither is given (`none` for both in Mitsuba 3's code, although its
 /// documentation says copper for `roughconductor`; we follow the renderer). `eta` and
 /// `k` may be textures.
+/// A conductor's `eta` or `k` given as an `<rgb>`, read for the spectral mode as
+/// Mitsuba 3.9.1's spectral variants read it: a colour (not a grey, which is a flat
+/// spectrum at any value) is lifted to a spectrum through the reflectance model, which
+/// clamps it to [0, 1] first. The clamp is applied here, at load, with a warning; named
+/// presets (`material`) are not clamped (`spectral::lift`).
+fn spectral_clamp(p: &Params, name: &str, t: Texture) -> Texture {
+    match t {
+        Texture::Constant(v)
+            if p.props.ctx.mode == RenderMode::Spectral
+                && matches!(p.props.peek(name), Some(Value::Rgb(_)))
+                && !(v.x == v.y && v.y == v.z)
+                && v.max_element() > 1.0 =>
+        {
+            let c = v.clamp(Rgb::ZERO, Rgb::ONE);
+            p.props.ctx.warn(
+                p.props.node,
+                format!("--mode spectral: the colour {name} {v} is clamped to {c}, as Mitsuba's spectral variants do (give it as a <spectrum>, a grey, or use 'material')"),
+            );
+            Texture::Constant(c)
+        }
+        t => t,
+    }
+}
+
 fn conductor_ior(p: &mut Params, kind: &str, default: &str) -> Result<(Rgb, Rgb), SceneError> {
     let material = p.props.string("material")?;
     let eta = texture_param(&mut p.props, "eta", p.textures)?;
@@ -145,6 +170,11 @@ fn conductor_ior(p: &mut Params, kind: &str, default: &str) -> Result<(Rgb, Rgb)
             k.unwrap_or(Texture::Constant(Rgb::ONE)),
         ),
         _ => return Err(props.err("give either 'material' or 'eta' and 'k', not both")),
+    };
+    let (eta, k) = if material.is_none() || material.as_deref() == Some("none") {
+        (spectral_clamp(p, "eta", eta), spectral_clamp(p, "k", k))
+    } else {
+        (eta, k)
     };
     let limit = MAX_OPTICAL_CONSTANT as f32;
     let mut constant = |name: &str, param: Param, t: Texture, placeholder: Rgb| match t {

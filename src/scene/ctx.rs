@@ -27,6 +27,13 @@ pub struct Ctx<'a> {
     search: RefCell<Vec<std::path::PathBuf>>,
     /// A plugin type as the loaders spell it ([`Self::with_plugin_names`]).
     canonical: fn(String) -> String,
+    /// The spectrum of the last emitted colour read, when the scene gave one
+    /// (`<spectrum>`); the emitter being read takes it (`take_emission_spectrum`) for
+    /// the spectral mode.
+    emission_spectrum: RefCell<Option<crate::spectral::curve::Curve>>,
+    /// The render mode the scene is read for (`--mode`): the spectral mode reads a
+    /// few values as Mitsuba's spectral variants do (`scene::bsdfs::conductor_ior`).
+    pub mode: super::mode::RenderMode,
 }
 
 /// Warnings kept with their location; the rest are counted.
@@ -105,7 +112,25 @@ impl<'a> Ctx<'a> {
             mesh_files: RefCell::new(Vec::new()),
             search: RefCell::new(vec![file.parent().unwrap_or(Path::new(".")).to_path_buf()]),
             canonical: std::convert::identity,
+            emission_spectrum: RefCell::new(None),
+            mode: super::mode::RenderMode::Rgb,
         }
+    }
+
+    /// Reads the scene for `mode`.
+    pub fn with_mode(mut self, mode: super::mode::RenderMode) -> Self {
+        self.mode = mode;
+        self
+    }
+
+    /// Records the spectrum of the emitted colour just read (`None`: an RGB or grey).
+    pub fn set_emission_spectrum(&self, s: Option<crate::spectral::curve::Curve>) {
+        *self.emission_spectrum.borrow_mut() = s;
+    }
+
+    /// The spectrum of the emitted colour read last, if the scene gave one; cleared.
+    pub fn take_emission_spectrum(&self) -> Option<crate::spectral::curve::Curve> {
+        self.emission_spectrum.borrow_mut().take()
     }
 
     /// Reads plugin types through `canonical` (the plugin table's spelling of a name
@@ -175,7 +200,9 @@ impl<'a> Ctx<'a> {
         text: &'a str,
         defaults: &'a HashMap<String, String>,
     ) -> Ctx<'a> {
-        let child = Ctx::new(file, text, defaults).with_plugin_names(self.canonical);
+        let child = Ctx::new(file, text, defaults)
+            .with_plugin_names(self.canonical)
+            .with_mode(self.mode);
         *child.search.borrow_mut() = self.search.borrow().clone();
         child.expanded.set(self.expanded.get());
         child

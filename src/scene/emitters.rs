@@ -23,6 +23,8 @@ pub(super) struct AreaEmission {
     pub(super) radiance: Vec3,
     pub(super) texture: Option<Texture>,
     pub(super) falloff: Option<AngularFalloff>,
+    /// The spectrum the radiance was given as, if any (`Scene::emitter_spectra`).
+    pub(super) spectrum: Option<crate::spectral::curve::Curve>,
 }
 
 impl AreaEmission {
@@ -56,12 +58,14 @@ pub(super) fn parse_area_emission(
     kind: &str,
     named: &NamedTextures,
 ) -> Result<AreaEmission, SceneError> {
-    Ok(if kind == "angulararea" {
+    ctx.take_emission_spectrum();
+    let mut emission = if kind == "angulararea" {
         let (radiance, falloff) = super::angular_area::parse_angular_area(ctx, obj)?;
         AreaEmission {
             radiance,
             texture: None,
             falloff: Some(falloff),
+            spectrum: None,
         }
     } else {
         let (radiance, texture) = parse_area_emitter(ctx, obj, named)?;
@@ -69,8 +73,11 @@ pub(super) fn parse_area_emission(
             radiance,
             texture,
             falloff: None,
+            spectrum: None,
         }
-    })
+    };
+    emission.spectrum = ctx.take_emission_spectrum();
+    Ok(emission)
 }
 
 /// An `<emitter type="area">`'s radiance (default 1, as Mitsuba 3's `area`): a

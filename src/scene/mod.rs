@@ -18,6 +18,7 @@ mod integrator;
 pub mod limits;
 pub mod media;
 pub mod mesh;
+pub mod mode;
 pub mod nlos_setup;
 pub mod plugins;
 pub mod ply_attributes;
@@ -107,6 +108,9 @@ pub struct Overrides {
     /// `-a DIR`: folders searched for the files a scene names, after the scene's own
     /// `<path>`s and folder (Mitsuba's `-a`).
     pub search_paths: Vec<PathBuf>,
+    /// `--mode`: what a path carries (`mode.rs`); the scene is refused when the mode
+    /// does not model something in it.
+    pub mode: mode::RenderMode,
 }
 
 pub struct Scene {
@@ -119,9 +123,15 @@ pub struct Scene {
     /// The sampler's `seed` parameter (the CLI's `--seed` overrides it).
     pub seed: u64,
     pub integrator: IntegratorSettings,
+    /// What a path carries (`mode.rs`): RGB unless `set_mode` says otherwise.
+    pub mode: mode::RenderMode,
     pub bsdfs: Vec<Material>,
     pub shapes: Vec<Shape>,
     pub emitters: Vec<Emitter>,
+    /// Per emitter, the spectrum its colour was given as (`<spectrum>`), which the
+    /// spectral mode uses as given; `None`: an RGB or grey colour, lifted
+    /// (`spectral::lift`). Ignored in RGB.
+    pub emitter_spectra: Vec<Option<mode::EmitterSpectrum>>,
     /// The environment emitter (`envmap` or `constant`), the one a ray leaving the
     /// scene sees; `None` in scenes without one, where escaping rays end the path.
     pub environment: Option<u32>,

@@ -6,6 +6,7 @@ use super::ctx::{scene_number, scene_numbers, Ctx};
 use super::error::SceneError;
 use super::to_world::parse_transform;
 use crate::scene::spectrum::{list_to_srgb, uniform_to_srgb, SpectrumUse, UNBOUNDED_SPECTRA};
+use crate::spectral::curve::Curve;
 use glam::{DMat4, Vec3};
 use roxmltree::Node;
 use std::collections::HashMap;
@@ -227,6 +228,17 @@ impl<'a, 'i, 'c> Props<'a, 'i, 'c> {
         } else {
             usage
         };
+        if usage == SpectrumUse::Emission {
+            let curve = match self.peek(name) {
+                Some(Value::Uniform(v)) => Some(Curve::Uniform(*v as f32)),
+                Some(Value::Spectrum(w, v)) => Some(Curve::Irregular {
+                    wavelengths: w.iter().map(|&x| x as f32).collect(),
+                    values: v.iter().map(|&x| x as f32).collect(),
+                }),
+                _ => None,
+            };
+            self.ctx.set_emission_spectrum(curve);
+        }
         match self.take(name) {
             None => Ok(None),
             Some((_, Value::Rgb(c))) => Ok(Some(Vec3::new(c[0] as f32, c[1] as f32, c[2] as f32))),

@@ -8,6 +8,7 @@ use super::infinite_emitters;
 use super::integrator::parse_integrator;
 use super::limits;
 use super::media::parse_medium;
+use super::mode::EmitterSpectrum;
 use super::plugins::canonical_plugin_name;
 use super::props::{Props, OBJECT_TAGS};
 use super::sampler::parse_sampler;
@@ -24,6 +25,7 @@ use crate::scene::textures::{parse_texture, NamedTextures};
 use crate::sensors::camera::Camera;
 use crate::sensors::film::Film;
 use crate::sensors::time_origin::TimeOrigin;
+use crate::spectral::curve::Curve;
 use glam::{DMat4, Vec3};
 use roxmltree::Node;
 use sha2::{Digest, Sha256};
@@ -44,7 +46,8 @@ pub fn load(path: &Path, overrides: &Overrides) -> Result<Scene, SceneError> {
     let (defaults, in_file) = scene_defaults(path, &text, root, overrides)?;
     let ctx = Ctx::new(path, &text, &defaults)
         .with_plugin_names(canonical_plugin_name)
-        .with_search_paths(&overrides.search_paths);
+        .with_search_paths(&overrides.search_paths)
+        .with_mode(overrides.mode);
     if root.tag_name().name() != "scene" {
         return Err(ctx.err(root, "the root element must be <scene>"));
     }
@@ -57,6 +60,7 @@ pub fn load(path: &Path, overrides: &Overrides) -> Result<Scene, SceneError> {
         bsdfs,
         shapes,
         mut emitters,
+        emitter_spectra,
         sensor,
         integrator,
         media,
@@ -190,7 +194,7 @@ pub fn load(path: &Path, overrides: &Overrides) -> Result<Scene, SceneError> {
         None => None,
     };
     let mesh_files = ctx.take_mesh_files();
-    Ok(Scene {
+    let mut scene = Scene {
         file: path.to_path_buf(),
         sha256,
         camera,
@@ -198,8 +202,13 @@ pub fn load(path: &Path, overrides: &Overrides) -> Result<Scene, SceneError> {
         spp,
         seed: s.seed,
         integrator,
+        mode: super::mode::RenderMode::Rgb,
         bsdfs,
         shapes,
+        emitter_spectra: emitter_spectra
+            .into_iter()
+            .map(|c| c.map(EmitterSpectrum::new))
+            .collect(),
         emitters,
         environment,
         media,
@@ -216,7 +225,11 @@ pub fn load(path: &Path, overrides: &Overrides) -> Result<Scene, SceneError> {
             )
         })?,
         mesh_files,
-    })
+    };
+    scene
+        .set_mode(overrides.mode)
+        .map_err(|e| SceneError::new(path, 0, "scene", e))?;
+    Ok(scene)
 }
 
 /// The scene file's text (UTF-8, within the size limit) and its SHA-256.
@@ -498,6 +511,8 @@ pub(super) struct Objects {
     bsdf_index: HashMap<String, usize>,
     shapes: Vec<Shape>,
     emitters: Vec<Emitter>,
+    /// The spectrum each emitter's colour was given as, if any (`Scene::emitter_spectra`).
+    emitter_spectra: Vec<Option<Curve>>,
     sensor: Option<Sensor>,
     integrator: Option<IntegratorSettings>,
     /// Samplers declared at the top level, by id (sample count, seed).
@@ -543,6 +558,7 @@ fn add_shape(o: &mut Objects, shape: Shape, bsdf: Material, emission: Option<Are
     };
     if let Some(emission) = emission {
         shape.emitter = Some(o.emitters.len() as u32);
+        o.emitter_spectra.push(emission.spectrum.clone());
         o.emitters
             .push(emission.into_emitter(index, AreaSampler::new(&shape)));
     }
@@ -822,7 +838,10 @@ fn walk(ctx: &Ctx, root: Node, o: &mut Objects, depth: usize) -> Result<(), Scen
                         index,
                         &shape,
                     )?;
-                    o.emitters.extend(meter.laser.take());
+                    if let Some(laser) = meter.laser.take() {
+                        o.emitters.push(laser);
+                        o.emitter_spectra.push(None);
+                    }
                     o.sensor = Some(meter);
                 }
                 add_shape(o, shape, bsdf, emission);
@@ -832,10 +851,14 @@ fn walk(ctx: &Ctx, root: Node, o: &mut Objects, depth: usize) -> Result<(), Scen
                 if ctx
                     .attr(node, "type")?
                     .is_some_and(|k| AREA_KINDS.contains(&k.as_str())) => {}
-            "emitter" if ctx.attr(node, "type")?.as_deref() == Some(super::projector::PROJECTOR) => o
-                .emitters
-                .push(super::projector::parse_projector(ctx, node, &o.named_textures)?),
+            "emitter" if ctx.attr(node, "type")?.as_deref() == Some(super::projector::PROJECTOR) => {
+                ctx.take_emission_spectrum();
+                let e = super::projector::parse_projector(ctx, node, &o.named_textures)?;
+                o.emitters.push(e);
+                o.emitter_spectra.push(ctx.take_emission_spectrum());
+            }
             "emitter" => {
+                ctx.take_emission_spectrum();
                 let kind = ctx.required_attr(node, "type")?;
                 if infinite_emitters::KINDS.contains(&kind.as_str()) {
                     let e = infinite_emitters::parse_infinite_emitter(ctx, node, &kind)?;
@@ -849,6 +872,7 @@ fn walk(ctx: &Ctx, root: Node, o: &mut Objects, depth: usize) -> Result<(), Scen
                 } else {
                     o.emitters.push(parse_point_emitter(ctx, node, &o.named_textures)?);
                 }
+                o.emitter_spectra.push(ctx.take_emission_spectrum());
             }
             "sampler" => {
                 let Some(id) = ctx.attr(node, "id")? else {

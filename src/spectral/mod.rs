@@ -5,4 +5,8 @@
 //! renderer samples wavelengths.
 
 pub mod cie;
+pub mod curve;
+pub mod lift;
+/// Jakob & Hanika's RGB-to-spectrum model for sRGB, as Mitsuba 3's; table computed lazily.
+pub mod rgb2spec;
 pub mod wavelengths;

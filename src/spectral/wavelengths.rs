@@ -4,8 +4,12 @@
 //! - one wavelength from `u` by the inverse CDF of the density
 //!   `p(l) = 0.003939804229326285 / cosh^2(0.0072 (l - 538))` on [360, 830] nm, which
 //!   follows the sum of the sRGB curves (importance sampling of the visible range);
-//! - a path carries [`WAVELENGTHS`] of them, from `u` shifted by `k / 4` (mod 1), so
-//!   the four are stratified over the range;
+//! - a path carries [`WAVELENGTHS`] of them, from `u` shifted by `k / 3` (mod 1), so
+//!   the three are stratified over the range. Mitsuba carries four; tstat carries three
+//!   because they ride in the three lanes the RGB path uses for its channels
+//!   (`spectral::lift`), so every BSDF, light and texture is the same code in both
+//!   modes. The estimator is the same (each wavelength has the density `p`); a path
+//!   just holds three samples of the spectrum instead of four;
 //! - a path's spectral values (already divided by the density) become one linear
 //!   sRGB sample as the mean over its wavelengths of `value * linear_rgb_rec(l)`,
 //!   times `CIE_Y_NORMALIZATION`. The statistics of a spectral render are those of
@@ -14,7 +18,7 @@
 use super::cie::{linear_rgb_rec, CIE_MAX, CIE_MIN, CIE_Y_NORMALIZATION};
 
 /// Wavelengths per path.
-pub const WAVELENGTHS: usize = 4;
+pub const WAVELENGTHS: usize = 3;
 
 /// One wavelength (nm) from `u` in [0, 1), and its weight `1 / p(l)`.
 pub fn sample_rgb_spectrum(u: f32) -> (f32, f32) {
@@ -34,7 +38,7 @@ pub fn pdf_rgb_spectrum(l: f32) -> f32 {
     }
 }
 
-/// A path's wavelengths and their weights from one uniform `u`: `u + k / 4 (mod 1)`.
+/// A path's wavelengths and their weights from one uniform `u`: `u + k / 3 (mod 1)`.
 pub fn sample_wavelengths(u: f32) -> ([f32; WAVELENGTHS], [f32; WAVELENGTHS]) {
     let mut l = [0.0; WAVELENGTHS];
     let mut w = [0.0; WAVELENGTHS];

@@ -1725,6 +1725,7 @@ fn write_bundle(
         height: h,
         bins: t,
         channels: vec!["R".into(), "G".into(), "B".into()],
+        mode: Default::default(),
         spp: b.spp,
         start_opl: 2.0,
         bin_width_opl: b.bin_width,

@@ -48,6 +48,7 @@ mod serialized;
 mod shard;
 mod sobol_sampling;
 mod spectral;
+mod spectral_render;
 mod stream_render;
 mod textured;
 mod view;

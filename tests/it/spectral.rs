@@ -39,10 +39,10 @@ fn the_wavelength_density_is_normalised_and_inverted_exactly() {
         let p = pdf_rgb_spectrum(l.clamp(360.0, 830.0));
         assert!((w * p - 1.0).abs() < 2e-4, "{u}: w p = {}", w * p);
     }
-    // Four wavelengths per path, a quarter of the range apart in u.
+    // Three wavelengths per path, a third of the range apart in u.
     let (l, _) = sample_wavelengths(0.9);
     let (a, _) = sample_rgb_spectrum(0.9);
-    let (b, _) = sample_rgb_spectrum(0.15);
+    let (b, _) = sample_rgb_spectrum(0.9 + 1.0 / 3.0 - 1.0);
     assert_eq!(l.len(), WAVELENGTHS);
     assert!((l[0] - a).abs() < 1e-3 && (l[1] - b).abs() < 1e-2, "{l:?}");
 }

@@ -22,6 +22,7 @@ pub const PINHOLE: Overrides = Overrides {
     max_depth: None,
     time_origin: Some(tstat::sensors::time_origin::TimeOrigin::Pinhole),
     search_paths: Vec::new(),
+    mode: tstat::scene::mode::RenderMode::Rgb,
 };
 
 /// Loads a scene written as XML text (from a temporary folder).

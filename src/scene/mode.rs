@@ -1,0 +1,100 @@
+//! The render mode: what a path carries and what a bundle's channels are (issue 45).
+//! `rgb` (the default) traces the three RGB channels; `spectral` traces three sampled
+//! wavelengths per path and writes each path's linear sRGB (`spectral::lift`), so a
+//! spectral bundle has the same three channels as an RGB one. [`Scene::set_mode`]
+//! refuses what the spectral mode does not model, with one message.
+
+use super::spectrum::{list_to_srgb, uniform_to_srgb, SpectrumUse};
+use super::Scene;
+use crate::spectral::curve::Curve;
+use glam::Vec3;
+
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum RenderMode {
+    #[default]
+    Rgb,
+    Spectral,
+}
+
+impl RenderMode {
+    /// The name in the manifest and on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            RenderMode::Rgb => "rgb",
+            RenderMode::Spectral => "spectral",
+        }
+    }
+
+    pub fn from_name(s: &str) -> Option<Self> {
+        match s {
+            "rgb" => Some(RenderMode::Rgb),
+            "spectral" => Some(RenderMode::Spectral),
+            _ => None,
+        }
+    }
+}
+
+impl Scene {
+    /// Renders the scene in `mode`. The spectral mode covers camera renders of
+    /// surfaces lit by every emitter tstat reads, with every BSDF but the principled
+    /// ones; it refuses NLOS captures, participating media and `principled` /
+    /// `principledthin` (what it would need for them is in docs/spectral.md).
+    pub fn set_mode(&mut self, mode: RenderMode) -> Result<(), String> {
+        if mode == RenderMode::Spectral {
+            if self.nlos.is_some() {
+                return Err("--mode spectral renders camera films; NLOS captures (transient_nlos_path) are rendered in rgb".into());
+            }
+            if !self.media.is_empty() {
+                return Err("--mode spectral does not render participating media yet; this scene has media (render it with --mode rgb)".into());
+            }
+            for m in &self.bsdfs {
+                if let Err(name) = m.bsdf.spectral_support() {
+                    return Err(format!("--mode spectral does not render the '{name}' BSDF (it tints by the luminance of its base colour); render this scene with --mode rgb"));
+                }
+            }
+        }
+        self.mode = mode;
+        Ok(())
+    }
+}
+
+/// An emitter's colour given as a spectrum: the spectrum, and the largest channel of
+/// the RGB it reads as in RGB (`scene::spectrum`), by which the emitter's RGB values
+/// (the colour times its spatial and angular factors) are divided to recover those
+/// factors.
+#[derive(Clone, Debug, PartialEq)]
+pub struct EmitterSpectrum {
+    pub curve: Curve,
+    pub rgb_max: f32,
+}
+
+impl EmitterSpectrum {
+    pub fn new(curve: Curve) -> Self {
+        let rgb = match &curve {
+            Curve::Uniform(v) => uniform_to_srgb(f64::from(*v), SpectrumUse::Emission),
+            Curve::Irregular {
+                wavelengths,
+                values,
+            } => {
+                let w: Vec<f64> = wavelengths.iter().map(|&x| f64::from(x)).collect();
+                let v: Vec<f64> = values.iter().map(|&x| f64::from(x)).collect();
+                list_to_srgb(&w, &v, SpectrumUse::Emission).0
+            }
+        };
+        EmitterSpectrum {
+            curve,
+            rgb_max: rgb.into_iter().fold(0.0, f32::max),
+        }
+    }
+
+    /// The spectrum at `lambda` of an emitted RGB value `rgb` of this emitter.
+    #[inline]
+    pub fn at(&self, rgb: Vec3, lambda: [f32; 3]) -> Vec3 {
+        if self.rgb_max.is_nan() || self.rgb_max <= 0.0 {
+            return Vec3::ZERO;
+        }
+        let scale = rgb.max_element() / self.rgb_max;
+        Vec3::from_array(lambda.map(|l| scale * self.curve.eval(l)))
+    }
+}

@@ -1,0 +1,234 @@
+//! The spectral render mode (`--mode spectral`, src/scene/mode.rs, src/spectral/lift.rs)
+//! end to end: a spectrum given as a list reaches the film as its sRGB integral
+//! (computed here by an independent quadrature); a grey world renders as in RGB (grey
+//! reflectances are flat, a grey emitter is D65, sRGB's white); the G-buffer stays
+//! RGB; same seed, same bits on any thread count; and what the mode does not model is
+//! refused with one message.
+
+#![allow(clippy::needless_range_loop)] // channels index several arrays at once
+
+use crate::common::{bundled, load};
+use tstat::render::pixel_sampling::PixelSampling;
+use tstat::render::{render, RenderOutput, RenderSettings};
+use tstat::scene::mode::RenderMode;
+use tstat::scene::{Overrides, Scene};
+use tstat::spectral::cie::{cie1931_xyz, xyz_to_srgb, CIE_Y_NORMALIZATION};
+use tstat::stats::Transform;
+
+fn spectral() -> Overrides {
+    Overrides {
+        mode: RenderMode::Spectral,
+        ..Default::default()
+    }
+}
+
+fn run(scene: &Scene, spp: u32, seed: u64) -> RenderOutput {
+    let settings = RenderSettings {
+        spp,
+        seed,
+        transform: Transform::Identity,
+        pixel_sampling: PixelSampling::Independent,
+        replicates: 0,
+        pixel_spp: None,
+    };
+    render(scene, &settings, &|_| {})
+}
+
+/// A camera looking straight at an area light 4 units away whose radiance is
+/// `radiance` (an XML element), all of it in bin 0.
+fn light_scene(radiance: &str) -> String {
+    format!(
+        r#"<scene version="3.0.0">
+  <integrator type="transient_path"><integer name="max_depth" value="2"/></integrator>
+  <sensor type="perspective">
+    <float name="fov" value="0.5"/>
+    <transform name="to_world"><lookat origin="0,0,0" target="0,0,-1" up="0,1,0"/></transform>
+    <sampler type="independent"><integer name="sample_count" value="4"/></sampler>
+    <film type="transient_hdr_film">
+      <integer name="width" value="1"/><integer name="height" value="1"/>
+      <integer name="temporal_bins" value="2"/>
+      <float name="start_opl" value="3.975"/><float name="bin_width_opl" value="0.05"/>
+    </film>
+  </sensor>
+  <shape type="rectangle">
+    <transform name="to_world"><scale value="3"/><translate z="-4"/></transform>
+    <emitter type="area">{radiance}</emitter>
+  </shape>
+</scene>"#
+    )
+}
+
+/// A triangular spectrum 530-545-560 nm, peak 8, seen directly: each channel's mean is
+/// `CIE_Y_NORMALIZATION * int L(l) sRGB(cmf(l)) dl` (emission: no D65), here by the
+/// midpoint rule on 0.001 nm steps; the render's mean must lie within 4 standard
+/// errors of it (the standard error from the render's own sums). The spectrum is out of
+/// the sRGB gamut (red is negative): the spectral mode keeps the negative mean, as
+/// mitransient's spectral variants do, while RGB mode reads the spectrum as its RGB
+/// once, at load, clamped to >= 0 as Mitsuba's RGB variants do: within 0.5% of the
+/// clamped integral.
+#[test]
+fn a_narrow_band_emitter_renders_as_the_integral_of_its_spectrum() {
+    let tri = |l: f64| {
+        if (530.0..=560.0).contains(&l) {
+            8.0 * (1.0 - (l - 545.0).abs() / 15.0)
+        } else {
+            0.0
+        }
+    };
+    let steps = 30_000;
+    let h = 30.0 / steps as f64;
+    let mut expected = [0.0f64; 3];
+    for i in 0..steps {
+        let l = 530.0 + (i as f64 + 0.5) * h;
+        let rgb = xyz_to_srgb(cie1931_xyz(l as f32));
+        for c in 0..3 {
+            expected[c] += tri(l) * f64::from(rgb[c]) * h * CIE_Y_NORMALIZATION;
+        }
+    }
+    let xml = light_scene(r#"<spectrum name="radiance" value="530:0, 545:8, 560:0"/>"#);
+    let spp = 200_000;
+    let out = run(&load(&xml, &spectral()), spp, 7);
+    let n = f64::from(spp);
+    for c in 0..3 {
+        let mean = out.accum.x1[c] / n;
+        let var = (out.accum.x2[c] / n - mean * mean).max(0.0);
+        let se = (var / n).sqrt();
+        assert!(
+            (mean - expected[c]).abs() < 4.0 * se,
+            "channel {c}: {mean} vs {} (se {se})",
+            expected[c]
+        );
+        // A 4-sigma test that cannot tell the mean from twice the mean would be
+        // worthless: the standard error is a small fraction of the value.
+        assert!(se < 0.01 * expected[c].abs().max(0.05), "se {se}");
+    }
+    assert!(expected[0] < -0.1, "out of gamut: {expected:?}");
+    let rgb = run(&load(&xml, &Overrides::default()), 4, 1);
+    for c in 0..3 {
+        let (v, want) = (rgb.accum.x1[c] / 4.0, expected[c].max(0.0));
+        assert!(
+            (v - want).abs() < 5e-3 * want.max(0.05),
+            "rgb {c}: {v} vs {want}"
+        );
+    }
+}
+
+/// A uniform spectrum is flat in the spectral mode (Mitsuba's `uniform`), not D65:
+/// seen directly its sRGB is `v * xyz_to_srgb(1, 1, 1)`, the purple-ish colour RGB
+/// mode reads it as.
+#[test]
+fn a_uniform_emission_spectrum_is_flat() {
+    let xml = light_scene(r#"<spectrum name="radiance" value="2"/>"#);
+    let spp = 100_000;
+    let out = run(&load(&xml, &spectral()), spp, 3);
+    let want = xyz_to_srgb([1.0; 3]).map(|c| 2.0 * f64::from(c));
+    let n = f64::from(spp);
+    for c in 0..3 {
+        let mean = out.accum.x1[c] / n;
+        let se = ((out.accum.x2[c] / n - mean * mean).max(0.0) / n).sqrt();
+        assert!(
+            (mean - want[c]).abs() < 4.0 * se,
+            "channel {c}: {mean} vs {} (se {se})",
+            want[c]
+        );
+    }
+}
+
+/// A grey diffuse plane lit by a grey area light: grey reflectances are flat and a
+/// grey emitter is D65, whose sRGB is white, so the spectral render's mean is the RGB
+/// render's (within its noise: 64 px x 2048 paths; RGB's only noise here is the
+/// sub-pixel position). The G-buffer's albedo is the RGB one.
+#[test]
+fn a_grey_world_renders_as_in_rgb() {
+    let xml = r#"<scene version="3.0.0">
+  <integrator type="transient_path"><integer name="max_depth" value="3"/></integrator>
+  <sensor type="perspective">
+    <float name="fov" value="30"/>
+    <transform name="to_world"><lookat origin="0,0,3" target="0,0,0" up="0,1,0"/></transform>
+    <sampler type="independent"><integer name="sample_count" value="4"/></sampler>
+    <film type="transient_hdr_film">
+      <integer name="width" value="8"/><integer name="height" value="8"/>
+      <integer name="temporal_bins" value="40"/>
+      <float name="start_opl" value="3"/><float name="bin_width_opl" value="0.1"/>
+    </film>
+  </sensor>
+  <shape type="rectangle">
+    <bsdf type="diffuse"><rgb name="reflectance" value="0.5"/></bsdf>
+  </shape>
+  <shape type="rectangle">
+    <transform name="to_world"><scale value="0.3"/><rotate x="1" angle="180"/><translate z="2" x="0.5"/></transform>
+    <emitter type="area"><rgb name="radiance" value="20"/></emitter>
+  </shape>
+</scene>"#;
+    let spp = 2048;
+    let s = run(&load(xml, &spectral()), spp, 5);
+    let r = run(&load(xml, &Overrides::default()), spp, 5);
+    let px = s.steady.len() / 3;
+    for c in 0..3 {
+        let mean = |o: &RenderOutput| (0..px).map(|p| o.steady[p * 3 + c]).sum::<f64>() / px as f64;
+        let (ms, mr) = (mean(&s), mean(&r));
+        assert!(mr > 0.01, "the plane is lit: {mr}");
+        assert!(
+            (ms - mr).abs() < 0.01 * mr,
+            "channel {c}: spectral {ms} vs rgb {mr}"
+        );
+    }
+    for (a, b) in s.gbuffer.iter().zip(&r.gbuffer) {
+        assert_eq!(a.albedo, b.albedo);
+    }
+}
+
+/// Same seed, same bits, on one thread or two.
+#[test]
+fn spectral_renders_do_not_depend_on_the_thread_count() {
+    let o = Overrides {
+        width: Some(8),
+        bins: Some(20),
+        ..spectral()
+    };
+    let scene = bundled("cbox.xml", &o);
+    let on = |threads: usize| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(|| run(&scene, 8, 11))
+    };
+    let (a, b) = (on(1), on(2));
+    assert_eq!(a.accum.x1, b.accum.x1);
+    assert_eq!(a.accum.x2, b.accum.x2);
+    assert_eq!(a.steady, b.steady);
+    let rgb = run(
+        &bundled(
+            "cbox.xml",
+            &Overrides {
+                mode: RenderMode::Rgb,
+                ..o.clone()
+            },
+        ),
+        8,
+        11,
+    );
+    assert_ne!(a.accum.x1, rgb.accum.x1, "the paths carried wavelengths");
+}
+
+/// What the mode does not model is refused at load, naming it.
+#[test]
+fn the_spectral_mode_refuses_what_it_does_not_model() {
+    let path = |n: &str| {
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("scenes")
+            .join(n)
+    };
+    for (name, says) in [
+        ("cbox_fog.xml", "participating media"),
+        ("cbox_principled.xml", "'principled' BSDF"),
+        ("nlos_T.xml", "NLOS captures"),
+    ] {
+        let e = Scene::load(&path(name), &spectral())
+            .err()
+            .unwrap_or_else(|| panic!("{name} loaded"));
+        assert!(e.to_string().contains(says), "{name}: {e}");
+        assert!(Scene::load(&path(name), &Overrides::default()).is_ok());
+    }
+}
