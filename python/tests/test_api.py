@@ -39,6 +39,15 @@ def test_render_is_the_command_lines_render_bit_for_bit(cli, scene, tmp_path):
     assert b.manifest["spp"] == 8 and b.manifest["seed"] == 3
 
 
+def test_spectral_render_is_the_command_lines(cli, scene, tmp_path):
+    b = tstat.render(scene("cbox_showcase.xml"), 4, seed=2, out=tmp_path / "py.tstats", progress=False,
+                     mode="spectral", **SMALL)
+    cli("render", scene("cbox_showcase.xml"), "--spp", 4, "--seed", 2, "--out", tmp_path / "cli.tstats",
+        *FLAGS, "--mode", "spectral")
+    assert arrays(b.path) == arrays(tmp_path / "cli.tstats")
+    assert b.manifest["mode"] == "spectral"
+
+
 def test_adaptive_render_with_params_matches_the_command_line(cli, scene, tmp_path):
     opts = dict(SMALL, adaptive=True, pixel_sampling="independent", transform="yeo-johnson:0.5")
     b = tstat.render(scene("cbox.xml"), 16, seed=1, out=tmp_path / "py.tstats", progress=False, **opts)

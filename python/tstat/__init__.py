@@ -217,7 +217,8 @@ def render(
     ``start_opl``, ``bin_width_opl``, ``max_depth``, ``pixel_sampling``,
     ``replicates``, ``transform`` (``"yeo-johnson:0.5"``), ``adaptive``,
     ``target_error``, ``time_budget``, ``pilot_spp``, ``adaptive_measure``,
-    ``threads``, ``max_memory``, ``shard``, ``time_origin``, ``unit_m``, ``force``.
+    ``threads``, ``max_memory``, ``shard``, ``time_origin``, ``mode`` (``"rgb"`` or
+    ``"spectral"``, docs/spectral.md), ``unit_m``, ``force``.
 
     ``progress``: True shows tqdm bars if tqdm is installed; a callable gets
     ``(stage, done, total, status)`` ten times a second; False shows nothing. Ctrl-C

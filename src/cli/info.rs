@@ -24,11 +24,16 @@ pub fn run(a: InfoArgs) -> anyhow::Result<()> {
     );
     say!("scene       {} (sha256 {})", m.scene.path, m.scene.sha256);
     say!(
-        "film        {} x {} px, {} bins, channels {}",
+        "film        {} x {} px, {} bins, channels {} ({})",
         m.width,
         m.height,
         m.bins,
-        m.channels.join(",")
+        m.channels.join(","),
+        match m.mode {
+            crate::scene::mode::RenderMode::Rgb => "rgb paths",
+            crate::scene::mode::RenderMode::Spectral =>
+                "spectral paths: each sample a path's linear sRGB, may be negative",
+        }
     );
     say!(
         "time axis   start {} OPL, bin width {} OPL ({:.4} ps per bin at {} m/unit)",

@@ -1,8 +1,8 @@
 //! Reading `<bsdf>` elements (and `<ref>`s to them) into [`Bsdf`] values.
 
-use super::mode::RenderMode;
 use super::ctx::Ctx;
 use super::error::SceneError;
+use super::mode::RenderMode;
 use super::props::{Props, Value};
 use super::textures::{texture_param, NamedTextures};
 use crate::materials::conductor_presets;

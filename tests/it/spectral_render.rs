@@ -232,3 +232,88 @@ fn the_spectral_mode_refuses_what_it_does_not_model() {
         assert!(Scene::load(&path(name), &Overrides::default()).is_ok());
     }
 }
+
+fn tstat(args: &[&str]) -> std::process::Output {
+    std::process::Command::new(env!("CARGO_BIN_EXE_tstat"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+/// The binary: a spectral bundle (signed samples) goes through denoise, export, frames
+/// and info; merging it with an RGB bundle, and Box-Cox with --mode spectral, are one
+/// clear error each, with nothing written.
+#[test]
+fn a_spectral_bundle_goes_through_every_command_and_modes_do_not_mix() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = |n: &str| dir.path().join(n).display().to_string();
+    let scene = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cbox_showcase.xml");
+    let scene = scene.display().to_string();
+    let small = ["--width", "12", "--spp", "8", "--bins", "60"];
+    let render = |out: &str, mode: &str, seed: &str| {
+        let mut a = vec![
+            "render", &scene, "--out", out, "--mode", mode, "--seed", seed,
+        ];
+        a.extend(small);
+        tstat(&a)
+    };
+    let r = render(&p("s.tstats"), "spectral", "1");
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let m: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.path().join("s.tstats/manifest.json")).unwrap())
+            .unwrap();
+    assert_eq!(m["mode"], "spectral");
+    // The showcase's sRGB samples include negative ones at 8 spp on this film.
+    let x1: ndarray::Array4<f64> =
+        ndarray_npy::read_npy(dir.path().join("s.tstats/x1.npy")).unwrap();
+    assert!(
+        x1.iter().any(|&v| v < 0.0),
+        "no negative sum: the test would not test it"
+    );
+    for args in [
+        vec!["denoise", &p("s.tstats")[..], "--out", &p("d.npy")[..]],
+        vec!["export", &p("s.tstats")[..], "--out", &p("e.npy")[..]],
+        vec!["frames", &p("s.tstats")[..], "--out", &p("fr")[..]],
+        vec!["info", &p("s.tstats")[..]],
+    ] {
+        let o = tstat(&args);
+        assert!(
+            o.status.success(),
+            "{args:?}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+    }
+    let e: ndarray::Array4<f32> = ndarray_npy::read_npy(dir.path().join("e.npy")).unwrap();
+    assert!(e.iter().any(|&v| v < 0.0));
+    assert!(render(&p("r.tstats"), "rgb", "2").status.success());
+    let o = tstat(&[
+        "merge",
+        &p("s.tstats"),
+        &p("r.tstats"),
+        "--out",
+        &p("m.tstats"),
+    ]);
+    assert!(!o.status.success());
+    assert!(
+        String::from_utf8_lossy(&o.stderr).contains("mode differs"),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    assert!(!dir.path().join("m.tstats").exists());
+    let mut a = vec![
+        "render",
+        &scene[..],
+        "--out",
+        "bc.tstats",
+        "--mode",
+        "spectral",
+        "--transform",
+        "box-cox:0.5",
+    ];
+    let bc = p("bc.tstats");
+    a[3] = &bc;
+    let o = tstat(&a);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("Box-Cox is undefined below zero"));
+    assert!(!dir.path().join("bc.tstats").exists());
+}
