@@ -95,9 +95,10 @@ EXPLAINED_SPECTRAL = [
      {"steady ratio", "block max", "space-time p95", "transient share"},
      "a named conductor preset (material=\"Au\", ...): Mitsuba's spectral variants read "
      "its measured eta and k spectra; tstat keeps the presets as the RGB values Mitsuba's "
-     "RGB variants use and lifts them to smooth spectra, an approximation (gold's red "
-     "about 6% bright on envmap_spheres); the RGB rows agree. With an envmap the "
-     "timing rule above applies too",
+     "RGB variants use and lifts them to smooth spectra, an approximation: close for "
+     "gold (envmap_spheres agrees within 0.6%), 17% bright in red for amorphous carbon "
+     "(`a-C`, mitsuba-data's textured_roughconductor); the RGB rows agree. With an "
+     "envmap the timing rule above applies too",
      "none shows tstat right here: mitransient's measured spectra are the better model "
      "(docs/spectral.md)"),
 ]

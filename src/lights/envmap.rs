@@ -184,20 +184,54 @@ impl EnvMap {
     /// The radiance at (u, v): Mitsuba's bilinear lookup (periodic texel-centred columns,
     /// corner-aligned clamped rows), times `scale`.
     #[inline]
-    pub fn eval_uv(&self, [u, v]: [f32; 2]) -> Rgb {
-        let (w, h) = (self.width, self.height);
-        let x = u * w as f32 - 0.5;
-        let y = v.clamp(0.0, 1.0) * (h - 1) as f32;
-        let (xf, yf) = (x.floor(), y.floor());
-        let (wx, wy) = (x - xf, y - yf);
-        let x0 = (xf as i64).rem_euclid(w as i64) as usize;
-        let x1 = (x0 + 1) % w;
-        let y0 = (yf as usize).min(h - 1);
-        let y1 = (y0 + 1).min(h - 1);
+    pub fn eval_uv(&self, uv: [f32; 2]) -> Rgb {
+        let ([x0, x1, y0, y1], wx, wy) = self.corners(uv);
+        let w = self.width;
         let t = |x: usize, y: usize| self.texels[y * w + x];
         let top = t(x0, y0) * (1.0 - wx) + t(x1, y0) * wx;
         let bottom = t(x0, y1) * (1.0 - wx) + t(x1, y1) * wx;
         (top * (1.0 - wy) + bottom * wy) * self.scale
+    }
+
+    /// The four texels of the bilinear lookup at (u, v), `[x0, x1, y0, y1]`, and the
+    /// weights `(wx, wy)` of `x1` and `y1`: periodic texel-centred columns,
+    /// corner-aligned clamped rows.
+    #[inline(always)]
+    fn corners(&self, [u, v]: [f32; 2]) -> ([usize; 4], f32, f32) {
+        let (w, h) = (self.width, self.height);
+        let x = u * w as f32 - 0.5;
+        let y = v.clamp(0.0, 1.0) * (h - 1) as f32;
+        let (xf, yf) = (x.floor(), y.floor());
+        let x0 = (xf as i64).rem_euclid(w as i64) as usize;
+        let y0 = (yf as usize).min(h - 1);
+        ([x0, (x0 + 1) % w, y0, (y0 + 1).min(h - 1)], x - xf, y - yf)
+    }
+
+    /// The spectrum at `lambda` (nm) of the radiance at (u, v), without the D65 factor,
+    /// as Mitsuba's spectral variants compute it: each of the four texels of the
+    /// bilinear lookup is the smooth spectrum of `c / (2 max c)` (`rgb2spec`) times `2
+    /// max c`, and the spectra and the factors are interpolated separately (the model is
+    /// not linear in the colour, so lifting the interpolated colour would differ).
+    pub fn eval_uv_spectral(&self, uv: [f32; 2], lambda: [f32; 3]) -> Vec3 {
+        use crate::spectral::rgb2spec::{eval, fetch};
+        let ([x0, x1, y0, y1], wx, wy) = self.corners(uv);
+        let w = self.width;
+        // One texel: its sigmoids at the wavelengths and its factor.
+        let t = |x: usize, y: usize| {
+            let c = self.texels[y * w + x];
+            let factor = 2.0 * c.max_element();
+            let coeffs = fetch((c / factor.max(1e-8)).to_array());
+            (Vec3::from_array(lambda.map(|l| eval(coeffs, l))), factor)
+        };
+        let ((s00, f00), (s10, f10)) = (t(x0, y0), t(x1, y0));
+        let ((s01, f01), (s11, f11)) = (t(x0, y1), t(x1, y1));
+        let s0 = s00 * (1.0 - wx) + s10 * wx;
+        let s1 = s01 * (1.0 - wx) + s11 * wx;
+        let f0 = f00 * (1.0 - wx) + f10 * wx;
+        let f1 = f01 * (1.0 - wx) + f11 * wx;
+        let s = s0 * (1.0 - wy) + s1 * wy;
+        let f = f0 * (1.0 - wy) + f1 * wy;
+        s * f * self.scale
     }
 
     /// The radiance arriving from world direction `d` (unit, pointing away from the scene).
@@ -276,6 +310,38 @@ mod tests {
         assert!((uv(Vec3::X)[0] - 0.25).abs() < 1e-6);
         assert!((uv(Vec3::Z)[0] - 0.5).abs() < 1e-6);
         assert!((uv(-Vec3::X)[0] - 0.75).abs() < 1e-6);
+    }
+
+    /// The spectral lookup lifts texels, then interpolates: a grey map is flat at the
+    /// RGB lookup's value; halfway between two colours it is the mean of their
+    /// normalised spectra times the mean of their factors (Mitsuba's `envmap`), not the
+    /// spectrum of their mean colour, which differs.
+    #[test]
+    fn spectral_lookups_interpolate_lifted_texels() {
+        use crate::spectral::rgb2spec::{eval, fetch};
+        let lambda = [450.0, 550.0, 650.0];
+        let grey = map(4, 3, |_, _| Vec3::splat(3.0));
+        let v = grey.eval_uv_spectral([0.3, 0.4], lambda);
+        assert!((v - Vec3::splat(3.0)).abs().max_element() < 1e-6, "{v}");
+        let (a, b) = (Vec3::new(0.8, 0.1, 0.1), Vec3::new(0.1, 0.1, 0.9));
+        let two = map(8, 5, |x, _| if x < 4 { a } else { b });
+        // Halfway between the centres of columns 3 and 4 (u = 3.5 / 8 and 4.5 / 8).
+        let v = two.eval_uv_spectral([0.5, 0.5], lambda);
+        // A colour's normalised spectrum and its factor.
+        let lifted = |c: Vec3| {
+            let f = 2.0 * c.max_element();
+            let k = fetch((c / f).to_array());
+            (Vec3::from_array(lambda.map(|l| eval(k, l))), f)
+        };
+        let ((sa, fa), (sb, fb)) = (lifted(a), lifted(b));
+        let want = (sa + sb) * 0.5 * ((fa + fb) * 0.5);
+        assert!((v - want).abs().max_element() < 1e-5, "{v} vs {want}");
+        let (sm, fm) = lifted((a + b) * 0.5);
+        let spectrum_of_mean = sm * fm;
+        assert!(
+            (v - spectrum_of_mean).abs().max_element() > 1e-2,
+            "the test tells them apart"
+        );
     }
 
     #[test]

@@ -62,12 +62,26 @@ pub(super) fn contribute(
 }
 
 /// The spectrum at a spectral path's wavelengths `wl` of the colour `rgb` that emitter
-/// `e` emits: the scene's spectrum when it gave one (`Scene::emitter_spectra`), else
-/// the colour lifted as an illuminant (`spectral::lift`).
+/// `e` emits towards the path (`towards`: the direction from the path to the light,
+/// which an environment map is looked up along): the scene's spectrum when it gave one
+/// (`Scene::emitter_spectra`); an environment map's texels lifted one by one and
+/// interpolated (`EnvMap::eval_uv_spectral`, as Mitsuba), times D65; else the colour
+/// lifted as an illuminant (`spectral::lift`).
 #[inline(never)]
-pub(super) fn emitted_spectrum(scene: &Scene, e: usize, rgb: Rgb, wl: &Wavelengths) -> Rgb {
-    match scene.emitter_spectra.get(e) {
-        Some(Some(s)) => s.at(rgb, wl.lambda),
+pub(super) fn emitted_spectrum(
+    scene: &Scene,
+    e: usize,
+    rgb: Rgb,
+    towards: Vec3,
+    wl: &Wavelengths,
+) -> Rgb {
+    if let Some(Some(s)) = scene.emitter_spectra.get(e) {
+        return s.at(rgb, wl.lambda);
+    }
+    match &scene.emitters[e] {
+        crate::lights::Emitter::Envmap { map, .. } => {
+            map.eval_uv_spectral(map.uv(towards), wl.lambda) * wl.d65()
+        }
         _ => wl.illuminant(rgb),
     }
 }
@@ -144,7 +158,7 @@ pub(super) fn escape(
     };
     let c = match wl {
         None => beta * radiance * w,
-        Some(wl) => wl.to_srgb(beta * emitted_spectrum(scene, env as usize, radiance, wl) * w),
+        Some(wl) => wl.to_srgb(beta * emitted_spectrum(scene, env as usize, radiance, d, wl) * w),
     };
     contribute(scene, deposits, tally, opl + segment, c);
 }

@@ -301,13 +301,14 @@ impl PathState {
         }
     }
 
-    /// A colour `rgb` emitted by emitter `e` as the path sees it: itself in RGB, its
-    /// spectrum at the path's wavelengths in the spectral mode.
+    /// A colour `rgb` emitted by emitter `e` towards the path (`towards`: from the
+    /// path to the light) as the path sees it: itself in RGB, its spectrum at the
+    /// path's wavelengths in the spectral mode.
     #[inline(always)]
-    fn emitted(&self, scene: &Scene, e: usize, rgb: Rgb) -> Rgb {
+    fn emitted(&self, scene: &Scene, e: usize, rgb: Rgb, towards: Vec3) -> Rgb {
         match &self.wl {
             None => rgb,
-            Some(wl) => emitted_spectrum(scene, e, rgb, wl),
+            Some(wl) => emitted_spectrum(scene, e, rgb, towards, wl),
         }
     }
 
@@ -527,7 +528,7 @@ fn emission<const MEDIA: bool>(
             let select_pdf = 1.0 / scene.emitters.len() as f32;
             power_heuristic(path.last_pdf, emitter.pdf_area_hit(select_pdf, dist, cos_l))
         };
-        let c = path.beta * path.emitted(scene, ei as usize, radiance) * w;
+        let c = path.beta * path.emitted(scene, ei as usize, radiance, path.d) * w;
         contribute(scene, deposits, tally, path.opl, path.sample(c));
     }
     true
@@ -639,7 +640,7 @@ fn next_event<L: Level, const MEDIA: bool, S: PathSampler>(
             deposits,
             tally,
             arrival,
-            path.sample(path.beta * f * tr * path.emitted(scene, idx, ls.li) * (w / ls.pdf)),
+            path.sample(path.beta * f * tr * path.emitted(scene, idx, ls.li, ls.wi) * (w / ls.pdf)),
         );
     }
 }

@@ -72,6 +72,12 @@ impl Wavelengths {
         )
     }
 
+    /// D65 (normalised as Mitsuba) at the wavelengths.
+    #[inline]
+    pub fn d65(&self) -> Vec3 {
+        Vec3::from_array(self.lambda.map(|l| lookup(&D65_ROWS, l)[0]))
+    }
+
     /// A path's spectral contribution `v` (values at the wavelengths) as one linear
     /// sRGB sample: weighted by `1 / p(l)` and integrated against the sRGB curves.
     #[inline]

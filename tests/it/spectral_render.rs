@@ -8,12 +8,10 @@
 #![allow(clippy::needless_range_loop)] // channels index several arrays at once
 
 use crate::common::{bundled, load};
-use tstat::render::pixel_sampling::PixelSampling;
-use tstat::render::{render, RenderOutput, RenderSettings};
+use tstat::render::RenderOutput;
 use tstat::scene::mode::RenderMode;
 use tstat::scene::{Overrides, Scene};
 use tstat::spectral::cie::{cie1931_xyz, xyz_to_srgb, CIE_Y_NORMALIZATION};
-use tstat::stats::Transform;
 
 fn spectral() -> Overrides {
     Overrides {
@@ -23,15 +21,7 @@ fn spectral() -> Overrides {
 }
 
 fn run(scene: &Scene, spp: u32, seed: u64) -> RenderOutput {
-    let settings = RenderSettings {
-        spp,
-        seed,
-        transform: Transform::Identity,
-        pixel_sampling: PixelSampling::Independent,
-        replicates: 0,
-        pixel_spp: None,
-    };
-    render(scene, &settings, &|_| {})
+    crate::common::run_spp(scene, spp, seed)
 }
 
 /// A camera looking straight at an area light 4 units away whose radiance is

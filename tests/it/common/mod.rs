@@ -43,8 +43,13 @@ pub fn bundled(name: &str, overrides: &Overrides) -> Scene {
 
 /// Renders in memory with i.i.d. samples (what the statistics assume) and `seed`.
 pub fn run(scene: &Scene, seed: u64) -> RenderOutput {
+    run_spp(scene, scene.spp, seed)
+}
+
+/// [`run`] with `spp` samples per pixel.
+pub fn run_spp(scene: &Scene, spp: u32, seed: u64) -> RenderOutput {
     let settings = RenderSettings {
-        spp: scene.spp,
+        spp,
         seed,
         transform: Transform::Identity,
         pixel_sampling: PixelSampling::Independent,
