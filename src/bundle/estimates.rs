@@ -9,7 +9,6 @@
 
 use super::read::{Bundle, SumArray};
 use super::BundleError;
-use crate::stats::accumulators::CHANNELS;
 use crate::stats::estimators::{estimate, Sums};
 use ndarray::Array4;
 
@@ -31,7 +30,8 @@ impl Bundle {
         let shape = x1.raw_dim();
         let mut theta = Array4::<f32>::zeros(shape);
         let mut variance = Array4::<f32>::zeros(shape);
-        let per_pixel = m.bins * CHANNELS;
+        let channels = m.channel_count();
+        let per_pixel = m.bins * channels;
         let slices = [&x1, &x2, &x3].map(|a| a.as_slice().expect("standard layout"));
         let counts = counts.as_slice().expect("standard layout");
         let out_t = theta.as_slice_mut().expect("standard layout");
@@ -42,7 +42,7 @@ impl Bundle {
                 x2: slices[1][i],
                 x3: slices[2][i],
             };
-            let e = estimate(sums, counts[i / CHANNELS], self.samples(i / per_pixel), z0);
+            let e = estimate(sums, counts[i / channels], self.samples(i / per_pixel), z0);
             (*t, *v) = (e.theta as f32, e.v as f32);
         }
         Ok(Estimates { theta, variance })

@@ -240,8 +240,13 @@ impl Manifest {
     /// Whether a sample may be negative: a spectral path's linear sRGB is (the sRGB
     /// matching curves are negative at some wavelengths), though each voxel's mean
     /// converges to the scene's colour.
+    /// Channels C of every (H, W, T, C) and (H, W, C) array: the mode's.
+    pub fn channel_count(&self) -> usize {
+        self.mode.channels()
+    }
+
     pub fn signed_samples(&self) -> bool {
-        self.mode != crate::scene::mode::RenderMode::Rgb
+        self.mode.signed()
     }
 
     pub fn array(&self, name: &str) -> Option<&ArrayInfo> {

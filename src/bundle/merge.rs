@@ -120,7 +120,7 @@ impl Default for MergeOptions {
 pub fn row_bytes(m: &Manifest) -> u64 {
     let volumes = 3 + u64::from(!m.transform.is_identity()) + u64::from(m.replicates.is_some());
     let voxels = (m.width * m.bins) as u64;
-    2 * voxels * (volumes * 3 * 8 + 4)
+    2 * voxels * (volumes * m.channel_count() as u64 * 8 + 4)
 }
 
 /// Adds `b` into `a` (same arrays), refusing counts that would leave the u32 range.
@@ -209,7 +209,7 @@ pub fn merge_bundles(
         .try_fold(0u64, |a, b| a.checked_add(b.manifest.spp))
         .ok_or_else(|| BundleError::invalid(bundles[0].dir.clone(), Problem::SppOverflow))?;
     // Per-pixel images: small (H W), summed whole.
-    let mut steady = Array3::<f64>::zeros((h, w, 3));
+    let mut steady = Array3::<f64>::zeros((h, w, first.channel_count()));
     let mut albedo = Array3::<f64>::zeros((h, w, 3));
     let mut normal = Array3::<f64>::zeros((h, w, 3));
     let mut depth = Array2::<f64>::zeros((h, w));
@@ -318,8 +318,12 @@ pub fn merge_bundles(
     let f32s = |a: Array3<f64>| a.mapv(|v| v as f32);
     write_atomically(out, opts.force, |dir| {
         std::fs::create_dir(dir).map_err(|e| BundleError::io(dir, e))?;
-        let volumes =
-            VolumeArrays::create(dir, (h, w, t), &first.transform, first.replicates.is_some())?;
+        let volumes = VolumeArrays::create(
+            dir,
+            (h, w, t, first.channel_count()),
+            &first.transform,
+            first.replicates.is_some(),
+        )?;
         let (mut acc, mut rows) = (RowSums::default(), RowSums::default());
         for y0 in (0..h).step_by(band) {
             let y1 = (y0 + band).min(h);

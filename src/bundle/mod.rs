@@ -160,8 +160,8 @@ pub enum Problem {
         rule: String,
     },
     /// `channels`, shown shortened.
-    #[error("channels {0}: the format holds [\"R\", \"G\", \"B\"]")]
-    Channels(String),
+    #[error("channels {0}: a bundle of mode {1} holds [\"{2}\"]")]
+    Channels(String, &'static str, String),
     #[error("scene.sha256 {0:?} is not a SHA-256 (64 hexadecimal digits); merge compares it")]
     SceneHash(String),
     #[error("{0}")]

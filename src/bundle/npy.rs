@@ -554,9 +554,10 @@ pub fn describe_index(axes: &[&str], idx: &[usize]) -> String {
     format!("({})", parts.join(", "))
 }
 
-/// Block size for reading: a multiple of 3 channels, so that blocks of (H, W, T, C)
-/// sums start at a voxel's first channel.
+/// Block size for reading: a multiple of 12 (of every channel count C: 1, 3, 4), so
+/// that blocks of (H, W, T, C) sums start at a voxel's first channel.
 pub const BLOCK_ELEMS: usize = 3 << 15;
+const _: () = assert!(BLOCK_ELEMS % 12 == 0);
 
 /// The outcome of a block check: the C-order flat index and reason of the first bad
 /// value.

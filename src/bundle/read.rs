@@ -51,7 +51,6 @@ use super::manifest::{
 use super::npy::{self, first_bad, show, Element};
 use super::shard::MAX_SHARDS;
 use super::{BundleError, Problem};
-use crate::stats::accumulators::CHANNELS;
 use crate::stats::estimators::check_spp;
 use ndarray::{Array, Array2, Array3, Array4, Dimension, IntoDimension};
 use std::path::{Path, PathBuf};
@@ -89,7 +88,8 @@ const UNIT_SLACK: f64 = 1e-3;
 /// The arrays a bundle of this manifest must hold: name, dtype, shape.
 pub fn required_arrays(m: &Manifest) -> Vec<(&'static str, &'static str, Vec<usize>)> {
     let (h, w, t) = (m.height, m.width, m.bins);
-    let s4 = vec![h, w, t, CHANNELS];
+    let c = m.channel_count();
+    let s4 = vec![h, w, t, c];
     let mut v = vec![
         ("x1", f64::DTYPE, s4.clone()),
         ("x2", f64::DTYPE, s4.clone()),
@@ -107,7 +107,7 @@ pub fn required_arrays(m: &Manifest) -> Vec<(&'static str, &'static str, Vec<usi
         ("normal", f32::DTYPE, vec![h, w, 3]),
         ("depth", f32::DTYPE, vec![h, w]),
         ("emitter", f32::DTYPE, vec![h, w]),
-        ("steady", f64::DTYPE, vec![h, w, CHANNELS]),
+        ("steady", f64::DTYPE, vec![h, w, c]),
     ]);
     if m.media {
         v.push(("medium", f32::DTYPE, vec![h, w]));
@@ -146,6 +146,23 @@ fn show_channels(c: &[String]) -> String {
     format!("[{}{more}]", shown.join(", "))
 }
 
+/// Whether every voxel of `block` (C channels each, counts from `counts`) holds values
+/// that pass `ok`, and zeros where no sample reached it unless `any_empty`; branch-free.
+#[inline(always)]
+fn voxels_ok<const C: usize>(
+    block: &[f64],
+    counts: &[u32],
+    ok: impl Fn(f64) -> bool,
+    any_empty: bool,
+) -> bool {
+    let (voxels, _) = block.as_chunks::<C>();
+    voxels.iter().zip(counts).fold(true, |acc, (v, &k)| {
+        let all_ok = v.iter().fold(true, |a, &x| a & ok(x));
+        let zero = v.iter().fold(true, |a, &x| a & (x == 0.0));
+        acc & all_ok & ((k != 0) | any_empty | zero)
+    })
+}
+
 /// The manifest's own fields (after the format and version are known): sizes,
 /// sample count, time axis, transform, capture geometry, lists, metadata. The error is
 /// a short reason. Every check is linear (or n log n) in the length of any list, so a
@@ -165,7 +182,7 @@ pub fn validate(m: &Manifest) -> Result<(), Problem> {
     }
     // The largest array, in bytes, must be addressable (and the element count of
     // every array is a factor of it).
-    [m.height, m.width, m.bins, CHANNELS, 8]
+    [m.height, m.width, m.bins, m.channel_count(), 8]
         .iter()
         .try_fold(1usize, |a, &d| a.checked_mul(d))
         .filter(|&b| b <= isize::MAX as usize)
@@ -177,8 +194,12 @@ pub fn validate(m: &Manifest) -> Result<(), Problem> {
     if let Some(n) = &m.nlos {
         n.validate(m.width, m.height)?;
     }
-    if m.channels != ["R", "G", "B"] {
-        return Err(Problem::Channels(show_channels(&m.channels)));
+    if m.channels != m.mode.channel_names() {
+        return Err(Problem::Channels(
+            show_channels(&m.channels),
+            m.mode.name(),
+            m.mode.channel_names().join("\", \""),
+        ));
     }
     let sha = &m.scene.sha256;
     if sha.len() != 64 || !sha.bytes().all(|b| b.is_ascii_hexdigit()) {
@@ -628,7 +649,7 @@ impl Bundle {
 
     fn shape4(&self) -> [usize; 4] {
         let m = &self.manifest;
-        [m.height, m.width, m.bins, CHANNELS]
+        [m.height, m.width, m.bins, m.channel_count()]
     }
 
     /// The per-voxel counts of samples that deposited something; each at most spp.
@@ -761,18 +782,17 @@ impl Bundle {
         // A voxel no sample reached has zero sums, except R2 under a transform with
         // z(0) != 0: its replicate means are z(0).
         let any_empty = which == SumArray::R2 && m.transform.at_zero() != 0.0;
+        let channels = m.channel_count();
         let check = move |start: usize, block: &[f64]| {
             // Blocks start at a voxel's first channel (npy::BLOCK_ELEMS is a multiple
             // of 3): check whole voxels against their counts, branch-free; look for
             // the culprit only when something fails.
-            let k0 = start / CHANNELS;
-            let voxels = block.chunks_exact(CHANNELS).zip(&counts[k0..]);
-            let all_ok = voxels.fold(true, |acc, (v, &k)| {
-                acc & ok(v[0])
-                    & ok(v[1])
-                    & ok(v[2])
-                    & ((k != 0) | any_empty | ((v[0] == 0.0) & (v[1] == 0.0) & (v[2] == 0.0)))
-            });
+            let k0 = start / channels;
+            let all_ok = match channels {
+                3 => voxels_ok::<3>(block, &counts[k0..], ok, any_empty),
+                1 => voxels_ok::<1>(block, &counts[k0..], ok, any_empty),
+                _ => voxels_ok::<4>(block, &counts[k0..], ok, any_empty),
+            };
             if all_ok {
                 return None;
             }
@@ -780,7 +800,7 @@ impl Bundle {
                 .iter()
                 .enumerate()
                 .position(|(i, &v)| {
-                    !ok(v) || (v != 0.0 && !any_empty && counts[k0 + i / CHANNELS] == 0)
+                    !ok(v) || (v != 0.0 && !any_empty && counts[k0 + i / channels] == 0)
                 })
                 .expect("a failing value");
             let v = block[i];
@@ -894,7 +914,7 @@ impl Bundle {
         let lo = if m.signed_samples() { f64::MIN } else { 0.0 };
         self.read_ranged(
             "steady",
-            [m.height, m.width, CHANNELS].into_dimension(),
+            [m.height, m.width, m.channel_count()].into_dimension(),
             &AXES3C,
             (lo, f64::MAX),
         )
@@ -916,7 +936,7 @@ impl Bundle {
                 .map_err(|e| npy_error(&path, e))?,
             // Each pixel's own count (the sums are read whole in f64 first).
             Some(counts) => {
-                let per_pixel = self.manifest.bins * CHANNELS;
+                let per_pixel = self.manifest.bins * self.manifest.channel_count();
                 let sums: Vec<f64> = f.read(check, &AXES4).map_err(|e| npy_error(&path, e))?;
                 sums.chunks_exact(per_pixel)
                     .zip(counts)

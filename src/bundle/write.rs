@@ -15,7 +15,6 @@ use crate::render::sink::{PixelImages, Row, RowSink};
 use crate::render::{RenderOutput, RenderSummary};
 use crate::scene::Scene;
 use crate::sensors::film::Film;
-use crate::stats::accumulators::CHANNELS;
 use crate::stats::Transform;
 use ndarray::{Array2, Array3, Array4};
 use ndarray_npy::npy::header::{Header, Layout};
@@ -231,7 +230,12 @@ fn manifest(scene: &Scene, meta: &BundleMeta, seconds: f64, dropped_nonfinite: u
         width: film.width,
         height: film.height,
         bins: film.time.bins,
-        channels: vec!["R".into(), "G".into(), "B".into()],
+        channels: scene
+            .mode
+            .channel_names()
+            .iter()
+            .map(|&c| c.into())
+            .collect(),
         mode: scene.mode,
         spp: scene.spp as u64,
         start_opl: film.time.start_opl,
@@ -310,6 +314,7 @@ fn write_pixel_arrays(
     media: bool,
     arrays: &mut Vec<ArrayInfo>,
 ) -> Result<(), BundleError> {
+    let channels = steady.len() / (h * w).max(1);
     let shape_err = |e: ndarray::ShapeError| BundleError::io(dir, e);
     let albedo: Vec<f32> = g.iter().flat_map(|p| p.albedo).collect();
     let normal: Vec<f32> = g.iter().flat_map(|p| p.normal).collect();
@@ -357,7 +362,7 @@ fn write_pixel_arrays(
         dir,
         "steady",
         "<f8",
-        &Array3::from_shape_vec((h, w, CHANNELS), steady).map_err(shape_err)?,
+        &Array3::from_shape_vec((h, w, channels), steady).map_err(shape_err)?,
         arrays,
     )
 }
@@ -423,7 +428,7 @@ pub fn write_bundle(
 ) -> Result<Manifest, BundleError> {
     let film = &scene.film;
     let (h, w, t) = (film.height, film.width, film.time.bins);
-    let shape4 = (h, w, t, CHANNELS);
+    let shape4 = (h, w, t, film.channels);
     let mut manifest = manifest(scene, meta, output.seconds, output.dropped_nonfinite);
     let shape_err = |e: ndarray::ShapeError| BundleError::io(out, e);
     let acc = output.accum;
@@ -525,24 +530,20 @@ pub fn bundle_bytes(film: &Film, transform: &Transform, media: bool) -> u64 {
 
 /// [`bundle_bytes`] with or without the replicates' `r2.npy`.
 pub fn bundle_bytes_with(film: &Film, transform: &Transform, media: bool, replicates: bool) -> u64 {
-    let (h, w, t) = (film.height, film.width, film.time.bins);
+    let (h, w, t, c) = (film.height, film.width, film.time.bins, film.channels);
     let mut files: Vec<(Vec<usize>, usize)> = volume_arrays(transform, replicates)
         .into_iter()
         .map(|(_, _, rgb, size)| {
-            let shape = if rgb {
-                vec![h, w, t, CHANNELS]
-            } else {
-                vec![h, w, t]
-            };
+            let shape = if rgb { vec![h, w, t, c] } else { vec![h, w, t] };
             (shape, size)
         })
         .collect();
     files.extend([
-        (vec![h, w, 3], 4),        // albedo
-        (vec![h, w, 3], 4),        // normal
-        (vec![h, w], 4),           // depth
-        (vec![h, w], 4),           // emitter
-        (vec![h, w, CHANNELS], 8), // steady
+        (vec![h, w, 3], 4), // albedo
+        (vec![h, w, 3], 4), // normal
+        (vec![h, w], 4),    // depth
+        (vec![h, w], 4),    // emitter
+        (vec![h, w, c], 8), // steady
     ]);
     if media {
         files.push((vec![h, w], 4)); // medium
@@ -572,13 +573,13 @@ struct StreamedArray {
 impl StreamedArray {
     fn create(
         dir: &Path,
-        (height, width, bins): (usize, usize, usize),
+        (height, width, bins, channels): (usize, usize, usize, usize),
         spec: (&str, &str, bool, usize),
     ) -> Result<Self, BundleError> {
         let (name, dtype, rgb, size) = spec;
         let mut shape = vec![height, width, bins];
         if rgb {
-            shape.push(CHANNELS);
+            shape.push(channels);
         }
         let file_name = format!("{name}.npy");
         let path = dir.join(&file_name);
@@ -633,7 +634,7 @@ pub struct VolumeArrays {
 impl VolumeArrays {
     pub fn create(
         dir: &Path,
-        dims: (usize, usize, usize),
+        dims: (usize, usize, usize, usize),
         transform: &Transform,
         replicates: bool,
     ) -> Result<Self, BundleError> {
@@ -721,7 +722,7 @@ impl BundleWriter {
         })?;
         let volumes = VolumeArrays::create(
             staged.path(),
-            (film.height, film.width, film.time.bins),
+            (film.height, film.width, film.time.bins, film.channels),
             transform,
             replicates,
         )?;
@@ -729,7 +730,7 @@ impl BundleWriter {
             staged,
             film: film.clone(),
             volumes,
-            images: Mutex::new(PixelImages::new(film.height, film.width)),
+            images: Mutex::new(PixelImages::new(film.height, film.width, film.channels)),
         })
     }
 

@@ -58,6 +58,50 @@ pub fn write_exr_rgb(path: &Path, img: &Array3<f32>) -> Result<(), BundleError> 
     .map_err(|e| BundleError::io(path, e))
 }
 
+/// The OpenEXR channel names of a bundle's channels: R, G, B; Y (mono); S0.Y .. S3.Y
+/// (mono_polarized: Mitsuba's `stokes` integrator names its layers S0 .. S3, and a
+/// mono layer's channel is Y).
+pub fn exr_channel_names(mode: crate::scene::mode::RenderMode) -> Vec<String> {
+    use crate::scene::mode::RenderMode;
+    match mode {
+        RenderMode::MonoPolarized => mode
+            .channel_names()
+            .iter()
+            .map(|s| format!("{s}.Y"))
+            .collect(),
+        _ => mode.channel_names().iter().map(|s| s.to_string()).collect(),
+    }
+}
+
+/// Writes an (H, W, C) image as an OpenEXR (f32, lossless) with these channel names
+/// (C of them); three channels named R, G, B go through [`write_exr_rgb`].
+pub fn write_exr(path: &Path, img: &Array3<f32>, names: &[String]) -> Result<(), BundleError> {
+    use exr::prelude::*;
+    if names == ["R", "G", "B"] {
+        return write_exr_rgb(path, img);
+    }
+    let (h, w, c) = img.dim();
+    assert_eq!(c, names.len(), "one name per channel");
+    let channels: SmallVec<[AnyChannel<FlatSamples>; 4]> = names
+        .iter()
+        .enumerate()
+        .map(|(k, name)| {
+            let plane: Vec<f32> = (0..h * w).map(|i| img[[i / w, i % w, k]]).collect();
+            AnyChannel::new(name.as_str(), FlatSamples::F32(plane))
+        })
+        .collect();
+    let layer = Layer::new(
+        (w, h),
+        LayerAttributes::default(),
+        Encoding::FAST_LOSSLESS,
+        AnyChannels::sort(channels),
+    );
+    Image::from_layer(layer)
+        .write()
+        .to_file(path)
+        .map_err(|e| BundleError::io(path, e))
+}
+
 pub fn run(a: ExportArgs) -> anyhow::Result<()> {
     if a.out.is_none() && a.steady.is_none() && a.tal.is_none() && a.published.is_none() {
         bail!("nothing to export: give --out VOLUME.npy, --steady IMAGE.exr|.npy, --tal CAPTURE.hdf5 and/or --published DIR");
@@ -134,7 +178,7 @@ pub fn run(a: ExportArgs) -> anyhow::Result<()> {
         staged.push((
             stage(s, a.force, |tmp| {
                 if extension(s) == "exr" {
-                    write_exr_rgb(tmp, &img)
+                    write_exr(tmp, &img, &exr_channel_names(bundle.manifest.mode))
                 } else {
                     ndarray_npy::write_npy(tmp, &img).map_err(|e| BundleError::io(s, e))
                 }

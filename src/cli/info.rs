@@ -33,6 +33,9 @@ pub fn run(a: InfoArgs) -> anyhow::Result<()> {
             crate::scene::mode::RenderMode::Rgb => "rgb paths",
             crate::scene::mode::RenderMode::Spectral =>
                 "spectral paths: each sample a path's linear sRGB, may be negative",
+            crate::scene::mode::RenderMode::Mono => "mono paths: the luminance of every colour",
+            crate::scene::mode::RenderMode::MonoPolarized =>
+                "mono polarized paths: Stokes S0..S3 in the sensor's frame, S1..S3 signed",
         }
     );
     say!(

@@ -67,11 +67,14 @@ pub struct SceneArgs {
     /// than a tenth of a bin.
     #[arg(long, value_parser = ["near_clip", "near-clip", "pinhole"])]
     pub time_origin: Option<String>,
-    /// What a path carries: rgb (default: the three channels) or spectral (three
+    /// What a path carries: rgb (default: the three channels); spectral (three
     /// wavelengths per path, sampled as Mitsuba's spectral variants do; RGB in the
     /// scene lifted to smooth spectra; each path's linear sRGB recorded, so the
-    /// bundle keeps three channels). Spectral refuses NLOS captures, media and the
-    /// principled BSDFs. docs/spectral.md.
+    /// bundle keeps three channels); mono (one channel: the luminance of every
+    /// colour); mono_polarized (mono with Mueller matrices along the path: four
+    /// channels, the Stokes components S0..S3 in the sensor's frame). Spectral
+    /// refuses NLOS captures, media and the principled BSDFs; the mono modes NLOS
+    /// captures and media. docs/spectral.md, docs/polarization.md.
     #[arg(long, value_enum, default_value_t = ModeArg::Rgb)]
     pub mode: ModeArg,
 }
@@ -81,6 +84,9 @@ pub struct SceneArgs {
 pub enum ModeArg {
     Rgb,
     Spectral,
+    Mono,
+    #[value(name = "mono_polarized", alias = "mono-polarized")]
+    MonoPolarized,
 }
 
 impl ModeArg {
@@ -94,6 +100,8 @@ impl From<ModeArg> for crate::scene::mode::RenderMode {
         match m {
             ModeArg::Rgb => Self::Rgb,
             ModeArg::Spectral => Self::Spectral,
+            ModeArg::Mono => Self::Mono,
+            ModeArg::MonoPolarized => Self::MonoPolarized,
         }
     }
 }
@@ -105,8 +113,9 @@ impl SceneArgs {
         let t: Transform = text
             .parse()
             .map_err(|e| anyhow::anyhow!("--transform: {e}"))?;
-        if self.mode != ModeArg::Rgb && matches!(t, Transform::BoxCox { .. }) {
-            bail!("--transform {text} with --mode {}: Box-Cox is undefined below zero, and a spectral path's sRGB samples can be negative; use yeo-johnson (which is) or identity", self.mode.name());
+        let mode = crate::scene::mode::RenderMode::from(self.mode);
+        if mode.signed() && matches!(t, Transform::BoxCox { .. }) {
+            bail!("--transform {text} with --mode {}: Box-Cox is undefined below zero, and this mode's samples can be negative (a spectral path's sRGB, the Stokes components S1..S3); use yeo-johnson (which is) or identity", self.mode.name());
         }
         Ok(t)
     }

@@ -10,7 +10,6 @@ use crate::render::adaptive::{self, AdaptiveOptions, ErrorMeasure, ErrorTally};
 use crate::render::sink::{Row, RowSink};
 use crate::render::{render_into, RenderSettings, RenderSummary};
 use crate::scene::Scene;
-use crate::stats::accumulators::CHANNELS;
 use anyhow::anyhow;
 use std::sync::Arc;
 
@@ -141,7 +140,7 @@ pub fn plan(
         return Err(Cancelled.into());
     }
     let weights = adaptive::weights(&measure, film.width);
-    let voxels = (film.pixels() * film.time.bins * CHANNELS) as f64;
+    let voxels = (film.pixels() * film.time.bins * film.channels) as f64;
     if let Some(goal) = p.goal {
         let target = match goal {
             Goal::Error(e) => adaptive::Goal::Error(e),
@@ -255,7 +254,7 @@ pub fn render_rows<S: RowSink>(
         .sum::<u64>();
     progress.start(Stage::Render, total);
     let sink = Stoppable { sink, progress };
-    let voxels_per_row = (film.width * film.time.bins * CHANNELS) as f64;
+    let voxels_per_row = (film.width * film.time.bins * film.channels) as f64;
     let result = match tally {
         Some(measure) => {
             let t = ErrorTally::new(&sink, settings, measure, film.height, film.width);

@@ -24,7 +24,6 @@ use super::sink::{Row, RowSink};
 use super::{render_into, RenderSettings};
 use crate::math::rng::mix64;
 use crate::scene::Scene;
-use crate::stats::accumulators::CHANNELS;
 use std::sync::Mutex;
 
 /// The epsilon of the relative MSE's denominator, `(x - ref)^2 / (ref^2 + EPS)`: the
@@ -169,7 +168,7 @@ impl RowSink for PilotSink {
     type Error = std::convert::Infallible;
 
     fn put_row(&self, row: &Row<'_>) -> Result<(), Self::Error> {
-        let per_pixel = row.sums.bins * CHANNELS;
+        let per_pixel = row.sums.bins * row.sums.channels;
         let w = self.width;
         let (v, c): (Vec<f64>, Vec<f64>) = (0..w)
             .map(|x| {
@@ -416,7 +415,7 @@ impl<S: RowSink> RowSink for ErrorTally<'_, S> {
     type Error = S::Error;
 
     fn put_row(&self, row: &Row<'_>) -> Result<(), S::Error> {
-        let per_pixel = row.sums.bins * CHANNELS;
+        let per_pixel = row.sums.bins * row.sums.channels;
         let mut sum = 0.0;
         for x in 0..self.width {
             let n = f64::from(self.settings.samples(row.y * self.width + x));

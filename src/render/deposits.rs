@@ -2,16 +2,22 @@
 //! flushes each bin once when it ends, so every path is exactly one sample of every
 //! voxel it touched.
 
-/// The (bin, rgb) totals of the path being traced.
+use crate::stats::accumulators::MAX_CHANNELS;
+
+/// A deposit's channels: rgb radiance (the fourth entry 0), mono radiance (entry 0) or
+/// the Stokes vector S0..S3; the film reads its first C.
+pub type Deposit = [f64; MAX_CHANNELS];
+
+/// The (bin, channels) totals of the path being traced.
 #[derive(Default)]
 pub struct PathDeposits {
-    entries: Vec<(u32, [f64; 3])>,
+    entries: Vec<(u32, Deposit)>,
 }
 
 impl PathDeposits {
     /// Adds a contribution to the entry of its bin, or appends a new entry.
     #[inline]
-    pub fn add(&mut self, bin: u32, c: [f64; 3]) {
+    pub fn add(&mut self, bin: u32, c: Deposit) {
         // Consecutive vertices usually land in the same or a close bin: search backwards.
         if let Some(e) = self.entries.iter_mut().rev().find(|e| e.0 == bin) {
             for (acc, v) in e.1.iter_mut().zip(c) {
@@ -24,7 +30,7 @@ impl PathDeposits {
 
     /// The path's entries, one per distinct bin; empties the list.
     #[inline]
-    pub fn drain(&mut self) -> std::vec::Drain<'_, (u32, [f64; 3])> {
+    pub fn drain(&mut self) -> std::vec::Drain<'_, (u32, Deposit)> {
         self.entries.drain(..)
     }
 
@@ -44,13 +50,16 @@ mod tests {
     #[test]
     fn same_bin_merges_and_revisits_merge_too() {
         let mut d = PathDeposits::default();
-        d.add(5, [1.0, 0.0, 0.0]);
-        d.add(5, [0.5, 1.0, 0.0]);
-        d.add(7, [0.0, 0.0, 2.0]);
-        d.add(5, [0.25, 0.0, 0.0]);
+        d.add(5, [1.0, 0.0, 0.0, -1.0]);
+        d.add(5, [0.5, 1.0, 0.0, 0.5]);
+        d.add(7, [0.0, 0.0, 2.0, 0.0]);
+        d.add(5, [0.25, 0.0, 0.0, 0.0]);
         assert_eq!(d.len(), 2);
         let v: Vec<_> = d.drain().collect();
-        assert_eq!(v, vec![(5, [1.75, 1.0, 0.0]), (7, [0.0, 0.0, 2.0])]);
+        assert_eq!(
+            v,
+            vec![(5, [1.75, 1.0, 0.0, -0.5]), (7, [0.0, 0.0, 2.0, 0.0])]
+        );
         assert!(d.is_empty());
     }
 }

@@ -35,7 +35,7 @@ use crate::math::rng::{mix64, Pcg32};
 use crate::scene::Scene;
 use crate::sensors::camera::LENS_STREAM_SALT;
 use crate::sensors::film::Film;
-use crate::stats::accumulators::{Accumulators, PixelSums, CHANNELS};
+use crate::stats::accumulators::{Accumulators, PixelSums};
 use crate::stats::Transform;
 use deposits::PathDeposits;
 use gbuffer::{GAccum, GPixel};
@@ -251,8 +251,8 @@ struct RowScratch {
 impl RowScratch {
     fn new(film: &Film, transform: &Transform, replicates: bool) -> Self {
         let (mut sums, mut pixel) = (
-            Accumulators::new(1, film.width, film.time.bins, transform),
-            PixelSums::new(film.time.bins, transform),
+            Accumulators::new(1, film.width, film.time.bins, film.channels, transform),
+            PixelSums::new(film.time.bins, film.channels, transform),
         );
         if replicates {
             (sums, pixel) = (sums.with_r2(), pixel.with_replicates());
@@ -261,16 +261,17 @@ impl RowScratch {
             sums,
             pixel,
             gbuffer: vec![GPixel::default(); film.width],
-            steady: vec![0.0; film.width * CHANNELS],
+            steady: vec![0.0; film.width * film.channels],
             rays: vec![0; film.width],
         }
     }
 
     /// Bytes of one scratch (saturating).
     fn bytes(film: &Film, transform: &Transform) -> u64 {
-        let per_pixel = (std::mem::size_of::<GPixel>() + CHANNELS * 8 + 8) as u64;
-        Accumulators::bytes(1, film.width, film.time.bins, transform)
-            .saturating_add(PixelSums::bytes(film.time.bins, transform))
+        let c = film.channels;
+        let per_pixel = (std::mem::size_of::<GPixel>() + c * 8 + 8) as u64;
+        Accumulators::bytes(1, film.width, film.time.bins, c, transform)
+            .saturating_add(PixelSums::bytes(film.time.bins, c, transform))
             .saturating_add((film.width as u64).saturating_mul(per_pixel))
     }
 }
@@ -292,7 +293,8 @@ impl StreamingMemory {
         StreamingMemory {
             threads,
             per_row: RowScratch::bytes(film, transform),
-            images: sink::PixelImages::bytes(film.height, film.width).saturating_mul(2),
+            images: sink::PixelImages::bytes(film.height, film.width, film.channels)
+                .saturating_mul(2),
         }
     }
 
@@ -300,8 +302,11 @@ impl StreamingMemory {
     /// pixel's replicate sums).
     pub fn with_replicates(mut self, replicates: bool, film: &Film) -> Self {
         if replicates {
-            let extra = Accumulators::r2_bytes(1, film.width, film.time.bins)
-                .saturating_add((film.time.bins as u64).saturating_mul(7 * 8));
+            // The pixel's replicate records: 5 f64 a bin, and its R2 (C a bin).
+            let extra = Accumulators::r2_bytes(1, film.width, film.time.bins, film.channels)
+                .saturating_add(
+                    (film.time.bins as u64).saturating_mul((5 + film.channels as u64) * 8),
+                );
             self.per_row = self.per_row.saturating_add(extra);
         }
         self
@@ -435,8 +440,9 @@ fn render_row_body(
             row.pixel.end_replicate(k, z0);
         }
         row.pixel.flush_into(&mut row.sums, x);
-        for c in 0..CHANNELS {
-            row.steady[x * CHANNELS + c] = tally.steady[c] / f64::from(spp);
+        let channels = scene.film.channels;
+        for c in 0..channels {
+            row.steady[x * channels + c] = tally.steady[c] / f64::from(spp);
         }
         row.gbuffer[x] = g.finish();
         result.dropped += tally.dropped_nonfinite;
@@ -579,7 +585,13 @@ pub fn render(
     progress: &(dyn Fn(u64) + Sync),
 ) -> RenderOutput {
     let film = &scene.film;
-    let mut sink = MemorySink::new(film.height, film.width, film.time.bins, &settings.transform);
+    let mut sink = MemorySink::new(
+        film.height,
+        film.width,
+        film.time.bins,
+        film.channels,
+        &settings.transform,
+    );
     if settings.replicates >= 2 {
         sink = sink.with_r2();
     }

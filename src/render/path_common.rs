@@ -5,7 +5,7 @@
 //! ([`contribute`], SPEC 4), shadow rays between moved ends, the material of a
 //! normal/bump-mapped hit, and rays that leave the scene ([`escape`]).
 
-use super::deposits::PathDeposits;
+use super::deposits::{Deposit, PathDeposits};
 use super::gbuffer::GSample;
 use crate::geometry::accel::offset_origin;
 use crate::geometry::shadow::shadow_segment;
@@ -19,15 +19,17 @@ use glam::Vec3;
 /// What one path leaves behind besides its deposits.
 #[derive(Default)]
 pub struct PathTally {
-    /// Sum of every finite contribution (in the window or not): the steady image.
-    pub steady: [f64; 3],
+    /// Sum of every finite contribution (in the window or not): the steady image (the
+    /// film's first C channels).
+    pub steady: Deposit,
     /// Contributions dropped because they were NaN or infinite.
     pub dropped_nonfinite: u64,
     /// Rays traced (closest-hit and shadow).
     pub rays: u64,
 }
 
-/// Adds a contribution `c` arriving at OPL `opl` to the path's deposits.
+/// Adds a contribution `c` (rgb, or mono radiance in every lane) arriving at OPL `opl`
+/// to the path's deposits.
 #[inline(always)]
 pub(super) fn contribute(
     scene: &Scene,
@@ -43,7 +45,43 @@ pub(super) fn contribute(
     if c == Rgb::ZERO {
         return;
     }
-    let c = [c.x as f64, c.y as f64, c.z as f64];
+    deposit(
+        scene,
+        deposits,
+        tally,
+        opl,
+        [c.x as f64, c.y as f64, c.z as f64, 0.0],
+    );
+}
+
+/// Adds a Stokes vector `s` (S0..S3 in the sensor's frame) arriving at OPL `opl` to
+/// the path's deposits.
+#[inline(always)]
+pub(super) fn contribute_stokes(
+    scene: &Scene,
+    deposits: &mut PathDeposits,
+    tally: &mut PathTally,
+    opl: f64,
+    s: glam::Vec4,
+) {
+    if !s.is_finite() {
+        tally.dropped_nonfinite += 1;
+        return;
+    }
+    if s == glam::Vec4::ZERO {
+        return;
+    }
+    deposit(scene, deposits, tally, opl, s.to_array().map(f64::from));
+}
+
+#[inline(always)]
+fn deposit(
+    scene: &Scene,
+    deposits: &mut PathDeposits,
+    tally: &mut PathTally,
+    opl: f64,
+    c: Deposit,
+) {
     for (s, v) in tally.steady.iter_mut().zip(c) {
         *s += v;
     }
@@ -135,7 +173,7 @@ pub(super) fn escape(
     tally: &mut PathTally,
     g: &mut GSample,
     g_pending: bool,
-    wl: Option<&Wavelengths>,
+    (wl, mono): (Option<&Wavelengths>, bool),
 ) {
     let settings = &scene.integrator;
     if depth == 0 && settings.hide_emitters {
@@ -157,6 +195,7 @@ pub(super) fn escape(
         eta as f64 * dist as f64
     };
     let c = match wl {
+        None if mono => beta * Rgb::splat(crate::textures::luminance(radiance)) * w,
         None => beta * radiance * w,
         Some(wl) => wl.to_srgb(beta * emitted_spectrum(scene, env as usize, radiance, d, wl) * w),
     };

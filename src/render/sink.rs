@@ -9,7 +9,7 @@
 //! Both keep the small per-pixel images (G-buffers, steady) in a [`PixelImages`].
 
 use super::gbuffer::GPixel;
-use crate::stats::accumulators::{Accumulators, CHANNELS};
+use crate::stats::accumulators::Accumulators;
 use crate::stats::Transform;
 use std::sync::Mutex;
 
@@ -22,7 +22,7 @@ pub struct Row<'a> {
     pub sums: &'a Accumulators,
     /// The row's G-buffer pixels (W).
     pub gbuffer: &'a [GPixel],
-    /// The row's steady-state mean radiance (W, 3).
+    /// The row's steady-state mean radiance (W, C).
     pub steady: &'a [f64],
     /// Rays traced for each pixel of the row (W): the cost of its samples.
     pub rays: &'a [u64],
@@ -35,28 +35,30 @@ pub trait RowSink: Sync {
     fn put_row(&self, row: &Row<'_>) -> Result<(), Self::Error>;
 }
 
-/// The per-pixel images of a render, (H, W) G-buffer pixels and (H, W, 3) steady
+/// The per-pixel images of a render, (H, W) G-buffer pixels and (H, W, C) steady
 /// radiance, filled row by row, with which rows arrived.
 pub struct PixelImages {
     pub width: usize,
+    pub channels: usize,
     pub gbuffer: Vec<GPixel>,
     pub steady: Vec<f64>,
     rows_done: Vec<bool>,
 }
 
 impl PixelImages {
-    pub fn new(height: usize, width: usize) -> Self {
+    pub fn new(height: usize, width: usize, channels: usize) -> Self {
         PixelImages {
             width,
+            channels,
             gbuffer: vec![GPixel::default(); height * width],
-            steady: vec![0.0; height * width * CHANNELS],
+            steady: vec![0.0; height * width * channels],
             rows_done: vec![false; height],
         }
     }
 
     /// Bytes for an (H, W) film (saturating).
-    pub fn bytes(height: usize, width: usize) -> u64 {
-        let per_pixel = (std::mem::size_of::<GPixel>() + CHANNELS * 8) as u128;
+    pub fn bytes(height: usize, width: usize, channels: usize) -> u64 {
+        let per_pixel = (std::mem::size_of::<GPixel>() + channels * 8) as u128;
         let b = height as u128 * (width as u128 * per_pixel + 1);
         u64::try_from(b).unwrap_or(u64::MAX)
     }
@@ -64,9 +66,9 @@ impl PixelImages {
     pub fn put(&mut self, row: &Row<'_>) {
         assert!(!self.rows_done[row.y], "row {} arrived twice", row.y);
         self.rows_done[row.y] = true;
-        let w = self.width;
+        let (w, c) = (self.width, self.channels);
         self.gbuffer[row.y * w..(row.y + 1) * w].copy_from_slice(row.gbuffer);
-        self.steady[row.y * w * CHANNELS..(row.y + 1) * w * CHANNELS].copy_from_slice(row.steady);
+        self.steady[row.y * w * c..(row.y + 1) * w * c].copy_from_slice(row.steady);
     }
 
     /// Whether every row arrived.
@@ -81,11 +83,17 @@ pub struct MemorySink {
 }
 
 impl MemorySink {
-    pub fn new(height: usize, width: usize, bins: usize, transform: &Transform) -> Self {
+    pub fn new(
+        height: usize,
+        width: usize,
+        bins: usize,
+        channels: usize,
+        transform: &Transform,
+    ) -> Self {
         MemorySink {
             film: Mutex::new((
-                Accumulators::new(height, width, bins, transform),
-                PixelImages::new(height, width),
+                Accumulators::new(height, width, bins, channels, transform),
+                PixelImages::new(height, width, channels),
             )),
         }
     }

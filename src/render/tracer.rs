@@ -51,6 +51,7 @@ use crate::math::Rgb;
 use crate::scene::mode::RenderMode;
 use crate::scene::Scene;
 use crate::spectral::lift::Wavelengths;
+use crate::textures::luminance;
 use glam::Vec3;
 
 /// A path's state between vertices.
@@ -85,6 +86,9 @@ struct PathState {
     /// colour it meets are then values at them, and contributions become sRGB at
     /// [`PathState::sample`]. `None` in RGB.
     wl: Option<Wavelengths>,
+    /// A mono path (`mono`, `mono_polarized`): every colour it meets is its
+    /// luminance, in all three lanes of `beta`.
+    mono: bool,
 }
 
 /// The emitter that `u_sel` in [0, 1) selects among `n` (uniformly); one emitter needs
@@ -295,9 +299,10 @@ impl PathState {
             // The spectral mode refuses media, so the media's hero channel and the
             // wavelengths never share the slot.
             wl: match scene.mode {
-                RenderMode::Rgb => None,
                 RenderMode::Spectral => Some(Wavelengths::sample(rng.get1(slot::CHANNEL))),
+                _ => None,
             },
+            mono: scene.mode.is_mono(),
         }
     }
 
@@ -307,6 +312,7 @@ impl PathState {
     #[inline(always)]
     fn emitted(&self, scene: &Scene, e: usize, rgb: Rgb, towards: Vec3) -> Rgb {
         match &self.wl {
+            None if self.mono => Rgb::splat(luminance(rgb)),
             None => rgb,
             Some(wl) => emitted_spectrum(scene, e, rgb, towards, wl),
         }
@@ -373,7 +379,7 @@ fn shade<L: Level, const MEDIA: bool, S: PathSampler>(
                 tally,
                 &mut path.g,
                 path.g_pending,
-                path.wl.as_ref(),
+                (path.wl.as_ref(), path.mono),
             );
         }
         return false;
@@ -387,7 +393,7 @@ fn shade<L: Level, const MEDIA: bool, S: PathSampler>(
         path.d,
         &mut textured,
         &mut lifted,
-        path.wl.as_ref(),
+        (path.wl.as_ref(), path.mono),
         rng,
     );
     if MEDIA && depth == 0 && path.g.depth.is_none() {
@@ -460,11 +466,12 @@ impl<'a> Scattering<'a> {
         d: Vec3,
         textured: &'a mut Option<Bsdf>,
         lifted: &'a mut Option<Bsdf>,
-        wl: Option<&Wavelengths>,
+        (wl, mono): (Option<&Wavelengths>, bool),
         rng: &mut S,
     ) -> Self {
         let v = SurfaceVertex::at(scene, hit, d, textured);
         let v = match wl {
+            None if mono => v.mono(lifted),
             None => v,
             Some(wl) => v.lifted(wl, lifted),
         };

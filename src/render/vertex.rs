@@ -12,7 +12,7 @@ use crate::materials::{Bsdf, BsdfModel, HitGeometry, Material};
 use crate::math::frame::Frame;
 use crate::scene::Scene;
 use crate::spectral::lift::Wavelengths;
-use crate::textures::TexPoint;
+use crate::textures::{luminance, TexPoint};
 use glam::Vec3;
 
 /// A surface vertex: where it is and what scatters there.
@@ -83,6 +83,15 @@ impl<'a> SurfaceVertex<'a> {
             ColourKind::Bounded => wl.reflectance(c),
             ColourKind::Unbounded => wl.unbounded(c),
         }));
+        SurfaceVertex { bsdf, ..self }
+    }
+
+    /// The vertex of a mono path (`mono`, `mono_polarized`): every colour of the
+    /// material at the hit as its luminance in all three lanes (Mitsuba's mono
+    /// variants read an RGB value as its luminance), kept in `lifted`.
+    #[inline(always)]
+    pub fn mono(self, lifted: &'a mut Option<Bsdf>) -> Self {
+        let bsdf = lifted.insert(self.bsdf.map_colours(&|_, c| Vec3::splat(luminance(c))));
         SurfaceVertex { bsdf, ..self }
     }
 

@@ -112,6 +112,7 @@ fn parse_with_scan(
             start_opl,
             bin_width_opl,
         },
+        channels: 3,
     };
     Ok((film, scan))
 }

@@ -1,8 +1,11 @@
 //! The render mode: what a path carries and what a bundle's channels are (issue 45).
 //! `rgb` (the default) traces the three RGB channels; `spectral` traces three sampled
 //! wavelengths per path and writes each path's linear sRGB (`spectral::lift`), so a
-//! spectral bundle has the same three channels as an RGB one. [`Scene::set_mode`]
-//! refuses what the spectral mode does not model, with one message.
+//! spectral bundle has the same three channels as an RGB one. `mono` traces one band,
+//! the luminance of every colour (Mitsuba's `*_mono` variants); `mono_polarized`
+//! traces that band with a Mueller matrix along the path and writes the four Stokes
+//! components S0..S3 in the sensor's frame (`render/polarized.rs`).
+//! [`Scene::set_mode`] refuses what a mode does not model, with one message.
 
 use super::spectrum::{list_to_srgb, uniform_to_srgb, SpectrumUse};
 use super::Scene;
@@ -15,6 +18,9 @@ pub enum RenderMode {
     #[default]
     Rgb,
     Spectral,
+    Mono,
+    #[serde(rename = "mono_polarized")]
+    MonoPolarized,
 }
 
 impl RenderMode {
@@ -23,15 +29,45 @@ impl RenderMode {
         match self {
             RenderMode::Rgb => "rgb",
             RenderMode::Spectral => "spectral",
+            RenderMode::Mono => "mono",
+            RenderMode::MonoPolarized => "mono_polarized",
         }
     }
 
     pub fn from_name(s: &str) -> Option<Self> {
-        match s {
-            "rgb" => Some(RenderMode::Rgb),
-            "spectral" => Some(RenderMode::Spectral),
-            _ => None,
+        [
+            RenderMode::Rgb,
+            RenderMode::Spectral,
+            RenderMode::Mono,
+            RenderMode::MonoPolarized,
+        ]
+        .into_iter()
+        .find(|m| m.name() == s)
+    }
+
+    /// The names of the channels of a film in this mode (the manifest's `channels`).
+    pub fn channel_names(self) -> &'static [&'static str] {
+        match self {
+            RenderMode::Rgb | RenderMode::Spectral => &["R", "G", "B"],
+            RenderMode::Mono => &["Y"],
+            RenderMode::MonoPolarized => &["S0", "S1", "S2", "S3"],
         }
+    }
+
+    /// Channels C of a film in this mode.
+    pub fn channels(self) -> usize {
+        self.channel_names().len()
+    }
+
+    /// Whether a path carries one band: the luminance of every colour.
+    pub fn is_mono(self) -> bool {
+        matches!(self, RenderMode::Mono | RenderMode::MonoPolarized)
+    }
+
+    /// Whether a sample can be negative: a spectral path's sRGB (the matching curves
+    /// are negative at some wavelengths) and the Stokes components S1..S3.
+    pub fn signed(self) -> bool {
+        matches!(self, RenderMode::Spectral | RenderMode::MonoPolarized)
     }
 }
 
@@ -41,6 +77,15 @@ impl Scene {
     /// ones; it refuses NLOS captures, participating media and `principled` /
     /// `principledthin` (what it would need for them is in docs/spectral.md).
     pub fn set_mode(&mut self, mode: RenderMode) -> Result<(), String> {
+        if mode.is_mono() {
+            let name = mode.name();
+            if self.nlos.is_some() {
+                return Err(format!("--mode {name} renders camera films; NLOS captures (transient_nlos_path) are rendered in rgb"));
+            }
+            if !self.media.is_empty() {
+                return Err(format!("--mode {name} does not render participating media; this scene has media (render it with --mode rgb)"));
+            }
+        }
         if mode == RenderMode::Spectral {
             if self.nlos.is_some() {
                 return Err("--mode spectral renders camera films; NLOS captures (transient_nlos_path) are rendered in rgb".into());
@@ -55,6 +100,7 @@ impl Scene {
             }
         }
         self.mode = mode;
+        self.film.channels = mode.channels();
         Ok(())
     }
 }

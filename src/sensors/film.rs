@@ -11,6 +11,10 @@ pub struct Film {
     pub width: usize,
     pub height: usize,
     pub time: TimeAxis,
+    /// Channels C of every volume and image of the film: 3 (rgb, spectral: linear
+    /// sRGB), 1 (mono) or 4 (mono_polarized: the Stokes components S0..S3). Set by the
+    /// scene's render mode (`Scene::set_mode`); 3 when read.
+    pub channels: usize,
 }
 
 impl Film {
@@ -152,6 +156,7 @@ mod tests {
                 start_opl,
                 bin_width_opl,
             },
+            channels: 3,
         };
         assert!(film(3.5, 0.04).validate().is_ok());
         assert!(film(-1e6, 1e-3).validate().is_ok());

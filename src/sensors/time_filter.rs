@@ -102,6 +102,7 @@ mod tests {
                 start_opl: 10.0,
                 bin_width_opl: 0.5,
             },
+            channels: 3,
         }
     }
 

@@ -15,18 +15,28 @@
 //!   (five) separate arrays; [`PixelSums::flush_into`] de-interleaves it into its row.
 //!
 //! Memory: `H * W * T * C * 8` bytes per f64 array (3 arrays, 4 with S) plus
-//! `H * W * T * 4` for the counts: 76 bytes per voxel (identity), 100 with S. A
-//! 128 x 128 x 300 x 3 film needs 374 MB (identity); one of its rows 2.9 MB.
+//! `H * W * T * 4` for the counts: per voxel `24 C + 4` bytes (identity), `32 C + 4`
+//! with S: 76 / 100 for RGB (C = 3), 28 / 36 mono (C = 1), 100 / 132 for the four
+//! Stokes components (C = 4). A 128 x 128 x 300 x 3 film needs 374 MB (identity); one
+//! of its rows 2.9 MB.
 
 use super::transform::Transform;
 
+/// The channels of an RGB (or spectral) film.
 pub const CHANNELS: usize = 3;
+
+/// The most channels a film has: the four Stokes components S0..S3 of a polarized
+/// render. A path's deposit is always this wide; only the film's first `channels`
+/// entries are read.
+pub const MAX_CHANNELS: usize = 4;
 
 /// Planar sums laid out (H, W, T, C) row-major.
 pub struct Accumulators {
     pub height: usize,
     pub width: usize,
     pub bins: usize,
+    /// C: 3 (RGB, spectral), 1 (mono) or 4 (Stokes S0..S3).
+    pub channels: usize,
     pub x1: Vec<f64>,
     pub x2: Vec<f64>,
     pub x3: Vec<f64>,
@@ -37,6 +47,10 @@ pub struct Accumulators {
     /// replicates ([`Accumulators::with_r2`]).
     pub r2: Option<Vec<f64>>,
 }
+
+/// f64s of a replicate record: the sums of z per channel (always `MAX_CHANNELS` wide),
+/// then the count.
+const REP: usize = MAX_CHANNELS + 1;
 
 /// The f64 sum arrays a transform needs: X1, X2, X3, and S unless it is the identity.
 fn sum_arrays(transform: &Transform) -> usize {
@@ -50,19 +64,33 @@ fn sum_arrays(transform: &Transform) -> usize {
 impl Accumulators {
     /// Bytes needed for a film of this size with this transform (saturating, so absurd
     /// sizes compare as too large instead of wrapping).
-    pub fn bytes(height: usize, width: usize, bins: usize, transform: &Transform) -> u64 {
+    pub fn bytes(
+        height: usize,
+        width: usize,
+        bins: usize,
+        channels: usize,
+        transform: &Transform,
+    ) -> u64 {
         let arrays = sum_arrays(transform) as u128;
         let voxels = height as u128 * width as u128 * bins as u128;
-        let b = voxels * CHANNELS as u128 * 8 * arrays + voxels * 4;
+        let b = voxels * channels as u128 * 8 * arrays + voxels * 4;
         u64::try_from(b).unwrap_or(u64::MAX)
     }
 
-    pub fn new(height: usize, width: usize, bins: usize, transform: &Transform) -> Self {
-        let n = height * width * bins * CHANNELS;
+    pub fn new(
+        height: usize,
+        width: usize,
+        bins: usize,
+        channels: usize,
+        transform: &Transform,
+    ) -> Self {
+        assert!((1..=MAX_CHANNELS).contains(&channels));
+        let n = height * width * bins * channels;
         Accumulators {
             height,
             width,
             bins,
+            channels,
             x1: vec![0.0; n],
             x2: vec![0.0; n],
             x3: vec![0.0; n],
@@ -79,8 +107,8 @@ impl Accumulators {
     }
 
     /// Bytes of the `R2` array of a film of this size (saturating).
-    pub fn r2_bytes(height: usize, width: usize, bins: usize) -> u64 {
-        let b = height as u128 * width as u128 * bins as u128 * CHANNELS as u128 * 8;
+    pub fn r2_bytes(height: usize, width: usize, bins: usize, channels: usize) -> u64 {
+        let b = height as u128 * width as u128 * bins as u128 * channels as u128 * 8;
         u64::try_from(b).unwrap_or(u64::MAX)
     }
 
@@ -88,15 +116,20 @@ impl Accumulators {
     /// into row `y`.
     pub fn put_row(&mut self, y: usize, row: &Accumulators) {
         assert!(
-            row.height == 1 && row.width == self.width && row.bins == self.bins,
-            "a row of {}x{}x{} does not fit a film of width {} and {} bins",
+            row.height == 1
+                && row.width == self.width
+                && row.bins == self.bins
+                && row.channels == self.channels,
+            "a row of {}x{}x{}x{} does not fit a film of width {}, {} bins and {} channels",
             row.height,
             row.width,
             row.bins,
+            row.channels,
             self.width,
-            self.bins
+            self.bins,
+            self.channels
         );
-        let n = self.width * self.bins * CHANNELS;
+        let n = self.width * self.bins * self.channels;
         let sums = |dst: &mut [f64], src: &[f64]| dst[y * n..(y + 1) * n].copy_from_slice(src);
         sums(&mut self.x1, &row.x1);
         sums(&mut self.x2, &row.x2);
@@ -117,24 +150,27 @@ impl Accumulators {
 }
 
 /// The sums of the pixel being rendered: per time bin one record
-/// `[X1 rgb, X2 rgb, X3 rgb, (S rgb,) count]` of f64 (the count is exact: at most
-/// spp < 2^32 < 2^53). A flushed sample touches only its bin's record.
+/// `[X1 c, X2 c, X3 c, (S c,) count]` of f64 over the C channels (the count is exact:
+/// at most spp < 2^32 < 2^53). A flushed sample touches only its bin's record.
 pub struct PixelSums {
     bins: usize,
-    /// f64s per record: 10, or 13 with S.
+    channels: usize,
+    /// f64s per record: 3C + 1, or 4C + 1 with S (10 or 13 for RGB).
     stride: usize,
     raw: bool,
     records: Vec<f64>,
-    /// With replicates: per bin the current replicate's `[sum z rgb, count]`, and the
-    /// pixel's `R2 rgb` so far.
+    /// With replicates: per bin the current replicate's `[sum z c (MAX_CHANNELS), count]`,
+    /// and the pixel's `R2 c` so far.
     replicate: Option<(Vec<f64>, Vec<f64>)>,
 }
 
 impl PixelSums {
-    pub fn new(bins: usize, transform: &Transform) -> Self {
-        let stride = sum_arrays(transform) * CHANNELS + 1;
+    pub fn new(bins: usize, channels: usize, transform: &Transform) -> Self {
+        assert!((1..=MAX_CHANNELS).contains(&channels));
+        let stride = sum_arrays(transform) * channels + 1;
         PixelSums {
             bins,
+            channels,
             stride,
             raw: !transform.is_identity(),
             records: vec![0.0; bins * stride],
@@ -144,7 +180,10 @@ impl PixelSums {
 
     /// The same records, also accumulating replicate statistics.
     pub fn with_replicates(mut self) -> Self {
-        self.replicate = Some((vec![0.0; self.bins * 4], vec![0.0; self.bins * CHANNELS]));
+        self.replicate = Some((
+            vec![0.0; self.bins * REP],
+            vec![0.0; self.bins * self.channels],
+        ));
         self
     }
 
@@ -156,11 +195,11 @@ impl PixelSums {
         };
         let kf = f64::from(k);
         for (cur, r) in current
-            .chunks_exact_mut(4)
-            .zip(r2.chunks_exact_mut(CHANNELS))
+            .chunks_exact_mut(REP)
+            .zip(r2.chunks_exact_mut(self.channels))
         {
-            let zeros = kf - cur[3];
-            for c in 0..CHANNELS {
+            let zeros = kf - cur[MAX_CHANNELS];
+            for c in 0..self.channels {
                 let m = (cur[c] + zeros * z0) / kf;
                 r[c] += m * m;
             }
@@ -169,34 +208,44 @@ impl PixelSums {
     }
 
     /// Bytes of the records for `bins` bins (saturating).
-    pub fn bytes(bins: usize, transform: &Transform) -> u64 {
-        let stride = (sum_arrays(transform) * CHANNELS + 1) as u128;
+    pub fn bytes(bins: usize, channels: usize, transform: &Transform) -> u64 {
+        let stride = (sum_arrays(transform) * channels + 1) as u128;
         u64::try_from(bins as u128 * stride * 8).unwrap_or(u64::MAX)
     }
 
-    /// Adds one path's total deposit `x` (rgb radiance) in time bin `bin` as one sample.
+    /// Adds one path's total deposit `x` in time bin `bin` as one sample: its first
+    /// `channels` values (rgb radiance, or S0..S3) are read.
     #[inline]
-    pub fn add_sample(&mut self, z: impl Fn(f64) -> f64, bin: usize, x: [f64; CHANNELS]) {
+    pub fn add_sample(&mut self, z: impl Fn(f64) -> f64, bin: usize, x: [f64; MAX_CHANNELS]) {
+        match self.channels {
+            3 => self.add::<3>(z, bin, [x[0], x[1], x[2]]),
+            1 => self.add::<1>(z, bin, [x[0]]),
+            _ => self.add::<4>(z, bin, x),
+        }
+    }
+
+    #[inline(always)]
+    fn add<const C: usize>(&mut self, z: impl Fn(f64) -> f64, bin: usize, x: [f64; C]) {
         let r = &mut self.records[bin * self.stride..(bin + 1) * self.stride];
         let zs = x.map(z);
         for (c, &zc) in zs.iter().enumerate() {
             let z2 = zc * zc;
             r[c] += zc;
-            r[CHANNELS + c] += z2;
-            r[2 * CHANNELS + c] += z2 * zc;
+            r[C + c] += z2;
+            r[2 * C + c] += z2 * zc;
         }
         if self.raw {
             for (c, &xc) in x.iter().enumerate() {
-                r[3 * CHANNELS + c] += xc;
+                r[3 * C + c] += xc;
             }
         }
         r[self.stride - 1] += 1.0;
         if let Some((current, _)) = self.replicate.as_mut() {
-            let cur = &mut current[bin * 4..bin * 4 + 4];
+            let cur = &mut current[bin * REP..(bin + 1) * REP];
             for (c, &zc) in zs.iter().enumerate() {
                 cur[c] += zc;
             }
-            cur[3] += 1.0;
+            cur[MAX_CHANNELS] += 1.0;
         }
     }
 
@@ -204,8 +253,9 @@ impl PixelSums {
     /// there, and leaves the records zero for the next pixel.
     pub fn flush_into(&mut self, row: &mut Accumulators, px: usize) {
         debug_assert!(row.height == 1 && row.bins == self.bins);
-        let t = self.bins;
-        let planar = px * t * CHANNELS..(px + 1) * t * CHANNELS;
+        let (t, c) = (self.bins, self.channels);
+        debug_assert_eq!(row.channels, c);
+        let planar = px * t * c..(px + 1) * t * c;
         let out = Planar {
             x1: &mut row.x1[planar.clone()],
             x2: &mut row.x2[planar.clone()],
@@ -214,14 +264,17 @@ impl PixelSums {
             nonzero: &mut row.nonzero[px * t..(px + 1) * t],
         };
         // A record length known at compile time: the copies become plain moves.
-        if self.raw {
-            deinterleave::<13>(&self.records, out);
-        } else {
-            deinterleave::<10>(&self.records, out);
+        match (c, self.raw) {
+            (3, true) => deinterleave::<3, 13>(&self.records, out),
+            (3, false) => deinterleave::<3, 10>(&self.records, out),
+            (1, true) => deinterleave::<1, 5>(&self.records, out),
+            (1, false) => deinterleave::<1, 4>(&self.records, out),
+            (_, true) => deinterleave::<4, 17>(&self.records, out),
+            (_, false) => deinterleave::<4, 13>(&self.records, out),
         }
         self.records.fill(0.0);
         if let (Some((_, r2)), Some(dst)) = (self.replicate.as_mut(), row.r2.as_mut()) {
-            dst[px * t * CHANNELS..(px + 1) * t * CHANNELS].copy_from_slice(r2);
+            dst[px * t * c..(px + 1) * t * c].copy_from_slice(r2);
             r2.fill(0.0);
         }
     }
@@ -236,9 +289,9 @@ struct Planar<'a> {
     nonzero: &'a mut [u32],
 }
 
-/// Copies records of `N` f64s (`[X1 rgb, X2 rgb, X3 rgb, (S rgb,) count]`) into `out`.
-fn deinterleave<const N: usize>(records: &[f64], out: Planar<'_>) {
-    const C: usize = CHANNELS;
+/// Copies records of `N` f64s (`[X1 c, X2 c, X3 c, (S c,) count]` over `C` channels)
+/// into `out`.
+fn deinterleave<const C: usize, const N: usize>(records: &[f64], out: Planar<'_>) {
     let (records, _) = records.as_chunks::<N>();
     let planar = out
         .x1
@@ -290,12 +343,12 @@ mod tests {
     fn interleaved_records_give_the_planar_sums_bit_for_bit() {
         for t in [Transform::Identity, Transform::BoxCox { lambda: 0.5 }] {
             let (w, bins) = (3, 5);
-            let mut want = Accumulators::new(1, w, bins, &t);
-            let mut row = Accumulators::new(1, w, bins, &t);
+            let mut want = Accumulators::new(1, w, bins, 3, &t);
+            let mut row = Accumulators::new(1, w, bins, 3, &t);
             // Garbage in the row: flushing overwrites every value.
             row.x2.fill(7.0);
             row.nonzero.fill(9);
-            let mut p = PixelSums::new(bins, &t);
+            let mut p = PixelSums::new(bins, 3, &t);
             let z = |x: f64| t.apply(x);
             for px in 0..w {
                 for s in 0..40u32 {
@@ -304,7 +357,7 @@ mod tests {
                         continue; // an empty bin stays zero
                     }
                     let x = [0.1 * s as f64, 1.0 / (1.0 + s as f64), (s % 3) as f64];
-                    p.add_sample(z, bin, x);
+                    p.add_sample(z, bin, [x[0], x[1], x[2], 0.0]);
                     planar_add(&mut want, z, px, bin, x);
                 }
                 p.flush_into(&mut row, px);
@@ -318,8 +371,8 @@ mod tests {
     #[test]
     fn rows_land_at_their_offset() {
         let t = Transform::BoxCox { lambda: 0.5 };
-        let mut film = Accumulators::new(3, 2, 4, &t);
-        let mut row = Accumulators::new(1, 2, 4, &t);
+        let mut film = Accumulators::new(3, 2, 4, 3, &t);
+        let mut row = Accumulators::new(1, 2, 4, 3, &t);
         row.x3.fill(3.0);
         row.sum.as_mut().unwrap().fill(4.0);
         row.nonzero.fill(5);
@@ -344,8 +397,8 @@ mod tests {
         for t in [Transform::Identity, Transform::BoxCox { lambda: 0.5 }] {
             let (w, bins, reps, k) = (2usize, 4usize, 3u32, 5u32);
             let z0 = t.at_zero();
-            let mut row = Accumulators::new(1, w, bins, &t).with_r2();
-            let mut p = PixelSums::new(bins, &t).with_replicates();
+            let mut row = Accumulators::new(1, w, bins, 3, &t).with_r2();
+            let mut p = PixelSums::new(bins, 3, &t).with_replicates();
             let z = |x: f64| t.apply(x);
             let mut want = vec![0.0; w * bins * 3];
             for px in 0..w {
@@ -358,7 +411,7 @@ mod tests {
                             continue;
                         }
                         let x = [0.3 * s as f64, 1.0 + b as f64, (s % 2) as f64];
-                        p.add_sample(z, bin, x);
+                        p.add_sample(z, bin, [x[0], x[1], x[2], 0.0]);
                         counts[bin] += 1;
                         for c in 0..3 {
                             sums[bin * 3 + c] += z(x[c]);
