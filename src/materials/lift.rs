@@ -84,6 +84,8 @@ impl Bsdf {
                 p.specular_reflectance = f(Bounded, p.specular_reflectance);
             }
             Bsdf::Polarizer(p) => p.transmittance = f(Bounded, p.transmittance),
+            Bsdf::Retarder(r) => r.transmittance = f(Bounded, r.transmittance),
+            Bsdf::Circular(c) => c.transmittance = f(Bounded, c.transmittance),
             Bsdf::TwoSided(t) => {
                 t.front = one_sided(&t.front, f);
                 t.back = one_sided(&t.back, f);

@@ -41,8 +41,12 @@ pub enum Param {
     Weight,
     /// `pplastic`'s relative IOR `eta` (and `principledthin`'s).
     RelativeEta,
-    /// `polarizer`'s transmittance.
+    /// `polarizer`'s, `retarder`'s and `circular`'s transmittance.
     Transmittance,
+    /// `polarizer`'s and `retarder`'s axis angle in degrees (not clamped).
+    Theta,
+    /// `retarder`'s retardance `delta` in degrees (not clamped).
+    Retardance,
     /// Temporal profile parameters of `Separable` (`ConstantTP`'s delay,
     /// `ExponentialTP`'s lambda, `EpanechnikovTP`'s mu and sigma).
     Delay,
@@ -71,6 +75,8 @@ impl Param {
         matches!(
             self,
             Param::Alpha
+                | Param::Theta
+                | Param::Retardance
                 | Param::AlphaU
                 | Param::AlphaV
                 | Param::Opacity
@@ -288,6 +294,11 @@ fn set_model(b: &mut Bsdf, param: Param, v: Vec3) {
         (Bsdf::Mask(m), Param::Opacity) => m.opacity = v.x.clamp(0.0, 1.0),
         (Bsdf::Blend(b), Param::Weight) => b.weight = v.x.clamp(0.0, 1.0),
         (Bsdf::Polarizer(p), Param::Transmittance) => p.transmittance = colour,
+        (Bsdf::Polarizer(p), Param::Theta) => p.theta = v.x,
+        (Bsdf::Retarder(r), Param::Transmittance) => r.transmittance = colour,
+        (Bsdf::Retarder(r), Param::Theta) => r.theta = v.x,
+        (Bsdf::Retarder(r), Param::Retardance) => r.delta = v.x,
+        (Bsdf::Circular(c), Param::Transmittance) => c.transmittance = colour,
         (Bsdf::PPlastic(p), Param::DiffuseReflectance) => p.diffuse_reflectance = colour,
         (Bsdf::PPlastic(p), Param::SpecularReflectance) => p.specular_reflectance = colour,
         // Kept away from 1 (no interface) and from 0, as a constant's range.

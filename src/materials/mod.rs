@@ -14,6 +14,7 @@
 //! plain model. `mask` wraps any BSDF (Mitsuba's scenes write `mask(twosided(diffuse))`).
 
 mod blend;
+mod circular;
 mod composed;
 mod conductor;
 pub mod conductor_presets;
@@ -25,6 +26,7 @@ pub mod lift;
 mod mask;
 pub mod material;
 pub mod microfacet;
+pub mod mueller;
 mod null;
 pub mod perturbed;
 mod plastic;
@@ -33,6 +35,7 @@ mod pplastic;
 mod principled;
 mod principled_common;
 mod principled_thin;
+mod retarder;
 mod rough_conductor;
 mod rough_dielectric;
 mod rough_plastic;
@@ -41,6 +44,7 @@ pub mod temporal_profile;
 mod thin_dielectric;
 
 pub use blend::Blend;
+pub use circular::Circular;
 pub use composed::Composed;
 pub use conductor::Conductor;
 pub use dielectric::Dielectric;
@@ -56,6 +60,7 @@ pub use polarizer::Polarizer;
 pub use pplastic::PPlastic;
 pub use principled::{specular_to_eta, Principled};
 pub use principled_thin::PrincipledThin;
+pub use retarder::Retarder;
 pub use rough_conductor::RoughConductor;
 pub use rough_dielectric::RoughDielectric;
 pub use rough_plastic::RoughPlastic;
@@ -172,6 +177,9 @@ pub enum Bsdf {
     /// Mitsuba's `principled` and `principledthin` (Disney's BSDF).
     Principled(Principled),
     PrincipledThin(PrincipledThin),
+    /// Mitsuba's `retarder` (a wave plate) and `circular` (a circular polarizer).
+    Retarder(Retarder),
+    Circular(Circular),
 }
 
 impl Bsdf {
@@ -289,7 +297,9 @@ impl TryFrom<Bsdf> for OneSided {
             | Bsdf::Perturbed(_)
             | Bsdf::Polarizer(_)
             | Bsdf::Principled(_)
-            | Bsdf::PrincipledThin(_)) => Err(other),
+            | Bsdf::PrincipledThin(_)
+            | Bsdf::Retarder(_)
+            | Bsdf::Circular(_)) => Err(other),
         }
     }
 }
@@ -401,27 +411,27 @@ impl BsdfModel for Bsdf {
     #[inline(always)]
     fn flags(&self, wo: Vec3) -> BsdfFlags {
         dispatch!(self, b => b.flags(wo),
-            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::RoughDielectric, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::RoughPlastic, Bsdf::Null, Bsdf::TwoSided, Bsdf::Mask, Bsdf::Separable, Bsdf::Composed, Bsdf::Blend, Bsdf::Perturbed, Bsdf::PPlastic, Bsdf::Polarizer, Bsdf::Principled, Bsdf::PrincipledThin)
+            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::RoughDielectric, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::RoughPlastic, Bsdf::Null, Bsdf::TwoSided, Bsdf::Mask, Bsdf::Separable, Bsdf::Composed, Bsdf::Blend, Bsdf::Perturbed, Bsdf::PPlastic, Bsdf::Polarizer, Bsdf::Principled, Bsdf::PrincipledThin, Bsdf::Retarder, Bsdf::Circular)
     }
     #[inline(always)]
     fn eval(&self, wo: Vec3, wi: Vec3) -> Rgb {
         dispatch!(self, b => b.eval(wo, wi),
-            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::RoughDielectric, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::RoughPlastic, Bsdf::Null, Bsdf::TwoSided, Bsdf::Mask, Bsdf::Separable, Bsdf::Composed, Bsdf::Blend, Bsdf::Perturbed, Bsdf::PPlastic, Bsdf::Polarizer, Bsdf::Principled, Bsdf::PrincipledThin)
+            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::RoughDielectric, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::RoughPlastic, Bsdf::Null, Bsdf::TwoSided, Bsdf::Mask, Bsdf::Separable, Bsdf::Composed, Bsdf::Blend, Bsdf::Perturbed, Bsdf::PPlastic, Bsdf::Polarizer, Bsdf::Principled, Bsdf::PrincipledThin, Bsdf::Retarder, Bsdf::Circular)
     }
     #[inline(always)]
     fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         dispatch!(self, b => b.pdf(wo, wi),
-            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::RoughDielectric, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::RoughPlastic, Bsdf::Null, Bsdf::TwoSided, Bsdf::Mask, Bsdf::Separable, Bsdf::Composed, Bsdf::Blend, Bsdf::Perturbed, Bsdf::PPlastic, Bsdf::Polarizer, Bsdf::Principled, Bsdf::PrincipledThin)
+            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::RoughDielectric, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::RoughPlastic, Bsdf::Null, Bsdf::TwoSided, Bsdf::Mask, Bsdf::Separable, Bsdf::Composed, Bsdf::Blend, Bsdf::Perturbed, Bsdf::PPlastic, Bsdf::Polarizer, Bsdf::Principled, Bsdf::PrincipledThin, Bsdf::Retarder, Bsdf::Circular)
     }
     #[inline(always)]
     fn eval_pdf(&self, wo: Vec3, wi: Vec3) -> (Rgb, f32) {
         dispatch!(self, b => b.eval_pdf(wo, wi),
-            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::RoughDielectric, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::RoughPlastic, Bsdf::Null, Bsdf::TwoSided, Bsdf::Mask, Bsdf::Separable, Bsdf::Composed, Bsdf::Blend, Bsdf::Perturbed, Bsdf::PPlastic, Bsdf::Polarizer, Bsdf::Principled, Bsdf::PrincipledThin)
+            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::RoughDielectric, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::RoughPlastic, Bsdf::Null, Bsdf::TwoSided, Bsdf::Mask, Bsdf::Separable, Bsdf::Composed, Bsdf::Blend, Bsdf::Perturbed, Bsdf::PPlastic, Bsdf::Polarizer, Bsdf::Principled, Bsdf::PrincipledThin, Bsdf::Retarder, Bsdf::Circular)
     }
     #[inline(always)]
     fn sample(&self, wo: Vec3, u1: f32, u2: [f32; 2]) -> Option<BsdfSample> {
         dispatch!(self, b => b.sample(wo, u1, u2),
-            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::RoughDielectric, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::RoughPlastic, Bsdf::Null, Bsdf::TwoSided, Bsdf::Mask, Bsdf::Separable, Bsdf::Composed, Bsdf::Blend, Bsdf::Perturbed, Bsdf::PPlastic, Bsdf::Polarizer, Bsdf::Principled, Bsdf::PrincipledThin)
+            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::RoughDielectric, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::RoughPlastic, Bsdf::Null, Bsdf::TwoSided, Bsdf::Mask, Bsdf::Separable, Bsdf::Composed, Bsdf::Blend, Bsdf::Perturbed, Bsdf::PPlastic, Bsdf::Polarizer, Bsdf::Principled, Bsdf::PrincipledThin, Bsdf::Retarder, Bsdf::Circular)
     }
     /// Only rough dielectrics and `principled` with `spec_trans` refract through a
     /// non-delta lobe (also inside `mask` and `Separable`); every other model (the
@@ -444,6 +454,6 @@ impl BsdfModel for Bsdf {
     }
     fn albedo(&self, wo: Vec3) -> Rgb {
         dispatch!(self, b => b.albedo(wo),
-            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::RoughDielectric, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::RoughPlastic, Bsdf::Null, Bsdf::TwoSided, Bsdf::Mask, Bsdf::Separable, Bsdf::Composed, Bsdf::Blend, Bsdf::Perturbed, Bsdf::PPlastic, Bsdf::Polarizer, Bsdf::Principled, Bsdf::PrincipledThin)
+            Bsdf::Diffuse, Bsdf::Dielectric, Bsdf::Conductor, Bsdf::RoughConductor, Bsdf::RoughDielectric, Bsdf::ThinDielectric, Bsdf::Plastic, Bsdf::RoughPlastic, Bsdf::Null, Bsdf::TwoSided, Bsdf::Mask, Bsdf::Separable, Bsdf::Composed, Bsdf::Blend, Bsdf::Perturbed, Bsdf::PPlastic, Bsdf::Polarizer, Bsdf::Principled, Bsdf::PrincipledThin, Bsdf::Retarder, Bsdf::Circular)
     }
 }

@@ -10,7 +10,8 @@ use crate::materials::material::{Binding, Param, Step};
 use crate::materials::RoughPlastic;
 use crate::materials::{specular_to_eta, Principled, PrincipledThin};
 use crate::materials::{
-    Blend, Composed, PPlastic, Perturbation, Perturbed, Polarizer, Separable, TemporalProfile,
+    Blend, Circular, Composed, PPlastic, Perturbation, Perturbed, Polarizer, Retarder, Separable,
+    TemporalProfile,
 };
 use crate::materials::{
     Bsdf, Conductor, Dielectric, Diffuse, Mask, Material, Microfacet, MicrofacetKind, Null,
@@ -380,6 +381,8 @@ pub(super) const BSDFS: &[(&str, ReadBsdf)] = &[
     ("bumpmap", read_normalmap),
     ("pplastic", read_pplastic),
     ("polarizer", read_polarizer),
+    ("retarder", read_retarder),
+    ("circular", read_circular),
     ("principled", read_principled),
     ("principledthin", read_principledthin),
 ];
@@ -603,7 +606,7 @@ fn read_twosided(
     p.adopt(Step::Back, &back);
     let one_sided = |b: Bsdf| {
         OneSided::try_from(b).map_err(|_| {
-            p.props.err("twosided wraps only one-sided models (diffuse, conductor, roughconductor, plastic, roughplastic, pplastic); not a dielectric, roughdielectric, thindielectric, null, mask, Separable, Composed, blendbsdf, normalmap, bumpmap, polarizer or another twosided (write mask(twosided(...)), normalmap(twosided(...)) or Separable(twosided(...)))")
+            p.props.err("twosided wraps only one-sided models (diffuse, conductor, roughconductor, plastic, roughplastic, pplastic); not a dielectric, roughdielectric, thindielectric, null, mask, Separable, Composed, blendbsdf, normalmap, bumpmap, polarizer, retarder, circular or another twosided (write mask(twosided(...)), normalmap(twosided(...)) or Separable(twosided(...)))")
         })
     };
     let (front, back) = (one_sided(front.bsdf)?, one_sided(back.bsdf)?);
@@ -930,12 +933,58 @@ fn read_polarizer(
     _named: &Named,
     _kind: &str,
 ) -> Result<Bsdf, SceneError> {
-    // Without polarization the angle and `polarizing` change nothing; read them
-    // so that a bad value is still an error.
-    let _theta = texture_param(&mut p.props, "theta", p.textures)?;
-    let _polarizing = p.props.boolean_or("polarizing", true)?;
+    // The angle and `polarizing` matter only in the polarized mode; the RGB weight is
+    // 0.5 * transmittance whatever they are. A textured angle is bound per hit.
+    let theta = angle(p, "theta", Param::Theta, 0.0)?;
+    let polarizing = p.props.boolean_or("polarizing", true)?;
     Ok(Bsdf::Polarizer(Polarizer {
         transmittance: p.colour("transmittance", Param::Transmittance, Rgb::ONE)?,
+        theta,
+        polarizing,
+    }))
+}
+
+/// An angle in degrees (`polarizer`'s and `retarder`'s `theta`, `retarder`'s
+/// `delta`): any finite value (Mitsuba's unbounded texture), or a texture bound to
+/// `param` (`default` stands in for it).
+fn angle(p: &mut Params, name: &str, param: Param, default: f64) -> Result<f32, SceneError> {
+    let v = p.scalar(name, param, default)?.unwrap_or(default);
+    if !v.is_finite() {
+        return Err(p.props.err_at(
+            name,
+            format!("{name} must be a finite angle in degrees, got {v}"),
+        ));
+    }
+    Ok(v as f32)
+}
+
+/// `<bsdf type="retarder">`.
+fn read_retarder(
+    p: &mut Params,
+    _ctx: &Ctx,
+    _named: &Named,
+    _kind: &str,
+) -> Result<Bsdf, SceneError> {
+    let theta = angle(p, "theta", Param::Theta, 0.0)?;
+    let delta = angle(p, "delta", Param::Retardance, 90.0)?;
+    Ok(Bsdf::Retarder(Retarder {
+        transmittance: p.colour("transmittance", Param::Transmittance, Rgb::ONE)?,
+        theta,
+        delta,
+    }))
+}
+
+/// `<bsdf type="circular">`.
+fn read_circular(
+    p: &mut Params,
+    _ctx: &Ctx,
+    _named: &Named,
+    _kind: &str,
+) -> Result<Bsdf, SceneError> {
+    let left_handed = p.props.boolean_or("left_handed", false)?;
+    Ok(Bsdf::Circular(Circular {
+        transmittance: p.colour("transmittance", Param::Transmittance, Rgb::ONE)?,
+        left_handed,
     }))
 }
 

@@ -17,10 +17,10 @@ use std::f32::consts::{FRAC_1_PI, PI};
 use std::path::Path;
 use tstat::materials::perturbed::HitGeometry;
 use tstat::materials::{
-    Blend, Bsdf, BsdfModel, BsdfSample, Composed, Conductor, Dielectric, Diffuse, Mask, Microfacet,
-    MicrofacetKind, Null, OneSided, PPlastic, Perturbation, Perturbed, Plastic, Polarizer,
-    Principled, PrincipledThin, RoughConductor, RoughDielectric, RoughPlastic, Separable,
-    TemporalProfile, ThinDielectric, TwoSided,
+    Blend, Bsdf, BsdfModel, BsdfSample, Circular, Composed, Conductor, Dielectric, Diffuse, Mask,
+    Microfacet, MicrofacetKind, Null, OneSided, PPlastic, Perturbation, Perturbed, Plastic,
+    Polarizer, Principled, PrincipledThin, Retarder, RoughConductor, RoughDielectric, RoughPlastic,
+    Separable, TemporalProfile, ThinDielectric, TwoSided,
 };
 use tstat::materials::{BsdfFlags, Material};
 use tstat::math::frame::Frame;
@@ -279,6 +279,23 @@ fn plain_models() -> Vec<(String, Bsdf)> {
             "polarizer".into(),
             Bsdf::Polarizer(Polarizer {
                 transmittance: Rgb::splat(0.5),
+                theta: 30.0,
+                polarizing: true,
+            }),
+        ),
+        (
+            "retarder".into(),
+            Bsdf::Retarder(Retarder {
+                transmittance: rgb(0.9, 0.8, 0.7),
+                theta: 20.0,
+                delta: 90.0,
+            }),
+        ),
+        (
+            "circular".into(),
+            Bsdf::Circular(Circular {
+                transmittance: rgb(0.9, 0.8, 0.7),
+                left_handed: true,
             }),
         ),
         (
@@ -656,12 +673,15 @@ fn kinds(b: &Bsdf, out: &mut BTreeSet<&'static str>) {
         Bsdf::Polarizer(_) => "polarizer",
         Bsdf::Principled(_) => "principled",
         Bsdf::PrincipledThin(_) => "principledthin",
+        Bsdf::Retarder(_) => "retarder",
+        Bsdf::Circular(_) => "circular",
     };
     out.insert(k);
 }
 
-const ALL_KINDS: [&str; 19] = [
+const ALL_KINDS: [&str; 21] = [
     "blend",
+    "circular",
     "composed",
     "conductor",
     "dielectric",
@@ -674,6 +694,7 @@ const ALL_KINDS: [&str; 19] = [
     "pplastic",
     "principled",
     "principledthin",
+    "retarder",
     "roughconductor",
     "roughdielectric",
     "roughplastic",

@@ -1377,6 +1377,26 @@ fn cases() -> Vec<Case> {
             "angle",
         ),
         scene_case(
+            "retarder_negative_transmittance",
+            sphere(r#"<bsdf type="retarder"><rgb name="transmittance" value="-0.5"/></bsdf>"#),
+            "transmittance must be non-negative",
+        ),
+        scene_case(
+            "retarder_unknown_parameter",
+            sphere(r#"<bsdf type="retarder"><float name="phase" value="30"/></bsdf>"#),
+            "phase",
+        ),
+        scene_case(
+            "circular_unknown_parameter",
+            sphere(r#"<bsdf type="circular"><float name="theta" value="30"/></bsdf>"#),
+            "theta",
+        ),
+        scene_case(
+            "circular_bad_handedness",
+            sphere(r#"<bsdf type="circular"><string name="left_handed" value="maybe"/></bsdf>"#),
+            "left_handed",
+        ),
+        scene_case(
             "mask_with_two_nested_bsdfs",
             sphere(r#"<bsdf type="mask"><bsdf type="diffuse"/><bsdf type="diffuse"/></bsdf>"#),
             "mask needs exactly one nested BSDF",

@@ -171,8 +171,11 @@ pub(crate) fn mask_cases() -> Vec<Case> {
 /// to evaluate.
 #[test]
 fn polarizer_passes_half_the_transmittance_straight_through() {
+    // The angle and `polarizing` change nothing here.
     let p = Polarizer {
         transmittance: Rgb::new(1.0, 0.8, 0.2),
+        theta: 30.0,
+        polarizing: false,
     };
     for wo in [dir(0.0, 0.0), dir(70.0, 30.0), dir(150.0, 200.0)] {
         let s = p.sample(wo, 0.4, [0.2, 0.9]).unwrap();

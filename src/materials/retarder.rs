@@ -1,0 +1,59 @@
+//! `retarder`: Mitsuba 3's `LinearRetarder` (`src/bsdfs/retarder.cpp`), a wave plate: a
+//! pane that light passes straight through, delaying the field component along one
+//! axis against the other. Without polarization (Mitsuba's RGB variants) it passes
+//! `transmittance` unchanged, a `null`-like surface with a colour.
+//!
+//! | parameter | type | default | meaning |
+//! |-----------|------|---------|---------|
+//! | theta | float or texture | 0 | the fast axis angle in degrees; no effect without polarization |
+//! | delta | float or texture | 90 | the retardance in degrees (90: quarter-wave, 180: half-wave); no effect without polarization |
+//! | transmittance | rgb/float or texture | 1 | scales what passes |
+//!
+//! The polarized behaviour is in `mueller.rs`. As `null` in Mitsuba's `path`
+//! integrator, the crossing is a vertex of the path (it counts towards `max_depth`)
+//! and shadow rays are blocked by the surface.
+
+use super::{BsdfFlags, BsdfModel, BsdfSample};
+use crate::math::Rgb;
+use glam::Vec3;
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Retarder {
+    pub transmittance: Rgb,
+    /// The fast axis angle in degrees (used only by the polarized mode).
+    pub theta: f32,
+    /// The retardance in degrees (used only by the polarized mode).
+    pub delta: f32,
+}
+
+impl BsdfModel for Retarder {
+    #[inline]
+    fn flags(&self, _wo: Vec3) -> BsdfFlags {
+        BsdfFlags::DELTA_TRANSMISSION
+    }
+
+    #[inline]
+    fn eval(&self, _wo: Vec3, _wi: Vec3) -> Rgb {
+        Rgb::ZERO
+    }
+
+    #[inline]
+    fn pdf(&self, _wo: Vec3, _wi: Vec3) -> f32 {
+        0.0
+    }
+
+    #[inline]
+    fn sample(&self, wo: Vec3, _u1: f32, _u2: [f32; 2]) -> Option<BsdfSample> {
+        Some(BsdfSample {
+            wi: -wo,
+            weight: self.transmittance,
+            pdf: 1.0,
+            lobe: BsdfFlags::DELTA_TRANSMISSION,
+            eta: 1.0,
+        })
+    }
+
+    fn albedo(&self, _wo: Vec3) -> Rgb {
+        self.transmittance
+    }
+}
