@@ -109,10 +109,12 @@ fn active_ranges(e: &Estimates) -> Vec<(usize, usize)> {
 /// The inner loop: one neighbour pixel at one bin offset, over `n` contiguous bins of
 /// the `N` channels. The neighbour counts where the test passes on every channel (for
 /// a Stokes film: in S0, S1, S2 and S3 alike, so that differently polarized light is
-/// not mixed). The loops over channels have a constant trip count and are unrolled:
-/// per channel the operations, and their order, are those of a loop written out by
-/// hand for each channel (RGB output is bit for bit that of the three-channel filter
-/// before C varied), and the loop over bins vectorises.
+/// not mixed). The loops run over the bins of one channel at a time (each a loop over
+/// a few contiguous slices, which vectorises): the weights `wk` of the bins first
+/// (the test of channel 0, then each further channel's clearing the bins it fails),
+/// then each channel's numerator. Per channel the floating-point operations, and
+/// their order, are those of the three-channel filter written out by hand before C
+/// varied: RGB output is the same bit for bit.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 fn accumulate<const MEMBERSHIP: bool, T: PairTest, const N: usize>(
@@ -126,33 +128,49 @@ fn accumulate<const MEMBERSHIP: bool, T: PairTest, const N: usize>(
     mean_i: [&[f32]; N],
     num: [&mut [f32]; N],
     den: &mut [f32],
+    wk: &mut [f32],
 ) {
-    let ti = theta_i.map(|a| &a[..n]);
-    let tj = theta_j.map(|a| &a[..n]);
-    let vi = v_i.map(|a| &a[..n]);
-    let vj = v_j.map(|a| &a[..n]);
-    let mi = mean_i.map(|a| &a[..n]);
-    let num = num.map(|a| &mut a[..n]);
     let den = &mut den[..n];
-    for k in 0..n {
-        let wk = if MEMBERSHIP {
-            // The test on every channel (non-short-circuiting `&`, so it vectorises).
-            let mut m = test.pass(ti[0][k], tj[0][k], vi[0][k], vj[0][k]);
-            for c in 1..N {
-                m &= test.pass(ti[c][k], tj[c][k], vi[c][k], vj[c][k]);
-            }
-            if m {
-                w
-            } else {
-                0.0
-            }
-        } else {
-            w
-        };
+    if MEMBERSHIP {
+        let wk = &mut wk[..n];
         for c in 0..N {
-            num[c][k] += wk * mi[c][k];
+            let (ti, tj) = (&theta_i[c][..n], &theta_j[c][..n]);
+            let (vi, vj) = (&v_i[c][..n], &v_j[c][..n]);
+            if c == 0 {
+                for k in 0..n {
+                    wk[k] = if test.pass(ti[k], tj[k], vi[k], vj[k]) {
+                        w
+                    } else {
+                        0.0
+                    };
+                }
+            } else {
+                for k in 0..n {
+                    wk[k] = if test.pass(ti[k], tj[k], vi[k], vj[k]) {
+                        wk[k]
+                    } else {
+                        0.0
+                    };
+                }
+            }
         }
-        den[k] += wk;
+        for (d, &x) in den.iter_mut().zip(&*wk) {
+            *d += x;
+        }
+        for (num_c, mean_c) in num.into_iter().zip(mean_i) {
+            for ((o, &x), &m) in num_c[..n].iter_mut().zip(&*wk).zip(&mean_c[..n]) {
+                *o += x * m;
+            }
+        }
+    } else {
+        for d in den.iter_mut() {
+            *d += w;
+        }
+        for (num_c, mean_c) in num.into_iter().zip(mean_i) {
+            for (o, &m) in num_c[..n].iter_mut().zip(&mean_c[..n]) {
+                *o += w * m;
+            }
+        }
     }
 }
 
@@ -165,7 +183,8 @@ pub trait PairTestUser {
 }
 
 /// tstat's statistic over `n` contiguous bins: `out[k] = max_c s_c` over the `N`
-/// channels (`s_0.max(s_1).max(s_2)` for RGB).
+/// channels, `s_0.max(s_1).max(s_2)` for RGB (a channel at a time, see
+/// [`accumulate`]).
 #[inline(always)]
 fn statistics<const N: usize>(
     n: usize,
@@ -175,17 +194,19 @@ fn statistics<const N: usize>(
     v_j: [&[f32]; N],
     out: &mut [f32],
 ) {
-    let ti = theta_i.map(|a| &a[..n]);
-    let tj = theta_j.map(|a| &a[..n]);
-    let vi = v_i.map(|a| &a[..n]);
-    let vj = v_j.map(|a| &a[..n]);
     let out = &mut out[..n];
-    for k in 0..n {
-        let mut s = statistic(ti[0][k], tj[0][k], vi[0][k], vj[0][k]);
-        for c in 1..N {
-            s = s.max(statistic(ti[c][k], tj[c][k], vi[c][k], vj[c][k]));
+    for c in 0..N {
+        let (ti, tj) = (&theta_i[c][..n], &theta_j[c][..n]);
+        let (vi, vj) = (&v_i[c][..n], &v_j[c][..n]);
+        if c == 0 {
+            for k in 0..n {
+                out[k] = statistic(ti[k], tj[k], vi[k], vj[k]);
+            }
+        } else {
+            for k in 0..n {
+                out[k] = out[k].max(statistic(ti[k], tj[k], vi[k], vj[k]));
+            }
         }
-        out[k] = s;
     }
 }
 
@@ -239,18 +260,19 @@ fn accumulate_patch<const N: usize>(
     mean_i: [&[f32]; N],
     num: [&mut [f32]; N],
     den: &mut [f32],
+    wk: &mut [f32],
 ) {
     let (sp, sc, sn) = (&s[..n], &s[1..n + 1], &s[2..n + 2]);
-    let mi = mean_i.map(|a| &a[..n]);
-    let num = num.map(|a| &mut a[..n]);
-    let den = &mut den[..n];
+    let (den, wk) = (&mut den[..n], &mut wk[..n]);
     for k in 0..n {
         let pass = patch_member(sp[k], sc[k], sn[k], t2_max, t2_patch3, alone);
-        let wk = if pass { w } else { 0.0 };
-        for c in 0..N {
-            num[c][k] += wk * mi[c][k];
+        wk[k] = if pass { w } else { 0.0 };
+        den[k] += wk[k];
+    }
+    for (num_c, mean_c) in num.into_iter().zip(mean_i) {
+        for ((o, &x), &m) in num_c[..n].iter_mut().zip(&*wk).zip(&mean_c[..n]) {
+            *o += x * m;
         }
-        den[k] += wk;
     }
 }
 
@@ -291,6 +313,8 @@ struct Neighbour {
 struct Scratch<const N: usize> {
     num: [Vec<f32>; N],
     den: Vec<f32>,
+    /// The weights of one neighbour's bins (see [`accumulate`]).
+    weight: Vec<f32>,
     /// tstat's statistic over a range of bins plus one on each side.
     stat: Vec<f32>,
     neighbours: Vec<Neighbour>,
@@ -373,6 +397,7 @@ fn filter_pixel<T: PairTest, const N: usize>(
     let Scratch {
         num,
         den,
+        weight,
         stat,
         neighbours,
     } = scratch;
@@ -428,6 +453,7 @@ fn filter_pixel<T: PairTest, const N: usize>(
                     oi.map(|q| &e.mean[q..q + m]),
                     acc,
                     &mut den[off..],
+                    weight,
                 ),
                 (None, None) => accumulate::<false, Everyone, N>(
                     m,
@@ -440,6 +466,7 @@ fn filter_pixel<T: PairTest, const N: usize>(
                     oi.map(|q| &e.mean[q..q + m]),
                     acc,
                     &mut den[off..],
+                    weight,
                 ),
                 (Some(tp), _) => {
                     // s over [lo, hi): one more bin on each side where both voxels exist.
@@ -479,6 +506,7 @@ fn filter_pixel<T: PairTest, const N: usize>(
                         oi.map(|q| &e.mean[q..q + m]),
                         acc,
                         &mut den[off..],
+                        weight,
                     );
                 }
             }
@@ -732,6 +760,7 @@ fn filter_band<T: PairTest, const N: usize>(
     let mut scratch = Scratch::<N> {
         num: std::array::from_fn(|_| vec![0.0; bins]),
         den: vec![0.0; bins],
+        weight: vec![0.0; bins],
         stat: vec![0.0; bins + 2],
         neighbours: Vec::new(),
     };
