@@ -49,6 +49,7 @@ fn bench_denoise(c: &mut Criterion) {
         height: h,
         width: w,
         bins: t,
+        channels: 3,
         bin_width: 0.08,
         spp,
         stratified: false,

@@ -1,6 +1,6 @@
 //! `tstat denoise NAME.tstats --out denoised.npy`: the statistical spatio-temporal filter.
 
-use super::export::write_exr_rgb;
+use super::export::{exr_channel_names, write_exr};
 use super::util::{arg, check_outputs, human_bytes, size_flag, threads, with_threads, Kind};
 use crate::bundle::write::{stage, Staged};
 use crate::bundle::{Bundle, BundleError};
@@ -9,7 +9,6 @@ use crate::denoise::critical::Threshold;
 use crate::denoise::slab::{denoise_bundle_to_npy, halo, Dims, SlabPlan, DEFAULT_BUDGET};
 use crate::denoise::tstat::TstatParams;
 use crate::denoise::{memory_bytes, Border, DenoiseParams, Method, Variance};
-use crate::stats::accumulators::CHANNELS;
 use anyhow::{bail, ensure};
 use clap::{Args, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -280,22 +279,26 @@ pub struct DenoiseArgs {
 }
 
 /// Writes every bin of the f32 (H, W, T, C) `.npy` volume at `npy` (written by
-/// [`crate::denoise::slab::NpyVolumeWriter`]) as `DIR/bin_NNNN.exr` under a temporary name; the caller
-/// commits it. Reads as many bins at a time as `budget` holds.
+/// [`crate::denoise::slab::NpyVolumeWriter`]) as `DIR/bin_NNNN.exr` under a temporary
+/// name, its C channels named `names` (`export::exr_channel_names`: R, G, B; Y;
+/// S0.Y .. S3.Y); the caller commits it. Reads as many bins at a time as `budget`
+/// holds.
 pub fn stage_exr_bins(
     dir: &Path,
     npy: &Path,
     (h, w, t): (usize, usize, usize),
+    names: &[String],
     budget: u64,
     force: bool,
 ) -> Result<Staged, BundleError> {
     use std::os::unix::fs::FileExt;
+    let channels = names.len();
     stage(dir, force, |tmp| {
         let io = |e: std::io::Error| BundleError::io(dir, e);
         std::fs::create_dir(tmp).map_err(io)?;
         let file = std::fs::File::open(npy).map_err(io)?;
-        let data_offset = file.metadata().map_err(io)?.len() - (h * w * t * CHANNELS * 4) as u64;
-        let per_bin = (h * w * CHANNELS * 4) as u64;
+        let data_offset = file.metadata().map_err(io)?.len() - (h * w * t * channels * 4) as u64;
+        let per_bin = (h * w * channels * 4) as u64;
         let step = ((budget / per_bin.max(1)) as usize).clamp(1, t);
         let digits = t.to_string().len().max(4);
         let mut run = Vec::new();
@@ -303,11 +306,11 @@ pub fn stage_exr_bins(
             let k1 = (k0 + step).min(t);
             let n = k1 - k0;
             // (H, W, n, C): each pixel's bins k0..k1 are one run in the file.
-            let mut bins = Array4::<f32>::zeros((h, w, n, CHANNELS));
+            let mut bins = Array4::<f32>::zeros((h, w, n, channels));
             let flat = bins.as_slice_mut().expect("standard layout");
-            run.resize(n * CHANNELS * 4, 0u8);
-            for (p, px) in flat.chunks_exact_mut(n * CHANNELS).enumerate() {
-                let at = data_offset + ((p * t + k0) * CHANNELS * 4) as u64;
+            run.resize(n * channels * 4, 0u8);
+            for (p, px) in flat.chunks_exact_mut(n * channels).enumerate() {
+                let at = data_offset + ((p * t + k0) * channels * 4) as u64;
                 file.read_exact_at(&mut run, at).map_err(io)?;
                 for (v, b) in px.iter_mut().zip(run.chunks_exact(4)) {
                     *v = f32::from_le_bytes(b.try_into().expect("4 bytes"));
@@ -315,7 +318,11 @@ pub fn stage_exr_bins(
             }
             for k in 0..n {
                 let img: Array3<f32> = bins.slice(s![.., .., k, ..]).to_owned();
-                write_exr_rgb(&tmp.join(format!("bin_{:0digits$}.exr", k0 + k)), &img)?;
+                write_exr(
+                    &tmp.join(format!("bin_{:0digits$}.exr", k0 + k)),
+                    &img,
+                    names,
+                )?;
             }
         }
         Ok(())
@@ -401,7 +408,8 @@ pub fn run(a: DenoiseArgs) -> anyhow::Result<()> {
             bar.finish_and_clear();
             if let Some(d) = &a.exr {
                 let size = (m.height, m.width, m.bins);
-                exr = Some(stage_exr_bins(d, tmp, size, budget, a.force)?);
+                let names = exr_channel_names(m.mode);
+                exr = Some(stage_exr_bins(d, tmp, size, &names, budget, a.force)?);
             }
             Ok(())
         })
@@ -483,8 +491,8 @@ fn from_arrays(a: &DenoiseArgs, mut params: DenoiseParams) -> anyhow::Result<()>
         bin_width_opl: meta.and_then(|m| m.bin_width_opl),
     };
     params.base = a.filter.base.kind(false);
-    let (h, w, t, _) = arrays.noisy.dim();
-    let need = memory_bytes((h * w * t * CHANNELS) as u64);
+    let (h, w, t, ch) = arrays.noisy.dim();
+    let need = memory_bytes((h * w * t * ch) as u64);
     ensure!(
         need <= budget,
         "--max-memory {}: denoising {w}x{h} px x {t} bins from arrays needs {} (the arrays are held whole)",
@@ -505,7 +513,9 @@ fn from_arrays(a: &DenoiseArgs, mut params: DenoiseParams) -> anyhow::Result<()>
         ndarray_npy::write_npy(tmp, &den.volume)
             .map_err(|e| BundleError::io(&a.out, std::io::Error::other(e)))?;
         if let Some(d) = &a.exr {
-            exr = Some(stage_exr_bins(d, tmp, (h, w, t), budget, a.force)?);
+            // The published pipeline's arrays are RGB (`bundle::published`).
+            let names = exr_channel_names(crate::scene::mode::RenderMode::Rgb);
+            exr = Some(stage_exr_bins(d, tmp, (h, w, t), &names, budget, a.force)?);
         }
         Ok(())
     })?

@@ -144,6 +144,18 @@ pub fn run(a: ExportArgs) -> anyhow::Result<()> {
     }
     check_outputs(&[arg("bundle", &a.bundle)], &outputs, a.force)?;
     let bundle = Bundle::open(&a.bundle)?;
+    if a.published.is_some() && bundle.manifest.channel_count() != 3 {
+        let m = &bundle.manifest;
+        bail!(
+            "--published: the published pipeline's arrays are RGB, (H, W, T, 3); {} is a --mode {} bundle ({} channel{} {}): denoise it with `tstat denoise {}` (every --method takes mono and Stokes bundles), or render with --mode rgb",
+            a.bundle.display(),
+            m.mode.name(),
+            m.channel_count(),
+            if m.channel_count() == 1 { "" } else { "s" },
+            m.mode.channel_names().join(", "),
+            a.bundle.display()
+        );
+    }
     if a.tal.is_some() && bundle.manifest.nlos.is_none() {
         bail!(
             "--tal: {} is not an NLOS capture (its scene's sensor is no nlos_capture_meter)",

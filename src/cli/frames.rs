@@ -1,5 +1,6 @@
 //! `tstat frames VOLUME --out DIR`: tone-mapped PNG frames with one global exposure, an
-//! animated GIF and a streak image.
+//! animated GIF and a streak image; for a Stokes volume (C = 4) also its polarization
+//! pictures (`viz::polarization`).
 
 use super::util::{arg, check_outputs, finite, int_flag, positive, Kind};
 use crate::bundle::write::write_atomically;
@@ -14,9 +15,11 @@ use std::path::PathBuf;
 
 #[derive(Args, Debug)]
 pub struct FramesArgs {
-    /// A volume: .npy (H, W, T, 3) or a bundle (its noisy mean).
+    /// A volume: .npy (H, W, T, C) (C = 3 RGB, 1 mono, 4 Stokes S0..S3) or a bundle (its
+    /// noisy mean).
     pub volume: PathBuf,
-    /// Output directory (frames/, propagation.gif, streak.png).
+    /// Output directory (frames/, propagation.gif, streak.png; polarization/ for a
+    /// Stokes volume).
     #[arg(long)]
     pub out: PathBuf,
     /// Write every K-th bin.
@@ -129,14 +132,23 @@ pub fn run(a: FramesArgs) -> anyhow::Result<()> {
         count = write_all(tmp, v.view(), &req).map_err(|e| BundleError::io(&a.out, e))?;
         Ok(())
     })?;
+    let channels = v.shape()[3];
     say!(
-        "wrote {} frames to {}/frames/{}, streak image of row {streak_row} at {}/streak.png (exposure {:.4}{})",
+        "wrote {} frames to {}/frames/{}, streak image of row {streak_row} at {}/streak.png (exposure {:.4}{}){}",
         count,
         a.out.display(),
         if a.gif { format!(", {}/propagation.gif", a.out.display()) } else { String::new() },
         a.out.display(),
         req.exposure,
-        if axis.is_none() { "; time axis unknown: labelled in bins" } else { "" }
+        if axis.is_none() { "; time axis unknown: labelled in bins" } else { "" },
+        match channels {
+            1 => "; one channel (mono): shown as grey".to_string(),
+            4 => format!(
+                "; a Stokes volume: S0 as grey, and AoLP/DoLP and S1, S2, S3 / S0 pictures in {}/polarization/",
+                a.out.display()
+            ),
+            _ => String::new(),
+        }
     );
     Ok(())
 }

@@ -419,7 +419,7 @@ impl Drop for TempDir {
 /// six captures (noisy and denoised of each half and of the merge, T L S f32) plus the
 /// reconstructions' scratch capture.
 fn denoise_with_memory(m: &crate::bundle::Manifest, h_len: usize) -> u64 {
-    let film = (m.height * m.width * m.bins * crate::stats::accumulators::CHANNELS) as u64;
+    let film = (m.height * m.width * m.bins * m.channel_count()) as u64;
     film * 4 + 7 * h_len as u64 * 4
 }
 

@@ -44,7 +44,7 @@ pub struct ReportArgs {
 
 #[derive(Args, Debug)]
 pub struct CompareArgs {
-    /// Reference volume: .npy (H, W, T, 3) or a bundle (its noisy mean).
+    /// Reference volume: .npy (H, W, T, C) or a bundle (its noisy mean).
     #[arg(long)]
     pub reference: PathBuf,
     /// A volume to measure, LABEL=FILE (repeatable).

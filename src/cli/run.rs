@@ -15,7 +15,6 @@ use crate::bundle::{Bundle, BundleError};
 use crate::denoise::denoise_bundle;
 use crate::job::{AdaptiveRequest, RenderJob};
 use crate::scene::Scene;
-use crate::stats::accumulators::CHANNELS;
 use crate::stats::Transform;
 use crate::viz::frames::{side_by_side, write_all, FramesRequest};
 use crate::viz::tonemap::global_exposure;
@@ -102,8 +101,8 @@ pub fn run(a: RunArgs) -> anyhow::Result<()> {
     let o = a.out.display();
     say!("done in {:.1} s. In {o}/:", started.elapsed().as_secs_f64());
     say!("  scene.tstats/     statistics bundle (tstat info {o}/scene.tstats)");
-    say!("  noisy.npy         noisy mean volume, f32 (H, W, T, 3)");
-    say!("  denoised.npy      denoised volume, f32 (H, W, T, 3)");
+    say!("  noisy.npy         noisy mean volume, f32 (H, W, T, C)");
+    say!("  denoised.npy      denoised volume, f32 (H, W, T, C)");
     say!("  frames/           PNG frames, noisy | denoised, one exposure for all bins");
     say!("  propagation.gif   the light propagating, noisy | denoised");
     say!("  streak.png        streak image (x against time) of the middle row, noisy | denoised");
@@ -139,7 +138,7 @@ fn job(
     // Beside the bundle: the noisy and the denoised f32 volumes (the frames are small).
     let volume = (film.pixels() as u64)
         .saturating_mul(film.time.bins as u64)
-        .saturating_mul(CHANNELS as u64 * 4)
+        .saturating_mul(film.channels as u64 * 4)
         .saturating_add(4096);
     let bundle_path = dir.join("scene.tstats");
     let render_job = RenderJob {

@@ -16,10 +16,12 @@ use std::path::PathBuf;
 pub struct ViewArgs {
     /// The bundle (its noisy mean, statistics and G-buffers).
     pub bundle: PathBuf,
-    /// A denoised volume of the bundle (.npy (H, W, T, 3), e.g. from `tstat denoise`).
+    /// A denoised volume of the bundle (.npy (H, W, T, C), C the bundle's channels, e.g.
+    /// from `tstat denoise`).
     #[arg(long)]
     pub denoised: Option<PathBuf>,
-    /// A reference volume (.npy (H, W, T, 3), or a bundle: its noisy mean).
+    /// A reference volume (.npy (H, W, T, C), or a bundle of the same mode: its noisy
+    /// mean).
     #[arg(long)]
     pub reference: Option<PathBuf>,
     /// Output HTML file.
@@ -51,15 +53,21 @@ pub fn run(a: ViewArgs) -> anyhow::Result<()> {
     let memory = super::nlos::memory_budget(a.max_memory.as_deref())?;
     let bundle = Bundle::open(&a.bundle)?;
     let m = &bundle.manifest;
-    let want = [m.height, m.width, m.bins, 3];
-    let film = (m.height, m.width, m.bins, 3);
+    let ch = m.channel_count();
+    let want = [m.height, m.width, m.bins, ch];
+    let film = (m.height, m.width, m.bins, ch);
     let mut extras = Vec::new();
     let mut row_bytes = bundle_row_bytes(&bundle);
     for (label, path) in [("--denoised", &a.denoised), ("--reference", &a.reference)] {
         let Some(p) = path else { continue };
         let source = if p.is_dir() {
             let b = Bundle::open(p)?;
-            let s = [b.manifest.height, b.manifest.width, b.manifest.bins, 3];
+            let s = [
+                b.manifest.height,
+                b.manifest.width,
+                b.manifest.bins,
+                b.manifest.channel_count(),
+            ];
             ensure!(
                 s == want,
                 "{label} {}: shape {s:?} does not match the bundle's (H, W, T, C) = {film:?}",
@@ -87,15 +95,15 @@ pub fn run(a: ViewArgs) -> anyhow::Result<()> {
         });
     }
     let volumes = 1 + extras.len() + usize::from(m.transform.is_identity());
-    let Some(k) = block_size(volumes, m.height, m.width, m.bins, budget) else {
+    let Some(k) = block_size(volumes, m.height, m.width, m.bins, ch, budget) else {
         bail!(
             "--max-bytes {}: too small for {} bins of {volumes} volumes even averaged over the whole image (at least {})",
             a.max_bytes.as_deref().unwrap_or_default(),
             m.bins,
-            human_bytes(crate::viz::view::page_data_bytes(volumes, 1, 1, m.bins, 1))
+            human_bytes(crate::viz::view::page_data_bytes(volumes, 1, 1, m.bins, ch, 1))
         );
     };
-    let need = page_memory(volumes, m.height, m.width, m.bins, k, row_bytes);
+    let need = page_memory(volumes, film, k, row_bytes);
     if need > memory {
         bail!(
             "{}: a page of {} x {} px blocks needs {} of memory, over --max-memory {}",

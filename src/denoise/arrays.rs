@@ -22,7 +22,6 @@ use super::base_filter::Features;
 use super::estimates::{Estimates, Magnitudes, Scale};
 use super::{denoise_estimates, DenoiseParams, Denoised, Variance};
 use crate::bundle::published::PublishedArrays;
-use crate::stats::accumulators::CHANNELS;
 use crate::stats::Transform;
 use ndarray::Array2;
 
@@ -44,7 +43,7 @@ pub fn memory_bytes(voxels: u64) -> u64 {
 
 /// The filter's estimates from the arrays (planar, scaled as `Estimates` keeps them).
 pub fn estimates(a: &PublishedArrays, s: &ArraysSettings) -> Estimates {
-    let (h, w, t, _) = a.noisy.dim();
+    let (h, w, t, ch) = a.noisy.dim();
     let z0 = s.transform.at_zero();
     let slices =
         [&a.noisy, &a.estimands, &a.variance].map(|v| v.as_slice().expect("standard layout"));
@@ -61,14 +60,14 @@ pub fn estimates(a: &PublishedArrays, s: &ArraysSettings) -> Estimates {
     let to_mean = 2f64.powi(-scale.mean);
     let to_theta = 2f64.powi(-scale.theta);
     let to_v = to_theta * to_theta;
-    let len = h * w * t * CHANNELS;
+    let len = h * w * t * ch;
     let (mut mean, mut theta, mut v) = (vec![0f32; len], vec![0f32; len], vec![0f32; len]);
     // (H, W, T, C) in, planar (H, W, C, T) out.
     for p in 0..h * w {
         for k in 0..t {
-            for c in 0..CHANNELS {
-                let i = (p * t + k) * CHANNELS + c;
-                let o = (p * CHANNELS + c) * t + k;
+            for c in 0..ch {
+                let i = (p * t + k) * ch + c;
+                let o = (p * ch + c) * t + k;
                 mean[o] = (f64::from(slices[0][i]) * to_mean) as f32;
                 theta[o] = ((f64::from(slices[1][i]) - z0) * to_theta) as f32;
                 v[o] = (f64::from(slices[2][i]) * to_v) as f32;
@@ -79,6 +78,7 @@ pub fn estimates(a: &PublishedArrays, s: &ArraysSettings) -> Estimates {
         height: h,
         width: w,
         bins: t,
+        channels: ch,
         bin_width: s.bin_width_opl.unwrap_or(0.0),
         spp: s.spp,
         pixel_spp: a.pixel_spp.as_ref().map(|n| n.as_slice().into()),

@@ -19,12 +19,17 @@
 //! multiplied back by `2^Scale::mean`, is bit for bit that of unscaled arithmetic
 //! wherever that does not overflow or underflow, and right where it would.
 //!
-//! Memory: 3 x H x W x T x 3 x 4 bytes for a whole volume (177 MB for 128 x 128 x
-//! 300). A slab of the image holds only its rows (see `slab.rs`): [`Estimates::rows`]
+//! The film's C channels (3 for RGB and spectral, 1 mono, 4 for the Stokes components
+//! S0..S3 of a polarized render; `channels`) are estimated alike, each from its own
+//! sums: nothing here assumes a sign (Stokes S1..S3, and spectral samples, may be
+//! negative; the transform, Yeo-Johnson or the identity for signed modes, is defined
+//! on the whole line).
+//!
+//! Memory: 3 x H x W x T x C x 4 bytes for a whole volume (177 MB for 128 x 128 x
+//! 300 x 3). A slab of the image holds only its rows (see `slab.rs`): [`Estimates::rows`]
 //! says which, and pixel indices stay those of the whole image.
 
 use super::conventions::Variance;
-use crate::stats::accumulators::CHANNELS;
 use crate::stats::estimators::{estimate, estimate_biased, estimate_replicates, Sums};
 use rayon::prelude::*;
 use std::ops::Range;
@@ -34,6 +39,8 @@ pub struct Estimates {
     pub height: usize,
     pub width: usize,
     pub bins: usize,
+    /// C: channels per voxel (1, 3 or 4; see the module docs).
+    pub channels: usize,
     /// Bin width h in OPL (scene units).
     pub bin_width: f64,
     /// Samples per pixel behind the estimates (the mean, for adaptive renders).
@@ -75,14 +82,15 @@ impl Magnitudes {
     /// The bounds over every voxel of `s` (a few operations a value, no estimates).
     pub fn scan(s: &SumsView) -> Magnitudes {
         let c = s.z0;
-        let per_pixel = CHANNELS * s.bins;
+        let ch = s.channels;
+        let per_pixel = ch * s.bins;
         let (mean, y2) = (0..s.height * s.width)
             .into_par_iter()
             .map(|p| {
                 let nf = s.samples(p) as f64;
                 let (mut mean, mut y2) = (0f64, 0f64);
                 for k in p * per_pixel..(p + 1) * per_pixel {
-                    let mc = f64::from(s.nonzero[k / CHANNELS]) * c;
+                    let mc = f64::from(s.nonzero[k / ch]) * c;
                     mean = mean.max((s.sum[k] / nf).abs());
                     // Sum of (z - c)^2 over the n samples, as in `estimate`, per sample.
                     y2 = y2.max((s.x2[k] - 2.0 * c * s.x1[k] + mc * c).abs() / nf);
@@ -151,7 +159,7 @@ fn pow2(e: i32) -> f64 {
 /// One voxel-channel's `(S / n, theta - z(0), v)` in f64.
 #[inline]
 fn voxel_estimate(s: &SumsView, voxel: usize, c: usize, biased: bool) -> (f64, f64, f64) {
-    let k = voxel * CHANNELS + c;
+    let k = voxel * s.channels + c;
     let spp = s.samples(voxel / s.bins);
     if let Some((b, r2)) = s.replicates {
         let e = estimate_replicates(s.x1[k], r2[k], s.nonzero[voxel], spp, b, s.z0);
@@ -186,6 +194,8 @@ pub struct SumsView<'a> {
     pub height: usize,
     pub width: usize,
     pub bins: usize,
+    /// C: channels per voxel (the bundle's `Manifest::channel_count`).
+    pub channels: usize,
     /// Bin width h in OPL (scene units).
     pub bin_width: f64,
     pub spp: u64,
@@ -221,7 +231,7 @@ impl Estimates {
     /// row-major pixel index, which must lie in a row held.
     #[inline]
     pub fn idx(&self, pixel: usize, c: usize, t: usize) -> usize {
-        ((pixel - self.rows.start * self.width) * CHANNELS + c) * self.bins + t
+        ((pixel - self.rows.start * self.width) * self.channels + c) * self.bins + t
     }
 
     /// Entry `k` of `mean`, `theta` and `v` in the sums' own units (undoing
@@ -246,7 +256,7 @@ impl Estimates {
 
     /// Values per image row in each of `mean`, `theta` and `v`.
     pub fn row_len(&self) -> usize {
-        self.width * CHANNELS * self.bins
+        self.width * self.channels * self.bins
     }
 
     /// The estimates of a whole volume.
@@ -278,6 +288,7 @@ impl Estimates {
             height,
             width: s.width,
             bins: s.bins,
+            channels: s.channels,
             bin_width: s.bin_width,
             spp: s.spp,
             pixel_spp: None,
@@ -322,7 +333,9 @@ impl Estimates {
     /// are those of a whole-volume [`Estimates::from_sums`], bit for bit.
     pub fn push_rows(&mut self, s: &SumsView) {
         let t_bins = s.bins;
-        let per_pixel = CHANNELS * t_bins;
+        let ch = s.channels;
+        assert_eq!(ch, self.channels, "rows of another channel count");
+        let per_pixel = ch * t_bins;
         let len = s.height * s.width * per_pixel;
         for a in [&mut self.mean, &mut self.theta, &mut self.v] {
             a.reserve(len);
@@ -342,7 +355,7 @@ impl Estimates {
             .for_each(|(p, ((mean, theta), v))| {
                 for t in 0..t_bins {
                     let voxel = p * t_bins + t;
-                    for c in 0..CHANNELS {
+                    for c in 0..ch {
                         let (m, th, var) = voxel_estimate(s, voxel, c, biased);
                         let o = c * t_bins + t;
                         mean[o].write((m * to_mean) as f32);
@@ -368,13 +381,14 @@ mod tests {
     /// zero sums, under the identity and under transforms with z(0) of either sign.
     #[test]
     fn an_empty_voxel_is_the_estimate_of_zero_sums() {
-        let zeros = [0.0f64; CHANNELS];
+        let zeros = [0.0f64; 3];
         for z0 in [0.0, -0.0, 0.75, -1.25] {
             for n in [2u64, 3, 64, 1 << 20] {
                 let view = SumsView {
                     height: 1,
                     width: 1,
                     bins: 1,
+                    channels: 3,
                     bin_width: 1.0,
                     spp: n,
                     stratified: false,

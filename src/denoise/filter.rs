@@ -26,7 +26,6 @@ use super::tstat::{
     depth_shift, patch_member, same_coverage, sees_emitter, statistic, TstatParams, UNINFORMATIVE,
 };
 use super::Method;
-use crate::stats::accumulators::CHANNELS;
 use rayon::prelude::*;
 use statrs::function::erf::erfc;
 
@@ -94,7 +93,7 @@ fn active_ranges(e: &Estimates) -> Vec<(usize, usize)> {
         .into_par_iter()
         .map(|p| {
             let nz = |k: usize| {
-                (0..CHANNELS).any(|c| {
+                (0..e.channels).any(|c| {
                     let i = e.idx(p, c, k);
                     e.mean[i] != 0.0 || e.theta[i] != 0.0 || e.v[i] != 0.0
                 })
@@ -107,46 +106,71 @@ fn active_ranges(e: &Estimates) -> Vec<(usize, usize)> {
         .collect()
 }
 
-/// The inner loop: one neighbour pixel at one bin offset, over `n` contiguous bins.
+/// The inner loop: one neighbour pixel at one bin offset, over `n` contiguous bins of
+/// the `N` channels. The neighbour counts where the test passes on every channel (for
+/// a Stokes film: in S0, S1, S2 and S3 alike, so that differently polarized light is
+/// not mixed). The loops run over the bins of one channel at a time (each a loop over
+/// a few contiguous slices, which vectorises): the weights `wk` of the bins first
+/// (the test of channel 0, then each further channel's clearing the bins it fails),
+/// then each channel's numerator. Per channel the floating-point operations, and
+/// their order, are those of the three-channel filter written out by hand before C
+/// varied: RGB output is the same bit for bit.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
-fn accumulate<const MEMBERSHIP: bool, T: PairTest>(
+fn accumulate<const MEMBERSHIP: bool, T: PairTest, const N: usize>(
     n: usize,
     w: f32,
     test: &T,
-    theta_i: [&[f32]; 3],
-    theta_j: [&[f32]; 3],
-    v_i: [&[f32]; 3],
-    v_j: [&[f32]; 3],
-    mean_i: [&[f32]; 3],
-    num: [&mut [f32]; 3],
+    theta_i: [&[f32]; N],
+    theta_j: [&[f32]; N],
+    v_i: [&[f32]; N],
+    v_j: [&[f32]; N],
+    mean_i: [&[f32]; N],
+    num: [&mut [f32]; N],
     den: &mut [f32],
+    wk: &mut [f32],
 ) {
-    let (ti0, ti1, ti2) = (&theta_i[0][..n], &theta_i[1][..n], &theta_i[2][..n]);
-    let (tj0, tj1, tj2) = (&theta_j[0][..n], &theta_j[1][..n], &theta_j[2][..n]);
-    let (vi0, vi1, vi2) = (&v_i[0][..n], &v_i[1][..n], &v_i[2][..n]);
-    let (vj0, vj1, vj2) = (&v_j[0][..n], &v_j[1][..n], &v_j[2][..n]);
-    let (mi0, mi1, mi2) = (&mean_i[0][..n], &mean_i[1][..n], &mean_i[2][..n]);
-    let [n0, n1, n2] = num;
-    let (n0, n1, n2, den) = (&mut n0[..n], &mut n1[..n], &mut n2[..n], &mut den[..n]);
-    for k in 0..n {
-        let wk = if MEMBERSHIP {
-            // The test on every channel, written out so it vectorises.
-            let m = test.pass(ti0[k], tj0[k], vi0[k], vj0[k])
-                & test.pass(ti1[k], tj1[k], vi1[k], vj1[k])
-                & test.pass(ti2[k], tj2[k], vi2[k], vj2[k]);
-            if m {
-                w
+    let den = &mut den[..n];
+    if MEMBERSHIP {
+        let wk = &mut wk[..n];
+        for c in 0..N {
+            let (ti, tj) = (&theta_i[c][..n], &theta_j[c][..n]);
+            let (vi, vj) = (&v_i[c][..n], &v_j[c][..n]);
+            if c == 0 {
+                for k in 0..n {
+                    wk[k] = if test.pass(ti[k], tj[k], vi[k], vj[k]) {
+                        w
+                    } else {
+                        0.0
+                    };
+                }
             } else {
-                0.0
+                for k in 0..n {
+                    wk[k] = if test.pass(ti[k], tj[k], vi[k], vj[k]) {
+                        wk[k]
+                    } else {
+                        0.0
+                    };
+                }
             }
-        } else {
-            w
-        };
-        n0[k] += wk * mi0[k];
-        n1[k] += wk * mi1[k];
-        n2[k] += wk * mi2[k];
-        den[k] += wk;
+        }
+        for (d, &x) in den.iter_mut().zip(&*wk) {
+            *d += x;
+        }
+        for (num_c, mean_c) in num.into_iter().zip(mean_i) {
+            for ((o, &x), &m) in num_c[..n].iter_mut().zip(&*wk).zip(&mean_c[..n]) {
+                *o += x * m;
+            }
+        }
+    } else {
+        for d in den.iter_mut() {
+            *d += w;
+        }
+        for (num_c, mean_c) in num.into_iter().zip(mean_i) {
+            for (o, &m) in num_c[..n].iter_mut().zip(&mean_c[..n]) {
+                *o += w * m;
+            }
+        }
     }
 }
 
@@ -158,26 +182,31 @@ pub trait PairTestUser {
     fn with<T: PairTest>(self, test: Option<T>) -> Self::Out;
 }
 
-/// tstat's statistic over `n` contiguous bins: `out[k] = max_c s_c`.
+/// tstat's statistic over `n` contiguous bins: `out[k] = max_c s_c` over the `N`
+/// channels, `s_0.max(s_1).max(s_2)` for RGB (a channel at a time, see
+/// [`accumulate`]).
 #[inline(always)]
-fn statistics(
+fn statistics<const N: usize>(
     n: usize,
-    theta_i: [&[f32]; 3],
-    theta_j: [&[f32]; 3],
-    v_i: [&[f32]; 3],
-    v_j: [&[f32]; 3],
+    theta_i: [&[f32]; N],
+    theta_j: [&[f32]; N],
+    v_i: [&[f32]; N],
+    v_j: [&[f32]; N],
     out: &mut [f32],
 ) {
-    let (ti0, ti1, ti2) = (&theta_i[0][..n], &theta_i[1][..n], &theta_i[2][..n]);
-    let (tj0, tj1, tj2) = (&theta_j[0][..n], &theta_j[1][..n], &theta_j[2][..n]);
-    let (vi0, vi1, vi2) = (&v_i[0][..n], &v_i[1][..n], &v_i[2][..n]);
-    let (vj0, vj1, vj2) = (&v_j[0][..n], &v_j[1][..n], &v_j[2][..n]);
     let out = &mut out[..n];
-    for k in 0..n {
-        let s0 = statistic(ti0[k], tj0[k], vi0[k], vj0[k]);
-        let s1 = statistic(ti1[k], tj1[k], vi1[k], vj1[k]);
-        let s2 = statistic(ti2[k], tj2[k], vi2[k], vj2[k]);
-        out[k] = s0.max(s1).max(s2);
+    for c in 0..N {
+        let (ti, tj) = (&theta_i[c][..n], &theta_j[c][..n]);
+        let (vi, vj) = (&v_i[c][..n], &v_j[c][..n]);
+        if c == 0 {
+            for k in 0..n {
+                out[k] = statistic(ti[k], tj[k], vi[k], vj[k]);
+            }
+        } else {
+            for k in 0..n {
+                out[k] = out[k].max(statistic(ti[k], tj[k], vi[k], vj[k]));
+            }
+        }
     }
 }
 
@@ -186,18 +215,18 @@ fn statistics(
 /// pair's critical value at the tail level of `t2_max` (so `s_c <= g^2(nu)` exactly when
 /// the scaled value is `<= t2_max`; the patch mean uses the same scaled values).
 #[allow(clippy::too_many_arguments)]
-fn statistics_pair(
+fn statistics_pair<const N: usize>(
     n: usize,
     pair: &PairDof,
     t2_max: f32,
-    theta_i: [&[f32]; 3],
-    theta_j: [&[f32]; 3],
-    v_i: [&[f32]; 3],
-    v_j: [&[f32]; 3],
+    theta_i: [&[f32]; N],
+    theta_j: [&[f32]; N],
+    v_i: [&[f32]; N],
+    v_j: [&[f32]; N],
     out: &mut [f32],
 ) {
     for (k, o) in out[..n].iter_mut().enumerate() {
-        *o = (0..3)
+        *o = (0..N)
             .map(|c| {
                 let (vi, vj) = (v_i[c][k], v_j[c][k]);
                 let raw = statistic(theta_i[c][k], theta_j[c][k], vi, vj);
@@ -221,28 +250,29 @@ fn statistics_pair(
 /// 3 t2_patch`, uninformative values read as that function says.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
-fn accumulate_patch(
+fn accumulate_patch<const N: usize>(
     n: usize,
     w: f32,
     t2_max: f32,
     t2_patch3: f32,
     alone: bool,
     s: &[f32],
-    mean_i: [&[f32]; 3],
-    num: [&mut [f32]; 3],
+    mean_i: [&[f32]; N],
+    num: [&mut [f32]; N],
     den: &mut [f32],
+    wk: &mut [f32],
 ) {
     let (sp, sc, sn) = (&s[..n], &s[1..n + 1], &s[2..n + 2]);
-    let (mi0, mi1, mi2) = (&mean_i[0][..n], &mean_i[1][..n], &mean_i[2][..n]);
-    let [n0, n1, n2] = num;
-    let (n0, n1, n2, den) = (&mut n0[..n], &mut n1[..n], &mut n2[..n], &mut den[..n]);
+    let (den, wk) = (&mut den[..n], &mut wk[..n]);
     for k in 0..n {
         let pass = patch_member(sp[k], sc[k], sn[k], t2_max, t2_patch3, alone);
-        let wk = if pass { w } else { 0.0 };
-        n0[k] += wk * mi0[k];
-        n1[k] += wk * mi1[k];
-        n2[k] += wk * mi2[k];
-        den[k] += wk;
+        wk[k] = if pass { w } else { 0.0 };
+        den[k] += wk[k];
+    }
+    for (num_c, mean_c) in num.into_iter().zip(mean_i) {
+        for ((o, &x), &m) in num_c[..n].iter_mut().zip(&*wk).zip(&mean_c[..n]) {
+            *o += x * m;
+        }
     }
 }
 
@@ -279,10 +309,12 @@ struct Neighbour {
     shift: i64,
 }
 
-/// Per-task scratch.
-struct Scratch {
-    num: [Vec<f32>; 3],
+/// Per-task scratch (N channels).
+struct Scratch<const N: usize> {
+    num: [Vec<f32>; N],
     den: Vec<f32>,
+    /// The weights of one neighbour's bins (see [`accumulate`]).
+    weight: Vec<f32>,
     /// tstat's statistic over a range of bins plus one on each side.
     stat: Vec<f32>,
     neighbours: Vec<Neighbour>,
@@ -350,13 +382,13 @@ impl<T> Shared<'_, T> {
 /// Filters pixel (yj, xj) over bins [b0, b1) into `out_j`, its (C, T) planar block;
 /// returns the voxel-neighbour evaluations made.
 #[inline(always)]
-fn filter_pixel<T: PairTest>(
+fn filter_pixel<T: PairTest, const N: usize>(
     s: &Shared<T>,
     yj: usize,
     xj: usize,
     b0: usize,
     b1: usize,
-    scratch: &mut Scratch,
+    scratch: &mut Scratch<N>,
     out_j: &mut [f32],
 ) -> u64 {
     let e = s.e;
@@ -365,6 +397,7 @@ fn filter_pixel<T: PairTest>(
     let Scratch {
         num,
         den,
+        weight,
         stat,
         neighbours,
     } = scratch;
@@ -404,13 +437,12 @@ fn filter_pixel<T: PairTest>(
             }
             let m = (te - ts) as usize;
             let wt = (nb.weight * s.pt[(dt + s.params.temporal_radius as i64) as usize]) as f32;
-            let oi: [usize; 3] = std::array::from_fn(|c| e.idx(i, c, (ts + o) as usize));
-            let oj: [usize; 3] = std::array::from_fn(|c| e.idx(j, c, ts as usize));
+            let oi: [usize; N] = std::array::from_fn(|c| e.idx(i, c, (ts + o) as usize));
+            let oj: [usize; N] = std::array::from_fn(|c| e.idx(j, c, ts as usize));
             let off = (ts - a) as usize;
-            let [n0, n1, n2] = &mut *num;
-            let acc = [&mut n0[off..], &mut n1[off..], &mut n2[off..]];
+            let acc = num.each_mut().map(|v| &mut v[off..]);
             match (&s.tstat, &s.test) {
-                (None, Some(test)) => accumulate::<true, T>(
+                (None, Some(test)) => accumulate::<true, T, N>(
                     m,
                     wt,
                     test,
@@ -421,8 +453,9 @@ fn filter_pixel<T: PairTest>(
                     oi.map(|q| &e.mean[q..q + m]),
                     acc,
                     &mut den[off..],
+                    weight,
                 ),
-                (None, None) => accumulate::<false, Everyone>(
+                (None, None) => accumulate::<false, Everyone, N>(
                     m,
                     wt,
                     &Everyone,
@@ -433,6 +466,7 @@ fn filter_pixel<T: PairTest>(
                     oi.map(|q| &e.mean[q..q + m]),
                     acc,
                     &mut den[off..],
+                    weight,
                 ),
                 (Some(tp), _) => {
                     // s over [lo, hi): one more bin on each side where both voxels exist.
@@ -444,8 +478,8 @@ fn filter_pixel<T: PairTest>(
                     };
                     let len = (hi - lo) as usize;
                     let first = if lo < ts { 0 } else { 1 };
-                    let si: [usize; 3] = std::array::from_fn(|c| e.idx(i, c, (lo + o) as usize));
-                    let sj: [usize; 3] = std::array::from_fn(|c| e.idx(j, c, lo as usize));
+                    let si: [usize; N] = std::array::from_fn(|c| e.idx(i, c, (lo + o) as usize));
+                    let sj: [usize; N] = std::array::from_fn(|c| e.idx(j, c, lo as usize));
                     let (ti, tj) = (
                         si.map(|q| &e.theta[q..q + len]),
                         sj.map(|q| &e.theta[q..q + len]),
@@ -472,6 +506,7 @@ fn filter_pixel<T: PairTest>(
                         oi.map(|q| &e.mean[q..q + m]),
                         acc,
                         &mut den[off..],
+                        weight,
                     );
                 }
             }
@@ -531,7 +566,7 @@ fn zero_border<T>(s: &Shared<T>, yj: usize, xj: usize, rt: i64, a: i64, den: &mu
         if padded <= 0 {
             continue;
         }
-        let pass = (0..CHANNELS).all(|c| {
+        let pass = (0..e.channels).all(|c| {
             let q = e.idx(j, c, t as usize);
             passes(e.theta[q], theta_pad, e.v[q], 0.0, g2)
         });
@@ -572,7 +607,7 @@ pub fn filter_rows(
     progress: &(dyn Fn(u64) + Sync),
 ) -> u64 {
     let (h, w, t_bins) = (e.height, e.width, e.bins);
-    let per_pixel = CHANNELS * t_bins;
+    let per_pixel = e.channels * t_bins;
     let reach = params.reach(e.stratified, features.emitter);
     assert!(
         e.rows.start <= rows.start.saturating_sub(reach)
@@ -645,7 +680,7 @@ impl PairTestUser for Rows<'_, '_> {
             progress,
         } = self;
         let w = e.width;
-        let per_pixel = CHANNELS * e.bins;
+        let per_pixel = e.channels * e.bins;
         let shared = Shared {
             e,
             features,
@@ -667,11 +702,12 @@ impl PairTestUser for Rows<'_, '_> {
         out.par_chunks_mut(band_rows * w * per_pixel)
             .enumerate()
             .map(|(k, out_band)| {
-                let evals = match crate::cpu::detected().avx2() {
-                    #[cfg(target_arch = "x86_64")]
-                    // SAFETY: the proof says this CPU runs the wrapper's instruction set.
-                    Some(isa) => unsafe { filter_band_avx2(isa, &shared, &band, k, out_band) },
-                    _ => filter_band(&shared, &band, k, out_band),
+                // The kernels are compiled for each channel count (see `accumulate`).
+                let evals = match e.channels {
+                    1 => filter_band_isa::<T, 1>(&shared, &band, k, out_band),
+                    3 => filter_band_isa::<T, 3>(&shared, &band, k, out_band),
+                    4 => filter_band_isa::<T, 4>(&shared, &band, k, out_band),
+                    c => unreachable!("{c} channels: films have 1, 3 or 4 (checked on reading)"),
                 };
                 let y0 = rows.start + k * band_rows;
                 progress(((rows.end.min(y0 + band_rows) - y0) * w) as u64);
@@ -690,17 +726,41 @@ struct Band {
     bins: usize,
 }
 
-/// Filters band `k` into `out_band`; returns the voxel-neighbour evaluations.
+/// [`filter_band`] on the widest instruction set this CPU runs.
 #[inline(always)]
-fn filter_band<T: PairTest>(s: &Shared<T>, band: &Band, k: usize, out_band: &mut [f32]) -> u64 {
+fn filter_band_isa<T: PairTest, const N: usize>(
+    s: &Shared<T>,
+    band: &Band,
+    k: usize,
+    out_band: &mut [f32],
+) -> u64 {
+    match crate::cpu::detected().avx2() {
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: the proof says this CPU runs the wrapper's instruction set.
+        Some(isa) => unsafe { filter_band_avx2::<T, N>(isa, s, band, k, out_band) },
+        _ => filter_band::<T, N>(s, band, k, out_band),
+    }
+}
+
+/// Filters band `k` of a film of `N` channels into `out_band`; returns the
+/// voxel-neighbour evaluations.
+#[inline(always)]
+fn filter_band<T: PairTest, const N: usize>(
+    s: &Shared<T>,
+    band: &Band,
+    k: usize,
+    out_band: &mut [f32],
+) -> u64 {
     let (w, t_bins) = (s.e.width, s.e.bins);
-    let per_pixel = CHANNELS * t_bins;
+    debug_assert_eq!(s.e.channels, N);
+    let per_pixel = N * t_bins;
     let (cols, bins) = (band.cols, band.bins);
     let y0 = band.rows.start + k * band.band_rows;
     let y1 = (y0 + band.band_rows).min(band.rows.end);
-    let mut scratch = Scratch {
+    let mut scratch = Scratch::<N> {
         num: std::array::from_fn(|_| vec![0.0; bins]),
         den: vec![0.0; bins],
+        weight: vec![0.0; bins],
         stat: vec![0.0; bins + 2],
         neighbours: Vec::new(),
     };
@@ -731,12 +791,12 @@ fn filter_band<T: PairTest>(s: &Shared<T>, band: &Band, k: usize, out_band: &mut
 /// reorders float operations; `tests/it/isa.rs`).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma,bmi1,bmi2,lzcnt,popcnt")]
-fn filter_band_avx2<T: PairTest>(
+fn filter_band_avx2<T: PairTest, const N: usize>(
     _isa: crate::cpu::Avx2,
     s: &Shared<T>,
     band: &Band,
     k: usize,
     out_band: &mut [f32],
 ) -> u64 {
-    filter_band(s, band, k, out_band)
+    filter_band::<T, N>(s, band, k, out_band)
 }

@@ -15,7 +15,6 @@ pub mod slab;
 pub mod tstat;
 
 use crate::bundle::{Bundle, BundleError, SumArray};
-use crate::stats::accumulators::CHANNELS;
 use base_filter::{BaseFilter, BaseKind, Features, Sigmas};
 pub use conventions::{Border, Variance};
 use critical::{Threshold, Welch};
@@ -292,10 +291,10 @@ pub fn denoise_estimates(
     let fp = params.filter_params(est.replicates.unwrap_or(spp));
     let (planar, evaluations) = filter(&est, features, &fp, params.tiling, progress);
     let filter_seconds = start.elapsed().as_secs_f64();
-    let (h, w, t) = (est.height, est.width, est.bins);
+    let (h, w, t, ch) = (est.height, est.width, est.bins, est.channels);
     drop(est);
-    let volume = Array4::from_shape_fn((h, w, t, CHANNELS), |(y, x, k, c)| {
-        planar[((y * w + x) * CHANNELS + c) * t + k]
+    let volume = Array4::from_shape_fn((h, w, t, ch), |(y, x, k, c)| {
+        planar[((y * w + x) * ch + c) * t + k]
     });
     Denoised {
         volume,
@@ -351,6 +350,7 @@ impl LoadedSums {
             height: m.height,
             width: m.width,
             bins: m.bins,
+            channels: m.channel_count(),
             bin_width: m.bin_width_opl,
             spp: m.spp,
             stratified: slab::stratified(m),
@@ -382,9 +382,9 @@ pub fn denoise_bundle(
     let m = &bundle.manifest;
     let dims = slab::Dims::of(m);
     let plan = slab::SlabPlan::for_budget(dims, slab::halo(bundle, params)?, slab::DEFAULT_BUDGET);
-    let (w, t) = (m.width, m.bins);
-    let mut volume = Array4::zeros((m.height, w, t, CHANNELS));
-    let per_row = w * t * CHANNELS;
+    let (w, t, ch) = (m.width, m.bins, m.channel_count());
+    let mut volume = Array4::zeros((m.height, w, t, ch));
+    let per_row = w * t * ch;
     let stats = slab::denoise_slabs(
         bundle,
         params,
@@ -393,7 +393,7 @@ pub fn denoise_bundle(
             let rows = planar.len() / per_row;
             let mut part = volume.slice_mut(ndarray::s![y0..y0 + rows, .., .., ..]);
             part.indexed_iter_mut().for_each(|((y, x, k, c), v)| {
-                *v = planar[((y * w + x) * CHANNELS + c) * t + k];
+                *v = planar[((y * w + x) * ch + c) * t + k];
             });
             Ok(())
         },

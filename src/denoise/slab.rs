@@ -18,7 +18,8 @@
 //! each output voxel in the same neighbour order whatever the tiling, so the result
 //! is the whole-volume denoiser's, bit for bit, for every slab height and thread count.
 //!
-//! Memory ([`SlabPlan::bytes`]), with `V = W x T x 3` values per image row and `S`
+//! Memory ([`SlabPlan::bytes`]), with `V = W x T x C` values per image row (C the
+//! film's channels: 3 for RGB, 1 mono, 4 Stokes) and `S`
 //! rows per slab (`held = min(S + 2 halo, H)` rows of estimates):
 //!
 //! | what | bytes |
@@ -41,7 +42,6 @@ use super::DenoiseParams;
 use crate::bundle::npy::BLOCK_ELEMS;
 use crate::bundle::read::RowSums;
 use crate::bundle::{Bundle, BundleError, Manifest};
-use crate::stats::accumulators::CHANNELS;
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
 
@@ -58,6 +58,8 @@ pub struct Dims {
     pub height: usize,
     pub width: usize,
     pub bins: usize,
+    /// C: channels per voxel.
+    pub channels: usize,
     /// f64 sum arrays read: X1, X2, X3, and S when the transform is not the identity.
     pub sum_arrays: usize,
 }
@@ -68,13 +70,14 @@ impl Dims {
             height: m.height,
             width: m.width,
             bins: m.bins,
+            channels: m.channel_count(),
             sum_arrays: if m.transform.is_identity() { 3 } else { 4 },
         }
     }
 
     /// Values per image row of a volume: W x T x C.
     fn row_values(&self) -> u128 {
-        self.width as u128 * self.bins as u128 * CHANNELS as u128
+        self.width as u128 * self.bins as u128 * self.channels as u128
     }
 
     /// Bytes of one image row of all the sums and counts.
@@ -178,6 +181,7 @@ fn sums_view<'a>(m: &Manifest, s: &'a RowSums, pixel_spp: Option<&'a [u32]>) -> 
         height: s.rows.len(),
         width: m.width,
         bins: m.bins,
+        channels: m.channel_count(),
         bin_width: m.bin_width_opl,
         spp: m.spp,
         stratified: stratified(m),
@@ -295,21 +299,21 @@ pub struct NpyVolumeWriter {
     data_offset: u64,
     width: usize,
     bins: usize,
+    channels: usize,
     row: Vec<u8>,
 }
 
 impl NpyVolumeWriter {
-    /// Creates `path` (header, then zeros: sparse where the file system allows).
+    /// Creates `path` (header, then zeros: sparse where the file system allows) for a
+    /// volume (height, width, bins, channels).
     pub fn create(
         path: &Path,
         shown: &Path,
-        height: usize,
-        width: usize,
-        bins: usize,
+        (height, width, bins, channels): (usize, usize, usize, usize),
     ) -> Result<NpyVolumeWriter, BundleError> {
         use std::io::Seek;
         let mut file = std::fs::File::create(path).map_err(|e| BundleError::io(shown, e))?;
-        ndarray_npy::write_zeroed_npy::<f32, _>(&file, (height, width, bins, CHANNELS))
+        ndarray_npy::write_zeroed_npy::<f32, _>(&file, (height, width, bins, channels))
             .map_err(|e| BundleError::io(shown, e))?;
         let data_offset = file
             .stream_position()
@@ -320,23 +324,24 @@ impl NpyVolumeWriter {
             data_offset,
             width,
             bins,
-            row: vec![0u8; width * bins * CHANNELS * 4],
+            channels,
+            row: vec![0u8; width * bins * channels * 4],
         })
     }
 
     /// Writes rows from `y0` on, given planar (rows, W, C, T).
     pub fn write_rows(&mut self, y0: usize, planar: &[f32]) -> Result<(), BundleError> {
         use std::os::unix::fs::FileExt;
-        let (w, t) = (self.width, self.bins);
-        let per_pixel = CHANNELS * t;
+        let (w, t, ch) = (self.width, self.bins, self.channels);
+        let per_pixel = ch * t;
         for (r, row) in planar.chunks_exact(w * per_pixel).enumerate() {
             self.row
                 .par_chunks_mut(per_pixel * 4)
                 .zip(row.par_chunks(per_pixel))
                 .for_each(|(bytes, px)| {
                     for k in 0..t {
-                        for c in 0..CHANNELS {
-                            let o = (k * CHANNELS + c) * 4;
+                        for c in 0..ch {
+                            let o = (k * ch + c) * 4;
                             bytes[o..o + 4].copy_from_slice(&px[c * t + k].to_le_bytes());
                         }
                     }
@@ -360,7 +365,8 @@ pub fn denoise_bundle_to_npy(
     progress: &(dyn Fn(u64) + Sync),
 ) -> Result<SlabStats, BundleError> {
     let m = &bundle.manifest;
-    let mut writer = NpyVolumeWriter::create(path, shown, m.height, m.width, m.bins)?;
+    let size = (m.height, m.width, m.bins, m.channel_count());
+    let mut writer = NpyVolumeWriter::create(path, shown, size)?;
     denoise_slabs(
         bundle,
         params,

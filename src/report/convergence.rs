@@ -19,7 +19,6 @@ use crate::nlos::reconstruct::Reconstruction;
 use crate::render::adaptive::{AdaptiveOptions, ErrorMeasure};
 use crate::render::{render, PixelSampling, RenderOutput, RenderSettings};
 use crate::scene::{Overrides, Scene};
-use crate::stats::accumulators::CHANNELS;
 use crate::stats::Transform;
 use ndarray::{Array2, Array4};
 use sha2::{Digest, Sha256};
@@ -222,9 +221,9 @@ pub fn noisy_mean_counts(out: &RenderOutput, n: &[u32]) -> Result<Array4<f32>, R
     let a = &out.accum;
     let s = a.sum.as_ref().unwrap_or(&a.x1);
     let at = |y: usize, x: usize, t: usize, c: usize| {
-        s[((y * a.width + x) * a.bins + t) * CHANNELS + c] / f64::from(n[y * a.width + x])
+        s[((y * a.width + x) * a.bins + t) * a.channels + c] / f64::from(n[y * a.width + x])
     };
-    let v = Array4::from_shape_fn((a.height, a.width, a.bins, CHANNELS), |(y, x, t, c)| {
+    let v = Array4::from_shape_fn((a.height, a.width, a.bins, a.channels), |(y, x, t, c)| {
         at(y, x, t, c) as f32
     });
     match v.indexed_iter().find(|(_, m)| !m.is_finite()) {
@@ -258,6 +257,7 @@ pub fn sums_view<'a>(
         height: a.height,
         width: a.width,
         bins: a.bins,
+        channels: a.channels,
         bin_width,
         spp: spp as u64,
         // As a bundle's manifest says (`denoise::slab::stratified`): correlated samples
@@ -397,7 +397,7 @@ pub fn run_convergence(
         scene2.film.height,
         scene2.film.width,
         scene2.film.time.bins,
-        CHANNELS,
+        scene2.film.channels,
     ];
     if reference.shape() != shape {
         return Err(ReportError::ReferenceShape {

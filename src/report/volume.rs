@@ -18,7 +18,8 @@ pub fn no_light_mask(emitter: &Array2<f32>) -> Vec<bool> {
 }
 
 /// Loads a volume: a bundle's noisy mean (checked as every bundle read is), or a
-/// `.npy` of f32 or f64 (H, W, T, 3). A `.npy` is checked before its data are
+/// `.npy` of f32 or f64 (H, W, T, C) with C = 3 (RGB), 1 (mono) or 4 (a Stokes volume:
+/// S0, S1, S2, S3). A `.npy` is checked before its data are
 /// allocated (header against the file's size, see `bundle::npy`), must hold at least
 /// one voxel, and every value must be finite (as f32: an f64 beyond the f32 range
 /// counts as infinite). Errors would otherwise pass silently into the metrics: a NaN
@@ -40,7 +41,7 @@ pub fn load_volume(path: &Path) -> Result<LoadedVolume, ReportError> {
     };
     let f = npy::open(path).map_err(err)?;
     let shape = f.header.shape.clone();
-    if shape.len() != 4 || shape[3] != 3 {
+    if shape.len() != 4 || ![1, 3, 4].contains(&shape[3]) {
         return Err(ReportError::NotAVolume {
             path: path.to_path_buf(),
             shape,

@@ -1,7 +1,11 @@
 //! Pictures of a volume: one PNG per (every K-th) bin, an animated GIF, and a streak
 //! image (x against t at one row) with the time axis labelled in OPL and picoseconds.
+//! An (H, W, T, C) volume of C = 3 is shown in colour; C = 1 (mono: Y) and C = 4
+//! (Stokes: S0, S1, S2, S3) show their first channel as grey
+//! (`tonemap::shown_channels`), and a Stokes volume also gets its polarization
+//! pictures (`viz::polarization`, in `polarization/`).
 
-use super::tonemap::srgb8;
+use super::tonemap::{shown_channels, srgb8};
 use super::VizError;
 use crate::report::plot::save_png_rgb;
 use crate::sensors::time_axis::TimeAxis;
@@ -42,10 +46,11 @@ impl TimeLabels {
 /// The RGB8 image of bin `k` with a fixed exposure.
 pub fn frame_rgb(v: ArrayView4<f32>, k: usize, exposure: f32) -> Vec<u8> {
     let (h, w) = (v.shape()[0], v.shape()[1]);
+    let shown = shown_channels(v.shape()[3]);
     let mut buf = Vec::with_capacity(h * w * 3);
     for y in 0..h {
         for x in 0..w {
-            for c in 0..3 {
+            for c in shown {
                 buf.push(srgb8(v[[y, x, k, c]] * exposure));
             }
         }
@@ -141,6 +146,7 @@ pub fn write_streak(
         None => (0.0, t as f64),
     };
     let bin_edge = |k: usize| t0 + (t1 - t0) * k as f64 / t as f64;
+    let shown = shown_channels(v.shape()[3]);
     {
         let root = BitMapBackend::with_buffer(&mut buf, (cw, ch)).into_drawing_area();
         let draw = || -> Result<(), Box<dyn std::error::Error>> {
@@ -172,7 +178,7 @@ pub fn write_streak(
             }
             chart.draw_series((0..w).flat_map(|x| {
                 (0..t).map(move |k| {
-                    let c: [u8; 3] = std::array::from_fn(|c| srgb8(v[[row, x, k, c]] * exposure));
+                    let c = shown.map(|c| srgb8(v[[row, x, k, c]] * exposure));
                     Rectangle::new(
                         [(bin_edge(k), x as f64), (bin_edge(k + 1), x as f64 + 1.0)],
                         RGBColor(c[0], c[1], c[2]).filled(),
@@ -218,7 +224,9 @@ pub struct FramesRequest {
 }
 
 /// Writes frames into `dir` (which must exist) plus `propagation.gif` and
-/// `streak.png`; returns the number of frames.
+/// `streak.png`, and for a Stokes volume (C = 4) its polarization pictures in
+/// `dir/polarization/` ([`super::polarization::write_polarization`]); returns the
+/// number of frames.
 pub fn write_all(dir: &Path, v: ArrayView4<f32>, req: &FramesRequest) -> Result<usize, VizError> {
     let frames = dir.join("frames");
     std::fs::create_dir_all(&frames).map_err(|error| VizError::CreateDir {
@@ -226,6 +234,14 @@ pub fn write_all(dir: &Path, v: ArrayView4<f32>, req: &FramesRequest) -> Result<
         error,
     })?;
     let names = write_frames(&frames, v, req.every, req.exposure)?;
+    if v.shape()[3] == 4 {
+        let pol = dir.join("polarization");
+        std::fs::create_dir_all(&pol).map_err(|error| VizError::CreateDir {
+            path: pol.clone(),
+            error,
+        })?;
+        super::polarization::write_polarization(&pol, v, req.every, req.exposure)?;
+    }
     if req.gif {
         write_gif(&dir.join("propagation.gif"), v, req.every, req.exposure, 60)?;
     }

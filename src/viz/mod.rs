@@ -1,8 +1,10 @@
 //! Pictures for people: tone-mapped frames with one global exposure, GIF animations,
-//! streak images, maximum-intensity projections of NLOS reconstructions.
+//! streak images, maximum-intensity projections of NLOS reconstructions, and the
+//! polarization pictures of Stokes volumes.
 
 pub mod frames;
 pub mod mip;
+pub mod polarization;
 pub mod tonemap;
 pub mod view;
 

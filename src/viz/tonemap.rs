@@ -3,6 +3,11 @@
 //!
 //! exposure = 1 / (99.5th percentile of the luminance of the non-zero voxels); a voxel
 //! maps to sRGB-encoded `clamp(exposure * rgb, 0, 1)`.
+//!
+//! Volumes of C channels: RGB (C = 3) as they are; a mono film's one channel Y
+//! (C = 1) and a Stokes film's intensity S0 (C = 4: S0, S1, S2, S3) as grey, the
+//! channel replicated into R, G and B ([`shown_channels`]); its luminance is that
+//! channel.
 
 use ndarray::ArrayView4;
 
@@ -12,12 +17,31 @@ pub fn luminance(r: f32, g: f32, b: f32) -> f32 {
     0.2126 * r + 0.7152 * g + 0.0722 * b
 }
 
+/// The channels of a C-channel voxel shown as R, G, B: `[0, 1, 2]` for RGB; the
+/// first channel as grey otherwise (Y of a mono film, S0 of a Stokes one).
+#[inline]
+pub fn shown_channels(c: usize) -> [usize; 3] {
+    if c == 3 {
+        [0, 1, 2]
+    } else {
+        [0, 0, 0]
+    }
+}
+
 /// The global exposure of an (H, W, T, C) volume (1 when it is all zero).
 pub fn global_exposure(v: ArrayView4<f32>) -> f32 {
+    let c = v.shape()[3];
+    let [r, g, b] = shown_channels(c);
     let mut lum: Vec<f32> = v
         .rows()
         .into_iter()
-        .map(|p| luminance(p[0], p[1], p[2]))
+        .map(|p| {
+            if c == 3 {
+                luminance(p[r], p[g], p[b])
+            } else {
+                p[r]
+            }
+        })
         .filter(|&l| l > 0.0 && l.is_finite())
         .collect();
     if lum.is_empty() {
@@ -75,5 +99,15 @@ mod tests {
             global_exposure(ndarray::Array4::<f32>::zeros((1, 1, 1, 3)).view()),
             1.0
         );
+        // Mono: the one channel; Stokes: S0 alone (S1..S3, signed, do not count).
+        let mono = v.slice(ndarray::s![.., .., .., 0..1]).to_owned();
+        assert_eq!(global_exposure(mono.view()), e);
+        let mut stokes = ndarray::Array4::<f32>::zeros((1, 10, 100, 4));
+        stokes
+            .slice_mut(ndarray::s![.., .., .., 0..1])
+            .assign(&mono);
+        stokes.slice_mut(ndarray::s![.., .., .., 1]).fill(1e6);
+        stokes.slice_mut(ndarray::s![.., .., .., 3]).fill(-1e6);
+        assert_eq!(global_exposure(stokes.view()), e);
     }
 }

@@ -15,7 +15,6 @@ use crate::bundle::float_rows::FloatRows;
 use crate::bundle::npy::NpyError;
 use crate::bundle::{Bundle, BundleError, RowSums};
 use crate::denoise::critical::student_t_quantile;
-use crate::stats::accumulators::CHANNELS;
 use crate::stats::estimators::{estimate, estimate_replicates, Sums};
 use base64::Engine;
 use ndarray::{Array3, Array4};
@@ -67,10 +66,18 @@ pub struct PageSummary {
 }
 
 /// The pixel block size k (k x k pixels averaged) that keeps `volumes` f16 volumes of
-/// the film (h, w, t) within `budget` bytes: the smallest that fits, or None when even
-/// one block over the whole film does not (the time axis alone is too long).
-pub fn block_size(volumes: usize, h: usize, w: usize, t: usize, budget: u64) -> Option<usize> {
-    let bytes_at = |k: usize| page_data_bytes(volumes, h, w, t, k);
+/// the film (h, w, t) of `c` channels within `budget` bytes: the smallest that fits,
+/// or None when even one block over the whole film does not (the time axis alone is
+/// too long).
+pub fn block_size(
+    volumes: usize,
+    h: usize,
+    w: usize,
+    t: usize,
+    c: usize,
+    budget: u64,
+) -> Option<usize> {
+    let bytes_at = |k: usize| page_data_bytes(volumes, h, w, t, c, k);
     let mut k = 1;
     while bytes_at(k) > budget && (h.div_ceil(k) > 1 || w.div_ceil(k) > 1) {
         k += 1;
@@ -78,20 +85,25 @@ pub fn block_size(volumes: usize, h: usize, w: usize, t: usize, budget: u64) -> 
     (bytes_at(k) <= budget).then_some(k)
 }
 
-/// The f16 volumes' bytes at block size `k`.
-pub fn page_data_bytes(volumes: usize, h: usize, w: usize, t: usize, k: usize) -> u64 {
-    (volumes * h.div_ceil(k) * w.div_ceil(k) * t * CHANNELS * 2) as u64
+/// The f16 volumes' bytes at block size `k` (`c` channels).
+pub fn page_data_bytes(volumes: usize, h: usize, w: usize, t: usize, c: usize, k: usize) -> u64 {
+    (volumes * h.div_ceil(k) * w.div_ceil(k) * t * c * 2) as u64
 }
 
-/// The most memory [`build_page`] takes for a film (h, w, t) with `volumes` volumes
-/// at block size `k`, and rows of `row_bytes` read at once (the bundle's sums and the
+/// The most memory [`build_page`] takes for a film (h, w, t) of `c` channels with
+/// `volumes` volumes at block size `k`, and rows of `row_bytes` read at once (the bundle's sums and the
 /// extras' one image row): the block accumulators (f64) of one row of blocks, the
 /// block-averaged volumes (f32), their f16 bytes, base64 and the page text (about
 /// five times the f16 bytes in all), and the G-buffers (8 f32 per pixel, read whole,
 /// and their block averages).
-pub fn page_memory(volumes: usize, h: usize, w: usize, t: usize, k: usize, row_bytes: u64) -> u64 {
-    let data = page_data_bytes(volumes, h, w, t, k);
-    let acc = (volumes * w.div_ceil(k) * t * CHANNELS * 8) as u64;
+pub fn page_memory(
+    volumes: usize,
+    (h, w, t, c): (usize, usize, usize, usize),
+    k: usize,
+    row_bytes: u64,
+) -> u64 {
+    let data = page_data_bytes(volumes, h, w, t, c, k);
+    let acc = (volumes * w.div_ceil(k) * t * c * 8) as u64;
     let gbuffers = (h * w * 8 * 4) as u64 + (h.div_ceil(k) * w.div_ceil(k) * 8 * 4) as u64;
     row_bytes + acc + 2 * data + 5 * data + gbuffers
 }
@@ -102,7 +114,7 @@ pub fn bundle_row_bytes(b: &Bundle) -> u64 {
     let m = &b.manifest;
     let voxels = (m.width * m.bins) as u64;
     let sums = 3 + u64::from(!m.transform.is_identity()) + u64::from(m.replicates.is_some());
-    voxels * 4 + voxels * CHANNELS as u64 * 8 * sums
+    voxels * 4 + voxels * m.channel_count() as u64 * 8 * sums
 }
 
 /// One row of a bundle read as its noisy mean S / n and, for identity-transform
@@ -125,7 +137,8 @@ impl MeanRows {
         b.row_reader()?.read(y..y + 1, &mut self.sums)?;
         let rows = &self.sums;
         let identity = m.transform.is_identity();
-        let per_pixel = m.bins * CHANNELS;
+        let ch = m.channel_count();
+        let per_pixel = m.bins * ch;
         let n = |i: usize| b.samples(y * m.width + i / per_pixel);
         let radiance = if identity { &rows.x1 } else { &rows.sum };
         mean.clear();
@@ -139,7 +152,7 @@ impl MeanRows {
             let z0 = m.transform.at_zero();
             sd.clear();
             sd.extend((0..radiance.len()).map(|i| {
-                let nz = rows.nonzero[i / CHANNELS];
+                let nz = rows.nonzero[i / ch];
                 let e = match m.replicates {
                     Some(bb) => estimate_replicates(rows.x1[i], rows.r2[i], nz, n(i), bb, z0),
                     None => estimate(
@@ -190,6 +203,8 @@ struct BlockRows {
     w: usize,
     /// Values per pixel (T C).
     tc: usize,
+    /// C.
+    channels: usize,
     sd: bool,
     /// The current row of blocks: f64 sums, (W / k, T, C).
     acc: Vec<f64>,
@@ -200,12 +215,14 @@ struct BlockRows {
 }
 
 impl BlockRows {
-    /// Blocks of an image (h, w) of `tc` values per pixel.
-    fn new(h: usize, w: usize, tc: usize, k: usize, sd: bool) -> BlockRows {
+    /// Blocks of an image (h, w) of `t` x `c` values per pixel.
+    fn new(h: usize, w: usize, (t, c): (usize, usize), k: usize, sd: bool) -> BlockRows {
+        let tc = t * c;
         BlockRows {
             k,
             w,
             tc,
+            channels: c,
             sd,
             acc: vec![0.0; w.div_ceil(k) * tc],
             rows: 0,
@@ -244,7 +261,12 @@ impl BlockRows {
     }
 
     fn finish(self, h: usize, t: usize) -> Array4<f32> {
-        let shape = (h.div_ceil(self.k), self.w.div_ceil(self.k), t, CHANNELS);
+        let shape = (
+            h.div_ceil(self.k),
+            self.w.div_ceil(self.k),
+            t,
+            self.channels,
+        );
         Array4::from_shape_vec(shape, self.out).expect("every row of blocks closed")
     }
 }
@@ -287,7 +309,7 @@ fn block_average_image(v: &Array3<f32>, k: usize) -> Array3<f32> {
     if k == 1 {
         return v.clone();
     }
-    let mut blocks = BlockRows::new(h, w, c, k, false);
+    let mut blocks = BlockRows::new(h, w, (1, c), k, false);
     let flat = v.as_standard_layout();
     let flat = flat.as_slice().expect("standard layout");
     for (y, row) in flat.chunks_exact(w * c).enumerate() {
@@ -342,17 +364,17 @@ pub fn build_page(
     k: usize,
 ) -> Result<(String, PageSummary), ViewError> {
     let m = &bundle.manifest;
-    let (h, w, t) = (m.height, m.width, m.bins);
+    let (h, w, t, ch) = (m.height, m.width, m.bins, m.channel_count());
     let with_sd = m.transform.is_identity();
     let mut means = MeanRows::default();
     let mut blocks: Vec<BlockRows> = Vec::new();
-    blocks.push(BlockRows::new(h, w, t * CHANNELS, k, false));
+    blocks.push(BlockRows::new(h, w, (t, ch), k, false));
     if with_sd {
-        blocks.push(BlockRows::new(h, w, t * CHANNELS, k, true));
+        blocks.push(BlockRows::new(h, w, (t, ch), k, true));
     }
     let mut extra_means: Vec<MeanRows> = Vec::new();
     for _ in extras.iter() {
-        blocks.push(BlockRows::new(h, w, t * CHANNELS, k, false));
+        blocks.push(BlockRows::new(h, w, (t, ch), k, false));
         extra_means.push(MeanRows::default());
     }
     let (mut mean, mut sd, mut row) = (Vec::new(), Vec::new(), Vec::new());
@@ -421,6 +443,7 @@ pub fn build_page(
     let data = json!({
         "name": name,
         "height": ph, "width": pw, "bins": t, "block": k,
+        "channels": ch, "mode": m.mode.name(), "channel_names": m.mode.channel_names(),
         "full_height": h, "full_width": w,
         "spp": m.spp, "replicates": m.replicates, "sampling": m.pixel_sampling.name(),
         "transform": m.transform.to_string(),
@@ -473,24 +496,26 @@ mod tests {
     #[test]
     fn blocks_built_row_by_row_equal_the_whole_volume_average() {
         let (h, w, t) = (7, 5, 2);
-        let v = Array4::from_shape_fn((h, w, t, CHANNELS), |(y, x, tt, c)| {
-            ((y * 31 + x * 7 + tt * 3 + c) % 11) as f32 * 0.25 - 1.0
-        });
-        for k in [1, 2, 3, 5, 7, 9] {
-            for sd in [false, true] {
-                let mut b = BlockRows::new(h, w, t * CHANNELS, k, sd);
-                let flat = v.as_slice().unwrap();
-                for (y, row) in flat.chunks_exact(w * t * CHANNELS).enumerate() {
-                    b.add(row, y + 1 == h);
-                }
-                let got = b.finish(h, t);
-                let want = block_average(&v, k, sd);
-                assert_eq!(got.dim(), want.dim(), "k {k}");
-                for (a, b) in got.iter().zip(want.iter()) {
-                    assert!(
-                        (a - b).abs() <= 1e-6 * b.abs().max(1.0),
-                        "k {k} sd {sd}: {a} vs {b}"
-                    );
+        for ch in [1, 3, 4] {
+            let v = Array4::from_shape_fn((h, w, t, ch), |(y, x, tt, c)| {
+                ((y * 31 + x * 7 + tt * 3 + c) % 11) as f32 * 0.25 - 1.0
+            });
+            for k in [1, 2, 3, 5, 7, 9] {
+                for sd in [false, true] {
+                    let mut b = BlockRows::new(h, w, (t, ch), k, sd);
+                    let flat = v.as_slice().unwrap();
+                    for (y, row) in flat.chunks_exact(w * t * ch).enumerate() {
+                        b.add(row, y + 1 == h);
+                    }
+                    let got = b.finish(h, t);
+                    let want = block_average(&v, k, sd);
+                    assert_eq!(got.dim(), want.dim(), "k {k}");
+                    for (a, b) in got.iter().zip(want.iter()) {
+                        assert!(
+                            (a - b).abs() <= 1e-6 * b.abs().max(1.0),
+                            "k {k} sd {sd}: {a} vs {b}"
+                        );
+                    }
                 }
             }
         }
@@ -506,15 +531,20 @@ mod tests {
     fn block_size_is_the_smallest_that_fits_or_none() {
         // 2 volumes of 8 x 8 px x 4 bins x 3 channels, 2 bytes each: 3072 bytes at
         // k = 1, 768 at k = 2, 48 at k = 8.
-        assert_eq!(block_size(2, 8, 8, 4, 3072), Some(1));
-        assert_eq!(block_size(2, 8, 8, 4, 3071), Some(2));
-        assert_eq!(block_size(2, 8, 8, 4, 767), Some(3));
-        assert_eq!(block_size(2, 8, 8, 4, 48), Some(8));
-        assert_eq!(block_size(2, 8, 8, 4, 47), None);
-        for budget in [47u64, 48, 100, 400, 767, 768, 3071, 3072, 5000] {
-            if let Some(k) = block_size(2, 8, 8, 4, budget) {
-                assert!(page_data_bytes(2, 8, 8, 4, k) <= budget);
-                assert!(k == 1 || page_data_bytes(2, 8, 8, 4, k - 1) > budget);
+        assert_eq!(block_size(2, 8, 8, 4, 3, 3072), Some(1));
+        assert_eq!(block_size(2, 8, 8, 4, 3, 3071), Some(2));
+        assert_eq!(block_size(2, 8, 8, 4, 3, 767), Some(3));
+        assert_eq!(block_size(2, 8, 8, 4, 3, 48), Some(8));
+        assert_eq!(block_size(2, 8, 8, 4, 3, 47), None);
+        // One channel (mono): a third of the bytes; four (Stokes): a third more.
+        assert_eq!(block_size(2, 8, 8, 4, 1, 1024), Some(1));
+        assert_eq!(block_size(2, 8, 8, 4, 4, 3072), Some(2));
+        for c in [1, 3, 4] {
+            for budget in [47u64, 48, 100, 400, 767, 768, 3071, 3072, 5000] {
+                if let Some(k) = block_size(2, 8, 8, 4, c, budget) {
+                    assert!(page_data_bytes(2, 8, 8, 4, c, k) <= budget);
+                    assert!(k == 1 || page_data_bytes(2, 8, 8, 4, c, k - 1) > budget);
+                }
             }
         }
     }

@@ -132,6 +132,7 @@ impl Bundle {
             height: self.h,
             width: self.w,
             bins: self.t,
+            channels: C,
             bin_width: self.bin_width,
             spp: self.spp,
             stratified: false,
@@ -1610,6 +1611,7 @@ fn end_to_end_cbox_denoising_beats_the_noisy_render() {
         height: h,
         width: w,
         bins: t,
+        channels: 3,
         bin_width: 0.1,
         spp: 32,
         stratified: false, // rendered with independent positions
@@ -2000,6 +2002,7 @@ fn slab_plans_fit_their_budget() {
         height: 512,
         width: 512,
         bins: 1000,
+        channels: 3,
         sum_arrays: 3,
     };
     let v = 512u64 * 1000 * 3;

@@ -45,6 +45,7 @@ impl Volume {
                 height: h,
                 width: w,
                 bins: t,
+                channels: C,
                 bin_width,
                 spp: 16,
                 pixel_spp: None,

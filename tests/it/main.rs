@@ -6,6 +6,7 @@ mod common;
 mod tal_common;
 
 mod adaptive;
+mod channels;
 mod cli;
 mod curves;
 mod delays;
