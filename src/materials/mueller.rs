@@ -1017,4 +1017,48 @@ mod tests {
         let (m, want) = (b.mueller(wo, wi, None), nested.mueller(wo, wi, None));
         assert!(m.abs_diff_eq(want, 1e-6), "{m} vs {want}");
     }
+
+    /// The scene reader: `retarder` and `circular` with their parameters, a
+    /// polarizer's angle, and a textured angle (a retarder's) bound per hit.
+    #[test]
+    fn the_scene_reader_reads_the_polarization_plugins() {
+        use crate::materials::material::Param;
+        use crate::scene::{Overrides, Scene};
+        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+        let scene = Scene::load(&root.join("cbox_waveplates.xml"), &Overrides::default()).unwrap();
+        let find = |f: &dyn Fn(&Bsdf) -> bool| scene.bsdfs.iter().any(|m| f(&m.bsdf));
+        assert!(find(&|b| *b
+            == Bsdf::Retarder(Retarder {
+                transmittance: Rgb::splat(0.9),
+                theta: 45.0,
+                delta: 90.0,
+            })));
+        assert!(find(&|b| *b
+            == Bsdf::Circular(Circular {
+                transmittance: Rgb::splat(0.8),
+                left_handed: true,
+            })));
+        let scene = Scene::load(&root.join("cbox_pplastic.xml"), &Overrides::default()).unwrap();
+        assert!(scene.bsdfs.iter().any(|m| m.bsdf
+            == Bsdf::Polarizer(Polarizer {
+                transmittance: Rgb::splat(0.8),
+                theta: 30.0,
+                polarizing: true,
+            })));
+        // A textured angle: bound to Param::Theta and set per hit.
+        let dir = tempfile::tempdir().unwrap();
+        let xml = std::fs::read_to_string(root.join("cbox_waveplates.xml")).unwrap();
+        let textured = r#"<texture type="checkerboard" name="theta"><float name="color0" value="10"/><float name="color1" value="50"/></texture>"#;
+        let xml = xml.replace(r#"<float name="theta" value="45"/>"#, textured);
+        let path = dir.path().join("s.xml");
+        std::fs::write(&path, xml).unwrap();
+        let scene = Scene::load(&path, &Overrides::default()).unwrap();
+        let m = scene
+            .bsdfs
+            .iter()
+            .find(|m| matches!(m.bsdf, Bsdf::Retarder(_)))
+            .unwrap();
+        assert_eq!(m.bindings.len(), 1);
+        assert_eq!(m.bindings[0].param, Param::Theta);
+    }
 }
