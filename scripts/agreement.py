@@ -200,6 +200,58 @@ def check_reason(output):
     return lines[-1] if lines else "(no message)"
 
 
+# The mitransient run of --mode mono_polarized: llvm_ad_mono_polarized, whose transient
+# block keeps each camera ray's Stokes vector in the ray's implicit basis
+# (stokes_basis(-d)); rotated here into the sensor's frame (Mitsuba's `stokes`
+# integrator: basis cross(d, up)), which tstat writes, at each pixel's centre ray.
+MIT_POLARIZED_ROTATE = r"""
+sensor = scene.sensors()[0]
+import drjit as dr
+tr = np.array(transient)
+H, W = tr.shape[:2]
+ys, xs = np.mgrid[0:H, 0:W]
+u = mi.Point2f(((xs.ravel() + 0.5) / W).astype(np.float32), ((ys.ravel() + 0.5) / H).astype(np.float32))
+ray, _ = sensor.sample_ray(0.0, 0.5, u, mi.Point2f(0.5, 0.5))
+up = sensor.world_transform() @ mi.Vector3f(0, 1, 0)
+R = mi.mueller.rotate_stokes_basis(-ray.d, mi.mueller.stokes_basis(-ray.d), dr.cross(ray.d, up))
+Rn = np.zeros((H * W, 4, 4))
+for i in range(4):
+    for j in range(4):
+        Rn[:, i, j] = np.broadcast_to(np.array(R[i, j]).ravel(), (H * W,))
+transient = np.einsum('yxij,yxtj->yxti', Rn.reshape(H, W, 4, 4), tr)
+"""
+
+
+def mit_script(mode):
+    """The mitransient script of a mode (agree_wild.MIT with its variant)."""
+    mit = agree_wild.MIT.replace("'llvm_ad_rgb'", f"'llvm_ad_{mode}'")
+    if mode == "mono_polarized":
+        at = mit.index("np.save(sys.argv[5] + '_steady.npy'")
+        mit = mit[:at] + MIT_POLARIZED_ROTATE + mit[at:]
+    return mit
+
+
+def stokes_rows(tt, m1t, m2t, b16):
+    """Per Stokes component S1..S3: the difference of the volume means over the mean S0
+    (tstat against mitransient seed 1, and seed 2 against seed 1), and the 95th
+    percentile of space-time block differences over the seed-1 S0 block (floor: 1% of
+    its largest block)."""
+    out = []
+    s0 = max(float(m1t[..., 0].mean()), 1e-12)
+    s0b = agree_wild.blocks(m1t[..., :1], *b16, min(5, tt.shape[2]))
+    floor = s0b.max() * 0.01
+    for k in (1, 2, 3):
+        tb, b1, b2 = (agree_wild.blocks(x[..., k:k + 1], *b16, min(5, tt.shape[2])) for x in (tt, m1t, m2t))
+        den = np.maximum(s0b, floor)
+        out.append({
+            "dev": float(abs(tt[..., k].mean() - m1t[..., k].mean()) / s0),
+            "dev_mit": float(abs(m2t[..., k].mean() - m1t[..., k].mean()) / s0),
+            "p95": float(np.percentile(np.abs(tb - b1) / den, 95)),
+            "p95_mit": float(np.percentile(np.abs(b2 - b1) / den, 95)),
+        })
+    return out
+
+
 def measure(path, args, tmp):
     """One scene's row (a dict), or {'skip': reason}."""
     search = list(args.search)
@@ -238,7 +290,7 @@ def measure(path, args, tmp):
     t0 = time.time()
     for seed in (1, 2):
         try:
-            mit = agree_wild.MIT.replace("'llvm_ad_rgb'", f"'llvm_ad_{args.mode}'")
+            mit = mit_script(args.mode)
             r = subprocess.run([sys.executable, "-c", mit, copy, str(args.spp), str(seed),
                                 json.dumps(needed), os.path.join(tmp, f"m{seed}"), json.dumps(search)],
                                capture_output=True, text=True, timeout=args.timeout,
@@ -248,8 +300,11 @@ def measure(path, args, tmp):
         if r.returncode:
             last = (r.stderr.strip().splitlines() or ["(no message)"])[-1]
             return {"skip": "mitransient: " + last[:160]}
-        ms.append((np.load(os.path.join(tmp, f"m{seed}_steady.npy"))[..., :3],
-                   np.load(os.path.join(tmp, f"m{seed}_transient.npy"))[..., :3]))
+        # Channels: R, G, B (rgb, spectral); Y (mono); S0..S3 (mono_polarized: its
+        # steady image holds S0 alone).
+        nc = {"mono": 1, "mono_polarized": 4}.get(args.mode, 3)
+        ms.append((np.load(os.path.join(tmp, f"m{seed}_steady.npy"))[..., :min(nc, 3)],
+                   np.load(os.path.join(tmp, f"m{seed}_transient.npy"))[..., :nc]))
     t_mit = time.time() - t0
     out = os.path.join(tmp, "t.tstats")
     cmd = [args.tstat, "render", copy, "--spp", str(args.spp), "--seed", "1", "--out", out, "--force",
@@ -266,6 +321,11 @@ def measure(path, args, tmp):
     spp = json.load(open(os.path.join(out, "manifest.json")))["spp"]
     ts, tt = np.load(os.path.join(out, "steady.npy")), np.load(os.path.join(out, "x1.npy")) / spp
     (m1s, m1t), (m2s, m2t) = ms
+    stokes = None
+    if args.mode == "mono_polarized":
+        h, w = tt.shape[:2]
+        stokes = stokes_rows(tt, m1t, m2t, (min(16, h), min(16, w)))
+        ts, tt, m1t, m2t = ts[..., :1], tt[..., :1], m1t[..., :1], m2t[..., :1]
     if ts.shape != m1s.shape or tt.shape != m1t.shape:
         return {"skip": f"shapes differ: tstat {ts.shape} {tt.shape}, mitransient {m1s.shape} {m1t.shape}"}
     den = np.maximum(m1s.mean((0, 1)), 1e-12)
@@ -288,6 +348,7 @@ def measure(path, args, tmp):
         "seconds_mit": t_mit, "seconds_tstat": t_tstat,
         "black": bool(m1s.max() <= 0 and ts.max() <= 0),
         **({"note": note} if note else {}),
+        **({"stokes": stokes} if stokes else {}),
     }
 
 
@@ -308,6 +369,10 @@ def verdict(name, row, path):
     if abs(row["energy"] - row["energy_mit"]) > 0.01:
         bad.append("transient share")
         cols.add("transient share")
+    for k, s in enumerate(row.get("stokes", []), start=1):
+        if s["dev"] > max(3 * s["dev_mit"], 0.005) or s["p95"] > max(2 * s["p95_mit"], 0.05):
+            bad.append(f"S{k}")
+            cols.add(f"S{k}")
     if not bad:
         return "within", ""
     text = scene_text(path)
@@ -334,6 +399,7 @@ def path_of(name, wild):
 
 def report(results, args, names_in_order):
     rows, skipped = [], []
+    polarized = args.mode == "mono_polarized"
     counts = {"within": 0, "explained": 0, "OPEN": 0}
     for name in names_in_order:
         row = results.get(name)
@@ -349,10 +415,14 @@ def report(results, args, names_in_order):
             why = (why + "; " if why else "") + f"measured again at {8 * args.spp} spp"
         if row.get("note"):
             why = (why + "; " if why else "") + row["note"]
+        stokes = " ".join(
+            f"S{k}: {s['dev']:.4f}/{s['dev_mit']:.4f}, {s['p95']:.3f}/{s['p95_mit']:.3f};"
+            for k, s in enumerate(row.get("stokes", []), start=1))
         rows.append(
-            f"| {name} | {r[0]:.4f} / {r[1]:.4f} / {r[2]:.4f} | {max(abs(x - 1) for x in rm):.4f} | "
+            f"| {name} | {' / '.join(f'{x:.4f}' for x in r)} | {max(abs(x - 1) for x in rm):.4f} | "
             f"{row['block']:.3f} / {row['block_mit']:.3f} | {row['p95']:.3f} / {row['p95_mit']:.3f} | "
-            f"{row['energy']:.3f} / {row['energy_mit']:.3f} | {v}{': ' + why if why else ''} |")
+            f"{row['energy']:.3f} / {row['energy_mit']:.3f} |{' ' + stokes + ' |' if polarized else ''} "
+            f"{v}{': ' + why if why else ''} |")
     lines = [
         "# Agreement with mitransient 1.3.1 (standing suite)",
         "",
@@ -363,13 +433,21 @@ def report(results, args, names_in_order):
         "steady spread (largest |seed 2 / seed 1 - 1|); largest relative difference of 8x8-pixel "
         "steady blocks and 95th percentile over 16x16 px x 5 bin space-time blocks, tstat / "
         "mitransient seed 2 (both against seed 1); share of the steady energy in the transient, "
-        "tstat / mitransient. The verdict rule is in the script's docstring.",
+        "tstat / mitransient. The verdict rule is in the script's docstring."
+        + (" Polarized rows compare S0 in those columns (mitransient's steady image is S0), "
+           "and per Stokes component S1..S3: |mean S_k tstat - mitransient seed 1| over the "
+           "mean S0 / the same for seed 2, and the 95th percentile of 16x16 px x 5 bin block "
+           "differences over the seed-1 S0 block, tstat / seed 2 (mitransient rotated into "
+           "the sensor's frame at each pixel's centre). Within: each <= max(3x, 0.005) and "
+           "<= max(2x, 0.05) of mitransient's own." if polarized else ""),
         "",
         f"**{counts['within']} within mitransient's seed spread, {counts['explained']} explained, "
         f"{counts['OPEN']} open; {len(skipped)} not rendered by both.**",
         "",
-        "| scene | steady ratio (R / G / B) | mit spread | 8x8 block max | space-time p95 | transient / steady | verdict |",
-        "|---|---|---|---|---|---|---|",
+        ("| scene | steady ratio (S0) | mit spread | 8x8 block max | space-time p95 | transient / steady | S1..S3: mean diff / mit, p95 / mit | verdict |"
+         if polarized else
+         "| scene | steady ratio (R / G / B) | mit spread | 8x8 block max | space-time p95 | transient / steady | verdict |"),
+        "|---|---|---|---|---|---|---|" + ("---|" if polarized else ""),
         *rows,
         "",
         "## Not rendered by both",
@@ -394,7 +472,7 @@ def main():
     ap.add_argument("-a", dest="search", action="append", default=[])
     ap.add_argument("--wild", default=os.path.join(ROOT, "..", "shared", "wild-scenes"))
     ap.add_argument("--tstat", default=os.path.join(ROOT, "target", "release", "tstat"))
-    ap.add_argument("--mode", choices=["rgb", "spectral"], default="rgb",
+    ap.add_argument("--mode", choices=["rgb", "spectral", "mono", "mono_polarized"], default="rgb",
                     help="tstat's --mode, against mitransient's llvm_ad_<mode> variant")
     ap.add_argument("--out", help="default docs/results/agreement.md "
                     "(agreement_spectral.md for --mode spectral)")

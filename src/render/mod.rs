@@ -23,6 +23,7 @@ pub mod gbuffer;
 pub mod nlos;
 pub mod path_common;
 pub mod pixel_sampling;
+pub mod polarized;
 pub mod roulette;
 pub mod sampler;
 pub mod sink;

@@ -174,6 +174,7 @@ pub(super) fn escape(
     g: &mut GSample,
     g_pending: bool,
     (wl, mono): (Option<&Wavelengths>, bool),
+    pol: Option<glam::Vec4>,
 ) {
     let settings = &scene.integrator;
     if depth == 0 && settings.hide_emitters {
@@ -199,5 +200,8 @@ pub(super) fn escape(
         None => beta * radiance * w,
         Some(wl) => wl.to_srgb(beta * emitted_spectrum(scene, env as usize, radiance, d, wl) * w),
     };
-    contribute(scene, deposits, tally, opl + segment, c);
+    match pol {
+        None => contribute(scene, deposits, tally, opl + segment, c),
+        Some(col) => contribute_stokes(scene, deposits, tally, opl + segment, col * c.x),
+    }
 }

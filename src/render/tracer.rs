@@ -35,7 +35,10 @@
 
 use super::deposits::PathDeposits;
 use super::gbuffer::GSample;
-use super::path_common::{contribute, emitted_spectrum, escape, shadow_ray, PathTally};
+use super::path_common::{
+    contribute, contribute_stokes, emitted_spectrum, escape, shadow_ray, PathTally,
+};
+use super::polarized;
 use super::roulette::roulette;
 use super::sampler::{pick_scattering, slot, PathSampler};
 use super::vertex::SurfaceVertex;
@@ -52,7 +55,7 @@ use crate::scene::mode::RenderMode;
 use crate::scene::Scene;
 use crate::spectral::lift::Wavelengths;
 use crate::textures::luminance;
-use glam::Vec3;
+use glam::{Mat4, Vec3, Vec4};
 
 /// A path's state between vertices.
 struct PathState {
@@ -89,6 +92,11 @@ struct PathState {
     /// A mono path (`mono`, `mono_polarized`): every colour it meets is its
     /// luminance, in all three lanes of `beta`.
     mono: bool,
+    /// A polarized path (`mono_polarized`, `polarized.rs`): the product of the
+    /// normalised Mueller matrices of its vertices, after the rotation into the
+    /// sensor's frame; a contribution `c` (scalar, as `beta` computes it) of
+    /// unpolarized light is the Stokes vector `c * column 0`. `None` otherwise.
+    pol: Option<Mat4>,
 }
 
 /// The emitter that `u_sel` in [0, 1) selects among `n` (uniformly); one emitter needs
@@ -303,6 +311,27 @@ impl PathState {
                 _ => None,
             },
             mono: scene.mode.is_mono(),
+            pol: (scene.mode == RenderMode::MonoPolarized)
+                .then(|| polarized::camera(d, scene.camera.axes[1])),
+        }
+    }
+
+    /// Adds a contribution `c` at OPL `opl` through the Mueller matrix `n` (normalised,
+    /// world bases) of the last step to the light: the Stokes vector of a polarized
+    /// path, else `c` itself as the film records it.
+    #[inline(always)]
+    fn contribute(
+        &self,
+        scene: &Scene,
+        deposits: &mut PathDeposits,
+        tally: &mut PathTally,
+        opl: f64,
+        c: Rgb,
+        n: impl FnOnce() -> Vec4,
+    ) {
+        match &self.pol {
+            None => contribute(scene, deposits, tally, opl, self.sample(c)),
+            Some(m) => contribute_stokes(scene, deposits, tally, opl, *m * n() * c.x),
         }
     }
 
@@ -380,6 +409,7 @@ fn shade<L: Level, const MEDIA: bool, S: PathSampler>(
                 &mut path.g,
                 path.g_pending,
                 (path.wl.as_ref(), path.mono),
+                path.pol.map(|m| m.x_axis),
             );
         }
         return false;
@@ -536,7 +566,7 @@ fn emission<const MEDIA: bool>(
             power_heuristic(path.last_pdf, emitter.pdf_area_hit(select_pdf, dist, cos_l))
         };
         let c = path.beta * path.emitted(scene, ei as usize, radiance, path.d) * w;
-        contribute(scene, deposits, tally, path.opl, path.sample(c));
+        path.contribute(scene, deposits, tally, path.opl, c, || Vec4::X);
     }
     true
 }
@@ -642,13 +672,10 @@ fn next_event<L: Level, const MEDIA: bool, S: PathSampler>(
             .delaying
             .map_or(0.0, |s| s.sample_delay(rng.get1(slot::NEE_DELAY)));
         let arrival = path.opl + delay as f64 + eta_light as f64 * ls.dist as f64;
-        contribute(
-            scene,
-            deposits,
-            tally,
-            arrival,
-            path.sample(path.beta * f * tr * path.emitted(scene, idx, ls.li, ls.wi) * (w / ls.pdf)),
-        );
+        let c = path.beta * f * tr * path.emitted(scene, idx, ls.li, ls.wi) * (w / ls.pdf);
+        path.contribute(scene, deposits, tally, arrival, c, || {
+            polarized::step(bsdf, frame, wo, wi, None).x_axis
+        });
     }
 }
 
@@ -698,6 +725,10 @@ fn continue_by_bsdf<const MEDIA: bool, S: PathSampler>(
         return true;
     }
     path.beta *= bs.weight;
+    if let Some(m) = path.pol.as_mut() {
+        let delta = bs.lobe.is_delta().then_some(bs.lobe);
+        *m *= polarized::step(bsdf, frame, wo, bs.wi, delta);
+    }
     path.specular = bs.lobe.is_delta();
     path.last_pdf = bs.pdf;
     path.o = offset_origin(sp.p, sp.ng, wi_world);

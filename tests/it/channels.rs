@@ -270,7 +270,7 @@ fn mono_and_stokes_bundles(dir: &Path) -> (String, String) {
         paths: out.paths,
         seconds: out.seconds,
     };
-    let mut polarized = scene.clone();
+    let mut polarized = mono_scene();
     polarized.set_mode(RenderMode::MonoPolarized).unwrap();
     assert_eq!(polarized.film.channels, 4);
     let (m, s) = (dir.join("mono.tstats"), dir.join("stokes.tstats"));

@@ -40,6 +40,7 @@ mod nlos_wave;
 mod path_loop;
 mod pixel_sampling;
 mod polarization;
+mod polarized_render;
 mod render_physics;
 mod report;
 mod scene_compat;
