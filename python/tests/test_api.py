@@ -48,6 +48,17 @@ def test_spectral_render_is_the_command_lines(cli, scene, tmp_path):
     assert b.manifest["mode"] == "spectral"
 
 
+def test_polarized_render_is_the_command_lines(cli, scene, tmp_path):
+    b = tstat.render(scene("cbox_polarizers.xml"), 4, seed=2, out=tmp_path / "py.tstats", progress=False,
+                     mode="mono_polarized", **SMALL)
+    cli("render", scene("cbox_polarizers.xml"), "--spp", 4, "--seed", 2, "--out", tmp_path / "cli.tstats",
+        *FLAGS, "--mode", "mono_polarized")
+    assert arrays(b.path) == arrays(tmp_path / "cli.tstats")
+    assert b.manifest["channels"] == ["S0", "S1", "S2", "S3"]
+    assert b.shape[3] == 4 and b.mean().shape == b.shape
+    assert (b.mean()[..., 1:] < 0).any()  # S1..S3 are signed
+
+
 def test_adaptive_render_with_params_matches_the_command_line(cli, scene, tmp_path):
     opts = dict(SMALL, adaptive=True, pixel_sampling="independent", transform="yeo-johnson:0.5")
     b = tstat.render(scene("cbox.xml"), 16, seed=1, out=tmp_path / "py.tstats", progress=False, **opts)

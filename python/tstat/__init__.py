@@ -80,9 +80,11 @@ class Bundle:
 
     @property
     def shape(self) -> Tuple[int, int, int, int]:
-        """(H, W, T, C) of the volumes."""
+        """(H, W, T, C) of the volumes: C is 3 (R, G, B: modes rgb and spectral), 1 (Y:
+        mono) or 4 (the Stokes components S0..S3: mono_polarized); ``manifest["channels"]``
+        names them."""
         m = self.manifest
-        return (m["height"], m["width"], m["bins"], 3)
+        return (m["height"], m["width"], m["bins"], len(m["channels"]))
 
     def mean(self) -> np.ndarray:
         """The noisy mean volume S / n, float32 (H, W, T, C): what ``tstat export
@@ -217,8 +219,9 @@ def render(
     ``start_opl``, ``bin_width_opl``, ``max_depth``, ``pixel_sampling``,
     ``replicates``, ``transform`` (``"yeo-johnson:0.5"``), ``adaptive``,
     ``target_error``, ``time_budget``, ``pilot_spp``, ``adaptive_measure``,
-    ``threads``, ``max_memory``, ``shard``, ``time_origin``, ``mode`` (``"rgb"`` or
-    ``"spectral"``, docs/spectral.md), ``unit_m``, ``force``.
+    ``threads``, ``max_memory``, ``shard``, ``time_origin``, ``mode`` (``"rgb"``,
+    ``"spectral"``, docs/spectral.md; ``"mono"`` or ``"mono_polarized"``: one channel,
+    or the four Stokes components S0..S3, docs/polarization.md), ``unit_m``, ``force``.
 
     ``progress``: True shows tqdm bars if tqdm is installed; a callable gets
     ``(stage, done, total, status)`` ten times a second; False shows nothing. Ctrl-C
