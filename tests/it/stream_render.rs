@@ -250,7 +250,7 @@ fn an_incomplete_render_is_not_committed() {
     let s = settings(&sc, Transform::Identity);
     let out = dir.path().join("b.tstats");
     let writer = BundleWriter::create(&out, false, &sc.film, &s.transform).unwrap();
-    let sums = tstat::stats::accumulators::Accumulators::new(1, 8, 10, &s.transform);
+    let sums = tstat::stats::accumulators::Accumulators::new(1, 8, 10, 3, &s.transform);
     let g = vec![tstat::render::gbuffer::GPixel::default(); 8];
     let steady = vec![0.0; 24];
     for y in [0, 2, 3] {
@@ -269,7 +269,7 @@ fn an_incomplete_render_is_not_committed() {
     assert!(files(dir.path()).is_empty(), "{:?}", files(dir.path()));
     // A row of the wrong width is refused, not written over its neighbours.
     let writer = BundleWriter::create(&out, false, &sc.film, &s.transform).unwrap();
-    let wide = tstat::stats::accumulators::Accumulators::new(1, 9, 10, &s.transform);
+    let wide = tstat::stats::accumulators::Accumulators::new(1, 9, 10, 3, &s.transform);
     let row = Row {
         y: 0,
         sums: &wide,
