@@ -557,7 +557,7 @@ pub fn describe_index(axes: &[&str], idx: &[usize]) -> String {
 /// Block size for reading: a multiple of 12 (of every channel count C: 1, 3, 4), so
 /// that blocks of (H, W, T, C) sums start at a voxel's first channel.
 pub const BLOCK_ELEMS: usize = 3 << 15;
-const _: () = assert!(BLOCK_ELEMS % 12 == 0);
+const _: () = assert!(BLOCK_ELEMS.is_multiple_of(12));
 
 /// The outcome of a block check: the C-order flat index and reason of the first bad
 /// value.

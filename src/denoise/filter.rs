@@ -106,73 +106,172 @@ fn active_ranges(e: &Estimates) -> Vec<(usize, usize)> {
         .collect()
 }
 
-/// The inner loop: one neighbour pixel at one bin offset, over `n` contiguous bins of
-/// the `N` channels. The neighbour counts where the test passes on every channel (for
-/// a Stokes film: in S0, S1, S2 and S3 alike, so that differently polarized light is
-/// not mixed). The loops run over the bins of one channel at a time (each a loop over
-/// a few contiguous slices, which vectorises): the weights `wk` of the bins first
-/// (the test of channel 0, then each further channel's clearing the bins it fails),
-/// then each channel's numerator. Per channel the floating-point operations, and
-/// their order, are those of the three-channel filter written out by hand before C
-/// varied: RGB output is the same bit for bit.
-#[inline(always)]
-#[allow(clippy::too_many_arguments)]
-fn accumulate<const MEMBERSHIP: bool, T: PairTest, const N: usize>(
-    n: usize,
-    w: f32,
-    test: &T,
-    theta_i: [&[f32]; N],
-    theta_j: [&[f32]; N],
-    v_i: [&[f32]; N],
-    v_j: [&[f32]; N],
-    mean_i: [&[f32]; N],
-    num: [&mut [f32]; N],
-    den: &mut [f32],
-    wk: &mut [f32],
-) {
-    let den = &mut den[..n];
-    if MEMBERSHIP {
-        let wk = &mut wk[..n];
-        for c in 0..N {
-            let (ti, tj) = (&theta_i[c][..n], &theta_j[c][..n]);
-            let (vi, vj) = (&v_i[c][..n], &v_j[c][..n]);
-            if c == 0 {
-                for k in 0..n {
-                    wk[k] = if test.pass(ti[k], tj[k], vi[k], vj[k]) {
-                        w
-                    } else {
-                        0.0
-                    };
-                }
-            } else {
-                for k in 0..n {
-                    wk[k] = if test.pass(ti[k], tj[k], vi[k], vj[k]) {
-                        wk[k]
-                    } else {
-                        0.0
-                    };
-                }
-            }
-        }
-        for (d, &x) in den.iter_mut().zip(&*wk) {
-            *d += x;
-        }
-        for (num_c, mean_c) in num.into_iter().zip(mean_i) {
-            for ((o, &x), &m) in num_c[..n].iter_mut().zip(&*wk).zip(&mean_c[..n]) {
-                *o += x * m;
-            }
-        }
-    } else {
-        for d in den.iter_mut() {
-            *d += w;
-        }
-        for (num_c, mean_c) in num.into_iter().zip(mean_i) {
-            for (o, &m) in num_c[..n].iter_mut().zip(&mean_c[..n]) {
-                *o += w * m;
-            }
-        }
-    }
+/// The filter's inner loops for films of N channels ([`Kernels`]), one monomorphic
+/// copy per channel count a film can have (1, 3, 4).
+pub struct Ch;
+
+/// The inner loops over `n` contiguous bins, for N channels. Each is written out per
+/// channel by `kernels!` (the slices of each channel bound to their own locals, so the
+/// loop over bins vectorises as the hand-written three-channel loops did): per channel
+/// the floating-point operations, and their order, are those of the three-channel
+/// filter before C varied, and RGB output is the same bit for bit.
+///
+/// - `accumulate`: one neighbour pixel at one bin offset; it counts with weight `w`
+///   where the pair test passes on every channel (the test of a Stokes film asks S0,
+///   S1, S2 and S3 alike, so that differently polarized light is not mixed;
+///   docs/denoiser.md), or everywhere without a test (`MEMBERSHIP` false).
+/// - `statistics`: tstat's statistic, `out[k] = max_c s_c` (`s_0.max(s_1).max(s_2)`
+///   for RGB).
+/// - `accumulate_patch`: tstat's inner loop: `s` holds the statistic at bins t - 1 ..
+///   t + n (n + 2 values, the ends already repeated where the volume ends); a neighbour
+///   voxel counts with weight `w` where [`patch_member`]: `s(t) <= t2_max` and
+///   `s(t-1) + s(t) + s(t+1) <= 3 t2_patch`, uninformative values read as that
+///   function says.
+pub trait Kernels<const N: usize> {
+    #[allow(clippy::too_many_arguments)]
+    fn accumulate<const MEMBERSHIP: bool, T: PairTest>(
+        n: usize,
+        w: f32,
+        test: &T,
+        theta_i: [&[f32]; N],
+        theta_j: [&[f32]; N],
+        v_i: [&[f32]; N],
+        v_j: [&[f32]; N],
+        mean_i: [&[f32]; N],
+        num: [&mut [f32]; N],
+        den: &mut [f32],
+    );
+
+    fn statistics(
+        n: usize,
+        theta_i: [&[f32]; N],
+        theta_j: [&[f32]; N],
+        v_i: [&[f32]; N],
+        v_j: [&[f32]; N],
+        out: &mut [f32],
+    );
+
+    #[allow(clippy::too_many_arguments)]
+    fn accumulate_patch(
+        n: usize,
+        w: f32,
+        t2_max: f32,
+        t2_patch3: f32,
+        alone: bool,
+        s: &[f32],
+        mean_i: [&[f32]; N],
+        num: [&mut [f32]; N],
+        den: &mut [f32],
+    );
 }
+
+/// [`Kernels`] for N channels: `kernels!(N: (c, theta_i, theta_j, v_i, v_j, mean, num)
+/// ...)` with, per channel c, the names of its locals.
+macro_rules! kernels {
+    ($n:literal: $(($c:literal, $ti:ident, $tj:ident, $vi:ident, $vj:ident, $mi:ident, $nm:ident)),+) => {
+        impl Kernels<$n> for Ch {
+            #[inline(always)]
+            fn accumulate<const MEMBERSHIP: bool, T: PairTest>(
+                n: usize,
+                w: f32,
+                test: &T,
+                theta_i: [&[f32]; $n],
+                theta_j: [&[f32]; $n],
+                v_i: [&[f32]; $n],
+                v_j: [&[f32]; $n],
+                mean_i: [&[f32]; $n],
+                num: [&mut [f32]; $n],
+                den: &mut [f32],
+            ) {
+                $(
+                    let ($ti, $tj) = (&theta_i[$c][..n], &theta_j[$c][..n]);
+                    let ($vi, $vj) = (&v_i[$c][..n], &v_j[$c][..n]);
+                    let $mi = &mean_i[$c][..n];
+                )+
+                let [$($nm),+] = num;
+                $( let $nm = &mut $nm[..n]; )+
+                let den = &mut den[..n];
+                for k in 0..n {
+                    let wk = if MEMBERSHIP {
+                        // The test on every channel (`&`, not `&&`, so it vectorises).
+                        let m = true $( & test.pass($ti[k], $tj[k], $vi[k], $vj[k]) )+;
+                        if m {
+                            w
+                        } else {
+                            0.0
+                        }
+                    } else {
+                        w
+                    };
+                    $( $nm[k] += wk * $mi[k]; )+
+                    den[k] += wk;
+                }
+            }
+
+            #[inline(always)]
+            fn statistics(
+                n: usize,
+                theta_i: [&[f32]; $n],
+                theta_j: [&[f32]; $n],
+                v_i: [&[f32]; $n],
+                v_j: [&[f32]; $n],
+                out: &mut [f32],
+            ) {
+                $(
+                    let ($ti, $tj) = (&theta_i[$c][..n], &theta_j[$c][..n]);
+                    let ($vi, $vj) = (&v_i[$c][..n], &v_j[$c][..n]);
+                )+
+                let out = &mut out[..n];
+                for k in 0..n {
+                    let s = [$( statistic($ti[k], $tj[k], $vi[k], $vj[k]) ),+];
+                    let mut m = s[0];
+                    for &x in &s[1..] {
+                        m = m.max(x);
+                    }
+                    out[k] = m;
+                }
+            }
+
+            #[inline(always)]
+            fn accumulate_patch(
+                n: usize,
+                w: f32,
+                t2_max: f32,
+                t2_patch3: f32,
+                alone: bool,
+                s: &[f32],
+                mean_i: [&[f32]; $n],
+                num: [&mut [f32]; $n],
+                den: &mut [f32],
+            ) {
+                let (sp, sc, sn) = (&s[..n], &s[1..n + 1], &s[2..n + 2]);
+                $( let $mi = &mean_i[$c][..n]; )+
+                let [$($nm),+] = num;
+                $( let $nm = &mut $nm[..n]; )+
+                let den = &mut den[..n];
+                for k in 0..n {
+                    let pass = patch_member(sp[k], sc[k], sn[k], t2_max, t2_patch3, alone);
+                    let wk = if pass { w } else { 0.0 };
+                    $( $nm[k] += wk * $mi[k]; )+
+                    den[k] += wk;
+                }
+            }
+        }
+    };
+}
+
+kernels!(1: (0, ti0, tj0, vi0, vj0, mi0, n0));
+kernels!(3:
+    (0, ti0, tj0, vi0, vj0, mi0, n0),
+    (1, ti1, tj1, vi1, vj1, mi1, n1),
+    (2, ti2, tj2, vi2, vj2, mi2, n2)
+);
+kernels!(4:
+    (0, ti0, tj0, vi0, vj0, mi0, n0),
+    (1, ti1, tj1, vi1, vj1, mi1, n1),
+    (2, ti2, tj2, vi2, vj2, mi2, n2),
+    (3, ti3, tj3, vi3, vj3, mi3, n3)
+);
 
 /// What the filter does with a method's pair test ([`PairTest`], `membership.rs`): the
 /// method hands its test, or `None`, to [`PairTestUser::with`]
@@ -180,34 +279,6 @@ fn accumulate<const MEMBERSHIP: bool, T: PairTest, const N: usize>(
 pub trait PairTestUser {
     type Out;
     fn with<T: PairTest>(self, test: Option<T>) -> Self::Out;
-}
-
-/// tstat's statistic over `n` contiguous bins: `out[k] = max_c s_c` over the `N`
-/// channels, `s_0.max(s_1).max(s_2)` for RGB (a channel at a time, see
-/// [`accumulate`]).
-#[inline(always)]
-fn statistics<const N: usize>(
-    n: usize,
-    theta_i: [&[f32]; N],
-    theta_j: [&[f32]; N],
-    v_i: [&[f32]; N],
-    v_j: [&[f32]; N],
-    out: &mut [f32],
-) {
-    let out = &mut out[..n];
-    for c in 0..N {
-        let (ti, tj) = (&theta_i[c][..n], &theta_j[c][..n]);
-        let (vi, vj) = (&v_i[c][..n], &v_j[c][..n]);
-        if c == 0 {
-            for k in 0..n {
-                out[k] = statistic(ti[k], tj[k], vi[k], vj[k]);
-            }
-        } else {
-            for k in 0..n {
-                out[k] = out[k].max(statistic(ti[k], tj[k], vi[k], vj[k]));
-            }
-        }
-    }
 }
 
 /// [`statistics`] for estimates from replicates: each channel's `s_c` is put on the
@@ -241,38 +312,6 @@ fn statistics_pair<const N: usize>(
                 }
             })
             .fold(UNINFORMATIVE, f32::max);
-    }
-}
-
-/// tstat's inner loop: `s` holds the statistic at bins t - 1 .. t + n (n + 2 values,
-/// the ends already repeated where the volume ends); a neighbour voxel counts with
-/// weight `w` where [`patch_member`]: `s(t) <= t2_max` and `s(t-1) + s(t) + s(t+1) <=
-/// 3 t2_patch`, uninformative values read as that function says.
-#[inline(always)]
-#[allow(clippy::too_many_arguments)]
-fn accumulate_patch<const N: usize>(
-    n: usize,
-    w: f32,
-    t2_max: f32,
-    t2_patch3: f32,
-    alone: bool,
-    s: &[f32],
-    mean_i: [&[f32]; N],
-    num: [&mut [f32]; N],
-    den: &mut [f32],
-    wk: &mut [f32],
-) {
-    let (sp, sc, sn) = (&s[..n], &s[1..n + 1], &s[2..n + 2]);
-    let (den, wk) = (&mut den[..n], &mut wk[..n]);
-    for k in 0..n {
-        let pass = patch_member(sp[k], sc[k], sn[k], t2_max, t2_patch3, alone);
-        wk[k] = if pass { w } else { 0.0 };
-        den[k] += wk[k];
-    }
-    for (num_c, mean_c) in num.into_iter().zip(mean_i) {
-        for ((o, &x), &m) in num_c[..n].iter_mut().zip(&*wk).zip(&mean_c[..n]) {
-            *o += x * m;
-        }
     }
 }
 
@@ -313,8 +352,6 @@ struct Neighbour {
 struct Scratch<const N: usize> {
     num: [Vec<f32>; N],
     den: Vec<f32>,
-    /// The weights of one neighbour's bins (see [`accumulate`]).
-    weight: Vec<f32>,
     /// tstat's statistic over a range of bins plus one on each side.
     stat: Vec<f32>,
     neighbours: Vec<Neighbour>,
@@ -390,14 +427,16 @@ fn filter_pixel<T: PairTest, const N: usize>(
     b1: usize,
     scratch: &mut Scratch<N>,
     out_j: &mut [f32],
-) -> u64 {
+) -> u64
+where
+    Ch: Kernels<N>,
+{
     let e = s.e;
     let t_bins = e.bins as i64;
     let j = yj * e.width + xj;
     let Scratch {
         num,
         den,
-        weight,
         stat,
         neighbours,
     } = scratch;
@@ -442,7 +481,7 @@ fn filter_pixel<T: PairTest, const N: usize>(
             let off = (ts - a) as usize;
             let acc = num.each_mut().map(|v| &mut v[off..]);
             match (&s.tstat, &s.test) {
-                (None, Some(test)) => accumulate::<true, T, N>(
+                (None, Some(test)) => <Ch as Kernels<N>>::accumulate::<true, T>(
                     m,
                     wt,
                     test,
@@ -453,9 +492,8 @@ fn filter_pixel<T: PairTest, const N: usize>(
                     oi.map(|q| &e.mean[q..q + m]),
                     acc,
                     &mut den[off..],
-                    weight,
                 ),
-                (None, None) => accumulate::<false, Everyone, N>(
+                (None, None) => <Ch as Kernels<N>>::accumulate::<false, Everyone>(
                     m,
                     wt,
                     &Everyone,
@@ -466,7 +504,6 @@ fn filter_pixel<T: PairTest, const N: usize>(
                     oi.map(|q| &e.mean[q..q + m]),
                     acc,
                     &mut den[off..],
-                    weight,
                 ),
                 (Some(tp), _) => {
                     // s over [lo, hi): one more bin on each side where both voxels exist.
@@ -487,7 +524,7 @@ fn filter_pixel<T: PairTest, const N: usize>(
                     let (vi, vj) = (si.map(|q| &e.v[q..q + len]), sj.map(|q| &e.v[q..q + len]));
                     let out = &mut stat[first..first + len];
                     match &s.pair {
-                        None => statistics(len, ti, tj, vi, vj, out),
+                        None => <Ch as Kernels<N>>::statistics(len, ti, tj, vi, vj, out),
                         Some(pd) => statistics_pair(len, pd, tp.t2_max as f32, ti, tj, vi, vj, out),
                     }
                     if first == 1 {
@@ -496,7 +533,7 @@ fn filter_pixel<T: PairTest, const N: usize>(
                     if hi == te {
                         stat[m + 1] = stat[m];
                     }
-                    accumulate_patch(
+                    <Ch as Kernels<N>>::accumulate_patch(
                         m,
                         wt,
                         tp.t2_max as f32,
@@ -506,7 +543,6 @@ fn filter_pixel<T: PairTest, const N: usize>(
                         oi.map(|q| &e.mean[q..q + m]),
                         acc,
                         &mut den[off..],
-                        weight,
                     );
                 }
             }
@@ -733,7 +769,10 @@ fn filter_band_isa<T: PairTest, const N: usize>(
     band: &Band,
     k: usize,
     out_band: &mut [f32],
-) -> u64 {
+) -> u64
+where
+    Ch: Kernels<N>,
+{
     match crate::cpu::detected().avx2() {
         #[cfg(target_arch = "x86_64")]
         // SAFETY: the proof says this CPU runs the wrapper's instruction set.
@@ -750,7 +789,10 @@ fn filter_band<T: PairTest, const N: usize>(
     band: &Band,
     k: usize,
     out_band: &mut [f32],
-) -> u64 {
+) -> u64
+where
+    Ch: Kernels<N>,
+{
     let (w, t_bins) = (s.e.width, s.e.bins);
     debug_assert_eq!(s.e.channels, N);
     let per_pixel = N * t_bins;
@@ -760,7 +802,6 @@ fn filter_band<T: PairTest, const N: usize>(
     let mut scratch = Scratch::<N> {
         num: std::array::from_fn(|_| vec![0.0; bins]),
         den: vec![0.0; bins],
-        weight: vec![0.0; bins],
         stat: vec![0.0; bins + 2],
         neighbours: Vec::new(),
     };
@@ -797,6 +838,9 @@ fn filter_band_avx2<T: PairTest, const N: usize>(
     band: &Band,
     k: usize,
     out_band: &mut [f32],
-) -> u64 {
+) -> u64
+where
+    Ch: Kernels<N>,
+{
     filter_band::<T, N>(s, band, k, out_band)
 }

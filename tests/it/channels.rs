@@ -162,9 +162,9 @@ fn copies_of_a_mono_channel_denoise_as_the_mono_film() {
             assert_eq!(d.evaluations, mono.evaluations, "{name} {f:?}");
             for ((y, x, t, c), &v) in d.volume.indexed_iter() {
                 let want = (f64::from(m[[y, x, t, 0]]) * f[c]) as f32;
-                assert_eq!(
-                    v.to_bits(),
-                    want.to_bits(),
+                // Bit for bit (a zero times -1 is a zero of either sign).
+                assert!(
+                    v.to_bits() == want.to_bits() || (v == 0.0 && want == 0.0),
                     "{name}, factors {f:?}: ({y}, {x}, {t}) channel {c}: {v} vs {want}"
                 );
             }
@@ -180,7 +180,8 @@ fn copies_of_a_mono_channel_denoise_as_the_mono_film() {
 #[test]
 fn a_disagreeing_stokes_channel_keeps_neighbours_apart() {
     let scene = mono_scene();
-    let spp = 64;
+    // Enough samples that a difference of 2 S0 in S1 is significant in most lit voxels.
+    let spp = 1024;
     let out = mono_render(&scene, spp);
     let (h, w, t) = (out.accum.height, out.accum.width, out.accum.bins);
     let g = GBuffers::from_pixels(h, w, &out.gbuffer);
@@ -204,24 +205,23 @@ fn a_disagreeing_stokes_channel_keeps_neighbours_apart() {
     let params = DenoiseParams::default();
     let d = denoise_sums(&view(&wide, spp), &features, &params, &|_| {}).volume;
     let mono = denoise_sums(&view(&out.accum, spp), &features, &params, &|_| {}).volume;
-    let (mut mixed_base, mut mixed, mut s0_differs) = (0, 0, 0);
+    // The weight of the other half in each voxel's average: (S0 - |S1|) / (2 S0) on the
+    // side S1 should have (0: none of it, 1/2: as much as of its own).
+    let other = |v: &ndarray::Array4<f32>, y: usize, x: usize, k: usize| {
+        let sign = if x < w / 2 { 1.0 } else { -1.0 };
+        let s0 = f64::from(v[[y, x, k, 0]]);
+        (s0 > 0.0).then(|| (s0 - sign * f64::from(v[[y, x, k, 1]])) / (2.0 * s0))
+    };
+    let (mut joint, mut alone, mut voxels, mut s0_differs) = (0.0, 0.0, 0, 0);
     for y in 0..h {
         for x in 0..w {
             for k in 0..t {
-                let s0 = d[[y, x, k, 0]];
-                if s0 <= 0.0 {
-                    continue;
+                if let (Some(a), Some(b)) = (other(&d, y, x, k), other(&base, y, x, k)) {
+                    joint += a;
+                    alone += b;
+                    voxels += 1;
                 }
-                let sign = if x < w / 2 { 1.0 } else { -1.0 };
-                // |S1| / S0 below 1 means light of the other half was averaged in.
-                if sign * d[[y, x, k, 1]] < 0.999 * s0 {
-                    mixed += 1;
-                }
-                let b0 = base[[y, x, k, 0]];
-                if b0 > 0.0 && sign * base[[y, x, k, 1]] < 0.999 * b0 {
-                    mixed_base += 1;
-                }
-                if s0 != mono[[y, x, k, 0]] {
+                if d[[y, x, k, 0]] != mono[[y, x, k, 0]] {
                     s0_differs += 1;
                 }
                 // S2 and S3 are zero throughout.
@@ -229,14 +229,12 @@ fn a_disagreeing_stokes_channel_keeps_neighbours_apart() {
             }
         }
     }
+    let (joint, alone) = (joint / f64::from(voxels), alone / f64::from(voxels));
+    eprintln!("weight of the other half: joint test {joint:.4}, base filter {alone:.4}; S0 differs at {s0_differs}");
+    assert!(voxels > 1000 && alone > 0.01, "{voxels} voxels, {alone}");
     assert!(
-        mixed_base > 0,
-        "the base filter alone should mix the halves"
-    );
-    eprintln!("mixed {mixed}, base {mixed_base}, S0 differs {s0_differs}");
-    assert!(
-        mixed * 4 < mixed_base,
-        "the joint test mixed {mixed} voxels, the base filter {mixed_base}"
+        joint < alone / 2.0,
+        "joint test {joint}, base filter {alone}"
     );
     assert!(s0_differs > 0, "S1 changed nothing about S0's neighbours");
 }
@@ -311,7 +309,10 @@ fn denoise_cli_on_mono_and_stokes_bundles() {
         assert_eq!(s.dim().3, 4);
         for ((y, x, t, c), &v) in s.indexed_iter() {
             let want = (f64::from(m[[y, x, t, 0]]) * f[c]) as f32;
-            assert_eq!(v.to_bits(), want.to_bits(), "{method} ({y}, {x}, {t}, {c})");
+            assert!(
+                v.to_bits() == want.to_bits() || (v == 0.0 && want == 0.0),
+                "{method} ({y}, {x}, {t}, {c}): {v} vs {want}"
+            );
         }
         // Channel names in the EXR headers.
         let names = |name: &str| -> Vec<String> {
