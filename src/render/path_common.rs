@@ -57,8 +57,6 @@ pub(super) fn contribute(
 /// Adds a Stokes vector `s` (S0..S3 in the sensor's frame) arriving at OPL `opl` to
 /// the path's deposits.
 #[inline(always)]
-// Not called until the mono_polarized tracer lands (kept for it; 2c9403b).
-#[allow(dead_code)]
 pub(super) fn contribute_stokes(
     scene: &Scene,
     deposits: &mut PathDeposits,
