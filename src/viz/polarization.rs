@@ -18,7 +18,6 @@
 //! formed: the HSV picture is black there (its value) and the component pictures
 //! black too. Memory: one picture (3 bytes a pixel) at a time.
 
-use super::frames::shown_bins;
 use super::tonemap::srgb8;
 use super::VizError;
 use crate::polarization::{aolp, dolp};
@@ -83,7 +82,8 @@ pub fn write_polarization(
     let (h, w, t, c) = v.dim();
     assert_eq!(c, 4, "a Stokes volume has four channels");
     let digits = t.to_string().len().max(4);
-    let bins = shown_bins(t, every);
+    // The bins `frames` shows (`frames::shown_bins`; not imported: frames calls this).
+    let bins: Vec<usize> = (0..t).step_by(every.max(1)).collect();
     let mut hsv = vec![0u8; h * w * 3];
     let mut comps = [
         vec![0u8; h * w * 3],

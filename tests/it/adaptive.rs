@@ -97,7 +97,8 @@ fn per_pixel_counts_trace_what_a_plain_loop_traces() {
                 .direction((p % w) as f32 + u, (p / w) as f32 + v);
             trace_path(&scene, d, &mut rng, &mut deposits, &mut tally);
             for (bin, c) in deposits.drain() {
-                for (ch, v) in c.iter().enumerate() {
+                // A deposit is MAX_CHANNELS wide; an RGB film reads its first three.
+                for (ch, v) in c.iter().take(3).enumerate() {
                     x1[bin as usize * 3 + ch] += v;
                 }
             }
