@@ -157,10 +157,10 @@ fn a_quarter_wave_retarder_turns_linear_into_circular_light() {
 
 /// Fresnel: light of an area emitter reflected once by a smooth dielectric mirror
 /// (eta 1.5) at incidence theta (transmitted paths see nothing) arrives polarized as
-/// the textbook formulas say: every reflected sample has S1 / S0 = (R_s - R_p) / (R_s
-/// + R_p) in the sensor's frame, whose x axis is the s direction here (the plane of
-/// incidence is vertical), S2 = S3 = 0; S0 per path is (R_s + R_p) / 2, the chance
-/// of choosing reflection, within 4 standard errors.
+/// the textbook formulas say: every reflected sample has S1 / S0 equal to
+/// `(R_s - R_p) / (R_s + R_p)` in the sensor's frame, whose x axis is the s direction
+/// here (the plane of incidence is vertical), and S2 = S3 = 0; S0 per path is
+/// `(R_s + R_p) / 2`, the chance of choosing reflection, within 4 standard errors.
 #[test]
 fn a_dielectric_mirror_polarizes_as_fresnel_says() {
     for theta_deg in [20.0f64, 56.3, 75.0] {
@@ -403,6 +403,10 @@ fn glare_off_a_floor_is_horizontal_for_a_camera_along_x_with_up_z() {
     let rp = ((n * cos_i - cos_t) / (n * cos_i + cos_t)).powi(2);
     let want = (rs - rp) / (rs + rp);
     assert!(want > 0.9);
-    assert!((s[1] / s[0] - want).abs() < 2e-3, "S1/S0 {} against {want}", s[1] / s[0]);
+    assert!(
+        (s[1] / s[0] - want).abs() < 2e-3,
+        "S1/S0 {} against {want}",
+        s[1] / s[0]
+    );
     assert!(s[2].abs() < 2e-3 * s[0], "{s:?}");
 }
