@@ -28,6 +28,7 @@ pub mod material;
 pub mod microfacet;
 pub mod mueller;
 mod null;
+mod pane;
 pub mod perturbed;
 mod plastic;
 mod polarizer;

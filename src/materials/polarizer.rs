@@ -16,9 +16,7 @@
 //! `(sin theta, cos theta, 0)` of the local frame, projected onto the plane orthogonal
 //! to the beam (Korger et al. 2013, a tilted polarizer).
 
-use super::{BsdfFlags, BsdfModel, BsdfSample};
 use crate::math::Rgb;
-use glam::Vec3;
 
 #[derive(Clone, Debug, PartialEq)]
 pub struct Polarizer {
@@ -29,34 +27,4 @@ pub struct Polarizer {
     pub polarizing: bool,
 }
 
-impl BsdfModel for Polarizer {
-    #[inline]
-    fn flags(&self, _wo: Vec3) -> BsdfFlags {
-        BsdfFlags::DELTA_TRANSMISSION
-    }
-
-    #[inline]
-    fn eval(&self, _wo: Vec3, _wi: Vec3) -> Rgb {
-        Rgb::ZERO
-    }
-
-    #[inline]
-    fn pdf(&self, _wo: Vec3, _wi: Vec3) -> f32 {
-        0.0
-    }
-
-    #[inline]
-    fn sample(&self, wo: Vec3, _u1: f32, _u2: [f32; 2]) -> Option<BsdfSample> {
-        Some(BsdfSample {
-            wi: -wo,
-            weight: self.transmittance * 0.5,
-            pdf: 1.0,
-            lobe: BsdfFlags::DELTA_TRANSMISSION,
-            eta: 1.0,
-        })
-    }
-
-    fn albedo(&self, _wo: Vec3) -> Rgb {
-        self.transmittance * 0.5
-    }
-}
+super::pane::straight_through_pane!(Polarizer, |p: &Polarizer| p.transmittance * 0.5);
