@@ -791,7 +791,8 @@ impl Bundle {
             let all_ok = match channels {
                 3 => voxels_ok::<3>(block, &counts[k0..], ok, any_empty),
                 1 => voxels_ok::<1>(block, &counts[k0..], ok, any_empty),
-                _ => voxels_ok::<4>(block, &counts[k0..], ok, any_empty),
+                4 => voxels_ok::<4>(block, &counts[k0..], ok, any_empty),
+                _ => voxels_ok::<12>(block, &counts[k0..], ok, any_empty),
             };
             if all_ok {
                 return None;

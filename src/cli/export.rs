@@ -4,6 +4,7 @@
 use super::util::{arg, check_outputs, Kind};
 use crate::bundle::write::stage;
 use crate::bundle::{Bundle, BundleError, Problem};
+use crate::scene::mode::RenderMode;
 use anyhow::bail;
 use clap::Args;
 use ndarray::Array3;
@@ -58,11 +59,39 @@ pub fn write_exr_rgb(path: &Path, img: &Array3<f32>) -> Result<(), BundleError> 
     .map_err(|e| BundleError::io(path, e))
 }
 
+/// Writes an (H, W, T, C) volume as .npy: (H, W, T, 3, 4) when C = 12 (a spectral
+/// Stokes volume, RGB x Stokes: the bundle's channels are RGB-major), else as it is.
+pub fn write_volume_npy(
+    path: &Path,
+    v: ndarray::ArrayView4<f32>,
+) -> Result<(), ndarray_npy::WriteNpyError> {
+    let (h, w, t, c) = v.dim();
+    if c == 12 {
+        let v = v
+            .into_shape_with_order((h, w, t, 3, 4))
+            .expect("a bundle's volume is in standard layout");
+        ndarray_npy::write_npy(path, &v)
+    } else {
+        ndarray_npy::write_npy(path, &v)
+    }
+}
+
+/// The shape a `--out` or `--steady` .npy of `mode` has, from the bundle's (.., C):
+/// (.., 3, 4) for spectral_polarized (RGB x Stokes), else the same.
+fn stokes_shape(mode: RenderMode, shape: &[usize]) -> Vec<usize> {
+    let mut s = shape.to_vec();
+    if mode == RenderMode::SpectralPolarized {
+        s.pop();
+        s.extend([3, 4]);
+    }
+    s
+}
+
 /// The OpenEXR channel names of a bundle's channels: R, G, B; Y (mono); S0.Y .. S3.Y
 /// (mono_polarized: Mitsuba's `stokes` integrator names its layers S0 .. S3, and a
-/// mono layer's channel is Y).
-pub fn exr_channel_names(mode: crate::scene::mode::RenderMode) -> Vec<String> {
-    use crate::scene::mode::RenderMode;
+/// mono layer's channel is Y); S0.R .. S3.B (spectral_polarized, Mitsuba's names, in
+/// the bundle's RGB-major order; EXR files sort their channels by name).
+pub fn exr_channel_names(mode: RenderMode) -> Vec<String> {
     match mode {
         RenderMode::MonoPolarized => mode
             .channel_names()
@@ -166,11 +195,16 @@ pub fn run(a: ExportArgs) -> anyhow::Result<()> {
     let mut staged = Vec::new();
     if let Some(out) = &a.out {
         let mean = bundle.noisy_mean()?;
+        let shape = mean.shape().to_vec();
         staged.push((
             stage(out, a.force, |tmp| {
-                ndarray_npy::write_npy(tmp, &mean).map_err(|e| BundleError::io(out, e))
+                write_volume_npy(tmp, mean.view()).map_err(|e| BundleError::io(out, e))
             })?,
-            format!("wrote {} (f32 {:?})", out.display(), mean.shape()),
+            format!(
+                "wrote {} (f32 {:?})",
+                out.display(),
+                stokes_shape(bundle.manifest.mode, &shape)
+            ),
         ));
     }
     if let Some(s) = &a.steady {
@@ -191,11 +225,26 @@ pub fn run(a: ExportArgs) -> anyhow::Result<()> {
             stage(s, a.force, |tmp| {
                 if extension(s) == "exr" {
                     write_exr(tmp, &img, &exr_channel_names(bundle.manifest.mode))
+                } else if bundle.manifest.mode == RenderMode::SpectralPolarized {
+                    let (h, w, _) = img.dim();
+                    let v = img
+                        .clone()
+                        .into_shape_with_order((h, w, 3, 4))
+                        .expect("12 channels");
+                    ndarray_npy::write_npy(tmp, &v).map_err(|e| BundleError::io(s, e))
                 } else {
                     ndarray_npy::write_npy(tmp, &img).map_err(|e| BundleError::io(s, e))
                 }
             })?,
-            format!("wrote {} (f32 {:?})", s.display(), img.shape()),
+            format!(
+                "wrote {} (f32 {:?})",
+                s.display(),
+                if extension(s) == "exr" {
+                    img.shape().to_vec()
+                } else {
+                    stokes_shape(bundle.manifest.mode, img.shape())
+                }
+            ),
         ));
     }
     if let Some(t) = &a.tal {

@@ -147,6 +147,10 @@ pub fn run(a: FramesArgs) -> anyhow::Result<()> {
                 "; a Stokes volume: S0 as grey, and AoLP/DoLP and S1, S2, S3 / S0 pictures in {}/polarization/",
                 a.out.display()
             ),
+            12 => format!(
+                "; a spectral Stokes volume: S0 in colour, and AoLP/DoLP and S1, S2, S3 / S0 pictures of its luminance in {}/polarization/",
+                a.out.display()
+            ),
             _ => String::new(),
         }
     );

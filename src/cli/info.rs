@@ -36,6 +36,8 @@ pub fn run(a: InfoArgs) -> anyhow::Result<()> {
             crate::scene::mode::RenderMode::Mono => "mono paths: the luminance of every colour",
             crate::scene::mode::RenderMode::MonoPolarized =>
                 "mono polarized paths: Stokes S0..S3 in the sensor's frame, S1..S3 signed",
+            crate::scene::mode::RenderMode::SpectralPolarized =>
+                "spectral polarized paths: Stokes S0..S3 of each linear sRGB channel in the sensor's frame, signed",
         }
     );
     say!(

@@ -87,6 +87,8 @@ pub enum ModeArg {
     Mono,
     #[value(name = "mono_polarized", alias = "mono-polarized")]
     MonoPolarized,
+    #[value(name = "spectral_polarized", alias = "spectral-polarized")]
+    SpectralPolarized,
 }
 
 impl ModeArg {
@@ -102,6 +104,7 @@ impl From<ModeArg> for crate::scene::mode::RenderMode {
             ModeArg::Spectral => Self::Spectral,
             ModeArg::Mono => Self::Mono,
             ModeArg::MonoPolarized => Self::MonoPolarized,
+            ModeArg::SpectralPolarized => Self::SpectralPolarized,
         }
     }
 }

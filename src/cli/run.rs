@@ -169,8 +169,8 @@ fn job(
     a.filter.check_bundle(&bundle.manifest)?;
     let den = with_threads(o.threads, || denoise_bundle(&bundle, &params, &|_| {}))??;
     eprintln!("denoised in {:.2} s", den.seconds);
-    ndarray_npy::write_npy(dir.join("noisy.npy"), &noisy)?;
-    ndarray_npy::write_npy(dir.join("denoised.npy"), &den.volume)?;
+    super::export::write_volume_npy(&dir.join("noisy.npy"), noisy.view())?;
+    super::export::write_volume_npy(&dir.join("denoised.npy"), den.volume.view())?;
     let both = side_by_side(noisy.view(), den.volume.view(), 2);
     let req = FramesRequest {
         every: o.every,

@@ -272,6 +272,20 @@ kernels!(4:
     (2, ti2, tj2, vi2, vj2, mi2, n2),
     (3, ti3, tj3, vi3, vj3, mi3, n3)
 );
+kernels!(12:
+    (0, ti0, tj0, vi0, vj0, mi0, n0),
+    (1, ti1, tj1, vi1, vj1, mi1, n1),
+    (2, ti2, tj2, vi2, vj2, mi2, n2),
+    (3, ti3, tj3, vi3, vj3, mi3, n3),
+    (4, ti4, tj4, vi4, vj4, mi4, n4),
+    (5, ti5, tj5, vi5, vj5, mi5, n5),
+    (6, ti6, tj6, vi6, vj6, mi6, n6),
+    (7, ti7, tj7, vi7, vj7, mi7, n7),
+    (8, ti8, tj8, vi8, vj8, mi8, n8),
+    (9, ti9, tj9, vi9, vj9, mi9, n9),
+    (10, ti10, tj10, vi10, vj10, mi10, n10),
+    (11, ti11, tj11, vi11, vj11, mi11, n11)
+);
 
 /// What the filter does with a method's pair test ([`PairTest`], `membership.rs`): the
 /// method hands its test, or `None`, to [`PairTestUser::with`]
@@ -743,7 +757,10 @@ impl PairTestUser for Rows<'_, '_> {
                     1 => filter_band_isa::<T, 1>(&shared, &band, k, out_band),
                     3 => filter_band_isa::<T, 3>(&shared, &band, k, out_band),
                     4 => filter_band_isa::<T, 4>(&shared, &band, k, out_band),
-                    c => unreachable!("{c} channels: films have 1, 3 or 4 (checked on reading)"),
+                    12 => filter_band_isa::<T, 12>(&shared, &band, k, out_band),
+                    c => {
+                        unreachable!("{c} channels: films have 1, 3, 4 or 12 (checked on reading)")
+                    }
                 };
                 let y0 = rows.start + k * band_rows;
                 progress(((rows.end.min(y0 + band_rows) - y0) * w) as u64);

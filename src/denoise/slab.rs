@@ -290,7 +290,8 @@ pub fn denoise_slabs(
     })
 }
 
-/// A denoised volume, f32 (H, W, T, C) `.npy`, written row by row at the rows'
+/// A denoised volume, f32 (H, W, T, C) `.npy` ((H, W, T, 3, 4) for C = 12, a
+/// spectral Stokes volume, as `tstat export` writes it), written row by row at the rows'
 /// offsets into a file created at its full size (the same bytes `write_npy` gives).
 pub struct NpyVolumeWriter {
     file: std::fs::File,
@@ -313,8 +314,13 @@ impl NpyVolumeWriter {
     ) -> Result<NpyVolumeWriter, BundleError> {
         use std::io::Seek;
         let mut file = std::fs::File::create(path).map_err(|e| BundleError::io(shown, e))?;
-        ndarray_npy::write_zeroed_npy::<f32, _>(&file, (height, width, bins, channels))
-            .map_err(|e| BundleError::io(shown, e))?;
+        // A spectral Stokes volume is (H, W, T, 3, 4), RGB x Stokes: the same bytes.
+        if channels == 12 {
+            ndarray_npy::write_zeroed_npy::<f32, _>(&file, (height, width, bins, 3, 4))
+        } else {
+            ndarray_npy::write_zeroed_npy::<f32, _>(&file, (height, width, bins, channels))
+        }
+        .map_err(|e| BundleError::io(shown, e))?;
         let data_offset = file
             .stream_position()
             .map_err(|e| BundleError::io(shown, e))?;

@@ -13,11 +13,14 @@
 //! - The matrix maps a Stokes vector in the basis `stokes_basis(-wi)` to one in
 //!   `stokes_basis(wo)`, both local vectors: what Mitsuba's BSDF returns before the
 //!   integrator's `si.to_world_mueller(value, -wo, si.wi)` ([`to_world_mueller`]).
-//! - Mono: lane 0 of every colour (the mono mode makes all lanes equal).
-//! - `delta = None`: the sum over the non-delta lobes; its [0][0] is lane 0 of
+//! - Lanes: `mueller_lane(.., lane)` reads lane `lane` of every colour: the mono mode
+//!   makes all lanes equal and asks lane 0 ([`Bsdf::mueller`]); a spectral polarized
+//!   path asks each of its wavelengths' lanes (one matrix per wavelength, as Mitsuba's
+//!   `spectral_polarized` variants, whose Mueller matrices are per wavelength).
+//! - `delta = None`: the sum over the non-delta lobes; its [0][0] is the lane of
 //!   `eval(wo, wi)` (f |cos|). `delta = Some(lobe)` for a pair `sample` produced
 //!   through a delta lobe (`BsdfSample::lobe`): that lobe's matrix, before division by
-//!   the lobe-choice probability, so [0][0] is lane 0 of `weight * pdf`. A delta model
+//!   the lobe-choice probability, so [0][0] is the lane of `weight * pdf`. A delta model
 //!   asked about a direction its lobe does not reach returns zero (what a wrapper
 //!   needs to tell its children's lobes apart).
 //!
@@ -121,13 +124,19 @@ pub fn to_world_mueller(frame: &Frame, m: Mat4, in_forward: Vec3, out_forward: V
     )
 }
 
-/// The value (lane 0 of `weight * pdf`) of the delta lobe `lobe` of a model that
+/// The value (lane `lane` of `weight * pdf`) of the delta lobe `lobe` of a model that
 /// picks its lobes by `u1` in order, found by sampling it: exactly the scalar code's.
-fn delta_value_by_sampling(b: &impl BsdfModel, wo: Vec3, wi: Vec3, lobe: BsdfFlags) -> f32 {
+fn delta_value_by_sampling(
+    b: &impl BsdfModel,
+    wo: Vec3,
+    wi: Vec3,
+    lobe: BsdfFlags,
+    lane: usize,
+) -> f32 {
     for u1 in [0.0, 0.5, 1.0 - f32::EPSILON] {
         if let Some(s) = b.sample(wo, u1, [0.5, 0.5]) {
             if s.lobe == lobe && same_direction(s.wi, wi) {
-                return s.weight.x * s.pdf;
+                return s.weight[lane] * s.pdf;
             }
         }
     }
@@ -136,65 +145,76 @@ fn delta_value_by_sampling(b: &impl BsdfModel, wo: Vec3, wi: Vec3, lobe: BsdfFla
 
 /// A depolarizing model: `depolarizer(eval)` for the non-delta lobes and
 /// `depolarizer(weight * pdf)` for its delta lobes.
-fn depolarizing(b: &impl BsdfModel, wo: Vec3, wi: Vec3, delta: Option<BsdfFlags>) -> Mat4 {
+fn depolarizing(
+    b: &impl BsdfModel,
+    wo: Vec3,
+    wi: Vec3,
+    delta: Option<BsdfFlags>,
+    lane: usize,
+) -> Mat4 {
     match delta {
-        None => depolarizer(b.eval(wo, wi).x),
+        None => depolarizer(b.eval(wo, wi)[lane]),
         Some(lobe) if b.flags(wo).contains(lobe) => {
-            depolarizer(delta_value_by_sampling(b, wo, wi, lobe))
+            depolarizer(delta_value_by_sampling(b, wo, wi, lobe, lane))
         }
         Some(_) => Mat4::ZERO,
     }
 }
 
 impl Bsdf {
+    /// [`Bsdf::mueller_lane`] of lane 0: the mono-polarized matrix.
+    pub fn mueller(&self, wo: Vec3, wi: Vec3, delta: Option<BsdfFlags>) -> Mat4 {
+        self.mueller_lane(wo, wi, delta, 0)
+    }
+
     /// The Mueller matrix of light arriving along `-wi` and leaving along `wo` (local
-    /// frame), mono (lane 0 of every colour), with input basis `stokes_basis(-wi)` and
+    /// frame), at lane `lane` of every colour, with input basis `stokes_basis(-wi)` and
     /// output basis `stokes_basis(wo)`: what Mitsuba's BSDF returns in a
     /// `mono_polarized` variant before `si.to_world_mueller(value, -wo_mitsuba,
     /// si.wi)`. `delta`: `Some(lobe)` when `(wo, wi)` came from `sample` through a
     /// delta lobe (`BsdfSample::lobe`): that lobe's matrix before division by the
-    /// lobe-choice probability ([0][0] = lane 0 of `weight * pdf`); `None`: the sum
-    /// over the non-delta lobes ([0][0] = lane 0 of `eval(wo, wi)`).
-    pub fn mueller(&self, wo: Vec3, wi: Vec3, delta: Option<BsdfFlags>) -> Mat4 {
+    /// lobe-choice probability ([0][0] = the lane of `weight * pdf`); `None`: the sum
+    /// over the non-delta lobes ([0][0] = the lane of `eval(wo, wi)`).
+    pub fn mueller_lane(&self, wo: Vec3, wi: Vec3, delta: Option<BsdfFlags>, lane: usize) -> Mat4 {
         match self {
-            Bsdf::Diffuse(b) => depolarizing(b, wo, wi, delta),
-            Bsdf::Plastic(b) => depolarizing(b, wo, wi, delta),
-            Bsdf::RoughPlastic(b) => depolarizing(b, wo, wi, delta),
-            Bsdf::RoughDielectric(b) => depolarizing(b, wo, wi, delta),
-            Bsdf::ThinDielectric(b) => depolarizing(b, wo, wi, delta),
-            Bsdf::Principled(b) => depolarizing(b, wo, wi, delta),
-            Bsdf::PrincipledThin(b) => depolarizing(b, wo, wi, delta),
-            Bsdf::Conductor(b) => b.mueller(wo, wi, delta),
-            Bsdf::RoughConductor(b) => b.mueller(wo, wi, delta),
-            Bsdf::Dielectric(b) => b.mueller(wo, wi, delta),
-            Bsdf::PPlastic(b) => b.mueller(wo, wi, delta),
-            Bsdf::Polarizer(b) => b.mueller(wo, wi, delta),
-            Bsdf::Retarder(b) => b.mueller(wo, wi, delta),
-            Bsdf::Circular(b) => b.mueller(wo, wi, delta),
+            Bsdf::Diffuse(b) => depolarizing(b, wo, wi, delta, lane),
+            Bsdf::Plastic(b) => depolarizing(b, wo, wi, delta, lane),
+            Bsdf::RoughPlastic(b) => depolarizing(b, wo, wi, delta, lane),
+            Bsdf::RoughDielectric(b) => depolarizing(b, wo, wi, delta, lane),
+            Bsdf::ThinDielectric(b) => depolarizing(b, wo, wi, delta, lane),
+            Bsdf::Principled(b) => depolarizing(b, wo, wi, delta, lane),
+            Bsdf::PrincipledThin(b) => depolarizing(b, wo, wi, delta, lane),
+            Bsdf::Conductor(b) => b.mueller_lane(wo, wi, delta, lane),
+            Bsdf::RoughConductor(b) => b.mueller_lane(wo, wi, delta, lane),
+            Bsdf::Dielectric(b) => b.mueller_lane(wo, wi, delta, lane),
+            Bsdf::PPlastic(b) => b.mueller_lane(wo, wi, delta, lane),
+            Bsdf::Polarizer(b) => b.mueller_lane(wo, wi, delta, lane),
+            Bsdf::Retarder(b) => b.mueller_lane(wo, wi, delta, lane),
+            Bsdf::Circular(b) => b.mueller_lane(wo, wi, delta, lane),
             Bsdf::Null(_) => match delta {
                 Some(BsdfFlags::DELTA_TRANSMISSION) if same_direction(wi, -wo) => Mat4::IDENTITY,
                 _ => Mat4::ZERO,
             },
-            Bsdf::TwoSided(b) => b.mueller(wo, wi, delta),
-            Bsdf::Mask(b) => b.mueller(wo, wi, delta),
-            Bsdf::Separable(s) => s.inner.mueller(wo, wi, delta),
-            Bsdf::Composed(b) => b.mueller(wo, wi, delta),
-            Bsdf::Blend(b) => b.mueller(wo, wi, delta),
-            Bsdf::Perturbed(b) => b.mueller(wo, wi, delta),
+            Bsdf::TwoSided(b) => b.mueller_lane(wo, wi, delta, lane),
+            Bsdf::Mask(b) => b.mueller_lane(wo, wi, delta, lane),
+            Bsdf::Separable(s) => s.inner.mueller_lane(wo, wi, delta, lane),
+            Bsdf::Composed(b) => b.mueller_lane(wo, wi, delta, lane),
+            Bsdf::Blend(b) => b.mueller_lane(wo, wi, delta, lane),
+            Bsdf::Perturbed(b) => b.mueller_lane(wo, wi, delta, lane),
         }
     }
 }
 
 impl OneSided {
     /// [`Bsdf::mueller`] of the wrapped model.
-    pub fn mueller(&self, wo: Vec3, wi: Vec3, delta: Option<BsdfFlags>) -> Mat4 {
+    pub fn mueller_lane(&self, wo: Vec3, wi: Vec3, delta: Option<BsdfFlags>, lane: usize) -> Mat4 {
         match self {
-            OneSided::Diffuse(b) => depolarizing(b, wo, wi, delta),
-            OneSided::Conductor(b) => b.mueller(wo, wi, delta),
-            OneSided::RoughConductor(b) => b.mueller(wo, wi, delta),
-            OneSided::Plastic(b) => depolarizing(b, wo, wi, delta),
-            OneSided::RoughPlastic(b) => depolarizing(b, wo, wi, delta),
-            OneSided::PPlastic(b) => b.mueller(wo, wi, delta),
+            OneSided::Diffuse(b) => depolarizing(b, wo, wi, delta, lane),
+            OneSided::Conductor(b) => b.mueller_lane(wo, wi, delta, lane),
+            OneSided::RoughConductor(b) => b.mueller_lane(wo, wi, delta, lane),
+            OneSided::Plastic(b) => depolarizing(b, wo, wi, delta, lane),
+            OneSided::RoughPlastic(b) => depolarizing(b, wo, wi, delta, lane),
+            OneSided::PPlastic(b) => b.mueller_lane(wo, wi, delta, lane),
         }
     }
 }
@@ -202,23 +222,23 @@ impl OneSided {
 impl Conductor {
     /// Mitsuba's `conductor`: Fresnel reflection at `cos(wi)` in the s/p frame of the
     /// normal, times `specular_reflectance`.
-    pub fn mueller(&self, wo: Vec3, wi: Vec3, delta: Option<BsdfFlags>) -> Mat4 {
+    pub fn mueller_lane(&self, wo: Vec3, wi: Vec3, delta: Option<BsdfFlags>, lane: usize) -> Mat4 {
         if delta != Some(BsdfFlags::DELTA_REFLECTION)
             || wo.z <= 0.0
             || !same_direction(wi, mirror(wo))
         {
             return Mat4::ZERO;
         }
-        let eta = C64::new(self.eta.x as f64, self.k.x as f64);
+        let eta = C64::new(self.eta[lane] as f64, self.k[lane] as f64);
         let f = specular_reflection(wi.z as f64, eta);
-        sp_to_implicit(f, Vec3::Z, wo, wi) * self.specular_reflectance.x
+        sp_to_implicit(f, Vec3::Z, wo, wi) * self.specular_reflectance[lane]
     }
 }
 
 impl RoughConductor {
     /// Mitsuba's `roughconductor`: Fresnel reflection at `wi . m` in the s/p frame of
     /// the microfacet normal `m = normalize(wo + wi)`, times reflectance D G / (4 cos wo).
-    pub fn mueller(&self, wo: Vec3, wi: Vec3, delta: Option<BsdfFlags>) -> Mat4 {
+    pub fn mueller_lane(&self, wo: Vec3, wi: Vec3, delta: Option<BsdfFlags>, lane: usize) -> Mat4 {
         if delta.is_some() || wo.z <= 0.0 || wi.z <= 0.0 {
             return Mat4::ZERO;
         }
@@ -231,9 +251,9 @@ impl RoughConductor {
             return Mat4::ZERO;
         }
         let g = distr.g1(wi, m) * distr.g1(wo, m);
-        let eta = C64::new(self.eta.x as f64, self.k.x as f64);
+        let eta = C64::new(self.eta[lane] as f64, self.k[lane] as f64);
         let f = specular_reflection(wi.dot(m) as f64, eta);
-        sp_to_implicit(f, m, wo, wi) * (self.specular_reflectance.x * (d * g / (4.0 * wo.z)))
+        sp_to_implicit(f, m, wo, wi) * (self.specular_reflectance[lane] * (d * g / (4.0 * wo.z)))
     }
 }
 
@@ -241,12 +261,12 @@ impl Dielectric {
     /// Mitsuba's `dielectric`: Fresnel reflection or transmission of light arriving
     /// along `-wi` (`cos(wi)`, either side) in the s/p frame of the normal, times the
     /// reflectance or transmittance; transmitted, times `eta_ti^2` (radiance).
-    pub fn mueller(&self, wo: Vec3, wi: Vec3, delta: Option<BsdfFlags>) -> Mat4 {
+    pub fn mueller_lane(&self, wo: Vec3, wi: Vec3, delta: Option<BsdfFlags>, lane: usize) -> Mat4 {
         let eta = self.eta as f64;
         match delta {
             Some(BsdfFlags::DELTA_REFLECTION) if same_direction(wi, mirror(wo)) => {
                 let r = specular_reflection(wi.z as f64, C64::new(eta, 0.0));
-                sp_to_implicit(r, Vec3::Z, wo, wi) * self.specular_reflectance.x
+                sp_to_implicit(r, Vec3::Z, wo, wi) * self.specular_reflectance[lane]
             }
             Some(BsdfFlags::DELTA_TRANSMISSION) => {
                 let (_, cos_theta_t, _, eta_ti) = fresnel_dielectric(wo.z, self.eta);
@@ -260,7 +280,7 @@ impl Dielectric {
                 // carries an f32 error magnified some 30 times: evaluate at cos(wo).
                 let t = specular_transmission(wo.z as f64, eta);
                 sp_to_implicit(t, Vec3::Z, wo, wi)
-                    * (self.specular_transmittance.x * (eta_ti * eta_ti))
+                    * (self.specular_transmittance[lane] * (eta_ti * eta_ti))
             }
             _ => Mat4::ZERO,
         }
@@ -272,7 +292,7 @@ impl PPlastic {
     /// `eta`) plus the diffuse base seen through the interface, `T(wo) depolarizer(d)
     /// T(wi) cos(wi) / pi` in the s/p frame of the normal (the light refracts in along
     /// `-wi`, is depolarized, and refracts out along `wo`).
-    pub fn mueller(&self, wo: Vec3, wi: Vec3, delta: Option<BsdfFlags>) -> Mat4 {
+    pub fn mueller_lane(&self, wo: Vec3, wi: Vec3, delta: Option<BsdfFlags>, lane: usize) -> Mat4 {
         if delta.is_some() || wo.z <= 0.0 || wi.z <= 0.0 {
             return Mat4::ZERO;
         }
@@ -285,7 +305,7 @@ impl PPlastic {
                 let g = distr.g1(wi, h) * distr.g1(wo, h);
                 let f = specular_reflection(wi.dot(h) as f64, C64::new(eta, 0.0));
                 out += sp_to_implicit(f, h, wo, wi)
-                    * (self.specular_reflectance.x * (d * g / (4.0 * wo.z)));
+                    * (self.specular_reflectance[lane] * (d * g / (4.0 * wo.z)));
             }
         }
         // In through the interface along -wi, out along wo. Mitsuba evaluates the
@@ -294,7 +314,7 @@ impl PPlastic {
         // outside, without the f32 error of the refracted cosine.
         let t_in = specular_transmission(wi.z as f64, eta);
         let t_out = specular_transmission(wo.z as f64, eta);
-        let diffuse = t_out * depolarizer(self.diffuse_reflectance.x) * t_in;
+        let diffuse = t_out * depolarizer(self.diffuse_reflectance[lane]) * t_in;
         out + sp_to_implicit_each(diffuse, Vec3::Z, wo, wi) * (wi.z * std::f32::consts::FRAC_1_PI)
     }
 }
@@ -304,11 +324,11 @@ impl Polarizer {
     /// `forward x a` with `a = (sin theta, cos theta, 0)` made orthogonal to the beam
     /// (`forward = wo`, the direction the light travels), times `transmittance`; not
     /// `polarizing`: an absorber of 0.5 transmittance (the identity scaled).
-    pub fn mueller(&self, wo: Vec3, wi: Vec3, delta: Option<BsdfFlags>) -> Mat4 {
+    pub fn mueller_lane(&self, wo: Vec3, wi: Vec3, delta: Option<BsdfFlags>, lane: usize) -> Mat4 {
         if delta != Some(BsdfFlags::DELTA_TRANSMISSION) || !same_direction(wi, -wo) {
             return Mat4::ZERO;
         }
-        let t = self.transmittance.x;
+        let t = self.transmittance[lane];
         if !self.polarizing {
             return Mat4::IDENTITY * (0.5 * t);
         }
@@ -333,7 +353,7 @@ impl Retarder {
     /// Mitsuba's `retarder`: a linear retarder of retardance `delta |cos(wo)|` with its
     /// fast axis turned by `theta` (by `-theta` seen from the back) from the frame
     /// vector (1, 0, 0), re-expressed along `forward = wo`, times `transmittance`.
-    pub fn mueller(&self, wo: Vec3, wi: Vec3, delta: Option<BsdfFlags>) -> Mat4 {
+    pub fn mueller_lane(&self, wo: Vec3, wi: Vec3, delta: Option<BsdfFlags>, lane: usize) -> Mat4 {
         if delta != Some(BsdfFlags::DELTA_TRANSMISSION) || !same_direction(wi, -wo) {
             return Mat4::ZERO;
         }
@@ -341,7 +361,7 @@ impl Retarder {
         let m = linear_retarder(self.delta.to_radians() * cos.abs());
         let side = if cos >= 0.0 { 1.0 } else { -1.0 };
         let m = rotated_element(side * self.theta.to_radians(), m);
-        rotate_mueller_basis_collinear(m, wo, Vec3::X, stokes_basis(wo)) * self.transmittance.x
+        rotate_mueller_basis_collinear(m, wo, Vec3::X, stokes_basis(wo)) * self.transmittance[lane]
     }
 }
 
@@ -349,22 +369,22 @@ impl Circular {
     /// Mitsuba's `circular`: an ideal right (or `left_handed`) circular polarizer,
     /// re-expressed along `forward = wo` from the frame vector (1, 0, 0) (which
     /// changes nothing: it is rotation invariant), times `transmittance`.
-    pub fn mueller(&self, wo: Vec3, wi: Vec3, delta: Option<BsdfFlags>) -> Mat4 {
+    pub fn mueller_lane(&self, wo: Vec3, wi: Vec3, delta: Option<BsdfFlags>, lane: usize) -> Mat4 {
         if delta != Some(BsdfFlags::DELTA_TRANSMISSION) || !same_direction(wi, -wo) {
             return Mat4::ZERO;
         }
         let m = circular_polarizer(!self.left_handed);
-        rotate_mueller_basis_collinear(m, wo, Vec3::X, stokes_basis(wo)) * self.transmittance.x
+        rotate_mueller_basis_collinear(m, wo, Vec3::X, stokes_basis(wo)) * self.transmittance[lane]
     }
 }
 
 impl TwoSided {
     /// The side's matrix, the back side evaluated with z flipped and its matrix used
     /// as it comes, as Mitsuba's `twosided` does.
-    pub fn mueller(&self, wo: Vec3, wi: Vec3, delta: Option<BsdfFlags>) -> Mat4 {
+    pub fn mueller_lane(&self, wo: Vec3, wi: Vec3, delta: Option<BsdfFlags>, lane: usize) -> Mat4 {
         match self.side(wo) {
-            (b, false) => b.mueller(wo, wi, delta),
-            (b, true) => b.mueller(flip_z(wo), flip_z(wi), delta),
+            (b, false) => b.mueller_lane(wo, wi, delta, lane),
+            (b, true) => b.mueller_lane(flip_z(wo), flip_z(wi), delta, lane),
         }
     }
 }
@@ -372,10 +392,10 @@ impl TwoSided {
 impl Mask {
     /// `opacity` times the nested matrix, plus (delta transmission straight through)
     /// `(1 - opacity)` times the identity.
-    pub fn mueller(&self, wo: Vec3, wi: Vec3, delta: Option<BsdfFlags>) -> Mat4 {
+    pub fn mueller_lane(&self, wo: Vec3, wi: Vec3, delta: Option<BsdfFlags>, lane: usize) -> Mat4 {
         let mut m = Mat4::ZERO;
         if self.opacity > 0.0 {
-            m = self.nested.mueller(wo, wi, delta) * self.opacity;
+            m = self.nested.mueller_lane(wo, wi, delta, lane) * self.opacity;
         }
         if delta == Some(BsdfFlags::DELTA_TRANSMISSION)
             && self.opacity < 1.0
@@ -391,7 +411,7 @@ impl Blend {
     /// The children's matrices weighted by their shares. For a delta lobe, as tstat's
     /// (and Mitsuba's) `sample`: the delta matrix of the child that has the lobe plus
     /// the other child's non-delta matrix in that direction.
-    pub fn mueller(&self, wo: Vec3, wi: Vec3, delta: Option<BsdfFlags>) -> Mat4 {
+    pub fn mueller_lane(&self, wo: Vec3, wi: Vec3, delta: Option<BsdfFlags>, lane: usize) -> Mat4 {
         let mut m = Mat4::ZERO;
         for (b, w) in [
             (&self.first, 1.0 - self.weight),
@@ -402,7 +422,7 @@ impl Blend {
                     Some(lobe) if !b.flags(wo).contains(lobe) => None,
                     d => d,
                 };
-                m += b.mueller(wo, wi, own) * w;
+                m += b.mueller_lane(wo, wi, own, lane) * w;
             }
         }
         m
@@ -413,10 +433,10 @@ impl Composed {
     /// The mixture for non-delta lobes; for a delta lobe, as `sample` (which returns
     /// the child's sample unchanged), the matrix of the child that has it, or the
     /// weighted mixture of both when both do.
-    pub fn mueller(&self, wo: Vec3, wi: Vec3, delta: Option<BsdfFlags>) -> Mat4 {
+    pub fn mueller_lane(&self, wo: Vec3, wi: Vec3, delta: Option<BsdfFlags>, lane: usize) -> Mat4 {
         let w = self.weight;
-        let first = |d| self.first.mueller(wo, wi, d);
-        let second = |d| self.second.mueller(wo, wi, d);
+        let first = |d| self.first.mueller_lane(wo, wi, d, lane);
+        let second = |d| self.second.mueller_lane(wo, wi, d, lane);
         match delta {
             None => {
                 let mut m = Mat4::ZERO;
@@ -445,7 +465,7 @@ impl Composed {
 impl Perturbed {
     /// The nested matrix in the perturbed frame (times the shadowing term, zero where
     /// `wi` changes side), re-expressed in the implicit bases of the outer frame.
-    pub fn mueller(&self, wo: Vec3, wi: Vec3, delta: Option<BsdfFlags>) -> Mat4 {
+    pub fn mueller_lane(&self, wo: Vec3, wi: Vec3, delta: Option<BsdfFlags>, lane: usize) -> Mat4 {
         let (po, pi) = (self.frame.to_local(wo), self.frame.to_local(wi));
         if wi.z * pi.z <= 0.0 {
             return Mat4::ZERO;
@@ -455,7 +475,7 @@ impl Perturbed {
         } else {
             1.0
         };
-        let m = self.nested.mueller(po, pi, delta) * shadow;
+        let m = self.nested.mueller_lane(po, pi, delta, lane) * shadow;
         to_world_mueller(&self.frame, m, -pi, po)
     }
 }
@@ -752,7 +772,7 @@ mod tests {
             for _ in 0..200 {
                 let wo = sphere(&mut rng);
                 let wi = sphere(&mut rng);
-                let m = b.mueller(wo, wi, None);
+                let m = b.mueller_lane(wo, wi, None, 0);
                 let e = b.eval(wo, wi).x;
                 assert!(
                     close(m.x_axis.x, e),
@@ -769,7 +789,7 @@ mod tests {
                     if !s.lobe.is_delta() {
                         continue;
                     }
-                    let m = b.mueller(wo, s.wi, Some(s.lobe));
+                    let m = b.mueller_lane(wo, s.wi, Some(s.lobe), 0);
                     let want = s.weight.x * s.pdf;
                     assert!(
                         close(m.x_axis.x, want),
@@ -852,17 +872,17 @@ mod tests {
                 let wi = mirror(wo);
                 let delta = Some(BsdfFlags::DELTA_REFLECTION);
                 let (rs, rp) = textbook(th, eta);
-                let (s, p) = s_and_p(metal.mueller(wo, wi, delta), wo, wi);
+                let (s, p) = s_and_p(metal.mueller_lane(wo, wi, delta, 0), wo, wi);
                 assert!((s as f64 - rs).abs() < 2e-5, "{deg}: R_s {s} vs {rs}");
                 assert!((p as f64 - rp).abs() < 2e-5, "{deg}: R_p {p} vs {rp}");
                 let (rs, rp) = textbook(th, C64::new(1.5, 0.0));
-                let (s, p) = s_and_p(glass_plain.mueller(wo, wi, delta), wo, wi);
+                let (s, p) = s_and_p(glass_plain.mueller_lane(wo, wi, delta, 0), wo, wi);
                 assert!((s as f64 - rs).abs() < 2e-6, "{deg}: R_s {s} vs {rs}");
                 assert!((p as f64 - rp).abs() < 2e-6, "{deg}: R_p {p} vs {rp}");
                 // Transmitted: T = 1 - R per component, times eta_ti^2 (radiance).
                 let s_t = glass_plain.sample(wo, 0.9999, [0.5; 2]).unwrap();
                 assert_eq!(s_t.lobe, BsdfFlags::DELTA_TRANSMISSION);
-                let m = glass_plain.mueller(wo, s_t.wi, Some(s_t.lobe)) * (1.5 * 1.5);
+                let m = glass_plain.mueller_lane(wo, s_t.wi, Some(s_t.lobe), 0) * (1.5 * 1.5);
                 let (s, p) = s_and_p(m, wo, s_t.wi);
                 assert!((s as f64 - (1.0 - rs)).abs() < 1e-5, "{deg}: T_s {s}");
                 assert!((p as f64 - (1.0 - rp)).abs() < 1e-5, "{deg}: T_p {p}");
@@ -878,8 +898,8 @@ mod tests {
                 // Through a pane facing the camera and through one seen from behind.
                 for wo in [Vec3::Z, -Vec3::Z] {
                     let d = Some(BsdfFlags::DELTA_TRANSMISSION);
-                    let first = Bsdf::Polarizer(polarizer(a)).mueller(wo, -wo, d);
-                    let second = Bsdf::Polarizer(polarizer(b)).mueller(wo, -wo, d);
+                    let first = Bsdf::Polarizer(polarizer(a)).mueller_lane(wo, -wo, d, 0);
+                    let second = Bsdf::Polarizer(polarizer(b)).mueller_lane(wo, -wo, d, 0);
                     let out = second * first * unpolarized;
                     let want = 0.5 * (a - b).to_radians().cos().powi(2);
                     assert!((out.x - want).abs() < 1e-6, "{a} {b}: {} vs {want}", out.x);
@@ -890,7 +910,7 @@ mod tests {
         let mut p = polarizer(30.0);
         p.polarizing = false;
         let s = Vec4::new(1.0, 0.3, -0.2, 0.5);
-        let m = p.mueller(Vec3::Z, -Vec3::Z, Some(BsdfFlags::DELTA_TRANSMISSION));
+        let m = p.mueller_lane(Vec3::Z, -Vec3::Z, Some(BsdfFlags::DELTA_TRANSMISSION), 0);
         assert!((m * s - 0.5 * s).abs().max_element() < 1e-7);
     }
 
@@ -907,20 +927,20 @@ mod tests {
         let d = Some(BsdfFlags::DELTA_TRANSMISSION);
         assert!((stokes_basis(Vec3::Z) - Vec3::X).length() < 1e-6);
         let horizontal = Vec4::new(1.0, 1.0, 0.0, 0.0);
-        let out = r.mueller(Vec3::Z, -Vec3::Z, d) * horizontal;
+        let out = r.mueller_lane(Vec3::Z, -Vec3::Z, d, 0) * horizontal;
         assert!(
             (out - Vec4::new(1.0, 0.0, 0.0, 1.0)).abs().max_element() < 1e-6,
             "{out}"
         );
         // From the back the angle flips (Mitsuba): left circular.
-        let out = r.mueller(-Vec3::Z, Vec3::Z, d) * horizontal;
+        let out = r.mueller_lane(-Vec3::Z, Vec3::Z, d, 0) * horizontal;
         assert!(
             (out - Vec4::new(1.0, 0.0, 0.0, -1.0)).abs().max_element() < 1e-6,
             "{out}"
         );
         // At 0 degrees the plate leaves horizontal light alone.
         let r0 = Retarder { theta: 0.0, ..r };
-        let out = r0.mueller(Vec3::Z, -Vec3::Z, d) * horizontal;
+        let out = r0.mueller_lane(Vec3::Z, -Vec3::Z, d, 0) * horizontal;
         assert!((out - horizontal).abs().max_element() < 1e-6);
         // A circular polarizer passes half of unpolarized light, of its hand.
         let c = |left_handed| Circular {
@@ -928,9 +948,9 @@ mod tests {
             left_handed,
         };
         let unpolarized = Vec4::new(1.0, 0.0, 0.0, 0.0);
-        let right = c(false).mueller(Vec3::Z, -Vec3::Z, d) * unpolarized;
+        let right = c(false).mueller_lane(Vec3::Z, -Vec3::Z, d, 0) * unpolarized;
         assert!((right - Vec4::new(0.5, 0.0, 0.0, 0.5)).abs().max_element() < 1e-7);
-        let left = c(true).mueller(Vec3::Z, -Vec3::Z, d) * unpolarized;
+        let left = c(true).mueller_lane(Vec3::Z, -Vec3::Z, d, 0) * unpolarized;
         assert!((left - Vec4::new(0.5, 0.0, 0.0, -0.5)).abs().max_element() < 1e-7);
     }
 
@@ -968,7 +988,7 @@ mod tests {
                     .iter()
                     .map(|f| {
                         let (wo, wi) = (f.to_local(wo_world), f.to_local(wi_world));
-                        to_world_mueller(f, b.mueller(wo, wi, delta), -wi, wo)
+                        to_world_mueller(f, b.mueller_lane(wo, wi, delta, 0), -wi, wo)
                     })
                     .collect();
                 let scale = world[0]
@@ -996,7 +1016,7 @@ mod tests {
         let wo = Vec3::new(0.6, 0.0, 0.8);
         let m = to_world_mueller(
             &f,
-            gold().mueller(wo, mirror(wo), Some(BsdfFlags::DELTA_REFLECTION)),
+            gold().mueller_lane(wo, mirror(wo), Some(BsdfFlags::DELTA_REFLECTION), 0),
             -mirror(wo),
             wo,
         );
@@ -1014,7 +1034,10 @@ mod tests {
         if let Bsdf::Perturbed(p) = &mut b {
             p.use_shadowing_function = false;
         }
-        let (m, want) = (b.mueller(wo, wi, None), nested.mueller(wo, wi, None));
+        let (m, want) = (
+            b.mueller_lane(wo, wi, None, 0),
+            nested.mueller_lane(wo, wi, None, 0),
+        );
         assert!(m.abs_diff_eq(want, 1e-6), "{m} vs {want}");
     }
 

@@ -4,9 +4,13 @@
 
 use crate::stats::accumulators::MAX_CHANNELS;
 
-/// A deposit's channels: rgb radiance (the fourth entry 0), mono radiance (entry 0) or
-/// the Stokes vector S0..S3; the film reads its first C.
-pub type Deposit = [f64; MAX_CHANNELS];
+/// Entries of a deposit: the most channels a film has.
+pub const DEPOSIT_WIDTH: usize = MAX_CHANNELS;
+
+/// A deposit's channels: rgb radiance, mono radiance (entry 0), the Stokes vector
+/// S0..S3, or the Stokes vectors of the sRGB channels (`polarized::Polarization::deposit`);
+/// the film reads its first C, the rest are 0.
+pub type Deposit = [f64; DEPOSIT_WIDTH];
 
 /// The (bin, channels) totals of the path being traced.
 #[derive(Default)]
@@ -49,17 +53,21 @@ mod tests {
 
     #[test]
     fn same_bin_merges_and_revisits_merge_too() {
+        let w = |x: [f64; 4]| -> Deposit {
+            std::array::from_fn(|c| if c < 4 { x[c] } else { c as f64 })
+        };
         let mut d = PathDeposits::default();
-        d.add(5, [1.0, 0.0, 0.0, -1.0]);
-        d.add(5, [0.5, 1.0, 0.0, 0.5]);
-        d.add(7, [0.0, 0.0, 2.0, 0.0]);
-        d.add(5, [0.25, 0.0, 0.0, 0.0]);
+        d.add(5, w([1.0, 0.0, 0.0, -1.0]));
+        d.add(5, w([0.5, 1.0, 0.0, 0.5]));
+        d.add(7, w([0.0, 0.0, 2.0, 0.0]));
+        d.add(5, w([0.25, 0.0, 0.0, 0.0]));
         assert_eq!(d.len(), 2);
         let v: Vec<_> = d.drain().collect();
-        assert_eq!(
-            v,
-            vec![(5, [1.75, 1.0, 0.0, -0.5]), (7, [0.0, 0.0, 2.0, 0.0])]
-        );
+        let mut five = w([1.75, 1.0, 0.0, -0.5]);
+        for (c, e) in five.iter_mut().enumerate().skip(4) {
+            *e = 3.0 * c as f64;
+        }
+        assert_eq!(v, vec![(5, five), (7, w([0.0, 0.0, 2.0, 0.0]))]);
         assert!(d.is_empty());
     }
 }

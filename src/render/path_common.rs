@@ -5,8 +5,9 @@
 //! ([`contribute`], SPEC 4), shadow rays between moved ends, the material of a
 //! normal/bump-mapped hit, and rays that leave the scene ([`escape`]).
 
-use super::deposits::{Deposit, PathDeposits};
+use super::deposits::{Deposit, PathDeposits, DEPOSIT_WIDTH};
 use super::gbuffer::GSample;
+use super::polarized::Polarization;
 use crate::geometry::accel::offset_origin;
 use crate::geometry::shadow::shadow_segment;
 use crate::math::sampling::power_heuristic;
@@ -45,33 +46,31 @@ pub(super) fn contribute(
     if c == Rgb::ZERO {
         return;
     }
-    deposit(
-        scene,
-        deposits,
-        tally,
-        opl,
-        [c.x as f64, c.y as f64, c.z as f64, 0.0],
-    );
+    let mut d = [0.0; DEPOSIT_WIDTH];
+    d[..3].copy_from_slice(&[c.x as f64, c.y as f64, c.z as f64]);
+    deposit(scene, deposits, tally, opl, d);
 }
 
-/// Adds a Stokes vector `s` (S0..S3 in the sensor's frame) arriving at OPL `opl` to
-/// the path's deposits.
+/// Adds the Stokes vectors `s` (one per lane, in the sensor's frame) of a polarized
+/// path `pol` (wavelengths `wl` when spectral) arriving at OPL `opl` to the path's
+/// deposits, as the film's channels (`Polarization::deposit`).
 #[inline(always)]
 pub(super) fn contribute_stokes(
     scene: &Scene,
     deposits: &mut PathDeposits,
     tally: &mut PathTally,
     opl: f64,
-    s: glam::Vec4,
+    (pol, wl): (&Polarization, Option<&Wavelengths>),
+    s: [glam::Vec4; 3],
 ) {
-    if !s.is_finite() {
+    if !s.iter().all(|v| v.is_finite()) {
         tally.dropped_nonfinite += 1;
         return;
     }
-    if s == glam::Vec4::ZERO {
+    if s.iter().all(|&v| v == glam::Vec4::ZERO) {
         return;
     }
-    deposit(scene, deposits, tally, opl, s.to_array().map(f64::from));
+    deposit(scene, deposits, tally, opl, pol.deposit(&s, wl));
 }
 
 #[inline(always)]
@@ -155,7 +154,8 @@ pub fn shadow_ray(p: Vec3, ng: Vec3, ls: &crate::lights::LightSample) -> (Vec3, 
 /// `eta * 2 max(R, |o - c|)` of OPL, the distance of a light sample of that emitter
 /// (`lights::scene_sphere`); a camera segment under `camera_unwarp` counts nothing. A
 /// camera path whose first non-delta vertex would be here sees an emitter (G-buffer).
-/// A spectral path (`wl`) sees the radiance's spectrum and contributes its sRGB.
+/// A spectral path (`wl`) sees the radiance's spectrum and contributes its sRGB; a
+/// polarized path (`pol`) its Stokes vectors.
 #[inline(never)]
 #[allow(clippy::too_many_arguments)]
 pub(super) fn escape(
@@ -174,7 +174,7 @@ pub(super) fn escape(
     g: &mut GSample,
     g_pending: bool,
     (wl, mono): (Option<&Wavelengths>, bool),
-    pol: Option<glam::Vec4>,
+    pol: Option<&Polarization>,
 ) {
     let settings = &scene.integrator;
     if depth == 0 && settings.hide_emitters {
@@ -198,10 +198,12 @@ pub(super) fn escape(
     let c = match wl {
         None if mono => beta * Rgb::splat(crate::textures::luminance(radiance)) * w,
         None => beta * radiance * w,
-        Some(wl) => wl.to_srgb(beta * emitted_spectrum(scene, env as usize, radiance, d, wl) * w),
+        Some(wl) => beta * emitted_spectrum(scene, env as usize, radiance, d, wl) * w,
     };
-    match pol {
-        None => contribute(scene, deposits, tally, opl + segment, c),
-        Some(col) => contribute_stokes(scene, deposits, tally, opl + segment, col * c.x),
+    let opl = opl + segment;
+    match (pol, wl) {
+        (Some(p), _) => contribute_stokes(scene, deposits, tally, opl, (p, wl), p.unpolarized(c)),
+        (None, Some(wl)) => contribute(scene, deposits, tally, opl, wl.to_srgb(c)),
+        (None, None) => contribute(scene, deposits, tally, opl, c),
     }
 }

@@ -38,7 +38,7 @@ use super::gbuffer::GSample;
 use super::path_common::{
     contribute, contribute_stokes, emitted_spectrum, escape, shadow_ray, PathTally,
 };
-use super::polarized;
+use super::polarized::{self, Polarization};
 use super::roulette::roulette;
 use super::sampler::{pick_scattering, slot, PathSampler};
 use super::vertex::SurfaceVertex;
@@ -51,11 +51,10 @@ use crate::geometry::accel::{offset_origin, Hit};
 use crate::materials::{Bsdf, BsdfModel, Separable};
 use crate::math::sampling::power_heuristic;
 use crate::math::Rgb;
-use crate::scene::mode::RenderMode;
 use crate::scene::Scene;
 use crate::spectral::lift::Wavelengths;
 use crate::textures::luminance;
-use glam::{Mat4, Vec3, Vec4};
+use glam::{Vec3, Vec4};
 
 /// A path's state between vertices.
 struct PathState {
@@ -92,11 +91,12 @@ struct PathState {
     /// A mono path (`mono`, `mono_polarized`): every colour it meets is its
     /// luminance, in all three lanes of `beta`.
     mono: bool,
-    /// A polarized path (`mono_polarized`, `polarized.rs`): the product of the
-    /// normalised Mueller matrices of its vertices, after the rotation into the
-    /// sensor's frame; a contribution `c` (scalar, as `beta` computes it) of
-    /// unpolarized light is the Stokes vector `c * column 0`. `None` otherwise.
-    pol: Option<Mat4>,
+    /// A polarized path (`mono_polarized`, `spectral_polarized`, `polarized.rs`): the
+    /// product of the normalised Mueller matrices of its vertices per lane, after the
+    /// rotation into the sensor's frame; a contribution `c` (per lane, as `beta`
+    /// computes it) of unpolarized light is the Stokes vector `c * column 0` per lane.
+    /// `None` otherwise.
+    pol: Option<Polarization>,
 }
 
 /// The emitter that `u_sel` in [0, 1) selects among `n` (uniformly); one emitter needs
@@ -306,19 +306,21 @@ impl PathState {
             nulls_in_a_row: 0,
             // The spectral mode refuses media, so the media's hero channel and the
             // wavelengths never share the slot.
-            wl: match scene.mode {
-                RenderMode::Spectral => Some(Wavelengths::sample(rng.get1(slot::CHANNEL))),
-                _ => None,
-            },
+            wl: scene
+                .mode
+                .is_spectral()
+                .then(|| Wavelengths::sample(rng.get1(slot::CHANNEL))),
             mono: scene.mode.is_mono(),
-            pol: (scene.mode == RenderMode::MonoPolarized)
-                .then(|| polarized::camera(d, scene.camera.axes[1])),
+            pol: scene.mode.is_polarized().then(|| {
+                let lanes = if scene.mode.is_mono() { 1 } else { 3 };
+                Polarization::new(d, scene.camera.axes[1], lanes)
+            }),
         }
     }
 
-    /// Adds a contribution `c` at OPL `opl` through the Mueller matrix `n` (normalised,
-    /// world bases) of the last step to the light: the Stokes vector of a polarized
-    /// path, else `c` itself as the film records it.
+    /// Adds a contribution `c` at OPL `opl` through the Mueller matrix `n(lane)`
+    /// (normalised, world bases) of the last step to the light: the Stokes vectors of
+    /// a polarized path, else `c` itself as the film records it.
     #[inline(always)]
     fn contribute(
         &self,
@@ -327,11 +329,14 @@ impl PathState {
         tally: &mut PathTally,
         opl: f64,
         c: Rgb,
-        n: impl FnOnce() -> Vec4,
+        n: impl Fn(usize) -> Vec4,
     ) {
         match &self.pol {
             None => contribute(scene, deposits, tally, opl, self.sample(c)),
-            Some(m) => contribute_stokes(scene, deposits, tally, opl, *m * n() * c.x),
+            Some(p) => {
+                let s = p.stokes(c, n);
+                contribute_stokes(scene, deposits, tally, opl, (p, self.wl.as_ref()), s)
+            }
         }
     }
 
@@ -409,7 +414,7 @@ fn shade<L: Level, const MEDIA: bool, S: PathSampler>(
                 &mut path.g,
                 path.g_pending,
                 (path.wl.as_ref(), path.mono),
-                path.pol.map(|m| m.x_axis),
+                path.pol.as_ref(),
             );
         }
         return false;
@@ -566,7 +571,7 @@ fn emission<const MEDIA: bool>(
             power_heuristic(path.last_pdf, emitter.pdf_area_hit(select_pdf, dist, cos_l))
         };
         let c = path.beta * path.emitted(scene, ei as usize, radiance, path.d) * w;
-        path.contribute(scene, deposits, tally, path.opl, c, || Vec4::X);
+        path.contribute(scene, deposits, tally, path.opl, c, |_| Vec4::X);
     }
     true
 }
@@ -673,8 +678,8 @@ fn next_event<L: Level, const MEDIA: bool, S: PathSampler>(
             .map_or(0.0, |s| s.sample_delay(rng.get1(slot::NEE_DELAY)));
         let arrival = path.opl + delay as f64 + eta_light as f64 * ls.dist as f64;
         let c = path.beta * f * tr * path.emitted(scene, idx, ls.li, ls.wi) * (w / ls.pdf);
-        path.contribute(scene, deposits, tally, arrival, c, || {
-            polarized::step(bsdf, frame, wo, wi, None).x_axis
+        path.contribute(scene, deposits, tally, arrival, c, |lane| {
+            polarized::step(bsdf, frame, wo, wi, None, lane).x_axis
         });
     }
 }
@@ -725,9 +730,9 @@ fn continue_by_bsdf<const MEDIA: bool, S: PathSampler>(
         return true;
     }
     path.beta *= bs.weight;
-    if let Some(m) = path.pol.as_mut() {
+    if let Some(p) = path.pol.as_mut() {
         let delta = bs.lobe.is_delta().then_some(bs.lobe);
-        *m *= polarized::step(bsdf, frame, wo, bs.wi, delta);
+        p.scatter(bsdf, frame, wo, bs.wi, delta);
     }
     path.specular = bs.lobe.is_delta();
     path.last_pdf = bs.pdf;

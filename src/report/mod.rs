@@ -37,7 +37,7 @@ pub enum ReportError {
     /// A `.npy` file that cannot be read, or a value in it.
     #[error("{}: {error}", .path.display())]
     Npy { path: PathBuf, error: NpyError },
-    #[error("{}: expected a 4-D volume (H, W, T, C) with C = 3 (RGB), 1 (mono) or 4 (Stokes S0..S3), the shape is {shape:?}", .path.display())]
+    #[error("{}: expected a volume (H, W, T, C) with C = 3 (RGB), 1 (mono), 4 (Stokes S0..S3) or 12, or (H, W, T, 3, 4) (RGB x Stokes), the shape is {shape:?}", .path.display())]
     NotAVolume { path: PathBuf, shape: Vec<usize> },
     #[error("{}: holds no voxels (shape {shape:?})", .path.display())]
     EmptyVolume { path: PathBuf, shape: Vec<usize> },

@@ -18,8 +18,9 @@ pub fn no_light_mask(emitter: &Array2<f32>) -> Vec<bool> {
 }
 
 /// Loads a volume: a bundle's noisy mean (checked as every bundle read is), or a
-/// `.npy` of f32 or f64 (H, W, T, C) with C = 3 (RGB), 1 (mono) or 4 (a Stokes volume:
-/// S0, S1, S2, S3). A `.npy` is checked before its data are
+/// `.npy` of f32 or f64 (H, W, T, C) with C = 3 (RGB), 1 (mono), 4 (a Stokes volume:
+/// S0, S1, S2, S3) or 12, or (H, W, T, 3, 4) (a spectral Stokes volume, RGB x Stokes,
+/// read as 12 channels RGB-major as its bundle holds them). A `.npy` is checked before its data are
 /// allocated (header against the file's size, see `bundle::npy`), must hold at least
 /// one voxel, and every value must be finite (as f32: an f64 beyond the f32 range
 /// counts as infinite). Errors would otherwise pass silently into the metrics: a NaN
@@ -41,24 +42,30 @@ pub fn load_volume(path: &Path) -> Result<LoadedVolume, ReportError> {
     };
     let f = npy::open(path).map_err(err)?;
     let shape = f.header.shape.clone();
-    if shape.len() != 4 || ![1, 3, 4].contains(&shape[3]) {
+    let stokes_rgb = shape.len() == 5 && shape[3..] == [3, 4];
+    if !(stokes_rgb || shape.len() == 4 && [1, 3, 4, 12].contains(&shape[3])) {
         return Err(ReportError::NotAVolume {
             path: path.to_path_buf(),
             shape,
         });
     }
+    let channels = if stokes_rgb { 12 } else { shape[3] };
     if f.header.len == 0 {
         return Err(ReportError::EmptyVolume {
             path: path.to_path_buf(),
             shape,
         });
     }
-    const AXES: [&str; 4] = ["y", "x", "t", "c"];
+    let axes: &[&str] = if stokes_rgb {
+        &["y", "x", "t", "c", "s"]
+    } else {
+        &["y", "x", "t", "c"]
+    };
     let why = |_: usize, v: f64| format!("is {}", npy::show(v));
     let data = match f.header.dtype.as_str() {
         "<f4" => f.read::<f32>(
             |s, b| npy::first_bad(s, b, |_, v| v.is_finite(), |i, v| why(i, v.into())),
-            &AXES,
+            axes,
         ),
         "<f8" => f.read_mapped::<f64, f32>(
             |v| v as f32,
@@ -76,7 +83,7 @@ pub fn load_volume(path: &Path) -> Result<LoadedVolume, ReportError> {
                     },
                 )
             },
-            &AXES,
+            axes,
         ),
         d => {
             return Err(ReportError::VolumeDtype {
@@ -86,7 +93,7 @@ pub fn load_volume(path: &Path) -> Result<LoadedVolume, ReportError> {
         }
     }
     .map_err(err)?;
-    let volume = Array4::from_shape_vec((shape[0], shape[1], shape[2], shape[3]), data)
+    let volume = Array4::from_shape_vec((shape[0], shape[1], shape[2], channels), data)
         .map_err(|e| err(npy::NpyError::Layout(e)))?;
     Ok(LoadedVolume {
         volume,

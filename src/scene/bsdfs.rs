@@ -2,7 +2,6 @@
 
 use super::ctx::Ctx;
 use super::error::SceneError;
-use super::mode::RenderMode;
 use super::props::{Props, Value};
 use super::textures::{texture_param, NamedTextures};
 use crate::materials::conductor_presets;
@@ -138,7 +137,7 @@ fn conductor_preset(props: &Props, name: &str) -> Result<(Rgb, Rgb), SceneError>
 fn spectral_clamp(p: &Params, name: &str, t: Texture) -> Texture {
     match t {
         Texture::Constant(v)
-            if p.props.ctx.mode == RenderMode::Spectral
+            if p.props.ctx.mode.is_spectral()
                 && matches!(p.props.peek(name), Some(Value::Rgb(_)))
                 && !(v.x == v.y && v.y == v.z)
                 && v.max_element() > 1.0 =>
@@ -146,7 +145,7 @@ fn spectral_clamp(p: &Params, name: &str, t: Texture) -> Texture {
             let c = v.clamp(Rgb::ZERO, Rgb::ONE);
             p.props.ctx.warn(
                 p.props.node,
-                format!("--mode spectral: the colour {name} {v} is clamped to {c}, as Mitsuba's spectral variants do (give it as a <spectrum>, a grey, or use 'material')"),
+                format!("--mode {}: the colour {name} {v} is clamped to {c}, as Mitsuba's spectral variants do (give it as a <spectrum>, a grey, or use 'material')", p.props.ctx.mode.name()),
             );
             Texture::Constant(c)
         }

@@ -4,7 +4,10 @@
 //! spectral bundle has the same three channels as an RGB one. `mono` traces one band,
 //! the luminance of every colour (Mitsuba's `*_mono` variants); `mono_polarized`
 //! traces that band with a Mueller matrix along the path and writes the four Stokes
-//! components S0..S3 in the sensor's frame (`render/polarized.rs`).
+//! components S0..S3 in the sensor's frame (`render/polarized.rs`);
+//! `spectral_polarized` traces three wavelengths each with its own Mueller matrix and
+//! writes the four Stokes components of each sRGB channel (12 channels, RGB-major:
+//! `S0.R, S1.R, S2.R, S3.R, S0.G, ..`, so a volume reshapes to (H, W, T, 3, 4)).
 //! [`Scene::set_mode`] refuses what a mode does not model, with one message.
 
 use super::spectrum::{list_to_srgb, uniform_to_srgb, SpectrumUse};
@@ -21,6 +24,8 @@ pub enum RenderMode {
     Mono,
     #[serde(rename = "mono_polarized")]
     MonoPolarized,
+    #[serde(rename = "spectral_polarized")]
+    SpectralPolarized,
 }
 
 impl RenderMode {
@@ -31,6 +36,7 @@ impl RenderMode {
             RenderMode::Spectral => "spectral",
             RenderMode::Mono => "mono",
             RenderMode::MonoPolarized => "mono_polarized",
+            RenderMode::SpectralPolarized => "spectral_polarized",
         }
     }
 
@@ -40,6 +46,7 @@ impl RenderMode {
             RenderMode::Spectral,
             RenderMode::Mono,
             RenderMode::MonoPolarized,
+            RenderMode::SpectralPolarized,
         ]
         .into_iter()
         .find(|m| m.name() == s)
@@ -51,6 +58,10 @@ impl RenderMode {
             RenderMode::Rgb | RenderMode::Spectral => &["R", "G", "B"],
             RenderMode::Mono => &["Y"],
             RenderMode::MonoPolarized => &["S0", "S1", "S2", "S3"],
+            RenderMode::SpectralPolarized => &[
+                "S0.R", "S1.R", "S2.R", "S3.R", "S0.G", "S1.G", "S2.G", "S3.G", "S0.B", "S1.B",
+                "S2.B", "S3.B",
+            ],
         }
     }
 
@@ -64,10 +75,33 @@ impl RenderMode {
         matches!(self, RenderMode::Mono | RenderMode::MonoPolarized)
     }
 
+    /// Whether a path carries sampled wavelengths (`spectral`, `spectral_polarized`).
+    pub fn is_spectral(self) -> bool {
+        matches!(self, RenderMode::Spectral | RenderMode::SpectralPolarized)
+    }
+
+    /// Whether a path carries Mueller matrices and the film Stokes vectors.
+    pub fn is_polarized(self) -> bool {
+        matches!(
+            self,
+            RenderMode::MonoPolarized | RenderMode::SpectralPolarized
+        )
+    }
+
+    /// The colour channels per Stokes component of a polarized film (3 or 1), or of
+    /// the film (1 or 3) otherwise.
+    pub fn colours(self) -> usize {
+        if self.is_mono() {
+            1
+        } else {
+            3
+        }
+    }
+
     /// Whether a sample can be negative: a spectral path's sRGB (the matching curves
     /// are negative at some wavelengths) and the Stokes components S1..S3.
     pub fn signed(self) -> bool {
-        matches!(self, RenderMode::Spectral | RenderMode::MonoPolarized)
+        self.is_spectral() || self.is_polarized()
     }
 }
 
@@ -86,16 +120,17 @@ impl Scene {
                 return Err(format!("--mode {name} does not render participating media; this scene has media (render it with --mode rgb)"));
             }
         }
-        if mode == RenderMode::Spectral {
+        if mode.is_spectral() {
+            let name = mode.name();
             if self.nlos.is_some() {
-                return Err("--mode spectral renders camera films; NLOS captures (transient_nlos_path) are rendered in rgb".into());
+                return Err(format!("--mode {name} renders camera films; NLOS captures (transient_nlos_path) are rendered in rgb"));
             }
             if !self.media.is_empty() {
-                return Err("--mode spectral does not render participating media yet; this scene has media (render it with --mode rgb)".into());
+                return Err(format!("--mode {name} does not render participating media yet; this scene has media (render it with --mode rgb)"));
             }
             for m in &self.bsdfs {
-                if let Err(name) = m.bsdf.spectral_support() {
-                    return Err(format!("--mode spectral does not render the '{name}' BSDF (it tints by the luminance of its base colour); render this scene with --mode rgb"));
+                if let Err(bsdf) = m.bsdf.spectral_support() {
+                    return Err(format!("--mode {name} does not render the '{bsdf}' BSDF (it tints by the luminance of its base colour); render this scene with --mode rgb"));
                 }
             }
         }

@@ -17,7 +17,8 @@
 //! Memory: `H * W * T * C * 8` bytes per f64 array (3 arrays, 4 with S) plus
 //! `H * W * T * 4` for the counts: per voxel `24 C + 4` bytes (identity), `32 C + 4`
 //! with S: 76 / 100 for RGB (C = 3), 28 / 36 mono (C = 1), 100 / 132 for the four
-//! Stokes components (C = 4). A 128 x 128 x 300 x 3 film needs 374 MB (identity); one
+//! Stokes components (C = 4), 292 / 388 for the Stokes components of each sRGB channel
+//! (C = 12). A 128 x 128 x 300 x 3 film needs 374 MB (identity); one
 //! of its rows 2.9 MB.
 
 use super::transform::Transform;
@@ -25,17 +26,17 @@ use super::transform::Transform;
 /// The channels of an RGB (or spectral) film.
 pub const CHANNELS: usize = 3;
 
-/// The most channels a film has: the four Stokes components S0..S3 of a polarized
-/// render. A path's deposit is always this wide; only the film's first `channels`
-/// entries are read.
-pub const MAX_CHANNELS: usize = 4;
+/// The most channels a film has: the four Stokes components S0..S3 of each of the
+/// three sRGB channels of a spectral polarized render. A path's deposit is always this
+/// wide; only the film's first `channels` entries are read.
+pub const MAX_CHANNELS: usize = 12;
 
 /// Planar sums laid out (H, W, T, C) row-major.
 pub struct Accumulators {
     pub height: usize,
     pub width: usize,
     pub bins: usize,
-    /// C: 3 (RGB, spectral), 1 (mono) or 4 (Stokes S0..S3).
+    /// C: 3 (RGB, spectral), 1 (mono), 4 (Stokes S0..S3) or 12 (RGB x Stokes).
     pub channels: usize,
     pub x1: Vec<f64>,
     pub x2: Vec<f64>,
@@ -220,7 +221,8 @@ impl PixelSums {
         match self.channels {
             3 => self.add::<3>(z, bin, [x[0], x[1], x[2]]),
             1 => self.add::<1>(z, bin, [x[0]]),
-            _ => self.add::<4>(z, bin, x),
+            4 => self.add::<4>(z, bin, [x[0], x[1], x[2], x[3]]),
+            _ => self.add::<MAX_CHANNELS>(z, bin, x),
         }
     }
 
@@ -269,8 +271,10 @@ impl PixelSums {
             (3, false) => deinterleave::<3, 10>(&self.records, out),
             (1, true) => deinterleave::<1, 5>(&self.records, out),
             (1, false) => deinterleave::<1, 4>(&self.records, out),
-            (_, true) => deinterleave::<4, 17>(&self.records, out),
-            (_, false) => deinterleave::<4, 13>(&self.records, out),
+            (4, true) => deinterleave::<4, 17>(&self.records, out),
+            (4, false) => deinterleave::<4, 13>(&self.records, out),
+            (_, true) => deinterleave::<12, 49>(&self.records, out),
+            (_, false) => deinterleave::<12, 37>(&self.records, out),
         }
         self.records.fill(0.0);
         if let (Some((_, r2)), Some(dst)) = (self.replicate.as_mut(), row.r2.as_mut()) {
@@ -319,52 +323,59 @@ mod tests {
     use super::*;
 
     /// The plain planar form: what the interleaved records must reproduce bit for bit.
-    fn planar_add(
-        a: &mut Accumulators,
-        z: impl Fn(f64) -> f64,
-        px: usize,
-        bin: usize,
-        x: [f64; 3],
-    ) {
+    fn planar_add(a: &mut Accumulators, z: impl Fn(f64) -> f64, px: usize, bin: usize, x: &[f64]) {
         let v = px * a.bins + bin;
+        let ch = a.channels;
         a.nonzero[v] += 1;
         for (c, &xc) in x.iter().enumerate() {
             let zc = z(xc);
-            a.x1[v * 3 + c] += zc;
-            a.x2[v * 3 + c] += zc * zc;
-            a.x3[v * 3 + c] += zc * zc * zc;
+            a.x1[v * ch + c] += zc;
+            a.x2[v * ch + c] += zc * zc;
+            a.x3[v * ch + c] += zc * zc * zc;
             if let Some(s) = a.sum.as_mut() {
-                s[v * 3 + c] += xc;
+                s[v * ch + c] += xc;
             }
         }
     }
 
+    /// Every channel count a film has (1, 3, 4, 12), signed values included.
     #[test]
     fn interleaved_records_give_the_planar_sums_bit_for_bit() {
-        for t in [Transform::Identity, Transform::BoxCox { lambda: 0.5 }] {
-            let (w, bins) = (3, 5);
-            let mut want = Accumulators::new(1, w, bins, 3, &t);
-            let mut row = Accumulators::new(1, w, bins, 3, &t);
-            // Garbage in the row: flushing overwrites every value.
-            row.x2.fill(7.0);
-            row.nonzero.fill(9);
-            let mut p = PixelSums::new(bins, 3, &t);
-            let z = |x: f64| t.apply(x);
-            for px in 0..w {
-                for s in 0..40u32 {
-                    let bin = (s as usize * 7 + px) % bins;
-                    if bin == 3 {
-                        continue; // an empty bin stays zero
+        for ch in [1, 3, 4, MAX_CHANNELS] {
+            for t in [Transform::Identity, Transform::YeoJohnson { lambda: 0.5 }] {
+                let (w, bins) = (3, 5);
+                let mut want = Accumulators::new(1, w, bins, ch, &t);
+                let mut row = Accumulators::new(1, w, bins, ch, &t);
+                // Garbage in the row: flushing overwrites every value.
+                row.x2.fill(7.0);
+                row.nonzero.fill(9);
+                let mut p = PixelSums::new(bins, ch, &t);
+                let z = |x: f64| t.apply(x);
+                for px in 0..w {
+                    for s in 0..40u32 {
+                        let bin = (s as usize * 7 + px) % bins;
+                        if bin == 3 {
+                            continue; // an empty bin stays zero
+                        }
+                        let x: [f64; MAX_CHANNELS] = std::array::from_fn(|c| {
+                            let v = 0.1 * s as f64 + 1.0 / (1.0 + (s + c as u32) as f64);
+                            if c >= ch {
+                                999.0 // beyond the film's channels: never read
+                            } else if c % 4 == 2 {
+                                -v / (1.0 + v) // S1..S3 and sRGB samples can be negative
+                            } else {
+                                v
+                            }
+                        });
+                        p.add_sample(z, bin, x);
+                        planar_add(&mut want, z, px, bin, &x[..ch]);
                     }
-                    let x = [0.1 * s as f64, 1.0 / (1.0 + s as f64), (s % 3) as f64];
-                    p.add_sample(z, bin, [x[0], x[1], x[2], 0.0]);
-                    planar_add(&mut want, z, px, bin, x);
+                    p.flush_into(&mut row, px);
                 }
-                p.flush_into(&mut row, px);
+                assert!(row.x1 == want.x1 && row.x2 == want.x2 && row.x3 == want.x3);
+                assert!(row.sum == want.sum && row.nonzero == want.nonzero);
+                assert!(p.records.iter().all(|&v| v == 0.0));
             }
-            assert!(row.x1 == want.x1 && row.x2 == want.x2 && row.x3 == want.x3);
-            assert!(row.sum == want.sum && row.nonzero == want.nonzero);
-            assert!(p.records.iter().all(|&v| v == 0.0));
         }
     }
 
@@ -390,6 +401,10 @@ mod tests {
         );
     }
 
+    fn pad(x: [f64; 3]) -> [f64; MAX_CHANNELS] {
+        std::array::from_fn(|c| if c < 3 { x[c] } else { 0.0 })
+    }
+
     /// R2 from the interleaved records: per replicate the mean of z over its k samples
     /// (zeros as z(0)), squared and summed, against a plain computation.
     #[test]
@@ -411,7 +426,7 @@ mod tests {
                             continue;
                         }
                         let x = [0.3 * s as f64, 1.0 + b as f64, (s % 2) as f64];
-                        p.add_sample(z, bin, [x[0], x[1], x[2], 0.0]);
+                        p.add_sample(z, bin, pad(x));
                         counts[bin] += 1;
                         for c in 0..3 {
                             sums[bin * 3 + c] += z(x[c]);

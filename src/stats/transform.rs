@@ -1,11 +1,15 @@
 //! Variance-stabilising transforms applied to every path sample before its
 //! moments are accumulated (SPEC section 5).
 //!
-//! All transforms are defined for radiance samples `x >= 0` only:
 //! - identity: `z(x) = x`;
 //! - Box-Cox(lambda > 0): `z(x) = (x^lambda - 1) / lambda`, so `z(0) = -1/lambda`;
-//! - Yeo-Johnson(lambda), `x >= 0` branch: `z(x) = ((x + 1)^lambda - 1) / lambda`,
-//!   or `ln(1 + x)` when `lambda == 0`; `z(0) = 0`.
+//!   radiance samples `x >= 0` only (the signed render modes refuse it);
+//! - Yeo-Johnson(lambda): `z(x) = ((x + 1)^lambda - 1) / lambda` for `x >= 0` (or
+//!   `ln(1 + x)` when `lambda == 0`), and `z(x) = -((1 - x)^(2 - lambda) - 1) / (2 -
+//!   lambda)` for `x < 0` (or `-ln(1 - x)` when `lambda == 2`), Yeo and Johnson's
+//!   (2000) both branches: `z(0) = 0`, continuous and increasing through 0, defined
+//!   for every real sample (a spectral path's negative sRGB, the Stokes components
+//!   S1..S3). Radiance samples take the first branch only.
 //!
 //! The evaluation uses `exp_m1`/`ln_1p` so that small `lambda` and `x` near the
 //! point where `z` vanishes keep full relative precision.
@@ -61,12 +65,21 @@ impl Transform {
             // For x = 0: ln(0) = -inf, exp_m1(-inf) = -1, so this yields exactly
             // -1/lambda = at_zero() without a branch (lambda > 0).
             Transform::BoxCox { lambda } => (lambda * x.ln()).exp_m1() / lambda,
-            Transform::YeoJohnson { lambda } => {
+            Transform::YeoJohnson { lambda } if x >= 0.0 => {
                 let l = x.ln_1p();
                 if lambda == 0.0 {
                     l
                 } else {
                     (lambda * l).exp_m1() / lambda
+                }
+            }
+            Transform::YeoJohnson { lambda } => {
+                let l = (-x).ln_1p();
+                let mu = 2.0 - lambda;
+                if mu == 0.0 {
+                    -l
+                } else {
+                    -(mu * l).exp_m1() / mu
                 }
             }
         }
@@ -474,6 +487,42 @@ mod tests {
             for x in [0.0, 1e6] {
                 assert!(t.apply(x).powi(3).is_finite(), "{good} at {x}");
             }
+        }
+    }
+
+    /// Yeo-Johnson below zero: the textbook formula written out with `powf`, the
+    /// `lambda = 2` limit, continuity and increase through 0, and `lambda = 1` the
+    /// identity on both sides.
+    #[test]
+    fn yeo_johnson_is_defined_below_zero() {
+        for lambda in [-0.7, 0.0, 0.5, 1.0, 1.5, 2.0, 3.0] {
+            let t = Transform::YeoJohnson { lambda };
+            for x in [-40.0f64, -3.0, -1.0, -0.5, -1e-9] {
+                let want = if lambda == 2.0 {
+                    -(1.0 - x).ln()
+                } else {
+                    -((1.0 - x).powf(2.0 - lambda) - 1.0) / (2.0 - lambda)
+                };
+                let got = t.apply(x);
+                assert!(
+                    (got - want).abs() <= 1e-12 * want.abs().max(1e-300) + 1e-15,
+                    "lambda {lambda} x {x}: {got} against {want}"
+                );
+            }
+            let (below, above) = (t.apply(-1e-12), t.apply(1e-12));
+            assert!(
+                below < 0.0 && above > 0.0 && (above - below) < 3e-12,
+                "{lambda}"
+            );
+            let xs = [-5.0, -2.0, -1.0, -0.1, 0.0, 0.1, 1.0, 5.0];
+            assert!(
+                xs.windows(2).all(|w| t.apply(w[0]) < t.apply(w[1])),
+                "{lambda}"
+            );
+        }
+        let id = Transform::YeoJohnson { lambda: 1.0 };
+        for x in [-7.25, -1.0, -0.5, 0.5, 3.0] {
+            assert!((id.apply(x) - x).abs() < 1e-14, "{x}");
         }
     }
 }

@@ -225,8 +225,9 @@ pub struct FramesRequest {
 
 /// Writes frames into `dir` (which must exist) plus `propagation.gif` and
 /// `streak.png`, and for a Stokes volume (C = 4) its polarization pictures in
-/// `dir/polarization/` ([`super::polarization::write_polarization`]); returns the
-/// number of frames.
+/// `dir/polarization/` ([`super::polarization::write_polarization`]; of a spectral
+/// Stokes volume, C = 12, those of its luminance Stokes vector,
+/// [`super::polarization::stokes_luminance`]); returns the number of frames.
 pub fn write_all(dir: &Path, v: ArrayView4<f32>, req: &FramesRequest) -> Result<usize, VizError> {
     let frames = dir.join("frames");
     std::fs::create_dir_all(&frames).map_err(|error| VizError::CreateDir {
@@ -234,13 +235,18 @@ pub fn write_all(dir: &Path, v: ArrayView4<f32>, req: &FramesRequest) -> Result<
         error,
     })?;
     let names = write_frames(&frames, v, req.every, req.exposure)?;
-    if v.shape()[3] == 4 {
+    if matches!(v.shape()[3], 4 | 12) {
         let pol = dir.join("polarization");
         std::fs::create_dir_all(&pol).map_err(|error| VizError::CreateDir {
             path: pol.clone(),
             error,
         })?;
-        super::polarization::write_polarization(&pol, v, req.every, req.exposure)?;
+        if v.shape()[3] == 4 {
+            super::polarization::write_polarization(&pol, v, req.every, req.exposure)?;
+        } else {
+            let y = super::polarization::stokes_luminance(v);
+            super::polarization::write_polarization(&pol, y.view(), req.every, req.exposure)?;
+        }
     }
     if req.gif {
         write_gif(&dir.join("propagation.gif"), v, req.every, req.exposure, 60)?;

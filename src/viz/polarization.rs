@@ -17,18 +17,33 @@
 //! no light, or too little for its ratios to mean anything) the ratios are not
 //! formed: the HSV picture is black there (its value) and the component pictures
 //! black too. Memory: one picture (3 bytes a pixel) at a time.
+//!
+//! A spectral Stokes volume (H, W, T, 12: S0..S3 of R, then of G, then of B) is shown
+//! through its luminance Stokes vector, `S_j = 0.2126 S_j.R + 0.7152 S_j.G + 0.0722
+//! S_j.B` ([`stokes_luminance`]; a linear map, so it is the Stokes vector of the
+//! luminance of the light), an (H, W, T, 4) copy.
 
 use super::tonemap::srgb8;
 use super::VizError;
 use crate::polarization::{aolp, dolp};
 use crate::report::plot::save_png_rgb;
 use glam::Vec4;
-use ndarray::ArrayView4;
+use ndarray::{Array4, ArrayView4};
 use std::path::Path;
 
 /// Below this `exposure * S0` the polarization ratios are not formed (see the module
 /// docs).
 pub const S0_MIN_DISPLAY: f32 = 1e-3;
+
+/// The luminance Stokes vector (H, W, T, 4) of a spectral Stokes volume (H, W, T, 12,
+/// RGB-major: channel `4 c + j` is component j of colour c), see the module docs.
+pub fn stokes_luminance(v: ArrayView4<f32>) -> Array4<f32> {
+    let (h, w, t, c) = v.dim();
+    assert_eq!(c, 12, "a spectral Stokes volume has twelve channels");
+    Array4::from_shape_fn((h, w, t, 4), |(y, x, k, j)| {
+        super::tonemap::luminance(v[[y, x, k, j]], v[[y, x, k, 4 + j]], v[[y, x, k, 8 + j]])
+    })
+}
 
 /// HSV (each in [0, 1]; hue wraps) to RGB in [0, 1].
 pub fn hsv_to_rgb(h: f32, s: f32, v: f32) -> [f32; 3] {

@@ -6,8 +6,9 @@
 //!
 //! Volumes of C channels: RGB (C = 3) as they are; a mono film's one channel Y
 //! (C = 1) and a Stokes film's intensity S0 (C = 4: S0, S1, S2, S3) as grey, the
-//! channel replicated into R, G and B ([`shown_channels`]); its luminance is that
-//! channel.
+//! channel replicated into R, G and B ([`shown_channels`]), its luminance that
+//! channel; a spectral Stokes film's (C = 12, RGB-major) intensity S0.R, S0.G, S0.B
+//! in colour.
 
 use ndarray::ArrayView4;
 
@@ -17,15 +18,22 @@ pub fn luminance(r: f32, g: f32, b: f32) -> f32 {
     0.2126 * r + 0.7152 * g + 0.0722 * b
 }
 
-/// The channels of a C-channel voxel shown as R, G, B: `[0, 1, 2]` for RGB; the
-/// first channel as grey otherwise (Y of a mono film, S0 of a Stokes one).
+/// The channels of a C-channel voxel shown as R, G, B: `[0, 1, 2]` for RGB; S0.R,
+/// S0.G, S0.B of a spectral Stokes film (`[0, 4, 8]`); the first channel as grey
+/// otherwise (Y of a mono film, S0 of a Stokes one).
 #[inline]
 pub fn shown_channels(c: usize) -> [usize; 3] {
-    if c == 3 {
-        [0, 1, 2]
-    } else {
-        [0, 0, 0]
+    match c {
+        3 => [0, 1, 2],
+        12 => [0, 4, 8],
+        _ => [0, 0, 0],
     }
+}
+
+/// Whether a C-channel volume is shown in colour ([`shown_channels`]).
+#[inline]
+pub fn in_colour(c: usize) -> bool {
+    c == 3 || c == 12
 }
 
 /// The global exposure of an (H, W, T, C) volume (1 when it is all zero).
@@ -36,7 +44,7 @@ pub fn global_exposure(v: ArrayView4<f32>) -> f32 {
         .rows()
         .into_iter()
         .map(|p| {
-            if c == 3 {
+            if in_colour(c) {
                 luminance(p[r], p[g], p[b])
             } else {
                 p[r]

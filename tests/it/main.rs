@@ -50,6 +50,7 @@ mod serialized;
 mod shard;
 mod sobol_sampling;
 mod spectral;
+mod spectral_polarized;
 mod spectral_render;
 mod stream_render;
 mod textured;

@@ -12,19 +12,19 @@ use tstat::render::RenderOutput;
 use tstat::scene::mode::RenderMode;
 use tstat::scene::{Overrides, Scene};
 
-fn mode(m: RenderMode) -> Overrides {
+pub(crate) fn mode(m: RenderMode) -> Overrides {
     Overrides {
         mode: m,
         ..Default::default()
     }
 }
 
-fn run(scene: &Scene, spp: u32, seed: u64) -> RenderOutput {
+pub(crate) fn run(scene: &Scene, spp: u32, seed: u64) -> RenderOutput {
     crate::common::run_spp(scene, spp, seed)
 }
 
 /// The film's per-channel totals over all bins and pixels.
-fn totals(out: &RenderOutput, channels: usize) -> Vec<f64> {
+pub(crate) fn totals(out: &RenderOutput, channels: usize) -> Vec<f64> {
     let mut t = vec![0.0; channels];
     for (i, v) in out.accum.x1.iter().enumerate() {
         t[i % channels] += v;
@@ -34,7 +34,7 @@ fn totals(out: &RenderOutput, channels: usize) -> Vec<f64> {
 
 /// A camera looking down -z (up +y, a 1 degree field of view) at an area light of
 /// radiance 1 four units away, through `filters` (XML shapes between them).
-fn filter_scene(filters: &str) -> String {
+pub(crate) fn filter_scene(filters: &str) -> String {
     format!(
         r#"<scene version="3.0.0">
   <integrator type="transient_path"><integer name="max_depth" value="6"/></integrator>
@@ -58,7 +58,7 @@ fn filter_scene(filters: &str) -> String {
 }
 
 /// A filter sheet at depth `z` (facing the camera) with the BSDF `bsdf`.
-fn sheet(z: f32, bsdf: &str) -> String {
+pub(crate) fn sheet(z: f32, bsdf: &str) -> String {
     format!(
         r#"<shape type="rectangle">
     <transform name="to_world"><scale value="0.5"/><translate z="{z}"/></transform>
@@ -67,7 +67,7 @@ fn sheet(z: f32, bsdf: &str) -> String {
     )
 }
 
-fn polarizer(z: f32, theta: f32) -> String {
+pub(crate) fn polarizer(z: f32, theta: f32) -> String {
     sheet(
         z,
         &format!(r#"<bsdf type="polarizer"><float name="theta" value="{theta}"/></bsdf>"#),
@@ -295,7 +295,7 @@ fn the_mono_modes_refuse_what_they_do_not_model() {
     }
 }
 
-fn tstat(args: &[&str]) -> std::process::Output {
+pub(crate) fn tstat(args: &[&str]) -> std::process::Output {
     std::process::Command::new(env!("CARGO_BIN_EXE_tstat"))
         .args(args)
         .output()
