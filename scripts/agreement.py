@@ -31,6 +31,8 @@ interrupted run resumes; --fresh starts over.
     python3 scripts/agreement.py --report-only        # rewrite the Markdown from the cache
     python3 scripts/agreement.py --mode spectral S    # tstat --mode spectral against
                                                       # mitransient's llvm_ad_spectral
+    python3 scripts/agreement.py --mode spectral_polarized S   # S0.R, S0.G, S0.B against
+                                     # llvm_ad_spectral_polarized (its film holds S0 only)
 
 Needs mitransient 1.3.1 (pip install mitsuba==3.9.1 mitransient==1.3.1; apt-get install
 libllvm19). Not part of CI (a clone has no ../shared, and CI has no mitransient).
@@ -307,6 +309,11 @@ def measure(path, args, tmp):
     ts, tt = np.load(os.path.join(out, "steady.npy")), np.load(os.path.join(out, "x1.npy")) / spp
     (m1s, m1t), (m2s, m2t) = ms
     stokes = None
+    if args.mode == "spectral_polarized":
+        # mitransient 1.3.1's spectral polarized films hold the intensity's sRGB
+        # (S0.R, S0.G, S0.B) alone: compare those (the polarization of each colour
+        # against Mitsuba's `stokes` integrator: scripts/agree_stokes.py).
+        ts, tt = ts[..., [0, 4, 8]], tt[..., [0, 4, 8]]
     if args.mode == "mono_polarized":
         h, w = tt.shape[:2]
         stokes = stokes_rows(tt, m1t, m2t, (min(16, h), min(16, w)))
@@ -457,7 +464,7 @@ def main():
     ap.add_argument("-a", dest="search", action="append", default=[])
     ap.add_argument("--wild", default=os.path.join(ROOT, "..", "shared", "wild-scenes"))
     ap.add_argument("--tstat", default=os.path.join(ROOT, "target", "release", "tstat"))
-    ap.add_argument("--mode", choices=["rgb", "spectral", "mono", "mono_polarized"], default="rgb",
+    ap.add_argument("--mode", choices=["rgb", "spectral", "mono", "mono_polarized", "spectral_polarized"], default="rgb",
                     help="tstat's --mode, against mitransient's llvm_ad_<mode> variant")
     ap.add_argument("--out", help="default docs/results/agreement.md "
                     "(agreement_spectral.md for --mode spectral)")

@@ -81,8 +81,10 @@ class Bundle:
     @property
     def shape(self) -> Tuple[int, int, int, int]:
         """(H, W, T, C) of the volumes: C is 3 (R, G, B: modes rgb and spectral), 1 (Y:
-        mono) or 4 (the Stokes components S0..S3: mono_polarized); ``manifest["channels"]``
-        names them."""
+        mono), 4 (the Stokes components S0..S3: mono_polarized) or 12 (S0..S3 of each
+        sRGB channel, RGB-major: spectral_polarized; ``.reshape(h, w, t, 3, 4)`` gives
+        colour x component, the shape ``tstat export --out`` writes);
+        ``manifest["channels"]`` names them."""
         m = self.manifest
         return (m["height"], m["width"], m["bins"], len(m["channels"]))
 
@@ -221,7 +223,8 @@ def render(
     ``target_error``, ``time_budget``, ``pilot_spp``, ``adaptive_measure``,
     ``threads``, ``max_memory``, ``shard``, ``time_origin``, ``mode`` (``"rgb"``,
     ``"spectral"``, docs/spectral.md; ``"mono"`` or ``"mono_polarized"``: one channel,
-    or the four Stokes components S0..S3, docs/polarization.md), ``unit_m``, ``force``.
+    or the four Stokes components S0..S3; ``"spectral_polarized"``: S0..S3 of each sRGB
+    channel, twelve channels; docs/polarization.md), ``unit_m``, ``force``.
 
     ``progress``: True shows tqdm bars if tqdm is installed; a callable gets
     ``(stage, done, total, status)`` ten times a second; False shows nothing. Ctrl-C
