@@ -273,3 +273,54 @@ fn a_spectral_polarized_bundle_is_rgb_by_stokes() {
         .join("fd/polarization/aolp_dolp_0000.png")
         .exists());
 }
+
+/// What the mode does not model is refused at load, naming it (as the spectral
+/// mode); Box-Cox is refused on the command line (S1..S3 are signed); a Yeo-Johnson
+/// bundle of signed samples reads back (its negative branch is finite).
+#[test]
+fn the_spectral_polarized_mode_refuses_what_it_does_not_model() {
+    let path = |n: &str| {
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("scenes")
+            .join(n)
+    };
+    for (name, says) in [
+        ("cbox_fog.xml", "participating media"),
+        ("nlos_T.xml", "NLOS captures"),
+    ] {
+        let e = tstat::scene::Scene::load(&path(name), &mode(RenderMode::SpectralPolarized))
+            .err()
+            .unwrap_or_else(|| panic!("{name} loaded"));
+        assert!(e.to_string().contains(says), "{name}: {e}");
+        assert!(e.to_string().contains("spectral_polarized"), "{name}: {e}");
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let scene = path("cbox_polarizers.xml").display().to_string();
+    let out = dir.path().join("b.tstats").display().to_string();
+    let render = |t: &str| {
+        tstat(&[
+            "render",
+            &scene,
+            "--out",
+            &out,
+            "--mode",
+            "spectral_polarized",
+            "--transform",
+            t,
+            "--width",
+            "8",
+            "--spp",
+            "4",
+            "--bins",
+            "20",
+        ])
+    };
+    let r = render("box-cox:0.5");
+    assert!(!r.status.success());
+    assert!(String::from_utf8_lossy(&r.stderr).contains("Box-Cox"));
+    assert!(!dir.path().join("b.tstats").exists());
+    let r = render("yeo-johnson:0.5");
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let r = tstat(&["info", &out]);
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+}
