@@ -59,6 +59,22 @@ def test_polarized_render_is_the_command_lines(cli, scene, tmp_path):
     assert (b.mean()[..., 1:] < 0).any()  # S1..S3 are signed
 
 
+def test_spectral_polarized_render_is_the_command_lines(cli, scene, tmp_path):
+    b = tstat.render(scene("cbox_polarizers.xml"), 4, seed=2, out=tmp_path / "py.tstats", progress=False,
+                     mode="spectral_polarized", **SMALL)
+    cli("render", scene("cbox_polarizers.xml"), "--spp", 4, "--seed", 2, "--out", tmp_path / "cli.tstats",
+        *FLAGS, "--mode", "spectral_polarized")
+    assert arrays(b.path) == arrays(tmp_path / "cli.tstats")
+    assert b.manifest["channels"] == [f"S{j}.{c}" for c in "RGB" for j in range(4)]
+    assert b.shape[3] == 12 and b.mean().shape == b.shape
+    # The manifest's order is RGB-major: export's (H, W, T, 3, 4) is the reshape.
+    cli("export", b.path, "--out", tmp_path / "v.npy")
+    v = np.load(tmp_path / "v.npy")
+    h, w, t, _ = b.shape
+    assert v.shape == (h, w, t, 3, 4)
+    assert np.array_equal(v, b.mean().reshape(h, w, t, 3, 4))
+
+
 def test_adaptive_render_with_params_matches_the_command_line(cli, scene, tmp_path):
     opts = dict(SMALL, adaptive=True, pixel_sampling="independent", transform="yeo-johnson:0.5")
     b = tstat.render(scene("cbox.xml"), 16, seed=1, out=tmp_path / "py.tstats", progress=False, **opts)
