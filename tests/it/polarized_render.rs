@@ -155,21 +155,16 @@ fn a_quarter_wave_retarder_turns_linear_into_circular_light() {
     assert!((s[2] + 0.5).abs() < 2e-4 && s[3].abs() < 2e-4, "{s:?}");
 }
 
-/// Fresnel: light of an area emitter reflected once by a smooth dielectric mirror
-/// (eta 1.5) at incidence theta (transmitted paths see nothing) arrives polarized as
-/// the textbook formulas say: every reflected sample has S1 / S0 equal to
-/// `(R_s - R_p) / (R_s + R_p)` in the sensor's frame, whose x axis is the s direction
-/// here (the plane of incidence is vertical), and S2 = S3 = 0; S0 per path is
-/// `(R_s + R_p) / 2`, the chance of choosing reflection, within 4 standard errors.
-#[test]
-fn a_dielectric_mirror_polarizes_as_fresnel_says() {
-    for theta_deg in [20.0f64, 56.3, 75.0] {
-        let t = theta_deg.to_radians();
-        let (d, r) = ([0.0, -t.cos(), -t.sin()], [0.0, t.cos(), -t.sin()]);
-        let p = [0.0, -1.0, -t.tan()];
-        let c: Vec<f64> = (0..3).map(|k| p[k] + 5.0 * r[k]).collect();
-        let xml = format!(
-            r#"<scene version="3.0.0">
+/// A camera looking at a smooth dielectric floor (eta 1.5) at incidence `theta_deg`,
+/// whose mirror image is an area light of radiance `radiance` (XML) five units away
+/// (the plane of incidence is vertical: s light is horizontal in the image).
+pub(crate) fn dielectric_mirror_scene(theta_deg: f64, radiance: &str) -> String {
+    let t = theta_deg.to_radians();
+    let (d, r) = ([0.0, -t.cos(), -t.sin()], [0.0, t.cos(), -t.sin()]);
+    let p = [0.0, -1.0, -t.tan()];
+    let c: Vec<f64> = (0..3).map(|k| p[k] + 5.0 * r[k]).collect();
+    format!(
+        r#"<scene version="3.0.0">
   <integrator type="transient_path"><integer name="max_depth" value="3"/></integrator>
   <sensor type="perspective">
     <float name="fov" value="0.5"/>
@@ -187,11 +182,24 @@ fn a_dielectric_mirror_polarizes_as_fresnel_says() {
   </shape>
   <shape type="rectangle">
     <transform name="to_world"><scale value="3"/><lookat origin="{},{},{}" target="{},{},{}" up="1,0,0"/></transform>
-    <emitter type="area"><float name="radiance" value="1"/></emitter>
+    <emitter type="area">{radiance}</emitter>
   </shape>
 </scene>"#,
-            d[0], d[1], d[2], c[0], c[1], c[2], p[0], p[1], p[2]
-        );
+        d[0], d[1], d[2], c[0], c[1], c[2], p[0], p[1], p[2]
+    )
+}
+
+/// Fresnel: light of an area emitter reflected once by a smooth dielectric mirror
+/// (eta 1.5) at incidence theta (transmitted paths see nothing) arrives polarized as
+/// the textbook formulas say: every reflected sample has S1 / S0 equal to
+/// `(R_s - R_p) / (R_s + R_p)` in the sensor's frame, whose x axis is the s direction
+/// here (the plane of incidence is vertical), and S2 = S3 = 0; S0 per path is
+/// `(R_s + R_p) / 2`, the chance of choosing reflection, within 4 standard errors.
+#[test]
+fn a_dielectric_mirror_polarizes_as_fresnel_says() {
+    for theta_deg in [20.0f64, 56.3, 75.0] {
+        let t = theta_deg.to_radians();
+        let xml = dielectric_mirror_scene(theta_deg, r#"<float name="radiance" value="1"/>"#);
         let scene = load(&xml, &mode(RenderMode::MonoPolarized));
         let spp = 4096;
         let out = run(&scene, spp, 5);

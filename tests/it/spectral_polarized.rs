@@ -9,7 +9,9 @@
 //! (H, W, T, 3, 4) and an EXR with Mitsuba's channel names.
 
 use crate::common::{bundled, load};
-use crate::polarized_render::{filter_scene, mode, polarizer, run, totals, tstat};
+use crate::polarized_render::{
+    dielectric_mirror_scene, filter_scene, mode, polarizer, run, totals, tstat,
+};
 use tstat::scene::mode::RenderMode;
 use tstat::scene::Overrides;
 
@@ -105,36 +107,7 @@ fn malus_law_holds_in_every_colour() {
 #[test]
 fn a_dielectric_mirror_polarizes_every_colour_as_fresnel_says() {
     let theta = 56.3f64.to_radians();
-    let (d, r) = (
-        [0.0, -theta.cos(), -theta.sin()],
-        [0.0, theta.cos(), -theta.sin()],
-    );
-    let p = [0.0, -1.0, -theta.tan()];
-    let c: Vec<f64> = (0..3).map(|k| p[k] + 5.0 * r[k]).collect();
-    let xml = format!(
-        r#"<scene version="3.0.0">
-  <integrator type="transient_path"><integer name="max_depth" value="3"/></integrator>
-  <sensor type="perspective">
-    <float name="fov" value="0.5"/>
-    <transform name="to_world"><lookat origin="0,0,0" target="{},{},{}" up="0,1,0"/></transform>
-    <sampler type="independent"><integer name="sample_count" value="4"/></sampler>
-    <film type="transient_hdr_film">
-      <integer name="width" value="2"/><integer name="height" value="2"/>
-      <integer name="temporal_bins" value="1"/>
-      <float name="start_opl" value="0"/><float name="bin_width_opl" value="1000"/>
-    </film>
-  </sensor>
-  <shape type="rectangle">
-    <transform name="to_world"><scale value="100"/><rotate x="1" angle="-90"/><translate y="-1"/></transform>
-    <bsdf type="dielectric"><float name="int_ior" value="1.5"/><float name="ext_ior" value="1"/></bsdf>
-  </shape>
-  <shape type="rectangle">
-    <transform name="to_world"><scale value="3"/><lookat origin="{},{},{}" target="{},{},{}" up="1,0,0"/></transform>
-    <emitter type="area"><rgb name="radiance" value="1, 0.6, 0.3"/></emitter>
-  </shape>
-</scene>"#,
-        d[0], d[1], d[2], c[0], c[1], c[2], p[0], p[1], p[2]
-    );
+    let xml = dielectric_mirror_scene(56.3, r#"<rgb name="radiance" value="1, 0.6, 0.3"/>"#);
     let scene = load(&xml, &mode(RenderMode::SpectralPolarized));
     let s = totals(&run(&scene, 1024, 5), 12);
     let n = 1.5f64;
