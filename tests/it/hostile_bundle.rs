@@ -950,7 +950,35 @@ fn cases() -> Vec<Case> {
             make: |_, p| npy_raw(p, 1, &header("<f4", "(8, 30)"), &[0; 8 * 30 * 4]),
             bundle: false,
             cmds: VOLUME,
-            want: &["expected a 4-D volume"],
+            want: &["expected a volume (H, W, T, C)"],
+        },
+        Case {
+            name: "volume of rank 5 that is not RGB x Stokes",
+            make: |_, p| {
+                npy_raw(
+                    p,
+                    1,
+                    &header("<f4", "(4, 4, 5, 3, 3)"),
+                    &[0; 4 * 4 * 5 * 9 * 4],
+                )
+            },
+            bundle: false,
+            cmds: VOLUME,
+            want: &["expected a volume (H, W, T, C)", "[4, 4, 5, 3, 3]"],
+        },
+        Case {
+            name: "volume of 5 channels",
+            make: |_, p| {
+                npy_raw(
+                    p,
+                    1,
+                    &header("<f4", "(4, 4, 5, 5)"),
+                    &[0; 4 * 4 * 5 * 5 * 4],
+                )
+            },
+            bundle: false,
+            cmds: VOLUME,
+            want: &["expected a volume (H, W, T, C)", "[4, 4, 5, 5]"],
         },
         Case {
             name: "volume of integers",
