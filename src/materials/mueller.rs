@@ -162,6 +162,25 @@ fn depolarizing(
 }
 
 impl Bsdf {
+    /// Whether every matrix of this model is an ideal depolarizer times its scalar
+    /// value (the depolarizing models, and `twosided` / `Separable` of them): its
+    /// normalised step is then `depolarizer(1)` in any bases, at every lane
+    /// (`render::polarized::step` skips the matrices).
+    pub fn depolarizes(&self) -> bool {
+        match self {
+            Bsdf::Diffuse(_)
+            | Bsdf::Plastic(_)
+            | Bsdf::RoughPlastic(_)
+            | Bsdf::RoughDielectric(_)
+            | Bsdf::ThinDielectric(_)
+            | Bsdf::Principled(_)
+            | Bsdf::PrincipledThin(_) => true,
+            Bsdf::TwoSided(b) => b.front.depolarizes() && b.back.depolarizes(),
+            Bsdf::Separable(s) => s.inner.depolarizes(),
+            _ => false,
+        }
+    }
+
     /// [`Bsdf::mueller_lane`] of lane 0: the mono-polarized matrix.
     pub fn mueller(&self, wo: Vec3, wi: Vec3, delta: Option<BsdfFlags>) -> Mat4 {
         self.mueller_lane(wo, wi, delta, 0)
@@ -206,6 +225,14 @@ impl Bsdf {
 }
 
 impl OneSided {
+    /// [`Bsdf::depolarizes`] of the wrapped model.
+    pub fn depolarizes(&self) -> bool {
+        matches!(
+            self,
+            OneSided::Diffuse(_) | OneSided::Plastic(_) | OneSided::RoughPlastic(_)
+        )
+    }
+
     /// [`Bsdf::mueller`] of the wrapped model.
     pub fn mueller_lane(&self, wo: Vec3, wi: Vec3, delta: Option<BsdfFlags>, lane: usize) -> Mat4 {
         match self {

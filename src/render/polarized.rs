@@ -152,6 +152,11 @@ pub fn step(
     delta: Option<BsdfFlags>,
     lane: usize,
 ) -> Mat4 {
+    if bsdf.depolarizes() {
+        // What the general branch gives such a model, exactly (tested), without the
+        // matrices: the rotations of the bases keep S0 and drop the rest.
+        return depolarizer(1.0);
+    }
     let local = bsdf.mueller_lane(wo, wi, delta, lane);
     let a = local.x_axis.x;
     if !(a > 0.0 && a.is_finite()) {
@@ -190,6 +195,57 @@ mod tests {
             // Vertical light reads S1 = -S0.
             let v = camera(d, up) * (to_implicit * Vec4::new(1.0, -1.0, 0.0, 0.0));
             assert!((v - Vec4::new(1.0, -1.0, 0.0, 0.0)).abs().max_element() < 1e-5);
+        }
+    }
+
+    /// The general branch of [`step`] on a depolarizing model: exactly
+    /// `depolarizer(1)`, the shortcut [`step`] takes, for many frames and directions
+    /// (delta lobes, zero values and grazing angles included).
+    #[test]
+    fn a_depolarizing_step_is_exactly_the_ideal_depolarizer() {
+        use crate::materials::{Diffuse, ThinDielectric};
+        use crate::math::rng::Pcg32;
+        let models = [
+            Bsdf::Diffuse(Diffuse {
+                reflectance: Rgb::new(0.5, 0.3, 0.2),
+            }),
+            Bsdf::ThinDielectric(ThinDielectric {
+                eta: 1.5,
+                specular_reflectance: Rgb::ONE,
+                specular_transmittance: Rgb::ONE,
+            }),
+        ];
+        let mut rng = Pcg32::new(7, 1);
+        for bsdf in &models {
+            assert!(bsdf.depolarizes());
+            for _ in 0..500 {
+                let dir = |r: &mut Pcg32| {
+                    Vec3::new(r.next_f32() - 0.5, r.next_f32() - 0.5, r.next_f32() - 0.5)
+                        .try_normalize()
+                        .unwrap_or(Vec3::Z)
+                };
+                let frame = Frame::from_normal(dir(&mut rng));
+                let (wo, wi) = (dir(&mut rng), dir(&mut rng));
+                for delta in [
+                    None,
+                    Some(BsdfFlags::DELTA_REFLECTION),
+                    Some(BsdfFlags::DELTA_TRANSMISSION),
+                ] {
+                    for lane in 0..3 {
+                        let local = bsdf.mueller_lane(wo, wi, delta, lane);
+                        let a = local.x_axis.x;
+                        let general = if a > 0.0 && a.is_finite() {
+                            let mut n = local * (1.0 / a);
+                            n.x_axis.x = 1.0;
+                            to_world_mueller(&frame, n, -wi, wo)
+                        } else {
+                            depolarizer(1.0)
+                        };
+                        assert_eq!(general, depolarizer(1.0), "{bsdf:?} {wo} {wi} {delta:?}");
+                        assert_eq!(step(bsdf, &frame, wo, wi, delta, lane), depolarizer(1.0));
+                    }
+                }
+            }
         }
     }
 
