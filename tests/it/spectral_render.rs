@@ -124,6 +124,107 @@ fn a_uniform_emission_spectrum_is_flat() {
     }
 }
 
+/// Planck's law written out (f64, CODATA 2014 as Mitsuba), per nanometre:
+/// `2 h c^2 / l^5 / (exp(h c / (l k T)) - 1) 1e-9` W m^-2 sr^-1 nm^-1.
+fn planck(lambda_nm: f64, t: f64) -> f64 {
+    let (c, h, k) = (2.99792458e8, 6.62607004e-34, 1.38064852e-23);
+    let l = lambda_nm * 1e-9;
+    2.0 * h * c * c / l.powi(5) / ((h * c / (l * k * t)).exp() - 1.0) * 1e-9
+}
+
+/// A blackbody area light seen directly (`<spectrum type="blackbody">`, Mitsuba's
+/// `blackbody`): each channel's mean is `CIE_Y_NORMALIZATION * int B(l) sRGB(cmf(l))
+/// dl` over the spectrum's range (emission: no D65), Planck's law written out in
+/// f64 and integrated by the midpoint rule on 0.01 nm steps; the render's mean must lie
+/// within 4 standard errors of it. At 2700 K the light is orange (red > green >
+/// blue); a range cut to [500, 600] nm drops what lies outside it. RGB and mono
+/// refuse the spectrum, naming `--mode spectral`, as Mitsuba's RGB and mono variants
+/// refuse it.
+#[test]
+fn a_blackbody_emitter_renders_as_the_integral_of_plancks_law() {
+    for (t, range, extra) in [
+        (2700.0, [360.0, 830.0], ""),
+        (
+            6500.0,
+            [500.0, 600.0],
+            r#"<float name="wavelength_min" value="500"/><float name="wavelength_max" value="600"/>"#,
+        ),
+    ] {
+        let steps = 47_000;
+        let h = (range[1] - range[0]) / steps as f64;
+        let mut expected = [0.0f64; 3];
+        for i in 0..steps {
+            let l = range[0] + (i as f64 + 0.5) * h;
+            let rgb = xyz_to_srgb(cie1931_xyz(l as f32));
+            for c in 0..3 {
+                expected[c] += planck(l, t) * f64::from(rgb[c]) * h * CIE_Y_NORMALIZATION;
+            }
+        }
+        let xml = light_scene(&format!(
+            r#"<spectrum type="blackbody" name="radiance"><float name="temperature" value="{t}"/>{extra}</spectrum>"#
+        ));
+        let spp = 100_000;
+        let out = run(&load(&xml, &spectral()), spp, 9);
+        let n = f64::from(spp);
+        for c in 0..3 {
+            let mean = out.accum.x1[c] / n;
+            let var = (out.accum.x2[c] / n - mean * mean).max(0.0);
+            let se = (var / n).sqrt();
+            assert!(
+                (mean - expected[c]).abs() < 4.0 * se,
+                "{t} K channel {c}: {mean} vs {} (se {se})",
+                expected[c]
+            );
+            // Tight enough to tell the mean from a few percent off it.
+            let scale = expected.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+            assert!(
+                se < 0.015 * scale,
+                "{t} K channel {c}: se {se} of {expected:?}"
+            );
+        }
+        if t == 2700.0 {
+            assert!(
+                expected[0] > expected[1] && expected[1] > expected[2],
+                "{expected:?}"
+            );
+        }
+        for mode in [RenderMode::Rgb, RenderMode::Mono, RenderMode::MonoPolarized] {
+            let o = Overrides {
+                mode,
+                ..Default::default()
+            };
+            let dir = tempfile::tempdir().unwrap();
+            let path = dir.path().join("scene.xml");
+            std::fs::write(&path, &xml).unwrap();
+            let e = Scene::load(&path, &o).err().expect("refused").to_string();
+            assert!(
+                e.contains("--mode spectral") && e.contains("blackbody"),
+                "{e}"
+            );
+        }
+    }
+}
+
+/// `tstat check` loads a scene for `--mode` (default rgb): the bundled blackbody scene
+/// is one clear error in rgb, naming `--mode spectral`, and ok with it.
+#[test]
+fn check_takes_the_mode_a_blackbody_scene_needs() {
+    let scene = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("scenes/spectral/cbox_blackbody.xml")
+        .display()
+        .to_string();
+    let rgb = tstat(&["check", &scene]);
+    assert_eq!(rgb.status.code(), Some(1));
+    let out = String::from_utf8_lossy(&rgb.stdout);
+    assert!(out.contains("renders only with --mode spectral"), "{out}");
+    let spectral = tstat(&["check", &scene, "--mode", "spectral"]);
+    assert!(
+        spectral.status.success(),
+        "{}",
+        String::from_utf8_lossy(&spectral.stdout)
+    );
+}
+
 /// A grey diffuse plane lit by a grey area light: grey reflectances are flat and a
 /// grey emitter is D65, whose sRGB is white, so the spectral render's mean is the RGB
 /// render's (within its noise: 64 px x 2048 paths; RGB's only noise here is the
