@@ -304,6 +304,72 @@ impl<'a, 'i, 'c> Props<'a, 'i, 'c> {
         }
     }
 
+    /// In the spectral mode, a BSDF's colour parameter given as a `<spectrum>` (a
+    /// value, a `wavelength:value` list or a `.spd` file), which that mode uses as
+    /// given, as Mitsuba's spectral variants do (its `uniform` and `irregular`
+    /// spectra): the spectrum and its RGB as [`Self::rgb`] reads it (what the
+    /// G-buffer records), without the gamut warning (nothing is clamped at a path's
+    /// wavelengths). Values must be non-negative (Mitsuba's spectral variants refuse
+    /// negative ones); a reflectance above 1 is a warning. `None` in the other modes,
+    /// for any other value, and when a nested texture of the same name makes the
+    /// parameter given twice (the texture reader's error).
+    pub fn given_spectrum(&mut self, name: &str) -> Result<Option<(Curve, Vec3)>, SceneError> {
+        if self.ctx.mode != RenderMode::Spectral
+            || self
+                .objects
+                .iter()
+                .any(|o| self.ctx.attr(*o, "name").ok().flatten().as_deref() == Some(name))
+        {
+            return Ok(None);
+        }
+        let usage = if UNBOUNDED_SPECTRA.contains(&name) {
+            SpectrumUse::Unbounded
+        } else {
+            SpectrumUse::Reflectance
+        };
+        let (curve, rgb, values) = match self.peek(name) {
+            Some(Value::Uniform(v)) => (
+                Curve::Uniform(*v as f32),
+                uniform_to_srgb(*v, usage),
+                vec![*v],
+            ),
+            Some(Value::Spectrum(w, v)) => (
+                Curve::Irregular {
+                    wavelengths: w.iter().map(|&x| x as f32).collect(),
+                    values: v.iter().map(|&x| x as f32).collect(),
+                },
+                list_to_srgb(w, v, usage).0,
+                v.clone(),
+            ),
+            _ => return Ok(None),
+        };
+        let Some((n, _)) = self.take(name) else {
+            return Ok(None);
+        };
+        if rgb.iter().any(|x| !x.is_finite()) {
+            return Err(self.ctx.err(
+                n,
+                format!("spectrum '{name}' converts to a colour beyond single precision ({rgb:?}): its values are too large"),
+            ));
+        }
+        if let Some(v) = values.iter().find(|&&v| v < 0.0) {
+            return Err(self.ctx.err(
+                n,
+                format!("spectrum '{name}' has the negative value {v}: the spectral mode uses it as given, and Mitsuba's spectral variants refuse negative values too"),
+            ));
+        }
+        let top = values.iter().fold(0.0f64, |m, &v| m.max(v));
+        if usage == SpectrumUse::Reflectance && top > 1.0 {
+            self.ctx.warn(
+                n,
+                format!("spectrum '{name}' reaches {top}, above 1: the material reflects more energy than it receives at those wavelengths"),
+            );
+        }
+        // The RGB stands in for the spectrum (the G-buffer, the checks of constants):
+        // an optical constant's, unclamped, may be negative out of gamut.
+        Ok(Some((curve, Vec3::from_array(rgb).max(Vec3::ZERO))))
+    }
+
     pub fn point(&mut self, name: &str) -> Result<Option<[f64; 3]>, SceneError> {
         match self.take(name) {
             None => Ok(None),

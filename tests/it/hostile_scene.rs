@@ -305,6 +305,26 @@ fn cases() -> Vec<Case> {
                 "renders only with --mode spectral",
             )
         },
+        Case {
+            args: vec!["--mode", "spectral"],
+            ..scene_case(
+                "spectral_negative_reflectance_spectrum",
+                scene_with(
+                    r#"<shape type="sphere"><bsdf type="diffuse"><spectrum name="reflectance" value="400:-0.1, 700:0.5"/></bsdf></shape>"#,
+                ),
+                "negative value -0.1",
+            )
+        },
+        Case {
+            args: vec!["--mode", "spectral"],
+            ..scene_case(
+                "spectral_reflectance_3e38",
+                scene_with(
+                    r#"<shape type="sphere"><bsdf type="diffuse"><spectrum name="reflectance" value="400:3e38, 700:3e38"/></bsdf></shape>"#,
+                ),
+                "beyond single precision",
+            )
+        },
         case(
             "spectrum_file_65_mib",
             vec![
