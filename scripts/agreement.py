@@ -249,12 +249,13 @@ def measure(path, args, tmp):
     if copy is None:
         copy, needed = small_copy_included(path, args.width, tmp)
     if copy is None:
-        r = subprocess.run([args.tstat, "check", path] + sum((["-a", f] for f in search), []),
+        r = subprocess.run([args.tstat, "check", path, "--mode", args.mode]
+                           + sum((["-a", f] for f in search), []),
                            capture_output=True, text=True)
         if r.returncode:
             return {"skip": "tstat: " + check_reason(r.stdout + "\n" + r.stderr)[:200]}
         return {"skip": "no <film> in the scene or the files it includes"}
-    chk = [args.tstat, "check", copy] + sum((["-a", f] for f in search), [])
+    chk = [args.tstat, "check", copy, "--mode", args.mode] + sum((["-a", f] for f in search), [])
     for k, v in needed.items():
         chk += ["-D", f"{k}={v}"]
     r = subprocess.run(chk, capture_output=True, text=True)

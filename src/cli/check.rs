@@ -2,7 +2,8 @@
 //! (file:line), or says "ok" for scenes that would render. Exit status 1 if any scene
 //! would not.
 
-use crate::scene::check::{check, Verdict};
+use super::render::ModeArg;
+use crate::scene::check::{check_in_mode, Verdict};
 use clap::Args;
 use std::path::PathBuf;
 
@@ -18,6 +19,10 @@ pub struct CheckArgs {
     /// scene's own folder (Mitsuba's -a; repeatable).
     #[arg(short = 'a', value_name = "DIR")]
     pub search_paths: Vec<PathBuf>,
+    /// The render mode the scenes are loaded for, as `render --mode` (what a mode
+    /// does not model, or a blackbody spectrum outside the spectral mode, is an error).
+    #[arg(long, value_enum, default_value_t = ModeArg::Rgb)]
+    pub mode: ModeArg,
 }
 
 pub fn run(a: CheckArgs) -> anyhow::Result<()> {
@@ -32,7 +37,7 @@ pub fn run(a: CheckArgs) -> anyhow::Result<()> {
     let search = super::util::search_folders(&a.search_paths)?;
     let mut bad = 0;
     for scene in &a.scenes {
-        match check(scene, &defaults, &search) {
+        match check_in_mode(scene, &defaults, &search, a.mode.into()) {
             Verdict::Ok(notes) => {
                 say!("{}: ok", scene.display());
                 for n in notes {

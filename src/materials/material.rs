@@ -13,6 +13,7 @@
 //! range a constant may take; Mitsuba would produce NaNs at 0).
 
 use super::{Bsdf, OneSided, TemporalProfile};
+use crate::spectral::curve::Curve;
 use crate::textures::{TexPoint, Texture};
 use glam::{Vec2, Vec3};
 
@@ -121,11 +122,24 @@ pub struct Binding {
     pub texture: Texture,
 }
 
+/// A colour parameter of the model at `path` given as a spectrum (`<spectrum>`), which
+/// the spectral mode uses as given at a path's wavelengths, as Mitsuba's spectral
+/// variants do ([`Material::set_spectra`]). The BSDF holds the spectrum's RGB.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SpectralParam {
+    pub path: Vec<Step>,
+    pub param: Param,
+    pub curve: Curve,
+}
+
 #[derive(Clone, Debug, PartialEq)]
 pub struct Material {
     /// The BSDF with its constant parameters (textured ones hold a placeholder).
     pub bsdf: Bsdf,
     pub bindings: Vec<Binding>,
+    /// Colour parameters given as spectra, for the spectral mode (empty in the other
+    /// modes, which read them as their RGB in `bsdf`).
+    pub spectra: Vec<SpectralParam>,
     /// Neither textured, nor composed, nor delaying: the integrator uses `bsdf` as it
     /// is, with one branch (the common case pays nothing for the others).
     plain: bool,
@@ -151,6 +165,7 @@ impl Material {
         Material {
             bsdf,
             bindings,
+            spectra: Vec::new(),
             plain,
             anisotropic,
             perturbs,
@@ -159,6 +174,24 @@ impl Material {
 
     pub fn plain(bsdf: Bsdf) -> Self {
         Self::new(bsdf, Vec::new())
+    }
+
+    /// The material with colour parameters given as spectra (see [`SpectralParam`]).
+    pub fn with_spectra(mut self, spectra: Vec<SpectralParam>) -> Self {
+        self.spectra = spectra;
+        self
+    }
+
+    /// Sets every colour parameter given as a spectrum in `b` (this material at a hit,
+    /// its colours lifted to the wavelengths `lambda` nm) to the spectrum's values at
+    /// `lambda`, as given (Mitsuba's `uniform` and `irregular` spectra; clamped to be
+    /// non-negative like every colour set here, which the loader already requires).
+    #[inline]
+    pub fn set_spectra(&self, b: &mut Bsdf, lambda: [f32; 3]) {
+        for s in &self.spectra {
+            let v = Vec3::from_array(lambda.map(|l| s.curve.eval(l)));
+            set(b, &s.path, s.param, v);
+        }
     }
 
     /// See the `plain` field.

@@ -75,14 +75,20 @@ impl<'a> SurfaceVertex<'a> {
     }
 
     /// The vertex of a spectral path: every colour of the material at the hit as its
-    /// spectrum at the wavelengths `wl` (`materials::lift`, `spectral::lift`), kept in
-    /// `lifted`; the G-buffer still sees the RGB material.
+    /// spectrum at the wavelengths `wl`: lifted from RGB (`materials::lift`,
+    /// `spectral::lift`), or, where the scene gave a spectrum, that spectrum's values
+    /// (`Material::set_spectra`); kept in `lifted`. The G-buffer still sees the RGB
+    /// material.
     #[inline(always)]
     pub fn lifted(self, wl: &Wavelengths, lifted: &'a mut Option<Bsdf>) -> Self {
-        let bsdf = lifted.insert(self.bsdf.map_colours(&|kind, c| match kind {
+        let mut b = self.bsdf.map_colours(&|kind, c| match kind {
             ColourKind::Bounded => wl.reflectance(c),
             ColourKind::Unbounded => wl.unbounded(c),
-        }));
+        });
+        if !self.material.spectra.is_empty() {
+            self.material.set_spectra(&mut b, wl.lambda);
+        }
+        let bsdf = lifted.insert(b);
         SurfaceVertex { bsdf, ..self }
     }
 

@@ -5,7 +5,7 @@ use super::error::SceneError;
 use super::props::{Props, Value};
 use super::textures::{texture_param, NamedTextures};
 use crate::materials::conductor_presets;
-use crate::materials::material::{Binding, Param, Step};
+use crate::materials::material::{Binding, Param, SpectralParam, Step};
 use crate::materials::RoughPlastic;
 use crate::materials::{specular_to_eta, Principled, PrincipledThin};
 use crate::materials::{
@@ -155,8 +155,8 @@ fn spectral_clamp(p: &Params, name: &str, t: Texture) -> Texture {
 
 fn conductor_ior(p: &mut Params, kind: &str, default: &str) -> Result<(Rgb, Rgb), SceneError> {
     let material = p.props.string("material")?;
-    let eta = texture_param(&mut p.props, "eta", p.textures)?;
-    let k = texture_param(&mut p.props, "k", p.textures)?;
+    let eta = p.colour_param("eta", Param::Eta)?;
+    let k = p.colour_param("k", Param::K)?;
     let props = &p.props;
     // As Mitsuba: with `eta` or `k` given (or material `none`), the missing one
     // defaults to eta 0 / k 1; a named material excludes both.
@@ -255,6 +255,8 @@ pub(super) struct Params<'a, 'i, 'c> {
     props: Props<'a, 'i, 'c>,
     textures: &'c NamedTextures,
     bindings: Vec<Binding>,
+    /// The spectral mode's colours given as spectra (`Props::given_spectrum`).
+    spectra: Vec<SpectralParam>,
 }
 
 impl Params<'_, '_, '_> {
@@ -285,10 +287,25 @@ impl Params<'_, '_, '_> {
         }
     }
 
+    /// A colour parameter as a texture (`texture_param`); in the spectral mode, one
+    /// given as a spectrum is recorded to be used as given ([`SpectralParam`]) and
+    /// reads as a constant of its RGB.
+    fn colour_param(&mut self, name: &str, param: Param) -> Result<Option<Texture>, SceneError> {
+        if let Some((curve, rgb)) = self.props.given_spectrum(name)? {
+            self.spectra.push(SpectralParam {
+                path: Vec::new(),
+                param,
+                curve,
+            });
+            return Ok(Some(Texture::Constant(rgb)));
+        }
+        texture_param(&mut self.props, name, self.textures)
+    }
+
     /// A reflectance-like colour that accepts a texture: a constant is checked
     /// ([`check_reflectance`]), a texture is bound and `default` stands in for it.
     fn colour(&mut self, name: &str, param: Param, default: Rgb) -> Result<Rgb, SceneError> {
-        match texture_param(&mut self.props, name, self.textures)? {
+        match self.colour_param(name, param)? {
             None => Ok(default),
             Some(Texture::Constant(c)) => check_reflectance(&self.props, name, c),
             Some(texture) => {
@@ -307,6 +324,15 @@ impl Params<'_, '_, '_> {
                     .collect(),
                 param: b.param,
                 texture: b.texture.clone(),
+            }
+        }));
+        self.spectra.extend(child.spectra.iter().map(|s| {
+            SpectralParam {
+                path: std::iter::once(step)
+                    .chain(s.path.iter().copied())
+                    .collect(),
+                param: s.param,
+                curve: s.curve.clone(),
             }
         }));
     }
@@ -341,6 +367,7 @@ pub fn parse_bsdf(ctx: &Ctx, node: Node, named: &Named) -> Result<Material, Scen
         props: Props::parse(ctx, node)?,
         textures: named.textures,
         bindings: Vec::new(),
+        spectra: Vec::new(),
     };
     let read = super::table::reader(BSDFS, &kind).ok_or_else(|| {
         p.props.err(format!(
@@ -356,7 +383,7 @@ pub fn parse_bsdf(ctx: &Ctx, node: Node, named: &Named) -> Result<Material, Scen
         ));
     }
     p.props.finish()?;
-    Ok(Material::new(bsdf, p.bindings))
+    Ok(Material::new(bsdf, p.bindings).with_spectra(p.spectra))
 }
 
 /// The BSDF plugins and their readers (the plugin table's `bsdf` family,
@@ -882,7 +909,7 @@ fn read_pplastic(
                    param: Param,
                    default: Rgb|
      -> Result<(Rgb, f32, bool), SceneError> {
-        match texture_param(&mut p.props, name, p.textures)? {
+        match p.colour_param(name, param)? {
             None => Ok((default, default.element_sum() / 3.0, false)),
             Some(Texture::Constant(c)) => {
                 let c = check_reflectance(&p.props, name, c)?;
@@ -1187,6 +1214,7 @@ fn parse_temporal_profile(
         props: Props::parse(ctx, node)?,
         textures,
         bindings: Vec::new(),
+        spectra: Vec::new(),
     };
     // A float or a single-channel texture (NaN marks a textured one, set per hit).
     let scalar = |p: &mut Params, name: &str, param: Param| p.scalar(name, param, f64::NAN);

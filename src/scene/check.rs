@@ -43,9 +43,19 @@ pub enum Verdict {
     Fails(String),
 }
 
-/// Checks one scene (`defaults` as `-D`).
+/// Checks one scene (`defaults` as `-D`) for the RGB mode.
 /// `search`: the `-a` folders (see [`Overrides::search_paths`]).
 pub fn check(path: &Path, defaults: &[(String, String)], search: &[PathBuf]) -> Verdict {
+    check_in_mode(path, defaults, search, super::mode::RenderMode::Rgb)
+}
+
+/// [`check`], the scene loaded for `mode` (`tstat check --mode`).
+pub fn check_in_mode(
+    path: &Path,
+    defaults: &[(String, String)],
+    search: &[PathBuf],
+    mode: super::mode::RenderMode,
+) -> Verdict {
     let mut findings = Vec::new();
     let defaults_map: HashMap<String, String> = defaults.iter().cloned().collect();
     scan_file(
@@ -66,6 +76,7 @@ pub fn check(path: &Path, defaults: &[(String, String)], search: &[PathBuf]) -> 
         bins: Some(2),
         defaults: defaults.to_vec(),
         search_paths: search.to_vec(),
+        mode,
         ..Default::default()
     };
     match Scene::load(path, &overrides) {

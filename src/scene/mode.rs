@@ -10,7 +10,7 @@
 //! `S0.R, S1.R, S2.R, S3.R, S0.G, ..`, so a volume reshapes to (H, W, T, 3, 4)).
 //! [`Scene::set_mode`] refuses what a mode does not model, with one message.
 
-use super::spectrum::{list_to_srgb, uniform_to_srgb, SpectrumUse};
+use super::spectrum::{blackbody_to_srgb, list_to_srgb, uniform_to_srgb, SpectrumUse};
 use super::Scene;
 use crate::spectral::curve::Curve;
 use glam::Vec3;
@@ -161,6 +161,10 @@ impl EmitterSpectrum {
                 let w: Vec<f64> = wavelengths.iter().map(|&x| f64::from(x)).collect();
                 let v: Vec<f64> = values.iter().map(|&x| f64::from(x)).collect();
                 list_to_srgb(&w, &v, SpectrumUse::Emission).0
+            }
+            // The colour the loader gave the emitter (`Props::emission`).
+            Curve::Blackbody { temperature, range } => {
+                blackbody_to_srgb(*temperature, *range).unwrap_or([0.0; 3])
             }
         };
         EmitterSpectrum {

@@ -45,6 +45,7 @@ pub static SUPPORTED: LazyLock<Vec<(&str, Vec<&str>)>> = LazyLock::new(|| {
         ("medium", super::media::MEDIA.to_vec()),
         ("volume", names(super::media::VOLUMES)),
         ("phase", names(super::media::PHASES)),
+        ("spectrum", super::props::SPECTRA.to_vec()),
     ]);
     families
 });

@@ -4,8 +4,11 @@
 
 use super::ctx::{scene_number, scene_numbers, Ctx};
 use super::error::SceneError;
+use super::mode::RenderMode;
 use super::to_world::parse_transform;
-use crate::scene::spectrum::{list_to_srgb, uniform_to_srgb, SpectrumUse, UNBOUNDED_SPECTRA};
+use crate::scene::spectrum::{
+    blackbody_to_srgb, list_to_srgb, uniform_to_srgb, SpectrumUse, UNBOUNDED_SPECTRA,
+};
 use crate::spectral::curve::Curve;
 use glam::{DMat4, Vec3};
 use roxmltree::Node;
@@ -26,6 +29,13 @@ pub enum Value {
     /// (nm, increasing) and values, converted when the plugin reads it
     /// (`scene::spectrum`).
     Spectrum(Vec<f64>, Vec<f64>),
+    /// `<spectrum type="blackbody">`: Planck's law at `temperature` kelvin within
+    /// `range` nm (`spectral::curve::blackbody`). Emission only, and only in the
+    /// spectral mode (Mitsuba 3's RGB and mono variants refuse it).
+    Blackbody {
+        temperature: f32,
+        range: [f32; 2],
+    },
     Point([f64; 3]),
     Transform(DMat4),
 }
@@ -235,6 +245,10 @@ impl<'a, 'i, 'c> Props<'a, 'i, 'c> {
                     wavelengths: w.iter().map(|&x| x as f32).collect(),
                     values: v.iter().map(|&x| x as f32).collect(),
                 }),
+                Some(Value::Blackbody { temperature, range }) => Some(Curve::Blackbody {
+                    temperature: *temperature,
+                    range: *range,
+                }),
                 _ => None,
             };
             self.ctx.set_emission_spectrum(curve);
@@ -269,8 +283,91 @@ impl<'a, 'i, 'c> Props<'a, 'i, 'c> {
                 }
                 Ok(Some(Vec3::from_array(c)))
             }
+            Some((n, Value::Blackbody { temperature, range })) => {
+                if usage != SpectrumUse::Emission {
+                    return Err(self.ctx.err(
+                        n,
+                        format!("'{name}' cannot be a blackbody spectrum: tstat reads one only as an emitter's radiance, intensity or irradiance"),
+                    ));
+                }
+                if self.ctx.mode != RenderMode::Spectral {
+                    return Err(self.ctx.err(
+                        n,
+                        format!("'{name}' is a blackbody spectrum, which renders only with --mode spectral (Mitsuba 3's RGB and mono variants refuse it too: \"Not implemented for non-spectral modes\")"),
+                    ));
+                }
+                // Finite: checked when the spectrum was read (`parse_blackbody`).
+                let c = blackbody_to_srgb(temperature, range).unwrap_or([0.0; 3]);
+                Ok(Some(Vec3::from_array(c)))
+            }
             Some((n, _)) => Err(self.type_err(n, name, "an <rgb>, <spectrum> or <float>")),
         }
+    }
+
+    /// In the spectral mode, a BSDF's colour parameter given as a `<spectrum>` (a
+    /// value, a `wavelength:value` list or a `.spd` file), which that mode uses as
+    /// given, as Mitsuba's spectral variants do (its `uniform` and `irregular`
+    /// spectra): the spectrum and its RGB as [`Self::rgb`] reads it (what the
+    /// G-buffer records), without the gamut warning (nothing is clamped at a path's
+    /// wavelengths). Values must be non-negative (Mitsuba's spectral variants refuse
+    /// negative ones); a reflectance above 1 is a warning. `None` in the other modes,
+    /// for any other value, and when a nested texture of the same name makes the
+    /// parameter given twice (the texture reader's error).
+    pub fn given_spectrum(&mut self, name: &str) -> Result<Option<(Curve, Vec3)>, SceneError> {
+        if self.ctx.mode != RenderMode::Spectral
+            || self
+                .objects
+                .iter()
+                .any(|o| self.ctx.attr(*o, "name").ok().flatten().as_deref() == Some(name))
+        {
+            return Ok(None);
+        }
+        let usage = if UNBOUNDED_SPECTRA.contains(&name) {
+            SpectrumUse::Unbounded
+        } else {
+            SpectrumUse::Reflectance
+        };
+        let (curve, rgb, values) = match self.peek(name) {
+            Some(Value::Uniform(v)) => (
+                Curve::Uniform(*v as f32),
+                uniform_to_srgb(*v, usage),
+                vec![*v],
+            ),
+            Some(Value::Spectrum(w, v)) => (
+                Curve::Irregular {
+                    wavelengths: w.iter().map(|&x| x as f32).collect(),
+                    values: v.iter().map(|&x| x as f32).collect(),
+                },
+                list_to_srgb(w, v, usage).0,
+                v.clone(),
+            ),
+            _ => return Ok(None),
+        };
+        let Some((n, _)) = self.take(name) else {
+            return Ok(None);
+        };
+        if rgb.iter().any(|x| !x.is_finite()) {
+            return Err(self.ctx.err(
+                n,
+                format!("spectrum '{name}' converts to a colour beyond single precision ({rgb:?}): its values are too large"),
+            ));
+        }
+        if let Some(v) = values.iter().find(|&&v| v < 0.0) {
+            return Err(self.ctx.err(
+                n,
+                format!("spectrum '{name}' has the negative value {v}: the spectral mode uses it as given, and Mitsuba's spectral variants refuse negative values too"),
+            ));
+        }
+        let top = values.iter().fold(0.0f64, |m, &v| m.max(v));
+        if usage == SpectrumUse::Reflectance && top > 1.0 {
+            self.ctx.warn(
+                n,
+                format!("spectrum '{name}' reaches {top}, above 1: the material reflects more energy than it receives at those wavelengths"),
+            );
+        }
+        // The RGB stands in for the spectrum (the G-buffer, the checks of constants):
+        // an optical constant's, unclamped, may be negative out of gamut.
+        Ok(Some((curve, Vec3::from_array(rgb).max(Vec3::ZERO))))
     }
 
     pub fn point(&mut self, name: &str) -> Result<Option<[f64; 3]>, SceneError> {
@@ -327,6 +424,57 @@ impl<'a, 'i, 'c> Props<'a, 'i, 'c> {
     }
 }
 
+/// The spectrum plugins read as `<spectrum type="...">` (the plugin table's `spectrum`
+/// family): Mitsuba 3's `blackbody`.
+pub const SPECTRA: &[&str] = &["blackbody"];
+
+/// `<spectrum type="blackbody">` with Mitsuba 3's parameters: `temperature` (kelvin,
+/// required), `wavelength_min` and `wavelength_max` (nm, default 360 and 830). The
+/// temperature must be positive, the range non-empty, and Planck's law finite in single
+/// precision over the wavelengths a path samples (above about 3e11 K it is not).
+fn parse_blackbody(ctx: &Ctx, node: Node) -> Result<Value, SceneError> {
+    for a in ["value", "filename"] {
+        if ctx.attr(node, a)?.is_some() {
+            return Err(ctx.err(
+                node,
+                format!("a blackbody spectrum takes nested parameters (temperature, wavelength_min, wavelength_max), not the attribute '{a}'"),
+            ));
+        }
+    }
+    let mut p = Props::parse(ctx, node)?;
+    let t = p
+        .float("temperature")?
+        .ok_or_else(|| p.err("a blackbody spectrum needs 'temperature' (kelvin)"))?;
+    let (lo, hi) = (
+        p.float_or("wavelength_min", 360.0)?,
+        p.float_or("wavelength_max", 830.0)?,
+    );
+    if let Some(&o) = p.objects.first() {
+        return Err(ctx.err(o, "unexpected nested element in a blackbody <spectrum>"));
+    }
+    let temperature = t as f32;
+    if temperature.is_nan() || temperature <= 0.0 {
+        return Err(p.err_at(
+            "temperature",
+            format!("the temperature of a blackbody must be positive (kelvin), got {t}"),
+        ));
+    }
+    let range = [lo as f32, hi as f32];
+    if !(range[0] >= 0.0 && range[0] < range[1]) {
+        return Err(p.err(format!(
+            "wavelength_min and wavelength_max must satisfy 0 <= min < max (nm), got {lo} and {hi}"
+        )));
+    }
+    if let Err(l) = blackbody_to_srgb(temperature, range) {
+        return Err(p.err_at(
+            "temperature",
+            format!("Planck's law at {t} K overflows single precision at {l} nm"),
+        ));
+    }
+    p.finish()?;
+    Ok(Value::Blackbody { temperature, range })
+}
+
 /// The largest `.spd` file read (Mitsuba has no limit; measured spectra of a few
 /// million samples run to tens of MB): 64 MiB, about 4 million lines.
 pub const MAX_SPECTRUM_FILE_BYTES: u64 = 64 << 20;
@@ -336,6 +484,15 @@ pub const MAX_SPECTRUM_FILE_BYTES: u64 = 64 << 20;
 /// value` pair per line, `#` comments).
 fn parse_spectrum(ctx: &Ctx, node: Node) -> Result<Value, SceneError> {
     let bad = |msg: String| ctx.err(node, msg);
+    if let Some(kind) = ctx.attr(node, "type")? {
+        if !SPECTRA.contains(&kind.as_str()) {
+            return Err(bad(format!(
+                "spectrum type '{kind}' is not supported (supported: {}; a list is given as value=\"wavelength:value, ...\" or filename=\"FILE.spd\")",
+                SPECTRA.join(", ")
+            )));
+        }
+        return parse_blackbody(ctx, node);
+    }
     let pairs: Vec<(f64, f64)> = match (ctx.attr(node, "value")?, ctx.attr(node, "filename")?) {
         (Some(_), Some(_)) => return Err(bad("give either 'value' or 'filename'".into())),
         (None, None) => return Err(bad("missing attribute 'value' (or 'filename')".into())),

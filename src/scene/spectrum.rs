@@ -19,6 +19,7 @@
 use crate::spectral::cie::{
     lookup, xyz_to_srgb, CIE1931_XYZ, CIE_MAX, CIE_MIN, CIE_Y_NORMALIZATION, D65_ROWS,
 };
+use crate::spectral::curve::blackbody;
 
 /// Whether the spectrum is emission (radiance, intensity) or a reflectance-like value.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -86,6 +87,42 @@ pub fn list_to_srgb(wavelengths: &[f64], values: &[f64], usage: SpectrumUse) -> 
             (clamped, clamped != rgb)
         }
         SpectrumUse::Unbounded => (rgb, false),
+    }
+}
+
+/// The linear sRGB of Planck's law at `temperature` kelvin within `range` nm
+/// (`spectral::curve::blackbody`), integrated as [`list_to_srgb`] integrates an
+/// emission list (1000 wavelengths over [360, 830] nm, no D65, clamped to >= 0).
+/// Mitsuba's RGB variants refuse a blackbody; tstat uses this colour only in the
+/// spectral mode, where the emitter's RGB stands for the spectrum (G-buffer, the
+/// factor `EmitterSpectrum::at` divides by). `Err(lambda)`: Planck's law is not
+/// finite in single precision at `lambda` nm (a temperature above about 3e11 K).
+pub fn blackbody_to_srgb(temperature: f32, range: [f32; 2]) -> Result<[f32; 3], f32> {
+    let steps = 1000;
+    let mut xyz = [0.0f32; 3];
+    for i in 0..steps {
+        let w = CIE_MIN + (i as f32 / (steps - 1) as f32) * (CIE_MAX - CIE_MIN);
+        let v = blackbody(w, temperature, range);
+        if !v.is_finite() {
+            return Err(w);
+        }
+        let cmf = lookup(&CIE1931_XYZ, w);
+        for c in 0..3 {
+            xyz[c] += cmf[c] * v;
+        }
+    }
+    // The longest wavelength sampled in the range: where `exp(c1 / (l T)) - 1` is
+    // smallest (it rounds to 0 first there).
+    let top = range[1].min(CIE_MAX);
+    if top >= CIE_MIN && !blackbody(top, temperature, range).is_finite() {
+        return Err(top);
+    }
+    let scale = ((CIE_MAX - CIE_MIN) as f64 * CIE_Y_NORMALIZATION / steps as f64) as f32;
+    let rgb = xyz_to_srgb(xyz.map(|v| v * scale)).map(|v| v.max(0.0));
+    if rgb.iter().all(|v| v.is_finite()) {
+        Ok(rgb)
+    } else {
+        Err(top)
     }
 }
 

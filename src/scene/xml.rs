@@ -1158,7 +1158,7 @@ fn allowed_attributes(tag: &str) -> Option<&'static [&'static str]> {
         "default" => &["name", "value"],
         "ref" => &["id", "name"],
         "float" | "integer" | "boolean" | "string" | "rgb" | "color" => &["name", "value"],
-        "spectrum" => &["name", "value", "filename"],
+        "spectrum" => &["name", "value", "filename", "type"],
         "path" => &["value"],
         "include" => &["filename"],
         "point" | "vector" => &["name", "value", "x", "y", "z"],

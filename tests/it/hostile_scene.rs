@@ -218,6 +218,26 @@ fn scene_case(name: &'static str, scene: File, want: &'static str) -> Case {
     case(name, vec![("scene.xml", scene)], want)
 }
 
+/// An area light whose radiance is a blackbody whose `<float name="temperature">`
+/// takes the attributes `float_attrs`, rendered with `--mode spectral`.
+fn blackbody_case(name: &'static str, float_attrs: &str, want: &'static str) -> Case {
+    let float_attrs = if float_attrs.starts_with("name=") {
+        float_attrs.to_string() + r#" value="5000""#
+    } else {
+        format!(r#"name="temperature" {float_attrs}"#)
+    };
+    Case {
+        args: vec!["--mode", "spectral"],
+        ..scene_case(
+            name,
+            scene_with(&format!(
+                r#"<shape type="sphere"><emitter type="area"><spectrum type="blackbody" name="radiance"><float {float_attrs}/></spectrum></emitter></shape>"#
+            )),
+            want,
+        )
+    }
+}
+
 fn mesh_case(
     name: &'static str,
     kind: &'static str,
@@ -262,6 +282,49 @@ fn cases() -> Vec<Case> {
             scene_with(&projector(r#"<float name="fov" value="30"/><float name="scale" value="3e38"/>"#)),
             "overflows single precision",
         ),
+        // ---- blackbody spectra: bad temperatures, overflow, the wrong mode ----
+        blackbody_case("blackbody_temperature_0", r#"value="0""#, "must be positive"),
+        blackbody_case("blackbody_temperature_negative", r#"value="-300""#, "must be positive"),
+        blackbody_case("blackbody_temperature_nan", r#"value="nan""#, "not a finite number"),
+        blackbody_case("blackbody_temperature_inf", r#"value="inf""#, "not a finite number"),
+        blackbody_case(
+            "blackbody_temperature_1e30",
+            r#"value="1e30""#,
+            "overflows single precision",
+        ),
+        blackbody_case(
+            "blackbody_temperature_missing",
+            r#"name="x""#,
+            "needs 'temperature'",
+        ),
+        Case {
+            args: Vec::new(),
+            ..blackbody_case(
+                "blackbody_in_rgb",
+                r#"value="5000""#,
+                "renders only with --mode spectral",
+            )
+        },
+        Case {
+            args: vec!["--mode", "spectral"],
+            ..scene_case(
+                "spectral_negative_reflectance_spectrum",
+                scene_with(
+                    r#"<shape type="sphere"><bsdf type="diffuse"><spectrum name="reflectance" value="400:-0.1, 700:0.5"/></bsdf></shape>"#,
+                ),
+                "negative value -0.1",
+            )
+        },
+        Case {
+            args: vec!["--mode", "spectral"],
+            ..scene_case(
+                "spectral_reflectance_3e38",
+                scene_with(
+                    r#"<shape type="sphere"><bsdf type="diffuse"><spectrum name="reflectance" value="400:3e38, 700:3e38"/></bsdf></shape>"#,
+                ),
+                "beyond single precision",
+            )
+        },
         case(
             "spectrum_file_65_mib",
             vec![

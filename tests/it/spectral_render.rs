@@ -10,6 +10,7 @@
 use crate::common::{bundled, load};
 use tstat::render::RenderOutput;
 use tstat::scene::mode::RenderMode;
+use tstat::scene::spectrum::{list_to_srgb, uniform_to_srgb, SpectrumUse};
 use tstat::scene::{Overrides, Scene};
 use tstat::spectral::cie::{cie1931_xyz, xyz_to_srgb, CIE_Y_NORMALIZATION};
 
@@ -122,6 +123,270 @@ fn a_uniform_emission_spectrum_is_flat() {
             want[c]
         );
     }
+}
+
+/// Planck's law written out (f64, CODATA 2014 as Mitsuba), per nanometre:
+/// `2 h c^2 / l^5 / (exp(h c / (l k T)) - 1) 1e-9` W m^-2 sr^-1 nm^-1.
+fn planck(lambda_nm: f64, t: f64) -> f64 {
+    let (c, h, k) = (2.99792458e8, 6.62607004e-34, 1.38064852e-23);
+    let l = lambda_nm * 1e-9;
+    2.0 * h * c * c / l.powi(5) / ((h * c / (l * k * t)).exp() - 1.0) * 1e-9
+}
+
+/// A blackbody area light seen directly (`<spectrum type="blackbody">`, Mitsuba's
+/// `blackbody`): each channel's mean is `CIE_Y_NORMALIZATION * int B(l) sRGB(cmf(l))
+/// dl` over the spectrum's range (emission: no D65), Planck's law written out in
+/// f64 and integrated by the midpoint rule on 0.01 nm steps; the render's mean must lie
+/// within 4 standard errors of it. At 2700 K the light is orange (red > green >
+/// blue); a range cut to [500, 600] nm drops what lies outside it. RGB and mono
+/// refuse the spectrum, naming `--mode spectral`, as Mitsuba's RGB and mono variants
+/// refuse it.
+#[test]
+fn a_blackbody_emitter_renders_as_the_integral_of_plancks_law() {
+    for (t, range, extra) in [
+        (2700.0, [360.0, 830.0], ""),
+        (
+            6500.0,
+            [500.0, 600.0],
+            r#"<float name="wavelength_min" value="500"/><float name="wavelength_max" value="600"/>"#,
+        ),
+    ] {
+        let steps = 47_000;
+        let h = (range[1] - range[0]) / steps as f64;
+        let mut expected = [0.0f64; 3];
+        for i in 0..steps {
+            let l = range[0] + (i as f64 + 0.5) * h;
+            let rgb = xyz_to_srgb(cie1931_xyz(l as f32));
+            for c in 0..3 {
+                expected[c] += planck(l, t) * f64::from(rgb[c]) * h * CIE_Y_NORMALIZATION;
+            }
+        }
+        let xml = light_scene(&format!(
+            r#"<spectrum type="blackbody" name="radiance"><float name="temperature" value="{t}"/>{extra}</spectrum>"#
+        ));
+        let spp = 100_000;
+        let out = run(&load(&xml, &spectral()), spp, 9);
+        let n = f64::from(spp);
+        for c in 0..3 {
+            let mean = out.accum.x1[c] / n;
+            let var = (out.accum.x2[c] / n - mean * mean).max(0.0);
+            let se = (var / n).sqrt();
+            assert!(
+                (mean - expected[c]).abs() < 4.0 * se,
+                "{t} K channel {c}: {mean} vs {} (se {se})",
+                expected[c]
+            );
+            // Tight enough to tell the mean from a few percent off it.
+            let scale = expected.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+            assert!(
+                se < 0.015 * scale,
+                "{t} K channel {c}: se {se} of {expected:?}"
+            );
+        }
+        if t == 2700.0 {
+            assert!(
+                expected[0] > expected[1] && expected[1] > expected[2],
+                "{expected:?}"
+            );
+        }
+        for mode in [RenderMode::Rgb, RenderMode::Mono, RenderMode::MonoPolarized] {
+            let o = Overrides {
+                mode,
+                ..Default::default()
+            };
+            let dir = tempfile::tempdir().unwrap();
+            let path = dir.path().join("scene.xml");
+            std::fs::write(&path, &xml).unwrap();
+            let e = Scene::load(&path, &o).err().expect("refused").to_string();
+            assert!(
+                e.contains("--mode spectral") && e.contains("blackbody"),
+                "{e}"
+            );
+        }
+    }
+}
+
+/// A plane of BSDF `bsdf` (an XML element) seen straight on, lit by a `constant`
+/// environment of the flat spectrum 1 (`<spectrum value="1"/>`, not D65), one pixel and
+/// one time bin that holds every path (the environment's segments included).
+fn lit_plane_scene(bsdf: &str) -> String {
+    format!(
+        r#"<scene version="3.0.0">
+  <integrator type="transient_path"><integer name="max_depth" value="2"/></integrator>
+  <sensor type="perspective">
+    <float name="fov" value="0.5"/>
+    <transform name="to_world"><lookat origin="0,0,1" target="0,0,0" up="0,1,0"/></transform>
+    <sampler type="independent"><integer name="sample_count" value="4"/></sampler>
+    <film type="transient_hdr_film">
+      <integer name="width" value="1"/><integer name="height" value="1"/>
+      <integer name="temporal_bins" value="1"/>
+      <float name="start_opl" value="0"/><float name="bin_width_opl" value="10000"/>
+    </film>
+  </sensor>
+  <emitter type="constant"><spectrum name="radiance" value="1"/></emitter>
+  <shape type="rectangle">
+    <transform name="to_world"><scale value="50"/></transform>
+    {bsdf}
+  </shape>
+</scene>"#
+    )
+}
+
+/// `CIE_Y_NORMALIZATION * int f(l) sRGB(cmf(l)) dl` over [360, 830] nm, by the
+/// midpoint rule on 0.01 nm steps.
+fn srgb_integral(f: impl Fn(f64) -> f64) -> [f64; 3] {
+    let steps = 47_000;
+    let h = 470.0 / steps as f64;
+    let mut out = [0.0f64; 3];
+    for i in 0..steps {
+        let l = 360.0 + (i as f64 + 0.5) * h;
+        let rgb = xyz_to_srgb(cie1931_xyz(l as f32));
+        for c in 0..3 {
+            out[c] += f(l) * f64::from(rgb[c]) * h * CIE_Y_NORMALIZATION;
+        }
+    }
+    out
+}
+
+/// The linear interpolation of `(wavelength, value)` points, zero outside them (as a
+/// `<spectrum>` list is read), written out for the tests' integrals.
+fn piecewise(points: &[(f64, f64)], l: f64) -> f64 {
+    for w in points.windows(2) {
+        let ((l0, v0), (l1, v1)) = (w[0], w[1]);
+        if l >= l0 && l <= l1 {
+            return v0 + (l - l0) / (l1 - l0) * (v1 - v0);
+        }
+    }
+    0.0
+}
+
+/// The mean of a one-pixel, one-bin render and its standard error.
+fn mean_and_se(out: &RenderOutput, spp: u32) -> [(f64, f64); 3] {
+    let n = f64::from(spp);
+    std::array::from_fn(|c| {
+        let mean = out.accum.x1[c] / n;
+        let var = (out.accum.x2[c] / n - mean * mean).max(0.0);
+        (mean, (var / n).sqrt())
+    })
+}
+
+/// Reflectances given as `<spectrum>` are used as given in the spectral mode (Mitsuba's
+/// `irregular` spectrum at the path's wavelengths), not read as their RGB and lifted:
+/// a diffuse plane under a flat white environment (radiance 1 at every wavelength)
+/// reflects `rho(l) * 1`, so each channel's mean is `CIE_Y_NORMALIZATION * int rho(l)
+/// sRGB(cmf(l)) dl`, computed here from the listed points. A narrow band at 545 nm has
+/// a negative red (RGB, and lifting its RGB, would clamp it to >= 0), a step at 600 nm
+/// is no smooth sigmoid; the step's plane is `twosided` (the spectrum reaches the
+/// model through the wrapper) and read from a `.spd` file. RGB mode still reads the
+/// spectra as their RGB: the product of the reflectance's and the light's RGB.
+#[test]
+fn reflectance_spectra_are_used_as_given() {
+    let band = [(530.0, 0.0), (545.0, 0.9), (560.0, 0.0)];
+    let step = [(360.0, 0.05), (599.0, 0.05), (601.0, 0.85), (830.0, 0.85)];
+    let dir = tempfile::tempdir().unwrap();
+    let spd: String = step.iter().map(|(l, v)| format!("{l} {v}\n")).collect();
+    std::fs::write(dir.path().join("step.spd"), spd).unwrap();
+    let band_bsdf = r#"<bsdf type="diffuse"><spectrum name="reflectance" value="530:0, 545:0.9, 560:0"/></bsdf>"#;
+    let step_bsdf = r#"<bsdf type="twosided"><bsdf type="diffuse"><spectrum name="reflectance" filename="step.spd"/></bsdf></bsdf>"#;
+    for (points, bsdf) in [(&band[..], band_bsdf), (&step[..], step_bsdf)] {
+        let expected = srgb_integral(|l| piecewise(points, l));
+        let path = dir.path().join("scene.xml");
+        std::fs::write(&path, lit_plane_scene(bsdf)).unwrap();
+        let scene = Scene::load(&path, &spectral()).unwrap();
+        assert_eq!(
+            scene.bsdfs[0].spectra.len(),
+            if points.len() == 3 { 1 } else { 2 }
+        );
+        let spp = 100_000;
+        let got = mean_and_se(&run(&scene, spp, 21), spp);
+        let scale = expected.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        for c in 0..3 {
+            let (mean, se) = got[c];
+            assert!(
+                (mean - expected[c]).abs() < 4.0 * se,
+                "channel {c}: {mean} vs {} (se {se})",
+                expected[c]
+            );
+            assert!(se < 0.01 * scale, "se {se} of {expected:?}");
+        }
+        if points.len() == 3 {
+            assert!(expected[0] < -0.1 * scale, "out of gamut: {expected:?}");
+        }
+        // RGB: the reflectance's RGB (D65-weighted, clamped) times the light's.
+        let rgb = run(&Scene::load(&path, &Overrides::default()).unwrap(), 64, 1);
+        let (w, v): (Vec<f64>, Vec<f64>) = points.iter().copied().unzip();
+        let (refl, _) = list_to_srgb(&w, &v, SpectrumUse::Reflectance);
+        let light = uniform_to_srgb(1.0, SpectrumUse::Emission);
+        let got = mean_and_se(&rgb, 64);
+        for c in 0..3 {
+            let want = f64::from(refl[c]) * f64::from(light[c]);
+            assert!(
+                (got[c].0 - want).abs() < 4.0 * got[c].1 + 1e-5,
+                "rgb {c}: {:?} vs {want}",
+                got[c]
+            );
+        }
+    }
+}
+
+/// A conductor whose `eta` and `k` are `<spectrum>` lists reflects, seen straight on,
+/// the normal-incidence Fresnel reflectance `((n - 1)^2 + k^2) / ((n + 1)^2 + k^2)` of
+/// the listed values at each wavelength (Mitsuba uses measured spectra as given): the
+/// mean is the sRGB integral of that reflectance under the flat white environment.
+#[test]
+fn conductor_spectra_are_used_as_given() {
+    let eta = [(360.0, 1.6), (500.0, 1.0), (560.0, 0.35), (830.0, 0.15)];
+    let k = [(360.0, 1.9), (500.0, 1.9), (600.0, 3.0), (830.0, 5.0)];
+    let list = |p: &[(f64, f64)]| {
+        p.iter()
+            .map(|(l, v)| format!("{l}:{v}"))
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    let bsdf = format!(
+        r#"<bsdf type="conductor"><spectrum name="eta" value="{}"/><spectrum name="k" value="{}"/></bsdf>"#,
+        list(&eta),
+        list(&k)
+    );
+    let expected = srgb_integral(|l| {
+        let (n, k) = (piecewise(&eta, l), piecewise(&k, l));
+        ((n - 1.0) * (n - 1.0) + k * k) / ((n + 1.0) * (n + 1.0) + k * k)
+    });
+    let scene = load(&lit_plane_scene(&bsdf), &spectral());
+    assert_eq!(scene.bsdfs[0].spectra.len(), 2);
+    let spp = 100_000;
+    let got = mean_and_se(&run(&scene, spp, 4), spp);
+    for c in 0..3 {
+        let (mean, se) = got[c];
+        // The camera's rays leave within 0.25 degrees of the normal: Fresnel there is
+        // the normal-incidence value to 1e-5.
+        assert!(
+            (mean - expected[c]).abs() < 4.0 * se + 1e-4 * expected[c].abs(),
+            "channel {c}: {mean} vs {} (se {se})",
+            expected[c]
+        );
+        assert!(se < 0.01 * expected[c].abs(), "se {se} of {expected:?}");
+    }
+}
+
+/// `tstat check` loads a scene for `--mode` (default rgb): the bundled blackbody scene
+/// is one clear error in rgb, naming `--mode spectral`, and ok with it.
+#[test]
+fn check_takes_the_mode_a_blackbody_scene_needs() {
+    let scene = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("scenes/spectral/cbox_blackbody.xml")
+        .display()
+        .to_string();
+    let rgb = tstat(&["check", &scene]);
+    assert_eq!(rgb.status.code(), Some(1));
+    let out = String::from_utf8_lossy(&rgb.stdout);
+    assert!(out.contains("renders only with --mode spectral"), "{out}");
+    let spectral = tstat(&["check", &scene, "--mode", "spectral"]);
+    assert!(
+        spectral.status.success(),
+        "{}",
+        String::from_utf8_lossy(&spectral.stdout)
+    );
 }
 
 /// A grey diffuse plane lit by a grey area light: grey reflectances are flat and a
