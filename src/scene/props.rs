@@ -4,7 +4,6 @@
 
 use super::ctx::{scene_number, scene_numbers, Ctx};
 use super::error::SceneError;
-use super::mode::RenderMode;
 use super::to_world::parse_transform;
 use crate::scene::spectrum::{
     blackbody_to_srgb, list_to_srgb, uniform_to_srgb, SpectrumUse, UNBOUNDED_SPECTRA,
@@ -290,10 +289,10 @@ impl<'a, 'i, 'c> Props<'a, 'i, 'c> {
                         format!("'{name}' cannot be a blackbody spectrum: tstat reads one only as an emitter's radiance, intensity or irradiance"),
                     ));
                 }
-                if self.ctx.mode != RenderMode::Spectral {
+                if !self.ctx.mode.is_spectral() {
                     return Err(self.ctx.err(
                         n,
-                        format!("'{name}' is a blackbody spectrum, which renders only with --mode spectral (Mitsuba 3's RGB and mono variants refuse it too: \"Not implemented for non-spectral modes\")"),
+                        format!("'{name}' is a blackbody spectrum, which renders only with --mode spectral or spectral_polarized (Mitsuba 3's RGB and mono variants refuse it too: \"Not implemented for non-spectral modes\")"),
                     ));
                 }
                 // Finite: checked when the spectrum was read (`parse_blackbody`).
@@ -314,7 +313,7 @@ impl<'a, 'i, 'c> Props<'a, 'i, 'c> {
     /// for any other value, and when a nested texture of the same name makes the
     /// parameter given twice (the texture reader's error).
     pub fn given_spectrum(&mut self, name: &str) -> Result<Option<(Curve, Vec3)>, SceneError> {
-        if self.ctx.mode != RenderMode::Spectral
+        if !self.ctx.mode.is_spectral()
             || self
                 .objects
                 .iter()
