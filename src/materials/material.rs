@@ -12,6 +12,7 @@
 //! non-negative, opacity to [0, 1] (as Mitsuba clips it), roughness to [1e-4, 10] (the
 //! range a constant may take; Mitsuba would produce NaNs at 0).
 
+use super::lift::ColourKind;
 use super::{Bsdf, OneSided, TemporalProfile};
 use crate::spectral::curve::Curve;
 use crate::textures::{TexPoint, Texture};
@@ -71,6 +72,16 @@ pub enum Param {
 }
 
 impl Param {
+    /// How a colour parameter becomes a spectrum (`materials::lift`); `None` for
+    /// scalar parameters.
+    pub fn colour_kind(self) -> Option<ColourKind> {
+        match self {
+            Param::Eta | Param::K => Some(ColourKind::Unbounded),
+            p if p.is_scalar() => None,
+            _ => Some(ColourKind::Bounded),
+        }
+    }
+
     /// Scalar parameters read the texture's one-channel value (Mitsuba's `eval_1`).
     fn is_scalar(self) -> bool {
         matches!(
@@ -149,6 +160,10 @@ pub struct Material {
     anisotropic: bool,
     /// A `normalmap` or `bumpmap` inside: each hit sets its frame.
     perturbs: bool,
+    /// A colour parameter is bound to a texture that filters RGB texels
+    /// (`Texture::filters_colours`): the spectral mode lifts its texels one by one
+    /// ([`Self::set_texel_spectra`]).
+    filters_colours: bool,
 }
 
 impl Material {
@@ -162,6 +177,9 @@ impl Material {
             || bindings
                 .iter()
                 .any(|b| matches!(b.param, Param::AlphaU | Param::AlphaV | Param::Anisotropic));
+        let filters_colours = bindings
+            .iter()
+            .any(|b| b.param.colour_kind().is_some() && b.texture.filters_colours());
         Material {
             bsdf,
             bindings,
@@ -169,6 +187,7 @@ impl Material {
             plain,
             anisotropic,
             perturbs,
+            filters_colours,
         }
     }
 
@@ -180,6 +199,35 @@ impl Material {
     pub fn with_spectra(mut self, spectra: Vec<SpectralParam>) -> Self {
         self.spectra = spectra;
         self
+    }
+
+    /// See the `filters_colours` field.
+    #[inline(always)]
+    pub fn filters_colours(&self) -> bool {
+        self.filters_colours
+    }
+
+    /// Sets every colour parameter of `b` (this material at the surface point `p`)
+    /// whose texture filters RGB texels (a bilinear RGB bitmap) to the filter of its
+    /// texels each mapped by `lift(kind, texel)`, instead of `lift` of the filtered
+    /// colour: the spectral mode lifts the four texels of a bilinear lookup and
+    /// interpolates the spectra, as Mitsuba's bitmap (`interpolate_spectral`) does.
+    pub fn set_texel_spectra(
+        &self,
+        b: &mut Bsdf,
+        p: &TexPoint,
+        lift: &impl Fn(ColourKind, Vec3) -> Vec3,
+    ) {
+        for binding in &self.bindings {
+            if let Some(kind) = binding.param.colour_kind() {
+                if binding.texture.filters_colours() {
+                    let v = binding
+                        .texture
+                        .eval_mapped_at(p, &|c: Vec3| lift(kind, c.max(Vec3::ZERO)));
+                    set(b, &binding.path, binding.param, v);
+                }
+            }
+        }
     }
 
     /// Sets every colour parameter given as a spectrum in `b` (this material at a hit,
@@ -564,5 +612,78 @@ mod tests {
             m.at(Vec2::new(0.1, 0.1)),
             Bsdf::Plastic(Plastic::new(1.49, Rgb::new(0.8, 0.2, 0.1), Rgb::ONE, true))
         );
+    }
+
+    /// The spectral mode's per-texel lift (`set_texel_spectra`), with the spectral
+    /// mode's own reflectance lift: halfway between a red and a green texel of a
+    /// bilinear bitmap, a diffuse reflectance is the mean of the two texels' spectra
+    /// (Mitsuba's `interpolate_spectral`), which differs from the spectrum of the
+    /// interpolated colour (1/2, 1/2, 0) by more than 0.05 at some wavelength; a
+    /// constant and a nearest-filtered binding are left as lifted.
+    #[test]
+    fn texels_are_lifted_before_the_bilinear_filter() {
+        use crate::spectral::lift::Wavelengths;
+        use crate::textures::bitmap::{Bitmap, FilterType, WrapMode};
+        use crate::textures::UvTransform;
+        use std::sync::Arc;
+        let image = |filter| {
+            Texture::Bitmap(Arc::new(Bitmap {
+                width: 2,
+                height: 1,
+                channels: 3,
+                data: vec![1.0, 0.0, 0.0, 0.0, 1.0, 0.0],
+                filter,
+                wrap: WrapMode::Clamp,
+                to_uv: UvTransform::IDENTITY,
+            }))
+        };
+        let diffuse = Bsdf::Diffuse(Diffuse {
+            reflectance: Vec3::splat(0.5),
+        });
+        let m = Material::new(
+            diffuse.clone(),
+            vec![Binding {
+                path: vec![],
+                param: Param::Reflectance,
+                texture: image(FilterType::Bilinear),
+            }],
+        );
+        assert!(m.filters_colours());
+        let p = TexPoint::uv(Vec2::new(0.5, 0.5));
+        let mut worst = 0.0f32;
+        for u in [0.05, 0.2, 0.35, 0.5, 0.65, 0.8, 0.95] {
+            let wl = Wavelengths::sample(u);
+            let lift = |kind: ColourKind, c: Vec3| match kind {
+                ColourKind::Bounded => wl.reflectance(c),
+                ColourKind::Unbounded => wl.unbounded(c),
+            };
+            let mut b = m.at_point(&p).map_colours(&lift);
+            let filtered_then_lifted = match &b {
+                Bsdf::Diffuse(d) => d.reflectance,
+                _ => unreachable!(),
+            };
+            m.set_texel_spectra(&mut b, &p, &lift);
+            let Bsdf::Diffuse(d) = b else { unreachable!() };
+            let want = (wl.reflectance(Vec3::X) + wl.reflectance(Vec3::Y)) * 0.5;
+            assert!((d.reflectance - want).abs().max_element() < 1e-6, "{wl:?}");
+            assert_eq!(
+                filtered_then_lifted,
+                wl.reflectance(Vec3::new(0.5, 0.5, 0.0))
+            );
+            worst = worst.max((d.reflectance - filtered_then_lifted).abs().max_element());
+        }
+        assert!(worst > 0.05, "the two lifts agree within {worst}: no test");
+        // Nothing to do for nearest lookups and constants.
+        for t in [image(FilterType::Nearest), Texture::Constant(Vec3::X)] {
+            let m = Material::new(
+                diffuse.clone(),
+                vec![Binding {
+                    path: vec![],
+                    param: Param::Reflectance,
+                    texture: t,
+                }],
+            );
+            assert!(!m.filters_colours());
+        }
     }
 }

@@ -508,7 +508,7 @@ impl<'a> Scattering<'a> {
         let v = match wl {
             None if mono => v.mono(lifted),
             None => v,
-            Some(wl) => v.lifted(wl, lifted),
+            Some(wl) => v.lifted(hit, wl, lifted),
         };
         let whole = v.bsdf;
         let (bsdf, delaying) = if v.material.is_plain() {

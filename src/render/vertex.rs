@@ -74,17 +74,24 @@ impl<'a> SurfaceVertex<'a> {
         }
     }
 
-    /// The vertex of a spectral path: every colour of the material at the hit as its
-    /// spectrum at the wavelengths `wl`: lifted from RGB (`materials::lift`,
-    /// `spectral::lift`), or, where the scene gave a spectrum, that spectrum's values
-    /// (`Material::set_spectra`); kept in `lifted`. The G-buffer still sees the RGB
+    /// The vertex at `hit` of a spectral path: every colour of the material at the
+    /// hit as its spectrum at the wavelengths `wl`: lifted from RGB
+    /// (`materials::lift`, `spectral::lift`); a bilinear RGB bitmap's colour lifted
+    /// texel by texel before the filter (`Material::set_texel_spectra`, as Mitsuba's
+    /// bitmap); where the scene gave a spectrum, that spectrum's values
+    /// (`Material::set_spectra`). Kept in `lifted`; the G-buffer still sees the RGB
     /// material.
     #[inline(always)]
-    pub fn lifted(self, wl: &Wavelengths, lifted: &'a mut Option<Bsdf>) -> Self {
-        let mut b = self.bsdf.map_colours(&|kind, c| match kind {
+    pub fn lifted(self, hit: &Hit, wl: &Wavelengths, lifted: &'a mut Option<Bsdf>) -> Self {
+        let lift = |kind, c| match kind {
             ColourKind::Bounded => wl.reflectance(c),
             ColourKind::Unbounded => wl.unbounded(c),
-        });
+        };
+        let mut b = self.bsdf.map_colours(&lift);
+        if self.material.filters_colours() {
+            let p = TexPoint::on(self.shape, hit.face, hit.b1, hit.b2, self.sp.p);
+            self.material.set_texel_spectra(&mut b, &p, &lift);
+        }
         if !self.material.spectra.is_empty() {
             self.material.set_spectra(&mut b, wl.lambda);
         }

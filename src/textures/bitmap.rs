@@ -96,6 +96,24 @@ impl Bitmap {
 
     #[inline]
     pub fn eval_rgb(&self, uv: Vec2) -> Vec3 {
+        self.eval_mapped(uv, &|c| c)
+    }
+
+    /// Whether [`Self::eval_mapped`] can differ from `f` of the interpolated colour:
+    /// a `bilinear` RGB image (a grey one interpolates greys, which the spectral
+    /// mode's lift maps linearly; Mitsuba's `interpolate_1` does not upsample them).
+    pub fn filters_colours(&self) -> bool {
+        self.filter == FilterType::Bilinear && self.channels == 3
+    }
+
+    /// The lookup at `uv` with `f` applied to each texel before the filter: `f` of
+    /// the nearest texel, or the bilinear interpolation of `f` of the four texels
+    /// around uv, with the weights and in the order of [`Self::eval_rgb`] (which is
+    /// this with `f` the identity). The spectral mode lifts each texel so, as
+    /// Mitsuba's `interpolate_spectral` (`src/textures/bitmap.cpp`) upsamples the four
+    /// texels before interpolating: the upsampling is not linear in the colour.
+    #[inline]
+    pub fn eval_mapped(&self, uv: Vec2, f: &impl Fn(Vec3) -> Vec3) -> Vec3 {
         let uv = self.to_uv.apply(uv);
         let (w, h) = (self.width as i64, self.height as i64);
         let (wf, hf) = (self.width as f32, self.height as f32);
@@ -103,7 +121,7 @@ impl Bitmap {
             FilterType::Nearest => {
                 let x = self.wrap.wrap(Self::floor_i(uv.x * wf), w);
                 let y = self.wrap.wrap(Self::floor_i(uv.y * hf), h);
-                self.texel(x, y)
+                f(self.texel(x, y))
             }
             FilterType::Bilinear => {
                 let px = uv.x * wf - 0.5;
@@ -119,8 +137,8 @@ impl Bitmap {
                     self.wrap.wrap(iy, h),
                     self.wrap.wrap(iy.saturating_add(1), h),
                 );
-                let top = self.texel(x0, y0) * w0x + self.texel(x1, y0) * w1x;
-                let bottom = self.texel(x0, y1) * w0x + self.texel(x1, y1) * w1x;
+                let top = f(self.texel(x0, y0)) * w0x + f(self.texel(x1, y0)) * w1x;
+                let bottom = f(self.texel(x0, y1)) * w0x + f(self.texel(x1, y1)) * w1x;
                 top * w0y + bottom * w1y
             }
         }
@@ -325,5 +343,78 @@ mod tests {
         let _ = b.eval_rgb(Vec2::new(f32::NAN, 1e30));
         let _ = r.eval_rgb(Vec2::new(-1e30, f32::INFINITY));
         let _ = m.eval_rgb(Vec2::new(f32::NEG_INFINITY, 3e38));
+    }
+
+    /// `eval_mapped` applies `f` to each of the four texels before the bilinear
+    /// weights: a slow reference written out (the four texels and their weights) for
+    /// a squaring `f`, which tells it from `f` of the interpolated colour; with `f` the
+    /// identity it is `eval_rgb`, bit for bit; `nearest` and grey images map the one
+    /// value.
+    #[test]
+    fn eval_mapped_maps_texels_before_the_filter() {
+        let rgb = Bitmap {
+            width: 2,
+            height: 2,
+            channels: 3,
+            data: vec![
+                1.0, 0.0, 0.0, /**/ 0.0, 1.0, 0.0, //
+                0.0, 0.0, 1.0, /**/ 0.5, 0.5, 0.5,
+            ],
+            filter: FilterType::Bilinear,
+            wrap: WrapMode::Clamp,
+            to_uv: UvTransform::IDENTITY,
+        };
+        assert!(rgb.filters_colours());
+        let sq = |c: Vec3| c * c;
+        let texels = [
+            Vec3::new(1.0, 0.0, 0.0),
+            Vec3::new(0.0, 1.0, 0.0),
+            Vec3::new(0.0, 0.0, 1.0),
+            Vec3::splat(0.5),
+        ];
+        for (u, v) in [
+            (0.5, 0.5),
+            (0.3, 0.6),
+            (0.7, 0.35),
+            (0.25, 0.25),
+            (0.9, 0.1),
+        ] {
+            let uv = Vec2::new(u, v);
+            // Clamp: texel centres at 1/4 and 3/4, weights clipped to the edges.
+            let wx = (u * 2.0 - 0.5_f32).clamp(0.0, 1.0);
+            let wy = (v * 2.0 - 0.5_f32).clamp(0.0, 1.0);
+            let w = [
+                (1.0 - wx) * (1.0 - wy),
+                wx * (1.0 - wy),
+                (1.0 - wx) * wy,
+                wx * wy,
+            ];
+            let mapped: Vec3 = (0..4).map(|i| sq(texels[i]) * w[i]).sum();
+            let filtered: Vec3 = (0..4).map(|i| texels[i] * w[i]).sum();
+            let got = rgb.eval_mapped(uv, &sq);
+            assert!(
+                (got - mapped).abs().max_element() < 1e-6,
+                "{uv}: {got} vs {mapped}"
+            );
+            assert_eq!(rgb.eval_mapped(uv, &|c| c), rgb.eval_rgb(uv));
+            assert!((rgb.eval_rgb(uv) - filtered).abs().max_element() < 1e-6);
+        }
+        // Halfway between the red and the green texel: (1/2, 1/2, 0) mapped is
+        // (1/2, 1/2, 0); squaring the filtered colour would give (1/4, 1/4, 0).
+        let mid = rgb.eval_mapped(Vec2::new(0.5, 0.25), &sq);
+        assert!(
+            (mid - Vec3::new(0.5, 0.5, 0.0)).abs().max_element() < 1e-6,
+            "{mid}"
+        );
+        let nearest = Bitmap {
+            filter: FilterType::Nearest,
+            ..rgb.clone()
+        };
+        assert!(!nearest.filters_colours());
+        assert_eq!(
+            nearest.eval_mapped(Vec2::new(0.6, 0.2), &sq),
+            sq(Vec3::new(0.0, 1.0, 0.0))
+        );
+        assert!(!grey_2x1(FilterType::Bilinear, WrapMode::Clamp).filters_colours());
     }
 }

@@ -52,6 +52,17 @@ impl Checkerboard {
         }
     }
 
+    /// [`Self::eval_rgb`] with `f` applied to the cell colour's texels before any
+    /// filtering (`Texture::eval_mapped_at`).
+    #[inline]
+    pub fn eval_mapped(&self, p: &super::TexPoint, f: &impl Fn(Vec3) -> Vec3) -> Vec3 {
+        if self.same_half(p.uv) {
+            self.color0.eval_mapped_at(p, f)
+        } else {
+            self.color1.eval_mapped_at(p, f)
+        }
+    }
+
     /// The gradient of [`Self::eval_float`]: the cell's colour's (the cell edges are a
     /// set of measure zero).
     #[inline]

@@ -164,6 +164,29 @@ impl Texture {
         }
     }
 
+    /// Whether [`Self::eval_mapped_at`] can differ from `f` of [`Self::eval_rgb_at`]: a
+    /// bilinear RGB bitmap, alone or as a checkerboard's colour.
+    pub fn filters_colours(&self) -> bool {
+        match self {
+            Texture::Bitmap(b) => b.filters_colours(),
+            Texture::Checkerboard(c) => c.color0.filters_colours() || c.color1.filters_colours(),
+            Texture::Constant(_) | Texture::MeshAttribute(_) => false,
+        }
+    }
+
+    /// The colour at a surface point with `f` applied to each texel before the
+    /// texture filters them (`Bitmap::eval_mapped`); for what does not filter
+    /// texels (constants, nearest lookups, grey images, mesh attributes), `f` of
+    /// [`Self::eval_rgb_at`]. The spectral mode lifts a bitmap's texels so.
+    #[inline]
+    pub fn eval_mapped_at(&self, p: &TexPoint, f: &impl Fn(Vec3) -> Vec3) -> Vec3 {
+        match self {
+            Texture::Bitmap(b) if b.filters_colours() => b.eval_mapped(p.uv, f),
+            Texture::Checkerboard(c) => c.eval_mapped(p, f),
+            _ => f(self.eval_rgb_at(p)),
+        }
+    }
+
     /// The scalar value at a surface point (material textures).
     #[inline]
     pub fn eval_float_at(&self, p: &TexPoint) -> f32 {

@@ -369,6 +369,55 @@ fn conductor_spectra_are_used_as_given() {
     }
 }
 
+/// A bilinear bitmap is lifted texel by texel before its filter, as Mitsuba's bitmap
+/// (`interpolate_spectral`): a plane textured with a 2 x 1 image, red | green, seen
+/// at uv (1/2, 1/2), halfway between the two texels, under the flat white
+/// environment, has the reflectance `(s_red(l) + s_green(l)) / 2` (`s` the smooth
+/// spectrum of a colour, `rgb2spec`), not the spectrum of the interpolated colour (1/2,
+/// 1/2, 0). Its sRGB integral (midpoint rule) must hold within 4 standard errors, and
+/// the other rule's integral must lie at least 10 standard errors away.
+#[test]
+fn bitmaps_are_lifted_texel_by_texel() {
+    use tstat::spectral::rgb2spec::{eval, fetch};
+    let dir = tempfile::tempdir().unwrap();
+    let mut img = image::RgbImage::new(2, 1);
+    img.put_pixel(0, 0, image::Rgb([255, 0, 0]));
+    img.put_pixel(1, 0, image::Rgb([0, 255, 0]));
+    img.save(dir.path().join("rg.png")).unwrap();
+    let bsdf = r#"<bsdf type="diffuse"><texture type="bitmap" name="reflectance">
+        <string name="filename" value="rg.png"/><string name="wrap_mode" value="clamp"/>
+    </texture></bsdf>"#;
+    let path = dir.path().join("scene.xml");
+    std::fs::write(&path, lit_plane_scene(bsdf)).unwrap();
+    let scene = Scene::load(&path, &spectral()).unwrap();
+    let (red, green, mix) = (
+        fetch([1.0, 0.0, 0.0]),
+        fetch([0.0, 1.0, 0.0]),
+        fetch([0.5, 0.5, 0.0]),
+    );
+    let expected = srgb_integral(|l| {
+        0.5 * f64::from(eval(red, l as f32)) + 0.5 * f64::from(eval(green, l as f32))
+    });
+    let other = srgb_integral(|l| f64::from(eval(mix, l as f32)));
+    let spp = 100_000;
+    let got = mean_and_se(&run(&scene, spp, 13), spp);
+    let mut apart = 0.0f64;
+    for c in 0..3 {
+        let (mean, se) = got[c];
+        assert!(
+            (mean - expected[c]).abs() < 4.0 * se,
+            "channel {c}: {mean} vs {} (se {se}; lifting the filtered colour gives {})",
+            expected[c],
+            other[c]
+        );
+        apart = apart.max((other[c] - expected[c]).abs() / se);
+    }
+    assert!(
+        apart > 10.0,
+        "the two rules are {apart} standard errors apart"
+    );
+}
+
 /// `tstat check` loads a scene for `--mode` (default rgb): the bundled blackbody scene
 /// is one clear error in rgb, naming `--mode spectral`, and ok with it.
 #[test]
