@@ -4,7 +4,8 @@
 //! A loaded scene is a deterministic function of the scene file's bytes, the bytes of
 //! every file it read (includes, meshes, images, volumes, spectra: `Scene::identity`),
 //! the command line's overrides (the `-D` values, also in the identity; film size, time
-//! axis and depth, which end up in `film` and `integrator`) and the program. So the
+//! axis and depth, which end up in `film` and `integrator`; the render mode) and the
+//! program. So the
 //! fingerprint hashes those, plus the camera as loaded (belt and braces: it is already
 //! a function of the above), and the tstat version.
 
@@ -32,6 +33,11 @@ impl Scene {
         part("camera", &format!("{:?}", self.camera));
         part("integrator", &format!("{:?}", self.integrator));
         part("spp", &self.spp.to_string());
+        // The render mode changes the image (a spectral render's film has RGB's three
+        // channels); left out for RGB, so that RGB keys stay what they were.
+        if self.mode != super::mode::RenderMode::Rgb {
+            part("mode", self.mode.name());
+        }
         format!("{:x}", h.finalize())
     }
 }

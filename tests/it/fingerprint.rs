@@ -127,6 +127,35 @@ fn the_fingerprint_follows_everything_the_image_depends_on() {
     changed("--max-depth 3", key(dir, &deeper));
 }
 
+/// The render mode is part of the key: a spectral render has RGB's three channels
+/// (the film alone does not tell them apart), and `report convergence --mode spectral`
+/// must not reuse an RGB reference. Every mode has its own key.
+#[test]
+fn the_fingerprint_follows_the_render_mode() {
+    use tstat::scene::mode::RenderMode;
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cbox.xml");
+    let keys: Vec<String> = [
+        RenderMode::Rgb,
+        RenderMode::Spectral,
+        RenderMode::Mono,
+        RenderMode::MonoPolarized,
+    ]
+    .into_iter()
+    .map(|mode| {
+        let o = Overrides {
+            mode,
+            ..Overrides::default()
+        };
+        Scene::load(&path, &o).unwrap().fingerprint()
+    })
+    .collect();
+    for i in 0..keys.len() {
+        for j in 0..i {
+            assert_ne!(keys[i], keys[j], "modes {i} and {j} share a key");
+        }
+    }
+}
+
 /// `report convergence` keys its cached reference by the fingerprint: a second run
 /// reuses it; a changed `.vol` grid or camera renders a new one (then the first inputs
 /// find theirs again).
