@@ -88,16 +88,6 @@ impl RenderMode {
         )
     }
 
-    /// The colour channels per Stokes component of a polarized film (3 or 1), or of
-    /// the film (1 or 3) otherwise.
-    pub fn colours(self) -> usize {
-        if self.is_mono() {
-            1
-        } else {
-            3
-        }
-    }
-
     /// Whether a sample can be negative: a spectral path's sRGB (the matching curves
     /// are negative at some wavelengths) and the Stokes components S1..S3.
     pub fn signed(self) -> bool {

@@ -265,13 +265,7 @@ fn polarized_renders_do_not_depend_on_the_thread_count() {
         ..mode(RenderMode::MonoPolarized)
     };
     let scene = bundled("cbox_polarizers.xml", &o);
-    let on = |threads: usize| {
-        rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap()
-            .install(|| run(&scene, 8, 11))
-    };
+    let on = |threads: usize| crate::common::on_threads(threads, || run(&scene, 8, 11));
     let (a, b) = (on(1), on(2));
     assert_eq!(a.accum.x1, b.accum.x1);
     assert_eq!(a.accum.x3, b.accum.x3);

@@ -47,6 +47,15 @@ pub fn run(scene: &Scene, seed: u64) -> RenderOutput {
 }
 
 /// [`run`] with `spp` samples per pixel.
+/// `f` run in a pool of `threads` threads (same seed, same bits checks).
+pub fn on_threads<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> T {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .unwrap()
+        .install(f)
+}
+
 pub fn run_spp(scene: &Scene, spp: u32, seed: u64) -> RenderOutput {
     let settings = RenderSettings {
         spp,
