@@ -26,6 +26,13 @@ samplers, on one scene, against one reference bundle.
   mitransient took at s over the time tstat needs for mitransient's error there,
   interpolated log-log along tstat's spp curve (">" / "<" when outside tstat's
   range: the bound is then its nearest end).
+- The same at tstat's own mean spp (tables "at its mean spp"): mitransient's time to the
+  error tstat's adaptive pipeline reaches at each `--spp`, over tstat's time, interpolated
+  along mitransient's curve; `--mi-spp 1024,4096` adds the higher counts that needs.
+- `--mi-reference N`: mitransient's errors against its own answer (the mean of two
+  ldsampler renders of N spp, their variance subtracted), for scenes where the two
+  renderers converge apart (an explained difference in docs/agreement.md).
+- `TSTAT=/path/to/tstat` runs another binary than target/release/tstat.
 
 Not part of CI (needs mitransient: `pip install mitransient==1.3.1`, and libLLVM,
 `apt-get install -y libllvm19`; see scripts/compare_mitransient.py).
