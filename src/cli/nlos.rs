@@ -425,7 +425,8 @@ fn denoise_with_memory(m: &crate::bundle::Manifest, h_len: usize) -> u64 {
 
 /// The merge of the captures `a` and `b` (independent captures of one scene),
 /// denoised and shrunk toward its noisy capture for `method` on `grid` by
-/// cross-validation between `a` and `b` (`nlos/shrink.rs`); and the `b` chosen. The
+/// cross-validation between `a` and `b` (`nlos/shrink.rs`); the `b` chosen and the
+/// `b` applied ([`crate::nlos::shrink::applied`]). The
 /// merge is written beside `out` for the time it takes and removed after.
 fn denoise_with(
     a: &Path,
@@ -434,10 +435,10 @@ fn denoise_with(
     grid: &VoxelGrid,
     budget: u64,
     out: &Path,
-) -> anyhow::Result<(Capture, f64)> {
+) -> anyhow::Result<(Capture, f64, f64)> {
     use crate::bundle::merge::{merge_bundles, MergeOptions};
     use crate::denoise::{denoise_bundle, DenoiseParams};
-    use crate::nlos::shrink::{blend, cross_validated_beta, for_merge};
+    use crate::nlos::shrink::{applied, blend, cross_validated_beta, for_merge};
     let name = out
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
@@ -483,14 +484,15 @@ fn denoise_with(
         pairs.push((noisy, denoised));
     }
     let (merged_noisy, mut merged_denoised) = pairs.pop().expect("three captures");
-    let beta = for_merge(cross_validated_beta(
+    let chosen = for_merge(cross_validated_beta(
         method,
         grid,
         [&pairs[0].0, &pairs[1].0],
         [&pairs[0].1, &pairs[1].1],
     )?);
+    let beta = applied(chosen);
     blend(&mut merged_denoised, &merged_noisy, beta);
-    Ok((merged_denoised, beta))
+    Ok((merged_denoised, chosen, beta))
 }
 
 fn reconstruct(r: ReconstructArgs) -> anyhow::Result<()> {
@@ -531,10 +533,18 @@ fn reconstruct(r: ReconstructArgs) -> anyhow::Result<()> {
     }
     check_reconstruction(&method, &capture, &grid, budget)?;
     if let Some(b) = &r.denoise_with {
-        let (c, beta) = denoise_with(&r.capture, b, &method, &grid, budget, &r.out)?;
+        let (c, chosen, beta) = denoise_with(&r.capture, b, &method, &grid, budget, &r.out)?;
         capture = c;
+        let settled = if beta == chosen {
+            String::new()
+        } else {
+            format!(
+                "; {chosen:.3} was chosen, and a blend above {} is not made",
+                crate::nlos::shrink::SETTLE
+            )
+        };
         eprintln!(
-            "reconstructing the merge of {} and {}, denoised and shrunk toward its noisy capture by b = {beta:.3} (cross-validated; 0: the denoised capture, 1: the noisy one)",
+            "reconstructing the merge of {} and {}, denoised and shrunk toward its noisy capture by b = {beta:.3} (cross-validated; 0: the denoised capture, 1: the noisy one{settled})",
             r.capture.display(),
             b.display()
         );

@@ -167,7 +167,7 @@ impl Reconstructor {
         denoised: &Array4<f32>,
         halves: [(&Array4<f32>, &Array4<f32>); 2],
     ) -> Result<Vec<(ReconstructionError, f64)>, ReportError> {
-        use crate::nlos::shrink::{blend, cross_validated_beta, for_merge};
+        use crate::nlos::shrink::{applied, blend, cross_validated_beta, for_merge};
         assert_eq!(
             self.reference.len(),
             self.plan.methods.len(),
@@ -180,12 +180,12 @@ impl Reconstructor {
         let mut out = Vec::new();
         for (m, r) in self.plan.methods.iter().zip(&self.reference) {
             let start = std::time::Instant::now();
-            let b = for_merge(cross_validated_beta(
+            let b = applied(for_merge(cross_validated_beta(
                 m,
                 &self.plan.grid,
                 [&na, &nb],
                 [&da, &db],
-            )?);
+            )?));
             let mut c = d.clone();
             blend(&mut c, &n, b);
             let x = m.run(&c, &self.plan.grid)?;
