@@ -214,37 +214,36 @@ def main():
                 e = [point(name, spp, r)[1] for r in ("all", "light", "rest", "relmse")]
                 lines.append(f"| {name} | {spp} | {t:.3f} | {e[0]:.3e} | {e[1]:.3e} | {e[2]:.3e} | {e[3] ** 2:.3e} |")
 
-    def speedup(tst, mi_name, spp, region):
-        t_mi, e_mi = point(mi_name, spp, region)
-        pts = sorted((point(tst, s, region) for s in curves[tst]), key=lambda p: p[0])
+    def time_to(name, e, region):
+        """When `name`'s error reaches e, interpolated log-log along its spp curve:
+        (seconds, ""), or beyond the curve its nearest end with "<" (its cheapest point
+        is already as accurate: at most that long) or ">" (its most accurate point is
+        not: longer than that)."""
+        pts = sorted((point(name, s, region) for s in curves[name]), key=lambda p: p[0])
         lt = np.log([p[0] for p in pts])
         le = np.log([max(p[1], 1e-30) for p in pts])
-        target = np.log(max(e_mi, 1e-30))
-        # Along tstat's curve error falls with time: find where it crosses the target.
+        target = np.log(max(e, 1e-30))
+        # Along a curve error falls with time: find where it crosses the target.
         for i in range(len(pts) - 1):
             if (le[i] - target) * (le[i + 1] - target) <= 0 and le[i] != le[i + 1]:
                 f = (target - le[i]) / (le[i + 1] - le[i])
-                return f"{t_mi / np.exp(lt[i] + f * (lt[i + 1] - lt[i])):.2f}x"
-        if target > le[0]:  # tstat's cheapest point is already better
-            return f">{t_mi / pts[0][0]:.2f}x"
-        return f"<{t_mi / pts[-1][0]:.2f}x"
+                return float(np.exp(lt[i] + f * (lt[i + 1] - lt[i]))), ""
+        if target > le[0]:
+            return pts[0][0], "<"
+        return pts[-1][0], ">"
+
+    def speedup(tst, mi_name, spp, region):
+        """mitransient's time at `spp` over tstat's time to mitransient's error there."""
+        t_mi, e_mi = point(mi_name, spp, region)
+        t, bound = time_to(tst, e_mi, region)
+        return f"{ {'<': '>', '>': '<', '': ''}[bound]}{t_mi / t:.2f}x"
 
     def speedup_at(tst, spp, mi_name, region):
         """mitransient's time to the error tstat's pipeline reaches at its own `spp`, over
-        tstat's time there (interpolated log-log along mitransient's spp curve; ">" when
-        tstat's error is below mitransient's most accurate point: its time is then a bound)."""
+        tstat's time there."""
         t_t, e_t = point(tst, spp, region)
-        pts = sorted((point(mi_name, s, region) for s in curves[mi_name]), key=lambda p: p[0])
-        lt = np.log([p[0] for p in pts])
-        le = np.log([max(p[1], 1e-30) for p in pts])
-        target = np.log(max(e_t, 1e-30))
-        for i in range(len(pts) - 1):
-            if (le[i] - target) * (le[i + 1] - target) <= 0 and le[i] != le[i + 1]:
-                f = (target - le[i]) / (le[i + 1] - le[i])
-                return f"{np.exp(lt[i] + f * (lt[i + 1] - lt[i])) / t_t:.2f}x"
-        if target > le[0]:  # mitransient's cheapest point is already as accurate
-            return f"<{pts[0][0] / t_t:.2f}x"
-        return f">{pts[-1][0] / t_t:.2f}x"
+        t, bound = time_to(mi_name, e_t, region)
+        return f"{bound}{t / t_t:.2f}x"
 
     for tst in ["tstat adaptive denoised", "tstat adaptive_rel denoised"]:
         if tst not in curves:
