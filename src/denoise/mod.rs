@@ -211,6 +211,13 @@ impl DenoiseParams {
     /// - spatial radius 1 (unless `radius_chosen`): neighbouring wall points' echoes
     ///   shift by up to twice their spacing, so wider windows blur the reconstruction
     ///   (fbp error at 16 spp: r 1 0.30, r 2 0.41, r 3 0.51, docs/results/nlos_denoise.md);
+    /// - radius 0 on exhaustive scans (`exhaustive`: the film stacks one sensor image per
+    ///   laser point): their grids are coarse (8 x 8 points 0.29 apart on the letters T
+    ///   and Z), a neighbour's echo is shifted beyond what the test can see at low
+    ///   counts, and the filter alone made every reconstruction worse; without spatial
+    ///   neighbours it does not (gain over noisy at 4 spp, radius 1 / 0: T bp 1.14 /
+    ///   1.71, fbp 0.42 / 1.01; Z bp 1.11 / 1.75, fbp 0.69 / 1.09; T at 256 spp, radius 0:
+    ///   bp 1.31, fbp 0.99; docs/nlos.md, "Denoised captures");
     /// - bins not aligned by camera depth (unless `depth_align_asked`): a capture's
     ///   times do not follow the depth from its sensor origin, and aligned, the filter
     ///   mixes echoes of different lengths (fbp error at 16 spp, r 3: 0.82 aligned, 0.51 not);
@@ -218,9 +225,14 @@ impl DenoiseParams {
     ///   counts nearly every occupied bin of a capture is isolated, and judging them
     ///   alone cut the reconstructions' gain at 4 spp (nlos_T: bp 4.4x to 3.3x, fk 90x
     ///   to 4.8x; docs/denoiser.md).
-    pub fn adapt_to_nlos(&mut self, radius_chosen: bool, depth_align_asked: bool) {
+    pub fn adapt_to_nlos(
+        &mut self,
+        radius_chosen: bool,
+        depth_align_asked: bool,
+        exhaustive: bool,
+    ) {
         if !radius_chosen {
-            self.radius = 1;
+            self.radius = if exhaustive { 0 } else { 1 };
         }
         if let Method::Tstat(t) = &mut self.method {
             if !depth_align_asked {

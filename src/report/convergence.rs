@@ -389,7 +389,11 @@ pub fn run_convergence(
     let mut list = methods(&denoise, cfg.method_radii && !is_nlos);
     if is_nlos {
         for p in list.iter_mut().filter_map(|m| m.1.as_mut()) {
-            p.adapt_to_nlos(cfg.radius_chosen, cfg.depth_align_asked);
+            p.adapt_to_nlos(
+                cfg.radius_chosen,
+                cfg.depth_align_asked,
+                scene2.image_rows() < scene2.film.height,
+            );
         }
     }
     // The film does not depend on the spp: one check for every render.

@@ -465,3 +465,69 @@ fn denoise_with_refuses_what_it_cannot_cross_validate() {
         .count();
     assert_eq!(hidden, 0);
 }
+
+/// On an exhaustive scan of 8 x 8 points (0.29 apart), `tstat denoise`'s NLOS defaults
+/// take no spatial neighbours (`DenoiseParams::adapt_to_nlos`): at 4 spp the denoised
+/// capture's bp is closer to a high-spp reference than the noisy one's by more than
+/// 1.4x and its fbp is no farther (within 5%), where radius 1 (the confocal default,
+/// the mutation) makes fbp farther than noisy.
+#[test]
+fn exhaustive_scans_are_denoised_without_spatial_neighbours() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
+    let xml = scene("nlos_T_exhaustive.xml");
+    let xml = xml.to_str().unwrap();
+    let run = |args: &[&str]| -> String {
+        let r = tstat(args);
+        assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+        String::from_utf8_lossy(&r.stdout).into_owned() + &String::from_utf8_lossy(&r.stderr)
+    };
+    let (reference, noisy) = (d("ref.tstats"), d("noisy.tstats"));
+    for (out, spp, seed) in [(&reference, "1024", "1"), (&noisy, "4", "7")] {
+        run(&[
+            "render", xml, "-D", "bins=256", "--spp", spp, "--seed", seed, "--out", out,
+        ]);
+    }
+    let recon = |capture: &str, method: &str, out: &str, extra: &[&str]| {
+        let mut args = vec!["nlos", "reconstruct", capture, "--method", method];
+        if method == "fbp" {
+            args.extend(["--wl-mean", "0.2"]);
+        }
+        args.extend(["--volume=-1,1,-1,1,0.5,1.5", "--voxels", "21,21,11"]);
+        args.extend(["--force", "--out", out]);
+        args.extend(extra);
+        run(&args);
+    };
+    let (d0, d1) = (d("d0.npy"), d("d1.npy"));
+    let said = run(&["denoise", &noisy, "--out", &d0]);
+    assert!(said.contains("halo 0"), "{said}");
+    run(&["denoise", &noisy, "--out", &d1, "--radius", "1"]);
+    let v = d("v.npy");
+    for m in ["bp", "fbp"] {
+        recon(&reference, m, &v, &[]);
+        let r: ndarray::Array3<f32> = ndarray_npy::read_npy(&v).unwrap();
+        let r = r.into_raw_vec_and_offset().0;
+        let error = |extra: &[&str]| {
+            recon(&noisy, m, &v, extra);
+            rel_l2(Path::new(&v), &r)
+        };
+        let (e_noisy, e0, e1) = (
+            error(&[]),
+            error(&["--denoised", &d0]),
+            error(&["--denoised", &d1]),
+        );
+        eprintln!("{m}: noisy {e_noisy:.4} radius 0 {e0:.4} radius 1 {e1:.4}");
+        if m == "bp" {
+            assert!(
+                e0 * 1.4 < e_noisy,
+                "bp: denoised {e0} against noisy {e_noisy}"
+            );
+        } else {
+            assert!(
+                e0 <= 1.05 * e_noisy,
+                "fbp: denoised {e0} against noisy {e_noisy}"
+            );
+            assert!(e1 > e_noisy, "fbp, radius 1: {e1} against noisy {e_noisy}");
+        }
+    }
+}
