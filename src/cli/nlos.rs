@@ -457,12 +457,8 @@ fn denoise_with(
         }
         let exhaustive = crate::denoise::slab::image_rows(m) < m.height;
         p.adapt_to_nlos(false, false, exhaustive);
-        // On exhaustive scans the filter without spatial neighbours (the default there)
-        // is what bp gains from; fbp and pf gain more from blending the radius-1
-        // filter's output (Z at 4 spp: fbp 1.31x against 1.08x; T 1.10x against 1.01x;
-        // docs/nlos.md).
-        if exhaustive && !matches!(method, Reconstruction::Bp) {
-            p.radius = 1;
+        if let Some(r) = crate::nlos::shrink::radius_for(method, exhaustive) {
+            p.radius = r;
         }
         p
     };

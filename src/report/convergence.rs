@@ -541,6 +541,18 @@ pub fn run_convergence(
                 .and_then(|m| m.1)
                 .expect("a tstat row was kept");
             let half_scene = load_scene(cfg, spp / 2)?;
+            // On an exhaustive scan at its default radius (0), fbp and pf take their
+            // captures denoised at radius 1 too, as `--denoise-with` does
+            // (`nlos::shrink::radius_for`).
+            let exhaustive = scene.image_rows() < scene.film.height;
+            let radius_one =
+                (exhaustive && !cfg.radius_chosen).then_some(DenoiseParams { radius: 1, ..p });
+            let (mut one_halves, mut one_merged, mut denoise_s_one) = (Vec::new(), None, 0.0);
+            if let Some(p1) = &radius_one {
+                let d = denoise_sums(&view, &features, p1, &|_| {});
+                denoise_s_one = d.seconds;
+                one_merged = Some(d.volume);
+            }
             let mut halves = Vec::new();
             let (mut render_s, mut denoise_s) = (0.0, 0.0);
             for j in 0..2u64 {
@@ -561,14 +573,24 @@ pub fn run_convergence(
                     cfg.replicates,
                     half_scene.image_rows(),
                 );
-                let d = denoise_sums(&view, &gbuffers(&h).features(), &p, &|_| {});
+                let hg = gbuffers(&h);
+                let d = denoise_sums(&view, &hg.features(), &p, &|_| {});
                 denoise_s += d.seconds;
+                if let Some(p1) = &radius_one {
+                    let d1 = denoise_sums(&view, &hg.features(), p1, &|_| {});
+                    denoise_s += d1.seconds;
+                    one_halves.push(d1.volume);
+                }
                 halves.push((noisy_mean(&h, spp / 2)?, d.volume));
             }
+            denoise_s += denoise_s_one;
             let reconstructions = r.measure_cross_validated(
                 noisy,
                 denoised,
                 [(&halves[0].0, &halves[0].1), (&halves[1].0, &halves[1].1)],
+                one_merged
+                    .as_ref()
+                    .map(|d| (d, [&one_halves[0], &one_halves[1]])),
             )?;
             for (m, (e, b)) in r.methods().iter().zip(&reconstructions) {
                 line += &format!(" [{} cv {:.4}, b {b:.3}]", m.name(), e.error);

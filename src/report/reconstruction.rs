@@ -160,31 +160,48 @@ impl Reconstructor {
     /// denoised capture `denoised` of the noisy film `noisy` shrunk toward it, per
     /// method, by the weight cross-validated between two independent half captures
     /// (`halves`: each one's noisy and denoised film, of half the samples); each
-    /// method's error against the reference, time, and weight b.
+    /// method's error against the reference, time, and weight b. `radius_one`: on an
+    /// exhaustive scan denoised with its default radius 0, the denoised film and
+    /// halves at radius 1, which the methods [`radius_for`] gives radius 1 take, as
+    /// `nlos reconstruct --denoise-with` does.
     pub fn measure_cross_validated(
         &self,
         noisy: &Array4<f32>,
         denoised: &Array4<f32>,
         halves: [(&Array4<f32>, &Array4<f32>); 2],
+        radius_one: Option<(&Array4<f32>, [&Array4<f32>; 2])>,
     ) -> Result<Vec<(ReconstructionError, f64)>, ReportError> {
-        use crate::nlos::shrink::{applied, blend, cross_validated_beta, for_merge};
+        use crate::nlos::shrink::{applied, blend, cross_validated_beta, for_merge, radius_for};
         assert_eq!(
             self.reference.len(),
             self.plan.methods.len(),
             "reference set"
         );
         let n = self.capture(noisy)?;
-        let d = self.capture(denoised)?;
-        let (na, da) = (self.capture(halves[0].0)?, self.capture(halves[0].1)?);
-        let (nb, db) = (self.capture(halves[1].0)?, self.capture(halves[1].1)?);
+        let (na, nb) = (self.capture(halves[0].0)?, self.capture(halves[1].0)?);
+        let sets = {
+            let set = |d: &Array4<f32>, h: [&Array4<f32>; 2]| -> Result<_, ReportError> {
+                Ok([self.capture(d)?, self.capture(h[0])?, self.capture(h[1])?])
+            };
+            let own = set(denoised, [halves[0].1, halves[1].1])?;
+            let one = match radius_one {
+                Some((d, h)) => Some(set(d, h)?),
+                None => None,
+            };
+            (own, one)
+        };
         let mut out = Vec::new();
         for (m, r) in self.plan.methods.iter().zip(&self.reference) {
+            let [d, da, db] = match (&sets.1, radius_for(m, true)) {
+                (Some(one), Some(1)) => one,
+                _ => &sets.0,
+            };
             let start = std::time::Instant::now();
             let b = applied(for_merge(cross_validated_beta(
                 m,
                 &self.plan.grid,
                 [&na, &nb],
-                [&da, &db],
+                [da, db],
             )?));
             let mut c = d.clone();
             blend(&mut c, &n, b);
