@@ -317,24 +317,18 @@ impl Params<'_, '_, '_> {
 
     /// Takes a nested material's bindings, reached through `step`.
     fn adopt(&mut self, step: Step, child: &Material) {
-        self.bindings.extend(child.bindings.iter().map(|b| {
-            Binding {
-                path: std::iter::once(step)
-                    .chain(b.path.iter().copied())
-                    .collect(),
-                param: b.param,
-                texture: b.texture.clone(),
-            }
+        let under = |path: &[Step]| std::iter::once(step).chain(path.iter().copied()).collect();
+        self.bindings.extend(child.bindings.iter().map(|b| Binding {
+            path: under(&b.path),
+            param: b.param,
+            texture: b.texture.clone(),
         }));
-        self.spectra.extend(child.spectra.iter().map(|s| {
-            SpectralParam {
-                path: std::iter::once(step)
-                    .chain(s.path.iter().copied())
-                    .collect(),
+        self.spectra
+            .extend(child.spectra.iter().map(|s| SpectralParam {
+                path: under(&s.path),
                 param: s.param,
                 curve: s.curve.clone(),
-            }
-        }));
+            }));
     }
 }
 

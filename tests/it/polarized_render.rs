@@ -7,7 +7,7 @@
 //! equations say; same seed, same bits on any thread count; the bundle's four Stokes
 //! channels; what the modes do not model is refused.
 
-use crate::common::{bundled, load};
+use crate::common::{bundled, bundled_error, load, tstat};
 use tstat::render::RenderOutput;
 use tstat::scene::mode::RenderMode;
 use tstat::scene::{Overrides, Scene};
@@ -279,29 +279,15 @@ fn polarized_renders_do_not_depend_on_the_thread_count() {
 /// What the mono modes do not model is refused at load, naming it.
 #[test]
 fn the_mono_modes_refuse_what_they_do_not_model() {
-    let path = |n: &str| {
-        std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("scenes")
-            .join(n)
-    };
     for m in [RenderMode::Mono, RenderMode::MonoPolarized] {
         for (name, says) in [
             ("cbox_fog.xml", "participating media"),
             ("nlos_T.xml", "NLOS captures"),
         ] {
-            let e = Scene::load(&path(name), &mode(m))
-                .err()
-                .unwrap_or_else(|| panic!("{name} loaded"));
-            assert!(e.to_string().contains(says), "{name}: {e}");
+            let e = bundled_error(name, &mode(m));
+            assert!(e.contains(says), "{name}: {e}");
         }
     }
-}
-
-pub(crate) fn tstat(args: &[&str]) -> std::process::Output {
-    std::process::Command::new(env!("CARGO_BIN_EXE_tstat"))
-        .args(args)
-        .output()
-        .unwrap()
 }
 
 /// The binary: a mono_polarized bundle has four Stokes channels in its manifest and

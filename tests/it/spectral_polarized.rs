@@ -8,9 +8,9 @@
 //! matrix; same seed, same bits on any thread count; the bundle exports
 //! (H, W, T, 3, 4) and an EXR with Mitsuba's channel names.
 
-use crate::common::{bundled, load};
+use crate::common::{bundled, bundled_error, bundled_path, load, tstat};
 use crate::polarized_render::{
-    dielectric_mirror_scene, filter_scene, mode, polarizer, run, totals, tstat,
+    dielectric_mirror_scene, filter_scene, mode, polarizer, run, totals,
 };
 use tstat::scene::mode::RenderMode;
 use tstat::scene::Overrides;
@@ -246,23 +246,16 @@ fn a_spectral_polarized_bundle_is_rgb_by_stokes() {
 /// bundle of signed samples reads back (its negative branch is finite).
 #[test]
 fn the_spectral_polarized_mode_refuses_what_it_does_not_model() {
-    let path = |n: &str| {
-        std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("scenes")
-            .join(n)
-    };
     for (name, says) in [
         ("cbox_fog.xml", "participating media"),
         ("nlos_T.xml", "NLOS captures"),
     ] {
-        let e = tstat::scene::Scene::load(&path(name), &mode(RenderMode::SpectralPolarized))
-            .err()
-            .unwrap_or_else(|| panic!("{name} loaded"));
-        assert!(e.to_string().contains(says), "{name}: {e}");
-        assert!(e.to_string().contains("spectral_polarized"), "{name}: {e}");
+        let e = bundled_error(name, &mode(RenderMode::SpectralPolarized));
+        assert!(e.contains(says), "{name}: {e}");
+        assert!(e.contains("spectral_polarized"), "{name}: {e}");
     }
     let dir = tempfile::tempdir().unwrap();
-    let scene = path("cbox_polarizers.xml").display().to_string();
+    let scene = bundled_path("cbox_polarizers.xml").display().to_string();
     let out = dir.path().join("b.tstats").display().to_string();
     let render = |t: &str| {
         tstat(&[

@@ -7,7 +7,7 @@
 
 #![allow(clippy::needless_range_loop)] // channels index several arrays at once
 
-use crate::common::{bundled, load};
+use crate::common::{bundled, bundled_error, bundled_path, load, tstat};
 use tstat::render::RenderOutput;
 use tstat::scene::mode::RenderMode;
 use tstat::scene::spectrum::{list_to_srgb, uniform_to_srgb, SpectrumUse};
@@ -79,11 +79,9 @@ fn a_narrow_band_emitter_renders_as_the_integral_of_its_spectrum() {
     let xml = light_scene(r#"<spectrum name="radiance" value="530:0, 545:8, 560:0"/>"#);
     let spp = 200_000;
     let out = run(&load(&xml, &spectral()), spp, 7);
-    let n = f64::from(spp);
+    let stats = mean_and_se(&out, spp);
     for c in 0..3 {
-        let mean = out.accum.x1[c] / n;
-        let var = (out.accum.x2[c] / n - mean * mean).max(0.0);
-        let se = (var / n).sqrt();
+        let (mean, se) = stats[c];
         assert!(
             (mean - expected[c]).abs() < 4.0 * se,
             "channel {c}: {mean} vs {} (se {se})",
@@ -113,10 +111,9 @@ fn a_uniform_emission_spectrum_is_flat() {
     let spp = 100_000;
     let out = run(&load(&xml, &spectral()), spp, 3);
     let want = xyz_to_srgb([1.0; 3]).map(|c| 2.0 * f64::from(c));
-    let n = f64::from(spp);
+    let stats = mean_and_se(&out, spp);
     for c in 0..3 {
-        let mean = out.accum.x1[c] / n;
-        let se = ((out.accum.x2[c] / n - mean * mean).max(0.0) / n).sqrt();
+        let (mean, se) = stats[c];
         assert!(
             (mean - want[c]).abs() < 4.0 * se,
             "channel {c}: {mean} vs {} (se {se})",
@@ -166,11 +163,9 @@ fn a_blackbody_emitter_renders_as_the_integral_of_plancks_law() {
         ));
         let spp = 100_000;
         let out = run(&load(&xml, &spectral()), spp, 9);
-        let n = f64::from(spp);
+        let stats = mean_and_se(&out, spp);
         for c in 0..3 {
-            let mean = out.accum.x1[c] / n;
-            let var = (out.accum.x2[c] / n - mean * mean).max(0.0);
-            let se = (var / n).sqrt();
+            let (mean, se) = stats[c];
             assert!(
                 (mean - expected[c]).abs() < 4.0 * se,
                 "{t} K channel {c}: {mean} vs {} (se {se})",
@@ -513,29 +508,15 @@ fn spectral_renders_do_not_depend_on_the_thread_count() {
 /// What the mode does not model is refused at load, naming it.
 #[test]
 fn the_spectral_mode_refuses_what_it_does_not_model() {
-    let path = |n: &str| {
-        std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("scenes")
-            .join(n)
-    };
     for (name, says) in [
         ("cbox_fog.xml", "participating media"),
         ("cbox_principled.xml", "'principled' BSDF"),
         ("nlos_T.xml", "NLOS captures"),
     ] {
-        let e = Scene::load(&path(name), &spectral())
-            .err()
-            .unwrap_or_else(|| panic!("{name} loaded"));
-        assert!(e.to_string().contains(says), "{name}: {e}");
-        assert!(Scene::load(&path(name), &Overrides::default()).is_ok());
+        let e = bundled_error(name, &spectral());
+        assert!(e.contains(says), "{name}: {e}");
+        assert!(Scene::load(&bundled_path(name), &Overrides::default()).is_ok());
     }
-}
-
-fn tstat(args: &[&str]) -> std::process::Output {
-    std::process::Command::new(env!("CARGO_BIN_EXE_tstat"))
-        .args(args)
-        .output()
-        .unwrap()
 }
 
 /// The binary: a spectral bundle (signed samples) goes through denoise, export, frames

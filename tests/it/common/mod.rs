@@ -33,12 +33,33 @@ pub fn load(xml: &str, overrides: &Overrides) -> Scene {
     Scene::load(&path, overrides).unwrap()
 }
 
+/// The path of the bundled scene `scenes/NAME`.
+pub fn bundled_path(name: &str) -> std::path::PathBuf {
+    std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("scenes")
+        .join(name)
+}
+
 /// Loads the bundled scene `scenes/NAME` with `overrides`.
 pub fn bundled(name: &str, overrides: &Overrides) -> Scene {
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("scenes")
-        .join(name);
-    Scene::load(&path, overrides).unwrap_or_else(|e| panic!("{name}: {e}"))
+    Scene::load(&bundled_path(name), overrides).unwrap_or_else(|e| panic!("{name}: {e}"))
+}
+
+/// The error loading the bundled scene `scenes/NAME` with `overrides` gives (it must
+/// give one).
+pub fn bundled_error(name: &str, overrides: &Overrides) -> String {
+    Scene::load(&bundled_path(name), overrides)
+        .err()
+        .unwrap_or_else(|| panic!("{name} loaded"))
+        .to_string()
+}
+
+/// Runs the `tstat` binary with `args`.
+pub fn tstat(args: &[&str]) -> std::process::Output {
+    std::process::Command::new(env!("CARGO_BIN_EXE_tstat"))
+        .args(args)
+        .output()
+        .unwrap()
 }
 
 /// Renders in memory with i.i.d. samples (what the statistics assume) and `seed`.
