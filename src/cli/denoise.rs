@@ -147,7 +147,7 @@ impl FilterArgs {
     /// ([`DenoiseParams::adapt_to_nlos`]).
     pub fn adapt(&self, p: &mut DenoiseParams, m: &crate::bundle::Manifest) {
         if m.nlos.is_some() {
-            let exhaustive = crate::denoise::slab::image_rows(m) < m.height;
+            let exhaustive = crate::denoise::slab::exhaustive(m);
             p.adapt_to_nlos(self.radius.is_some(), self.depth_align, exhaustive);
         }
     }

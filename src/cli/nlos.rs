@@ -455,7 +455,7 @@ fn denoise_with(
         if m.media {
             p.base = crate::denoise::base_filter::BaseKind::Gaussian;
         }
-        let exhaustive = crate::denoise::slab::image_rows(m) < m.height;
+        let exhaustive = crate::denoise::slab::exhaustive(m);
         p.adapt_to_nlos(false, false, exhaustive);
         if let Some(r) = crate::nlos::shrink::radius_for(method, exhaustive) {
             p.radius = r;

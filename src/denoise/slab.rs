@@ -175,6 +175,12 @@ pub fn image_rows(m: &Manifest) -> usize {
     }
 }
 
+/// Whether the bundle is an exhaustive NLOS scan (one sensor image per laser point,
+/// stacked; see [`image_rows`]).
+pub fn exhaustive(m: &Manifest) -> bool {
+    image_rows(m) < m.height
+}
+
 /// The sums of the rows read, as the estimates take them.
 fn sums_view<'a>(m: &Manifest, s: &'a RowSums, pixel_spp: Option<&'a [u32]>) -> SumsView<'a> {
     SumsView {

@@ -179,22 +179,17 @@ impl Reconstructor {
         );
         let n = self.capture(noisy)?;
         let (na, nb) = (self.capture(halves[0].0)?, self.capture(halves[1].0)?);
-        let sets = {
-            let set = |d: &Array4<f32>, h: [&Array4<f32>; 2]| -> Result<_, ReportError> {
-                Ok([self.capture(d)?, self.capture(h[0])?, self.capture(h[1])?])
-            };
-            let own = set(denoised, [halves[0].1, halves[1].1])?;
-            let one = match radius_one {
-                Some((d, h)) => Some(set(d, h)?),
-                None => None,
-            };
-            (own, one)
+        // A denoised film and its halves, as captures.
+        let set = |d: &Array4<f32>, h: [&Array4<f32>; 2]| -> Result<[Capture; 3], ReportError> {
+            Ok([self.capture(d)?, self.capture(h[0])?, self.capture(h[1])?])
         };
+        let own = set(denoised, [halves[0].1, halves[1].1])?;
+        let one = radius_one.map(|(d, h)| set(d, h)).transpose()?;
         let mut out = Vec::new();
         for (m, r) in self.plan.methods.iter().zip(&self.reference) {
-            let [d, da, db] = match (&sets.1, radius_for(m, true)) {
+            let [d, da, db] = match (&one, radius_for(m, true)) {
                 (Some(one), Some(1)) => one,
-                _ => &sets.0,
+                _ => &own,
             };
             let start = std::time::Instant::now();
             let b = applied(for_merge(cross_validated_beta(
